@@ -1,0 +1,45 @@
+"""Type stubs of the Rust extension module (rust/py)."""
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+_F64 = npt.NDArray[np.float64]
+_Intervals = list[tuple[float, float]]
+
+class CameraCore:
+    def __new__(
+        cls,
+        f_main: float,
+        aperture: float,
+        v1: float,
+        kappa: float,
+        d: float,
+        v: float,
+        mu: float,
+        q: int,
+        kx: int,
+        ky: int,
+        f1: float | None = None,
+        f2: float | None = None,
+    ) -> CameraCore: ...
+    @staticmethod
+    def paper() -> CameraCore: ...
+    def fields(
+        self,
+    ) -> tuple[float, float, float, float, float, float, float, int, int, int, float, float]: ...
+    def array_plane(self, half_: int) -> float: ...
+    def out_of_focus_depth(self, half_: int) -> float: ...
+    def image_radius(self, half_: int) -> float: ...
+    def lit_pixels(self, half_: int) -> int: ...
+    def ng_focal_length(self, half_: int) -> float: ...
+    def rho(self) -> float: ...
+    def f_number(self) -> float: ...
+
+def curves(
+    camera: CameraCore, z: _F64, n_threads: int | None = None
+) -> tuple[_F64, _F64, _F64, _F64, _F64, _F64]: ...
+def depth_of_field(
+    camera: CameraCore, threshold_px: float = 0.5
+) -> tuple[_Intervals, _Intervals, _Intervals, _Intervals, _Intervals]: ...

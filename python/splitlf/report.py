@@ -1,0 +1,83 @@
+"""The design report: every number computed by the core, formatted for people or JSON."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from .camera import _DESCRIPTIONS, COUNT_FIELDS, FIELDS, Camera
+from .optics import depth_of_field
+
+__all__ = ["report_data", "format_report"]
+
+
+def report_data(camera: Camera, threshold_px: float = 0.5) -> dict[str, Any]:
+    """Camera, derived values, out-of-focus planes and depth of field as a JSON-ready dict."""
+    halves = {}
+    for h in (1, 2):
+        halves[f"half{h}"] = {
+            "array_plane_mm": camera.L(h),
+            "microlens_focal_mm": camera.f1 if h == 1 else camera.f2,
+            "ng_setting": camera.is_ng(h) or math.isclose(
+                camera.f1 if h == 1 else camera.f2, camera.ng_focal_length(h), rel_tol=1e-12
+            ),
+            "out_of_focus_depth_mm": camera.out_of_focus_depth(h),
+            "microlens_image_radius_mm": camera.image_radius(h),
+            "microlens_image_radius_px": camera.image_radius(h) / camera.mu,
+            "lit_pixels": camera.lit_pixels(h),
+            "pixels_per_microlens": camera.Q,
+        }
+    dof = depth_of_field(camera, threshold_px)
+    return {
+        "camera": camera.as_dict(),
+        "derived": {"f_number": camera.f_number, "rho_mm": camera.rho, **halves},
+        "depth_of_field": dof.as_dict(),
+    }
+
+
+def _interval_text(iv: list) -> str:
+    if not iv:
+        return "none"
+    parts = []
+    for near, far in iv:
+        far_s = "inf" if far is None else f"{far:.1f}"
+        parts.append(f"{near:.1f} - {far_s}")
+    return ", ".join(parts)
+
+
+def format_report(data: dict[str, Any], title: str) -> str:
+    cam, der, dof = data["camera"], data["derived"], data["depth_of_field"]
+    h1, h2 = der["half1"], der["half2"]
+    out = [title, "", "Camera (lengths in mm)"]
+    for name in FIELDS:
+        value = cam[name]
+        text = f"{value}" if name in COUNT_FIELDS else f"{value:.6g}"
+        out.append(f"  {name:<6} = {text:<12} {_DESCRIPTIONS[name]}")
+    out += [
+        "",
+        "Derived",
+        f"  f-number                           {der['f_number']:.3g}",
+        f"  rho = kappa v1 (prism side)        {der['rho_mm']:.4g} mm",
+        f"  {'':<34} {'half 1':>10} {'half 2':>10}",
+    ]
+
+    def row(label: str, key: str, fmt: str) -> str:
+        return f"  {label:<34} {format(h1[key], fmt):>10} {format(h2[key], fmt):>10}"
+
+    out += [
+        row("array plane L_i [mm]", "array_plane_mm", ".4f"),
+        row("microlens focal length f_i [mm]", "microlens_focal_mm", ".5f"),
+        f"  {'  (Ng setting)':<34} {str(h1['ng_setting']):>10} {str(h2['ng_setting']):>10}",
+        row("out-of-focus plane z_i [mm]", "out_of_focus_depth_mm", ".2f"),
+        row("microlens image radius R_i [px]", "microlens_image_radius_px", ".3f"),
+        f"  {'lit pixels per microlens':<34} {h1['lit_pixels']:>5} / {cam['Q']:<2} "
+        f"{h2['lit_pixels']:>5} / {cam['Q']:<2}",
+        "",
+        f"Depth of field (sharp: blur < {dof['threshold_px']:g} px), depths in mm",
+        f"  half 1 (light field)               {_interval_text(dof['half1'])}",
+        f"  half 2 (light field)               {_interval_text(dof['half2'])}",
+        f"  split sensor (either half)         {_interval_text(dof['split'])}",
+        f"  conventional, sensor on plane 1    {_interval_text(dof['conventional1'])}",
+        f"  conventional, sensor on plane 2    {_interval_text(dof['conventional2'])}",
+    ]
+    return "\n".join(out) + "\n"

@@ -1,0 +1,13 @@
+//! splitlf-core: the optics and ray-space engine of split-sensor light field cameras.
+//!
+//! Pure Rust (no Python): [`camera`] holds the validated design (MODEL.md §1, §3, §7),
+//! [`optics`] the closed forms over depth (Eqs. 1–7) and the depth of field.
+//! Every parallel entry point takes `n_threads` (see [`parallel`]).
+
+pub mod camera;
+pub mod error;
+pub mod optics;
+pub mod parallel;
+
+pub use camera::{Axis, Camera, Half};
+pub use error::{Error, Result};

@@ -1,0 +1,321 @@
+//! Closed-form optics over depth (MODEL.md §2: Eqs. 1, 4–7) and depth of field.
+//!
+//! Every expression is written in one fixed order so that a NumPy transcription of
+//! MODEL.md evaluates to the same floating-point result.
+
+use rayon::prelude::*;
+
+use crate::camera::{Camera, Half};
+use crate::error::{Error, Result};
+use crate::parallel::with_threads;
+
+/// Check a depth array: every element finite and > F (Eq. 1 is defined for z > F only).
+pub fn check_depths(cam: &Camera, z: &[f64]) -> Result<()> {
+    for (index, &value) in z.iter().enumerate() {
+        if !value.is_finite() {
+            return Err(Error::InvalidDepth {
+                index,
+                value,
+                reason: "depths must be finite".into(),
+            });
+        }
+        if value <= cam.f_main {
+            return Err(Error::InvalidDepth {
+                index,
+                value,
+                reason: format!(
+                    "depths must be > F = {} mm (Eq. 1 has no real conjugate at or inside the focal length)",
+                    cam.f_main
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Eq. 1: z' = F z / (z − F), the conjugate of depth z (z > F).
+#[inline]
+pub fn conjugate(f_main: f64, z: f64) -> f64 {
+    f_main * z / (z - f_main)
+}
+
+/// Inverse of Eq. 1: the depth whose conjugate is z' (z' > F; z' = ∞ gives F).
+#[inline]
+pub fn depth_of_conjugate(f_main: f64, zc: f64) -> f64 {
+    if zc.is_infinite() {
+        f_main
+    } else {
+        f_main * zc / (zc - f_main)
+    }
+}
+
+/// Eqs. 2–3 (missing in the paper): main-lens blur radius on array plane i,
+/// H_i = (D L_i / 2) |1/z' − 1/L_i|.
+#[inline]
+pub fn main_blur(cam: &Camera, half: Half, zc: f64) -> f64 {
+    let l = cam.array_plane(half);
+    (cam.aperture * l / 2.0) * (1.0 / zc - 1.0 / l).abs()
+}
+
+/// Eqs. 4–5: repetitions rep_i = 2 H_i / d.
+#[inline]
+pub fn repetitions(cam: &Camera, h: f64) -> f64 {
+    2.0 * h / cam.d
+}
+
+/// Eqs. 6–7: microlens blur b_i = (d v / 2) |1/f_i − 1/(L_i − z') − 1/v| (mm, unbounded).
+#[inline]
+pub fn microlens_blur(cam: &Camera, half: Half, zc: f64) -> f64 {
+    let l = cam.array_plane(half);
+    let f = cam.microlens_focal(half);
+    (cam.d * cam.v / 2.0) * (1.0 / f - 1.0 / (l - zc) - 1.0 / cam.v).abs()
+}
+
+/// The bounded LF blur of Fig. 1 in pixels: min(b_i, R_i) / μ.
+#[inline]
+pub fn lf_blur_px(cam: &Camera, half: Half, b: f64) -> f64 {
+    b.min(cam.image_radius(half)) / cam.mu
+}
+
+/// All closed-form curves for a set of depths. Two-row arrays are row-major (2, n):
+/// row 0 is half 1, row 1 is half 2.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Curves {
+    pub conjugate: Vec<f64>,
+    pub main_blur: Vec<f64>,
+    pub repetitions: Vec<f64>,
+    pub microlens_blur: Vec<f64>,
+    pub blur_px: Vec<f64>,
+    pub conventional_px: Vec<f64>,
+}
+
+/// Depths per parallel task: large enough to amortise scheduling, small enough to balance.
+const CHUNK: usize = 16 * 1024;
+
+/// Evaluate every curve at every depth (validated first), in parallel.
+pub fn curves(cam: &Camera, z: &[f64], n_threads: Option<usize>) -> Result<Curves> {
+    check_depths(cam, z)?;
+    let n = z.len();
+    let mut out = Curves {
+        conjugate: vec![0.0; n],
+        main_blur: vec![0.0; 2 * n],
+        repetitions: vec![0.0; 2 * n],
+        microlens_blur: vec![0.0; 2 * n],
+        blur_px: vec![0.0; 2 * n],
+        conventional_px: vec![0.0; 2 * n],
+    };
+    with_threads(n_threads, || {
+        let (h0, h1) = out.main_blur.split_at_mut(n);
+        let (r0, r1) = out.repetitions.split_at_mut(n);
+        let (b0, b1) = out.microlens_blur.split_at_mut(n);
+        let (p0, p1) = out.blur_px.split_at_mut(n);
+        let (c0, c1) = out.conventional_px.split_at_mut(n);
+        let rows: [[&mut [f64]; 5]; 2] = [[h0, r0, b0, p0, c0], [h1, r1, b1, p1, c1]];
+        // One task per chunk of depths; each task owns disjoint slices of every output.
+        let mut tasks = Vec::with_capacity(n.div_ceil(CHUNK));
+        let mut zc_chunks = out.conjugate.chunks_mut(CHUNK);
+        let mut row_chunks = rows.map(|r| r.map(|s| s.chunks_mut(CHUNK)));
+        for zs in z.chunks(CHUNK) {
+            let zc = zc_chunks.next().expect("same length");
+            let halves = [0, 1]
+                .map(|h| [0, 1, 2, 3, 4].map(|k| row_chunks[h][k].next().expect("same length")));
+            tasks.push((zs, zc, halves));
+        }
+        tasks.into_par_iter().for_each(|(zs, zc, mut halves)| {
+            for (k, &zk) in zs.iter().enumerate() {
+                zc[k] = conjugate(cam.f_main, zk);
+            }
+            for half in Half::BOTH {
+                let [h, r, b, p, c] = &mut halves[half.index()];
+                for k in 0..zs.len() {
+                    let hk = main_blur(cam, half, zc[k]);
+                    let bk = microlens_blur(cam, half, zc[k]);
+                    h[k] = hk;
+                    r[k] = repetitions(cam, hk);
+                    b[k] = bk;
+                    p[k] = lf_blur_px(cam, half, bk);
+                    c[k] = hk / cam.mu;
+                }
+            }
+        });
+    })?;
+    Ok(out)
+}
+
+/// Sharp depth intervals (near, far) in mm, sorted; `far` may be +∞. Open intervals:
+/// at a boundary the blur equals the threshold.
+pub type Intervals = Vec<(f64, f64)>;
+
+/// Depth of field of every configuration.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DepthOfField {
+    /// Each half as a LF camera (bounded blur min(b_i, R_i)/μ), [half 1, half 2].
+    pub half: [Intervals; 2],
+    /// Split sensor: sharp where either half is.
+    pub split: Intervals,
+    /// Conventional cameras (sensor on array plane i, blur H_i/μ), [plane 1, plane 2].
+    pub conventional: [Intervals; 2],
+}
+
+/// Merge overlapping open intervals (sorted output). Touching intervals stay apart: the
+/// shared endpoint is sharp in neither.
+pub fn union_intervals(mut iv: Intervals) -> Intervals {
+    iv.retain(|(a, b)| a < b);
+    iv.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut out: Intervals = Vec::with_capacity(iv.len());
+    for (a, b) in iv {
+        match out.last_mut() {
+            Some(last) if a < last.1 => last.1 = last.1.max(b),
+            _ => out.push((a, b)),
+        }
+    }
+    out
+}
+
+/// LF half i: min(b_i, R_i)/μ < t. With y = 1/(L_i − z') and a = 1/f_i − 1/v,
+/// b_i < tμ ⇔ a − c < y < a + c, c = 2tμ/(d v). y is increasing in z' on each branch
+/// z' ∈ (F, L_i) (y > 1/(L_i − F)) and z' ∈ (L_i, ∞) (y < 0); z' = L_i − 1/y on both.
+fn lf_sharp(cam: &Camera, half: Half, t: f64) -> Intervals {
+    let f_main = cam.f_main;
+    if cam.image_radius(half) / cam.mu < t {
+        return vec![(f_main, f64::INFINITY)];
+    }
+    let l = cam.array_plane(half);
+    let a = 1.0 / cam.microlens_focal(half) - 1.0 / cam.v;
+    let c = 2.0 * t * cam.mu / (cam.d * cam.v);
+    let zc_of = |y: f64| -> f64 {
+        if y == 0.0 {
+            f64::INFINITY
+        } else {
+            l - 1.0 / y
+        }
+    };
+    let mut iv = Vec::new();
+    // Branch z' ∈ (F, L): y ∈ (1/(L − F), ∞). The lower end y = 1/(L − F) is z' = F, z = ∞.
+    let y_min = 1.0 / (l - f_main);
+    let (lo, hi) = ((a - c).max(y_min), a + c);
+    if lo < hi {
+        let far = if lo == y_min {
+            f64::INFINITY
+        } else {
+            depth_of_conjugate(f_main, zc_of(lo))
+        };
+        iv.push((depth_of_conjugate(f_main, zc_of(hi)), far));
+    }
+    // Branch z' ∈ (L, ∞): y ∈ (−∞, 0). y → 0⁻ is z' → ∞, z → F.
+    let (lo, hi) = (a - c, (a + c).min(0.0));
+    if lo < hi {
+        iv.push((
+            depth_of_conjugate(f_main, zc_of(hi)),
+            depth_of_conjugate(f_main, zc_of(lo)),
+        ));
+    }
+    union_intervals(iv)
+}
+
+/// Conventional camera on plane i: H_i/μ < t ⇔ |y − 1/L_i| < c', y = 1/z' ∈ (0, 1/F),
+/// c' = 2tμ/(D L_i); the depth is z = 1/(1/F − y), increasing in y.
+fn conventional_sharp(cam: &Camera, half: Half, t: f64) -> Intervals {
+    let l = cam.array_plane(half);
+    let c = 2.0 * t * cam.mu / (cam.aperture * l);
+    let y_max = 1.0 / cam.f_main;
+    let lo = (1.0 / l - c).max(0.0);
+    let hi = 1.0 / l + c;
+    let z_of = |y: f64| -> f64 {
+        if y >= y_max {
+            f64::INFINITY
+        } else if y <= 0.0 {
+            cam.f_main
+        } else {
+            depth_of_conjugate(cam.f_main, 1.0 / y)
+        }
+    };
+    if lo < hi.min(y_max) {
+        vec![(z_of(lo), z_of(hi))]
+    } else {
+        Vec::new()
+    }
+}
+
+/// Depth of field, every boundary in closed form (the blur equations inverted).
+pub fn depth_of_field(cam: &Camera, threshold_px: f64) -> Result<DepthOfField> {
+    if !(threshold_px.is_finite() && threshold_px > 0.0) {
+        return Err(Error::param(
+            "threshold_px",
+            threshold_px,
+            "a finite number of pixels > 0",
+        ));
+    }
+    let half = Half::BOTH.map(|h| lf_sharp(cam, h, threshold_px));
+    let conventional = Half::BOTH.map(|h| conventional_sharp(cam, h, threshold_px));
+    let split = union_intervals(half.iter().flatten().copied().collect());
+    Ok(DepthOfField {
+        half,
+        split,
+        conventional,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn blur_at(cam: &Camera, half: Half, z: f64) -> f64 {
+        let zc = conjugate(cam.f_main, z);
+        lf_blur_px(cam, half, microlens_blur(cam, half, zc))
+    }
+
+    #[test]
+    fn curves_match_scalar_functions() {
+        let cam = Camera::paper();
+        let z: Vec<f64> = (0..40_000).map(|i| 81.0 + i as f64 * 0.25).collect();
+        let out = curves(&cam, &z, Some(2)).unwrap();
+        for (k, &zk) in z.iter().enumerate().step_by(997) {
+            let zc = conjugate(cam.f_main, zk);
+            assert_eq!(out.conjugate[k], zc);
+            assert_eq!(out.main_blur[z.len() + k], main_blur(&cam, Half::Two, zc));
+            assert_eq!(out.blur_px[k], blur_at(&cam, Half::One, zk));
+        }
+    }
+
+    #[test]
+    fn rejects_depth_at_focal_length() {
+        let cam = Camera::paper();
+        let err = curves(&cam, &[100.0, 80.0], None).unwrap_err();
+        assert!(matches!(err, Error::InvalidDepth { index: 1, .. }));
+        assert!(curves(&cam, &[f64::NAN], None).is_err());
+    }
+
+    #[test]
+    fn blur_is_bounded_at_out_of_focus_plane() {
+        let cam = Camera::paper();
+        for half in Half::BOTH {
+            let z = cam.out_of_focus_depth(half);
+            let px = blur_at(&cam, half, z);
+            assert!((px - cam.image_radius(half) / cam.mu).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn dof_boundaries_hit_threshold() {
+        let cam = Camera::paper();
+        let dof = depth_of_field(&cam, 0.5).unwrap();
+        for half in Half::BOTH {
+            for &(near, far) in &dof.half[half.index()] {
+                for b in [near, far] {
+                    if b.is_finite() && b > cam.f_main {
+                        assert!((blur_at(&cam, half, b) - 0.5).abs() < 1e-6, "{b}");
+                    }
+                }
+                let mid = if far.is_finite() {
+                    0.5 * (near + far)
+                } else {
+                    near * 2.0
+                };
+                assert!(blur_at(&cam, half, mid) < 0.5);
+            }
+        }
+        // The split sensor covers at least what half 1 covers.
+        assert!(dof.split.len() <= dof.half[0].len() + dof.half[1].len());
+    }
+}

@@ -1,0 +1,179 @@
+//! PyO3 bindings of splitlf-core. Nothing physical lives here: argument conversion,
+//! GIL release around the core, and mapping of core errors to Python exceptions.
+
+use std::borrow::Cow;
+
+use numpy::ndarray::Array2;
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+
+use splitlf_core::{optics, Camera, Error, Half};
+
+/// Core errors are all bad input: `ValueError` with the core's message (which names the
+/// parameter, its value and the allowed range).
+fn to_py(e: Error) -> PyErr {
+    PyValueError::new_err(e.to_string())
+}
+
+fn half(n: i64) -> PyResult<Half> {
+    Half::from_number(n).map_err(to_py)
+}
+
+/// Borrow a 1-D float64 array as a slice, copying only when it is not contiguous.
+fn as_slice<'a>(a: &'a PyReadonlyArray1<'_, f64>) -> Cow<'a, [f64]> {
+    match a.as_slice() {
+        Ok(s) => Cow::Borrowed(s),
+        Err(_) => Cow::Owned(a.as_array().to_vec()),
+    }
+}
+
+/// Row-major (rows, n) array from a vector, without copying.
+fn rows<'py>(py: Python<'py>, v: Vec<f64>, n_rows: usize) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let n = v.len() / n_rows.max(1);
+    let a = Array2::from_shape_vec((n_rows, n), v)
+        .map_err(|e| PyValueError::new_err(format!("internal shape error: {e}")))?;
+    Ok(a.into_pyarray(py))
+}
+
+/// A validated camera held by the core (wrapped by `splitlf.Camera`).
+#[pyclass(
+    frozen,
+    skip_from_py_object,
+    name = "CameraCore",
+    module = "splitlf._native"
+)]
+struct CameraCore {
+    inner: Camera,
+}
+
+#[pymethods]
+impl CameraCore {
+    #[new]
+    #[pyo3(signature = (f_main, aperture, v1, kappa, d, v, mu, q, kx, ky, f1=None, f2=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        f_main: f64,
+        aperture: f64,
+        v1: f64,
+        kappa: f64,
+        d: f64,
+        v: f64,
+        mu: f64,
+        q: i64,
+        kx: i64,
+        ky: i64,
+        f1: Option<f64>,
+        f2: Option<f64>,
+    ) -> PyResult<Self> {
+        let inner =
+            Camera::new(f_main, aperture, v1, kappa, d, v, mu, q, kx, ky, f1, f2).map_err(to_py)?;
+        Ok(CameraCore { inner })
+    }
+
+    /// The seed design of MODEL.md §7.
+    #[staticmethod]
+    fn paper() -> Self {
+        CameraCore {
+            inner: Camera::paper(),
+        }
+    }
+
+    /// (F, D, v1, kappa, d, v, mu, Q, Kx, Ky, f1, f2), with f1/f2 resolved.
+    fn fields(&self) -> (f64, f64, f64, f64, f64, f64, f64, u32, u32, u32, f64, f64) {
+        let c = &self.inner;
+        (
+            c.f_main, c.aperture, c.v1, c.kappa, c.d, c.v, c.mu, c.q, c.kx, c.ky, c.f1, c.f2,
+        )
+    }
+
+    fn array_plane(&self, half_: i64) -> PyResult<f64> {
+        Ok(self.inner.array_plane(half(half_)?))
+    }
+
+    fn out_of_focus_depth(&self, half_: i64) -> PyResult<f64> {
+        Ok(self.inner.out_of_focus_depth(half(half_)?))
+    }
+
+    fn image_radius(&self, half_: i64) -> PyResult<f64> {
+        Ok(self.inner.image_radius(half(half_)?))
+    }
+
+    fn lit_pixels(&self, half_: i64) -> PyResult<u32> {
+        Ok(self.inner.lit_pixels(half(half_)?))
+    }
+
+    fn ng_focal_length(&self, half_: i64) -> PyResult<f64> {
+        let h = half(half_)?;
+        Ok(splitlf_core::camera::ng_focal_length(
+            self.inner.array_plane(h),
+            self.inner.v,
+        ))
+    }
+
+    fn rho(&self) -> f64 {
+        self.inner.rho()
+    }
+
+    fn f_number(&self) -> f64 {
+        self.inner.f_number()
+    }
+}
+
+type CurveArrays<'py> = (
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray2<f64>>,
+);
+
+/// Closed-form curves (Eqs. 1–7) at every depth:
+/// (conjugate, main_blur, repetitions, microlens_blur, blur_px, conventional_px).
+#[pyfunction]
+#[pyo3(signature = (camera, z, n_threads=None))]
+fn curves<'py>(
+    py: Python<'py>,
+    camera: &CameraCore,
+    z: PyReadonlyArray1<'py, f64>,
+    n_threads: Option<usize>,
+) -> PyResult<CurveArrays<'py>> {
+    let cam = camera.inner;
+    let zs = as_slice(&z);
+    let out = py
+        .detach(|| optics::curves(&cam, &zs, n_threads))
+        .map_err(to_py)?;
+    Ok((
+        out.conjugate.into_pyarray(py),
+        rows(py, out.main_blur, 2)?,
+        rows(py, out.repetitions, 2)?,
+        rows(py, out.microlens_blur, 2)?,
+        rows(py, out.blur_px, 2)?,
+        rows(py, out.conventional_px, 2)?,
+    ))
+}
+
+type Intervals = Vec<(f64, f64)>;
+
+/// Sharp depth intervals: (half1, half2, split, conventional1, conventional2).
+#[pyfunction]
+#[pyo3(signature = (camera, threshold_px=0.5))]
+fn depth_of_field(
+    camera: &CameraCore,
+    threshold_px: f64,
+) -> PyResult<(Intervals, Intervals, Intervals, Intervals, Intervals)> {
+    let dof = optics::depth_of_field(&camera.inner, threshold_px).map_err(to_py)?;
+    let [h1, h2] = dof.half;
+    let [c1, c2] = dof.conventional;
+    Ok((h1, h2, dof.split, c1, c2))
+}
+
+#[pymodule]
+fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add_class::<CameraCore>()?;
+    m.add_function(wrap_pyfunction!(curves, m)?)?;
+    m.add_function(wrap_pyfunction!(depth_of_field, m)?)?;
+    Ok(())
+}

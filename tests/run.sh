@@ -1,0 +1,16 @@
+#!/usr/bin/env bash
+# Every check of the project: lint, Rust tests, Python tests. Run from anywhere after
+# `pip install ".[test]"` (the installed package is what pytest imports).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+echo "== cargo fmt --check"
+cargo fmt --all -- --check
+echo "== cargo clippy -D warnings"
+cargo clippy --workspace --all-targets --quiet -- -D warnings
+echo "== ruff"
+python -m ruff check python tests benches
+echo "== cargo test (core)"
+cargo test -p splitlf-core --quiet
+echo "== pytest"
+python -m pytest -q
