@@ -266,6 +266,25 @@ impl Camera {
     pub fn lit_pixels(&self, half: Half) -> u32 {
         (0..self.q).filter(|&q| self.is_lit(half, q)).count() as u32
     }
+
+    /// Chief sample of pixel q under microlens centre c on the plane with conjugate z'
+    /// (MODEL.md §5): p' = (v'/L_i) [c + w_q (L_i − z')/z'], its projection through the
+    /// main-lens centre onto plane v'.
+    pub fn chief_projection(&self, half: Half, c: f64, q: u32, zc: f64) -> f64 {
+        let l = self.array_plane(half);
+        (self.v1 / l) * (c + self.chief_w(half, q) * (l - zc) / zc)
+    }
+
+    /// Object-space lateral position on the plane at depth z of a point projecting to p'
+    /// on plane v': X = −p' z / v' (MODEL.md §5).
+    pub fn object_position(&self, p: f64, z: f64) -> f64 {
+        -p * z / self.v1
+    }
+
+    /// δ(z) = d z / (Q v'): object-space size of one sensor-resolution step (MODEL.md §6).
+    pub fn resolution_step(&self, z: f64) -> f64 {
+        self.d * z / (self.q as f64 * self.v1)
+    }
 }
 
 #[cfg(test)]
