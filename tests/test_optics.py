@@ -238,3 +238,21 @@ def test_dof_property(D, kappa, f1, f2, t):
         b = blur(z)
         ok = np.abs(b / t - 1.0) > 1e-6
         assert np.array_equal(_inside(getattr(dof, key), z)[ok], (b < t)[ok]), key
+
+
+@pytest.mark.parametrize("z_range", [(150.0, 10_000.0), (100.0, 1000.0), (500.0, 900.0)])
+def test_sharp_fractions_match_sampling(design, z_range):
+    """Log-depth sharp fraction = share of 400 001 log-spaced depths whose reference blur
+    is below the threshold (to the sampling resolution)."""
+    got = splitlf.sharp_fractions(design, z_range, 0.5)
+    z = np.geomspace(*z_range, 400_001)
+    for key, blur in _blur_functions(design).items():
+        want = np.mean(blur(z) < 0.5)
+        assert got[key] == pytest.approx(want, abs=2e-5), key
+
+
+def test_sharp_fractions_bad_range():
+    with pytest.raises(ValueError, match="depth range"):
+        splitlf.sharp_fractions(Camera.paper(), (1000.0, 100.0))
+    with pytest.raises(TypeError, match="z_range"):
+        splitlf.sharp_fractions(Camera.paper(), ("a", 100.0))

@@ -7,6 +7,14 @@ are positive distances in front of the main lens.
 
 from ._native import __version__
 from .camera import Camera
-from .optics import Curves, DepthOfField, curves, depth_of_field
+from .optics import Curves, DepthOfField, curves, depth_of_field, sharp_fractions
 
-__all__ = ["Camera", "Curves", "DepthOfField", "__version__", "curves", "depth_of_field"]
+__all__ = [
+    "Camera",
+    "Curves",
+    "DepthOfField",
+    "__version__",
+    "curves",
+    "depth_of_field",
+    "sharp_fractions",
+]

@@ -43,3 +43,6 @@ def curves(
 def depth_of_field(
     camera: CameraCore, threshold_px: float = 0.5
 ) -> tuple[_Intervals, _Intervals, _Intervals, _Intervals, _Intervals]: ...
+def sharp_fractions(
+    camera: CameraCore, threshold_px: float, lo: float, hi: float
+) -> list[float]: ...

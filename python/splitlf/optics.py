@@ -13,7 +13,7 @@ import numpy as np
 from . import _native, _validate
 from .camera import Camera
 
-__all__ = ["Curves", "DepthOfField", "curves", "depth_of_field"]
+__all__ = ["Curves", "DepthOfField", "curves", "depth_of_field", "sharp_fractions"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -84,3 +84,16 @@ def depth_of_field(camera: Camera, threshold_px: float = 0.5) -> DepthOfField:
     t = _validate.real(threshold_px, "threshold_px")
     h1, h2, split, c1, c2 = _native.depth_of_field(cam.core, t)
     return DepthOfField(t, h1, h2, split, c1, c2)
+
+
+def sharp_fractions(camera: Camera, z_range: tuple[float, float],
+                    threshold_px: float = 0.5) -> dict[str, float]:
+    """Fraction of the depth range [near, far] that is sharp, measured in log depth, for
+    each configuration of :func:`depth_of_field` (keys ``half1``, ``half2``, ``split``,
+    ``conventional1``, ``conventional2``)."""
+    cam = _validate.camera(camera)
+    lo, hi = (_validate.real(v, "z_range") for v in z_range)
+    t = _validate.real(threshold_px, "threshold_px")
+    values = _native.sharp_fractions(cam.core, t, lo, hi)
+    return dict(zip(("half1", "half2", "split", "conventional1", "conventional2"), values,
+                    strict=True))

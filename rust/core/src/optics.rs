@@ -256,6 +256,38 @@ pub fn depth_of_field(cam: &Camera, threshold_px: f64) -> Result<DepthOfField> {
     })
 }
 
+/// Fraction of the depth range [lo, hi] covered by `intervals`, measured in log depth:
+/// Σ |log(iv ∩ [lo, hi])| / log(hi / lo). The intervals must not overlap (as returned).
+pub fn log_fraction(intervals: &[(f64, f64)], lo: f64, hi: f64) -> Result<f64> {
+    if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && hi > lo) {
+        return Err(Error::param(
+            "depth range",
+            format!("[{lo}, {hi}]"),
+            "finite depths 0 < min < max",
+        ));
+    }
+    let covered: f64 = intervals
+        .iter()
+        .map(|&(a, b)| (a.max(lo), b.min(hi)))
+        .filter(|(a, b)| a < b)
+        .map(|(a, b)| (b / a).ln())
+        .sum();
+    Ok((covered / (hi / lo).ln()).clamp(0.0, 1.0))
+}
+
+/// Sharp fractions (log depth) over [lo, hi] of every configuration of [`depth_of_field`]:
+/// [half 1, half 2, split, conventional 1, conventional 2].
+pub fn sharp_fractions(cam: &Camera, threshold_px: f64, lo: f64, hi: f64) -> Result<[f64; 5]> {
+    let dof = depth_of_field(cam, threshold_px)?;
+    Ok([
+        log_fraction(&dof.half[0], lo, hi)?,
+        log_fraction(&dof.half[1], lo, hi)?,
+        log_fraction(&dof.split, lo, hi)?,
+        log_fraction(&dof.conventional[0], lo, hi)?,
+        log_fraction(&dof.conventional[1], lo, hi)?,
+    ])
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -317,5 +349,17 @@ mod tests {
         }
         // The split sensor covers at least what half 1 covers.
         assert!(dof.split.len() <= dof.half[0].len() + dof.half[1].len());
+    }
+
+    #[test]
+    fn log_fraction_by_hand() {
+        // [10, 1000] is two decades; (10, 100) covers one of them, (500, inf) log10(2) more.
+        let f = log_fraction(&[(1.0, 100.0), (500.0, f64::INFINITY)], 10.0, 1000.0).unwrap();
+        assert!((f - (1.0 + 2f64.log10()) / 2.0).abs() < 1e-15);
+        assert_eq!(log_fraction(&[], 10.0, 1000.0).unwrap(), 0.0);
+        assert!(log_fraction(&[], 10.0, 10.0).is_err());
+        let s = sharp_fractions(&Camera::paper(), 0.5, 150.0, 10_000.0).unwrap();
+        assert_eq!(s[2], 1.0);
+        assert!(s[0] < 1.0 && s[1] < 1.0 && s[3] < 0.01);
     }
 }

@@ -169,11 +169,19 @@ fn depth_of_field(
     Ok((h1, h2, dof.split, c1, c2))
 }
 
+/// Sharp fraction in log depth over [lo, hi]: (half1, half2, split, conventional1, conventional2).
+#[pyfunction]
+#[pyo3(signature = (camera, threshold_px, lo, hi))]
+fn sharp_fractions(camera: &CameraCore, threshold_px: f64, lo: f64, hi: f64) -> PyResult<[f64; 5]> {
+    optics::sharp_fractions(&camera.inner, threshold_px, lo, hi).map_err(to_py)
+}
+
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<CameraCore>()?;
     m.add_function(wrap_pyfunction!(curves, m)?)?;
     m.add_function(wrap_pyfunction!(depth_of_field, m)?)?;
+    m.add_function(wrap_pyfunction!(sharp_fractions, m)?)?;
     Ok(())
 }

@@ -1,0 +1,50 @@
+"""Lazy matplotlib access: the plot extra is optional, and the library never picks a backend."""
+
+from __future__ import annotations
+
+from typing import Any
+
+HALF_COLORS = {1: "tab:blue", 2: "tab:orange"}
+SPLIT_COLOR = "black"
+
+
+def pyplot() -> Any:
+    try:
+        import matplotlib.pyplot as plt
+    except ImportError as e:  # pragma: no cover - exercised only without matplotlib
+        raise ImportError(
+            "splitlf.plot needs matplotlib: pip install \"splitlf[plot]\""
+        ) from e
+    return plt
+
+
+def axes(ax: Any) -> Any:
+    """The given Axes, or a new figure's Axes."""
+    if ax is not None:
+        return ax
+    _, ax = pyplot().subplots(figsize=(7.0, 4.2), layout="constrained")
+    return ax
+
+
+def mark_out_of_focus(ax: Any, camera: Any, label: bool = True) -> None:
+    for h in (1, 2):
+        z = camera.out_of_focus_depth(h)
+        ax.axvline(z, color=HALF_COLORS[h], lw=0.8, ls=":",
+                   label=f"out-of-focus plane {h} ({z:.0f} mm)" if label else None)
+
+
+def depth_grid(camera: Any, z_range: tuple[float, float], n: int) -> Any:
+    """Log-spaced depths over z_range plus both out-of-focus planes (so peaks are drawn)."""
+    import numpy as np
+
+    lo, hi = (float(z_range[0]), float(z_range[1]))
+    if not (camera.F < lo < hi and np.isfinite(hi)):
+        raise ValueError(
+            f"invalid z_range = ({lo}, {hi}): allowed F = {camera.F} < near < far < inf (mm)"
+        )
+    if not isinstance(n, int) or n < 2:
+        raise ValueError(f"invalid n = {n!r}: allowed an integer >= 2")
+    z = np.geomspace(lo, hi, n)
+    extra = [camera.out_of_focus_depth(h) for h in (1, 2)]
+    extra = [e for e in extra if lo < e < hi]
+    return np.unique(np.concatenate([z, extra]))

@@ -1,0 +1,62 @@
+"""Fig. 1 (blur against depth) and Fig. 5 (repetitions against depth)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from .. import _validate
+from ..optics import curves
+from ._mpl import HALF_COLORS, axes, depth_grid, mark_out_of_focus
+
+
+def blur(camera, z_range: tuple[float, float] = (100.0, 10_000.0), *, n: int = 4000,
+         threshold_px: float = 0.5, ax: Any = None) -> Any:
+    """The paper's Fig. 1: blur radius in pixels against depth (log axis) for both light
+    field halves (solid, bounded by the microlens image) and the conventional cameras with
+    the sensor on each array plane (dashed), the sharpness line and the out-of-focus planes.
+    """
+    cam = _validate.camera(camera)
+    z = depth_grid(cam, z_range, n)
+    c = curves(cam, z)
+    ax = axes(ax)
+    for h in (1, 2):
+        ax.plot(z, c.blur_px[h - 1], color=HALF_COLORS[h], lw=1.8,
+                label=f"light field, array {h}")
+        ax.plot(z, c.conventional_px[h - 1], color=HALF_COLORS[h], lw=1.2, ls="--",
+                label=f"conventional, sensor on plane {h}")
+    ax.axhline(threshold_px, color="0.3", lw=0.9, ls="-.", label=f"sharp: < {threshold_px:g} px")
+    mark_out_of_focus(ax, cam, label=False)
+    ax.set_xscale("log")
+    top = 1.25 * max(cam.image_radius(h) / cam.mu for h in (1, 2))
+    ax.set_ylim(0.0, max(top, 2 * threshold_px))
+    ax.set_xlim(z[0], z[-1])
+    ax.set_xlabel("depth z [mm] (log scale)")
+    ax.set_ylabel("blur radius [pixels]")
+    ax.set_title("Blur against depth (Fig. 1)")
+    ax.legend(fontsize=8, loc="upper right")
+    ax.grid(True, which="both", alpha=0.25)
+    return ax
+
+
+def repetitions(camera, z_range: tuple[float, float] = (100.0, 10_000.0), *, n: int = 4000,
+                ax: Any = None) -> Any:
+    """The paper's Fig. 5: repetitions 2 H_i / d under each array against depth (log axis).
+    Where one array's repetitions drop to zero (its out-of-focus plane) the other's are high.
+    """
+    cam = _validate.camera(camera)
+    z = depth_grid(cam, z_range, n)
+    c = curves(cam, z)
+    ax = axes(ax)
+    for h in (1, 2):
+        ax.plot(z, c.repetitions[h - 1], color=HALF_COLORS[h], lw=1.8,
+                label=f"array {h}")
+    mark_out_of_focus(ax, cam)
+    ax.set_xscale("log")
+    ax.set_xlim(z[0], z[-1])
+    ax.set_ylim(bottom=0.0)
+    ax.set_xlabel("depth z [mm] (log scale)")
+    ax.set_ylabel("repetitions 2H/d")
+    ax.set_title("Repetitions under each microlens array (Fig. 5)")
+    ax.legend(fontsize=8)
+    ax.grid(True, which="both", alpha=0.25)
+    return ax
