@@ -11,7 +11,8 @@ from .optics import depth_of_field
 __all__ = ["report_data", "format_report"]
 
 
-def report_data(camera: Camera, threshold_px: float = 0.5) -> dict[str, Any]:
+def report_data(camera: Camera, threshold_px: float = 0.5,
+                n_threads: int | None = None) -> dict[str, Any]:
     """Camera, derived values, out-of-focus planes and depth of field as a JSON-ready dict."""
     halves = {}
     for h in (1, 2):
