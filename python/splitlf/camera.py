@@ -11,8 +11,9 @@ import dataclasses
 import math
 import numbers
 import os
-import tomllib
 from typing import Any
+
+import tomllib
 
 from . import _native
 
@@ -143,7 +144,9 @@ class Camera:
     def from_dict(cls, data: dict[str, Any], source: str = "camera") -> Camera:
         """Build from a mapping of field names; unknown names are a ValueError."""
         if not isinstance(data, dict):
-            raise TypeError(f"{source}: expected a table of camera fields, got {type(data).__name__}")
+            raise TypeError(
+                f"{source}: expected a table of camera fields, got {type(data).__name__}"
+            )
         unknown = [k for k in data if k not in FIELDS]
         if unknown:
             raise ValueError(
@@ -180,7 +183,9 @@ class Camera:
             text = f"{name} = {value!r}" if name not in COUNT_FIELDS else f"{name} = {int(value)}"
             if name in ("f1", "f2") and not self._explicit[name]:
                 text = f"# {text}  (Ng's setting, derived: omit to keep tracking the geometry)"
-            lines.append(f"{text:<40} # {_DESCRIPTIONS[name]}" if not text.startswith("#") else text)
+            if not text.startswith("#"):
+                text = f"{text:<40} # {_DESCRIPTIONS[name]}"
+            lines.append(text)
         body = "\n".join(lines) + "\n"
         if path is not None:
             with open(path, "w", encoding="utf-8") as fh:
