@@ -134,11 +134,11 @@ impl Layout {
     }
 }
 
-/// Reusable buffers of one worker thread.
+/// Reusable buffers of one worker thread (allocated once per worker, grown as needed).
 #[derive(Debug, Default)]
 struct Scratch {
-    /// Sorted chief samples of half 1 and half 2 (p' space).
-    pos: [Vec<f64>; 2],
+    /// Sorted chief samples of half 1, half 2 and their union (p' space).
+    pos: [Vec<f64>; 3],
     work: Work,
 }
 
@@ -147,49 +147,74 @@ struct Scratch {
 struct Work {
     /// Per inner index: (fractional offset in its window, window shift, index).
     perm: Vec<(f64, usize, usize)>,
-    /// Pixel terms t_l = w_q (L − z')/z' of the lit pixels at the current depth.
+    /// Pixel terms t_l = w_q (L − z')/z' of the lit pixels, in order of increasing p'.
     t: Vec<f64>,
+    /// Inner terms and window shifts in window order.
+    inner: Vec<(f64, usize)>,
 }
 
-/// Fill `out` with `value(i, l)` for i < n_outer, l < n_inner in ascending order, given that
-/// value(i, l) ≈ base + i·a + l·b (a > 0, b ≥ 0) up to rounding.
+/// Fill `out` with scale · (outer[i] + inner[l]) for every (i, l), in ascending order, given
+/// that outer[i] ≈ i·a/scale + const and inner[l] ≈ l·b/scale + const (a > 0, b ≥ 0).
 ///
-/// Window trick: write l·b = m_l a + f_l with m_l = ⌊l b / a⌋, 0 ≤ f_l < a. Then the value
+/// Window trick: write l·b = m_l a + f_l with m_l = ⌊l b / a⌋, 0 ≤ f_l < a. The value (i, l)
 /// lies in window w = i + m_l (of width a) at offset f_l, so the sorted order is: windows in
 /// order, and inside every window the inner indices in order of f_l — one permutation for
 /// all windows. Cost O(n_inner log n_inner + (n_outer + m_max) n_inner). Rounding can leave
 /// values that are equal up to a few ulps out of order: a final insertion pass (linear on
 /// such nearly sorted data) makes `out` exactly sorted.
-#[allow(clippy::too_many_arguments)]
 fn emit_sorted(
     out: &mut Vec<f64>,
-    perm: &mut Vec<(f64, usize, usize)>,
-    n_outer: usize,
-    n_inner: usize,
+    work: &mut Work,
+    outer: &[f64],
+    inner_terms: &[f64],
     a: f64,
     b: f64,
-    value: impl Fn(usize, usize) -> f64,
+    scale: f64,
 ) {
+    let (n_outer, n_inner) = (outer.len(), inner_terms.len());
     out.clear();
-    perm.clear();
     if n_outer == 0 || n_inner == 0 {
         return;
     }
+    let perm = &mut work.perm;
+    perm.clear();
     for l in 0..n_inner {
         let x = l as f64 * b / a;
         let m = x.floor();
         perm.push(((x - m) * a, m as usize, l));
     }
     perm.sort_unstable_by(|p, q| p.0.total_cmp(&q.0));
-    let m_max = perm.iter().map(|p| p.1).max().unwrap_or(0);
-    for w in 0..n_outer + m_max {
-        for &(_, m, l) in perm.iter() {
-            // outer index i = w − m must lie in [0, n_outer)
+    let inner = &mut work.inner;
+    inner.clear();
+    inner.extend(perm.iter().map(|&(_, m, l)| (inner_terms[l], m)));
+    let m_max = inner.iter().map(|p| p.1).max().unwrap_or(0);
+    out.resize(n_outer * n_inner, 0.0);
+    // Edge windows: only the inner indices whose outer index w − m lies in [0, n_outer).
+    let edge = |out: &mut [f64], w: usize, o: &mut usize| {
+        for &(t, m) in inner.iter() {
             if w >= m && w - m < n_outer {
-                out.push(value(w - m, l));
+                out[*o] = scale * (outer[w - m] + t);
+                *o += 1;
             }
         }
+    };
+    let mut o = 0;
+    let interior = m_max..n_outer.max(m_max);
+    for w in 0..interior.start {
+        edge(out, w, &mut o);
     }
+    for w in interior.clone() {
+        // every inner index is valid: w − m ∈ [w − m_max, w] ⊂ [0, n_outer)
+        let dst = &mut out[o..o + n_inner];
+        for (d, &(t, m)) in dst.iter_mut().zip(inner.iter()) {
+            *d = scale * (outer[w - m] + t);
+        }
+        o += n_inner;
+    }
+    for w in interior.end..n_outer + m_max {
+        edge(out, w, &mut o);
+    }
+    debug_assert_eq!(o, n_outer * n_inner);
     insertion_fixup(out);
 }
 
@@ -209,7 +234,8 @@ fn insertion_fixup(x: &mut [f64]) {
 }
 
 /// Sorted chief samples p' (MODEL §5) of every lit pixel of `half` along `axis` on the plane
-/// with conjugate `zc`. Values are bit-identical to [`Camera::chief_projection`].
+/// with conjugate `zc`. Values are bit-identical to [`Camera::chief_projection`]:
+/// p' = (v'/L)·(c_j + t_q) with t_q = w_q (L − z')/z' evaluated in the same order.
 fn half_samples(
     cam: &Camera,
     layout: &Layout,
@@ -219,27 +245,27 @@ fn half_samples(
     out: &mut Vec<f64>,
     work: &mut Work,
 ) {
-    let Work { perm, t } = work;
     let l = cam.array_plane(half);
     let c = layout.centers(axis);
     let lit = &layout.lit[half.index()];
-    // Pixel terms, in the exact operation order of Camera::chief_projection.
-    t.clear();
-    t.extend(lit.iter().map(|&q| cam.chief_w(half, q) * (l - zc) / zc));
     let scale = cam.v1 / l;
     // Step between neighbouring lenses (a) and neighbouring lit pixels (|Δ|), in p'.
     let a = scale * cam.d;
     let g = (l - zc) / zc;
     let dq = -(cam.v1 / cam.v) * cam.mu * g; // p'(q + 1) − p'(q)
     let b = dq.abs();
-    let nl = t.len();
-    // Inner index l ↦ lit pixel in order of increasing p'.
-    let pix = |l_: usize| if dq >= 0.0 { l_ } else { nl - 1 - l_ };
-    let k = c.len();
-    let t = &*t;
-    let value = |j: usize, p: usize| scale * (c[j] + t[p]);
+    // Pixel terms in order of increasing p' (q ascending when Δ ≥ 0, else descending).
+    let mut t = std::mem::take(&mut work.t);
+    t.clear();
+    let term = |&q: &u32| cam.chief_w(half, q) * (l - zc) / zc;
+    if dq >= 0.0 {
+        t.extend(lit.iter().map(term));
+    } else {
+        t.extend(lit.iter().rev().map(term));
+    }
+    let (k, nl) = (c.len(), t.len());
     // Orientation: windows over lenses (inner = pixels) or over pixels (inner = lenses),
-    // whichever visits fewer (window, inner) pairs.
+    // whichever visits fewer (window, inner) pairs. c_j + t_q = t_q + c_j exactly.
     let cost_lens = (k as f64 + ((nl.max(1) - 1) as f64 * b / a).floor()) * nl as f64;
     let cost_pix = if b > 0.0 {
         (nl as f64 + ((k.max(1) - 1) as f64 * a / b).floor()) * k as f64
@@ -247,94 +273,103 @@ fn half_samples(
         f64::INFINITY
     };
     if cost_lens <= cost_pix {
-        emit_sorted(out, perm, k, nl, a, b, |j, li| value(j, pix(li)));
+        emit_sorted(out, work, c, &t, a, b, scale);
     } else {
-        emit_sorted(out, perm, nl, k, b, a, |li, j| value(j, pix(li)));
+        emit_sorted(out, work, &t, c, b, a, scale);
     }
+    work.t = t;
 }
 
-/// Streaming count and gap scan over positions given in ascending order (p' space).
-#[derive(Debug, Clone, Copy)]
-struct Scan {
-    eps: f64,
-    field: f64,
-    count: u64,
-    anchor: f64,
-    prev: f64,
-    first: f64,
-    max_gap: f64,
-}
-
-impl Scan {
-    fn new(eps: f64, field: f64) -> Scan {
-        Scan {
-            eps,
-            field,
-            count: 0,
-            anchor: f64::NAN,
-            prev: f64::NAN,
-            first: f64::NAN,
-            max_gap: 0.0,
+/// Largest consecutive difference of ascending x (0 for fewer than two values). Four
+/// independent accumulators keep the loop free of a serial max dependency.
+fn max_step(x: &[f64]) -> f64 {
+    if x.len() < 2 {
+        return 0.0;
+    }
+    let (hi, lo) = (&x[1..], &x[..x.len() - 1]);
+    let mut acc = [0.0f64; 4];
+    let (ch, cl) = (hi.chunks_exact(4), lo.chunks_exact(4));
+    let (rh, rl) = (ch.remainder(), cl.remainder());
+    for (h, l) in ch.zip(cl) {
+        for j in 0..4 {
+            let d = h[j] - l[j];
+            acc[j] = if d > acc[j] { d } else { acc[j] };
         }
     }
+    for (h, l) in rh.iter().zip(rl) {
+        acc[0] = acc[0].max(h - l);
+    }
+    acc[0].max(acc[1]).max(acc[2].max(acc[3]))
+}
 
-    #[inline]
-    fn push(&mut self, x: f64) {
-        if self.count == 0 {
-            self.count = 1;
-            self.anchor = x;
-            self.first = x;
-        } else {
-            if x - self.anchor > self.eps {
-                self.count += 1;
-                self.anchor = x;
+/// Distinct count (merge rule of the module doc) and largest gap over the field [−W, W]
+/// (p' units; +∞ when the samples do not reach both field edges, or when there are none)
+/// of ascending positions.
+fn scan(x: &[f64], eps: f64, field: f64) -> (u64, f64) {
+    let n = x.len();
+    if n == 0 {
+        return (0, f64::INFINITY);
+    }
+    // Fast path: no two neighbours within eps → every position is its own sample.
+    let close: usize = x[1..]
+        .iter()
+        .zip(&x[..n - 1])
+        .map(|(h, l)| (h - l <= eps) as usize)
+        .sum();
+    let count = if close == 0 {
+        n as u64
+    } else {
+        let (mut count, mut anchor) = (1u64, x[0]);
+        for &v in &x[1..] {
+            if v - anchor > eps {
+                count += 1;
+                anchor = v;
             }
-            // A gap counts when its interval [prev, x] meets the field [−W, W].
-            if x >= -self.field && self.prev <= self.field {
-                self.max_gap = self.max_gap.max(x - self.prev);
-            }
         }
-        self.prev = x;
-    }
-
-    /// Largest gap in p' units; +∞ when the samples do not reach both field edges
-    /// (part of the field has no sample on one side), or when there are none.
-    fn gap(&self) -> f64 {
-        if self.count == 0 || self.first > -self.field || self.prev < self.field {
-            f64::INFINITY
-        } else {
-            self.max_gap
-        }
-    }
+        count
+    };
+    let gap = if x[0] > -field || x[n - 1] < field {
+        f64::INFINITY
+    } else {
+        // Gaps [x_k, x_{k+1}] that meet the field: x_{k+1} ≥ −W and x_k ≤ W.
+        let lo = x.partition_point(|&v| v < -field).saturating_sub(1);
+        let hi = x.partition_point(|&v| v <= field).min(n - 1);
+        max_step(&x[lo..=hi])
+    };
+    (count, gap)
 }
 
-fn scan_one(x: &[f64], eps: f64, field: f64) -> Scan {
-    let mut s = Scan::new(eps, field);
-    for &v in x {
-        s.push(v);
+/// Merge two ascending arrays into `out`, branch-free, from both ends at once: the front
+/// takes the smallest values (x first on ties), the back the largest (y first on ties, the
+/// same total order reversed), so each element is written exactly once and the two
+/// independent dependency chains overlap.
+fn merge_into(out: &mut Vec<f64>, x: &[f64], y: &[f64]) {
+    let n = x.len() + y.len();
+    out.clear();
+    out.resize(n, 0.0);
+    let at = |v: &[f64], i: usize, none: f64| v.get(i).copied().unwrap_or(none);
+    let (mut i, mut k) = (0usize, 0usize); // front cursors
+    let (mut ib, mut kb) = (x.len(), y.len()); // back cursors (one past)
+    let half = n / 2;
+    for o in 0..half {
+        let (xa, yb) = (at(x, i, f64::INFINITY), at(y, k, f64::INFINITY));
+        let tx = (xa <= yb) as usize;
+        out[o] = xa.min(yb);
+        i += tx;
+        k += 1 - tx;
+        let (xe, ye) = (
+            at(x, ib.wrapping_sub(1), f64::NEG_INFINITY),
+            at(y, kb.wrapping_sub(1), f64::NEG_INFINITY),
+        );
+        let te = (xe > ye) as usize;
+        out[n - 1 - o] = xe.max(ye);
+        ib -= te;
+        kb -= 1 - te;
     }
-    s
-}
-
-fn scan_union(x: &[f64], y: &[f64], eps: f64, field: f64) -> Scan {
-    let mut s = Scan::new(eps, field);
-    let (mut i, mut k) = (0, 0);
-    while i < x.len() && k < y.len() {
-        if x[i] <= y[k] {
-            s.push(x[i]);
-            i += 1;
-        } else {
-            s.push(y[k]);
-            k += 1;
-        }
+    if n % 2 == 1 {
+        // The middle element: whichever back cursor still holds an untaken value.
+        out[half] = if ib > i { x[ib - 1] } else { y[kb - 1] };
     }
-    for &v in &x[i..] {
-        s.push(v);
-    }
-    for &v in &y[k..] {
-        s.push(v);
-    }
-    s
 }
 
 /// Results at one depth.
@@ -359,14 +394,11 @@ fn axis_counts(
     for h in Half::BOTH {
         half_samples(cam, layout, h, axis, zc, &mut s.pos[h.index()], &mut s.work);
     }
+    let [p1, p2, pu] = &mut s.pos;
+    merge_into(pu, p1, p2);
     let to_delta = cam.q as f64 / cam.d;
-    let a = scan_one(&s.pos[0], eps, field);
-    let b = scan_one(&s.pos[1], eps, field);
-    let u = scan_union(&s.pos[0], &s.pos[1], eps, field);
-    (
-        [a.count, b.count, u.count],
-        [a.gap() * to_delta, b.gap() * to_delta, u.gap() * to_delta],
-    )
+    let r = [&*p1, &*p2, &*pu].map(|x| scan(x, eps, field));
+    (r.map(|x| x.0), r.map(|x| x.1 * to_delta))
 }
 
 /// 2D distinct counts from the per-axis counts (separability, inclusion–exclusion):
@@ -468,7 +500,7 @@ pub fn count_distinct(cam: &Camera, half: Half, axis: Axis, z: f64, tol: f64) ->
     let mut s = Scratch::default();
     let zc = conjugate(cam.f_main, z);
     half_samples(cam, &layout, half, axis, zc, &mut s.pos[0], &mut s.work);
-    Ok(scan_one(&s.pos[0], tol * cam.d / cam.q as f64, f64::INFINITY).count)
+    Ok(scan(&s.pos[0], tol * cam.d / cam.q as f64, f64::INFINITY).0)
 }
 
 /// Side of a coincidence plane relative to the half's out-of-focus plane.
@@ -602,7 +634,7 @@ pub fn coincidence_planes(
                         &mut s.pos[0],
                         &mut s.work,
                     );
-                    count *= scan_one(&s.pos[0], eps, f64::INFINITY).count;
+                    count *= scan(&s.pos[0], eps, f64::INFINITY).0;
                 }
                 p.counted = count;
             });
@@ -659,6 +691,31 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn merge_and_scan_are_exact() {
+        let cases: [(&[f64], &[f64]); 6] = [
+            (&[], &[]),
+            (&[1.0], &[]),
+            (&[], &[2.0, 3.0]),
+            (&[1.0, 2.0, 2.0, 5.0], &[0.0, 2.0, 6.0]),
+            (&[1.0, 3.0, 5.0], &[2.0, 4.0]),
+            (&[-3.0, -1.0, 0.0, 0.5, 7.0], &[-2.0, 0.0, 0.0]),
+        ];
+        let mut out = Vec::new();
+        for (x, y) in cases {
+            merge_into(&mut out, x, y);
+            let mut want: Vec<f64> = x.iter().chain(y).copied().collect();
+            want.sort_by(f64::total_cmp);
+            assert_eq!(out, want);
+        }
+        // Greedy cover: {0, 0.6, 1.2} with eps 1 -> 2 intervals (single linkage would say 1).
+        assert_eq!(scan(&[0.0, 0.6, 1.2], 1.0, 0.5).0, 2);
+        // Field [-1, 1]: gaps meeting it are [-3,-0.5], [-0.5,0.2], [0.2,4]; [4,10] is outside.
+        assert_eq!(scan(&[-3.0, -0.5, 0.2, 4.0, 10.0], 0.0, 1.0), (5, 3.8));
+        assert_eq!(scan(&[-0.5, 2.0], 0.0, 1.0).1, f64::INFINITY); // field not covered
+        assert_eq!(max_step(&[0.0, 1.0, 1.5, 4.0, 4.1, 4.2, 4.3, 9.0]), 4.7);
     }
 
     #[test]
@@ -743,5 +800,62 @@ mod tests {
         assert!(SampleMode::parse("foo").is_err());
         assert!(coincidence_planes(&cam, Half::One, 0, None, None).is_err());
         assert!(coincidence_planes(&cam, Half::One, 2, Some(0), None).is_err());
+    }
+}
+
+#[cfg(test)]
+mod timing {
+    use super::*;
+    use std::time::Instant;
+    #[test]
+    #[ignore]
+    fn timing_breakdown() {
+        let cam = Camera::paper();
+        let layout = Layout::new(&cam);
+        let mut s = Scratch::default();
+        let zs: Vec<f64> = (0..2000)
+            .map(|i| 150.0 * (10_000.0f64 / 150.0).powf(i as f64 / 1999.0))
+            .collect();
+        let (mut tg, mut tm, mut ts, mut sink) = (0.0, 0.0, 0.0, 0.0);
+        for &z in &zs {
+            let zc = conjugate(cam.f_main, z);
+            let t0 = Instant::now();
+            for h in Half::BOTH {
+                half_samples(
+                    &cam,
+                    &layout,
+                    h,
+                    Axis::X,
+                    zc,
+                    &mut s.pos[h.index()],
+                    &mut s.work,
+                );
+            }
+            let t1 = Instant::now();
+            let [p1, p2, pu] = &mut s.pos;
+            merge_into(pu, p1, p2);
+            let t2 = Instant::now();
+            for x in [&*p1, &*p2, &*pu] {
+                let (c, g) = scan(x, 1e-7, 10.0);
+                sink += c as f64 + g;
+            }
+            let t3 = Instant::now();
+            tg += (t1 - t0).as_secs_f64();
+            tm += (t2 - t1).as_secs_f64();
+            ts += (t3 - t2).as_secs_f64();
+        }
+        let t0 = Instant::now();
+        for &z in &zs {
+            depth_result(&cam, &layout, z, 1e-6, &mut s);
+        }
+        let full = t0.elapsed().as_secs_f64();
+        let us = |t: f64| t / 2000.0 * 1e6;
+        eprintln!(
+            "x axis: gen {:.1} us, merge {:.1} us, scans {:.1} us; full depth {:.1} us ({sink})",
+            us(tg),
+            us(tm),
+            us(ts),
+            us(full)
+        );
     }
 }
