@@ -464,3 +464,82 @@ def test_bad_arguments():
             splitlf.coincidence_planes(cam, bad)
     with pytest.raises(TypeError, match="camera"):
         splitlf.new_samples(object(), [500.0])
+
+
+# ---------------------------------------------------------------------------------------
+# Depth sweep, report and figure
+
+
+def test_sweep_depths_include_the_dips():
+    cam = seed()
+    z = splitlf.samples.sweep_depths(cam, (150.0, 1e4), n=50, max_n=2)
+    assert np.all(np.diff(z) > 0) and z[0] == 150.0 and z[-1] == 1e4
+    for h in (1, 2):
+        assert np.any(z == cam.out_of_focus_depth(h))
+        planes = splitlf.coincidence_planes(cam, h, max_n=2).z
+        inside = planes[(planes >= 150) & (planes <= 1e4)]
+        assert inside.size > 0 and np.isin(inside, z).all()
+    for bad in ((50.0, 100.0), (500.0, 200.0), (150.0, math.inf)):
+        with pytest.raises(ValueError, match="z_range"):
+            splitlf.samples.sweep_depths(cam, bad)
+
+
+def test_report_has_planes_and_worst_resolution():
+    import json
+
+    from splitlf.report import format_report, report_data
+
+    cam = seed()
+    data = report_data(cam)
+    json.dumps(data, allow_nan=False)
+    for h in (1, 2):
+        rows = data["coincidence_planes"][f"half{h}"]
+        assert rows and all(r["N"] <= 3 for r in rows)
+        assert all(r["counted"] == r["new_samples"] for r in rows)
+        assert {r["side"] for r in rows} == {"near", "far"}
+    res = data["resolution"]
+    assert res["z_range_mm"] == [150.0, 10000.0]
+    # Half 1's worst case is its out-of-focus plane: pixelization, a gap of Q steps.
+    assert res["half1"]["max_gap"] == pytest.approx(15.0, rel=1e-9)
+    assert res["half1"]["z_mm"] == pytest.approx(642.0, rel=1e-9)
+    assert res["split"]["max_gap"] <= min(res["half1"]["max_gap"], res["half2"]["max_gap"])
+    text = format_report(data, "t")
+    assert "Coincidence planes (N <= 3" in text and "Worst resolution over 150" in text
+    assert "counted == Eq. 8 on" in text and "split sensor   max gap" in text
+
+
+def test_cli_report_json_has_samples(capsys):
+    import json
+
+    from splitlf.cli import main
+
+    assert main(["report", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert "coincidence_planes" in doc and "resolution" in doc
+
+
+def test_plot_samples():
+    mpl = pytest.importorskip("matplotlib")
+    mpl.use("Agg")  # the test selects the backend; the library never does
+    import matplotlib.pyplot as plt
+    import splitlf.plot
+
+    cam = seed()
+    a_count, a_gap = splitlf.plot.samples(cam, (150.0, 2000.0), n=80)
+    assert len(a_count.get_lines()) >= 3 and len(a_gap.get_lines()) >= 3
+    assert a_count.get_xscale() == "log"
+    fig, axes = plt.subplots(2, 1)
+    got = splitlf.plot.samples(cam, (150.0, 2000.0), ax=axes, n=20)
+    assert got[0] is axes[0] and got[1] is axes[1]
+    with pytest.raises(ValueError, match="pair of Axes"):
+        splitlf.plot.samples(cam, (150.0, 2000.0), ax=[axes[0]])
+    plt.close("all")
+
+
+def test_plot_without_matplotlib(monkeypatch):
+    import splitlf.plot
+
+    monkeypatch.setitem(sys.modules, "matplotlib", None)
+    monkeypatch.setitem(sys.modules, "matplotlib.pyplot", None)
+    with pytest.raises(ImportError, match=r'pip install "splitlf\[plot\]"'):
+        splitlf.plot.samples(seed(), (150.0, 1000.0))

@@ -15,7 +15,14 @@ import numpy as np
 from . import _native, _validate
 from .camera import Camera
 
-__all__ = ["CoincidencePlanes", "NewSamples", "coincidence_planes", "new_samples"]
+__all__ = [
+    "CoincidencePlanes",
+    "NewSamples",
+    "coincidence_planes",
+    "new_samples",
+    "sweep_depths",
+    "worst_resolution",
+]
 
 #: Column order of :class:`CoincidencePlanes`.
 PLANE_COLUMNS = (
@@ -158,3 +165,55 @@ def new_samples(
         raise TypeError(f"sample must be a string (\"chief\"), got {sample!r}")
     out = _native.new_samples(cam.core, zs, t, sample, _validate.n_threads(n_threads))
     return NewSamples(zs, t, sample, *out)
+
+
+def sweep_depths(
+    camera: Camera, z_range: tuple[float, float], n: int = 600, max_n: int = 3
+) -> np.ndarray:
+    """Depths for a resolution sweep: ``n`` log-spaced depths over ``z_range`` plus, inside
+    it, both out-of-focus planes and every coincidence plane (N <= ``max_n``, T <= Q) of
+    both halves — where the counts dip and the gaps peak — so that the worst case is
+    sampled exactly. Sorted, unique."""
+    cam = _validate.camera(camera)
+    lo, hi = (_validate.real(v, "z_range") for v in z_range)
+    if not (cam.F < lo < hi < np.inf):
+        raise ValueError(
+            f"invalid z_range = ({lo}, {hi}): allowed F = {cam.F} mm < near < far < inf"
+        )
+    n = _int(n, "n")
+    if n < 2:
+        raise ValueError(f"invalid n = {n}: allowed an integer >= 2")
+    extra = [cam.out_of_focus_depth(1), cam.out_of_focus_depth(2)]
+    for h in (1, 2):
+        extra.extend(coincidence_planes(cam, h, max_n=max_n).z)
+    z = np.concatenate([np.geomspace(lo, hi, n), extra])
+    return np.unique(z[(z >= lo) & (z <= hi)])
+
+
+def worst_resolution(
+    camera: Camera,
+    z_range: tuple[float, float] = (150.0, 10_000.0),
+    n: int = 2000,
+    max_n: int = 3,
+    tol: float = 1e-6,
+) -> dict[str, Any]:
+    """Largest max gap (worst resolution, in delta(z)) of half 1, half 2 and the split
+    sensor over ``z_range``, on :func:`sweep_depths` (``n`` log-spaced depths plus the
+    out-of-focus and coincidence planes, N <= ``max_n``). JSON-ready (inf -> None)."""
+    z = sweep_depths(camera, z_range, n=n, max_n=max_n)
+    r = new_samples(camera, z, tol=tol)
+    out: dict[str, Any] = {
+        "z_range_mm": [float(z_range[0]), float(z_range[1])],
+        "depths": int(z.size),
+        "sampling": f"{n} log-spaced depths plus the out-of-focus planes and the "
+                    f"coincidence planes (N <= {max_n}) of both halves inside the range",
+    }
+    for row, key in enumerate(("half1", "half2", "split")):
+        k = int(np.argmax(r.max_gap[row]))
+        g = float(r.max_gap[row, k])
+        out[key] = {
+            "max_gap": None if not np.isfinite(g) else g,
+            "z_mm": float(z[k]),
+            "min_distinct": int(r.distinct[row].min()),
+        }
+    return out
