@@ -8,13 +8,18 @@ are positive distances in front of the main lens.
 from ._native import __version__
 from .camera import Camera
 from .optics import Curves, DepthOfField, curves, depth_of_field, sharp_fractions
+from .samples import CoincidencePlanes, NewSamples, coincidence_planes, new_samples
 
 __all__ = [
     "Camera",
+    "CoincidencePlanes",
     "Curves",
     "DepthOfField",
+    "NewSamples",
     "__version__",
+    "coincidence_planes",
     "curves",
     "depth_of_field",
+    "new_samples",
     "sharp_fractions",
 ]

@@ -6,6 +6,7 @@ import numpy.typing as npt
 __version__: str
 
 _F64 = npt.NDArray[np.float64]
+_I64 = npt.NDArray[np.int64]
 _Intervals = list[tuple[float, float]]
 
 class CameraCore:
@@ -46,3 +47,17 @@ def depth_of_field(
 def sharp_fractions(
     camera: CameraCore, threshold_px: float, lo: float, hi: float
 ) -> list[float]: ...
+def new_samples(
+    camera: CameraCore,
+    z: _F64,
+    tol: float = 1e-6,
+    sample: str = "chief",
+    n_threads: int | None = None,
+) -> tuple[_I64, _I64, _F64, _I64]: ...
+def coincidence_planes(
+    camera: CameraCore,
+    half_: int,
+    max_n: int = 4,
+    max_t: int | None = None,
+    n_threads: int | None = None,
+) -> tuple[_I64, _I64, list[str], _F64, _F64, _F64, _I64, _I64, _I64, _I64]: ...

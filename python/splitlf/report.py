@@ -7,8 +7,14 @@ from typing import Any
 
 from .camera import _DESCRIPTIONS, COUNT_FIELDS, FIELDS, Camera
 from .optics import depth_of_field
+from .samples import coincidence_planes, worst_resolution
 
 __all__ = ["report_data", "format_report"]
+
+#: Coincidence planes listed in the report: N <= 3 (T <= Q).
+REPORT_MAX_N = 3
+#: Depth range of the worst-resolution figure [mm].
+REPORT_Z_RANGE = (150.0, 10_000.0)
 
 
 def report_data(camera: Camera, threshold_px: float = 0.5,
@@ -33,6 +39,10 @@ def report_data(camera: Camera, threshold_px: float = 0.5,
         "camera": camera.as_dict(),
         "derived": {"f_number": camera.f_number, "rho_mm": camera.rho, **halves},
         "depth_of_field": dof.as_dict(),
+        "coincidence_planes": {
+            f"half{h}": coincidence_planes(camera, h, max_n=REPORT_MAX_N).rows() for h in (1, 2)
+        },
+        "resolution": worst_resolution(camera, REPORT_Z_RANGE, max_n=REPORT_MAX_N),
     }
 
 
@@ -81,4 +91,33 @@ def format_report(data: dict[str, Any], title: str) -> str:
         f"  conventional, sensor on plane 1    {_interval_text(dof['conventional1'])}",
         f"  conventional, sensor on plane 2    {_interval_text(dof['conventional2'])}",
     ]
+    out += _samples_text(data)
     return "\n".join(out) + "\n"
+
+
+def _gap_text(g: float | None) -> str:
+    return "inf (field not covered)" if g is None else f"{g:.2f}"
+
+
+def _samples_text(data: dict[str, Any]) -> list[str]:
+    out = ["", f"Coincidence planes (N <= {REPORT_MAX_N}, T <= Q), sorted by depth; "
+           "Eq. 8/9 with Q_lit vs brute-force count"]
+    for h in (1, 2):
+        rows = data["coincidence_planes"][f"half{h}"]
+        agree = sum(r["counted"] == r["new_samples"] for r in rows)
+        out.append(f"  half {h}: {len(rows)} planes, counted == Eq. {7 + h} on {agree}")
+        out.append(f"    {'N':>2} {'T':>3} {'side':<5} {'z [mm]':>10} {'rep':>7} "
+                   f"{'Eq. ' + str(7 + h):>12} {'counted':>12}")
+        for r in rows:
+            out.append(f"    {r['N']:>2} {r['T']:>3} {r['side']:<5} {r['z']:>10.2f} "
+                       f"{r['repetitions']:>7.3f} {r['new_samples']:>12} {r['counted']:>12}")
+    res = data["resolution"]
+    lo, hi = res["z_range_mm"]
+    out += ["", f"Worst resolution over {lo:g} - {hi:g} mm (largest max gap in the central "
+            "field, in delta(z) = d z / (Q v'))",
+            f"  depths: {res['depths']} ({res['sampling']})"]
+    for key, label in (("half1", "half 1"), ("half2", "half 2"), ("split", "split sensor")):
+        r = res[key]
+        out.append(f"  {label:<14} max gap {_gap_text(r['max_gap']):>8} at z = {r['z_mm']:.1f} mm"
+                   f"   (fewest distinct samples along x: {r['min_distinct']})")
+    return out

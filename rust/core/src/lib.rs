@@ -1,13 +1,15 @@
 //! splitlf-core: the optics and ray-space engine of split-sensor light field cameras.
 //!
 //! Pure Rust (no Python): [`camera`] holds the validated design (MODEL.md §1, §3, §7),
-//! [`optics`] the closed forms over depth (Eqs. 1–7) and the depth of field.
+//! [`optics`] the closed forms over depth (Eqs. 1–7) and the depth of field,
+//! [`samples`] the coincidence planes and genuinely new samples (Eqs. 8–9, MODEL.md §6).
 //! Every parallel entry point takes `n_threads` (see [`parallel`]).
 
 pub mod camera;
 pub mod error;
 pub mod optics;
 pub mod parallel;
+pub mod samples;
 
 pub use camera::{Axis, Camera, Half};
 pub use error::{Error, Result};

@@ -8,6 +8,7 @@ use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
+use splitlf_core::samples::{self, SampleMode};
 use splitlf_core::{optics, Camera, Error, Half};
 
 /// Core errors are all bad input: `ValueError` with the core's message (which names the
@@ -29,7 +30,11 @@ fn as_slice<'a>(a: &'a PyReadonlyArray1<'_, f64>) -> Cow<'a, [f64]> {
 }
 
 /// Row-major (rows, n) array from a vector, without copying.
-fn rows<'py>(py: Python<'py>, v: Vec<f64>, n_rows: usize) -> PyResult<Bound<'py, PyArray2<f64>>> {
+fn rows<'py, T: numpy::Element>(
+    py: Python<'py>,
+    v: Vec<T>,
+    n_rows: usize,
+) -> PyResult<Bound<'py, PyArray2<T>>> {
     let n = v.len() / n_rows.max(1);
     let a = Array2::from_shape_vec((n_rows, n), v)
         .map_err(|e| PyValueError::new_err(format!("internal shape error: {e}")))?;
@@ -176,6 +181,93 @@ fn sharp_fractions(camera: &CameraCore, threshold_px: f64, lo: f64, hi: f64) -> 
     optics::sharp_fractions(&camera.inner, threshold_px, lo, hi).map_err(to_py)
 }
 
+/// Counts are returned as int64 (they are far below 2^63: the core caps K Q per axis).
+fn to_i64(v: Vec<u64>) -> Vec<i64> {
+    v.into_iter().map(|x| x as i64).collect()
+}
+
+type NewSampleArrays<'py> = (
+    Bound<'py, PyArray2<i64>>,
+    Bound<'py, PyArray2<i64>>,
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray1<i64>>,
+);
+
+/// Genuinely new samples at every depth (MODEL.md §6):
+/// (distinct (3, m), distinct_2d (3, m), max_gap (3, m), lit (3,)).
+#[pyfunction]
+#[pyo3(signature = (camera, z, tol=1e-6, sample="chief", n_threads=None))]
+fn new_samples<'py>(
+    py: Python<'py>,
+    camera: &CameraCore,
+    z: PyReadonlyArray1<'py, f64>,
+    tol: f64,
+    sample: &str,
+    n_threads: Option<usize>,
+) -> PyResult<NewSampleArrays<'py>> {
+    let cam = camera.inner;
+    let mode = SampleMode::parse(sample).map_err(to_py)?;
+    let zs = as_slice(&z);
+    let out = py
+        .detach(|| samples::new_samples(&cam, &zs, tol, mode, n_threads))
+        .map_err(to_py)?;
+    Ok((
+        rows(py, to_i64(out.distinct), 3)?,
+        rows(py, to_i64(out.distinct_2d), 3)?,
+        rows(py, out.max_gap, 3)?,
+        to_i64(out.lit.to_vec()).into_pyarray(py),
+    ))
+}
+
+type PlaneColumns<'py> = (
+    Bound<'py, PyArray1<i64>>,
+    Bound<'py, PyArray1<i64>>,
+    Vec<&'static str>,
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<i64>>,
+    Bound<'py, PyArray1<i64>>,
+    Bound<'py, PyArray1<i64>>,
+    Bound<'py, PyArray1<i64>>,
+);
+
+/// Coincidence planes of one half, sorted by depth, as columns:
+/// (N, T, side, conjugate, z, repetitions, new_samples_x, new_samples_y, new_samples, counted).
+#[pyfunction]
+#[pyo3(signature = (camera, half_, max_n=4, max_t=None, n_threads=None))]
+fn coincidence_planes<'py>(
+    py: Python<'py>,
+    camera: &CameraCore,
+    half_: i64,
+    max_n: i64,
+    max_t: Option<i64>,
+    n_threads: Option<usize>,
+) -> PyResult<PlaneColumns<'py>> {
+    let cam = camera.inner;
+    let h = half(half_)?;
+    let p = py
+        .detach(|| samples::coincidence_planes(&cam, h, max_n, max_t, n_threads))
+        .map_err(to_py)?;
+    let int = |f: &dyn Fn(&samples::CoincidencePlane) -> u64| -> Vec<i64> {
+        p.iter().map(|x| f(x) as i64).collect()
+    };
+    let real =
+        |f: &dyn Fn(&samples::CoincidencePlane) -> f64| -> Vec<f64> { p.iter().map(f).collect() };
+    Ok((
+        int(&|x| x.n as u64).into_pyarray(py),
+        int(&|x| x.t as u64).into_pyarray(py),
+        p.iter().map(|x| x.side.name()).collect(),
+        real(&|x| x.conjugate).into_pyarray(py),
+        real(&|x| x.z).into_pyarray(py),
+        real(&|x| x.repetitions).into_pyarray(py),
+        int(&|x| x.new_samples_x).into_pyarray(py),
+        int(&|x| x.new_samples_y).into_pyarray(py),
+        int(&|x| x.new_samples).into_pyarray(py),
+        int(&|x| x.counted).into_pyarray(py),
+    ))
+}
+
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
@@ -183,5 +275,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(curves, m)?)?;
     m.add_function(wrap_pyfunction!(depth_of_field, m)?)?;
     m.add_function(wrap_pyfunction!(sharp_fractions, m)?)?;
+    m.add_function(wrap_pyfunction!(new_samples, m)?)?;
+    m.add_function(wrap_pyfunction!(coincidence_planes, m)?)?;
     Ok(())
 }

@@ -1,0 +1,100 @@
+"""Distinct samples and resolution (max gap) against depth: MODEL.md §6, docs/samples.md."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .. import _validate
+from ..camera import Camera
+from ..samples import coincidence_planes, new_samples, sweep_depths
+
+__all__ = ["samples"]
+
+_COLORS = {1: "tab:blue", 2: "tab:orange", "split": "black"}
+
+
+def _pyplot():
+    try:
+        import matplotlib.pyplot as plt
+    except ImportError as e:  # pragma: no cover - depends on the environment
+        raise ImportError(
+            'splitlf.plot needs matplotlib: pip install "splitlf[plot]"'
+        ) from e
+    return plt
+
+
+def samples(
+    camera: Camera,
+    z_range: tuple[float, float] = (150.0, 10_000.0),
+    ax: Any = None,
+    *,
+    n: int = 600,
+    max_n: int = 2,
+    tol: float = 1e-6,
+    n_threads: int | None = None,
+):
+    """Distinct samples (top) and max gap in units of delta(z) (bottom) against log depth,
+    for half 1, half 2 and the split sensor (union), with the out-of-focus planes (dashed
+    vertical lines) and the coincidence planes N <= ``max_n`` (ticks on the top axis) marked.
+
+    ``ax``: None (a new figure with two stacked axes) or a pair of matplotlib Axes
+    (counts, gap). Returns the pair of Axes. The depths are :func:`splitlf.samples.sweep_depths`.
+    """
+    cam = _validate.camera(camera)
+    plt = _pyplot()
+    if ax is None:
+        fig, axes = plt.subplots(2, 1, sharex=True, figsize=(11.5, 7.5), layout="constrained")
+    else:
+        axes = list(ax)
+        if len(axes) != 2:
+            raise ValueError("ax must be None or a pair of Axes (counts, gap)")
+        fig = axes[0].figure
+    a_count, a_gap = axes
+    z = sweep_depths(cam, z_range, n=n, max_n=max(max_n, 1))
+    r = new_samples(cam, z, tol=tol, n_threads=n_threads)
+    labels = {0: f"half 1 (lit {r.lit[0]})", 1: f"half 2 (lit {r.lit[1]})",
+              2: f"split sensor (lit {r.lit[2]})"}
+    colors = [_COLORS[1], _COLORS[2], _COLORS["split"]]
+    for row in range(3):
+        lw = 1.6 if row == 2 else 1.1
+        a_count.plot(z, r.distinct[row], color=colors[row], lw=lw, label=labels[row])
+        gap = np.where(np.isfinite(r.max_gap[row]), r.max_gap[row], np.nan)
+        a_gap.plot(z, gap, color=colors[row], lw=lw, label=labels[row].split(" (")[0])
+    for row in range(3):
+        a_count.axhline(r.lit[row], color=colors[row], lw=0.6, ls=":")
+    a_gap.axhline(1.0, color="0.4", lw=0.8, ls=":")
+    a_gap.axhline(cam.Q, color="0.4", lw=0.8, ls=":")
+    a_gap.annotate("full sensor resolution (1)", (z[-1], 1.0), xytext=(-4, -11), ha="right",
+                   textcoords="offset points", fontsize=8, color="0.3")
+    a_gap.annotate(f"microlens resolution, Q = {cam.Q}", (z[-1], cam.Q), xytext=(-4, 3),
+                   ha="right", textcoords="offset points", fontsize=8, color="0.3")
+    lo, hi = z[0], z[-1]
+    for h in (1, 2):
+        zo = cam.out_of_focus_depth(h)
+        if lo <= zo <= hi:
+            for a in axes:
+                a.axvline(zo, color=_COLORS[h], lw=0.9, ls="--")
+            a_count.annotate(f"out-of-focus plane {h}\n{zo:.0f} mm", (zo, 0.02),
+                             xycoords=("data", "axes fraction"), xytext=(3, 0),
+                             textcoords="offset points", fontsize=8, color=_COLORS[h])
+        planes = coincidence_planes(cam, h, max_n=max_n)
+        zc = planes.z[(planes.z >= lo) & (planes.z <= hi)]
+        a_count.plot(zc, np.full(zc.size, 1.0 - 0.03 * h), ls="none", marker="|", ms=9,
+                     color=_COLORS[h], transform=a_count.get_xaxis_transform(),
+                     label=f"coincidence planes, half {h} (N <= {max_n})")
+    a_count.set_xscale("log")
+    a_count.set_ylabel("distinct samples along x")
+    a_count.set_ylim(0, r.lit[2] * 1.12)
+    a_count.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    a_count.set_title("Genuinely new samples and resolution (chief samples, MODEL.md §6)")
+    a_gap.set_yscale("log")
+    a_gap.set_ylabel("max gap in the central field [delta(z)]")
+    a_gap.set_xlabel("depth z [mm] (log)")
+    a_gap.set_ylim(0.75, cam.Q * 1.5)
+    a_gap.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    for a in axes:
+        a.grid(True, which="both", lw=0.3, alpha=0.5)
+    del fig
+    return a_count, a_gap

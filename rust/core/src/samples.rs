@@ -1,0 +1,861 @@
+//! Coincidence planes, genuinely new samples (Eqs. 8–9) and resolution at every depth
+//! (MODEL.md §3, §5, §6). Derivations: `docs/samples.md`.
+//!
+//! The sample positions are the chief samples p' of [`Camera::chief_projection`] (MODEL §5),
+//! the same function the ray-space engine's `sample = "chief"` footprints use, over every
+//! lit pixel ([`Camera::is_lit`]) of a half. Everything is computed on plane v' (p' space);
+//! object space is the linear map X = −p' z / v', so
+//! - the merge tolerance `tol · δ(z)` is `tol · d / Q` in p' space (independent of z),
+//! - the central field |X| ≤ K_x d z / (4 v') is |p'| ≤ K_x d / 4,
+//! - a gap g in p' is g Q / d in units of δ(z).
+//!
+//! Merge rule: the distinct count of a set of positions is the least number of closed
+//! intervals of length `tol · δ(z)` that cover it (computed greedily on the sorted positions:
+//! a position opens a new sample when it lies more than `tol · δ(z)` beyond the first
+//! position of the current sample). This count is monotone (adding positions never lowers
+//! it), so the union of both halves never counts fewer samples than either half.
+
+use rayon::prelude::*;
+
+use crate::camera::{Axis, Camera, Half};
+use crate::error::{Error, Result};
+use crate::optics::{check_depths, conjugate, depth_of_conjugate, main_blur, repetitions};
+use crate::parallel::with_threads;
+
+/// Largest number of lit pixels along one axis of one half (K · Q_lit) the brute-force
+/// count accepts: each worker holds three buffers of this many f64.
+pub const MAX_SAMPLES_PER_AXIS: u64 = 1 << 24;
+/// Largest number of (N, T) pairs `coincidence_planes` enumerates.
+pub const MAX_PAIRS: u64 = 1_000_000;
+
+/// Which sample position of a pixel is counted (MODEL §5).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SampleMode {
+    /// The chief ray's projection (the paper's convention).
+    Chief,
+}
+
+impl SampleMode {
+    /// Parse `"chief"`. `"centroid"` needs the polygon centroids of the ray-space engine
+    /// (`rayspace`), which is not part of this module: it is refused with that reason.
+    pub fn parse(s: &str) -> Result<SampleMode> {
+        match s {
+            "chief" => Ok(SampleMode::Chief),
+            "centroid" => Err(Error::param(
+                "sample",
+                "\"centroid\"",
+                "\"chief\" (centroid samples arrive with the ray-space engine's footprints)",
+            )),
+            other => Err(Error::param(
+                "sample",
+                format!("{other:?}"),
+                "\"chief\" (the paper's convention)",
+            )),
+        }
+    }
+}
+
+/// Validate the merge tolerance (a multiple of δ(z); 0 merges exactly equal positions only).
+pub fn check_tol(tol: f64) -> Result<f64> {
+    if tol.is_finite() && tol >= 0.0 {
+        Ok(tol)
+    } else {
+        Err(Error::param(
+            "tol",
+            tol,
+            "a finite number >= 0 (a multiple of the resolution step delta(z))",
+        ))
+    }
+}
+
+/// Greatest common divisor.
+pub fn gcd(mut a: u64, mut b: u64) -> u64 {
+    while b != 0 {
+        (a, b) = (b, a % b);
+    }
+    a
+}
+
+/// Eqs. 8–9, one axis, with the lit pixel count: genuinely new samples of K microlenses
+/// with `q_lit` lit pixels each on the coincidence plane (N, T).
+/// n = N Q_lit + T (K − N) when T ≤ Q_lit and K ≥ N; in general
+/// n = K Q_lit − max(K − N, 0) · max(Q_lit − T, 0) (which is K Q_lit when nothing overlaps).
+pub fn closed_form_new_samples(k: u64, q_lit: u64, n: u64, t: u64) -> u64 {
+    k * q_lit - k.saturating_sub(n) * q_lit.saturating_sub(t)
+}
+
+/// The lit pixels of a half along one axis, in order of increasing q. The lit set is
+/// contiguous and symmetric about the microlens image centre (|w_q| grows away from it).
+pub fn lit_indices(cam: &Camera, half: Half) -> Vec<u32> {
+    (0..cam.q).filter(|&q| cam.is_lit(half, q)).collect()
+}
+
+fn check_size(cam: &Camera) -> Result<()> {
+    let k = cam.kx.max(cam.ky) as u64;
+    let n = k * cam.q as u64;
+    if n > MAX_SAMPLES_PER_AXIS {
+        return Err(Error::TooLarge {
+            what: format!(
+                "the brute-force sample count over K = {k} microlenses x Q = {} pixels",
+                cam.q
+            ),
+            bytes: 24 * n as u128,
+            limit: 24 * MAX_SAMPLES_PER_AXIS as u128,
+        });
+    }
+    Ok(())
+}
+
+/// Per-half, per-axis constants: lens centres c_j and lit pixel indices.
+#[derive(Debug, Clone)]
+struct Layout {
+    /// c_j, j = 0..K (x axis).
+    cx: Vec<f64>,
+    /// c_j, j = 0..K (y axis).
+    cy: Vec<f64>,
+    /// Lit pixel indices of half 1 and half 2.
+    lit: [Vec<u32>; 2],
+}
+
+impl Layout {
+    fn new(cam: &Camera) -> Layout {
+        Layout {
+            cx: (0..cam.kx).map(|j| cam.lens_center(j, cam.kx)).collect(),
+            cy: (0..cam.ky).map(|j| cam.lens_center(j, cam.ky)).collect(),
+            lit: Half::BOTH.map(|h| lit_indices(cam, h)),
+        }
+    }
+
+    fn centers(&self, axis: Axis) -> &[f64] {
+        match axis {
+            Axis::X => &self.cx,
+            Axis::Y => &self.cy,
+        }
+    }
+}
+
+/// Reusable buffers of one worker thread (allocated once per worker, grown as needed).
+#[derive(Debug, Default)]
+struct Scratch {
+    /// Sorted chief samples of half 1, half 2 and their union (p' space).
+    pos: [Vec<f64>; 3],
+    work: Work,
+}
+
+/// Working buffers of [`half_samples`].
+#[derive(Debug, Default)]
+struct Work {
+    /// Per inner index: (fractional offset in its window, window shift, index).
+    perm: Vec<(f64, usize, usize)>,
+    /// Pixel terms t_l = w_q (L − z')/z' of the lit pixels, in order of increasing p'.
+    t: Vec<f64>,
+    /// Inner terms and window shifts in window order.
+    inner: Vec<(f64, usize)>,
+}
+
+/// Fill `out` with scale · (outer[i] + inner[l]) for every (i, l), in ascending order, given
+/// that outer[i] ≈ i·a/scale + const and inner[l] ≈ l·b/scale + const (a > 0, b ≥ 0).
+///
+/// Window trick: write l·b = m_l a + f_l with m_l = ⌊l b / a⌋, 0 ≤ f_l < a. The value (i, l)
+/// lies in window w = i + m_l (of width a) at offset f_l, so the sorted order is: windows in
+/// order, and inside every window the inner indices in order of f_l — one permutation for
+/// all windows. Cost O(n_inner log n_inner + (n_outer + m_max) n_inner). Rounding can leave
+/// values that are equal up to a few ulps out of order: a final insertion pass (linear on
+/// such nearly sorted data) makes `out` exactly sorted.
+fn emit_sorted(
+    out: &mut Vec<f64>,
+    work: &mut Work,
+    outer: &[f64],
+    inner_terms: &[f64],
+    a: f64,
+    b: f64,
+    scale: f64,
+) {
+    let (n_outer, n_inner) = (outer.len(), inner_terms.len());
+    out.clear();
+    if n_outer == 0 || n_inner == 0 {
+        return;
+    }
+    let perm = &mut work.perm;
+    perm.clear();
+    for l in 0..n_inner {
+        let x = l as f64 * b / a;
+        let m = x.floor();
+        perm.push(((x - m) * a, m as usize, l));
+    }
+    perm.sort_unstable_by(|p, q| p.0.total_cmp(&q.0));
+    let inner = &mut work.inner;
+    inner.clear();
+    inner.extend(perm.iter().map(|&(_, m, l)| (inner_terms[l], m)));
+    let m_max = inner.iter().map(|p| p.1).max().unwrap_or(0);
+    out.resize(n_outer * n_inner, 0.0);
+    // Edge windows: only the inner indices whose outer index w − m lies in [0, n_outer).
+    let edge = |out: &mut [f64], w: usize, o: &mut usize| {
+        for &(t, m) in inner.iter() {
+            if w >= m && w - m < n_outer {
+                out[*o] = scale * (outer[w - m] + t);
+                *o += 1;
+            }
+        }
+    };
+    let mut o = 0;
+    let interior = m_max..n_outer.max(m_max);
+    for w in 0..interior.start {
+        edge(out, w, &mut o);
+    }
+    for w in interior.clone() {
+        // every inner index is valid: w − m ∈ [w − m_max, w] ⊂ [0, n_outer)
+        let dst = &mut out[o..o + n_inner];
+        for (d, &(t, m)) in dst.iter_mut().zip(inner.iter()) {
+            *d = scale * (outer[w - m] + t);
+        }
+        o += n_inner;
+    }
+    for w in interior.end..n_outer + m_max {
+        edge(out, w, &mut o);
+    }
+    debug_assert_eq!(o, n_outer * n_inner);
+    insertion_fixup(out);
+}
+
+/// Insertion sort: linear on data whose elements are at most a few places out of order.
+fn insertion_fixup(x: &mut [f64]) {
+    for i in 1..x.len() {
+        let v = x[i];
+        if v < x[i - 1] {
+            let mut k = i;
+            while k > 0 && v < x[k - 1] {
+                x[k] = x[k - 1];
+                k -= 1;
+            }
+            x[k] = v;
+        }
+    }
+}
+
+/// Sorted chief samples p' (MODEL §5) of every lit pixel of `half` along `axis` on the plane
+/// with conjugate `zc`. Values are bit-identical to [`Camera::chief_projection`]:
+/// p' = (v'/L)·(c_j + t_q) with t_q = w_q (L − z')/z' evaluated in the same order.
+fn half_samples(
+    cam: &Camera,
+    layout: &Layout,
+    half: Half,
+    axis: Axis,
+    zc: f64,
+    out: &mut Vec<f64>,
+    work: &mut Work,
+) {
+    let l = cam.array_plane(half);
+    let c = layout.centers(axis);
+    let lit = &layout.lit[half.index()];
+    let scale = cam.v1 / l;
+    // Step between neighbouring lenses (a) and neighbouring lit pixels (|Δ|), in p'.
+    let a = scale * cam.d;
+    let g = (l - zc) / zc;
+    let dq = -(cam.v1 / cam.v) * cam.mu * g; // p'(q + 1) − p'(q)
+    let b = dq.abs();
+    // Pixel terms in order of increasing p' (q ascending when Δ ≥ 0, else descending).
+    let mut t = std::mem::take(&mut work.t);
+    t.clear();
+    let term = |&q: &u32| cam.chief_w(half, q) * (l - zc) / zc;
+    if dq >= 0.0 {
+        t.extend(lit.iter().map(term));
+    } else {
+        t.extend(lit.iter().rev().map(term));
+    }
+    let (k, nl) = (c.len(), t.len());
+    // Orientation: windows over lenses (inner = pixels) or over pixels (inner = lenses),
+    // whichever visits fewer (window, inner) pairs. c_j + t_q = t_q + c_j exactly.
+    let cost_lens = (k as f64 + ((nl.max(1) - 1) as f64 * b / a).floor()) * nl as f64;
+    let cost_pix = if b > 0.0 {
+        (nl as f64 + ((k.max(1) - 1) as f64 * a / b).floor()) * k as f64
+    } else {
+        f64::INFINITY
+    };
+    if cost_lens <= cost_pix {
+        emit_sorted(out, work, c, &t, a, b, scale);
+    } else {
+        emit_sorted(out, work, &t, c, b, a, scale);
+    }
+    work.t = t;
+}
+
+/// Largest consecutive difference of ascending x (0 for fewer than two values). Four
+/// independent accumulators keep the loop free of a serial max dependency.
+fn max_step(x: &[f64]) -> f64 {
+    if x.len() < 2 {
+        return 0.0;
+    }
+    let (hi, lo) = (&x[1..], &x[..x.len() - 1]);
+    let mut acc = [0.0f64; 4];
+    let (ch, cl) = (hi.chunks_exact(4), lo.chunks_exact(4));
+    let (rh, rl) = (ch.remainder(), cl.remainder());
+    for (h, l) in ch.zip(cl) {
+        for j in 0..4 {
+            let d = h[j] - l[j];
+            acc[j] = if d > acc[j] { d } else { acc[j] };
+        }
+    }
+    for (h, l) in rh.iter().zip(rl) {
+        acc[0] = acc[0].max(h - l);
+    }
+    acc[0].max(acc[1]).max(acc[2].max(acc[3]))
+}
+
+/// Distinct count (merge rule of the module doc) and largest gap over the field [−W, W]
+/// (p' units; +∞ when the samples do not reach both field edges, or when there are none)
+/// of ascending positions.
+fn scan(x: &[f64], eps: f64, field: f64) -> (u64, f64) {
+    let n = x.len();
+    if n == 0 {
+        return (0, f64::INFINITY);
+    }
+    // Fast path: no two neighbours within eps → every position is its own sample.
+    let close: usize = x[1..]
+        .iter()
+        .zip(&x[..n - 1])
+        .map(|(h, l)| (h - l <= eps) as usize)
+        .sum();
+    let count = if close == 0 {
+        n as u64
+    } else {
+        let (mut count, mut anchor) = (1u64, x[0]);
+        for &v in &x[1..] {
+            if v - anchor > eps {
+                count += 1;
+                anchor = v;
+            }
+        }
+        count
+    };
+    let gap = if x[0] > -field || x[n - 1] < field {
+        f64::INFINITY
+    } else {
+        // Gaps [x_k, x_{k+1}] that meet the field: x_{k+1} ≥ −W and x_k ≤ W.
+        let lo = x.partition_point(|&v| v < -field).saturating_sub(1);
+        let hi = x.partition_point(|&v| v <= field).min(n - 1);
+        max_step(&x[lo..=hi])
+    };
+    (count, gap)
+}
+
+/// Merge two ascending arrays into `out`, branch-free, from both ends at once: the front
+/// takes the smallest values (x first on ties), the back the largest (y first on ties, the
+/// same total order reversed), so each element is written exactly once and the two
+/// independent dependency chains overlap.
+fn merge_into(out: &mut Vec<f64>, x: &[f64], y: &[f64]) {
+    let n = x.len() + y.len();
+    out.clear();
+    out.resize(n, 0.0);
+    let at = |v: &[f64], i: usize, none: f64| v.get(i).copied().unwrap_or(none);
+    let (mut i, mut k) = (0usize, 0usize); // front cursors
+    let (mut ib, mut kb) = (x.len(), y.len()); // back cursors (one past)
+    let half = n / 2;
+    for o in 0..half {
+        let (xa, yb) = (at(x, i, f64::INFINITY), at(y, k, f64::INFINITY));
+        let tx = (xa <= yb) as usize;
+        out[o] = xa.min(yb);
+        i += tx;
+        k += 1 - tx;
+        let (xe, ye) = (
+            at(x, ib.wrapping_sub(1), f64::NEG_INFINITY),
+            at(y, kb.wrapping_sub(1), f64::NEG_INFINITY),
+        );
+        let te = (xe > ye) as usize;
+        out[n - 1 - o] = xe.max(ye);
+        ib -= te;
+        kb -= 1 - te;
+    }
+    if n % 2 == 1 {
+        // The middle element: whichever back cursor still holds an untaken value.
+        out[half] = if ib > i { x[ib - 1] } else { y[kb - 1] };
+    }
+}
+
+/// Results at one depth.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+struct DepthResult {
+    distinct: [u64; 3],
+    distinct_2d: [u64; 3],
+    max_gap: [f64; 3],
+}
+
+/// Distinct counts along one axis (half 1, half 2, union) and, when `field` is given,
+/// the max gaps in δ(z) units.
+fn axis_counts(
+    cam: &Camera,
+    layout: &Layout,
+    axis: Axis,
+    zc: f64,
+    eps: f64,
+    field: f64,
+    s: &mut Scratch,
+) -> ([u64; 3], [f64; 3]) {
+    for h in Half::BOTH {
+        half_samples(cam, layout, h, axis, zc, &mut s.pos[h.index()], &mut s.work);
+    }
+    let [p1, p2, pu] = &mut s.pos;
+    merge_into(pu, p1, p2);
+    let to_delta = cam.q as f64 / cam.d;
+    let r = [&*p1, &*p2, &*pu].map(|x| scan(x, eps, field));
+    (r.map(|x| x.0), r.map(|x| x.1 * to_delta))
+}
+
+/// 2D distinct counts from the per-axis counts (separability, inclusion–exclusion):
+/// |A1×B1 ∪ A2×B2| = |A1||B1| + |A2||B2| − |A1∩A2||B1∩B2|, |A1∩A2| = |A1| + |A2| − |A1∪A2|.
+pub fn distinct_2d(x: [u64; 3], y: [u64; 3]) -> [u64; 3] {
+    let ix = x[0] + x[1] - x[2];
+    let iy = y[0] + y[1] - y[2];
+    [
+        x[0] * y[0],
+        x[1] * y[1],
+        x[0] * y[0] + x[1] * y[1] - ix * iy,
+    ]
+}
+
+fn depth_result(cam: &Camera, layout: &Layout, z: f64, tol: f64, s: &mut Scratch) -> DepthResult {
+    let zc = conjugate(cam.f_main, z);
+    let eps = tol * cam.d / cam.q as f64; // tol · δ(z) in p' space
+    let field = cam.kx as f64 * cam.d / 4.0; // |X| ≤ K_x d z / (4 v') in p' space
+    let (dx, gap) = axis_counts(cam, layout, Axis::X, zc, eps, field, s);
+    let dy = if cam.ky == cam.kx {
+        dx
+    } else {
+        axis_counts(cam, layout, Axis::Y, zc, eps, field, s).0
+    };
+    DepthResult {
+        distinct: dx,
+        distinct_2d: distinct_2d(dx, dy),
+        max_gap: gap,
+    }
+}
+
+/// Genuinely new samples at m depths. Row-major (3, m) arrays: rows half 1, half 2, union.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NewSamples {
+    /// Distinct chief samples along x.
+    pub distinct: Vec<u64>,
+    /// Distinct chief samples over the 2D half-sensors (K_x × K_y lenses).
+    pub distinct_2d: Vec<u64>,
+    /// Largest gap between consecutive samples along x over the central field, in δ(z)
+    /// (+∞ when the samples do not cover the field).
+    pub max_gap: Vec<f64>,
+    /// Lit pixels along x: K_x Q_lit,1, K_x Q_lit,2 and their sum.
+    pub lit: [u64; 3],
+}
+
+/// Depths per parallel task.
+const CHUNK: usize = 8;
+
+/// Distinct chief samples and max gaps at every depth (validated first), parallel over depths.
+pub fn new_samples(
+    cam: &Camera,
+    z: &[f64],
+    tol: f64,
+    mode: SampleMode,
+    n_threads: Option<usize>,
+) -> Result<NewSamples> {
+    let SampleMode::Chief = mode;
+    let tol = check_tol(tol)?;
+    check_depths(cam, z)?;
+    check_size(cam)?;
+    let layout = Layout::new(cam);
+    let m = z.len();
+    let mut res = vec![DepthResult::default(); m];
+    with_threads(n_threads, || {
+        res.par_chunks_mut(CHUNK)
+            .zip(z.par_chunks(CHUNK))
+            .for_each_init(Scratch::default, |s, (r, zs)| {
+                for (ri, &zi) in r.iter_mut().zip(zs) {
+                    *ri = depth_result(cam, &layout, zi, tol, s);
+                }
+            });
+    })?;
+    let mut out = NewSamples {
+        distinct: vec![0; 3 * m],
+        distinct_2d: vec![0; 3 * m],
+        max_gap: vec![0.0; 3 * m],
+        lit: [0; 3],
+    };
+    for (k, r) in res.iter().enumerate() {
+        for row in 0..3 {
+            out.distinct[row * m + k] = r.distinct[row];
+            out.distinct_2d[row * m + k] = r.distinct_2d[row];
+            out.max_gap[row * m + k] = r.max_gap[row];
+        }
+    }
+    let kx = cam.kx as u64;
+    let l1 = kx * layout.lit[0].len() as u64;
+    let l2 = kx * layout.lit[1].len() as u64;
+    out.lit = [l1, l2, l1 + l2];
+    Ok(out)
+}
+
+/// Distinct chief samples of one half along one axis at depth z (the brute-force count).
+pub fn count_distinct(cam: &Camera, half: Half, axis: Axis, z: f64, tol: f64) -> Result<u64> {
+    let tol = check_tol(tol)?;
+    check_depths(cam, &[z])?;
+    check_size(cam)?;
+    let layout = Layout::new(cam);
+    let mut s = Scratch::default();
+    let zc = conjugate(cam.f_main, z);
+    half_samples(cam, &layout, half, axis, zc, &mut s.pos[0], &mut s.work);
+    Ok(scan(&s.pos[0], tol * cam.d / cam.q as f64, f64::INFINITY).0)
+}
+
+/// Side of a coincidence plane relative to the half's out-of-focus plane.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Side {
+    /// Beyond the out-of-focus plane: z' = L_i / (1 + r) < L_i.
+    Far,
+    /// In front of it: z' = L_i / (1 − r) > L_i (needs r < 1).
+    Near,
+}
+
+impl Side {
+    pub fn name(self) -> &'static str {
+        match self {
+            Side::Far => "far",
+            Side::Near => "near",
+        }
+    }
+}
+
+/// One coincidence plane of a half (MODEL §6).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CoincidencePlane {
+    pub n: u32,
+    pub t: u32,
+    pub side: Side,
+    /// z' of the plane [mm].
+    pub conjugate: f64,
+    /// z [mm].
+    pub z: f64,
+    /// rep_i = 2 H_i / d at z' (Eqs. 4–5).
+    pub repetitions: f64,
+    /// One factor of Eq. 8/9 with K_x (and Q_lit).
+    pub new_samples_x: u64,
+    /// One factor of Eq. 8/9 with K_y (and Q_lit).
+    pub new_samples_y: u64,
+    /// Their product (Eq. 8 for half 1, Eq. 9 for half 2).
+    pub new_samples: u64,
+    /// Brute-force count of distinct chief samples over every lit pixel of the 2D half.
+    pub counted: u64,
+}
+
+/// Tolerance (in δ(z)) of the brute-force count of `coincidence_planes`.
+pub const COINCIDENCE_TOL: f64 = 1e-6;
+
+/// Every coincidence plane of `half` with coprime N ≤ max_n, T ≤ max_t (default Q), on both
+/// sides of the out-of-focus plane where it exists (1 − r > 0, z' > F), sorted by depth z.
+/// r = N d v / (T μ L_i); z' = L_i / (1 ± r).
+pub fn coincidence_planes(
+    cam: &Camera,
+    half: Half,
+    max_n: i64,
+    max_t: Option<i64>,
+    n_threads: Option<usize>,
+) -> Result<Vec<CoincidencePlane>> {
+    if !(1..=MAX_PAIRS as i64).contains(&max_n) {
+        return Err(Error::param(
+            "max_n",
+            max_n,
+            format!("an integer in [1, {MAX_PAIRS}]"),
+        ));
+    }
+    let max_t = max_t.unwrap_or(cam.q as i64);
+    if !(1..=MAX_PAIRS as i64).contains(&max_t) {
+        return Err(Error::param(
+            "max_t",
+            max_t,
+            format!("an integer in [1, {MAX_PAIRS}] or None for Q"),
+        ));
+    }
+    if (max_n as u64) * (max_t as u64) > MAX_PAIRS {
+        return Err(Error::param(
+            "max_n * max_t",
+            max_n * max_t,
+            format!("at most {MAX_PAIRS} (N, T) pairs"),
+        ));
+    }
+    check_size(cam)?;
+    let l = cam.array_plane(half);
+    let q_lit = cam.lit_pixels(half) as u64;
+    let mut planes = Vec::new();
+    for n in 1..=max_n as u32 {
+        for t in 1..=max_t as u32 {
+            if gcd(n as u64, t as u64) != 1 {
+                continue;
+            }
+            let r = n as f64 * cam.d * cam.v / (t as f64 * cam.mu * l);
+            let far = l / (1.0 + r);
+            let sides = [(Side::Far, far), (Side::Near, l / (1.0 - r))];
+            for (side, zc) in sides {
+                let valid = match side {
+                    Side::Far => zc > cam.f_main,
+                    Side::Near => 1.0 - r > 0.0 && zc > cam.f_main && zc.is_finite(),
+                };
+                if !valid {
+                    continue;
+                }
+                let nx = closed_form_new_samples(cam.kx as u64, q_lit, n as u64, t as u64);
+                let ny = closed_form_new_samples(cam.ky as u64, q_lit, n as u64, t as u64);
+                planes.push(CoincidencePlane {
+                    n,
+                    t,
+                    side,
+                    conjugate: zc,
+                    z: depth_of_conjugate(cam.f_main, zc),
+                    repetitions: repetitions(cam, main_blur(cam, half, zc)),
+                    new_samples_x: nx,
+                    new_samples_y: ny,
+                    new_samples: nx * ny,
+                    counted: 0,
+                });
+            }
+        }
+    }
+    planes.sort_by(|a, b| a.z.total_cmp(&b.z));
+    let layout = Layout::new(cam);
+    let eps = COINCIDENCE_TOL * cam.d / cam.q as f64;
+    with_threads(n_threads, || {
+        planes
+            .par_iter_mut()
+            .for_each_init(Scratch::default, |s, p| {
+                // The count runs at the plane's own conjugate z' (not re-derived from z).
+                let mut count = 1;
+                for axis in [Axis::X, Axis::Y] {
+                    half_samples(
+                        cam,
+                        &layout,
+                        half,
+                        axis,
+                        p.conjugate,
+                        &mut s.pos[0],
+                        &mut s.work,
+                    );
+                    count *= scan(&s.pos[0], eps, f64::INFINITY).0;
+                }
+                p.counted = count;
+            });
+    })?;
+    Ok(planes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn small(kappa: f64, aperture: f64, q: i64, kx: i64, ky: i64) -> Camera {
+        let p = Camera::paper();
+        Camera::new(
+            80.0, aperture, p.v1, kappa, p.d, p.v, p.mu, q, kx, ky, None, None,
+        )
+        .unwrap()
+    }
+
+    /// Reference: every chief sample via Camera::chief_projection, full sort.
+    fn brute(cam: &Camera, half: Half, k: u32, zc: f64) -> Vec<f64> {
+        let mut v: Vec<f64> = (0..k)
+            .flat_map(|j| {
+                (0..cam.q)
+                    .filter(move |&q| cam.is_lit(half, q))
+                    .map(move |q| cam.chief_projection(half, cam.lens_center(j, k), q, zc))
+            })
+            .collect();
+        v.sort_by(|a, b| a.total_cmp(b));
+        v
+    }
+
+    #[test]
+    fn sorted_samples_are_bitwise_chief_projections() {
+        for cam in [
+            Camera::paper(),
+            small(0.8, 20.0, 10, 37, 5),
+            small(0.2, 30.0, 4, 3, 2),
+        ] {
+            let layout = Layout::new(&cam);
+            let mut s = Scratch::default();
+            for z in [81.0, 100.0, 150.0, 217.0, 300.0, 642.0, 1000.0, 5e3, 1e5] {
+                let zc = conjugate(cam.f_main, z);
+                for half in Half::BOTH {
+                    for axis in [Axis::X, Axis::Y] {
+                        let k = cam.lenses(axis);
+                        half_samples(&cam, &layout, half, axis, zc, &mut s.pos[0], &mut s.work);
+                        let want = brute(&cam, half, k, zc);
+                        assert_eq!(s.pos[0].len(), want.len());
+                        for (a, b) in s.pos[0].iter().zip(&want) {
+                            assert_eq!(a.to_bits(), b.to_bits(), "z={z} {half:?} {axis:?}");
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn merge_and_scan_are_exact() {
+        let cases: [(&[f64], &[f64]); 6] = [
+            (&[], &[]),
+            (&[1.0], &[]),
+            (&[], &[2.0, 3.0]),
+            (&[1.0, 2.0, 2.0, 5.0], &[0.0, 2.0, 6.0]),
+            (&[1.0, 3.0, 5.0], &[2.0, 4.0]),
+            (&[-3.0, -1.0, 0.0, 0.5, 7.0], &[-2.0, 0.0, 0.0]),
+        ];
+        let mut out = Vec::new();
+        for (x, y) in cases {
+            merge_into(&mut out, x, y);
+            let mut want: Vec<f64> = x.iter().chain(y).copied().collect();
+            want.sort_by(f64::total_cmp);
+            assert_eq!(out, want);
+        }
+        // Greedy cover: {0, 0.6, 1.2} with eps 1 -> 2 intervals (single linkage would say 1).
+        assert_eq!(scan(&[0.0, 0.6, 1.2], 1.0, 0.5).0, 2);
+        // Field [-1, 1]: gaps meeting it are [-3,-0.5], [-0.5,0.2], [0.2,4]; [4,10] is outside.
+        assert_eq!(scan(&[-3.0, -0.5, 0.2, 4.0, 10.0], 0.0, 1.0), (5, 3.8));
+        assert_eq!(scan(&[-0.5, 2.0], 0.0, 1.0).1, f64::INFINITY); // field not covered
+        assert_eq!(max_step(&[0.0, 1.0, 1.5, 4.0, 4.1, 4.2, 4.3, 9.0]), 4.7);
+    }
+
+    #[test]
+    fn closed_form_cases() {
+        // N Q + T (K − N) inside the validity range, K Q outside it.
+        assert_eq!(closed_form_new_samples(266, 15, 1, 1), 15 + 265);
+        assert_eq!(closed_form_new_samples(266, 15, 2, 3), 30 + 3 * 264);
+        assert_eq!(closed_form_new_samples(266, 15, 1, 15), 266 * 15);
+        assert_eq!(closed_form_new_samples(266, 11, 1, 13), 266 * 11);
+        assert_eq!(closed_form_new_samples(3, 15, 5, 2), 45);
+    }
+
+    #[test]
+    fn counted_equals_eqs_8_9_on_every_plane() {
+        let designs = [
+            Camera::paper(),
+            small(0.8, 14.0, 10, 23, 7),
+            small(0.39, 20.0, 15, 40, 9),
+        ];
+        let mut checked = 0;
+        for cam in designs {
+            for half in Half::BOTH {
+                let planes = coincidence_planes(&cam, half, 5, None, Some(1)).unwrap();
+                assert!(planes.iter().any(|p| p.side == Side::Near));
+                assert!(planes.iter().any(|p| p.side == Side::Far));
+                for p in &planes {
+                    assert_eq!(p.counted, p.new_samples, "{half:?} {p:?}");
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 100);
+    }
+
+    #[test]
+    fn out_of_focus_plane_collapses_to_k() {
+        let cam = Camera::paper();
+        for half in Half::BOTH {
+            let z = cam.out_of_focus_depth(half);
+            assert_eq!(
+                count_distinct(&cam, half, Axis::X, z, 1e-6).unwrap(),
+                cam.kx as u64
+            );
+            assert_eq!(
+                count_distinct(&cam, half, Axis::Y, z, 1e-6).unwrap(),
+                cam.ky as u64
+            );
+        }
+        // Half 1 on its out-of-focus plane: pixelization, max gap = Q steps.
+        let z1 = cam.out_of_focus_depth(Half::One);
+        let r = new_samples(&cam, &[z1], 1e-6, SampleMode::Chief, Some(1)).unwrap();
+        assert!((r.max_gap[0] - cam.q as f64).abs() < 1e-9);
+    }
+
+    #[test]
+    fn union_bounds_and_threads_agree() {
+        let cam = Camera::paper();
+        let z: Vec<f64> = (0..200)
+            .map(|i| 150.0 * (10_000.0f64 / 150.0).powf(i as f64 / 199.0))
+            .collect();
+        let a = new_samples(&cam, &z, 1e-6, SampleMode::Chief, Some(1)).unwrap();
+        let b = new_samples(&cam, &z, 1e-6, SampleMode::Chief, Some(2)).unwrap();
+        assert_eq!(a, b);
+        let m = z.len();
+        for k in 0..m {
+            let d = |r: usize| a.distinct[r * m + k];
+            let g = |r: usize| a.max_gap[r * m + k];
+            assert!(d(2) >= d(0).max(d(1)) && d(2) <= d(0) + d(1));
+            assert!(g(2) <= g(0).min(g(1)));
+            assert!(a.distinct_2d[2 * m + k] >= a.distinct_2d[k].max(a.distinct_2d[m + k]));
+        }
+        assert_eq!(a.lit, [266 * 15, 266 * 11, 266 * 26]);
+    }
+
+    #[test]
+    fn bad_input() {
+        let cam = Camera::paper();
+        assert!(new_samples(&cam, &[500.0], -1.0, SampleMode::Chief, None).is_err());
+        assert!(new_samples(&cam, &[500.0], f64::NAN, SampleMode::Chief, None).is_err());
+        assert!(new_samples(&cam, &[80.0], 1e-6, SampleMode::Chief, None).is_err());
+        assert!(SampleMode::parse("centroid").is_err());
+        assert!(SampleMode::parse("foo").is_err());
+        assert!(coincidence_planes(&cam, Half::One, 0, None, None).is_err());
+        assert!(coincidence_planes(&cam, Half::One, 2, Some(0), None).is_err());
+    }
+}
+
+#[cfg(test)]
+mod timing {
+    use super::*;
+    use std::time::Instant;
+    #[test]
+    #[ignore]
+    fn timing_breakdown() {
+        let cam = Camera::paper();
+        let layout = Layout::new(&cam);
+        let mut s = Scratch::default();
+        let zs: Vec<f64> = (0..2000)
+            .map(|i| 150.0 * (10_000.0f64 / 150.0).powf(i as f64 / 1999.0))
+            .collect();
+        let (mut tg, mut tm, mut ts, mut sink) = (0.0, 0.0, 0.0, 0.0);
+        for &z in &zs {
+            let zc = conjugate(cam.f_main, z);
+            let t0 = Instant::now();
+            for h in Half::BOTH {
+                half_samples(
+                    &cam,
+                    &layout,
+                    h,
+                    Axis::X,
+                    zc,
+                    &mut s.pos[h.index()],
+                    &mut s.work,
+                );
+            }
+            let t1 = Instant::now();
+            let [p1, p2, pu] = &mut s.pos;
+            merge_into(pu, p1, p2);
+            let t2 = Instant::now();
+            for x in [&*p1, &*p2, &*pu] {
+                let (c, g) = scan(x, 1e-7, 10.0);
+                sink += c as f64 + g;
+            }
+            let t3 = Instant::now();
+            tg += (t1 - t0).as_secs_f64();
+            tm += (t2 - t1).as_secs_f64();
+            ts += (t3 - t2).as_secs_f64();
+        }
+        let t0 = Instant::now();
+        for &z in &zs {
+            depth_result(&cam, &layout, z, 1e-6, &mut s);
+        }
+        let full = t0.elapsed().as_secs_f64();
+        let us = |t: f64| t / 2000.0 * 1e6;
+        eprintln!(
+            "x axis: gen {:.1} us, merge {:.1} us, scans {:.1} us; full depth {:.1} us ({sink})",
+            us(tg),
+            us(tm),
+            us(ts),
+            us(full)
+        );
+    }
+}

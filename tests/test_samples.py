@@ -1,0 +1,545 @@
+"""Coincidence planes, genuinely new samples (Eqs. 8-9) and max gap, checked against a plain
+NumPy transcription of MODEL.md §3, §5 and §6 written here (sort, then merge)."""
+
+from __future__ import annotations
+
+import math
+import sys
+
+import numpy as np
+import pytest
+import splitlf
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from splitlf import Camera
+
+# ---------------------------------------------------------------------------------------
+# Designs: the seed, one with both halves vignetted (f-number mismatched on both), one
+# outside Ng's setting (explicit microlens focal lengths, even Q, K_y below max N).
+
+
+def seed() -> Camera:
+    return Camera.paper()
+
+
+def vignetted() -> Camera:
+    # D = 14 with the seed's v: half 1 lights 11 of 15 pixels, half 2 lights 7.
+    return Camera.paper().replace(D=14.0, Kx=60, Ky=20)
+
+
+def off_ng() -> Camera:
+    return Camera(F=50.0, D=12.5, v1=60.0, kappa=0.8, d=0.1, v=0.48, mu=0.01, Q=10,
+                  Kx=40, Ky=3, f1=0.5, f2=0.45)
+
+
+DESIGNS = {"seed": seed, "vignetted": vignetted, "off_ng": off_ng}
+
+# ---------------------------------------------------------------------------------------
+# NumPy reference (MODEL.md), independent of the core.
+
+
+def L(cam: Camera, half: int) -> float:
+    return cam.v1 if half == 1 else cam.v1 * (1.0 + cam.kappa)
+
+
+def conj(cam: Camera, z: float) -> float:
+    return cam.F * z / (z - cam.F)  # Eq. 1
+
+
+def lit_w(cam: Camera, half: int) -> np.ndarray:
+    """Chief-ray main-lens heights w_q of the lit pixels (MODEL §3-§4, §6)."""
+    q = np.arange(cam.Q)
+    theta = cam.mu * (q - (cam.Q - 1) / 2)
+    w = -(L(cam, half) / cam.v) * theta
+    return w[np.abs(w) < cam.D / 2]
+
+
+def centers(cam: Camera, K: int) -> np.ndarray:
+    return (np.arange(K) - (K - 1) / 2) * cam.d
+
+
+def chief_p(cam: Camera, half: int, K: int, zc: float) -> np.ndarray:
+    """Chief samples p' = (v'/L)[c_j + w_q (L - z')/z'] of every lit pixel, (K, Q_lit)."""
+    Li = L(cam, half)
+    c = centers(cam, K)[:, None]
+    w = lit_w(cam, half)[None, :]
+    return (cam.v1 / Li) * (c + w * (Li - zc) / zc)
+
+
+def greedy_count(x: np.ndarray, eps: float) -> int:
+    """Least number of closed intervals of length eps covering the sorted positions x."""
+    count, anchor = 0, 0.0
+    for v in x:
+        if count == 0 or v - anchor > eps:
+            count += 1
+            anchor = v
+    return count
+
+
+def gap_ref(x: np.ndarray, W: float) -> float:
+    """Largest consecutive gap whose interval meets [-W, W]; inf if [-W, W] is not covered."""
+    if x.size == 0 or x[0] > -W or x[-1] < W:
+        return math.inf
+    lo, hi = x[:-1], x[1:]
+    m = (hi >= -W) & (lo <= W)
+    return float(np.max(hi[m] - lo[m])) if m.any() else 0.0
+
+
+def matched(a: np.ndarray, b: np.ndarray, eps: float) -> int:
+    """Distinct samples of a (greedy clusters) that have a sample of b within eps."""
+    if a.size == 0 or b.size == 0:
+        return 0
+    reps = []
+    count, anchor = 0, 0.0
+    for v in a:
+        if count == 0 or v - anchor > eps:
+            count += 1
+            anchor = v
+            reps.append(v)
+    reps = np.array(reps)
+    i = np.clip(np.searchsorted(b, reps), 1, b.size - 1) if b.size > 1 else np.zeros(
+        reps.size, dtype=int)
+    near = np.minimum(np.abs(b[i] - reps), np.abs(b[np.maximum(i - 1, 0)] - reps))
+    return int(np.sum(near <= eps))
+
+
+def reference(cam: Camera, z, tol: float = 1e-6):
+    z = np.atleast_1d(np.asarray(z, dtype=float))
+    m = z.size
+    distinct = np.zeros((3, m), dtype=np.int64)
+    d2 = np.zeros((3, m), dtype=np.int64)
+    gap = np.zeros((3, m))
+    eps = tol * cam.d / cam.Q  # tol * delta(z) mapped to plane v' (X = -p' z / v')
+    W = cam.Kx * cam.d / 4  # |X| <= Kx d z / (4 v')  <=>  |p'| <= Kx d / 4
+    for k, zk in enumerate(z):
+        zc = conj(cam, zk)
+        counts = {}
+        for axis, K in (("x", cam.Kx), ("y", cam.Ky)):
+            p1 = np.sort(chief_p(cam, 1, K, zc).ravel())
+            p2 = np.sort(chief_p(cam, 2, K, zc).ravel())
+            pu = np.sort(np.concatenate([p1, p2]))
+            counts[axis] = [greedy_count(p, eps) for p in (p1, p2, pu)]
+            counts[axis + "i"] = matched(p1, p2, eps)
+            if axis == "x":
+                distinct[:, k] = counts["x"]
+                gap[:, k] = [gap_ref(p, W) * cam.Q / cam.d for p in (p1, p2, pu)]
+        (x1, x2, _), (y1, y2, _) = counts["x"], counts["y"]
+        d2[:, k] = [x1 * y1, x2 * y2, x1 * y1 + x2 * y2 - counts["xi"] * counts["yi"]]
+    lit = np.array([cam.Kx * lit_w(cam, h).size for h in (1, 2)])
+    return distinct, d2, gap, np.append(lit, lit.sum())
+
+
+def closed_form(K: int, q_lit: int, N: int, T: int) -> int:
+    """MODEL §6 with Q_lit: N Q + T (K - N) when T <= Q and K >= N, else K Q."""
+    if T <= q_lit and K >= N:
+        return N * q_lit + T * (K - N)
+    return K * q_lit
+
+
+def planes_ref(cam: Camera, half: int, max_n: int, max_t: int):
+    """(N, T, side) -> z' of every valid coincidence plane (MODEL §6)."""
+    Li = L(cam, half)
+    out = {}
+    for N in range(1, max_n + 1):
+        for T in range(1, max_t + 1):
+            if math.gcd(N, T) != 1:
+                continue
+            r = N * cam.d * cam.v / (T * cam.mu * Li)
+            if Li / (1 + r) > cam.F:
+                out[(N, T, "far")] = Li / (1 + r)
+            if 1 - r > 0 and Li / (1 - r) > cam.F:
+                out[(N, T, "near")] = Li / (1 - r)
+    return out
+
+
+def special_depths(cam: Camera, max_n: int = 2) -> list[float]:
+    zs = [cam.out_of_focus_depth(1), cam.out_of_focus_depth(2)]
+    for h in (1, 2):
+        t = splitlf.coincidence_planes(cam, h, max_n=max_n)
+        zs += list(t.z)
+    return zs
+
+
+# ---------------------------------------------------------------------------------------
+# Coincidence planes
+
+
+@pytest.mark.parametrize("name", DESIGNS)
+@pytest.mark.parametrize("half", [1, 2])
+def test_counted_equals_eqs_8_9_on_every_plane(name, half):
+    cam = DESIGNS[name]()
+    t = splitlf.coincidence_planes(cam, half, max_n=5)
+    want = planes_ref(cam, half, 5, cam.Q)
+    got = {(int(n), int(tt), str(s)): zc for n, tt, s, zc in zip(t.N, t.T, t.side, t.conjugate,
+                                                                 strict=True)}
+    assert set(got) == set(want)
+    assert {"far", "near"} <= set(t.side)
+    for key, zc in want.items():
+        assert got[key] == pytest.approx(zc, rel=1e-13)
+    q_lit = lit_w(cam, half).size
+    assert q_lit == cam.lit_pixels(half)
+    for i in range(len(t)):
+        N, T = int(t.N[i]), int(t.T[i])
+        nx, ny = closed_form(cam.Kx, q_lit, N, T), closed_form(cam.Ky, q_lit, N, T)
+        assert (t.new_samples_x[i], t.new_samples_y[i]) == (nx, ny)
+        assert t.new_samples[i] == nx * ny
+        assert t.counted[i] == t.new_samples[i], (name, half, N, T, t.side[i])
+        # The count itself, redone by the NumPy reference (sort and merge, x and y).
+        eps = 1e-6 * cam.d / cam.Q
+        cx = greedy_count(np.sort(chief_p(cam, half, cam.Kx, t.conjugate[i]).ravel()), eps)
+        cy = greedy_count(np.sort(chief_p(cam, half, cam.Ky, t.conjugate[i]).ravel()), eps)
+        assert cx * cy == t.counted[i]
+        # Depth, repetitions = D r / d (Eqs. 1, 4-5 on the plane).
+        zc = t.conjugate[i]
+        assert t.z[i] == pytest.approx(cam.F * zc / (zc - cam.F), rel=1e-13)
+        r = N * cam.d * cam.v / (T * cam.mu * L(cam, half))
+        assert t.repetitions[i] == pytest.approx(cam.D * r / cam.d, rel=1e-12)
+    assert np.all(np.diff(t.z) > 0)  # sorted by depth, nearest first
+
+
+def test_seed_planes_hit_the_vignetting_branch():
+    # Half 2 of the seed lights 11 of 15 pixels: for T > 11 nothing overlaps (n = K Q_lit),
+    # which Eq. 9 with Q = 15 would get wrong.
+    cam = seed()
+    t = splitlf.coincidence_planes(cam, 2, max_n=1)
+    big = t.T > 11
+    assert big.any()
+    assert np.all(t.counted[big] == (cam.Kx * 11) * (cam.Ky * 11))
+    eq9_with_q = (1 * 15 + t.T[big] * (cam.Kx - 1)) * (1 * 15 + t.T[big] * (cam.Ky - 1))
+    assert np.all(t.counted[big] != eq9_with_q)
+
+
+def test_f_number_matched_repetitions():
+    # Half 1 of the seed is f-number matched: rep = Q N / T on its planes (MODEL §6).
+    t = splitlf.coincidence_planes(seed(), 1, max_n=3)
+    np.testing.assert_allclose(t.repetitions, 15 * t.N / t.T, rtol=1e-12)
+
+
+def test_planes_table_api(monkeypatch):
+    t = splitlf.coincidence_planes(seed(), 1, max_n=3, max_t=4)
+    assert len(t) == len(t.z) == len(t.rows())
+    assert list(t.columns()) == list(splitlf.samples.PLANE_COLUMNS)
+    assert t.N.dtype == np.int64 and t.z.dtype == np.float64 and t.side.dtype.kind == "U"
+    assert t.T.max() <= 4 and t.N.max() <= 3
+    with pytest.raises(dataclasses_frozen()):
+        t.z = None
+    monkeypatch.setitem(sys.modules, "pandas", None)
+    with pytest.raises(ImportError, match="pip install pandas"):
+        t.to_pandas()
+
+
+def dataclasses_frozen():
+    import dataclasses
+
+    return dataclasses.FrozenInstanceError
+
+
+def test_to_pandas_when_installed():
+    pd = pytest.importorskip("pandas")
+    t = splitlf.coincidence_planes(seed(), 2, max_n=2)
+    df = t.to_pandas()
+    assert isinstance(df, pd.DataFrame) and len(df) == len(t)
+    assert list(df.columns) == list(splitlf.samples.PLANE_COLUMNS)
+
+
+# ---------------------------------------------------------------------------------------
+# new_samples
+
+
+@pytest.mark.parametrize("name", DESIGNS)
+def test_out_of_focus_plane_collapses_to_k(name):
+    cam = DESIGNS[name]()
+    for h in (1, 2):
+        r = splitlf.new_samples(cam, [cam.out_of_focus_depth(h)])
+        assert r.distinct[h - 1, 0] == cam.Kx
+        assert r.distinct_2d[h - 1, 0] == cam.Kx * cam.Ky
+
+
+def test_pixelization_of_half_1_is_q():
+    cam = seed()
+    r = splitlf.new_samples(cam, [cam.out_of_focus_depth(1)])
+    assert r.max_gap[0, 0] == pytest.approx(cam.Q, rel=1e-9)
+    assert r.max_gap[2, 0] < 2  # the split sensor removes the pixelization band
+
+
+@pytest.mark.parametrize("name", DESIGNS)
+def test_union_bounds(name):
+    cam = DESIGNS[name]()
+    z = np.concatenate([np.geomspace(cam.F * 1.05, 2e4, 300), special_depths(cam, 3)])
+    r = splitlf.new_samples(cam, z)
+    assert np.all(r.distinct[2] >= np.maximum(r.distinct[0], r.distinct[1]))
+    assert np.all(r.distinct[2] <= r.distinct[0] + r.distinct[1])
+    assert np.all(r.distinct_2d[2] >= np.maximum(r.distinct_2d[0], r.distinct_2d[1]))
+    assert np.all(r.max_gap[2] <= np.minimum(r.max_gap[0], r.max_gap[1]))
+    assert np.all(r.distinct[:2] <= r.lit[:2, None])
+
+
+@pytest.mark.parametrize("name", DESIGNS)
+def test_matches_numpy_reference(name):
+    cam = DESIGNS[name]()
+    rng = np.random.default_rng(4)
+    z = np.concatenate([cam.F * (1 + rng.uniform(0.02, 3, 12)),
+                        np.geomspace(150, 1e4, 12), special_depths(cam, 2)[:12]])
+    r = splitlf.new_samples(cam, z)
+    distinct, d2, gap, lit = reference(cam, z)
+    np.testing.assert_array_equal(r.distinct, distinct)
+    np.testing.assert_array_equal(r.distinct_2d, d2)
+    np.testing.assert_array_equal(r.lit, lit)
+    np.testing.assert_array_equal(np.isinf(r.max_gap), np.isinf(gap))
+    np.testing.assert_allclose(r.max_gap, gap, rtol=1e-9)
+    assert r.distinct.dtype == np.int64 and r.max_gap.shape == (3, z.size)
+
+
+def test_tolerance_merges():
+    cam = seed()
+    # A huge tolerance merges everything closer than tol * delta: the count only drops.
+    z = [300.0, 1000.0]
+    fine = splitlf.new_samples(cam, z, tol=1e-9)
+    coarse = splitlf.new_samples(cam, z, tol=0.5)
+    assert np.all(coarse.distinct <= fine.distinct)
+    assert np.any(coarse.distinct < fine.distinct)
+    np.testing.assert_array_equal(coarse.distinct, reference(cam, z, tol=0.5)[0])
+
+
+def test_threads_agree_and_strided_input():
+    cam = seed()
+    z = np.geomspace(150, 1e4, 400)
+    a = splitlf.new_samples(cam, z, n_threads=1)
+    b = splitlf.new_samples(cam, z[::-1][::-1].copy(), n_threads=2)
+    c = splitlf.new_samples(cam, np.repeat(z, 2)[::2])  # non-contiguous view
+    for x in (b, c):
+        np.testing.assert_array_equal(a.distinct, x.distinct)
+        np.testing.assert_array_equal(a.distinct_2d, x.distinct_2d)
+        np.testing.assert_array_equal(a.max_gap, x.max_gap)
+
+
+def test_empty_and_scalar_depths():
+    r = splitlf.new_samples(seed(), [])
+    assert r.distinct.shape == (3, 0) and r.max_gap.shape == (3, 0)
+    assert splitlf.new_samples(seed(), 500.0).distinct.shape == (3, 1)
+
+
+# ---------------------------------------------------------------------------------------
+# 2D: separability proven by a brute-force count over the full 2D sample grid.
+
+
+def chief_2d(cam: Camera, half: int, zc: float) -> np.ndarray:
+    """Every lit pixel's 2D chief sample: chief ray through the square aperture, both axes."""
+    Li = L(cam, half)
+    q = np.arange(cam.Q)
+    theta = cam.mu * (q - (cam.Q - 1) / 2)
+    w = -(Li / cam.v) * theta
+    jx, qx, jy, qy = np.meshgrid(np.arange(cam.Kx), q, np.arange(cam.Ky), q, indexing="ij")
+    wx, wy = w[qx], w[qy]
+    lit = (np.abs(wx) < cam.D / 2) & (np.abs(wy) < cam.D / 2)  # |w| inside the square
+    cx = centers(cam, cam.Kx)[jx]
+    cy = centers(cam, cam.Ky)[jy]
+    px = (cam.v1 / Li) * (cx + wx * (Li - zc) / zc)
+    py = (cam.v1 / Li) * (cy + wy * (Li - zc) / zc)
+    return np.stack([px[lit], py[lit]], axis=1)
+
+
+def components(p: np.ndarray, eps: float) -> int:
+    """Connected components of points closer than eps in both coordinates."""
+    if len(p) == 0:
+        return 0
+    adj = (np.abs(p[:, None, 0] - p[None, :, 0]) <= eps) & (
+        np.abs(p[:, None, 1] - p[None, :, 1]) <= eps)
+    label = np.arange(len(p))
+    while True:
+        new = np.where(adj, label[None, :], len(p)).min(axis=1)
+        new = new[new]
+        if np.array_equal(new, label):
+            return int(np.unique(label).size)
+        label = new
+
+
+SMALL = {
+    "odd": lambda: Camera.paper().replace(Kx=7, Ky=5, Q=5, D=16.0),
+    "even": lambda: Camera.paper().replace(Kx=6, Ky=4, Q=4, kappa=0.6),
+    "off_ng": lambda: off_ng().replace(Kx=5, Ky=3, Q=6),
+}
+
+
+@pytest.mark.parametrize("name", SMALL)
+def test_2d_count_equals_brute_force(name):
+    cam = SMALL[name]()
+    z = [cam.F * 1.3, 400.0, 3000.0, *special_depths(cam, 2)]
+    r = splitlf.new_samples(cam, z)
+    eps = 1e-6 * cam.d / cam.Q
+    shared = 0
+    for k, zk in enumerate(z):
+        zc = conj(cam, zk)
+        p1, p2 = chief_2d(cam, 1, zc), chief_2d(cam, 2, zc)
+        n1, n2 = components(p1, eps), components(p2, eps)
+        nu = components(np.concatenate([p1, p2]), eps)
+        assert [n1, n2, nu] == list(r.distinct_2d[:, k]), (name, zk)
+        shared += n1 + n2 - nu
+    if name == "odd":
+        assert shared > 0  # both halves share samples: inclusion-exclusion is exercised
+
+
+# ---------------------------------------------------------------------------------------
+# Properties (hypothesis): random small designs and depths against the reference.
+
+
+@st.composite
+def small_cameras(draw):
+    Q = draw(st.integers(1, 8))
+    return Camera(
+        F=50.0,
+        D=draw(st.floats(5.0, 30.0)),
+        v1=draw(st.floats(52.0, 80.0)),
+        kappa=draw(st.floats(0.0, 0.9)),
+        d=0.1,
+        v=draw(st.floats(0.2, 1.0)),
+        mu=0.1 / Q * draw(st.floats(0.5, 1.0)),
+        Q=Q,
+        Kx=draw(st.integers(1, 12)),
+        Ky=draw(st.integers(1, 6)),
+    )
+
+
+@settings(max_examples=60, deadline=None)
+@given(cam=small_cameras(), t=st.floats(1.01, 100.0))
+def test_property_matches_reference(cam, t):
+    z = [cam.F * t, cam.out_of_focus_depth(1), cam.out_of_focus_depth(2)]
+    r = splitlf.new_samples(cam, z)
+    distinct, d2, gap, lit = reference(cam, z)
+    np.testing.assert_array_equal(r.distinct, distinct)
+    np.testing.assert_array_equal(r.distinct_2d, d2)
+    np.testing.assert_array_equal(r.lit, lit)
+    np.testing.assert_allclose(r.max_gap, gap, rtol=1e-9)
+
+
+@settings(max_examples=40, deadline=None)
+@given(cam=small_cameras(), half=st.sampled_from([1, 2]), max_n=st.integers(1, 5))
+def test_property_counted_equals_closed_form(cam, half, max_n):
+    t = splitlf.coincidence_planes(cam, half, max_n=max_n)
+    assert np.array_equal(t.counted, t.new_samples)
+    assert set(zip(t.N.tolist(), t.T.tolist(), t.side.tolist(), strict=True)) == set(
+        planes_ref(cam, half, max_n, cam.Q))
+
+
+# ---------------------------------------------------------------------------------------
+# Bad input
+
+
+@pytest.mark.parametrize("tol", [-1e-6, -1.0, math.nan, math.inf])
+def test_bad_tol(tol):
+    with pytest.raises(ValueError, match="tol"):
+        splitlf.new_samples(seed(), [500.0], tol=tol)
+
+
+@pytest.mark.parametrize("sample", ["centroid", "foo", ""])
+def test_bad_sample_mode(sample):
+    with pytest.raises(ValueError, match="sample") as e:
+        splitlf.new_samples(seed(), [500.0], sample=sample)
+    if sample == "centroid":
+        assert "ray-space engine" in str(e.value)
+
+
+def test_bad_arguments():
+    cam = seed()
+    with pytest.raises(TypeError, match="sample"):
+        splitlf.new_samples(cam, [500.0], sample=1)
+    with pytest.raises(ValueError, match="depth"):
+        splitlf.new_samples(cam, [500.0, cam.F])
+    with pytest.raises(ValueError, match="depth"):
+        splitlf.new_samples(cam, [math.nan])
+    with pytest.raises(ValueError, match="n_threads"):
+        splitlf.new_samples(cam, [500.0], n_threads=0)
+    for bad in (0, -1):
+        with pytest.raises(ValueError, match="max_n"):
+            splitlf.coincidence_planes(cam, 1, max_n=bad)
+    with pytest.raises(ValueError, match="max_t"):
+        splitlf.coincidence_planes(cam, 1, max_t=0)
+    with pytest.raises(TypeError, match="max_n"):
+        splitlf.coincidence_planes(cam, 1, max_n=2.5)
+    for bad in (0, 3):
+        with pytest.raises(ValueError, match="half"):
+            splitlf.coincidence_planes(cam, bad)
+    for bad in (True, "1", 1.0):
+        with pytest.raises(TypeError, match="half"):
+            splitlf.coincidence_planes(cam, bad)
+    with pytest.raises(TypeError, match="camera"):
+        splitlf.new_samples(object(), [500.0])
+
+
+# ---------------------------------------------------------------------------------------
+# Depth sweep, report and figure
+
+
+def test_sweep_depths_include_the_dips():
+    cam = seed()
+    z = splitlf.samples.sweep_depths(cam, (150.0, 1e4), n=50, max_n=2)
+    assert np.all(np.diff(z) > 0) and z[0] == 150.0 and z[-1] == 1e4
+    for h in (1, 2):
+        assert np.any(z == cam.out_of_focus_depth(h))
+        planes = splitlf.coincidence_planes(cam, h, max_n=2).z
+        inside = planes[(planes >= 150) & (planes <= 1e4)]
+        assert inside.size > 0 and np.isin(inside, z).all()
+    for bad in ((50.0, 100.0), (500.0, 200.0), (150.0, math.inf)):
+        with pytest.raises(ValueError, match="z_range"):
+            splitlf.samples.sweep_depths(cam, bad)
+
+
+def test_report_has_planes_and_worst_resolution():
+    import json
+
+    from splitlf.report import format_report, report_data
+
+    cam = seed()
+    data = report_data(cam)
+    json.dumps(data, allow_nan=False)
+    for h in (1, 2):
+        rows = data["coincidence_planes"][f"half{h}"]
+        assert rows and all(r["N"] <= 3 for r in rows)
+        assert all(r["counted"] == r["new_samples"] for r in rows)
+        assert {r["side"] for r in rows} == {"near", "far"}
+    res = data["resolution"]
+    assert res["z_range_mm"] == [150.0, 10000.0]
+    # Half 1's worst case is its out-of-focus plane: pixelization, a gap of Q steps.
+    assert res["half1"]["max_gap"] == pytest.approx(15.0, rel=1e-9)
+    assert res["half1"]["z_mm"] == pytest.approx(642.0, rel=1e-9)
+    assert res["split"]["max_gap"] <= min(res["half1"]["max_gap"], res["half2"]["max_gap"])
+    text = format_report(data, "t")
+    assert "Coincidence planes (N <= 3" in text and "Worst resolution over 150" in text
+    assert "counted == Eq. 8 on" in text and "split sensor   max gap" in text
+
+
+def test_cli_report_json_has_samples(capsys):
+    import json
+
+    from splitlf.cli import main
+
+    assert main(["report", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert "coincidence_planes" in doc and "resolution" in doc
+
+
+def test_plot_samples():
+    mpl = pytest.importorskip("matplotlib")
+    mpl.use("Agg")  # the test selects the backend; the library never does
+    import matplotlib.pyplot as plt
+    import splitlf.plot
+
+    cam = seed()
+    a_count, a_gap = splitlf.plot.samples(cam, (150.0, 2000.0), n=80)
+    assert len(a_count.get_lines()) >= 3 and len(a_gap.get_lines()) >= 3
+    assert a_count.get_xscale() == "log"
+    fig, axes = plt.subplots(2, 1)
+    got = splitlf.plot.samples(cam, (150.0, 2000.0), ax=axes, n=20)
+    assert got[0] is axes[0] and got[1] is axes[1]
+    with pytest.raises(ValueError, match="pair of Axes"):
+        splitlf.plot.samples(cam, (150.0, 2000.0), ax=[axes[0]])
+    plt.close("all")
+
+
+def test_plot_without_matplotlib(monkeypatch):
+    import splitlf.plot
+
+    monkeypatch.setitem(sys.modules, "matplotlib", None)
+    monkeypatch.setitem(sys.modules, "matplotlib.pyplot", None)
+    with pytest.raises(ImportError, match=r'pip install "splitlf\[plot\]"'):
+        splitlf.plot.samples(seed(), (150.0, 1000.0))
