@@ -10,6 +10,7 @@ import matplotlib
 matplotlib.use("Agg")  # this script only; the library never selects a backend
 
 import matplotlib.pyplot as plt  # noqa: E402
+
 import splitlf  # noqa: E402
 import splitlf.plot  # noqa: E402
 

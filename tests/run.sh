@@ -9,7 +9,7 @@ cargo fmt --all -- --check
 echo "== cargo clippy -D warnings"
 cargo clippy --workspace --all-targets --quiet -- -D warnings
 echo "== ruff"
-python -m ruff check python tests benches
+python -m ruff check python tests benches docs
 echo "== cargo test (core)"
 cargo test -p splitlf-core --quiet
 echo "== pytest"

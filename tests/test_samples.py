@@ -8,9 +8,10 @@ import sys
 
 import numpy as np
 import pytest
-import splitlf
 from hypothesis import given, settings
 from hypothesis import strategies as st
+
+import splitlf
 from splitlf import Camera
 
 # ---------------------------------------------------------------------------------------
@@ -522,6 +523,7 @@ def test_plot_samples():
     mpl = pytest.importorskip("matplotlib")
     mpl.use("Agg")  # the test selects the backend; the library never does
     import matplotlib.pyplot as plt
+
     import splitlf.plot
 
     cam = seed()

@@ -61,3 +61,10 @@ def coincidence_planes(
     max_t: int | None = None,
     n_threads: int | None = None,
 ) -> tuple[_I64, _I64, list[str], _F64, _F64, _F64, _I64, _I64, _I64, _I64]: ...
+def figures_of_merit(
+    camera: CameraCore,
+    z: _F64,
+    threshold_px: float = 0.5,
+    tol: float = 1e-6,
+    n_threads: int | None = None,
+) -> list[float]: ...

@@ -6,11 +6,11 @@ import argparse
 import json
 import os
 import sys
-import tomllib
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+import tomllib
 
 from .camera import Camera
 from .report import format_report, report_data

@@ -40,9 +40,12 @@ def report_data(camera: Camera, threshold_px: float = 0.5,
         "derived": {"f_number": camera.f_number, "rho_mm": camera.rho, **halves},
         "depth_of_field": dof.as_dict(),
         "coincidence_planes": {
-            f"half{h}": coincidence_planes(camera, h, max_n=REPORT_MAX_N).rows() for h in (1, 2)
+            f"half{h}": coincidence_planes(camera, h, max_n=REPORT_MAX_N,
+                                           n_threads=n_threads).rows()
+            for h in (1, 2)
         },
-        "resolution": worst_resolution(camera, REPORT_Z_RANGE, max_n=REPORT_MAX_N),
+        "resolution": worst_resolution(camera, REPORT_Z_RANGE, max_n=REPORT_MAX_N,
+                                       n_threads=n_threads),
     }
 
 

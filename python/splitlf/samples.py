@@ -196,12 +196,13 @@ def worst_resolution(
     n: int = 2000,
     max_n: int = 3,
     tol: float = 1e-6,
+    n_threads: int | None = None,
 ) -> dict[str, Any]:
     """Largest max gap (worst resolution, in delta(z)) of half 1, half 2 and the split
     sensor over ``z_range``, on :func:`sweep_depths` (``n`` log-spaced depths plus the
     out-of-focus and coincidence planes, N <= ``max_n``). JSON-ready (inf -> None)."""
     z = sweep_depths(camera, z_range, n=n, max_n=max_n)
-    r = new_samples(camera, z, tol=tol)
+    r = new_samples(camera, z, tol=tol, n_threads=n_threads)
     out: dict[str, Any] = {
         "z_range_mm": [float(z_range[0]), float(z_range[1])],
         "depths": int(z.size),

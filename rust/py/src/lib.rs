@@ -268,6 +268,23 @@ fn coincidence_planes<'py>(
     ))
 }
 
+/// Figures of merit of one design over depths (see `splitlf.sweep.METRICS`).
+#[pyfunction]
+#[pyo3(signature = (camera, z, threshold_px=0.5, tol=1e-6, n_threads=None))]
+fn figures_of_merit(
+    py: Python<'_>,
+    camera: &CameraCore,
+    z: PyReadonlyArray1<'_, f64>,
+    threshold_px: f64,
+    tol: f64,
+    n_threads: Option<usize>,
+) -> PyResult<[f64; splitlf_core::merit::N_MERITS]> {
+    let cam = camera.inner;
+    let zs = as_slice(&z);
+    py.detach(|| splitlf_core::merit::figures_of_merit(&cam, &zs, threshold_px, tol, n_threads))
+        .map_err(to_py)
+}
+
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
@@ -277,5 +294,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sharp_fractions, m)?)?;
     m.add_function(wrap_pyfunction!(new_samples, m)?)?;
     m.add_function(wrap_pyfunction!(coincidence_planes, m)?)?;
+    m.add_function(wrap_pyfunction!(figures_of_merit, m)?)?;
     Ok(())
 }
