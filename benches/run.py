@@ -84,6 +84,28 @@ workload(Workload(
 ))
 
 
+# -- W3: new samples ---------------------------------------------------------------------
+
+def _w3_setup(sizes):
+    return {"cam": splitlf.Camera.paper(), "z": np.geomspace(150.0, 10_000.0, sizes["depths"]),
+            "tol": 1e-6}
+
+
+def _w3_native(inp, n_threads):
+    r = splitlf.new_samples(inp["cam"], inp["z"], tol=inp["tol"], n_threads=n_threads)
+    return {"distinct": r.distinct, "max_gap": r.max_gap}
+
+
+workload(Workload(
+    name="W3",
+    title="samples: `new_samples` (distinct per half and union, max gap)",
+    sizes=lambda quick: {"depths": 200 if quick else 10**4},
+    setup=_w3_setup,
+    numpy=lambda inp: numpy_impl.new_samples(inp["cam"], inp["z"], inp["tol"]),
+    native=_w3_native,
+))
+
+
 # -- harness -------------------------------------------------------------------------------
 
 def check_equal(a: dict[str, np.ndarray], b: dict[str, np.ndarray], name: str) -> None:
