@@ -43,3 +43,27 @@ def curves(
 def depth_of_field(
     camera: CameraCore, threshold_px: float = 0.5
 ) -> tuple[_Intervals, _Intervals, _Intervals, _Intervals, _Intervals]: ...
+def trace(
+    camera: CameraCore, half: int, axis: str = "x"
+) -> tuple[
+    _F64,
+    npt.NDArray[np.int64],
+    _F64,
+    _F64,
+    npt.NDArray[np.int64],
+    npt.NDArray[np.int64],
+    _F64,
+    npt.NDArray[np.bool_],
+]: ...
+def footprints(
+    camera: CameraCore,
+    z: _F64,
+    half: int,
+    axis: str = "x",
+    sample: str = "centroid",
+    kernel: bool = False,
+    n_threads: int | None = None,
+) -> tuple[_F64, _F64, _F64, _F64 | None, _F64 | None]: ...
+def sample_grid(
+    camera: CameraCore, z: float, half: int, sample: str = "chief", n_threads: int | None = None
+) -> tuple[_F64, _F64]: ...

@@ -1,13 +1,15 @@
 //! splitlf-core: the optics and ray-space engine of split-sensor light field cameras.
 //!
 //! Pure Rust (no Python): [`camera`] holds the validated design (MODEL.md §1, §3, §7),
-//! [`optics`] the closed forms over depth (Eqs. 1–7) and the depth of field.
+//! [`optics`] the closed forms over depth (Eqs. 1–7) and the depth of field,
+//! [`rayspace`] every pixel's integration polygon in (u, w) and its footprints (§3–5).
 //! Every parallel entry point takes `n_threads` (see [`parallel`]).
 
 pub mod camera;
 pub mod error;
 pub mod optics;
 pub mod parallel;
+pub mod rayspace;
 
 pub use camera::{Axis, Camera, Half};
 pub use error::{Error, Result};

@@ -3,11 +3,12 @@
 
 use std::borrow::Cow;
 
-use numpy::ndarray::Array2;
+use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
+use splitlf_core::rayspace::{self, Sample};
 use splitlf_core::{optics, Camera, Error, Half};
 
 /// Core errors are all bad input: `ValueError` with the core's message (which names the
@@ -169,11 +170,147 @@ fn depth_of_field(
     Ok((h1, h2, dof.split, c1, c2))
 }
 
+fn shaped<'py, D, Sh>(
+    py: Python<'py>,
+    shape: Sh,
+    v: Vec<f64>,
+) -> PyResult<Bound<'py, numpy::PyArray<f64, D>>>
+where
+    D: numpy::ndarray::Dimension,
+    Sh: numpy::ndarray::ShapeBuilder<Dim = D>,
+{
+    let a = numpy::ndarray::Array::from_shape_vec(shape, v)
+        .map_err(|e| PyValueError::new_err(format!("internal shape error: {e}")))?;
+    Ok(a.into_pyarray(py))
+}
+
+type TraceArrays<'py> = (
+    Bound<'py, numpy::PyArray3<f64>>,
+    Bound<'py, PyArray1<i64>>,
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray1<i64>>,
+    Bound<'py, PyArray1<i64>>,
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray1<bool>>,
+);
+
+/// Integration polygons of every pixel of one half along one axis (MODEL.md §3–4):
+/// (vertices (n, 6, 2), n_vertices, area, centroid (n, 2), lens, pixel, chief (n, 2), lit).
+#[pyfunction]
+#[pyo3(signature = (camera, half, axis="x"))]
+fn trace<'py>(
+    py: Python<'py>,
+    camera: &CameraCore,
+    half: i64,
+    axis: &str,
+) -> PyResult<TraceArrays<'py>> {
+    let cam = camera.inner;
+    let h = Half::from_number(half).map_err(to_py)?;
+    let ax = rayspace::axis_from_name(axis).map_err(to_py)?;
+    let tr = py.detach(|| rayspace::trace(&cam, h, ax)).map_err(to_py)?;
+    let n = tr.polygons.len();
+    let verts: Vec<f64> = tr
+        .polygons
+        .iter()
+        .flat_map(|p| p.v.iter().flatten().copied())
+        .collect();
+    let nv: Vec<i64> = tr.polygons.iter().map(|p| p.n as i64).collect();
+    let flat = |v: &[[f64; 2]]| v.iter().flatten().copied().collect::<Vec<f64>>();
+    let ints = |v: &[u32]| Array1::from_iter(v.iter().map(|&x| x as i64)).into_pyarray(py);
+    Ok((
+        shaped(py, (n, rayspace::MAX_VERTICES, 2), verts)?,
+        nv.into_pyarray(py),
+        tr.area.into_pyarray(py),
+        shaped(py, (n, 2), flat(&tr.centroid))?,
+        ints(&tr.lens),
+        ints(&tr.pixel),
+        shaped(py, (n, 2), flat(&tr.chief))?,
+        tr.lit.into_pyarray(py),
+    ))
+}
+
+type FootprintArrays<'py> = (
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray2<f64>>,
+    Option<Bound<'py, numpy::PyArray3<f64>>>,
+    Option<Bound<'py, numpy::PyArray3<f64>>>,
+);
+
+/// Footprints of every pixel of one half along one axis at every depth (MODEL.md §5):
+/// (position, lo, hi) each (m, n); with `kernel` also breaks and values (m, n, 6).
+#[pyfunction]
+#[pyo3(signature = (camera, z, half, axis="x", sample="centroid", kernel=false, n_threads=None))]
+#[allow(clippy::too_many_arguments)]
+fn footprints<'py>(
+    py: Python<'py>,
+    camera: &CameraCore,
+    z: PyReadonlyArray1<'py, f64>,
+    half: i64,
+    axis: &str,
+    sample: &str,
+    kernel: bool,
+    n_threads: Option<usize>,
+) -> PyResult<FootprintArrays<'py>> {
+    let cam = camera.inner;
+    let h = Half::from_number(half).map_err(to_py)?;
+    let ax = rayspace::axis_from_name(axis).map_err(to_py)?;
+    let s = Sample::from_name(sample).map_err(to_py)?;
+    let zs = as_slice(&z);
+    let out = py
+        .detach(|| rayspace::footprints(&cam, &zs, h, ax, s, kernel, n_threads))
+        .map_err(to_py)?;
+    let (m, n) = (out.m, out.n);
+    let (kb, kv) = match out.kernel {
+        Some((b, v)) => (
+            Some(shaped(py, (m, n, rayspace::MAX_VERTICES), b)?),
+            Some(shaped(py, (m, n, rayspace::MAX_VERTICES), v)?),
+        ),
+        None => (None, None),
+    };
+    Ok((
+        shaped(py, (m, n), out.position)?,
+        shaped(py, (m, n), out.lo)?,
+        shaped(py, (m, n), out.hi)?,
+        kb,
+        kv,
+    ))
+}
+
+type GridArrays<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>);
+
+/// Object-space sample positions (X, Y), each (Ky Q, Kx Q), of every pixel of one half
+/// on the plane at depth z; NaN where a pixel yields no sample.
+#[pyfunction]
+#[pyo3(signature = (camera, z, half, sample="chief", n_threads=None))]
+fn sample_grid<'py>(
+    py: Python<'py>,
+    camera: &CameraCore,
+    z: f64,
+    half: i64,
+    sample: &str,
+    n_threads: Option<usize>,
+) -> PyResult<GridArrays<'py>> {
+    let cam = camera.inner;
+    let h = Half::from_number(half).map_err(to_py)?;
+    let s = Sample::from_name(sample).map_err(to_py)?;
+    let (gx, gy) = py
+        .detach(|| rayspace::sample_grid(&cam, z, h, s, n_threads))
+        .map_err(to_py)?;
+    let rows = cam.ky as usize * cam.q as usize;
+    let cols = cam.kx as usize * cam.q as usize;
+    Ok((shaped(py, (rows, cols), gx)?, shaped(py, (rows, cols), gy)?))
+}
+
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<CameraCore>()?;
     m.add_function(wrap_pyfunction!(curves, m)?)?;
     m.add_function(wrap_pyfunction!(depth_of_field, m)?)?;
+    m.add_function(wrap_pyfunction!(trace, m)?)?;
+    m.add_function(wrap_pyfunction!(footprints, m)?)?;
+    m.add_function(wrap_pyfunction!(sample_grid, m)?)?;
     Ok(())
 }
