@@ -423,3 +423,33 @@ def test_noncontiguous_depths_and_threads_agree():
     np.testing.assert_array_equal(a.lo, b.lo)
     assert a.kernel_breaks is None and a.kernel_values is None
     assert shapely.__version__  # shapely is the test dependency of the clipping checks
+
+
+# -- plot ---------------------------------------------------------------------------------
+def test_ray_space_plot_draws_the_traced_polygons():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import splitlf.plot
+
+    fig, ax = plt.subplots()
+    out = splitlf.plot.ray_space(PAPER, n_lenses=2, ax=ax)
+    assert out is ax
+    polys = list(ax.collections)
+    assert len(polys) == 2  # half 1 grey, half 2 yellow
+    n1 = sum(len(p.vertices) > 0 for p in polys[0].get_paths())
+    n2 = sum(len(p.vertices) > 0 for p in polys[1].get_paths())
+    assert (n1, n2) == (2 * PAPER.lit_pixels(1), 2 * PAPER.lit_pixels(2))
+    assert len(ax.get_lines()) == 3 * 2 + 2  # three planes x two lenses + aperture edges
+    plt.close(fig)
+
+
+def test_plot_without_matplotlib_says_how_to_install(monkeypatch):
+    import sys
+
+    import splitlf.plot
+
+    monkeypatch.setitem(sys.modules, "matplotlib.pyplot", None)
+    with pytest.raises(ImportError, match=r"splitlf\[plot\]"):
+        splitlf.plot.ray_space(PAPER)
