@@ -420,6 +420,37 @@ fn rows_per_task(n: usize) -> usize {
     (1usize << 15).div_ceil(n.max(1)).max(1)
 }
 
+/// Output buffers of [`footprints_into`], each row-major: (m, n) for `position`, `lo`,
+/// `hi`; (m, n, 6) for the kernel's breakpoints and values. Any initial content.
+pub struct FootprintsOut<'a> {
+    pub position: &'a mut [f64],
+    pub lo: &'a mut [f64],
+    pub hi: &'a mut [f64],
+    pub kernel: Option<(&'a mut [f64], &'a mut [f64])>,
+}
+
+/// Validate a footprints call before anything is allocated: thread count, every depth,
+/// and the output size. Returns (m, n): depths and pixels.
+pub fn check_footprints(
+    cam: &Camera,
+    z: &[f64],
+    axis: Axis,
+    kernel: bool,
+    n_threads: Option<usize>,
+) -> Result<(usize, usize)> {
+    check_threads(n_threads)?;
+    check_depths(cam, z)?;
+    let n = cam.lenses(axis) as u128 * cam.q as u128;
+    let m = z.len() as u128;
+    let per = if kernel {
+        3 + 2 * MAX_VERTICES as u128
+    } else {
+        3
+    };
+    check_size("footprints", m * n * per * 8 + n * TRACE_BYTES_PER_PIXEL)?;
+    Ok((m as usize, n as usize))
+}
+
 /// Footprints of every pixel of `half` along `axis` on the planes at depths `z`
 /// (MODEL.md §5): sample position, extent [lo, hi] in object-space X (mm), and with
 /// `kernel` the weight profile. Validated before any work; parallel over depths.
@@ -432,18 +463,60 @@ pub fn footprints(
     kernel: bool,
     n_threads: Option<usize>,
 ) -> Result<Footprints> {
-    check_threads(n_threads)?;
-    check_depths(cam, z)?;
-    let n = cam.lenses(axis) as u128 * cam.q as u128;
-    let m = z.len() as u128;
-    let per = if kernel {
-        3 + 2 * MAX_VERTICES as u128
-    } else {
-        3
+    let (m, n) = check_footprints(cam, z, axis, kernel, n_threads)?;
+    let mut position = vec![0.0; m * n];
+    let mut lo = vec![0.0; m * n];
+    let mut hi = vec![0.0; m * n];
+    let k = if kernel { m * n * MAX_VERTICES } else { 0 };
+    let (mut kb, mut kv) = (vec![0.0; k], vec![0.0; k]);
+    let out = FootprintsOut {
+        position: &mut position,
+        lo: &mut lo,
+        hi: &mut hi,
+        kernel: kernel.then_some((&mut kb[..], &mut kv[..])),
     };
-    check_size("footprints", m * n * per * 8 + n * TRACE_BYTES_PER_PIXEL)?;
+    footprints_into(cam, z, half, axis, sample, out, n_threads)?;
+    Ok(Footprints {
+        m,
+        n,
+        position,
+        lo,
+        hi,
+        kernel: kernel.then_some((kb, kv)),
+    })
+}
+
+/// [`footprints`] written straight into caller-provided buffers (e.g. NumPy arrays), so
+/// the outputs are the only large allocation. Lengths are checked against (m, n).
+pub fn footprints_into(
+    cam: &Camera,
+    z: &[f64],
+    half: Half,
+    axis: Axis,
+    sample: Sample,
+    out: FootprintsOut<'_>,
+    n_threads: Option<usize>,
+) -> Result<()> {
+    let (m, n) = check_footprints(cam, z, axis, out.kernel.is_some(), n_threads)?;
+    let lens = [out.position.len(), out.lo.len(), out.hi.len()];
+    if lens.iter().any(|&l| l != m * n) {
+        return Err(Error::param(
+            "output length",
+            format!("{lens:?}"),
+            format!("{} (m = {m} depths × n = {n} pixels)", m * n),
+        ));
+    }
+    if let Some((b, v)) = &out.kernel {
+        if b.len() != m * n * MAX_VERTICES || v.len() != m * n * MAX_VERTICES {
+            return Err(Error::param(
+                "kernel output length",
+                format!("{:?}", (b.len(), v.len())),
+                format!("{}", m * n * MAX_VERTICES),
+            ));
+        }
+    }
     with_threads(n_threads, || {
-        footprints_unchecked(cam, z, half, axis, sample, kernel)
+        footprints_unchecked(cam, z, half, axis, sample, out)
     })?
 }
 
@@ -453,8 +526,8 @@ fn footprints_unchecked(
     half: Half,
     axis: Axis,
     sample: Sample,
-    kernel: bool,
-) -> Result<Footprints> {
+    out: FootprintsOut<'_>,
+) -> Result<()> {
     let tr = trace(cam, half, axis)?;
     let pre = prepare(&tr, sample);
     let k_lenses = cam.lenses(axis);
@@ -463,39 +536,35 @@ fn footprints_unchecked(
         .iter()
         .map(|&j| cam.lens_center(j, k_lenses))
         .collect();
-    let (m, n) = (z.len(), pre.n);
-    let mut position = vec![0.0; m * n];
-    let mut lo = vec![0.0; m * n];
-    let mut hi = vec![0.0; m * n];
-    let rows = rows_per_task(n);
-    if n > 0 {
-        position
-            .par_chunks_mut(rows * n)
-            .zip(lo.par_chunks_mut(rows * n))
-            .zip(hi.par_chunks_mut(rows * n))
-            .zip(z.par_chunks(rows))
-            .for_each(|(((pos, lo), hi), zs)| {
-                for (r, &zk) in zs.iter().enumerate() {
-                    let span = r * n..(r + 1) * n;
-                    let zc = conjugate(cam.f_main, zk);
-                    footprint_row(
-                        cam,
-                        &tr,
-                        &pre,
-                        &centres,
-                        sample,
-                        zk,
-                        zc,
-                        &mut pos[span.clone()],
-                        &mut lo[span.clone()],
-                        &mut hi[span],
-                    );
-                }
-            });
+    let n = pre.n;
+    if n == 0 || z.is_empty() {
+        return Ok(());
     }
-    let kernel = if kernel && n > 0 {
-        let mut br = vec![f64::NAN; m * n * MAX_VERTICES];
-        let mut va = vec![f64::NAN; m * n * MAX_VERTICES];
+    let rows = rows_per_task(n);
+    out.position
+        .par_chunks_mut(rows * n)
+        .zip(out.lo.par_chunks_mut(rows * n))
+        .zip(out.hi.par_chunks_mut(rows * n))
+        .zip(z.par_chunks(rows))
+        .for_each(|(((pos, lo), hi), zs)| {
+            for (r, &zk) in zs.iter().enumerate() {
+                let span = r * n..(r + 1) * n;
+                let zc = conjugate(cam.f_main, zk);
+                footprint_row(
+                    cam,
+                    &tr,
+                    &pre,
+                    &centres,
+                    sample,
+                    zk,
+                    zc,
+                    &mut pos[span.clone()],
+                    &mut lo[span.clone()],
+                    &mut hi[span],
+                );
+            }
+        });
+    if let Some((br, va)) = out.kernel {
         let w = n * MAX_VERTICES;
         br.par_chunks_mut(rows * w)
             .zip(va.par_chunks_mut(rows * w))
@@ -507,28 +576,22 @@ fn footprints_unchecked(
                     for (i, p) in tr.polygons.iter().enumerate() {
                         let o = (r * n + i) * MAX_VERTICES;
                         let (b, v) = weight_profile(p, sigma);
-                        for t in 0..p.n {
-                            // X = −p' z / v' reverses the order: write ascending in X.
-                            br[o + t] = b[p.n - 1 - t] * scale;
-                            va[o + t] = v[p.n - 1 - t];
+                        for t in 0..MAX_VERTICES {
+                            // X = −p' z / v' reverses the order: write ascending in X,
+                            // then the NaN padding.
+                            let (bt, vt) = if t < p.n {
+                                (b[p.n - 1 - t] * scale, v[p.n - 1 - t])
+                            } else {
+                                (f64::NAN, f64::NAN)
+                            };
+                            br[o + t] = bt;
+                            va[o + t] = vt;
                         }
                     }
                 }
             });
-        Some((br, va))
-    } else if kernel {
-        Some((Vec::new(), Vec::new()))
-    } else {
-        None
-    };
-    Ok(Footprints {
-        m,
-        n,
-        position,
-        lo,
-        hi,
-        kernel,
-    })
+    }
+    Ok(())
 }
 
 /// One depth: positions and extents of all n pixels, written straight into the output rows.
@@ -654,6 +717,20 @@ fn axis_samples(cam: &Camera, half: Half, axis: Axis, sample: Sample, z: f64) ->
     out
 }
 
+/// Validate a sample_grid call before anything is allocated; returns (rows, cols) =
+/// (Ky Q, Kx Q).
+pub fn check_sample_grid(cam: &Camera, z: f64, n_threads: Option<usize>) -> Result<(usize, usize)> {
+    check_threads(n_threads)?;
+    check_depths(cam, &[z])?;
+    let cols = cam.kx as u128 * cam.q as u128;
+    let rows = cam.ky as u128 * cam.q as u128;
+    check_size(
+        "sample_grid (two outputs)",
+        2 * 8 * rows * cols + 8 * (rows + cols),
+    )?;
+    Ok((rows as usize, cols as usize))
+}
+
 /// The full 2D sensor of one half on the plane at depth z: (X, Y), each (Ky Q, Kx Q)
 /// row-major, rows along y and columns along x. Separable: X depends on the column only,
 /// Y on the row only, and under the square aperture a pixel yields a sample iff it does
@@ -666,21 +743,38 @@ pub fn sample_grid(
     sample: Sample,
     n_threads: Option<usize>,
 ) -> Result<(Vec<f64>, Vec<f64>)> {
-    check_threads(n_threads)?;
-    check_depths(cam, &[z])?;
-    let cols = cam.kx as u128 * cam.q as u128;
-    let rows = cam.ky as u128 * cam.q as u128;
-    check_size(
-        "sample_grid (two outputs)",
-        2 * 8 * rows * cols + 8 * (rows + cols),
-    )?;
+    let (rows, cols) = check_sample_grid(cam, z, n_threads)?;
+    let mut gx = vec![0.0; rows * cols];
+    let mut gy = vec![0.0; rows * cols];
+    sample_grid_into(cam, z, half, sample, &mut gx, &mut gy, n_threads)?;
+    Ok((gx, gy))
+}
+
+/// [`sample_grid`] written straight into caller-provided (Ky Q, Kx Q) buffers.
+pub fn sample_grid_into(
+    cam: &Camera,
+    z: f64,
+    half: Half,
+    sample: Sample,
+    gx: &mut [f64],
+    gy: &mut [f64],
+    n_threads: Option<usize>,
+) -> Result<()> {
+    let (rows, cols) = check_sample_grid(cam, z, n_threads)?;
+    if gx.len() != rows * cols || gy.len() != rows * cols {
+        return Err(Error::param(
+            "output length",
+            format!("{:?}", (gx.len(), gy.len())),
+            format!(
+                "{} (Ky Q = {rows} rows × Kx Q = {cols} columns)",
+                rows * cols
+            ),
+        ));
+    }
     with_threads(n_threads, || {
         let xs = axis_samples(cam, half, Axis::X, sample, z);
         let ys = axis_samples(cam, half, Axis::Y, sample, z);
-        let cols = xs.len();
-        let mut gx = vec![0.0; xs.len() * ys.len()];
-        let mut gy = vec![0.0; xs.len() * ys.len()];
-        let per = rows_per_task(cols).max(1);
+        let per = rows_per_task(cols);
         gx.par_chunks_mut(per * cols)
             .zip(gy.par_chunks_mut(per * cols))
             .zip(ys.par_chunks(per))
@@ -692,15 +786,14 @@ pub fn sample_grid(
                         rx.fill(f64::NAN);
                         ry.fill(f64::NAN);
                     } else {
-                        for ((ox, oy), &x) in rx.iter_mut().zip(ry.iter_mut()).zip(&xs) {
-                            // x + 0·y and y + 0·x propagate NaN of the other axis.
-                            *ox = x + 0.0 * y;
+                        rx.copy_from_slice(&xs);
+                        for (oy, &x) in ry.iter_mut().zip(&xs) {
+                            // y + 0·x is y where x is a sample, NaN where it is not.
                             *oy = y + 0.0 * x;
                         }
                     }
                 }
             });
-        (gx, gy)
     })
 }
 

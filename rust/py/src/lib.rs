@@ -4,7 +4,7 @@
 use std::borrow::Cow;
 
 use numpy::ndarray::{Array1, Array2};
-use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
@@ -15,6 +15,10 @@ use splitlf_core::{optics, Camera, Error, Half};
 /// parameter, its value and the allowed range).
 fn to_py(e: Error) -> PyErr {
     PyValueError::new_err(e.to_string())
+}
+
+fn internal(e: impl std::fmt::Display) -> PyErr {
+    PyValueError::new_err(format!("internal error: {e}"))
 }
 
 fn half(n: i64) -> PyResult<Half> {
@@ -258,24 +262,48 @@ fn footprints<'py>(
     let ax = rayspace::axis_from_name(axis).map_err(to_py)?;
     let s = Sample::from_name(sample).map_err(to_py)?;
     let zs = as_slice(&z);
-    let out = py
-        .detach(|| rayspace::footprints(&cam, &zs, h, ax, s, kernel, n_threads))
-        .map_err(to_py)?;
-    let (m, n) = (out.m, out.n);
-    let (kb, kv) = match out.kernel {
-        Some((b, v)) => (
-            Some(shaped(py, (m, n, rayspace::MAX_VERTICES), b)?),
-            Some(shaped(py, (m, n, rayspace::MAX_VERTICES), v)?),
-        ),
+    // Validate everything, then let NumPy allocate the outputs (its allocator asks for
+    // huge pages) and have the core write straight into them without the GIL.
+    let (m, n) = rayspace::check_footprints(&cam, &zs, ax, kernel, n_threads).map_err(to_py)?;
+    let position = PyArray2::<f64>::zeros(py, [m, n], false);
+    let lo = PyArray2::<f64>::zeros(py, [m, n], false);
+    let hi = PyArray2::<f64>::zeros(py, [m, n], false);
+    let k = kernel.then(|| {
+        let dims = [m, n, rayspace::MAX_VERTICES];
+        (
+            numpy::PyArray3::<f64>::zeros(py, dims, false),
+            numpy::PyArray3::<f64>::zeros(py, dims, false),
+        )
+    });
+    {
+        let mut pw = position.readwrite();
+        let mut lw = lo.readwrite();
+        let mut hw = hi.readwrite();
+        let mut kw = k.as_ref().map(|(b, v)| (b.readwrite(), v.readwrite()));
+        let ps = pw.as_slice_mut().map_err(internal)?;
+        let ls = lw.as_slice_mut().map_err(internal)?;
+        let hs = hw.as_slice_mut().map_err(internal)?;
+        let ks = match kw.as_mut() {
+            Some((b, v)) => Some((
+                b.as_slice_mut().map_err(internal)?,
+                v.as_slice_mut().map_err(internal)?,
+            )),
+            None => None,
+        };
+        let out = rayspace::FootprintsOut {
+            position: ps,
+            lo: ls,
+            hi: hs,
+            kernel: ks,
+        };
+        py.detach(|| rayspace::footprints_into(&cam, &zs, h, ax, s, out, n_threads))
+            .map_err(to_py)?;
+    }
+    let (kb, kv) = match k {
+        Some((b, v)) => (Some(b), Some(v)),
         None => (None, None),
     };
-    Ok((
-        shaped(py, (m, n), out.position)?,
-        shaped(py, (m, n), out.lo)?,
-        shaped(py, (m, n), out.hi)?,
-        kb,
-        kv,
-    ))
+    Ok((position, lo, hi, kb, kv))
 }
 
 type GridArrays<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>);
@@ -295,12 +323,18 @@ fn sample_grid<'py>(
     let cam = camera.inner;
     let h = Half::from_number(half).map_err(to_py)?;
     let s = Sample::from_name(sample).map_err(to_py)?;
-    let (gx, gy) = py
-        .detach(|| rayspace::sample_grid(&cam, z, h, s, n_threads))
-        .map_err(to_py)?;
-    let rows = cam.ky as usize * cam.q as usize;
-    let cols = cam.kx as usize * cam.q as usize;
-    Ok((shaped(py, (rows, cols), gx)?, shaped(py, (rows, cols), gy)?))
+    let (rows, cols) = rayspace::check_sample_grid(&cam, z, n_threads).map_err(to_py)?;
+    let gx = PyArray2::<f64>::zeros(py, [rows, cols], false);
+    let gy = PyArray2::<f64>::zeros(py, [rows, cols], false);
+    {
+        let mut xw = gx.readwrite();
+        let mut yw = gy.readwrite();
+        let xs = xw.as_slice_mut().map_err(internal)?;
+        let ys = yw.as_slice_mut().map_err(internal)?;
+        py.detach(|| rayspace::sample_grid_into(&cam, z, h, s, xs, ys, n_threads))
+            .map_err(to_py)?;
+    }
+    Ok((gx, gy))
 }
 
 #[pymodule]
