@@ -8,6 +8,7 @@ are positive distances in front of the main lens.
 from ._native import __version__
 from .camera import Camera
 from .optics import Curves, DepthOfField, curves, depth_of_field, sharp_fractions
+from .rayspace import Footprints, SampleGrid, Trace, footprints, sample_grid, trace
 from .samples import CoincidencePlanes, NewSamples, coincidence_planes, new_samples
 
 __all__ = [
@@ -15,11 +16,17 @@ __all__ = [
     "CoincidencePlanes",
     "Curves",
     "DepthOfField",
+    "Footprints",
     "NewSamples",
+    "SampleGrid",
+    "Trace",
     "__version__",
     "coincidence_planes",
     "curves",
     "depth_of_field",
+    "footprints",
     "new_samples",
+    "sample_grid",
     "sharp_fractions",
+    "trace",
 ]

@@ -68,3 +68,27 @@ def figures_of_merit(
     tol: float = 1e-6,
     n_threads: int | None = None,
 ) -> list[float]: ...
+def trace(
+    camera: CameraCore, half: int, axis: str = "x"
+) -> tuple[
+    _F64,
+    npt.NDArray[np.int64],
+    _F64,
+    _F64,
+    npt.NDArray[np.int64],
+    npt.NDArray[np.int64],
+    _F64,
+    npt.NDArray[np.bool_],
+]: ...
+def footprints(
+    camera: CameraCore,
+    z: _F64,
+    half: int,
+    axis: str = "x",
+    sample: str = "centroid",
+    kernel: bool = False,
+    n_threads: int | None = None,
+) -> tuple[_F64, _F64, _F64, _F64 | None, _F64 | None]: ...
+def sample_grid(
+    camera: CameraCore, z: float, half: int, sample: str = "chief", n_threads: int | None = None
+) -> tuple[_F64, _F64]: ...

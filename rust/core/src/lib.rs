@@ -2,6 +2,7 @@
 //!
 //! Pure Rust (no Python): [`camera`] holds the validated design (MODEL.md §1, §3, §7),
 //! [`optics`] the closed forms over depth (Eqs. 1–7) and the depth of field,
+//! [`rayspace`] every pixel's integration polygon in (u, w) and its footprints (§3–5),
 //! [`samples`] the coincidence planes and genuinely new samples (Eqs. 8–9, MODEL.md §6),
 //! [`merit`] the figures of merit of one design that sweeps compare.
 //! Every parallel entry point takes `n_threads` (see [`parallel`]).
@@ -11,6 +12,7 @@ pub mod error;
 pub mod merit;
 pub mod optics;
 pub mod parallel;
+pub mod rayspace;
 pub mod samples;
 
 pub use camera::{Axis, Camera, Half};

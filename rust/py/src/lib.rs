@@ -3,11 +3,12 @@
 
 use std::borrow::Cow;
 
-use numpy::ndarray::Array2;
-use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1};
+use numpy::ndarray::{Array1, Array2};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
+use splitlf_core::rayspace::{self, Sample};
 use splitlf_core::samples::{self, SampleMode};
 use splitlf_core::{optics, Camera, Error, Half};
 
@@ -15,6 +16,10 @@ use splitlf_core::{optics, Camera, Error, Half};
 /// parameter, its value and the allowed range).
 fn to_py(e: Error) -> PyErr {
     PyValueError::new_err(e.to_string())
+}
+
+fn internal(e: impl std::fmt::Display) -> PyErr {
+    PyValueError::new_err(format!("internal error: {e}"))
 }
 
 fn half(n: i64) -> PyResult<Half> {
@@ -285,6 +290,169 @@ fn figures_of_merit(
         .map_err(to_py)
 }
 
+fn shaped<'py, D, Sh>(
+    py: Python<'py>,
+    shape: Sh,
+    v: Vec<f64>,
+) -> PyResult<Bound<'py, numpy::PyArray<f64, D>>>
+where
+    D: numpy::ndarray::Dimension,
+    Sh: numpy::ndarray::ShapeBuilder<Dim = D>,
+{
+    let a = numpy::ndarray::Array::from_shape_vec(shape, v)
+        .map_err(|e| PyValueError::new_err(format!("internal shape error: {e}")))?;
+    Ok(a.into_pyarray(py))
+}
+
+type TraceArrays<'py> = (
+    Bound<'py, numpy::PyArray3<f64>>,
+    Bound<'py, PyArray1<i64>>,
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray1<i64>>,
+    Bound<'py, PyArray1<i64>>,
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray1<bool>>,
+);
+
+/// Integration polygons of every pixel of one half along one axis (MODEL.md §3–4):
+/// (vertices (n, 6, 2), n_vertices, area, centroid (n, 2), lens, pixel, chief (n, 2), lit).
+#[pyfunction]
+#[pyo3(signature = (camera, half, axis="x"))]
+fn trace<'py>(
+    py: Python<'py>,
+    camera: &CameraCore,
+    half: i64,
+    axis: &str,
+) -> PyResult<TraceArrays<'py>> {
+    let cam = camera.inner;
+    let h = Half::from_number(half).map_err(to_py)?;
+    let ax = rayspace::axis_from_name(axis).map_err(to_py)?;
+    let tr = py.detach(|| rayspace::trace(&cam, h, ax)).map_err(to_py)?;
+    let n = tr.polygons.len();
+    let verts: Vec<f64> = tr
+        .polygons
+        .iter()
+        .flat_map(|p| p.v.iter().flatten().copied())
+        .collect();
+    let nv: Vec<i64> = tr.polygons.iter().map(|p| p.n as i64).collect();
+    let flat = |v: &[[f64; 2]]| v.iter().flatten().copied().collect::<Vec<f64>>();
+    let ints = |v: &[u32]| Array1::from_iter(v.iter().map(|&x| x as i64)).into_pyarray(py);
+    Ok((
+        shaped(py, (n, rayspace::MAX_VERTICES, 2), verts)?,
+        nv.into_pyarray(py),
+        tr.area.into_pyarray(py),
+        shaped(py, (n, 2), flat(&tr.centroid))?,
+        ints(&tr.lens),
+        ints(&tr.pixel),
+        shaped(py, (n, 2), flat(&tr.chief))?,
+        tr.lit.into_pyarray(py),
+    ))
+}
+
+type FootprintArrays<'py> = (
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray2<f64>>,
+    Option<Bound<'py, numpy::PyArray3<f64>>>,
+    Option<Bound<'py, numpy::PyArray3<f64>>>,
+);
+
+/// Footprints of every pixel of one half along one axis at every depth (MODEL.md §5):
+/// (position, lo, hi) each (m, n); with `kernel` also breaks and values (m, n, 6).
+#[pyfunction]
+#[pyo3(signature = (camera, z, half, axis="x", sample="centroid", kernel=false, n_threads=None))]
+#[allow(clippy::too_many_arguments)]
+fn footprints<'py>(
+    py: Python<'py>,
+    camera: &CameraCore,
+    z: PyReadonlyArray1<'py, f64>,
+    half: i64,
+    axis: &str,
+    sample: &str,
+    kernel: bool,
+    n_threads: Option<usize>,
+) -> PyResult<FootprintArrays<'py>> {
+    let cam = camera.inner;
+    let h = Half::from_number(half).map_err(to_py)?;
+    let ax = rayspace::axis_from_name(axis).map_err(to_py)?;
+    let s = Sample::from_name(sample).map_err(to_py)?;
+    let zs = as_slice(&z);
+    // Validate everything, then let NumPy allocate the outputs (its allocator asks for
+    // huge pages) and have the core write straight into them without the GIL.
+    let (m, n) = rayspace::check_footprints(&cam, &zs, ax, kernel, n_threads).map_err(to_py)?;
+    let position = PyArray2::<f64>::zeros(py, [m, n], false);
+    let lo = PyArray2::<f64>::zeros(py, [m, n], false);
+    let hi = PyArray2::<f64>::zeros(py, [m, n], false);
+    let k = kernel.then(|| {
+        let dims = [m, n, rayspace::MAX_VERTICES];
+        (
+            numpy::PyArray3::<f64>::zeros(py, dims, false),
+            numpy::PyArray3::<f64>::zeros(py, dims, false),
+        )
+    });
+    {
+        let mut pw = position.readwrite();
+        let mut lw = lo.readwrite();
+        let mut hw = hi.readwrite();
+        let mut kw = k.as_ref().map(|(b, v)| (b.readwrite(), v.readwrite()));
+        let ps = pw.as_slice_mut().map_err(internal)?;
+        let ls = lw.as_slice_mut().map_err(internal)?;
+        let hs = hw.as_slice_mut().map_err(internal)?;
+        let ks = match kw.as_mut() {
+            Some((b, v)) => Some((
+                b.as_slice_mut().map_err(internal)?,
+                v.as_slice_mut().map_err(internal)?,
+            )),
+            None => None,
+        };
+        let out = rayspace::FootprintsOut {
+            position: ps,
+            lo: ls,
+            hi: hs,
+            kernel: ks,
+        };
+        py.detach(|| rayspace::footprints_into(&cam, &zs, h, ax, s, out, n_threads))
+            .map_err(to_py)?;
+    }
+    let (kb, kv) = match k {
+        Some((b, v)) => (Some(b), Some(v)),
+        None => (None, None),
+    };
+    Ok((position, lo, hi, kb, kv))
+}
+
+type GridArrays<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>);
+
+/// Object-space sample positions (X, Y), each (Ky Q, Kx Q), of every pixel of one half
+/// on the plane at depth z; NaN where a pixel yields no sample.
+#[pyfunction]
+#[pyo3(signature = (camera, z, half, sample="chief", n_threads=None))]
+fn sample_grid<'py>(
+    py: Python<'py>,
+    camera: &CameraCore,
+    z: f64,
+    half: i64,
+    sample: &str,
+    n_threads: Option<usize>,
+) -> PyResult<GridArrays<'py>> {
+    let cam = camera.inner;
+    let h = Half::from_number(half).map_err(to_py)?;
+    let s = Sample::from_name(sample).map_err(to_py)?;
+    let (rows, cols) = rayspace::check_sample_grid(&cam, z, n_threads).map_err(to_py)?;
+    let gx = PyArray2::<f64>::zeros(py, [rows, cols], false);
+    let gy = PyArray2::<f64>::zeros(py, [rows, cols], false);
+    {
+        let mut xw = gx.readwrite();
+        let mut yw = gy.readwrite();
+        let xs = xw.as_slice_mut().map_err(internal)?;
+        let ys = yw.as_slice_mut().map_err(internal)?;
+        py.detach(|| rayspace::sample_grid_into(&cam, z, h, s, xs, ys, n_threads))
+            .map_err(to_py)?;
+    }
+    Ok((gx, gy))
+}
+
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
@@ -295,5 +463,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(new_samples, m)?)?;
     m.add_function(wrap_pyfunction!(coincidence_planes, m)?)?;
     m.add_function(wrap_pyfunction!(figures_of_merit, m)?)?;
+    m.add_function(wrap_pyfunction!(trace, m)?)?;
+    m.add_function(wrap_pyfunction!(footprints, m)?)?;
+    m.add_function(wrap_pyfunction!(sample_grid, m)?)?;
     Ok(())
 }

@@ -1,0 +1,121 @@
+"""The ray space of the split-sensor camera: the right panel of the paper's Fig. 4."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from .. import _validate
+from ..camera import Camera
+from ..rayspace import trace
+from ._mpl import pyplot
+
+__all__ = ["ray_space"]
+
+#: The paper's colours: half 1 grey, half 2 yellow; scene planes red, green, blue.
+HALF_COLOURS = {1: ("0.62", "0.30"), 2: ("#f5d000", "#9a7d00")}
+DEPTH_COLOURS = ("#d62728", "#2ca02c", "#1f5fd6")
+
+
+def _polygons(tr, keep):
+    return [tr.vertices[i, : tr.n_vertices[i]] for i in np.flatnonzero(keep)]
+
+
+def ray_space(
+    camera: Camera,
+    depths: Sequence[float] | None = None,
+    n_lenses: int = 3,
+    axis: str = "x",
+    ax: Any = None,
+) -> Any:
+    """The paper's Fig. 4 (right) for ``camera``: in the ray space (u on plane v', w on the
+    main lens), the integration regions of every pixel under ``n_lenses`` neighbouring
+    central microlenses of half 1 (grey) and of half 2 (yellow), and the
+    constant-intensity lines u + sigma w = p' of up to three scene planes (red, green,
+    blue), one line through each drawn microlens centre at w = 0 (of the half
+    whose out-of-focus plane it is, else of half 1). ``depths`` default
+    to the out-of-focus planes of half 1 (vertical lines) and half 2 (lines parallel to
+    half 2's microlens columns) and a far plane at 2.5 z_1. Returns the Axes."""
+    cam = _validate.camera(camera)
+    if depths is None:
+        z1, z2 = cam.out_of_focus_depth(1), cam.out_of_focus_depth(2)
+        depths = (z1, z2, 2.5 * z1)
+    zs = _validate.depths(depths, "depths")
+    if not 1 <= len(zs) <= len(DEPTH_COLOURS):
+        raise ValueError(f"depths: give 1 to {len(DEPTH_COLOURS)} depths, got {len(zs)}")
+    if isinstance(n_lenses, bool) or not isinstance(n_lenses, int) or n_lenses < 1:
+        raise ValueError(f"invalid n_lenses = {n_lenses!r}: allowed an integer >= 1")
+    plt = pyplot()
+    from matplotlib.collections import PolyCollection
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    if ax is None:
+        _, ax = plt.subplots(figsize=(9.0, 6.0), layout="constrained")
+
+    handles = []
+    drawn = []
+    centres = {}
+    for half in (1, 2):
+        tr = trace(cam, half, axis)
+        K = int(tr.lens.max()) + 1
+        first = max(0, (K - n_lenses) // 2)
+        keep = (tr.lens >= first) & (tr.lens < first + n_lenses) & (tr.n_vertices > 0)
+        face, edge = HALF_COLOURS[half]
+        alpha = 0.75 if half == 1 else 0.6
+        ax.add_collection(
+            PolyCollection(
+                _polygons(tr, keep),
+                facecolors=face,
+                edgecolors=edge,
+                linewidths=0.7,
+                alpha=alpha,
+                zorder=1 + half,
+            )
+        )
+        drawn.append(tr.vertices[keep])
+        # u at w = 0 of the drawn microlens centres, (v'/L_i) c_j
+        j = np.arange(first, min(first + n_lenses, K))
+        centres[half] = cam.v1 / cam.L(half) * (j - (K - 1) / 2) * cam.d
+        n_px = int(keep.sum())
+        handles.append(
+            Patch(facecolor=face, edgecolor=edge, alpha=alpha,
+                  label=f"half {half}: {n_px} pixels under {n_lenses} microlenses")
+        )
+    allv = np.concatenate(drawn)
+    u_lo, u_hi = np.nanmin(allv[..., 0]), np.nanmax(allv[..., 0])
+
+    half_d = cam.D / 2
+    w = np.array([-half_d, half_d])
+    for z, colour in zip(zs, DEPTH_COLOURS, strict=False):
+        zc = cam.F * z / (z - cam.F)
+        sigma = (cam.v1 - zc) / zc  # a point of the plane is the line u + sigma w = p'
+        # through the microlens centres of the half this plane is out of focus for
+        # (the lines then run along its microlens columns), else of half 1
+        own = [h for h in (1, 2) if np.isclose(z, cam.out_of_focus_depth(h), rtol=1e-9)]
+        for p in centres[own[0] if own else 1]:
+            ax.plot(p - sigma * w, w, color=colour, lw=1.5, zorder=5)
+        handles.append(Line2D([], [], color=colour, lw=1.5, label=_depth_label(cam, z)))
+
+    pad = 0.03 * (u_hi - u_lo)
+    ax.set_xlim(u_lo - pad, u_hi + pad)
+    ax.set_ylim(-1.08 * half_d, 1.08 * half_d)
+    for y in (-half_d, half_d):
+        ax.axhline(y, color="0.15", lw=0.9, ls="--", zorder=6)
+    ax.text(u_hi, half_d, "aperture edge  ", ha="right", va="bottom", fontsize=8, color="0.15")
+    ax.set_xlabel("u: ray height on the plane of microlens array 1 [mm]")
+    ax.set_ylabel("w: ray height on the main lens [mm]")
+    ax.set_title("Ray space: pixel integration regions and constant-intensity lines")
+    ax.legend(
+        handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.11), ncol=2, fontsize=8.5
+    )
+    return ax
+
+
+def _depth_label(cam: Camera, z: float) -> str:
+    for half in (1, 2):
+        if np.isclose(z, cam.out_of_focus_depth(half), rtol=1e-9):
+            return f"scene plane z = {z:.0f} mm (out-of-focus plane of half {half})"
+    return f"scene plane z = {z:.0f} mm"

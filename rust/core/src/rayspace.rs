@@ -1,0 +1,932 @@
+//! Ray-space engine (MODEL.md §3–5): every pixel's integration polygon in (u, w) and its
+//! footprint on a scene plane at any depth.
+//!
+//! A ray is (u, w): w its height on the main lens, u where it crosses plane v' (the first
+//! array's plane, common to both halves). On array plane L_i it is at x = a u + b w with
+//! a = L_i/v', b = 1 − L_i/v'. Pixel q under microlens j (centre c) collects the rays in
+//! three strips: the aperture |w| ≤ D/2, the microlens |x − c| ≤ d/2 and the pixel
+//! |s' − s| ≤ μ/2 (s' the ray's sensor position). The first two make a parallelogram, the
+//! third clips it: a convex polygon of at most 6 vertices, counter-clockwise.
+//! A scene plane at depth z is the family of lines p' = u + σ w, σ = (v' − z')/z'; the
+//! footprint of a pixel is the image of its polygon under that projection (docs/rayspace.md).
+
+use rayon::prelude::*;
+
+use crate::camera::{Axis, Camera, Half};
+use crate::error::{Error, Result};
+use crate::optics::{check_depths, conjugate};
+use crate::parallel::{check_threads, with_threads};
+
+/// Most vertices of an integration polygon (a parallelogram clipped by one strip).
+pub const MAX_VERTICES: usize = 6;
+
+/// Axis from its name, "x" or "y".
+pub fn axis_from_name(name: &str) -> Result<Axis> {
+    match name {
+        "x" => Ok(Axis::X),
+        "y" => Ok(Axis::Y),
+        _ => Err(Error::param("axis", format!("{name:?}"), "\"x\" or \"y\"")),
+    }
+}
+
+/// Which ray of a pixel stands for its sample position (MODEL.md §5).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Sample {
+    /// Projection of the polygon's centroid (aperture-integrated, physical).
+    Centroid,
+    /// Projection of the chief ray (the paper's convention).
+    Chief,
+}
+
+impl Sample {
+    /// Sample from its name, "centroid" or "chief".
+    pub fn from_name(name: &str) -> Result<Sample> {
+        match name {
+            "centroid" => Ok(Sample::Centroid),
+            "chief" => Ok(Sample::Chief),
+            _ => Err(Error::param(
+                "sample",
+                format!("{name:?}"),
+                "\"centroid\" or \"chief\"",
+            )),
+        }
+    }
+}
+
+/// Bytes the core may allocate for one call's outputs: the machine's physical memory
+/// (MemTotal of /proc/meminfo), or 2^40 where that cannot be read.
+pub fn memory_limit() -> u128 {
+    std::fs::read_to_string("/proc/meminfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("MemTotal:"))
+                .and_then(|l| l.split_whitespace().nth(1))
+                .and_then(|kb| kb.parse::<u128>().ok())
+        })
+        .map(|kb| kb * 1024)
+        .unwrap_or(1 << 40)
+}
+
+/// Refuse an output of `bytes` bytes when it exceeds [`memory_limit`] (before any work).
+pub fn check_size(what: &str, bytes: u128) -> Result<()> {
+    let limit = memory_limit().min(isize::MAX as u128);
+    if bytes > limit {
+        return Err(Error::TooLarge {
+            what: what.to_string(),
+            bytes,
+            limit,
+        });
+    }
+    Ok(())
+}
+
+/// A convex polygon in (u, w), counter-clockwise; `n == 0` for an empty one.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Polygon {
+    pub n: usize,
+    pub v: [[f64; 2]; MAX_VERTICES],
+}
+
+impl Polygon {
+    pub const EMPTY: Polygon = Polygon {
+        n: 0,
+        v: [[f64::NAN; 2]; MAX_VERTICES],
+    };
+
+    pub fn vertices(&self) -> &[[f64; 2]] {
+        &self.v[..self.n]
+    }
+
+    /// Shoelace area (relative to the first vertex, for accuracy); 0 when empty.
+    pub fn area(&self) -> f64 {
+        area_of(self.vertices())
+    }
+
+    /// Centroid (u, w); NaN when empty.
+    pub fn centroid(&self) -> [f64; 2] {
+        let p = self.vertices();
+        if p.len() < 3 {
+            return [f64::NAN; 2];
+        }
+        let o = p[0];
+        let (mut a2, mut cu, mut cw) = (0.0, 0.0, 0.0);
+        for i in 1..p.len() - 1 {
+            let (u1, w1) = (p[i][0] - o[0], p[i][1] - o[1]);
+            let (u2, w2) = (p[i + 1][0] - o[0], p[i + 1][1] - o[1]);
+            let cross = u1 * w2 - u2 * w1;
+            a2 += cross;
+            cu += cross * (u1 + u2);
+            cw += cross * (w1 + w2);
+        }
+        if a2 <= 0.0 {
+            return [f64::NAN; 2];
+        }
+        [o[0] + cu / (3.0 * a2), o[1] + cw / (3.0 * a2)]
+    }
+}
+
+fn area_of(p: &[[f64; 2]]) -> f64 {
+    if p.len() < 3 {
+        return 0.0;
+    }
+    let o = p[0];
+    let mut a2 = 0.0;
+    for i in 1..p.len() - 1 {
+        a2 += (p[i][0] - o[0]) * (p[i + 1][1] - o[1]) - (p[i + 1][0] - o[0]) * (p[i][1] - o[1]);
+    }
+    0.5 * a2
+}
+
+/// A strip lo ≤ n·(u, w) ≤ hi in ray space.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Strip {
+    pub n: [f64; 2],
+    pub lo: f64,
+    pub hi: f64,
+}
+
+/// Largest working polygon during clipping (4 + 1 per clipping line, with slack).
+const WORK: usize = 10;
+
+/// Keep the part of `p` (convex, ccw) with n·x ≤ h (Sutherland–Hodgman, one line).
+/// A vertex on the line is kept once and produces no extra intersection.
+fn clip_half_plane(p: &[[f64; 2]], n: [f64; 2], h: f64, out: &mut [[f64; 2]; WORK]) -> usize {
+    let mut k = 0;
+    let m = p.len();
+    for i in 0..m {
+        let a = p[i];
+        let b = p[(i + 1) % m];
+        let da = h - (n[0] * a[0] + n[1] * a[1]);
+        let db = h - (n[0] * b[0] + n[1] * b[1]);
+        if da >= 0.0 && k < WORK {
+            out[k] = a;
+            k += 1;
+        }
+        if ((da > 0.0 && db < 0.0) || (da < 0.0 && db > 0.0)) && k < WORK {
+            let t = da / (da - db);
+            out[k] = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
+            k += 1;
+        }
+    }
+    k
+}
+
+/// Polygon from a clipped vertex list: drop repeated vertices, reduce to ≤ 6 vertices
+/// (only reachable through rounding: drop the vertex whose removal changes the area
+/// least), and call it empty when its area is not positive.
+fn finish(buf: &[[f64; 2]]) -> Polygon {
+    let mut v = [[0.0; 2]; WORK];
+    let mut n = 0;
+    for &p in buf {
+        if n == 0 || v[n - 1] != p {
+            v[n] = p;
+            n += 1;
+        }
+    }
+    while n > 1 && v[n - 1] == v[0] {
+        n -= 1;
+    }
+    while n > MAX_VERTICES {
+        let mut best = (f64::INFINITY, 0);
+        for i in 0..n {
+            let (a, b, c) = (v[(i + n - 1) % n], v[i], v[(i + 1) % n]);
+            let t = ((b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1])).abs();
+            if t < best.0 {
+                best = (t, i);
+            }
+        }
+        v.copy_within(best.1 + 1..n, best.1);
+        n -= 1;
+    }
+    if n < 3 || area_of(&v[..n]) <= 0.0 {
+        return Polygon::EMPTY;
+    }
+    let mut out = Polygon::EMPTY;
+    out.n = n;
+    out.v[..n].copy_from_slice(&v[..n]);
+    out
+}
+
+/// The ray-space geometry of one half: x = a u + b w on the array plane and the pixel
+/// strip's normal (α a, α b − v/L_i), α = 1 + v/L_i − v/f_i (MODEL.md §4).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HalfRays {
+    pub half: Half,
+    pub a: f64,
+    pub b: f64,
+    pub alpha: f64,
+    pub half_aperture: f64,
+}
+
+impl HalfRays {
+    pub fn new(cam: &Camera, half: Half) -> HalfRays {
+        let l = cam.array_plane(half);
+        let f = cam.microlens_focal(half);
+        HalfRays {
+            half,
+            a: l / cam.v1,
+            b: 1.0 - l / cam.v1,
+            alpha: 1.0 + cam.v / l - cam.v / f,
+            half_aperture: cam.aperture / 2.0,
+        }
+    }
+
+    /// The three strips of pixel q under the microlens centred at c: aperture, microlens,
+    /// pixel. The pixel strip |s' − s| ≤ μ/2 with s' = α x − (v/L) w + (v/f) c and
+    /// s = `pixel_center` reads α a u + (α b − v/L) w ∈ α c + θ_q ± μ/2, since
+    /// s − (v/f) c = c (1 + v/L − v/f) + θ_q (the exact form, no cancellation).
+    pub fn strips(&self, cam: &Camera, c: f64, q: u32) -> [Strip; 3] {
+        let l = cam.array_plane(self.half);
+        let t = cam.pixel_offset(q);
+        let h = self.half_aperture;
+        let mid = self.alpha * c + t;
+        [
+            Strip {
+                n: [0.0, 1.0],
+                lo: -h,
+                hi: h,
+            },
+            Strip {
+                n: [self.a, self.b],
+                lo: c - cam.d / 2.0,
+                hi: c + cam.d / 2.0,
+            },
+            Strip {
+                n: [self.alpha * self.a, self.alpha * self.b - cam.v / l],
+                lo: mid - cam.mu / 2.0,
+                hi: mid + cam.mu / 2.0,
+            },
+        ]
+    }
+
+    /// Integration polygon of pixel q under the microlens centred at c: the parallelogram
+    /// aperture strip × microlens strip, clipped by the pixel strip.
+    pub fn polygon(&self, cam: &Camera, c: f64, q: u32) -> Polygon {
+        let [_, lens, pixel] = self.strips(cam, c, q);
+        let h = self.half_aperture;
+        // u = (x − b w)/a at w = ∓D/2, x = c ∓ d/2: bottom-left, bottom-right, top-right,
+        // top-left (a > 0, so counter-clockwise).
+        let u = |x: f64, w: f64| (x - self.b * w) / self.a;
+        let quad = [
+            [u(lens.lo, -h), -h],
+            [u(lens.hi, -h), -h],
+            [u(lens.hi, h), h],
+            [u(lens.lo, h), h],
+        ];
+        let mut b1 = [[0.0; 2]; WORK];
+        let mut b2 = [[0.0; 2]; WORK];
+        let n1 = clip_half_plane(&quad, pixel.n, pixel.hi, &mut b1);
+        let neg = [-pixel.n[0], -pixel.n[1]];
+        let n2 = clip_half_plane(&b1[..n1], neg, -pixel.lo, &mut b2);
+        finish(&b2[..n2])
+    }
+
+    /// Chief ray (u, w) of pixel q under the microlens centred at c: through the microlens
+    /// centre (x = c) at w = w_q (`Camera::chief_w`).
+    pub fn chief(&self, cam: &Camera, c: f64, q: u32) -> [f64; 2] {
+        let w = cam.chief_w(self.half, q);
+        [(c - self.b * w) / self.a, w]
+    }
+}
+
+/// Every pixel of one half along one axis, microlens-major (index j Q + q).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Trace {
+    pub half: Half,
+    pub axis: Axis,
+    /// Polygons, each padded with NaN rows to 6 vertices.
+    pub polygons: Vec<Polygon>,
+    pub area: Vec<f64>,
+    pub centroid: Vec<[f64; 2]>,
+    pub lens: Vec<u32>,
+    pub pixel: Vec<u32>,
+    pub chief: Vec<[f64; 2]>,
+    /// The chief ray passes the main-lens aperture (MODEL.md §6, `Camera::is_lit`).
+    pub lit: Vec<bool>,
+}
+
+/// Bytes per traced pixel (polygon, area, centroid, indices, chief, lit) plus slack.
+const TRACE_BYTES_PER_PIXEL: u128 = 8 * (12 + 1 + 2 + 2 + 2) + 8 + 8;
+
+/// Trace every pixel of `half` along `axis`: its integration polygon, area, centroid,
+/// chief ray and lit flag (MODEL.md §3–4, §6). Parallel over pixels.
+pub fn trace(cam: &Camera, half: Half, axis: Axis) -> Result<Trace> {
+    let k = cam.lenses(axis);
+    let n = k as u128 * cam.q as u128;
+    check_size("trace of one axis", n * TRACE_BYTES_PER_PIXEL)?;
+    let n = n as usize;
+    let rays = HalfRays::new(cam, half);
+    let q_count = cam.q;
+    let lens_of = |i: usize| (i / q_count as usize) as u32;
+    let pixel_of = |i: usize| (i % q_count as usize) as u32;
+    let polygons: Vec<Polygon> = (0..n)
+        .into_par_iter()
+        .with_min_len(1024)
+        .map(|i| rays.polygon(cam, cam.lens_center(lens_of(i), k), pixel_of(i)))
+        .collect();
+    let area = polygons.iter().map(Polygon::area).collect();
+    let centroid = polygons.iter().map(Polygon::centroid).collect();
+    let lens = (0..n).map(lens_of).collect();
+    let pixel = (0..n).map(pixel_of).collect();
+    let chief = (0..n)
+        .map(|i| rays.chief(cam, cam.lens_center(lens_of(i), k), pixel_of(i)))
+        .collect();
+    let lit = (0..n).map(|i| cam.is_lit(half, pixel_of(i))).collect();
+    Ok(Trace {
+        half,
+        axis,
+        polygons,
+        area,
+        centroid,
+        lens,
+        pixel,
+        chief,
+        lit,
+    })
+}
+
+/// σ = (v' − z')/z': a point of the plane at depth z is the line u + σ w = p' (MODEL.md §5).
+#[inline]
+pub fn slope(cam: &Camera, zc: f64) -> f64 {
+    (cam.v1 - zc) / zc
+}
+
+/// Footprints of n pixels at m depths, row-major (m, n); kernels (m, n, 6) when asked.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Footprints {
+    pub m: usize,
+    pub n: usize,
+    pub position: Vec<f64>,
+    pub lo: Vec<f64>,
+    pub hi: Vec<f64>,
+    /// Breakpoints (object-space X, ascending) and values (aperture length along w, mm)
+    /// of the piecewise-linear weight profile, NaN-padded to 6.
+    pub kernel: Option<(Vec<f64>, Vec<f64>)>,
+}
+
+/// Per-pixel data of the footprint loops, structure-of-arrays so the depth loop vectorises:
+/// vertex k of every pixel (padded with copies of vertex 0), and the sample ray.
+struct Prepared {
+    n: usize,
+    vu: [Vec<f64>; MAX_VERTICES],
+    vw: [Vec<f64>; MAX_VERTICES],
+    su: Vec<f64>,
+    sw: Vec<f64>,
+}
+
+fn prepare(tr: &Trace, sample: Sample) -> Prepared {
+    let n = tr.polygons.len();
+    let mut vu: [Vec<f64>; MAX_VERTICES] = Default::default();
+    let mut vw: [Vec<f64>; MAX_VERTICES] = Default::default();
+    for k in 0..MAX_VERTICES {
+        vu[k] = tr
+            .polygons
+            .iter()
+            .map(|p| {
+                if p.n == 0 {
+                    f64::NAN
+                } else {
+                    p.v[k.min(p.n - 1)][0]
+                }
+            })
+            .collect();
+        vw[k] = tr
+            .polygons
+            .iter()
+            .map(|p| {
+                if p.n == 0 {
+                    f64::NAN
+                } else {
+                    p.v[k.min(p.n - 1)][1]
+                }
+            })
+            .collect();
+    }
+    let (su, sw) = (0..n)
+        .map(|i| match sample {
+            Sample::Centroid => (tr.centroid[i][0], tr.centroid[i][1]),
+            // Chief: the position comes from `Camera::chief_projection` (see `footprints`);
+            // the flag NaN marks an unlit pixel.
+            Sample::Chief if tr.lit[i] => (0.0, 0.0),
+            Sample::Chief => (f64::NAN, f64::NAN),
+        })
+        .unzip();
+    Prepared { n, vu, vw, su, sw }
+}
+
+/// Rows of output per parallel task (each row is one depth, n pixels).
+fn rows_per_task(n: usize) -> usize {
+    (1usize << 15).div_ceil(n.max(1)).max(1)
+}
+
+/// Output buffers of [`footprints_into`], each row-major: (m, n) for `position`, `lo`,
+/// `hi`; (m, n, 6) for the kernel's breakpoints and values. Any initial content.
+pub struct FootprintsOut<'a> {
+    pub position: &'a mut [f64],
+    pub lo: &'a mut [f64],
+    pub hi: &'a mut [f64],
+    pub kernel: Option<(&'a mut [f64], &'a mut [f64])>,
+}
+
+/// Validate a footprints call before anything is allocated: thread count, every depth,
+/// and the output size. Returns (m, n): depths and pixels.
+pub fn check_footprints(
+    cam: &Camera,
+    z: &[f64],
+    axis: Axis,
+    kernel: bool,
+    n_threads: Option<usize>,
+) -> Result<(usize, usize)> {
+    check_threads(n_threads)?;
+    check_depths(cam, z)?;
+    let n = cam.lenses(axis) as u128 * cam.q as u128;
+    let m = z.len() as u128;
+    let per = if kernel {
+        3 + 2 * MAX_VERTICES as u128
+    } else {
+        3
+    };
+    check_size("footprints", m * n * per * 8 + n * TRACE_BYTES_PER_PIXEL)?;
+    Ok((m as usize, n as usize))
+}
+
+/// Footprints of every pixel of `half` along `axis` on the planes at depths `z`
+/// (MODEL.md §5): sample position, extent [lo, hi] in object-space X (mm), and with
+/// `kernel` the weight profile. Validated before any work; parallel over depths.
+pub fn footprints(
+    cam: &Camera,
+    z: &[f64],
+    half: Half,
+    axis: Axis,
+    sample: Sample,
+    kernel: bool,
+    n_threads: Option<usize>,
+) -> Result<Footprints> {
+    let (m, n) = check_footprints(cam, z, axis, kernel, n_threads)?;
+    let mut position = vec![0.0; m * n];
+    let mut lo = vec![0.0; m * n];
+    let mut hi = vec![0.0; m * n];
+    let k = if kernel { m * n * MAX_VERTICES } else { 0 };
+    let (mut kb, mut kv) = (vec![0.0; k], vec![0.0; k]);
+    let out = FootprintsOut {
+        position: &mut position,
+        lo: &mut lo,
+        hi: &mut hi,
+        kernel: kernel.then_some((&mut kb[..], &mut kv[..])),
+    };
+    footprints_into(cam, z, half, axis, sample, out, n_threads)?;
+    Ok(Footprints {
+        m,
+        n,
+        position,
+        lo,
+        hi,
+        kernel: kernel.then_some((kb, kv)),
+    })
+}
+
+/// [`footprints`] written straight into caller-provided buffers (e.g. NumPy arrays), so
+/// the outputs are the only large allocation. Lengths are checked against (m, n).
+pub fn footprints_into(
+    cam: &Camera,
+    z: &[f64],
+    half: Half,
+    axis: Axis,
+    sample: Sample,
+    out: FootprintsOut<'_>,
+    n_threads: Option<usize>,
+) -> Result<()> {
+    let (m, n) = check_footprints(cam, z, axis, out.kernel.is_some(), n_threads)?;
+    let lens = [out.position.len(), out.lo.len(), out.hi.len()];
+    if lens.iter().any(|&l| l != m * n) {
+        return Err(Error::param(
+            "output length",
+            format!("{lens:?}"),
+            format!("{} (m = {m} depths × n = {n} pixels)", m * n),
+        ));
+    }
+    if let Some((b, v)) = &out.kernel {
+        if b.len() != m * n * MAX_VERTICES || v.len() != m * n * MAX_VERTICES {
+            return Err(Error::param(
+                "kernel output length",
+                format!("{:?}", (b.len(), v.len())),
+                format!("{}", m * n * MAX_VERTICES),
+            ));
+        }
+    }
+    with_threads(n_threads, || {
+        footprints_unchecked(cam, z, half, axis, sample, out)
+    })?
+}
+
+fn footprints_unchecked(
+    cam: &Camera,
+    z: &[f64],
+    half: Half,
+    axis: Axis,
+    sample: Sample,
+    out: FootprintsOut<'_>,
+) -> Result<()> {
+    let tr = trace(cam, half, axis)?;
+    let pre = prepare(&tr, sample);
+    let k_lenses = cam.lenses(axis);
+    let centres: Vec<f64> = tr
+        .lens
+        .iter()
+        .map(|&j| cam.lens_center(j, k_lenses))
+        .collect();
+    let n = pre.n;
+    if n == 0 || z.is_empty() {
+        return Ok(());
+    }
+    let rows = rows_per_task(n);
+    out.position
+        .par_chunks_mut(rows * n)
+        .zip(out.lo.par_chunks_mut(rows * n))
+        .zip(out.hi.par_chunks_mut(rows * n))
+        .zip(z.par_chunks(rows))
+        .for_each(|(((pos, lo), hi), zs)| {
+            for (r, &zk) in zs.iter().enumerate() {
+                let span = r * n..(r + 1) * n;
+                let zc = conjugate(cam.f_main, zk);
+                footprint_row(
+                    cam,
+                    &tr,
+                    &pre,
+                    &centres,
+                    sample,
+                    zk,
+                    zc,
+                    &mut pos[span.clone()],
+                    &mut lo[span.clone()],
+                    &mut hi[span],
+                );
+            }
+        });
+    if let Some((br, va)) = out.kernel {
+        let w = n * MAX_VERTICES;
+        br.par_chunks_mut(rows * w)
+            .zip(va.par_chunks_mut(rows * w))
+            .zip(z.par_chunks(rows))
+            .for_each(|((br, va), zs)| {
+                for (r, &zk) in zs.iter().enumerate() {
+                    let sigma = slope(cam, conjugate(cam.f_main, zk));
+                    let scale = -zk / cam.v1;
+                    for (i, p) in tr.polygons.iter().enumerate() {
+                        let o = (r * n + i) * MAX_VERTICES;
+                        let (b, v) = weight_profile(p, sigma);
+                        for t in 0..MAX_VERTICES {
+                            // X = −p' z / v' reverses the order: write ascending in X,
+                            // then the NaN padding.
+                            let (bt, vt) = if t < p.n {
+                                (b[p.n - 1 - t] * scale, v[p.n - 1 - t])
+                            } else {
+                                (f64::NAN, f64::NAN)
+                            };
+                            br[o + t] = bt;
+                            va[o + t] = vt;
+                        }
+                    }
+                }
+            });
+    }
+    Ok(())
+}
+
+/// One depth: positions and extents of all n pixels, written straight into the output rows.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn footprint_row(
+    cam: &Camera,
+    tr: &Trace,
+    pre: &Prepared,
+    centres: &[f64],
+    sample: Sample,
+    z: f64,
+    zc: f64,
+    pos: &mut [f64],
+    lo: &mut [f64],
+    hi: &mut [f64],
+) {
+    let sigma = slope(cam, zc);
+    let scale = -z / cam.v1; // X = −p' z / v' (negative: lo comes from the largest p')
+    let n = pre.n;
+    let (vu, vw) = (&pre.vu, &pre.vw);
+    for i in 0..n {
+        let mut mn = vu[0][i] + sigma * vw[0][i];
+        let mut mx = mn;
+        for k in 1..MAX_VERTICES {
+            let p = vu[k][i] + sigma * vw[k][i];
+            mn = if p < mn { p } else { mn };
+            mx = if p > mx { p } else { mx };
+        }
+        lo[i] = mx * scale;
+        hi[i] = mn * scale;
+    }
+    match sample {
+        Sample::Centroid => {
+            for ((o, &u), &w) in pos.iter_mut().zip(&pre.su).zip(&pre.sw) {
+                *o = (u + sigma * w) * scale;
+            }
+        }
+        Sample::Chief => {
+            for i in 0..n {
+                let p = cam.chief_projection(tr.half, centres[i], tr.pixel[i], zc);
+                // su is 0 for lit pixels and NaN for unlit ones.
+                pos[i] = cam.object_position(p, z) + pre.su[i];
+            }
+        }
+    }
+}
+
+/// Weight profile of a polygon on the lines u + σ w = p' (MODEL.md §5): breakpoints p'
+/// (the vertex projections, ascending) and the chord length along w at each, the aperture
+/// length of the rays from that point the pixel collects (∫ weight dp' = area).
+/// An edge parallel to the lines makes a jump at an end of the support: the repeated
+/// breakpoint carries 0 on the outside and the edge's length on the inside.
+pub fn weight_profile(p: &Polygon, sigma: f64) -> ([f64; MAX_VERTICES], [f64; MAX_VERTICES]) {
+    let mut br = [f64::NAN; MAX_VERTICES];
+    let mut va = [f64::NAN; MAX_VERTICES];
+    let n = p.n;
+    if n == 0 {
+        return (br, va);
+    }
+    let mut g = [0.0; MAX_VERTICES];
+    for (gk, v) in g.iter_mut().zip(p.vertices()) {
+        *gk = v[0] + sigma * v[1];
+    }
+    let mut order = [0usize; MAX_VERTICES];
+    for (k, o) in order.iter_mut().enumerate().take(n) {
+        *o = k;
+    }
+    order[..n].sort_by(|&x, &y| g[x].total_cmp(&g[y]));
+    for (t, &k) in order[..n].iter().enumerate() {
+        let at = g[k];
+        let (mut wmin, mut wmax) = (f64::INFINITY, f64::NEG_INFINITY);
+        for e in 0..n {
+            let (a, b) = (e, (e + 1) % n);
+            if g[a] == at {
+                wmin = wmin.min(p.v[a][1]);
+                wmax = wmax.max(p.v[a][1]);
+            }
+            if (g[a] < at && at < g[b]) || (g[b] < at && at < g[a]) {
+                let s = (at - g[a]) / (g[b] - g[a]);
+                let w = p.v[a][1] + s * (p.v[b][1] - p.v[a][1]);
+                wmin = wmin.min(w);
+                wmax = wmax.max(w);
+            }
+        }
+        br[t] = at;
+        va[t] = wmax - wmin;
+    }
+    // Jumps at the ends: outermost copy of a repeated end breakpoint has weight 0.
+    if n >= 2 && br[0] == br[1] {
+        va[0] = 0.0;
+    }
+    if n >= 2 && br[n - 1] == br[n - 2] {
+        va[n - 1] = 0.0;
+    }
+    (br, va)
+}
+
+/// Per-axis sample positions of one half on the plane at depth z: object-space position
+/// of every pixel along the axis (NaN where it yields no sample).
+fn axis_samples(cam: &Camera, half: Half, axis: Axis, sample: Sample, z: f64) -> Vec<f64> {
+    let k = cam.lenses(axis);
+    let zc = conjugate(cam.f_main, z);
+    let rays = HalfRays::new(cam, half);
+    let sigma = slope(cam, zc);
+    let mut out = Vec::with_capacity(k as usize * cam.q as usize);
+    for j in 0..k {
+        let c = cam.lens_center(j, k);
+        for q in 0..cam.q {
+            let x = match sample {
+                Sample::Chief if cam.is_lit(half, q) => {
+                    cam.object_position(cam.chief_projection(half, c, q, zc), z)
+                }
+                Sample::Chief => f64::NAN,
+                Sample::Centroid => {
+                    let [u, w] = rays.polygon(cam, c, q).centroid();
+                    (u + sigma * w) * (-z / cam.v1)
+                }
+            };
+            out.push(x);
+        }
+    }
+    out
+}
+
+/// Validate a sample_grid call before anything is allocated; returns (rows, cols) =
+/// (Ky Q, Kx Q).
+pub fn check_sample_grid(cam: &Camera, z: f64, n_threads: Option<usize>) -> Result<(usize, usize)> {
+    check_threads(n_threads)?;
+    check_depths(cam, &[z])?;
+    let cols = cam.kx as u128 * cam.q as u128;
+    let rows = cam.ky as u128 * cam.q as u128;
+    check_size(
+        "sample_grid (two outputs)",
+        2 * 8 * rows * cols + 8 * (rows + cols),
+    )?;
+    Ok((rows as usize, cols as usize))
+}
+
+/// The full 2D sensor of one half on the plane at depth z: (X, Y), each (Ky Q, Kx Q)
+/// row-major, rows along y and columns along x. Separable: X depends on the column only,
+/// Y on the row only, and under the square aperture a pixel yields a sample iff it does
+/// along both axes (the 4D integration region is the product of the two 2D polygons, so
+/// its centroid is the pair of centroids). Only the two outputs are allocated in full.
+pub fn sample_grid(
+    cam: &Camera,
+    z: f64,
+    half: Half,
+    sample: Sample,
+    n_threads: Option<usize>,
+) -> Result<(Vec<f64>, Vec<f64>)> {
+    let (rows, cols) = check_sample_grid(cam, z, n_threads)?;
+    let mut gx = vec![0.0; rows * cols];
+    let mut gy = vec![0.0; rows * cols];
+    sample_grid_into(cam, z, half, sample, &mut gx, &mut gy, n_threads)?;
+    Ok((gx, gy))
+}
+
+/// [`sample_grid`] written straight into caller-provided (Ky Q, Kx Q) buffers.
+pub fn sample_grid_into(
+    cam: &Camera,
+    z: f64,
+    half: Half,
+    sample: Sample,
+    gx: &mut [f64],
+    gy: &mut [f64],
+    n_threads: Option<usize>,
+) -> Result<()> {
+    let (rows, cols) = check_sample_grid(cam, z, n_threads)?;
+    if gx.len() != rows * cols || gy.len() != rows * cols {
+        return Err(Error::param(
+            "output length",
+            format!("{:?}", (gx.len(), gy.len())),
+            format!(
+                "{} (Ky Q = {rows} rows × Kx Q = {cols} columns)",
+                rows * cols
+            ),
+        ));
+    }
+    with_threads(n_threads, || {
+        let xs = axis_samples(cam, half, Axis::X, sample, z);
+        let ys = axis_samples(cam, half, Axis::Y, sample, z);
+        let per = rows_per_task(cols);
+        gx.par_chunks_mut(per * cols)
+            .zip(gy.par_chunks_mut(per * cols))
+            .zip(ys.par_chunks(per))
+            .for_each(|((gx, gy), yr)| {
+                for (r, &y) in yr.iter().enumerate() {
+                    let rx = &mut gx[r * cols..(r + 1) * cols];
+                    let ry = &mut gy[r * cols..(r + 1) * cols];
+                    if y.is_nan() {
+                        rx.fill(f64::NAN);
+                        ry.fill(f64::NAN);
+                    } else {
+                        rx.copy_from_slice(&xs);
+                        for (oy, &x) in ry.iter_mut().zip(&xs) {
+                            // y + 0·x is y where x is a sample, NaN where it is not.
+                            *oy = y + 0.0 * x;
+                        }
+                    }
+                }
+            });
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn design(f1: Option<f64>, f2: Option<f64>) -> Camera {
+        let p = Camera::paper();
+        Camera::new(
+            p.f_main, p.aperture, p.v1, p.kappa, p.d, p.v, p.mu, 15, 6, 4, f1, f2,
+        )
+        .unwrap()
+    }
+
+    fn close(a: f64, b: f64, tol: f64) -> bool {
+        (a - b).abs() <= tol * a.abs().max(b.abs()).max(1e-300)
+    }
+
+    #[test]
+    fn strip_offset_matches_pixel_center() {
+        // α c + θ_q is s − (v/f) c with s = Camera::pixel_center.
+        let cam = design(Some(0.5), Some(0.9));
+        for half in Half::BOTH {
+            let rays = HalfRays::new(&cam, half);
+            for q in [0, 7, 14] {
+                let c = cam.lens_center(5, 6);
+                let s = rays.strips(&cam, c, q)[2];
+                let f = cam.microlens_focal(half);
+                let want = cam.pixel_center(half, c, q) - cam.v / f * c;
+                assert!(((s.lo + s.hi) / 2.0 - want).abs() < 1e-12);
+            }
+        }
+    }
+
+    #[test]
+    fn half1_ng_rectangles() {
+        // MODEL §8: width d, height μ v'/v, axis-aligned, in Ng's setting.
+        let cam = Camera::paper();
+        let tr = trace(&cam, Half::One, Axis::X).unwrap();
+        let h = cam.mu * cam.v1 / cam.v;
+        for (i, p) in tr.polygons.iter().enumerate() {
+            assert!(tr.lit[i]);
+            assert_eq!(p.n, 4);
+            let us: Vec<f64> = p.vertices().iter().map(|v| v[0]).collect();
+            let ws: Vec<f64> = p.vertices().iter().map(|v| v[1]).collect();
+            let umin = us.iter().cloned().fold(f64::INFINITY, f64::min);
+            let umax = us.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+            let wmin = ws.iter().cloned().fold(f64::INFINITY, f64::min);
+            let wmax = ws.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+            assert!(close(umax - umin, cam.d, 1e-12));
+            assert!(close(wmax - wmin, h, 1e-9));
+            assert!(close(p.area(), cam.d * h, 1e-9));
+        }
+    }
+
+    #[test]
+    fn light_is_conserved_under_each_microlens() {
+        // MODEL §8: Σ areas = D d v'/L_i when the microlens image fits in its Q pixels.
+        let cam = Camera::paper();
+        for half in Half::BOTH {
+            let tr = trace(&cam, half, Axis::Y).unwrap();
+            let full = cam.aperture * cam.d * cam.v1 / cam.array_plane(half);
+            for lens in tr.area.chunks(cam.q as usize) {
+                let s: f64 = lens.iter().sum();
+                assert!(close(s, full, 1e-12), "{s} vs {full}");
+            }
+        }
+    }
+
+    #[test]
+    fn weight_profile_integrates_to_area() {
+        let cam = design(Some(0.4), Some(2.0));
+        let rays = HalfRays::new(&cam, Half::Two);
+        for q in 0..cam.q {
+            let p = rays.polygon(&cam, cam.lens_center(1, 6), q);
+            for sigma in [-0.5, 0.0, 0.3, 2.0] {
+                let (b, v) = weight_profile(&p, sigma);
+                let mut integral = 0.0;
+                for t in 1..p.n {
+                    integral += 0.5 * (v[t] + v[t - 1]) * (b[t] - b[t - 1]);
+                }
+                assert!(close(integral, p.area(), 1e-10), "{integral} {}", p.area());
+            }
+        }
+    }
+
+    #[test]
+    fn rejects_bad_input_before_work() {
+        let cam = Camera::paper();
+        assert!(axis_from_name("z").is_err());
+        assert!(Sample::from_name("mean").is_err());
+        let bad = [f64::NAN, 80.0, 10.0, f64::INFINITY];
+        for z in bad {
+            let r = footprints(
+                &cam,
+                &[500.0, z],
+                Half::One,
+                Axis::X,
+                Sample::Chief,
+                false,
+                None,
+            );
+            assert!(matches!(r, Err(Error::InvalidDepth { index: 1, .. })));
+            assert!(matches!(
+                sample_grid(&cam, z, Half::One, Sample::Chief, None),
+                Err(Error::InvalidDepth { .. })
+            ));
+        }
+        let huge = Camera::new(
+            80.0, 20.0, 90.0, 0.3, 0.1, 1.0, 0.01, 65_535, 10_000_000, 10_000_000, None, None,
+        )
+        .unwrap();
+        assert!(matches!(
+            sample_grid(&huge, 500.0, Half::One, Sample::Chief, None),
+            Err(Error::TooLarge { .. })
+        ));
+        assert!(matches!(
+            trace(&huge, Half::One, Axis::X),
+            Err(Error::TooLarge { .. })
+        ));
+    }
+
+    #[test]
+    fn chief_ray_lies_inside_lit_polygons() {
+        let cam = design(Some(0.7), None);
+        for half in Half::BOTH {
+            let tr = trace(&cam, half, Axis::X).unwrap();
+            for i in 0..tr.polygons.len() {
+                if tr.lit[i] {
+                    assert!(tr.area[i] > 0.0);
+                }
+            }
+        }
+    }
+}
