@@ -6,6 +6,7 @@ import json
 import math
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -73,3 +74,51 @@ def test_console_script():
     r = subprocess.run([sys.executable, "-m", "splitlf", "report", "--json"],
                        capture_output=True, text=True, check=True)
     assert json.loads(r.stdout)["derived"]["f_number"] == 4.0
+
+
+def test_trace_npz(tmp_path, capsys):
+    import numpy as np
+
+    import splitlf
+
+    out = tmp_path / "t.npz"
+    code, stdout, _ = run(["trace", "--out", str(out), "--json"], capsys)
+    assert code == 0
+    summary = json.loads(stdout)
+    data = np.load(out)
+    cam = Camera.paper()
+    for h in (1, 2):
+        t = splitlf.trace(cam, h)
+        np.testing.assert_array_equal(data[f"half{h}_area"], t.area)
+        np.testing.assert_array_equal(data[f"half{h}_vertices"], t.vertices)
+        assert summary[f"half{h}"]["pixels"] == cam.Kx * cam.Q
+    assert summary["half2"]["lit"] == cam.Kx * 11
+    assert "[camera]" in str(data["camera_toml"])
+
+
+def test_trace_bad_suffix(tmp_path, capsys):
+    code, _, err = run(["trace", "--out", str(tmp_path / "t.txt")], capsys)
+    assert code == 2 and ".npz" in err
+
+
+def test_figures_pngs(tmp_path, capsys):
+    from matplotlib.image import imread
+
+    code, stdout, _ = run(["figures", "--out", str(tmp_path), "--dpi", "100"], capsys)
+    assert code == 0
+    paths = stdout.split()
+    assert len(paths) == 4
+    from splitlf.plot import FIGURES
+
+    for p in paths:
+        img = imread(p)
+        w, h = FIGURES[Path(p).stem][2]
+        assert img.shape[:2] == (round(h * 100), round(w * 100))
+        assert img[..., :3].std() > 0.05  # not blank
+
+
+@pytest.mark.parametrize("cmd", ["report", "figures", "trace", "sweep"])
+def test_help(cmd, capsys):
+    with pytest.raises(SystemExit) as e:
+        main([cmd, "--help"])
+    assert e.value.code == 0 and "--threads" in capsys.readouterr().out

@@ -47,14 +47,12 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
 # -- figures -----------------------------------------------------------------------------
 
-FIGURE_SIZE_IN = (7.0, 4.2)
-
-
-def figure_functions() -> dict[str, Any]:
-    """File stem -> plot function taking (camera, ax=...)."""
+def figure_functions() -> dict[str, tuple[Any, int, tuple[float, float]]]:
+    """File stem -> (plot function taking (camera, ax=...), stacked panels, size [in])."""
     from . import plot
 
-    return {name: getattr(plot, fn) for name, fn in plot.FIGURES.items()}
+    return {stem: (getattr(plot, fn), panels, size)
+            for stem, (fn, panels, size) in plot.FIGURES.items()}
 
 
 def _cmd_figures(args: argparse.Namespace) -> int:
@@ -65,13 +63,51 @@ def _cmd_figures(args: argparse.Namespace) -> int:
     camera, _ = _load_camera(args.config)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    for stem, fn in figure_functions().items():
+    for stem, (fn, panels, size) in figure_functions().items():
         # A bare Figure needs no pyplot backend: nothing global is changed.
-        fig = Figure(figsize=FIGURE_SIZE_IN, layout="constrained")
-        fn(camera, ax=fig.add_subplot())
+        fig = Figure(figsize=size, layout="constrained")
+        if panels == 1:
+            fn(camera, ax=fig.add_subplot())
+        else:
+            fn(camera, ax=fig.subplots(panels, 1, sharex=True))
         path = out / f"{stem}.{args.format}"
         fig.savefig(path, dpi=args.dpi)
         print(path)
+    return 0
+
+
+# -- trace -------------------------------------------------------------------------------
+
+TRACE_FIELDS = ("vertices", "n_vertices", "area", "centroid", "lens", "pixel", "chief", "lit")
+
+
+def _cmd_trace(args: argparse.Namespace) -> int:
+    from .rayspace import trace
+
+    camera, source = _load_camera(args.config)
+    out = Path(args.out)
+    if out.suffix != ".npz":
+        raise CliError(f"--out {out}: the ray-space arrays are written as .npz")
+    arrays: dict[str, Any] = {"camera_toml": np.array(camera.to_toml())}
+    summary: dict[str, Any] = {"path": str(out), "source": source, "axis": args.axis}
+    for h in (1, 2):
+        t = trace(camera, h, axis=args.axis)
+        for name in TRACE_FIELDS:
+            arrays[f"half{h}_{name}"] = getattr(t, name)
+        summary[f"half{h}"] = {
+            "pixels": int(t.area.size),
+            "lit": int(np.count_nonzero(t.lit)),
+            "polygons_by_vertex_count": {
+                str(k): int(np.count_nonzero(t.n_vertices == k)) for k in range(7)
+                if np.any(t.n_vertices == k)
+            },
+            "total_area_mm2": float(t.area.sum()),
+        }
+    np.savez_compressed(out, **arrays)
+    if args.json:
+        _dump_json(summary)
+    else:
+        print(out)
     return 0
 
 
@@ -211,6 +247,16 @@ def build_parser() -> argparse.ArgumentParser:
     fig.add_argument("--format", choices=("png", "svg"), default="png")
     fig.add_argument("--dpi", type=int, default=150)
     fig.set_defaults(func=_cmd_figures)
+
+    tr = sub.add_parser("trace", help="write every pixel's ray-space polygon to .npz",
+                        description="Trace every pixel of both halves along one axis "
+                        "(MODEL.md §3-4) and write the arrays of splitlf.trace, prefixed "
+                        "half1_/half2_, with the camera as TOML, to an .npz file.")
+    common(tr)
+    tr.add_argument("--axis", choices=("x", "y"), default="x")
+    tr.add_argument("--out", default="trace.npz", metavar="FILE.npz")
+    tr.add_argument("--json", action="store_true", help="print a JSON summary of the arrays")
+    tr.set_defaults(func=_cmd_trace)
 
     sw = sub.add_parser("sweep", help="figures of merit over a grid of designs",
                         description="Full-factorial design sweep from a TOML file with "

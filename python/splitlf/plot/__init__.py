@@ -8,10 +8,11 @@ from .samples import samples
 
 __all__ = ["FIGURES", "blur", "ray_space", "repetitions", "samples"]
 
-#: What ``splitlf figures`` writes: file stem -> function name in this module.
+#: What ``splitlf figures`` writes: file stem -> (function name in this module, number of
+#: stacked panels the function draws on, figure size in inches).
 FIGURES = {
-    "fig1_blur": "blur",
-    "fig4_ray_space": "ray_space",
-    "fig5_repetitions": "repetitions",
-    "samples": "samples",
+    "fig1_blur": ("blur", 1, (7.0, 4.2)),
+    "fig4_ray_space": ("ray_space", 1, (9.0, 6.0)),
+    "fig5_repetitions": ("repetitions", 1, (7.0, 4.2)),
+    "samples": ("samples", 2, (11.5, 7.5)),
 }
