@@ -10,6 +10,8 @@ echo "== cargo clippy -D warnings"
 cargo clippy --workspace --all-targets --quiet -- -D warnings
 echo "== ruff"
 python -m ruff check python tests benches docs
+echo "== stubtest (the .pyi stub matches the native module)"
+python -m mypy.stubtest splitlf._native
 echo "== cargo test (core)"
 cargo test -p splitlf-core --quiet
 echo "== pytest"

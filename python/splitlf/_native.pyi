@@ -1,7 +1,23 @@
 """Type stubs of the Rust extension module (rust/py)."""
 
+from typing import final
+
 import numpy as np
 import numpy.typing as npt
+
+__all__ = [
+    "CameraCore",
+    "__version__",
+    "coincidence_planes",
+    "curves",
+    "depth_of_field",
+    "figures_of_merit",
+    "footprints",
+    "new_samples",
+    "sample_grid",
+    "sharp_fractions",
+    "trace",
+]
 
 __version__: str
 
@@ -9,6 +25,7 @@ _F64 = npt.NDArray[np.float64]
 _I64 = npt.NDArray[np.int64]
 _Intervals = list[tuple[float, float]]
 
+@final
 class CameraCore:
     def __new__(
         cls,
