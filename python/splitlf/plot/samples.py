@@ -9,20 +9,11 @@ import numpy as np
 from .. import _validate
 from ..camera import Camera
 from ..samples import coincidence_planes, new_samples, sweep_depths
+from ._mpl import pyplot
 
 __all__ = ["samples"]
 
 _COLORS = {1: "tab:blue", 2: "tab:orange", "split": "black"}
-
-
-def _pyplot():
-    try:
-        import matplotlib.pyplot as plt
-    except ImportError as e:  # pragma: no cover - depends on the environment
-        raise ImportError(
-            'splitlf.plot needs matplotlib: pip install "splitlf[plot]"'
-        ) from e
-    return plt
 
 
 def samples(
@@ -43,7 +34,7 @@ def samples(
     (counts, gap). Returns the pair of Axes. The depths are :func:`splitlf.samples.sweep_depths`.
     """
     cam = _validate.camera(camera)
-    plt = _pyplot()
+    plt = pyplot()
     if ax is None:
         fig, axes = plt.subplots(2, 1, sharex=True, figsize=(11.5, 7.5), layout="constrained")
     else:
