@@ -283,3 +283,37 @@ def test_bad_forward_input():
     a, _ = forward(SEED, 700.0, "half2", -20.0, 0.01, t[:, ::2])
     b, _ = forward(SEED, 700.0, "half2", -20.0, 0.01, np.ascontiguousarray(t[:, ::2]))
     np.testing.assert_array_equal(a, b)
+
+
+def test_cli_simulate(capsys, tmp_path):
+    import json
+
+    from splitlf.cli import main
+
+    assert main(["simulate", "--z", "642", "--json", "--threads", "1"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    r = simulate(SEED, 642.0, n_threads=1)
+    assert data["results"][0]["mtf50_cycles_per_mm"] == dict(r.mtf50)
+    np.save(tmp_path / "img.npy", np.ones((3, 8)))
+    assert main(["simulate", "--z-range", "300", "2000", "--n", "2",
+                 "--texture", f"image:{tmp_path / 'img.npy'}:5"]) == 0
+    assert "split" in capsys.readouterr().out
+    for bad in (["--texture", "stripes"], ["--z", "10"], ["--texture", "sinusoid:-1"]):
+        assert main(["simulate", *bad]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("splitlf simulate: error:") and err.count("\n") == 1
+
+
+def test_plot_resolution_returns_axes():
+
+    from matplotlib.figure import Figure
+
+    from splitlf.plot import resolution
+
+    fig = Figure()
+    axes = fig.subplots(2, 1)
+    out = resolution(SEED, (300.0, 1000.0), ax=axes, n=2, n_frequencies=8, window=64)
+    assert list(out) == list(axes)
+    assert len(out[0].lines) >= 6
+    with pytest.raises(ValueError):
+        resolution(SEED, (1000.0, 300.0), ax=axes)
