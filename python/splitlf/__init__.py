@@ -10,15 +10,21 @@ from .camera import Camera
 from .optics import Curves, DepthOfField, curves, depth_of_field, sharp_fractions
 from .rayspace import Footprints, SampleGrid, Trace, footprints, sample_grid, trace
 from .samples import CoincidencePlanes, NewSamples, coincidence_planes, new_samples
+from .simulation import BarChart, Image, RandomAlbedo, Simulation, Sinusoid, simulate
 
 __all__ = [
+    "BarChart",
     "Camera",
     "CoincidencePlanes",
     "Curves",
     "DepthOfField",
     "Footprints",
+    "Image",
     "NewSamples",
+    "RandomAlbedo",
     "SampleGrid",
+    "Simulation",
+    "Sinusoid",
     "Trace",
     "__version__",
     "coincidence_planes",
@@ -28,5 +34,6 @@ __all__ = [
     "new_samples",
     "sample_grid",
     "sharp_fractions",
+    "simulate",
     "trace",
 ]

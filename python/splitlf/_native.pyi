@@ -54,6 +54,7 @@ class CameraCore:
     def ng_focal_length(self, half_: int) -> float: ...
     def rho(self) -> float: ...
     def f_number(self) -> float: ...
+    def resolution_step(self, z: float) -> float: ...
 
 def curves(
     camera: CameraCore, z: _F64, n_threads: int | None = None
@@ -109,3 +110,28 @@ def footprints(
 def sample_grid(
     camera: CameraCore, z: float, half: int, sample: str = "chief", n_threads: int | None = None
 ) -> tuple[_F64, _F64]: ...
+def kernel_support(
+    camera: CameraCore, z: float, source: str, n_threads: int | None = None
+) -> float: ...
+def system_matrix(
+    camera: CameraCore,
+    z: float,
+    source: str,
+    origin: float,
+    step: float,
+    n_cells: int,
+    field_lo: float,
+    field_hi: float,
+    n_threads: int | None = None,
+) -> tuple[_I64, _I64, _F64, _I64, tuple[int, int]]: ...
+def render(
+    camera: CameraCore,
+    z: float,
+    source: str,
+    origin: float,
+    step: float,
+    field_lo: float,
+    field_hi: float,
+    textures: _F64,
+    n_threads: int | None = None,
+) -> tuple[_F64, _I64]: ...

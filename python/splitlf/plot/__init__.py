@@ -4,9 +4,10 @@ on; this package never selects a backend."""
 
 from .curves import blur, repetitions
 from .rayspace import ray_space
+from .resolution import resolution
 from .samples import samples
 
-__all__ = ["FIGURES", "blur", "ray_space", "repetitions", "samples"]
+__all__ = ["FIGURES", "blur", "ray_space", "repetitions", "resolution", "samples"]
 
 #: What ``splitlf figures`` writes: file stem -> (function name in this module, number of
 #: stacked panels the function draws on, figure size in inches).

@@ -4,7 +4,8 @@
 //! [`optics`] the closed forms over depth (Eqs. 1–7) and the depth of field,
 //! [`rayspace`] every pixel's integration polygon in (u, w) and its footprints (§3–5),
 //! [`samples`] the coincidence planes and genuinely new samples (Eqs. 8–9, MODEL.md §6),
-//! [`merit`] the figures of merit of one design that sweeps compare.
+//! [`merit`] the figures of merit of one design that sweeps compare,
+//! [`simulate`] the forward model and system matrix of the super-resolution simulation.
 //! Every parallel entry point takes `n_threads` (see [`parallel`]).
 
 pub mod camera;
@@ -14,6 +15,7 @@ pub mod optics;
 pub mod parallel;
 pub mod rayspace;
 pub mod samples;
+pub mod simulate;
 
 pub use camera::{Axis, Camera, Half};
 pub use error::{Error, Result};

@@ -4,12 +4,13 @@
 use std::borrow::Cow;
 
 use numpy::ndarray::{Array1, Array2};
-use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
 use splitlf_core::rayspace::{self, Sample};
 use splitlf_core::samples::{self, SampleMode};
+use splitlf_core::simulate::{self, Grid, Source};
 use splitlf_core::{optics, Camera, Error, Half};
 
 /// Core errors are all bad input: `ValueError` with the core's message (which names the
@@ -127,6 +128,12 @@ impl CameraCore {
 
     fn f_number(&self) -> f64 {
         self.inner.f_number()
+    }
+
+    /// δ(z) = d z / (Q v') (MODEL.md §6); z must be a valid depth.
+    fn resolution_step(&self, z: f64) -> PyResult<f64> {
+        optics::check_depths(&self.inner, &[z]).map_err(to_py)?;
+        Ok(self.inner.resolution_step(z))
     }
 }
 
@@ -453,6 +460,98 @@ fn sample_grid<'py>(
     Ok((gx, gy))
 }
 
+/// Widest pixel kernel (hi − lo, mm in object-space X) of a source at depth z.
+#[pyfunction]
+#[pyo3(signature = (camera, z, source, n_threads=None))]
+fn kernel_support(
+    py: Python<'_>,
+    camera: &CameraCore,
+    z: f64,
+    source: &str,
+    n_threads: Option<usize>,
+) -> PyResult<f64> {
+    let cam = camera.inner;
+    let src = Source::from_name(source).map_err(to_py)?;
+    py.detach(|| simulate::kernel_support(&cam, z, src, n_threads))
+        .map_err(to_py)
+}
+
+type CsrArrays<'py> = (
+    Bound<'py, PyArray1<i64>>,
+    Bound<'py, PyArray1<i64>>,
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<i64>>,
+    (usize, usize),
+);
+
+/// System matrix of a source at depth z on the grid (origin, step, n_cells), rows the
+/// pixels whose kernels lie in [field_lo, field_hi]: (indptr, indices, data, pixels, shape).
+#[pyfunction]
+#[pyo3(signature = (camera, z, source, origin, step, n_cells, field_lo, field_hi, n_threads=None))]
+#[allow(clippy::too_many_arguments)]
+fn system_matrix<'py>(
+    py: Python<'py>,
+    camera: &CameraCore,
+    z: f64,
+    source: &str,
+    origin: f64,
+    step: f64,
+    n_cells: usize,
+    field_lo: f64,
+    field_hi: f64,
+    n_threads: Option<usize>,
+) -> PyResult<CsrArrays<'py>> {
+    let cam = camera.inner;
+    let src = Source::from_name(source).map_err(to_py)?;
+    let grid = Grid::new(origin, step, n_cells).map_err(to_py)?;
+    let sys = py
+        .detach(|| simulate::system_matrix(&cam, z, src, grid, (field_lo, field_hi), n_threads))
+        .map_err(to_py)?;
+    let m = sys.matrix;
+    let px: Vec<i64> = sys.pixels.iter().map(|&p| p as i64).collect();
+    Ok((
+        m.indptr.into_pyarray(py),
+        m.indices.into_pyarray(py),
+        m.data.into_pyarray(py),
+        px.into_pyarray(py),
+        (m.rows, m.cols),
+    ))
+}
+
+type RenderArrays<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray1<i64>>);
+
+/// Noise-free pixel values of a source at depth z for textures (n_tex, n_cells) constant on
+/// each cell of the grid: (values (n_tex, n_pix), pixels).
+#[pyfunction]
+#[pyo3(signature = (camera, z, source, origin, step, field_lo, field_hi, textures, n_threads=None))]
+#[allow(clippy::too_many_arguments)]
+fn render<'py>(
+    py: Python<'py>,
+    camera: &CameraCore,
+    z: f64,
+    source: &str,
+    origin: f64,
+    step: f64,
+    field_lo: f64,
+    field_hi: f64,
+    textures: PyReadonlyArray2<'py, f64>,
+    n_threads: Option<usize>,
+) -> PyResult<RenderArrays<'py>> {
+    let cam = camera.inner;
+    let src = Source::from_name(source).map_err(to_py)?;
+    let (n_tex, n_cells) = textures.as_array().dim();
+    let grid = Grid::new(origin, step, n_cells).map_err(to_py)?;
+    let flat: Cow<'_, [f64]> = match textures.as_slice() {
+        Ok(s) => Cow::Borrowed(s),
+        Err(_) => Cow::Owned(textures.as_array().iter().copied().collect()),
+    };
+    let (values, pixels) = py
+        .detach(|| simulate::render(&cam, z, src, grid, (field_lo, field_hi), &flat, n_threads))
+        .map_err(to_py)?;
+    let px: Vec<i64> = pixels.iter().map(|&p| p as i64).collect();
+    Ok((rows(py, values, n_tex)?, px.into_pyarray(py)))
+}
+
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
@@ -466,5 +565,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(trace, m)?)?;
     m.add_function(wrap_pyfunction!(footprints, m)?)?;
     m.add_function(wrap_pyfunction!(sample_grid, m)?)?;
+    m.add_function(wrap_pyfunction!(kernel_support, m)?)?;
+    m.add_function(wrap_pyfunction!(system_matrix, m)?)?;
+    m.add_function(wrap_pyfunction!(render, m)?)?;
     Ok(())
 }

@@ -1,0 +1,593 @@
+"""Super-resolution simulation: what the split sensor buys (issue 7, ``docs/simulate.md``).
+
+A textured Lambertian plane at a known depth z is imaged by half 1 alone (the original
+light field camera), half 2 alone, both halves together (the split sensor) and the
+conventional camera of the same sensor; each image is inverted by regularised least
+squares on a grid of spacing delta(z) (full sensor resolution, MODEL.md §6), and the
+reconstructions are scored (RMSE, PSNR, MTF50).
+
+The optics run in the Rust core: every pixel value is the exact integral of a
+piecewise-constant texture against the pixel's footprint kernel (``_native.render``), and
+the system matrix holds the exact integral of each kernel over each grid cell
+(``_native.system_matrix``). This module holds the orchestration: textures on the fine
+grid, noise (NumPy's seeded Generator), the sparse solve (SciPy) and the metrics.
+
+The simulation is 1D, along x: one row of the texture, pixels of one sensor row.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import numbers
+import types
+from collections.abc import Callable, Mapping
+from typing import Any
+
+import numpy as np
+
+from . import _native, _validate
+from .camera import Camera
+
+__all__ = [
+    "CONFIGS",
+    "SOURCES",
+    "forward",
+    "system_matrix",
+    "BarChart",
+    "Image",
+    "RandomAlbedo",
+    "Simulation",
+    "Sinusoid",
+    "simulate",
+]
+
+#: The four cameras compared, in order.
+CONFIGS = ("half1", "half2", "split", "conventional")
+
+#: Prior standard deviation of the albedo difference between neighbouring delta(z) cells,
+#: used to set the regularisation weight with noise (docs/simulate.md): that of the
+#: default random albedo, sqrt(2/12) = 0.41 for i.i.d. uniform [0, 1] cells.
+PRIOR_STEP = 0.4
+#: Relative regularisation weight without noise (times the mean diagonal of A^T A).
+NOISE_FREE_WEIGHT = 1e-6
+#: Sinusoids of the MTF search: mean and amplitude (albedo), two phases (0 and 90 deg).
+MTF_MEAN, MTF_AMPLITUDE = 0.5, 0.4
+#: Normal equations up to this many cells are solved by dense Cholesky, larger by sparse LU.
+DENSE_CELLS = 6000
+
+
+def _scipy():
+    try:
+        import scipy.linalg as sla
+        import scipy.sparse as sp
+        import scipy.sparse.linalg as spla
+    except ImportError as e:  # pragma: no cover - depends on the environment
+        raise ImportError(
+            'splitlf.simulate needs SciPy: pip install "splitlf[simulate]"'
+        ) from e
+    return sp, spla, sla
+
+
+#: Pixel sources of the core: the two light-field halves, the conventional camera with its
+#: sensor on array plane 1 or 2.
+SOURCES = ("half1", "half2", "conventional1", "conventional2")
+
+
+def _source(value: Any) -> str:
+    if not isinstance(value, str) or value not in SOURCES:
+        raise ValueError(f"invalid source = {value!r}: allowed {', '.join(SOURCES)}")
+    return value
+
+
+def _field(origin: float, step: float, n: int, field: Any) -> tuple[float, float]:
+    if field is None:
+        return origin, origin + n * step
+    lo, hi = (_validate.real(v, "field") for v in field)
+    return lo, hi
+
+
+def forward(camera: Camera, z: float, source: str, origin: float, step: float,
+            texture: Any, field: tuple[float, float] | None = None,
+            n_threads: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Noise-free pixel values (exact, computed in the core) of ``source`` on the plane at
+    depth ``z`` for albedos constant on the cells [origin + k step, origin + (k+1) step]:
+    ``texture`` (n_cells,) or (n_textures, n_cells), finite and >= 0. Only pixels whose
+    kernel lies inside ``field`` (default: the grid) are rendered. Returns (values
+    (n_textures, n_pixels) or (n_pixels,), pixel indices along x). Units: a pixel of width
+    mu on plane v' seeing the whole aperture under a white texture reads 1; the
+    light-field halves include the beam splitter's 1/2."""
+    cam = _validate.camera(camera)
+    t = np.asarray(texture)
+    if t.dtype == object or not (np.issubdtype(t.dtype, np.floating)
+                                 or np.issubdtype(t.dtype, np.integer)):
+        raise TypeError(f"texture must be a numeric array, got dtype {t.dtype}")
+    if t.ndim not in (1, 2) or t.shape[-1] < 1:
+        raise ValueError(f"texture must have shape (n_cells,) or (n, n_cells), got {t.shape}")
+    t2 = np.ascontiguousarray(np.atleast_2d(t), dtype=np.float64)
+    o, h = _validate.real(origin, "origin"), _validate.real(step, "step")
+    lo, hi = _field(o, h, t2.shape[1], field)
+    values, pixels = _native.render(cam.core, _validate.real(z, "z"), _source(source), o, h,
+                                    lo, hi, t2, _validate.n_threads(n_threads))
+    return (values[0] if t.ndim == 1 else values), pixels
+
+
+def system_matrix(camera: Camera, z: float, source: str, origin: float, step: float,
+                  n_cells: int, field: tuple[float, float] | None = None,
+                  n_threads: int | None = None):
+    """The sparse system matrix (``scipy.sparse.csr_matrix``, pixels x cells) of ``source``
+    on the plane at depth ``z``: entry (p, k) is the exact integral of pixel p's kernel over
+    cell k (assembled in the core), in the units of :func:`forward`. Returns (matrix,
+    pixel indices along x)."""
+    sp = _scipy()[0]
+    cam = _validate.camera(camera)
+    o, h = _validate.real(origin, "origin"), _validate.real(step, "step")
+    n = _int(n_cells, "n_cells", 1)
+    lo, hi = _field(o, h, n, field)
+    indptr, indices, data, pixels, shape = _native.system_matrix(
+        cam.core, _validate.real(z, "z"), _source(source), o, h, n, lo, hi,
+        _validate.n_threads(n_threads))
+    return sp.csr_matrix((data, indices, indptr), shape=shape), pixels
+
+
+# -- textures ----------------------------------------------------------------------------
+
+def _positive(value: Any, name: str) -> float:
+    x = _validate.real(value, name)
+    if not (math.isfinite(x) and x > 0):
+        raise ValueError(f"invalid {name} = {x}: allowed a finite value > 0")
+    return x
+
+
+def _albedo(value: Any, name: str) -> float:
+    x = _validate.real(value, name)
+    if not (math.isfinite(x) and x >= 0):
+        raise ValueError(f"invalid {name} = {x}: allowed a finite albedo >= 0")
+    return x
+
+
+@dataclasses.dataclass(frozen=True)
+class Sinusoid:
+    """mean + amplitude sin(2 pi frequency X + phase); frequency in cycles/mm on the
+    object, X the object-space position [mm] (0 on the optical axis)."""
+
+    frequency: float
+    mean: float = MTF_MEAN
+    amplitude: float = MTF_AMPLITUDE
+    phase: float = 0.0
+
+    def __post_init__(self) -> None:
+        _positive(self.frequency, "frequency")
+        m, a = _albedo(self.mean, "mean"), _albedo(self.amplitude, "amplitude")
+        _validate.real(self.phase, "phase")
+        if a > m:
+            raise ValueError(f"invalid amplitude = {a}: allowed <= mean = {m} (albedo >= 0)")
+
+    def antiderivative(self, x: np.ndarray) -> np.ndarray:
+        w = 2 * np.pi * self.frequency
+        return self.mean * x - self.amplitude / w * np.cos(w * x + self.phase)
+
+
+@dataclasses.dataclass(frozen=True)
+class BarChart:
+    """A square wave: ``high`` on the first half of each period, ``low`` on the second;
+    ``frequency`` in bar pairs (cycles) per mm on the object, a bar edge at X = 0."""
+
+    frequency: float
+    low: float = 0.1
+    high: float = 0.9
+
+    def __post_init__(self) -> None:
+        _positive(self.frequency, "frequency")
+        _albedo(self.low, "low")
+        _albedo(self.high, "high")
+
+    def antiderivative(self, x: np.ndarray) -> np.ndarray:
+        s = self.frequency * x
+        k = np.floor(s)
+        high_part = 0.5 * k + np.minimum(s - k, 0.5)  # high-bar length, in periods
+        return self.low * x + (self.high - self.low) * high_part / self.frequency
+
+
+@dataclasses.dataclass(frozen=True)
+class RandomAlbedo:
+    """Independent albedos uniform in [low, high] on cells of ``cell`` mm (default
+    delta(z)), aligned with X = 0, drawn from the simulation's seeded generator. A row of a
+    2D i.i.d. albedo field is a 1D i.i.d. albedo, so this is the 2D random albedo too."""
+
+    cell: float | None = None
+    low: float = 0.0
+    high: float = 1.0
+
+    def __post_init__(self) -> None:
+        if self.cell is not None:
+            _positive(self.cell, "cell")
+        lo, hi = _albedo(self.low, "low"), _albedo(self.high, "high")
+        if hi < lo:
+            raise ValueError(f"invalid high = {hi}: allowed >= low = {lo}")
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Image:
+    """A user image: a 2D array of albedos (finite, >= 0) ``width`` mm wide on the object,
+    centred on the optical axis; the simulation reads one row (default the middle one),
+    pixels as constant cells. Outside the image the albedo is the row's mean."""
+
+    array: np.ndarray
+    width: float
+    row: int | None = None
+
+    def __post_init__(self) -> None:
+        a = np.asarray(self.array)
+        if a.dtype == object or not (np.issubdtype(a.dtype, np.floating)
+                                     or np.issubdtype(a.dtype, np.integer)
+                                     or a.dtype == np.bool_):
+            raise TypeError(f"Image.array must be a numeric 2D array, got dtype {a.dtype}")
+        if a.ndim != 2 or min(a.shape) < 1:
+            raise ValueError(f"Image.array must be a non-empty 2D array, got shape {a.shape}")
+        a = a.astype(np.float64)
+        if not np.all(np.isfinite(a)) or np.any(a < 0):
+            raise ValueError("Image.array must hold finite albedos >= 0")
+        _positive(self.width, "width")
+        if self.row is not None:
+            if isinstance(self.row, bool) or not isinstance(self.row, numbers.Integral):
+                raise TypeError(f"Image.row must be an integer or None, got {self.row!r}")
+            if not 0 <= int(self.row) < a.shape[0]:
+                raise ValueError(f"invalid row = {self.row}: allowed 0..{a.shape[0] - 1}")
+        object.__setattr__(self, "array", a)
+
+    def line(self) -> np.ndarray:
+        r = self.array.shape[0] // 2 if self.row is None else int(self.row)
+        return self.array[r]
+
+
+Texture = Sinusoid | BarChart | RandomAlbedo | Image | Callable[[np.ndarray], Any] | str
+
+
+def _texture(value: Any) -> Any:
+    if isinstance(value, str):
+        if value != "random":
+            raise ValueError(
+                f"invalid texture = {value!r}: allowed \"random\", or a Sinusoid, BarChart, "
+                "RandomAlbedo, Image or a callable albedo(X mm)"
+            )
+        return RandomAlbedo()
+    if isinstance(value, Sinusoid | BarChart | RandomAlbedo | Image) or callable(value):
+        return value
+    raise TypeError(
+        "texture must be \"random\", a Sinusoid, BarChart, RandomAlbedo, Image or a "
+        f"callable albedo(X mm), got {type(value).__name__}"
+    )
+
+
+def _piecewise_antiderivative(edges: np.ndarray, values: np.ndarray, x: np.ndarray,
+                              outside: float) -> np.ndarray:
+    """Antiderivative at x of the function equal to values[i] on [edges[i], edges[i+1]]
+    and ``outside`` elsewhere (0 at edges[0])."""
+    cum = np.concatenate([[0.0], np.cumsum(values * np.diff(edges))])
+    inside = np.interp(x, edges, cum)
+    return inside + outside * (np.minimum(x - edges[0], 0.0) + np.maximum(x - edges[-1], 0.0))
+
+
+def _fine_texture(tex: Any, edges: np.ndarray, delta: float,
+                  rng: np.random.Generator) -> np.ndarray:
+    """Cell averages of the texture on the fine cells between ``edges`` (exact for every
+    kind except a callable, which is sampled at the cell centres)."""
+    h = np.diff(edges)
+    if isinstance(tex, Sinusoid | BarChart):
+        return np.maximum(np.diff(tex.antiderivative(edges)) / h, 0.0)
+    if isinstance(tex, RandomAlbedo):
+        cell = delta if tex.cell is None else tex.cell
+        k0 = math.floor(edges[0] / cell)
+        k1 = math.ceil(edges[-1] / cell)
+        cells = np.arange(k0, k1 + 1) * cell
+        vals = rng.uniform(tex.low, tex.high, size=cells.size - 1)
+        return np.maximum(np.diff(_piecewise_antiderivative(cells, vals, edges, 0.0)) / h, 0.0)
+    if isinstance(tex, Image):
+        line = tex.line()
+        px = np.linspace(-tex.width / 2, tex.width / 2, line.size + 1)
+        ad = _piecewise_antiderivative(px, line, edges, float(line.mean()))
+        return np.maximum(np.diff(ad) / h, 0.0)
+    centres = 0.5 * (edges[1:] + edges[:-1])
+    try:
+        vals = np.asarray(tex(centres), dtype=np.float64)
+    except (TypeError, ValueError) as e:
+        raise TypeError(f"texture callable must return real albedos for an array of X: {e}") \
+            from None
+    if vals.shape != centres.shape:
+        raise ValueError(
+            f"texture callable returned shape {vals.shape} for {centres.shape} positions"
+        )
+    if not np.all(np.isfinite(vals)) or np.any(vals < 0):
+        raise ValueError("texture callable must return finite albedos >= 0")
+    return vals
+
+
+# -- noise ---------------------------------------------------------------------------------
+
+def _noise(value: Any) -> dict[str, float] | None:
+    if value is None:
+        return None
+    if not isinstance(value, Mapping):
+        raise TypeError(f"noise must be None or a dict {{photons, read_noise}}, got {value!r}")
+    unknown = set(value) - {"photons", "read_noise"}
+    if unknown or "photons" not in value:
+        raise ValueError(
+            f"invalid noise keys {sorted(value)}: needs photons and optional read_noise"
+        )
+    photons = _positive(value["photons"], "noise photons")
+    read = _albedo(value.get("read_noise", 0.0), "noise read_noise")
+    return {"photons": photons, "read_noise": read}
+
+
+def _add_noise(y: np.ndarray, noise: dict[str, float] | None,
+               rng: np.random.Generator) -> np.ndarray:
+    """Poisson shot noise on photons * y photo-electrons, Gaussian read noise (electrons
+    rms), back in the normalised units of y."""
+    if noise is None:
+        return y
+    n = noise["photons"]
+    counts = rng.poisson(np.maximum(y, 0.0) * n).astype(np.float64)
+    if noise["read_noise"] > 0:
+        counts += rng.normal(0.0, noise["read_noise"], size=y.shape)
+    return counts / n
+
+
+# -- result --------------------------------------------------------------------------------
+
+@dataclasses.dataclass(frozen=True)
+class Simulation:
+    """One simulated plane at depth ``z`` [mm] (docs/simulate.md).
+
+    - ``delta``: grid spacing delta(z) = d z / (Q v') [mm]; ``x`` (W,) cell centres of the
+      central window of W cells [mm]
+    - ``truth`` (W,): the texture's average over each cell; ``half1``, ``half2``,
+      ``split``, ``conventional`` (W,): the reconstructions on the same cells
+    - ``rmse``, ``psnr`` [dB, peak albedo 1], ``mtf50`` [cycles/mm on the object]: one
+      value per configuration in :data:`CONFIGS` (``mtf50`` empty with ``mtf=False``)
+    - ``frequencies`` (F,) [cycles/mm] and ``contrast`` {config: (F,)}: the MTF search
+    - ``nyquist`` = 1 / (2 delta) and ``microlens_frequency`` = v' / (d z) = 1 / (Q delta),
+      one cycle per microlens pitch on the object [cycles/mm]
+    - ``regularization`` {config: weight lambda of the first-difference penalty}
+    - ``pixels`` {config: pixels used}, ``noise``, ``seed``, ``conventional_half``
+    """
+
+    z: float
+    delta: float
+    x: np.ndarray
+    truth: np.ndarray
+    half1: np.ndarray
+    half2: np.ndarray
+    split: np.ndarray
+    conventional: np.ndarray
+    rmse: Mapping[str, float]
+    psnr: Mapping[str, float]
+    mtf50: Mapping[str, float]
+    frequencies: np.ndarray
+    contrast: Mapping[str, np.ndarray]
+    nyquist: float
+    microlens_frequency: float
+    regularization: Mapping[str, float]
+    pixels: Mapping[str, int]
+    noise: Mapping[str, float] | None
+    seed: int | None
+    conventional_half: int
+
+    def reconstruction(self, config: str) -> np.ndarray:
+        if config not in CONFIGS:
+            raise ValueError(f"invalid config = {config!r}: allowed {', '.join(CONFIGS)}")
+        return getattr(self, config)
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-ready figures of merit."""
+        return {
+            "z_mm": self.z,
+            "delta_mm": self.delta,
+            "nyquist_cycles_per_mm": self.nyquist,
+            "microlens_frequency_cycles_per_mm": self.microlens_frequency,
+            "rmse": dict(self.rmse),
+            "psnr_db": dict(self.psnr),
+            "mtf50_cycles_per_mm": dict(self.mtf50),
+            "regularization": dict(self.regularization),
+            "pixels": dict(self.pixels),
+            "noise": None if self.noise is None else dict(self.noise),
+            "seed": self.seed,
+        }
+
+
+# -- the simulation ---------------------------------------------------------------------------
+
+def _int(value: Any, name: str, lo: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise TypeError(f"{name} must be an integer >= {lo}, got {value!r}")
+    if int(value) < lo:
+        raise ValueError(f"invalid {name} = {value}: allowed an integer >= {lo}")
+    return int(value)
+
+
+def _fit_contrast(rec: np.ndarray, basis: np.ndarray, amplitude: float) -> np.ndarray:
+    """Least-squares fit of rec (..., W) to [1, sin, cos] at one frequency (sampled at the
+    cell centres); amplitude of the fitted sinusoid over the texture's."""
+    coef, *_ = np.linalg.lstsq(basis, rec.T, rcond=None)
+    return np.hypot(coef[1], coef[2]) / amplitude
+
+
+def _mtf50(freqs: np.ndarray, contrast: np.ndarray) -> float:
+    """First crossing of contrast 0.5 scanning up in frequency, linearly interpolated
+    (from contrast 1 at frequency 0); the highest tested frequency if it never drops."""
+    below = np.flatnonzero(contrast < 0.5)
+    if below.size == 0:
+        return float(freqs[-1])
+    k = int(below[0])
+    f0, c0 = (0.0, 1.0) if k == 0 else (float(freqs[k - 1]), float(contrast[k - 1]))
+    f1, c1 = float(freqs[k]), float(contrast[k])
+    return f0 + (f1 - f0) * (c0 - 0.5) / (c0 - c1) if c0 != c1 else f1
+
+
+def simulate(
+    camera: Camera,
+    z: float,
+    texture: Texture = "random",
+    noise: Mapping[str, float] | None = None,
+    seed: int | None = 0,
+    *,
+    window: int = 256,
+    oversample: int = 8,
+    mtf: bool = True,
+    n_frequencies: int = 48,
+    regularization: float | None = None,
+    conventional_half: int = 1,
+    n_threads: int | None = None,
+) -> Simulation:
+    """Simulate the plane at depth ``z`` [mm] carrying ``texture`` and reconstruct it with
+    known depth from half 1, half 2, the split sensor and the conventional camera.
+
+    - ``texture``: ``"random"`` (:class:`RandomAlbedo` on delta(z) cells), a
+      :class:`Sinusoid`, :class:`BarChart`, :class:`RandomAlbedo`, :class:`Image`, or a
+      callable albedo(X [mm]) (sampled at the centres of the fine cells)
+    - ``noise``: None (noise-free) or ``{"photons": N, "read_noise": r}``: N is the mean
+      photo-electron count of a pixel that collects the full aperture x pixel etendue
+      (D mu in ray space) from a white (albedo 1) texture with no beam splitter; each half
+      gets half of that; r is the read noise in electrons rms
+    - ``seed``: seed of NumPy's Generator (random texture, noise); same seed, same result
+    - ``window``: cells of delta(z) in the central field that are scored (the grid extends
+      beyond it by the widest kernel so that every used pixel sees only grid cells)
+    - ``oversample``: fine cells per delta(z) cell of the rendered texture
+    - ``mtf``: run the MTF search (``n_frequencies`` - 1 frequencies k / n_frequencies of
+      the Nyquist frequency 1/(2 delta), two phases each)
+    - ``regularization``: the weight lambda of the first-difference penalty; None for the
+      default rule (docs/simulate.md)
+    - ``conventional_half``: the conventional camera has its sensor on array plane 1 or 2
+    """
+    sp, spla, sla = _scipy()
+    cam = _validate.camera(camera)
+    zf = _validate.real(z, "z")
+    tex = _texture(texture)
+    nz = _noise(noise)
+    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, numbers.Integral)):
+        raise TypeError(f"seed must be an integer or None, got {seed!r}")
+    win = _int(window, "window", 8)
+    win += win % 2
+    os_ = _int(oversample, "oversample", 1)
+    nf = _int(n_frequencies, "n_frequencies", 2)
+    if not isinstance(mtf, bool):
+        raise TypeError(f"mtf must be a bool, got {mtf!r}")
+    lam_user = None if regularization is None else _albedo(regularization, "regularization")
+    ch = _int(conventional_half, "conventional_half", 1)
+    if ch not in (1, 2):
+        raise ValueError(f"invalid conventional_half = {ch}: allowed 1 or 2")
+    threads = _validate.n_threads(n_threads)
+    core = cam.core
+    delta = core.resolution_step(zf)  # validates z
+    rng = np.random.default_rng(seed)
+
+    # Grids: the central window plus a margin of the widest kernel (+1 free cell) on each
+    # side; the light-field halves share one grid, the conventional camera has its own.
+    sources = {"half1": "half1", "half2": "half2", "conventional": f"conventional{ch}"}
+    support = {k: _native.kernel_support(core, zf, s, threads) for k, s in sources.items()}
+    margin_lf = math.ceil(max(support["half1"], support["half2"]) / delta) + 1
+    margin = {"half1": margin_lf, "half2": margin_lf,
+              "conventional": math.ceil(support["conventional"] / delta) + 1}
+    big = max(margin.values())
+    n_big = win + 2 * big + 2
+    origin_big = -(n_big // 2) * delta
+    fine_edges = origin_big + np.arange(n_big * os_ + 1) * (delta / os_)
+
+    # Textures on the fine grid of the largest grid: row 0 the texture, then the MTF
+    # sinusoids (two phases per frequency).
+    freqs = np.arange(1, nf) / nf * (0.5 / delta)
+    rows = [_fine_texture(tex, fine_edges, delta, rng)]
+    if mtf:
+        for f in freqs:
+            for ph in (0.0, 0.5 * np.pi):
+                rows.append(_fine_texture(Sinusoid(f, phase=ph), fine_edges, delta, rng))
+    fine = np.ascontiguousarray(np.vstack(rows))
+    coarse = fine.reshape(fine.shape[0], n_big, os_).mean(axis=2)
+    w0 = big + 1  # first window cell in the big grid
+    win_slice = slice(w0, w0 + win)
+    truth = coarse[0, win_slice]
+    x = origin_big + (np.arange(w0, w0 + win) + 0.5) * delta
+
+    # Render and add noise (fixed order: half1, half2, conventional), then the systems.
+    images: dict[str, np.ndarray] = {}
+    mats: dict[str, Any] = {}
+    cells: dict[str, slice] = {}
+    for key, src in sources.items():
+        m = margin[key]
+        first = big - m  # grid of this source: cells [first, first + n) of the big grid
+        n = win + 2 * m + 2
+        cells[key] = slice(first, first + n)
+        origin = origin_big + first * delta
+        field = (origin + delta, origin + (n - 1) * delta)
+        y, _ = _native.render(core, zf, src, origin, delta / os_, *field,
+                              np.ascontiguousarray(fine[:, first * os_:(first + n) * os_]),
+                              threads)
+        images[key] = _add_noise(y, nz, rng)
+        indptr, indices, data, _, shape = _native.system_matrix(
+            core, zf, src, origin, delta, n, *field, threads)
+        mats[key] = sp.csr_matrix((data, indices, indptr), shape=shape)
+    images["split"] = np.hstack([images["half1"], images["half2"]])
+    mats["split"] = sp.vstack([mats["half1"], mats["half2"]]).tocsr()
+    cells["split"] = cells["half1"]
+
+    recs: dict[str, np.ndarray] = {}
+    lams: dict[str, float] = {}
+    contrast: dict[str, np.ndarray] = {}
+    for key in CONFIGS:
+        A = mats[key]
+        y = images[key]
+        n = A.shape[1]
+        dense = n <= DENSE_CELLS
+        if dense:
+            # Banded but often wide (defocused kernels): dense BLAS is faster here.
+            Ad = A.toarray()
+            AtA = Ad.T @ Ad
+        else:
+            AtA = (A.T @ A).tocsc()
+        D = sp.diags([-np.ones(n - 1), np.ones(n - 1)], [0, 1], shape=(n - 1, n))
+        if lam_user is not None:
+            lam = lam_user
+        elif nz is None:
+            lam = NOISE_FREE_WEIGHT * float(AtA.diagonal().mean())
+        else:
+            # MAP weight: pixel noise variance over the prior variance of a cell step.
+            mean_signal = float(np.mean(np.maximum(y[0], 0.0)))
+            var = mean_signal / nz["photons"] + (nz["read_noise"] / nz["photons"]) ** 2
+            lam = var / PRIOR_STEP**2
+        lams[key] = lam
+        rhs = np.asarray(A.T @ y.T)
+        if dense:
+            normal = AtA + lam * (D.T @ D).toarray()
+            try:
+                sol = sla.cho_solve(sla.cho_factor(normal), rhs).T
+            except np.linalg.LinAlgError:  # only with a user weight too small to help
+                sol = np.linalg.lstsq(normal, rhs, rcond=None)[0].T
+        else:
+            sol = spla.splu((AtA + lam * (D.T @ D)).tocsc()).solve(rhs).T
+        local = slice(w0 - cells[key].start, w0 - cells[key].start + win)
+        rec = sol[:, local]
+        recs[key] = rec[0]
+        if mtf:
+            c = np.empty(freqs.size)
+            for i, f in enumerate(freqs):
+                w = 2 * np.pi * f
+                basis = np.column_stack([np.ones(win), np.sin(w * x), np.cos(w * x)])
+                pair = rec[1 + 2 * i: 3 + 2 * i]
+                c[i] = float(np.mean(_fit_contrast(pair, basis, MTF_AMPLITUDE)))
+            contrast[key] = c
+
+    rmse = {k: float(np.sqrt(np.mean((recs[k] - truth) ** 2))) for k in CONFIGS}
+    psnr = {k: (float("inf") if v == 0 else float(-20 * np.log10(v))) for k, v in rmse.items()}
+    mtf50 = {k: _mtf50(freqs, contrast[k]) for k in CONFIGS} if mtf else {}
+    ro = types.MappingProxyType
+    return Simulation(
+        z=zf, delta=delta, x=x, truth=truth,
+        half1=recs["half1"], half2=recs["half2"], split=recs["split"],
+        conventional=recs["conventional"],
+        rmse=ro(rmse), psnr=ro(psnr), mtf50=ro(mtf50),
+        frequencies=freqs if mtf else np.empty(0), contrast=ro(contrast),
+        nyquist=0.5 / delta, microlens_frequency=1.0 / (cam.Q * delta),
+        regularization=ro(lams), pixels=ro({k: int(mats[k].shape[0]) for k in CONFIGS}),
+        noise=None if nz is None else ro(nz), seed=None if seed is None else int(seed),
+        conventional_half=ch,
+    )

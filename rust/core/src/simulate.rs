@@ -1,0 +1,610 @@
+//! Forward model of the super-resolution simulation (docs/simulate.md): pixel values of a
+//! textured Lambertian plane at depth z, and the sparse system matrix of pixels × cells of
+//! a reconstruction grid, both exact for piecewise-constant textures.
+//!
+//! A pixel's value is ∫ T(p') k(p') dp' with k its weight profile on the plane (MODEL.md §5,
+//! [`weight_profile`]: the chord length along w of polygon ∩ line, ∫ k dp' = polygon
+//! area). With X = −p' z / v' the integral reads (v'/z) ∫ T(X) k(X) dX. Values are
+//! normalised by D μ, the (u, w) area of a pixel of width μ on plane v' that sees the full
+//! aperture (a white texture fills it with 1), and multiplied by the transmission of the
+//! light path: 1/2 for either light-field half (beam splitter), 1 for the conventional
+//! camera. The kernel is piecewise linear in X, so its integral over a constant cell is
+//! exact (trapezoid rule on each linear piece).
+//!
+//! The conventional camera (the same sensor without microlenses, on array plane L_i) has
+//! pixels of width μ centred at s_k = (k − (K Q − 1)/2) μ. Its rays are the parallelogram
+//! |w| ≤ D/2, |x − s_k| ≤ μ/2 (x = a u + b w on plane L_i); on the plane at depth z that is
+//! a box of half-width μ/(2a) in p' (the pixel) convolved with a box of half-width
+//! B = H_i v'/L_i (the main-lens blur H_i of Eqs. 2–3 seen from plane v'): a trapezoid.
+
+use rayon::prelude::*;
+
+use crate::camera::{Axis, Camera, Half};
+use crate::error::{Error, Result};
+use crate::optics::{check_depths, conjugate, main_blur};
+use crate::parallel::{check_threads, with_threads};
+use crate::rayspace::{check_size, slope, trace, weight_profile, MAX_VERTICES};
+
+/// Fraction of the light each light-field half receives from the beam splitters.
+pub const BEAM_SPLITTER: f64 = 0.5;
+
+/// Which camera the pixels belong to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Source {
+    /// One light-field half of the split sensor (half 1 alone is the original LF camera).
+    Half(Half),
+    /// The conventional camera: the same sensor without microlenses, on array plane L_i.
+    Conventional(Half),
+}
+
+impl Source {
+    /// Source from its name: "half1", "half2", "conventional1", "conventional2".
+    pub fn from_name(name: &str) -> Result<Source> {
+        match name {
+            "half1" => Ok(Source::Half(Half::One)),
+            "half2" => Ok(Source::Half(Half::Two)),
+            "conventional1" => Ok(Source::Conventional(Half::One)),
+            "conventional2" => Ok(Source::Conventional(Half::Two)),
+            _ => Err(Error::param(
+                "source",
+                format!("{name:?}"),
+                "\"half1\", \"half2\", \"conventional1\" or \"conventional2\"",
+            )),
+        }
+    }
+
+    /// Transmission of the light path: 1/2 behind the beam splitter, 1 without it.
+    pub fn transmission(self) -> f64 {
+        match self {
+            Source::Half(_) => BEAM_SPLITTER,
+            Source::Conventional(_) => 1.0,
+        }
+    }
+}
+
+/// A uniform 1D grid of cells along object-space X: cell k is
+/// [origin + k step, origin + (k + 1) step].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Grid {
+    pub origin: f64,
+    pub step: f64,
+    pub n: usize,
+}
+
+/// Largest number of cells a grid may have (far beyond any sensor; guards typos).
+pub const MAX_CELLS: usize = 1 << 28;
+
+impl Grid {
+    pub fn new(origin: f64, step: f64, n: usize) -> Result<Grid> {
+        if !origin.is_finite() {
+            return Err(Error::param(
+                "grid origin",
+                origin,
+                "a finite position in mm",
+            ));
+        }
+        if !(step.is_finite() && step > 0.0) {
+            return Err(Error::param("grid step", step, "a finite width > 0 mm"));
+        }
+        if n == 0 || n > MAX_CELLS {
+            return Err(Error::param(
+                "grid cells",
+                n,
+                format!("an integer in [1, {MAX_CELLS}]"),
+            ));
+        }
+        if !(origin + n as f64 * step).is_finite() {
+            return Err(Error::param("grid", n, "a grid with a finite end"));
+        }
+        Ok(Grid { origin, step, n })
+    }
+
+    /// Left edge of cell k (k = n is the right end of the grid).
+    #[inline]
+    pub fn edge(&self, k: usize) -> f64 {
+        self.origin + k as f64 * self.step
+    }
+
+    /// Index of the cell holding x, clamped to [0, n − 1].
+    #[inline]
+    fn cell(&self, x: f64) -> usize {
+        let t = ((x - self.origin) / self.step).floor();
+        if t <= 0.0 {
+            0
+        } else {
+            (t as usize).min(self.n - 1)
+        }
+    }
+}
+
+/// One pixel's kernel on the plane: breakpoints X ascending (mm) and the weight at each,
+/// normalised so that ∫ weight dX is the pixel's value for a white texture (see module doc).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Kernel {
+    /// Index of the pixel along x (microlens-major j Q + q for a half; k for conventional).
+    pub pixel: u32,
+    pub n: usize,
+    pub x: [f64; MAX_VERTICES],
+    pub w: [f64; MAX_VERTICES],
+}
+
+impl Kernel {
+    pub fn lo(&self) -> f64 {
+        self.x[0]
+    }
+
+    pub fn hi(&self) -> f64 {
+        self.x[self.n - 1]
+    }
+
+    /// ∫ weight dX (exact: trapezoid rule on each linear piece).
+    pub fn integral(&self) -> f64 {
+        (1..self.n)
+            .map(|t| 0.5 * (self.w[t] + self.w[t - 1]) * (self.x[t] - self.x[t - 1]))
+            .sum()
+    }
+
+    /// Exact integral of the kernel over each cell of `grid` it touches, ascending by cell,
+    /// appended to `out` (cells with zero weight are skipped). Parts outside the grid are
+    /// dropped.
+    pub fn integrate_cells(&self, grid: &Grid, out: &mut Vec<(u32, f64)>) {
+        let start = out.len();
+        let end = grid.edge(grid.n);
+        for t in 1..self.n {
+            let (x0, x1) = (self.x[t - 1], self.x[t]);
+            let (w0, w1) = (self.w[t - 1], self.w[t]);
+            let (a, b) = (x0.max(grid.origin), x1.min(end));
+            if b <= a {
+                continue;
+            }
+            let slope = (w1 - w0) / (x1 - x0);
+            let at = |x: f64| w0 + slope * (x - x0);
+            let (k0, k1) = (grid.cell(a), grid.cell(b));
+            for k in k0..=k1 {
+                let lo = a.max(grid.edge(k));
+                let hi = b.min(grid.edge(k + 1));
+                if hi <= lo {
+                    continue;
+                }
+                let v = 0.5 * (at(lo) + at(hi)) * (hi - lo);
+                if v <= 0.0 {
+                    continue;
+                }
+                let len = out.len();
+                match out.last_mut() {
+                    Some(last) if len > start && last.0 == k as u32 => last.1 += v,
+                    _ => out.push((k as u32, v)),
+                }
+            }
+        }
+    }
+}
+
+/// Conjugate and validated depth, thread count and source checks shared by every entry.
+fn check_plane(cam: &Camera, z: f64, n_threads: Option<usize>) -> Result<()> {
+    check_threads(n_threads)?;
+    check_depths(cam, &[z])
+}
+
+/// Kernels of every pixel of `source` along x on the plane at depth z that collects light
+/// (pixels with an empty integration polygon are left out), in pixel order.
+pub fn kernels(cam: &Camera, z: f64, source: Source) -> Result<Vec<Kernel>> {
+    check_depths(cam, &[z])?;
+    let zc = conjugate(cam.f_main, z);
+    let scale = -z / cam.v1; // X = −p' z / v'
+    let norm = source.transmission() * (cam.v1 / z) / (cam.aperture * cam.mu);
+    match source {
+        Source::Half(half) => {
+            let tr = trace(cam, half, Axis::X)?;
+            let sigma = slope(cam, zc);
+            Ok(tr
+                .polygons
+                .par_iter()
+                .enumerate()
+                .filter(|(_, p)| p.n > 0)
+                .map(|(i, p)| {
+                    let (b, v) = weight_profile(p, sigma);
+                    let mut k = Kernel {
+                        pixel: i as u32,
+                        n: p.n,
+                        x: [f64::NAN; MAX_VERTICES],
+                        w: [f64::NAN; MAX_VERTICES],
+                    };
+                    // X = −p' z/v' reverses the order.
+                    for t in 0..p.n {
+                        k.x[t] = b[p.n - 1 - t] * scale;
+                        k.w[t] = v[p.n - 1 - t] * norm;
+                    }
+                    k
+                })
+                .collect())
+        }
+        Source::Conventional(half) => {
+            let l = cam.array_plane(half);
+            let a = l / cam.v1;
+            let n_px = cam.kx as u64 * cam.q as u64;
+            check_size("conventional kernels", n_px as u128 * 112)?;
+            // Pixel box half-width A = μ/(2a) and blur half-width B = H_i v'/L_i, in p'.
+            let half_px = cam.mu / (2.0 * a);
+            let blur = main_blur(cam, half, zc) * cam.v1 / l;
+            // Weight on the plateau: the aperture length min(2A, 2B)/|g| with
+            // |g| = 2B/D the shear of w into p'; D when in focus (B ≤ A).
+            let plateau = if blur <= half_px {
+                cam.aperture
+            } else {
+                cam.aperture * half_px / blur
+            };
+            let (outer, inner) = (half_px + blur, (half_px - blur).abs());
+            Ok((0..n_px)
+                .into_par_iter()
+                .map(|k| {
+                    let s = (k as f64 - (n_px as f64 - 1.0) / 2.0) * cam.mu;
+                    let c = s / a;
+                    let br = [c + outer, c + inner, c - inner, c - outer];
+                    let va = [0.0, plateau, plateau, 0.0];
+                    let mut kern = Kernel {
+                        pixel: k as u32,
+                        n: 4,
+                        x: [f64::NAN; MAX_VERTICES],
+                        w: [f64::NAN; MAX_VERTICES],
+                    };
+                    for t in 0..4 {
+                        kern.x[t] = br[t] * scale; // scale < 0: ascending in X
+                        kern.w[t] = va[t] * norm;
+                    }
+                    kern
+                })
+                .collect())
+        }
+    }
+}
+
+/// Widest kernel support (hi − lo, mm in X) over the pixels of `source` at depth z.
+pub fn kernel_support(
+    cam: &Camera,
+    z: f64,
+    source: Source,
+    n_threads: Option<usize>,
+) -> Result<f64> {
+    check_plane(cam, z, n_threads)?;
+    with_threads(n_threads, || {
+        kernels(cam, z, source).map(|ks| ks.iter().map(|k| k.hi() - k.lo()).fold(0.0, f64::max))
+    })?
+}
+
+/// A sparse matrix in compressed sparse row form (SciPy's `csr_matrix((data, indices,
+/// indptr), shape)`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Csr {
+    pub rows: usize,
+    pub cols: usize,
+    pub indptr: Vec<i64>,
+    pub indices: Vec<i64>,
+    pub data: Vec<f64>,
+}
+
+/// System matrix and the pixels its rows stand for.
+#[derive(Debug, Clone, PartialEq)]
+pub struct System {
+    pub matrix: Csr,
+    /// Pixel index along x of each row (see [`Kernel::pixel`]).
+    pub pixels: Vec<u32>,
+}
+
+fn check_field(field: (f64, f64)) -> Result<()> {
+    let (lo, hi) = field;
+    if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+        return Err(Error::param(
+            "field",
+            format!("({lo}, {hi})"),
+            "finite bounds lo < hi in mm",
+        ));
+    }
+    Ok(())
+}
+
+/// The system matrix on the plane at depth z: one row per pixel of `source` whose kernel
+/// support lies inside `field` = (lo, hi) (mm in X), one column per cell of `grid`; entry
+/// (p, k) is the exact integral of pixel p's kernel over cell k, so that for a texture
+/// constant on each cell the pixel values are A t. Parallel over pixels.
+pub fn system_matrix(
+    cam: &Camera,
+    z: f64,
+    source: Source,
+    grid: Grid,
+    field: (f64, f64),
+    n_threads: Option<usize>,
+) -> Result<System> {
+    check_plane(cam, z, n_threads)?;
+    check_field(field)?;
+    let grid = Grid::new(grid.origin, grid.step, grid.n)?;
+    with_threads(n_threads, || system_unchecked(cam, z, source, grid, field))?
+}
+
+fn system_unchecked(
+    cam: &Camera,
+    z: f64,
+    source: Source,
+    grid: Grid,
+    field: (f64, f64),
+) -> Result<System> {
+    let ks: Vec<Kernel> = kernels(cam, z, source)?
+        .into_iter()
+        .filter(|k| k.lo() >= field.0 && k.hi() <= field.1)
+        .collect();
+    // Exact size before allocating: cells spanned by each support.
+    let nnz: u128 = ks
+        .iter()
+        .map(|k| (grid.cell(k.hi()) - grid.cell(k.lo()) + 1) as u128)
+        .sum();
+    check_size("system matrix", nnz * 16 + ks.len() as u128 * 12)?;
+    let rows: Vec<Vec<(u32, f64)>> = ks
+        .par_iter()
+        .with_min_len(64)
+        .map(|k| {
+            let mut r = Vec::new();
+            k.integrate_cells(&grid, &mut r);
+            r
+        })
+        .collect();
+    let mut indptr = Vec::with_capacity(rows.len() + 1);
+    let total: usize = rows.iter().map(Vec::len).sum();
+    let mut indices = Vec::with_capacity(total);
+    let mut data = Vec::with_capacity(total);
+    indptr.push(0i64);
+    for r in &rows {
+        for &(c, v) in r {
+            indices.push(c as i64);
+            data.push(v);
+        }
+        indptr.push(indices.len() as i64);
+    }
+    Ok(System {
+        matrix: Csr {
+            rows: rows.len(),
+            cols: grid.n,
+            indptr,
+            indices,
+            data,
+        },
+        pixels: ks.iter().map(|k| k.pixel).collect(),
+    })
+}
+
+/// Pixel values of `source` on the plane at depth z for textures that are constant on each
+/// cell of `grid`: `textures` holds n_tex rows of grid.n albedos (row-major, finite, ≥ 0).
+/// Returns (values (n_tex, n_pix) row-major, pixels), the pixels those of
+/// [`system_matrix`] with the same `field`. Noise-free expected signal, in units of a
+/// full-aperture pixel of width μ on plane v' under a white texture (module doc).
+pub fn render(
+    cam: &Camera,
+    z: f64,
+    source: Source,
+    grid: Grid,
+    field: (f64, f64),
+    textures: &[f64],
+    n_threads: Option<usize>,
+) -> Result<(Vec<f64>, Vec<u32>)> {
+    check_plane(cam, z, n_threads)?;
+    check_field(field)?;
+    let grid = Grid::new(grid.origin, grid.step, grid.n)?;
+    if textures.is_empty() || textures.len() % grid.n != 0 {
+        return Err(Error::param(
+            "textures length",
+            textures.len(),
+            format!("a positive multiple of the grid's {} cells", grid.n),
+        ));
+    }
+    if let Some(i) = textures.iter().position(|t| !(t.is_finite() && *t >= 0.0)) {
+        return Err(Error::param(
+            "texture",
+            format!("{} at flat index {i}", textures[i]),
+            "finite albedos >= 0",
+        ));
+    }
+    let n_tex = textures.len() / grid.n;
+    with_threads(n_threads, || {
+        let sys = system_unchecked(cam, z, source, grid, field)?;
+        let m = &sys.matrix;
+        check_size("rendered values", (n_tex * m.rows) as u128 * 16)?;
+        // (n_pix, n_tex) in parallel over pixels, then transposed to (n_tex, n_pix).
+        let mut by_pixel = vec![0.0; m.rows * n_tex];
+        by_pixel
+            .par_chunks_mut(n_tex)
+            .enumerate()
+            .with_min_len(16)
+            .for_each(|(p, out)| {
+                let span = m.indptr[p] as usize..m.indptr[p + 1] as usize;
+                for (t, o) in out.iter_mut().enumerate() {
+                    let tex = &textures[t * grid.n..(t + 1) * grid.n];
+                    *o = m.indices[span.clone()]
+                        .iter()
+                        .zip(&m.data[span.clone()])
+                        .map(|(&c, &v)| v * tex[c as usize])
+                        .sum();
+                }
+            });
+        let mut values = vec![0.0; m.rows * n_tex];
+        for p in 0..m.rows {
+            for t in 0..n_tex {
+                values[t * m.rows + p] = by_pixel[p * n_tex + t];
+            }
+        }
+        Ok((values, sys.pixels))
+    })?
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rayspace::{HalfRays, Polygon};
+
+    fn close(a: f64, b: f64, tol: f64) -> bool {
+        (a - b).abs() <= tol * a.abs().max(b.abs()).max(1e-300)
+    }
+
+    fn grid_around(cam: &Camera, z: f64, cells: usize, sub: usize) -> Grid {
+        let step = cam.resolution_step(z) / sub as f64;
+        let n = cells * sub;
+        Grid::new(-(n as f64) * step / 2.0, step, n).unwrap()
+    }
+
+    const SOURCES: [Source; 4] = [
+        Source::Half(Half::One),
+        Source::Half(Half::Two),
+        Source::Conventional(Half::One),
+        Source::Conventional(Half::Two),
+    ];
+
+    #[test]
+    fn rows_integrate_to_the_collected_light() {
+        // Σ_k A[p, k] = ∫ kernel dX = T · area / (D μ) for every pixel inside the field.
+        let cam = Camera::paper();
+        for z in [217.0, 400.0, 642.0, 2000.0] {
+            for src in SOURCES {
+                let grid = grid_around(&cam, z, 1500, 2);
+                let field = (grid.edge(0), grid.edge(grid.n));
+                let sys = system_matrix(&cam, z, src, grid, field, Some(2)).unwrap();
+                assert!(sys.matrix.rows > 100, "{src:?} {z}");
+                let ks = kernels(&cam, z, src).unwrap();
+                let area = |px: u32| match src {
+                    Source::Half(h) => trace(&cam, h, Axis::X).unwrap().area[px as usize],
+                    // Parallelogram |w| ≤ D/2, |x − s| ≤ μ/2 on plane L: area D μ v'/L.
+                    Source::Conventional(h) => cam.aperture * cam.mu * cam.v1 / cam.array_plane(h),
+                };
+                for (r, &px) in sys.pixels.iter().enumerate().step_by(37) {
+                    let m = &sys.matrix;
+                    let s: f64 = m.data[m.indptr[r] as usize..m.indptr[r + 1] as usize]
+                        .iter()
+                        .sum();
+                    let want = src.transmission() * area(px) / (cam.aperture * cam.mu);
+                    assert!(close(s, want, 1e-9), "{src:?} z={z} px={px}: {s} vs {want}");
+                    let k = ks.iter().find(|k| k.pixel == px).unwrap();
+                    assert!(close(k.integral(), want, 1e-9));
+                    assert!(k.lo() >= field.0 && k.hi() <= field.1);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn conventional_kernel_is_the_projected_parallelogram() {
+        // The trapezoid from main_blur equals weight_profile of the ray-space parallelogram
+        // |w| ≤ D/2, |a u + b w − s| ≤ μ/2 (sensor on plane L without microlenses).
+        let cam = Camera::paper();
+        for half in Half::BOTH {
+            let rays = HalfRays::new(&cam, half);
+            let (a, b, h) = (rays.a, rays.b, rays.half_aperture);
+            for z in [150.0, 217.0, 400.0, 642.0, 5000.0] {
+                let ks = kernels(&cam, z, Source::Conventional(half)).unwrap();
+                let sigma = slope(&cam, conjugate(cam.f_main, z));
+                for k in ks.iter().step_by(501) {
+                    let n_px = cam.kx as f64 * cam.q as f64;
+                    let s = (k.pixel as f64 - (n_px - 1.0) / 2.0) * cam.mu;
+                    let u = |x: f64, w: f64| (x - b * w) / a;
+                    let (lo, hi) = (s - cam.mu / 2.0, s + cam.mu / 2.0);
+                    let mut p = Polygon::EMPTY;
+                    p.n = 4;
+                    p.v[..4].copy_from_slice(&[
+                        [u(lo, -h), -h],
+                        [u(hi, -h), -h],
+                        [u(hi, h), h],
+                        [u(lo, h), h],
+                    ]);
+                    let (br, va) = weight_profile(&p, sigma);
+                    let scale = -z / cam.v1;
+                    let norm = (cam.v1 / z) / (cam.aperture * cam.mu);
+                    // Compare the two piecewise-linear functions at many points.
+                    let f = |x: f64, xs: &[f64], ws: &[f64]| -> f64 {
+                        for t in 1..xs.len() {
+                            if x >= xs[t - 1] && x <= xs[t] && xs[t] > xs[t - 1] {
+                                let s = (x - xs[t - 1]) / (xs[t] - xs[t - 1]);
+                                return ws[t - 1] + s * (ws[t] - ws[t - 1]);
+                            }
+                        }
+                        0.0
+                    };
+                    let xs: Vec<f64> = (0..4).rev().map(|t| br[t] * scale).collect();
+                    let ws: Vec<f64> = (0..4).rev().map(|t| va[t] * norm).collect();
+                    assert!(close(xs[0], k.lo(), 1e-9) && close(xs[3], k.hi(), 1e-9));
+                    let peak = k.w[1];
+                    for i in 1..200 {
+                        let x = k.lo() + (k.hi() - k.lo()) * i as f64 / 200.0;
+                        let (g1, g2) = (f(x, &k.x[..4], &k.w[..4]), f(x, &xs, &ws));
+                        assert!((g1 - g2).abs() <= 1e-7 * peak, "z={z} x={x}: {g1} {g2}");
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn render_is_the_matrix_times_the_texture_and_refines_exactly() {
+        // A texture constant on coarse cells, rendered on a grid 4× finer, gives the same
+        // values as the coarse matrix times the coarse texture.
+        let cam = Camera::paper();
+        for src in SOURCES {
+            let z = 1000.0;
+            let coarse = grid_around(&cam, z, 300, 1);
+            let fine = grid_around(&cam, z, 300, 4);
+            let field = (coarse.edge(2), coarse.edge(coarse.n - 2));
+            let t: Vec<f64> = (0..coarse.n)
+                .map(|k| ((k * 7919) % 101) as f64 / 100.0)
+                .collect();
+            let tf: Vec<f64> = (0..fine.n).map(|k| t[k / 4]).collect();
+            let (vf, pf) = render(&cam, z, src, fine, field, &tf, None).unwrap();
+            let sys = system_matrix(&cam, z, src, coarse, field, None).unwrap();
+            assert_eq!(pf, sys.pixels);
+            let m = &sys.matrix;
+            for (r, &got) in vf.iter().enumerate() {
+                let span = m.indptr[r] as usize..m.indptr[r + 1] as usize;
+                let want: f64 = m.indices[span.clone()]
+                    .iter()
+                    .zip(&m.data[span])
+                    .map(|(&c, &v)| v * t[c as usize])
+                    .sum();
+                assert!(close(got, want, 1e-10), "{src:?} {r}: {got} {want}");
+            }
+        }
+    }
+
+    #[test]
+    fn deterministic_across_thread_counts() {
+        let cam = Camera::paper();
+        let g = grid_around(&cam, 642.0, 200, 2);
+        let f = (g.edge(0), g.edge(g.n));
+        let a = system_matrix(&cam, 642.0, Source::Half(Half::Two), g, f, Some(1)).unwrap();
+        let b = system_matrix(&cam, 642.0, Source::Half(Half::Two), g, f, Some(2)).unwrap();
+        assert_eq!(a, b);
+    }
+
+    #[test]
+    fn rejects_bad_input() {
+        let cam = Camera::paper();
+        let g = Grid::new(-1.0, 0.01, 200).unwrap();
+        let src = Source::Half(Half::One);
+        assert!(Source::from_name("half3").is_err());
+        assert!(Grid::new(f64::NAN, 0.1, 3).is_err());
+        assert!(Grid::new(0.0, 0.0, 3).is_err());
+        assert!(Grid::new(0.0, 0.1, 0).is_err());
+        assert!(matches!(
+            system_matrix(&cam, 50.0, src, g, (-1.0, 1.0), None),
+            Err(Error::InvalidDepth { .. })
+        ));
+        assert!(system_matrix(&cam, 500.0, src, g, (1.0, -1.0), None).is_err());
+        assert!(system_matrix(&cam, 500.0, src, g, (-1.0, 1.0), Some(0)).is_err());
+        let bad_grid = Grid {
+            origin: 0.0,
+            step: -1.0,
+            n: 3,
+        };
+        assert!(system_matrix(&cam, 500.0, src, bad_grid, (-1.0, 1.0), None).is_err());
+        assert!(render(&cam, 500.0, src, g, (-1.0, 1.0), &[1.0; 199], None).is_err());
+        let mut t = vec![1.0; 200];
+        t[5] = -0.1;
+        assert!(render(&cam, 500.0, src, g, (-1.0, 1.0), &t, None).is_err());
+        t[5] = f64::NAN;
+        assert!(render(&cam, 500.0, src, g, (-1.0, 1.0), &t, None).is_err());
+        assert!(kernel_support(&cam, f64::INFINITY, src, None).is_err());
+    }
+}

@@ -1,0 +1,319 @@
+"""Super-resolution simulation (issue 7): forward model against Monte-Carlo ray integration
+and a NumPy reference, reconstruction with known depth, bad input, determinism."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import splitlf
+from splitlf import Camera, Image, RandomAlbedo, Sinusoid, simulate
+from splitlf.simulation import forward, system_matrix
+
+SEED = Camera.paper()
+
+
+def design_numbers(cam):
+    """v', L_i, delta(z), conjugate and sigma written from MODEL.md, independently."""
+    L = {1: cam.v1, 2: cam.v1 * (1 + cam.kappa)}
+
+    def delta(z):
+        return cam.d * z / (cam.Q * cam.v1)
+
+    def sigma(z):
+        zc = cam.F * z / (z - cam.F)
+        return (cam.v1 - zc) / zc
+
+    return L, delta, sigma
+
+
+def contrast_at(x, rec, f):
+    """Fitted amplitude of rec at frequency f over a sinusoid of amplitude 0.4."""
+    w = 2 * np.pi * f
+    basis = np.column_stack([np.ones_like(x), np.sin(w * x), np.cos(w * x)])
+    coef = np.linalg.lstsq(basis, rec, rcond=None)[0]
+    return float(np.hypot(coef[1], coef[2]) / 0.4)
+
+
+# -- forward model against a brute-force Monte-Carlo ray integration ------------------------
+
+def _sample_polygon(verts, n, rng):
+    """n points uniform in a convex polygon (rejection from its bounding box)."""
+    lo, hi = verts.min(axis=0), verts.max(axis=0)
+    out = []
+    while sum(len(o) for o in out) < n:
+        p = rng.uniform(lo, hi, size=(4 * n, 2))
+        inside = np.ones(len(p), bool)
+        for a, b in zip(verts, np.roll(verts, -1, axis=0), strict=True):
+            cross = (b[0] - a[0]) * (p[:, 1] - a[1]) - (b[1] - a[1]) * (p[:, 0] - a[0])
+            inside &= cross >= 0  # counter-clockwise
+        out.append(p[inside])
+    return np.concatenate(out)[:n]
+
+
+@pytest.mark.parametrize("z", [300.0, 642.0, 2000.0])
+@pytest.mark.parametrize("source", ["half1", "half2", "conventional1", "conventional2"])
+def test_forward_matches_monte_carlo_rays(z, source):
+    cam = SEED
+    L, delta, sigma = design_numbers(cam)
+    rng = np.random.default_rng(7)
+    h = delta(z) / 4
+    n_cells = 6000 if source.startswith("conv") else 1200
+    origin = -n_cells * h / 2
+    tex = rng.uniform(0, 1, n_cells)
+    values, pixels = forward(cam, z, source, origin, h, tex)
+    assert values.shape == pixels.shape and values.size > 50
+    n_rays = 40_000
+    if source.startswith("half"):
+        half = int(source[-1])
+        tr = splitlf.trace(cam, half)
+        transmission = 0.5
+    else:
+        half = int(source[-1])
+        transmission = 1.0
+    checked = 0
+    for i in rng.choice(values.size, 12, replace=False):
+        px = pixels[i]
+        if source.startswith("half"):
+            verts = tr.vertices[px, : tr.n_vertices[px]]
+            area = tr.area[px]
+            uw = _sample_polygon(verts, n_rays, rng)
+            u, w = uw[:, 0], uw[:, 1]
+        else:
+            # No microlenses: rays through the aperture and pixel px (width mu) on plane L.
+            Lh = L[half]
+            n_px = cam.Kx * cam.Q
+            s = (px - (n_px - 1) / 2) * cam.mu
+            w = rng.uniform(-cam.D / 2, cam.D / 2, n_rays)
+            xl = rng.uniform(s - cam.mu / 2, s + cam.mu / 2, n_rays)
+            a, b = Lh / cam.v1, 1 - Lh / cam.v1
+            u = (xl - b * w) / a
+            area = cam.D * cam.mu / a
+        X = -(u + sigma(z) * w) * z / cam.v1
+        k = np.floor((X - origin) / h).astype(int)
+        assert k.min() >= 0 and k.max() < n_cells
+        t = tex[k]
+        norm = transmission * area / (cam.D * cam.mu)
+        mc = norm * t.mean()
+        se = norm * t.std() / np.sqrt(n_rays)
+        assert abs(values[i] - mc) <= 4 * se, (px, values[i], mc, se)
+        checked += 1
+    assert checked == 12
+
+
+# -- the sparse matrix against a NumPy reference ------------------------------------------------
+
+def _reference_row(breaks, vals, edges):
+    """Exact integral over each cell of the piecewise-linear function (breaks ascending)."""
+    pts = np.unique(np.concatenate([breaks, edges[(edges > breaks[0]) & (edges < breaks[-1])]]))
+    mid = 0.5 * (pts[1:] + pts[:-1])
+    # the linear piece holding each sub-interval (evaluated from inside: jumps at the ends)
+    t = np.clip(np.searchsorted(breaks, mid, side="right") - 1, 0, breaks.size - 2)
+    slope = (vals[t + 1] - vals[t]) / (breaks[t + 1] - breaks[t])
+    f_lo = vals[t] + slope * (pts[:-1] - breaks[t])
+    f_hi = vals[t] + slope * (pts[1:] - breaks[t])
+    seg = 0.5 * (f_lo + f_hi) * np.diff(pts)
+    cell = np.searchsorted(edges, mid) - 1
+    out = np.zeros(edges.size - 1)
+    np.add.at(out, cell, seg)
+    return out
+
+
+@pytest.mark.parametrize("z", [217.0, 642.0, 1500.0])
+@pytest.mark.parametrize("half", [1, 2])
+def test_system_matrix_matches_numpy_reference(z, half):
+    cam = SEED.replace(Kx=40)  # a small design: 600 pixels per half
+    _, delta, _ = design_numbers(cam)
+    n = 900
+    origin = -n * delta(z) / 2
+    edges = origin + np.arange(n + 1) * delta(z)
+    A, pixels = system_matrix(cam, z, f"half{half}", origin, delta(z), n)
+    assert A.shape == (pixels.size, n) and pixels.size > 100
+    fp = splitlf.footprints(cam, [z], half, kernel=True)
+    dense = A.toarray()
+    for r in range(0, pixels.size, 7):
+        p = pixels[r]
+        ok = np.isfinite(fp.kernel_breaks[0, p])
+        b, v = fp.kernel_breaks[0, p][ok], fp.kernel_values[0, p][ok]
+        # (v'/z) from dp' = (v'/z) dX, beam splitter 1/2, units of D mu.
+        want = _reference_row(b, v, edges) * (cam.v1 / z) * 0.5 / (cam.D * cam.mu)
+        np.testing.assert_allclose(dense[r], want, rtol=1e-9, atol=1e-12 * want.max())
+    # Every pixel of the design whose footprint fits in the grid is a row.
+    inside = (fp.lo[0] >= edges[0]) & (fp.hi[0] <= edges[-1])
+    assert set(pixels) == set(np.flatnonzero(inside & np.isfinite(fp.lo[0])))
+
+
+# -- reconstruction --------------------------------------------------------------------------------
+
+def test_split_recovers_band_limited_texture_where_union_resolves():
+    cam = SEED
+    _, delta, _ = design_numbers(cam)
+    candidates = np.array([300.0, 400.0, 1000.0, 2000.0, 5000.0])
+    gap = splitlf.new_samples(cam, candidates).max_gap[2]
+    depths = candidates[gap <= 1.6]
+    assert depths.size >= 3, gap
+    rng = np.random.default_rng(3)
+    for z in depths:
+        nyq = 0.5 / delta(z)
+        f = rng.uniform(0.02, 0.3, 6) * nyq  # band-limited well below the sampling limit
+        ph = rng.uniform(0, 2 * np.pi, 6)
+
+        def texture(X, f=f, ph=ph):
+            return 0.5 + 0.06 * np.sin(2 * np.pi * f[:, None] * X + ph[:, None]).sum(axis=0)
+
+        r = simulate(cam, z, texture=texture, mtf=False)
+        assert r.rmse["split"] < 0.01, (z, dict(r.rmse))
+        assert r.truth.std() > 0.05
+
+
+def test_half1_cannot_resolve_finer_than_microlens_pitch_on_its_out_of_focus_plane():
+    cam = SEED
+    z1 = cam.F * cam.v1 / (cam.v1 - cam.F)  # half 1's out-of-focus plane, 642 mm
+    assert z1 == pytest.approx(642.0)
+    pitch = cam.d * z1 / cam.v1  # microlens pitch on the object
+    _, delta, _ = design_numbers(cam)
+    nyq = 0.5 / delta(z1)
+    # Half 2's pixels integrate a microlens strip of width d v'/L_2 in u at fixed w
+    # (MODEL §4), so its transfer vanishes at multiples of L_2 / (d z) on the object: test
+    # midway between those zeros, at periods finer than the pitch and below delta's Nyquist.
+    L2 = cam.v1 * (1 + cam.kappa)
+    for j in (1, 2, 3):
+        f = (j + 0.5) * L2 / (cam.d * z1)
+        k = f * pitch
+        assert 1 < k and f < nyq
+        r = simulate(cam, z1, texture=Sinusoid(f, phase=0.3), mtf=False)
+        c1 = contrast_at(r.x, r.half1, f)
+        cs = contrast_at(r.x, r.split, f)
+        assert c1 < 0.2, (k, c1)
+        assert cs > 0.7, (k, cs)
+    # and the MTF search says the same: half 1 stops below the microlens frequency
+    r = simulate(cam, z1)
+    assert r.microlens_frequency == pytest.approx(1 / pitch)
+    assert r.mtf50["half1"] < 1 / pitch < r.mtf50["split"]
+
+
+def test_conventional_in_focus_and_result_fields():
+    r = simulate(SEED, 642.0, mtf=True, n_frequencies=16)
+    # In focus the conventional pixels are exactly the delta cells: exact recovery.
+    assert r.rmse["conventional"] < 1e-6
+    assert r.mtf50["conventional"] == pytest.approx(r.frequencies[-1])
+    assert set(r.rmse) == set(r.psnr) == set(r.mtf50) == set(splitlf.simulation.CONFIGS)
+    assert r.x.shape == r.truth.shape == r.split.shape == (256,)
+    assert r.delta == pytest.approx(SEED.d * 642.0 / (SEED.Q * SEED.v1))
+    assert np.all(np.diff(r.frequencies) > 0) and r.frequencies[-1] < r.nyquist
+    s = r.summary()
+    assert s["rmse"]["split"] == r.rmse["split"]
+
+
+def test_noise_units_and_determinism():
+    noise = {"photons": 2000.0, "read_noise": 3.0}
+    a = simulate(SEED, 900.0, noise=noise, seed=5, mtf=False)
+    b = simulate(SEED, 900.0, noise=noise, seed=5, mtf=False)
+    c = simulate(SEED, 900.0, noise=noise, seed=6, mtf=False)
+    np.testing.assert_array_equal(a.split, b.split)
+    np.testing.assert_array_equal(a.truth, b.truth)
+    assert not np.array_equal(a.truth, c.truth)
+    clean = simulate(SEED, 900.0, seed=5, mtf=False)
+    np.testing.assert_array_equal(clean.truth, a.truth)
+    assert a.rmse["split"] > clean.rmse["split"]
+    # Shot noise in photons: a white texture on half 1 reads N/2 photo-electrons.
+    x0 = -2.0
+    values, _ = forward(SEED, 900.0, "half1", x0, 0.01, np.ones(400))
+    assert np.median(values) == pytest.approx(0.5, rel=1e-9)
+
+
+def test_textures():
+    img = np.zeros((5, 40))
+    img[2, ::2] = 1.0
+    r = simulate(SEED, 1000.0, texture=Image(img, width=8.0), mtf=False)
+    assert r.truth.max() <= 1.0 and r.truth.min() >= 0.0
+    r = simulate(SEED, 1000.0, texture=splitlf.BarChart(1.0), mtf=False)
+    assert set(np.round(r.truth[np.abs(r.x) < 1.0], 6)) <= {0.1, 0.9} | set(
+        np.round(r.truth, 6))
+    r = simulate(SEED, 1000.0, texture=RandomAlbedo(cell=0.5), mtf=False)
+    assert np.unique(np.round(r.truth, 9)).size < r.truth.size
+
+
+@pytest.mark.parametrize("kwargs, exc", [
+    ({"z": 50.0}, ValueError),
+    ({"z": float("nan")}, ValueError),
+    ({"texture": "noise"}, ValueError),
+    ({"texture": 3}, TypeError),
+    ({"texture": Image(np.ones((2, 2)), 1.0), "noise": {"photon": 1}}, ValueError),
+    ({"noise": {"photons": -1}}, ValueError),
+    ({"noise": 5}, TypeError),
+    ({"seed": 1.5}, TypeError),
+    ({"window": 2}, ValueError),
+    ({"conventional_half": 3}, ValueError),
+    ({"texture": lambda X: -np.ones_like(X)}, ValueError),
+    ({"texture": lambda X: np.full_like(X, np.nan)}, ValueError),
+    ({"texture": lambda X: np.ones(3)}, ValueError),
+    ({"n_threads": 0}, ValueError),
+])
+def test_bad_input(kwargs, exc):
+    args = {"z": 700.0, "mtf": False} | kwargs
+    with pytest.raises(exc):
+        simulate(SEED, **args)
+
+
+@pytest.mark.parametrize("array, exc", [
+    (np.ones(4), ValueError),
+    (np.array([[1.0, -1.0]]), ValueError),
+    (np.array([[1.0, np.inf]]), ValueError),
+    (np.array([["a"]]), TypeError),
+])
+def test_bad_image(array, exc):
+    with pytest.raises(exc):
+        Image(array, 1.0)
+
+
+def test_bad_forward_input():
+    with pytest.raises(ValueError):
+        forward(SEED, 700.0, "half3", 0.0, 0.1, np.ones(10))
+    with pytest.raises(ValueError):
+        forward(SEED, 700.0, "half1", 0.0, 0.1, -np.ones(10))
+    with pytest.raises(ValueError):
+        forward(SEED, 700.0, "half1", 0.0, -0.1, np.ones(10))
+    with pytest.raises(ValueError):
+        forward(SEED, 700.0, "half1", 0.0, 0.1, np.ones((2, 2, 2)))
+    with pytest.raises(ValueError):
+        system_matrix(SEED, 700.0, "half1", 0.0, 0.1, 10, field=(1.0, 0.0))
+    # strided input is accepted and equals the contiguous copy
+    t = np.random.default_rng(0).uniform(0, 1, (2, 4000))
+    a, _ = forward(SEED, 700.0, "half2", -20.0, 0.01, t[:, ::2])
+    b, _ = forward(SEED, 700.0, "half2", -20.0, 0.01, np.ascontiguousarray(t[:, ::2]))
+    np.testing.assert_array_equal(a, b)
+
+
+def test_cli_simulate(capsys, tmp_path):
+    import json
+
+    from splitlf.cli import main
+
+    assert main(["simulate", "--z", "642", "--json", "--threads", "1"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    r = simulate(SEED, 642.0, n_threads=1)
+    assert data["results"][0]["mtf50_cycles_per_mm"] == dict(r.mtf50)
+    np.save(tmp_path / "img.npy", np.ones((3, 8)))
+    assert main(["simulate", "--z-range", "300", "2000", "--n", "2",
+                 "--texture", f"image:{tmp_path / 'img.npy'}:5"]) == 0
+    assert "split" in capsys.readouterr().out
+    for bad in (["--texture", "stripes"], ["--z", "10"], ["--texture", "sinusoid:-1"]):
+        assert main(["simulate", *bad]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("splitlf simulate: error:") and err.count("\n") == 1
+
+
+def test_plot_resolution_returns_axes():
+
+    from matplotlib.figure import Figure
+
+    from splitlf.plot import resolution
+
+    fig = Figure()
+    axes = fig.subplots(2, 1)
+    out = resolution(SEED, (300.0, 1000.0), ax=axes, n=2, n_frequencies=8, window=64)
+    assert list(out) == list(axes)
+    assert len(out[0].lines) >= 6
+    with pytest.raises(ValueError):
+        resolution(SEED, (1000.0, 300.0), ax=axes)
