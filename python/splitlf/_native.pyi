@@ -13,9 +13,12 @@ __all__ = [
     "depth_of_field",
     "figures_of_merit",
     "footprints",
+    "kernel_support",
     "new_samples",
+    "render",
     "sample_grid",
     "sharp_fractions",
+    "system_matrix",
     "trace",
 ]
 
