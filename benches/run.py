@@ -3,8 +3,9 @@
 For each workload, in one process: build identical inputs, check that NumPy and native
 results agree (1e-12 relative), then alternate NumPy, native at 1 thread, native at all
 threads and the memory-bandwidth floor (allocate + fill arrays of the output's total
-size) over several rounds and report medians. Peak memory of each side is measured in a
-fresh subprocess (VmHWM above the post-setup resident set).
+size) over several rounds, rotating their order every round, and report medians. Peak
+memory of each side is measured in a fresh subprocess (VmHWM above the post-setup
+resident set).
 
     python benches/run.py            # full sizes -> benches/results.json, benches/RESULTS.md
     python benches/run.py --quick    # small sizes (CI smoke test) -> benches/out/
@@ -242,12 +243,21 @@ def run_workload(w: Workload, quick: bool, rounds: int) -> dict[str, Any]:
     check_equal(w.numpy(inp), w.native(inp, 1), w.name)
     n_all = os.cpu_count() or 1
     times: dict[str, list[float]] = {"numpy": [], "native_1": [], "native_all": [], "floor": []}
-    for _ in range(rounds):
-        times["numpy"].append(timed(w.numpy, inp))
-        times["native_1"].append(timed(w.native, inp, 1))
-        times["native_all"].append(timed(w.native, inp, None))
-        if w.out_bytes is not None:
-            times["floor"].append(timed(floor_run, w.out_bytes(inp)))
+    runs: dict[str, Callable[[], float]] = {
+        "numpy": lambda x=inp: timed(w.numpy, x),
+        "native_1": lambda x=inp: timed(w.native, x, 1),
+        "native_all": lambda x=inp: timed(w.native, x, None),
+    }
+    if w.out_bytes is not None:
+        nbytes = w.out_bytes(inp)
+        runs["floor"] = lambda: timed(floor_run, nbytes)
+    order = list(runs)
+    for r in range(rounds):
+        # Rotate the order every round: the run right after a big free (of the previous
+        # side's outputs) pays more for its page faults here, and no side should always
+        # be the one in that position.
+        for side in order[r % len(order):] + order[:r % len(order)]:
+            times[side].append(runs[side]())
     med = {k: statistics.median(v) for k, v in times.items() if v}
     result: dict[str, Any] = {
         "workload": w.name,
@@ -264,7 +274,7 @@ def run_workload(w: Workload, quick: bool, rounds: int) -> dict[str, Any]:
         result["output_bytes"] = w.out_bytes(inp)
         result["numpy_over_floor"] = med["numpy"] / med["floor"]
         result["native_all_over_floor"] = med["native_all"] / med["floor"]
-    del inp
+    del inp, runs
     gc.collect()
     result["peak_mib"] = {side: peak_memory(w.name, side, quick) for side in ("numpy", "native")}
     if w.out_bytes is not None:
