@@ -115,6 +115,10 @@ struct Layout {
     cy: Vec<f64>,
     /// Lit pixel indices of half 1 and half 2.
     lit: [Vec<u32>; 2],
+    /// The y lens centres are x lens centres, bit for bit (K_y ≤ K_x, K_x − K_y even:
+    /// c^y_j = c^x_{j + (K_x − K_y)/2}, both exact half-integer multiples of d), so every
+    /// y sample of a half is one of its x samples.
+    y_within_x: bool,
 }
 
 impl Layout {
@@ -123,6 +127,7 @@ impl Layout {
             cx: (0..cam.kx).map(|j| cam.lens_center(j, cam.kx)).collect(),
             cy: (0..cam.ky).map(|j| cam.lens_center(j, cam.ky)).collect(),
             lit: Half::BOTH.map(|h| lit_indices(cam, h)),
+            y_within_x: cam.ky <= cam.kx && (cam.kx - cam.ky) % 2 == 0,
         }
     }
 
@@ -342,15 +347,20 @@ fn scan(x: &[f64], eps: f64, field: f64) -> (u64, f64) {
         }
         count
     };
-    let gap = if x[0] > -field || x[n - 1] < field {
-        f64::INFINITY
-    } else {
-        // Gaps [x_k, x_{k+1}] that meet the field: x_{k+1} ≥ −W and x_k ≤ W.
-        let lo = x.partition_point(|&v| v < -field).saturating_sub(1);
-        let hi = x.partition_point(|&v| v <= field).min(n - 1);
-        max_step(&x[lo..=hi])
-    };
-    (count, gap)
+    (count, field_gap(x, field))
+}
+
+/// Largest gap over the field [−W, W] of ascending positions (+∞ when they do not reach
+/// both field edges, or when there are none): the gaps [x_k, x_{k+1}] that meet the field,
+/// x_{k+1} ≥ −W and x_k ≤ W.
+fn field_gap(x: &[f64], field: f64) -> f64 {
+    let n = x.len();
+    if n == 0 || x[0] > -field || x[n - 1] < field {
+        return f64::INFINITY;
+    }
+    let lo = x.partition_point(|&v| v < -field).saturating_sub(1);
+    let hi = x.partition_point(|&v| v <= field).min(n - 1);
+    max_step(&x[lo..=hi])
 }
 
 /// Merge two ascending arrays into `out`, branch-free, from both ends at once: the front
@@ -414,7 +424,15 @@ fn axis_counts(
     let [p1, p2, pu] = &mut s.pos;
     merge_into(pu, p1, p2);
     let to_delta = cam.q as f64 / cam.d;
-    let r = [&*p1, &*p2, &*pu].map(|x| scan(x, eps, field));
+    let (cu, gu) = scan(pu, eps, field);
+    let halves = if cu == pu.len() as u64 {
+        // Every union sample is its own: so is every sample of each half (a subset), and
+        // only the gaps are left to find.
+        [&*p1, &*p2].map(|x| (x.len() as u64, field_gap(x, field)))
+    } else {
+        [&*p1, &*p2].map(|x| scan(x, eps, field))
+    };
+    let r = [halves[0], halves[1], (cu, gu)];
     (r.map(|x| x.0), r.map(|x| x.1 * to_delta))
 }
 
@@ -435,8 +453,17 @@ fn depth_result(cam: &Camera, layout: &Layout, z: f64, tol: f64, s: &mut Scratch
     let eps = tol * cam.d / cam.q as f64; // tol · δ(z) in p' space
     let field = cam.kx as f64 * cam.d / 4.0; // |X| ≤ K_x d z / (4 v') in p' space
     let (dx, gap) = axis_counts(cam, layout, Axis::X, zc, eps, field, s);
+    let lit = [&layout.lit[0], &layout.lit[1]].map(|l| l.len() as u64);
+    let all_distinct_x = dx[2] == cam.kx as u64 * (lit[0] + lit[1]);
     let dy = if cam.ky == cam.kx {
         dx
+    } else if all_distinct_x && layout.y_within_x {
+        // No two x samples of either half lie within eps of each other, and the y samples
+        // of each half are x samples (those of the central K_y lenses): so no two y samples
+        // do either, and every count is the number of samples. The usual case away from
+        // coincidence planes; it skips the whole y pass.
+        let (n1, n2) = (cam.ky as u64 * lit[0], cam.ky as u64 * lit[1]);
+        [n1, n2, n1 + n2]
     } else {
         // Counts only: an infinite field skips the gap scan.
         axis_counts(cam, layout, Axis::Y, zc, eps, f64::INFINITY, s).0
@@ -824,6 +851,41 @@ mod tests {
             assert!(a.distinct_2d[2 * m + k] >= a.distinct_2d[k].max(a.distinct_2d[m + k]));
         }
         assert_eq!(a.lit, [266 * 15, 266 * 11, 266 * 26]);
+    }
+
+    #[test]
+    fn y_shortcut_equals_the_full_y_pass() {
+        // The all-distinct shortcut for the y counts against the full y pass: generic
+        // depths, every coincidence plane and both out-of-focus planes (where samples
+        // coincide and the full pass runs), and a coarse tolerance that merges samples.
+        for cam in [Camera::paper(), small(0.3866, 20.0, 9, 12, 6)] {
+            let mut z: Vec<f64> = (0..300)
+                .map(|i| 150.0 * (10_000.0f64 / 150.0).powf(i as f64 / 299.0))
+                .collect();
+            for h in Half::BOTH {
+                z.push(cam.out_of_focus_depth(h));
+                let planes = coincidence_planes(&cam, h, 3, None, Some(1)).unwrap();
+                z.extend(planes.iter().map(|p| p.z).filter(|&v| v > 100.0 && v < 1e5));
+            }
+            let fast = Layout::new(&cam);
+            assert!(fast.y_within_x);
+            let slow = Layout {
+                y_within_x: false,
+                ..fast.clone()
+            };
+            let mut s = Scratch::default();
+            let every = cam.kx as u64 * (fast.lit[0].len() + fast.lit[1].len()) as u64;
+            let mut taken = [0, 0]; // [shortcut, full y pass]
+            for tol in [1e-6, 0.3] {
+                for &zi in &z {
+                    let a = depth_result(&cam, &fast, zi, tol, &mut s);
+                    let b = depth_result(&cam, &slow, zi, tol, &mut s);
+                    assert_eq!(a, b, "z = {zi}, tol = {tol}");
+                    taken[(a.distinct[2] != every) as usize] += 1;
+                }
+            }
+            assert!(taken[0] > 0 && taken[1] > 0, "{taken:?}");
+        }
     }
 
     #[test]
