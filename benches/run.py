@@ -3,8 +3,9 @@
 For each workload, in one process: build identical inputs, check that NumPy and native
 results agree (1e-12 relative), then alternate NumPy, native at 1 thread, native at all
 threads and the memory-bandwidth floor (allocate + fill arrays of the output's total
-size) over several rounds and report medians. Peak memory of each side is measured in a
-fresh subprocess (ru_maxrss above the post-setup baseline).
+size) over several rounds, rotating their order every round, and report medians. Peak
+memory of each side is measured in a fresh subprocess (VmHWM above the post-setup
+resident set).
 
     python benches/run.py            # full sizes -> benches/results.json, benches/RESULTS.md
     python benches/run.py --quick    # small sizes (CI smoke test) -> benches/out/
@@ -21,7 +22,6 @@ import gc
 import json
 import os
 import platform
-import resource
 import statistics
 import subprocess
 import sys
@@ -84,6 +84,31 @@ workload(Workload(
 ))
 
 
+# -- W2: footprints ------------------------------------------------------------------------
+
+def _w2_setup(sizes):
+    return {"cam": splitlf.Camera.paper(), "z": np.geomspace(150.0, 10_000.0, sizes["depths"])}
+
+
+def _w2_native(inp, n_threads):
+    out = {}
+    for half in (1, 2):
+        fp = splitlf.footprints(inp["cam"], inp["z"], half, "x", "centroid", n_threads=n_threads)
+        out.update({f"position_{half}": fp.position, f"lo_{half}": fp.lo, f"hi_{half}": fp.hi})
+    return out
+
+
+workload(Workload(
+    name="W2",
+    title="footprints: centroid position and extent of every pixel of both halves along x",
+    sizes=lambda quick: {"depths": 100 if quick else 10**4, "pixels_per_half": 266 * 15},
+    setup=_w2_setup,
+    numpy=lambda inp: numpy_impl.footprints(inp["cam"], inp["z"]),
+    native=_w2_native,
+    out_bytes=lambda inp: 2 * 3 * 8 * inp["z"].size * inp["cam"].Kx * inp["cam"].Q,
+))
+
+
 # -- W3: new samples ---------------------------------------------------------------------
 
 def _w3_setup(sizes):
@@ -103,6 +128,48 @@ workload(Workload(
     setup=_w3_setup,
     numpy=lambda inp: numpy_impl.new_samples(inp["cam"], inp["z"], inp["tol"]),
     native=_w3_native,
+))
+
+
+# -- W4: full 40-MP sensor -------------------------------------------------------------------
+
+def w4_camera(kx: int = 516, ky: int = 172) -> splitlf.Camera:
+    """The seed design on a 40-MP split sensor: 7,740 x 5,160 pixels of mu = 4.5 um, Q = 15.
+    The two halves sit one above the other (as the seed's 36 x 24 mm sensor splits into two
+    36 x 12 mm halves), so each half is 7,740 x 2,580 pixels: Kx = 7,740 / 15 = 516 and
+    Ky = 2,580 / 15 = 172 microlenses. The pitch keeps Q pixels per microlens, d = Q mu =
+    0.0675 mm, and v = d v' / D keeps half 1 f-number matched (D v / v' = mu Q), as in the
+    seed. --quick uses 1/4 of the microlenses along each axis."""
+    cam = splitlf.Camera.paper()
+    d = 15 * 0.0045
+    return cam.replace(mu=0.0045, d=d, v=d * cam.v1 / cam.D, Kx=kx, Ky=ky)
+
+
+def _w4_setup(sizes):
+    return {"cam": w4_camera(sizes["Kx"], sizes["Ky"]), "z": 500.0}
+
+
+def _w4_native(inp, n_threads):
+    out = {}
+    for half in (1, 2):
+        X, Y = splitlf.sample_grid(inp["cam"], inp["z"], half, "chief", n_threads=n_threads)
+        out.update({f"X_{half}": X, f"Y_{half}": Y})
+    return out
+
+
+def _w4_sizes(quick: bool) -> dict[str, Any]:
+    kx, ky = (129, 43) if quick else (516, 172)
+    return {"pixels": f"{kx * 15} x {2 * ky * 15}", "Kx": kx, "Ky": ky}
+
+
+workload(Workload(
+    name="W4",
+    title="full sensor: `sample_grid` of both halves of a 40-MP split sensor at one depth",
+    sizes=_w4_sizes,
+    setup=_w4_setup,
+    numpy=lambda inp: numpy_impl.sample_grid(inp["cam"], inp["z"]),
+    native=_w4_native,
+    out_bytes=lambda inp: 2 * 2 * 8 * inp["cam"].Kx * inp["cam"].Ky * inp["cam"].Q ** 2,
 ))
 
 
@@ -140,11 +207,23 @@ def peak_memory(name: str, side: str, quick: bool) -> float:
     return float(out.stdout.strip().splitlines()[-1])
 
 
+def _status_kib(field: str) -> int:
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith(field + ":"):
+            return int(line.split()[1])
+    raise KeyError(field)
+
+
 def _memory_child(name: str, side: str, quick: bool) -> None:
+    """Peak resident memory of one run above the post-setup resident set. ru_maxrss would
+    inherit the parent's high-water mark across fork/exec (a child of a harness that has
+    already run big workloads would see no rise at all), so the child resets the kernel's
+    per-process high-water mark (VmHWM, `echo 5 > /proc/self/clear_refs`) after setup."""
     w = WORKLOADS[name]
     inp = w.setup(w.sizes(quick))
     gc.collect()
-    base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    Path("/proc/self/clear_refs").write_text("5")
+    base = _status_kib("VmRSS")
     if side == "numpy":
         r = w.numpy(inp)
     elif side == "native":
@@ -152,9 +231,9 @@ def _memory_child(name: str, side: str, quick: bool) -> None:
     else:
         floor_run(w.out_bytes(inp))
         r = None
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    peak = _status_kib("VmHWM")
     del r
-    print((peak - base) / 1024.0)  # ru_maxrss is KiB on Linux
+    print((peak - base) / 1024.0)
 
 
 def run_workload(w: Workload, quick: bool, rounds: int) -> dict[str, Any]:
@@ -164,12 +243,21 @@ def run_workload(w: Workload, quick: bool, rounds: int) -> dict[str, Any]:
     check_equal(w.numpy(inp), w.native(inp, 1), w.name)
     n_all = os.cpu_count() or 1
     times: dict[str, list[float]] = {"numpy": [], "native_1": [], "native_all": [], "floor": []}
-    for _ in range(rounds):
-        times["numpy"].append(timed(w.numpy, inp))
-        times["native_1"].append(timed(w.native, inp, 1))
-        times["native_all"].append(timed(w.native, inp, None))
-        if w.out_bytes is not None:
-            times["floor"].append(timed(floor_run, w.out_bytes(inp)))
+    runs: dict[str, Callable[[], float]] = {
+        "numpy": lambda x=inp: timed(w.numpy, x),
+        "native_1": lambda x=inp: timed(w.native, x, 1),
+        "native_all": lambda x=inp: timed(w.native, x, None),
+    }
+    if w.out_bytes is not None:
+        nbytes = w.out_bytes(inp)
+        runs["floor"] = lambda: timed(floor_run, nbytes)
+    order = list(runs)
+    for r in range(rounds):
+        # Rotate the order every round: the run right after a big free (of the previous
+        # side's outputs) pays more for its page faults here, and no side should always
+        # be the one in that position.
+        for side in order[r % len(order):] + order[:r % len(order)]:
+            times[side].append(runs[side]())
     med = {k: statistics.median(v) for k, v in times.items() if v}
     result: dict[str, Any] = {
         "workload": w.name,
@@ -186,7 +274,7 @@ def run_workload(w: Workload, quick: bool, rounds: int) -> dict[str, Any]:
         result["output_bytes"] = w.out_bytes(inp)
         result["numpy_over_floor"] = med["numpy"] / med["floor"]
         result["native_all_over_floor"] = med["native_all"] / med["floor"]
-    del inp
+    del inp, runs
     gc.collect()
     result["peak_mib"] = {side: peak_memory(w.name, side, quick) for side in ("numpy", "native")}
     if w.out_bytes is not None:

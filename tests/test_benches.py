@@ -16,8 +16,10 @@ def test_quick_benchmarks_run(tmp_path):
                     "--out", str(tmp_path)], check=True, capture_output=True, text=True)
     doc = json.loads((tmp_path / "results.json").read_text())
     names = [r["workload"] for r in doc["results"]]
-    assert "W1" in names and doc["quick"] is True
+    assert names == ["W1", "W2", "W3", "W4"] and doc["quick"] is True
     for r in doc["results"]:
         assert all(t > 0 for t in r["median_s"].values())
+        if "output_mib" in r:  # the outputs themselves must show in the measured peak
+            assert r["peak_mib"]["native"] >= 0.5 * r["output_mib"]
     table = (tmp_path / "RESULTS.md").read_text()
     assert table.count("\n| W") == len(names)

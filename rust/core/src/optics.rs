@@ -89,8 +89,21 @@ pub struct Curves {
     pub conventional_px: Vec<f64>,
 }
 
-/// Depths per parallel task: large enough to amortise scheduling, small enough to balance.
+/// Depths per parallel task: large enough to amortise scheduling, small enough to balance
+/// (and to keep a task's 11 output streams short runs of fresh pages).
 const CHUNK: usize = 16 * 1024;
+
+/// Output buffers of [`curves_into`]: `conjugate` (n) and the two-row arrays (2 n,
+/// row-major (2, n): row 0 half 1, row 1 half 2). Any initial content: every element is
+/// written exactly once.
+pub struct CurvesOut<'a> {
+    pub conjugate: &'a mut [f64],
+    pub main_blur: &'a mut [f64],
+    pub repetitions: &'a mut [f64],
+    pub microlens_blur: &'a mut [f64],
+    pub blur_px: &'a mut [f64],
+    pub conventional_px: &'a mut [f64],
+}
 
 /// Evaluate every curve at every depth (validated first), in parallel.
 pub fn curves(cam: &Camera, z: &[f64], n_threads: Option<usize>) -> Result<Curves> {
@@ -104,42 +117,99 @@ pub fn curves(cam: &Camera, z: &[f64], n_threads: Option<usize>) -> Result<Curve
         blur_px: vec![0.0; 2 * n],
         conventional_px: vec![0.0; 2 * n],
     };
-    with_threads(n_threads, || {
-        let (h0, h1) = out.main_blur.split_at_mut(n);
-        let (r0, r1) = out.repetitions.split_at_mut(n);
-        let (b0, b1) = out.microlens_blur.split_at_mut(n);
-        let (p0, p1) = out.blur_px.split_at_mut(n);
-        let (c0, c1) = out.conventional_px.split_at_mut(n);
-        let rows: [[&mut [f64]; 5]; 2] = [[h0, r0, b0, p0, c0], [h1, r1, b1, p1, c1]];
-        // One task per chunk of depths; each task owns disjoint slices of every output.
-        let mut tasks = Vec::with_capacity(n.div_ceil(CHUNK));
-        let mut zc_chunks = out.conjugate.chunks_mut(CHUNK);
-        let mut row_chunks = rows.map(|r| r.map(|s| s.chunks_mut(CHUNK)));
-        for zs in z.chunks(CHUNK) {
-            let zc = zc_chunks.next().expect("same length");
-            let halves = [0, 1]
-                .map(|h| [0, 1, 2, 3, 4].map(|k| row_chunks[h][k].next().expect("same length")));
-            tasks.push((zs, zc, halves));
-        }
-        tasks.into_par_iter().for_each(|(zs, zc, mut halves)| {
-            for (k, &zk) in zs.iter().enumerate() {
-                zc[k] = conjugate(cam.f_main, zk);
-            }
-            for half in Half::BOTH {
-                let [h, r, b, p, c] = &mut halves[half.index()];
-                for k in 0..zs.len() {
-                    let hk = main_blur(cam, half, zc[k]);
-                    let bk = microlens_blur(cam, half, zc[k]);
-                    h[k] = hk;
-                    r[k] = repetitions(cam, hk);
-                    b[k] = bk;
-                    p[k] = lf_blur_px(cam, half, bk);
-                    c[k] = hk / cam.mu;
-                }
-            }
-        });
-    })?;
+    let buffers = CurvesOut {
+        conjugate: &mut out.conjugate,
+        main_blur: &mut out.main_blur,
+        repetitions: &mut out.repetitions,
+        microlens_blur: &mut out.microlens_blur,
+        blur_px: &mut out.blur_px,
+        conventional_px: &mut out.conventional_px,
+    };
+    curves_into(cam, z, buffers, n_threads)?;
     Ok(out)
+}
+
+/// [`curves`] written straight into caller-provided buffers (e.g. NumPy arrays), so the
+/// outputs are the only large allocation and each is written once: one fused pass per
+/// chunk of depths computes z' once and all ten per-half values from it, in parallel over
+/// chunks. Depths are validated and lengths checked before any write.
+pub fn curves_into(
+    cam: &Camera,
+    z: &[f64],
+    out: CurvesOut<'_>,
+    n_threads: Option<usize>,
+) -> Result<()> {
+    check_depths(cam, z)?;
+    let n = z.len();
+    let two = [
+        out.main_blur.len(),
+        out.repetitions.len(),
+        out.microlens_blur.len(),
+        out.blur_px.len(),
+        out.conventional_px.len(),
+    ];
+    if out.conjugate.len() != n || two.iter().any(|&l| l != 2 * n) {
+        return Err(Error::param(
+            "output length",
+            format!("{:?}", (out.conjugate.len(), two)),
+            format!("{n} (conjugate) and {} (two-row arrays)", 2 * n),
+        ));
+    }
+    let (h0, h1) = out.main_blur.split_at_mut(n);
+    let (r0, r1) = out.repetitions.split_at_mut(n);
+    let (b0, b1) = out.microlens_blur.split_at_mut(n);
+    let (p0, p1) = out.blur_px.split_at_mut(n);
+    let (c0, c1) = out.conventional_px.split_at_mut(n);
+    let rows = [[h0, r0, b0, p0, c0], [h1, r1, b1, p1, c1]];
+    with_threads(n_threads, || {
+        // One task per chunk of depths; each task owns disjoint slices of every output.
+        let [[h0, r0, b0, p0, c0], [h1, r1, b1, p1, c1]] =
+            rows.map(|r| r.map(|s| s.par_chunks_mut(CHUNK)));
+        out.conjugate
+            .par_chunks_mut(CHUNK)
+            .zip(z.par_chunks(CHUNK))
+            .zip(h0.zip(r0).zip(b0).zip(p0).zip(c0))
+            .zip(h1.zip(r1).zip(b1).zip(p1).zip(c1))
+            .for_each(|(((zc, zs), one), two)| {
+                let ((((h0, r0), b0), p0), c0) = one;
+                let ((((h1, r1), b1), p1), c1) = two;
+                curves_chunk(cam, zs, zc, [h0, r0, b0, p0, c0], [h1, r1, b1, p1, c1]);
+            });
+    })
+}
+
+/// One chunk of [`curves_into`]: every output element written once, in one streaming pass.
+#[inline]
+fn curves_chunk(
+    cam: &Camera,
+    zs: &[f64],
+    zc: &mut [f64],
+    one: [&mut [f64]; 5],
+    two: [&mut [f64]; 5],
+) {
+    let m = zs.len();
+    // Re-slicing to the chunk length lets the compiler drop the bounds checks.
+    let zc = &mut zc[..m];
+    let [h0, r0, b0, p0, c0] = one.map(|s| &mut s[..m]);
+    let [h1, r1, b1, p1, c1] = two.map(|s| &mut s[..m]);
+    for k in 0..m {
+        let zck = conjugate(cam.f_main, zs[k]);
+        zc[k] = zck;
+        let hk = main_blur(cam, Half::One, zck);
+        let bk = microlens_blur(cam, Half::One, zck);
+        h0[k] = hk;
+        r0[k] = repetitions(cam, hk);
+        b0[k] = bk;
+        p0[k] = lf_blur_px(cam, Half::One, bk);
+        c0[k] = hk / cam.mu;
+        let hk = main_blur(cam, Half::Two, zck);
+        let bk = microlens_blur(cam, Half::Two, zck);
+        h1[k] = hk;
+        r1[k] = repetitions(cam, hk);
+        b1[k] = bk;
+        p1[k] = lf_blur_px(cam, Half::Two, bk);
+        c1[k] = hk / cam.mu;
+    }
 }
 
 /// Sharp depth intervals (near, far) in mm, sorted; `far` may be +∞. Open intervals:

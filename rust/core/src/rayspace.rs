@@ -613,16 +613,46 @@ fn footprint_row(
     let scale = -z / cam.v1; // X = −p' z / v' (negative: lo comes from the largest p')
     let n = pre.n;
     let (vu, vw) = (&pre.vu, &pre.vw);
-    for i in 0..n {
-        let mut mn = vu[0][i] + sigma * vw[0][i];
-        let mut mx = mn;
-        for k in 1..MAX_VERTICES {
-            let p = vu[k][i] + sigma * vw[k][i];
-            mn = if p < mn { p } else { mn };
-            mx = if p > mx { p } else { mx };
+    // Blocks of pixels, vertex by vertex inside a block: every inner loop runs over
+    // equal-length slices (no bounds checks, vectorised), the running min/max stay in
+    // registers/L1 and each output element is written once.
+    const BLOCK: usize = 64;
+    let mut start = 0;
+    while start < n {
+        let end = (start + BLOCK).min(n);
+        let len = end - start;
+        let mut mn = [0.0f64; BLOCK];
+        let mut mx = [0.0f64; BLOCK];
+        let (mn, mx) = (&mut mn[..len], &mut mx[..len]);
+        for ((a, b), (&u, &w)) in mn
+            .iter_mut()
+            .zip(mx.iter_mut())
+            .zip(vu[0][start..end].iter().zip(&vw[0][start..end]))
+        {
+            let p = u + sigma * w;
+            *a = p;
+            *b = p;
         }
-        lo[i] = mx * scale;
-        hi[i] = mn * scale;
+        for k in 1..MAX_VERTICES {
+            for ((a, b), (&u, &w)) in mn
+                .iter_mut()
+                .zip(mx.iter_mut())
+                .zip(vu[k][start..end].iter().zip(&vw[k][start..end]))
+            {
+                let p = u + sigma * w;
+                *a = if p < *a { p } else { *a };
+                *b = if p > *b { p } else { *b };
+            }
+        }
+        for ((l, h), (&a, &b)) in lo[start..end]
+            .iter_mut()
+            .zip(hi[start..end].iter_mut())
+            .zip(mn.iter().zip(mx.iter()))
+        {
+            *l = b * scale;
+            *h = a * scale;
+        }
+        start = end;
     }
     match sample {
         Sample::Centroid => {

@@ -115,6 +115,10 @@ struct Layout {
     cy: Vec<f64>,
     /// Lit pixel indices of half 1 and half 2.
     lit: [Vec<u32>; 2],
+    /// The y lens centres are x lens centres, bit for bit (K_y ≤ K_x, K_x − K_y even:
+    /// c^y_j = c^x_{j + (K_x − K_y)/2}, both exact half-integer multiples of d), so every
+    /// y sample of a half is one of its x samples.
+    y_within_x: bool,
 }
 
 impl Layout {
@@ -123,6 +127,7 @@ impl Layout {
             cx: (0..cam.kx).map(|j| cam.lens_center(j, cam.kx)).collect(),
             cy: (0..cam.ky).map(|j| cam.lens_center(j, cam.ky)).collect(),
             lit: Half::BOTH.map(|h| lit_indices(cam, h)),
+            y_within_x: cam.ky <= cam.kx && (cam.kx - cam.ky) % 2 == 0,
         }
     }
 
@@ -172,8 +177,8 @@ fn emit_sorted(
     scale: f64,
 ) {
     let (n_outer, n_inner) = (outer.len(), inner_terms.len());
-    out.clear();
     if n_outer == 0 || n_inner == 0 {
+        out.clear();
         return;
     }
     let perm = &mut work.perm;
@@ -188,6 +193,7 @@ fn emit_sorted(
     inner.clear();
     inner.extend(perm.iter().map(|&(_, m, l)| (inner_terms[l], m)));
     let m_max = inner.iter().map(|p| p.1).max().unwrap_or(0);
+    // Every element is overwritten below: resize without clearing (no memset per depth).
     out.resize(n_outer * n_inner, 0.0);
     // Edge windows: only the inner indices whose outer index w − m lies in [0, n_outer).
     let edge = |out: &mut [f64], w: usize, o: &mut usize| {
@@ -219,7 +225,20 @@ fn emit_sorted(
 }
 
 /// Insertion sort: linear on data whose elements are at most a few places out of order.
+/// A vectorised scan for descents comes first: the emitted data is usually already sorted,
+/// and then the (serial, branchy) insertion pass is skipped.
 fn insertion_fixup(x: &mut [f64]) {
+    if x.len() < 2 {
+        return;
+    }
+    let descents: usize = x[1..]
+        .iter()
+        .zip(&x[..x.len() - 1])
+        .map(|(h, l)| (h < l) as usize)
+        .sum();
+    if descents == 0 {
+        return;
+    }
     for i in 1..x.len() {
         let v = x[i];
         if v < x[i - 1] {
@@ -328,33 +347,41 @@ fn scan(x: &[f64], eps: f64, field: f64) -> (u64, f64) {
         }
         count
     };
-    let gap = if x[0] > -field || x[n - 1] < field {
-        f64::INFINITY
-    } else {
-        // Gaps [x_k, x_{k+1}] that meet the field: x_{k+1} ≥ −W and x_k ≤ W.
-        let lo = x.partition_point(|&v| v < -field).saturating_sub(1);
-        let hi = x.partition_point(|&v| v <= field).min(n - 1);
-        max_step(&x[lo..=hi])
-    };
-    (count, gap)
+    (count, field_gap(x, field))
+}
+
+/// Largest gap over the field [−W, W] of ascending positions (+∞ when they do not reach
+/// both field edges, or when there are none): the gaps [x_k, x_{k+1}] that meet the field,
+/// x_{k+1} ≥ −W and x_k ≤ W.
+fn field_gap(x: &[f64], field: f64) -> f64 {
+    let n = x.len();
+    if n == 0 || x[0] > -field || x[n - 1] < field {
+        return f64::INFINITY;
+    }
+    let lo = x.partition_point(|&v| v < -field).saturating_sub(1);
+    let hi = x.partition_point(|&v| v <= field).min(n - 1);
+    max_step(&x[lo..=hi])
 }
 
 /// Merge two ascending arrays into `out`, branch-free, from both ends at once: the front
 /// takes the smallest values (x first on ties), the back the largest (y first on ties, the
 /// same total order reversed), so each element is written exactly once and the two
-/// independent dependency chains overlap.
+/// independent dependency chains overlap. (Cutting the inputs in two and running four
+/// chains in lockstep measured slower here: the cursors no longer fit in registers.)
 fn merge_into(out: &mut Vec<f64>, x: &[f64], y: &[f64]) {
     let n = x.len() + y.len();
-    out.clear();
-    out.resize(n, 0.0);
+    out.resize(n, 0.0); // every element is overwritten: no clear, no memset per depth
+    let out = &mut out[..];
     let at = |v: &[f64], i: usize, none: f64| v.get(i).copied().unwrap_or(none);
     let (mut i, mut k) = (0usize, 0usize); // front cursors
     let (mut ib, mut kb) = (x.len(), y.len()); // back cursors (one past)
     let half = n / 2;
     for o in 0..half {
+        // Plain selects (positions are never NaN): f64::min's NaN handling would add four
+        // instructions to each of the two dependency chains.
         let (xa, yb) = (at(x, i, f64::INFINITY), at(y, k, f64::INFINITY));
         let tx = (xa <= yb) as usize;
-        out[o] = xa.min(yb);
+        out[o] = if xa <= yb { xa } else { yb };
         i += tx;
         k += 1 - tx;
         let (xe, ye) = (
@@ -362,7 +389,7 @@ fn merge_into(out: &mut Vec<f64>, x: &[f64], y: &[f64]) {
             at(y, kb.wrapping_sub(1), f64::NEG_INFINITY),
         );
         let te = (xe > ye) as usize;
-        out[n - 1 - o] = xe.max(ye);
+        out[n - 1 - o] = if xe > ye { xe } else { ye };
         ib -= te;
         kb -= 1 - te;
     }
@@ -397,7 +424,15 @@ fn axis_counts(
     let [p1, p2, pu] = &mut s.pos;
     merge_into(pu, p1, p2);
     let to_delta = cam.q as f64 / cam.d;
-    let r = [&*p1, &*p2, &*pu].map(|x| scan(x, eps, field));
+    let (cu, gu) = scan(pu, eps, field);
+    let halves = if cu == pu.len() as u64 {
+        // Every union sample is its own: so is every sample of each half (a subset), and
+        // only the gaps are left to find.
+        [&*p1, &*p2].map(|x| (x.len() as u64, field_gap(x, field)))
+    } else {
+        [&*p1, &*p2].map(|x| scan(x, eps, field))
+    };
+    let r = [halves[0], halves[1], (cu, gu)];
     (r.map(|x| x.0), r.map(|x| x.1 * to_delta))
 }
 
@@ -418,10 +453,20 @@ fn depth_result(cam: &Camera, layout: &Layout, z: f64, tol: f64, s: &mut Scratch
     let eps = tol * cam.d / cam.q as f64; // tol · δ(z) in p' space
     let field = cam.kx as f64 * cam.d / 4.0; // |X| ≤ K_x d z / (4 v') in p' space
     let (dx, gap) = axis_counts(cam, layout, Axis::X, zc, eps, field, s);
+    let lit = [&layout.lit[0], &layout.lit[1]].map(|l| l.len() as u64);
+    let all_distinct_x = dx[2] == cam.kx as u64 * (lit[0] + lit[1]);
     let dy = if cam.ky == cam.kx {
         dx
+    } else if all_distinct_x && layout.y_within_x {
+        // No two x samples of either half lie within eps of each other, and the y samples
+        // of each half are x samples (those of the central K_y lenses): so no two y samples
+        // do either, and every count is the number of samples. The usual case away from
+        // coincidence planes; it skips the whole y pass.
+        let (n1, n2) = (cam.ky as u64 * lit[0], cam.ky as u64 * lit[1]);
+        [n1, n2, n1 + n2]
     } else {
-        axis_counts(cam, layout, Axis::Y, zc, eps, field, s).0
+        // Counts only: an infinite field skips the gap scan.
+        axis_counts(cam, layout, Axis::Y, zc, eps, f64::INFINITY, s).0
     };
     DepthResult {
         distinct: dx,
@@ -710,6 +755,24 @@ mod tests {
             want.sort_by(f64::total_cmp);
             assert_eq!(out, want);
         }
+        // Random lengths, many ties (values on a coarse grid), every split position.
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = |m: u64| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state % m
+        };
+        for _ in 0..500 {
+            let mut x: Vec<f64> = (0..next(40)).map(|_| next(30) as f64 - 15.0).collect();
+            let mut y: Vec<f64> = (0..next(40)).map(|_| next(30) as f64 - 15.0).collect();
+            x.sort_by(f64::total_cmp);
+            y.sort_by(f64::total_cmp);
+            merge_into(&mut out, &x, &y);
+            let mut want: Vec<f64> = x.iter().chain(&y).copied().collect();
+            want.sort_by(f64::total_cmp);
+            assert_eq!(out, want, "{x:?} {y:?}");
+        }
         // Greedy cover: {0, 0.6, 1.2} with eps 1 -> 2 intervals (single linkage would say 1).
         assert_eq!(scan(&[0.0, 0.6, 1.2], 1.0, 0.5).0, 2);
         // Field [-1, 1]: gaps meeting it are [-3,-0.5], [-0.5,0.2], [0.2,4]; [4,10] is outside.
@@ -788,6 +851,41 @@ mod tests {
             assert!(a.distinct_2d[2 * m + k] >= a.distinct_2d[k].max(a.distinct_2d[m + k]));
         }
         assert_eq!(a.lit, [266 * 15, 266 * 11, 266 * 26]);
+    }
+
+    #[test]
+    fn y_shortcut_equals_the_full_y_pass() {
+        // The all-distinct shortcut for the y counts against the full y pass: generic
+        // depths, every coincidence plane and both out-of-focus planes (where samples
+        // coincide and the full pass runs), and a coarse tolerance that merges samples.
+        for cam in [Camera::paper(), small(0.3866, 20.0, 9, 12, 6)] {
+            let mut z: Vec<f64> = (0..300)
+                .map(|i| 150.0 * (10_000.0f64 / 150.0).powf(i as f64 / 299.0))
+                .collect();
+            for h in Half::BOTH {
+                z.push(cam.out_of_focus_depth(h));
+                let planes = coincidence_planes(&cam, h, 3, None, Some(1)).unwrap();
+                z.extend(planes.iter().map(|p| p.z).filter(|&v| v > 100.0 && v < 1e5));
+            }
+            let fast = Layout::new(&cam);
+            assert!(fast.y_within_x);
+            let slow = Layout {
+                y_within_x: false,
+                ..fast.clone()
+            };
+            let mut s = Scratch::default();
+            let every = cam.kx as u64 * (fast.lit[0].len() + fast.lit[1].len()) as u64;
+            let mut taken = [0, 0]; // [shortcut, full y pass]
+            for tol in [1e-6, 0.3] {
+                for &zi in &z {
+                    let a = depth_result(&cam, &fast, zi, tol, &mut s);
+                    let b = depth_result(&cam, &slow, zi, tol, &mut s);
+                    assert_eq!(a, b, "z = {zi}, tol = {tol}");
+                    taken[(a.distinct[2] != every) as usize] += 1;
+                }
+            }
+            assert!(taken[0] > 0 && taken[1] > 0, "{taken:?}");
+        }
     }
 
     #[test]

@@ -158,17 +158,32 @@ fn curves<'py>(
 ) -> PyResult<CurveArrays<'py>> {
     let cam = camera.inner;
     let zs = as_slice(&z);
-    let out = py
-        .detach(|| optics::curves(&cam, &zs, n_threads))
-        .map_err(to_py)?;
-    Ok((
-        out.conjugate.into_pyarray(py),
-        rows(py, out.main_blur, 2)?,
-        rows(py, out.repetitions, 2)?,
-        rows(py, out.microlens_blur, 2)?,
-        rows(py, out.blur_px, 2)?,
-        rows(py, out.conventional_px, 2)?,
-    ))
+    // Validate, then let NumPy allocate the outputs (its allocator asks for huge pages) and
+    // have the core write each element exactly once, in place, without the GIL.
+    optics::check_depths(&cam, &zs).map_err(to_py)?;
+    let n = zs.len();
+    // SAFETY: uninitialised arrays; `curves_into` writes every element (it checks the
+    // lengths first, and on error the arrays are dropped without being read).
+    let conjugate = unsafe { PyArray1::<f64>::new(py, [n], false) };
+    let two = || unsafe { PyArray2::<f64>::new(py, [2, n], false) };
+    let arrays = [two(), two(), two(), two(), two()];
+    {
+        let mut zw = conjugate.readwrite();
+        let mut w = arrays.each_ref().map(|a| a.readwrite());
+        let [h, r, b, p, c] = w.each_mut().map(|a| a.as_slice_mut());
+        let out = optics::CurvesOut {
+            conjugate: zw.as_slice_mut().map_err(internal)?,
+            main_blur: h.map_err(internal)?,
+            repetitions: r.map_err(internal)?,
+            microlens_blur: b.map_err(internal)?,
+            blur_px: p.map_err(internal)?,
+            conventional_px: c.map_err(internal)?,
+        };
+        py.detach(|| optics::curves_into(&cam, &zs, out, n_threads))
+            .map_err(to_py)?;
+    }
+    let [h, r, b, p, c] = arrays;
+    Ok((conjugate, h, r, b, p, c))
 }
 
 type Intervals = Vec<(f64, f64)>;

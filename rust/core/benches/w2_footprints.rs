@@ -1,0 +1,34 @@
+//! W2 at a modest size: centroid footprints (position, extent; no kernels) of every pixel
+//! of half 2 along x (3,990 pixels) at 200 depths.
+
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use splitlf_core::rayspace::{footprints_into, FootprintsOut, Sample};
+use splitlf_core::{Axis, Camera, Half};
+
+mod common;
+
+fn bench(c: &mut Criterion) {
+    let cam = Camera::paper();
+    let z = common::geomspace(150.0, 10_000.0, 200);
+    let n = (cam.kx * cam.q) as usize * z.len();
+    let (mut pos, mut lo, mut hi) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+    let mut g = c.benchmark_group("w2_footprints");
+    g.throughput(Throughput::Elements(n as u64));
+    for t in common::thread_counts() {
+        g.bench_function(common::label(t), |b| {
+            b.iter(|| {
+                let out = FootprintsOut {
+                    position: &mut pos,
+                    lo: &mut lo,
+                    hi: &mut hi,
+                    kernel: None,
+                };
+                footprints_into(&cam, &z, Half::Two, Axis::X, Sample::Centroid, out, t).unwrap();
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

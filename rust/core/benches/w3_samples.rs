@@ -1,0 +1,23 @@
+//! W3 at a modest size: `new_samples` (distinct per half and union, max gap) at 500 depths.
+
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use splitlf_core::samples::{new_samples, SampleMode};
+use splitlf_core::Camera;
+
+mod common;
+
+fn bench(c: &mut Criterion) {
+    let cam = Camera::paper();
+    let z = common::geomspace(150.0, 10_000.0, 500);
+    let mut g = c.benchmark_group("w3_samples");
+    g.throughput(Throughput::Elements(z.len() as u64));
+    for t in common::thread_counts() {
+        g.bench_function(common::label(t), |b| {
+            b.iter(|| new_samples(&cam, &z, 1e-6, SampleMode::Chief, t).unwrap())
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

@@ -1,0 +1,45 @@
+//! W4 at a modest size: `sample_grid` of one half of a 1/16-size version of the 40-MP
+//! sensor of `benches/run.py` (Kx = 129, Ky = 43: 1,935 x 645 pixels), at one depth.
+
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use splitlf_core::rayspace::{sample_grid_into, Sample};
+use splitlf_core::{Camera, Half};
+
+mod common;
+
+fn bench(c: &mut Criterion) {
+    let p = Camera::paper();
+    let (mu, q) = (0.0045, 15);
+    let d = q as f64 * mu;
+    let cam = Camera::new(
+        p.f_main,
+        p.aperture,
+        p.v1,
+        p.kappa,
+        d,
+        d * p.v1 / p.aperture,
+        mu,
+        q,
+        129,
+        43,
+        None,
+        None,
+    )
+    .unwrap();
+    let n = (cam.kx * cam.q) as usize * (cam.ky * cam.q) as usize;
+    let (mut gx, mut gy) = (vec![0.0; n], vec![0.0; n]);
+    let mut g = c.benchmark_group("w4_sample_grid");
+    g.throughput(Throughput::Elements(n as u64));
+    for t in common::thread_counts() {
+        g.bench_function(common::label(t), |b| {
+            b.iter(|| {
+                sample_grid_into(&cam, 500.0, Half::One, Sample::Chief, &mut gx, &mut gy, t)
+                    .unwrap()
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
