@@ -125,14 +125,15 @@ class NewSamples:
     sensor (union of both halves).
 
     - ``z`` (m,) depths [mm]; ``tol`` merge tolerance in units of delta(z); ``sample`` mode
-    - ``distinct`` (3, m) int64: distinct chief samples along x (positions closer than
+    - ``distinct`` (3, m) int64: distinct samples along x (positions closer than
       ``tol * delta(z)`` merge; see docs/samples.md for the exact rule)
     - ``distinct_2d`` (3, m) int64: over the whole 2D half-sensors (separable count)
     - ``max_gap`` (3, m): largest gap between consecutive samples along x over the central
       field |X| <= K_x d z / (4 v'), in units of delta(z) = d z / (Q v'); about 1 is full
       sensor resolution, Q the microlens resolution; ``inf`` when the samples do not cover
       the field
-    - ``lit`` (3,) int64: lit pixels along x (K_x Q_lit of half 1, of half 2, their sum)
+    - ``lit`` (3,) int64: pixels along x that yield a sample (``chief``: lit, K_x Q_lit;
+      ``centroid``: collecting any light) of half 1, of half 2, their sum
     """
 
     z: np.ndarray
@@ -154,15 +155,15 @@ def new_samples(
     """Count the distinct sample positions of each half and of the split sensor at every
     depth in ``z`` (mm, each finite and > F), and the worst gap between them.
 
-    ``sample`` is ``"chief"`` (the chief ray's projection, MODEL §5). ``"centroid"`` needs
-    the ray-space engine's polygon centroids and is refused with a ValueError until the
-    engine provides them.
+    ``sample`` is ``"chief"`` (the chief ray's projection, the paper's convention; lit pixels
+    only) or ``"centroid"`` (the projection of each pixel's integration-polygon centroid,
+    MODEL §5; every pixel that collects light, so partially vignetted pixels count too).
     """
     cam = _validate.camera(camera)
     zs = _validate.depths(z)
     t = _validate.real(tol, "tol")
     if not isinstance(sample, str):
-        raise TypeError(f"sample must be a string (\"chief\"), got {sample!r}")
+        raise TypeError(f"sample must be \"chief\" or \"centroid\", got {sample!r}")
     out = _native.new_samples(cam.core, zs, t, sample, _validate.n_threads(n_threads))
     return NewSamples(zs, t, sample, *out)
 

@@ -21,6 +21,7 @@ use crate::camera::{Axis, Camera, Half};
 use crate::error::{Error, Result};
 use crate::optics::{check_depths, conjugate, depth_of_conjugate, main_blur, repetitions};
 use crate::parallel::with_threads;
+use crate::rayspace::trace;
 
 /// Largest number of lit pixels along one axis of one half (K · Q_lit) the brute-force
 /// count accepts: each worker holds three buffers of this many f64.
@@ -31,25 +32,23 @@ pub const MAX_PAIRS: u64 = 1_000_000;
 /// Which sample position of a pixel is counted (MODEL §5).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum SampleMode {
-    /// The chief ray's projection (the paper's convention).
+    /// The chief ray's projection (the paper's convention); a pixel counts when lit.
     Chief,
+    /// The projection of the integration polygon's centroid (aperture-integrated, from the
+    /// ray-space engine); a pixel counts when it collects light (area > 0).
+    Centroid,
 }
 
 impl SampleMode {
-    /// Parse `"chief"`. `"centroid"` needs the polygon centroids of the ray-space engine
-    /// (`rayspace`), which is not part of this module: it is refused with that reason.
+    /// Parse `"chief"` or `"centroid"`.
     pub fn parse(s: &str) -> Result<SampleMode> {
         match s {
             "chief" => Ok(SampleMode::Chief),
-            "centroid" => Err(Error::param(
-                "sample",
-                "\"centroid\"",
-                "\"chief\" (centroid samples arrive with the ray-space engine's footprints)",
-            )),
+            "centroid" => Ok(SampleMode::Centroid),
             other => Err(Error::param(
                 "sample",
                 format!("{other:?}"),
-                "\"chief\" (the paper's convention)",
+                "\"chief\" (the paper's convention) or \"centroid\"",
             )),
         }
     }
@@ -475,6 +474,76 @@ fn depth_result(cam: &Camera, layout: &Layout, z: f64, tol: f64, s: &mut Scratch
     }
 }
 
+/// Centroid samples of every half and axis: the (u, w) centroids of the pixels that
+/// collect light. On the plane with conjugate z' the sample is p' = u + σ w with
+/// σ = (v' − z')/z' (MODEL.md §5), the projection the engine's `footprints` use.
+struct CentroidLayout {
+    /// [half][axis: 0 x, 1 y] → centroids of the pixels with area > 0.
+    uw: [[Vec<[f64; 2]>; 2]; 2],
+}
+
+impl CentroidLayout {
+    fn new(cam: &Camera) -> Result<CentroidLayout> {
+        let mut uw: [[Vec<[f64; 2]>; 2]; 2] = Default::default();
+        for h in Half::BOTH {
+            for (a, axis) in [Axis::X, Axis::Y].into_iter().enumerate() {
+                let tr = trace(cam, h, axis)?;
+                uw[h.index()][a] = tr
+                    .centroid
+                    .iter()
+                    .zip(&tr.area)
+                    .filter(|(_, &area)| area > 0.0)
+                    .map(|(c, _)| *c)
+                    .collect();
+            }
+        }
+        Ok(CentroidLayout { uw })
+    }
+}
+
+/// Distinct centroid samples along one axis (half 1, half 2, union) and max gaps in δ(z).
+fn centroid_axis_counts(
+    cam: &Camera,
+    cl: &CentroidLayout,
+    axis: usize,
+    zc: f64,
+    eps: f64,
+    field: f64,
+    s: &mut Scratch,
+) -> ([u64; 3], [f64; 3]) {
+    let sigma = (cam.v1 - zc) / zc;
+    for h in Half::BOTH {
+        let pos = &mut s.pos[h.index()];
+        pos.clear();
+        pos.extend(cl.uw[h.index()][axis].iter().map(|[u, w]| u + sigma * w));
+        pos.sort_unstable_by(f64::total_cmp);
+    }
+    let [p1, p2, pu] = &mut s.pos;
+    merge_into(pu, p1, p2);
+    let to_delta = cam.q as f64 / cam.d;
+    let r = [&*p1, &*p2, &*pu].map(|x| scan(x, eps, field));
+    (r.map(|x| x.0), r.map(|x| x.1 * to_delta))
+}
+
+fn centroid_depth_result(
+    cam: &Camera,
+    cl: &CentroidLayout,
+    z: f64,
+    tol: f64,
+    s: &mut Scratch,
+) -> DepthResult {
+    let zc = conjugate(cam.f_main, z);
+    let eps = tol * cam.d / cam.q as f64;
+    let field = cam.kx as f64 * cam.d / 4.0;
+    let (dx, gap) = centroid_axis_counts(cam, cl, 0, zc, eps, field, s);
+    let dy = centroid_axis_counts(cam, cl, 1, zc, eps, f64::INFINITY, s).0;
+    DepthResult {
+        distinct: dx,
+        distinct_2d: distinct_2d(dx, dy),
+        max_gap: gap,
+    }
+}
+
 /// Genuinely new samples at m depths. Row-major (3, m) arrays: rows half 1, half 2, union.
 #[derive(Debug, Clone, PartialEq)]
 pub struct NewSamples {
@@ -485,14 +554,16 @@ pub struct NewSamples {
     /// Largest gap between consecutive samples along x over the central field, in δ(z)
     /// (+∞ when the samples do not cover the field).
     pub max_gap: Vec<f64>,
-    /// Lit pixels along x: K_x Q_lit,1, K_x Q_lit,2 and their sum.
+    /// Pixels that yield a sample along x (chief: lit, K_x Q_lit; centroid: area > 0), for
+    /// half 1, half 2 and their sum.
     pub lit: [u64; 3],
 }
 
 /// Depths per parallel task.
 const CHUNK: usize = 8;
 
-/// Distinct chief samples and max gaps at every depth (validated first), parallel over depths.
+/// Distinct samples (chief or centroid) and max gaps at every depth (validated first),
+/// parallel over depths.
 pub fn new_samples(
     cam: &Camera,
     z: &[f64],
@@ -500,27 +571,45 @@ pub fn new_samples(
     mode: SampleMode,
     n_threads: Option<usize>,
 ) -> Result<NewSamples> {
-    let SampleMode::Chief = mode;
     let tol = check_tol(tol)?;
     check_depths(cam, z)?;
     check_size(cam)?;
-    let layout = Layout::new(cam);
     let m = z.len();
     let mut res = vec![DepthResult::default(); m];
-    with_threads(n_threads, || {
-        res.par_chunks_mut(CHUNK)
-            .zip(z.par_chunks(CHUNK))
-            .for_each_init(Scratch::default, |s, (r, zs)| {
-                for (ri, &zi) in r.iter_mut().zip(zs) {
-                    *ri = depth_result(cam, &layout, zi, tol, s);
-                }
-            });
-    })?;
+    let kx = cam.kx as u64;
+    let lit = match mode {
+        SampleMode::Chief => {
+            let layout = Layout::new(cam);
+            with_threads(n_threads, || {
+                res.par_chunks_mut(CHUNK)
+                    .zip(z.par_chunks(CHUNK))
+                    .for_each_init(Scratch::default, |s, (r, zs)| {
+                        for (ri, &zi) in r.iter_mut().zip(zs) {
+                            *ri = depth_result(cam, &layout, zi, tol, s);
+                        }
+                    });
+            })?;
+            layout.lit.map(|l| kx * l.len() as u64)
+        }
+        SampleMode::Centroid => {
+            let cl = with_threads(n_threads, || CentroidLayout::new(cam))??;
+            with_threads(n_threads, || {
+                res.par_chunks_mut(CHUNK)
+                    .zip(z.par_chunks(CHUNK))
+                    .for_each_init(Scratch::default, |s, (r, zs)| {
+                        for (ri, &zi) in r.iter_mut().zip(zs) {
+                            *ri = centroid_depth_result(cam, &cl, zi, tol, s);
+                        }
+                    });
+            })?;
+            cl.uw.map(|h| h[0].len() as u64)
+        }
+    };
     let mut out = NewSamples {
         distinct: vec![0; 3 * m],
         distinct_2d: vec![0; 3 * m],
         max_gap: vec![0.0; 3 * m],
-        lit: [0; 3],
+        lit: [lit[0], lit[1], lit[0] + lit[1]],
     };
     for (k, r) in res.iter().enumerate() {
         for row in 0..3 {
@@ -529,10 +618,6 @@ pub fn new_samples(
             out.max_gap[row * m + k] = r.max_gap[row];
         }
     }
-    let kx = cam.kx as u64;
-    let l1 = kx * layout.lit[0].len() as u64;
-    let l2 = kx * layout.lit[1].len() as u64;
-    out.lit = [l1, l2, l1 + l2];
     Ok(out)
 }
 
@@ -894,7 +979,7 @@ mod tests {
         assert!(new_samples(&cam, &[500.0], -1.0, SampleMode::Chief, None).is_err());
         assert!(new_samples(&cam, &[500.0], f64::NAN, SampleMode::Chief, None).is_err());
         assert!(new_samples(&cam, &[80.0], 1e-6, SampleMode::Chief, None).is_err());
-        assert!(SampleMode::parse("centroid").is_err());
+        assert_eq!(SampleMode::parse("centroid").unwrap(), SampleMode::Centroid);
         assert!(SampleMode::parse("foo").is_err());
         assert!(coincidence_planes(&cam, Half::One, 0, None, None).is_err());
         assert!(coincidence_planes(&cam, Half::One, 2, Some(0), None).is_err());
