@@ -562,6 +562,24 @@ pub struct NewSamples {
 /// Depths per parallel task.
 const CHUNK: usize = 8;
 
+/// Evaluate `f` at every depth in parallel, chunks of depths per task, one scratch per worker.
+fn per_depth<F>(z: &[f64], n_threads: Option<usize>, f: F) -> Result<Vec<DepthResult>>
+where
+    F: Fn(f64, &mut Scratch) -> DepthResult + Sync,
+{
+    let mut res = vec![DepthResult::default(); z.len()];
+    with_threads(n_threads, || {
+        res.par_chunks_mut(CHUNK)
+            .zip(z.par_chunks(CHUNK))
+            .for_each_init(Scratch::default, |s, (r, zs)| {
+                for (ri, &zi) in r.iter_mut().zip(zs) {
+                    *ri = f(zi, s);
+                }
+            });
+    })?;
+    Ok(res)
+}
+
 /// Distinct samples (chief or centroid) and max gaps at every depth (validated first),
 /// parallel over depths.
 pub fn new_samples(
@@ -575,34 +593,19 @@ pub fn new_samples(
     check_depths(cam, z)?;
     check_size(cam)?;
     let m = z.len();
-    let mut res = vec![DepthResult::default(); m];
     let kx = cam.kx as u64;
-    let lit = match mode {
+    let (res, lit) = match mode {
         SampleMode::Chief => {
             let layout = Layout::new(cam);
-            with_threads(n_threads, || {
-                res.par_chunks_mut(CHUNK)
-                    .zip(z.par_chunks(CHUNK))
-                    .for_each_init(Scratch::default, |s, (r, zs)| {
-                        for (ri, &zi) in r.iter_mut().zip(zs) {
-                            *ri = depth_result(cam, &layout, zi, tol, s);
-                        }
-                    });
-            })?;
-            layout.lit.map(|l| kx * l.len() as u64)
+            let res = per_depth(z, n_threads, |zi, s| depth_result(cam, &layout, zi, tol, s))?;
+            (res, layout.lit.map(|l| kx * l.len() as u64))
         }
         SampleMode::Centroid => {
             let cl = with_threads(n_threads, || CentroidLayout::new(cam))??;
-            with_threads(n_threads, || {
-                res.par_chunks_mut(CHUNK)
-                    .zip(z.par_chunks(CHUNK))
-                    .for_each_init(Scratch::default, |s, (r, zs)| {
-                        for (ri, &zi) in r.iter_mut().zip(zs) {
-                            *ri = centroid_depth_result(cam, &cl, zi, tol, s);
-                        }
-                    });
+            let res = per_depth(z, n_threads, |zi, s| {
+                centroid_depth_result(cam, &cl, zi, tol, s)
             })?;
-            cl.uw.map(|h| h[0].len() as u64)
+            (res, cl.uw.map(|h| h[0].len() as u64))
         }
     };
     let mut out = NewSamples {

@@ -3,7 +3,7 @@
 
 use std::borrow::Cow;
 
-use numpy::ndarray::{Array1, Array2};
+use numpy::ndarray::Array1;
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -42,7 +42,21 @@ fn rows<'py, T: numpy::Element>(
     n_rows: usize,
 ) -> PyResult<Bound<'py, PyArray2<T>>> {
     let n = v.len() / n_rows.max(1);
-    let a = Array2::from_shape_vec((n_rows, n), v)
+    shaped(py, (n_rows, n), v)
+}
+
+/// An n-D array of `shape` from a vector, without copying.
+fn shaped<'py, T, D, Sh>(
+    py: Python<'py>,
+    shape: Sh,
+    v: Vec<T>,
+) -> PyResult<Bound<'py, numpy::PyArray<T, D>>>
+where
+    T: numpy::Element,
+    D: numpy::ndarray::Dimension,
+    Sh: numpy::ndarray::ShapeBuilder<Dim = D>,
+{
+    let a = numpy::ndarray::Array::from_shape_vec(shape, v)
         .map_err(|e| PyValueError::new_err(format!("internal shape error: {e}")))?;
     Ok(a.into_pyarray(py))
 }
@@ -310,20 +324,6 @@ fn figures_of_merit(
     let zs = as_slice(&z);
     py.detach(|| splitlf_core::merit::figures_of_merit(&cam, &zs, threshold_px, tol, n_threads))
         .map_err(to_py)
-}
-
-fn shaped<'py, D, Sh>(
-    py: Python<'py>,
-    shape: Sh,
-    v: Vec<f64>,
-) -> PyResult<Bound<'py, numpy::PyArray<f64, D>>>
-where
-    D: numpy::ndarray::Dimension,
-    Sh: numpy::ndarray::ShapeBuilder<Dim = D>,
-{
-    let a = numpy::ndarray::Array::from_shape_vec(shape, v)
-        .map_err(|e| PyValueError::new_err(format!("internal shape error: {e}")))?;
-    Ok(a.into_pyarray(py))
 }
 
 type TraceArrays<'py> = (
