@@ -379,29 +379,23 @@ fn prepare(tr: &Trace, sample: Sample) -> Prepared {
     let n = tr.polygons.len();
     let mut vu: [Vec<f64>; MAX_VERTICES] = Default::default();
     let mut vw: [Vec<f64>; MAX_VERTICES] = Default::default();
+    // Vertex k of every polygon, coordinate c (0: u, 1: w); short polygons repeat their
+    // last vertex, empty ones are NaN.
+    let column = |k: usize, c: usize| -> Vec<f64> {
+        tr.polygons
+            .iter()
+            .map(|p| {
+                if p.n == 0 {
+                    f64::NAN
+                } else {
+                    p.v[k.min(p.n - 1)][c]
+                }
+            })
+            .collect()
+    };
     for k in 0..MAX_VERTICES {
-        vu[k] = tr
-            .polygons
-            .iter()
-            .map(|p| {
-                if p.n == 0 {
-                    f64::NAN
-                } else {
-                    p.v[k.min(p.n - 1)][0]
-                }
-            })
-            .collect();
-        vw[k] = tr
-            .polygons
-            .iter()
-            .map(|p| {
-                if p.n == 0 {
-                    f64::NAN
-                } else {
-                    p.v[k.min(p.n - 1)][1]
-                }
-            })
-            .collect();
+        vu[k] = column(k, 0);
+        vw[k] = column(k, 1);
     }
     let (su, sw) = (0..n)
         .map(|i| match sample {
