@@ -26,6 +26,17 @@ def axes(ax: Any) -> Any:
     return ax
 
 
+def axes_pair(ax: Any, figsize: tuple[float, float], names: str) -> list[Any]:
+    """Two stacked Axes sharing x: the given pair, or a new figure's."""
+    if ax is None:
+        _, axs = pyplot().subplots(2, 1, sharex=True, figsize=figsize, layout="constrained")
+        return list(axs)
+    axs = list(ax)
+    if len(axs) != 2:
+        raise ValueError(f"ax must be None or a pair of Axes ({names})")
+    return axs
+
+
 def mark_out_of_focus(ax: Any, camera: Any, label: bool = True) -> None:
     for h in (1, 2):
         z = camera.out_of_focus_depth(h)

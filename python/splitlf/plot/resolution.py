@@ -11,7 +11,7 @@ import numpy as np
 from .. import _validate
 from ..camera import Camera
 from ..simulation import simulate
-from ._mpl import HALF_COLORS, SPLIT_COLOR, pyplot
+from ._mpl import HALF_COLORS, SPLIT_COLOR, axes_pair
 
 __all__ = ["resolution"]
 
@@ -51,13 +51,7 @@ def resolution(
         raise ValueError(f"invalid z_range = ({lo}, {hi}): allowed F = {cam.F} < near < far")
     if isinstance(n, bool) or not isinstance(n, int) or n < 2:
         raise ValueError(f"invalid n = {n!r}: allowed an integer >= 2")
-    plt = pyplot()
-    if ax is None:
-        _, axes = plt.subplots(2, 1, sharex=True, figsize=(9.0, 7.5), layout="constrained")
-    else:
-        axes = list(ax)
-        if len(axes) != 2:
-            raise ValueError("ax must be None or a pair of Axes (MTF50, RMSE)")
+    axes = axes_pair(ax, (9.0, 7.5), "MTF50, RMSE")
     a_mtf, a_rmse = axes
     extra = [cam.out_of_focus_depth(h) for h in (1, 2)]
     z = np.unique(np.concatenate([np.geomspace(lo, hi, n), [e for e in extra if lo < e < hi]]))

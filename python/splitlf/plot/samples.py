@@ -9,7 +9,7 @@ import numpy as np
 from .. import _validate
 from ..camera import Camera
 from ..samples import coincidence_planes, new_samples, sweep_depths
-from ._mpl import pyplot
+from ._mpl import axes_pair
 
 __all__ = ["samples"]
 
@@ -34,14 +34,7 @@ def samples(
     (counts, gap). Returns the pair of Axes. The depths are :func:`splitlf.samples.sweep_depths`.
     """
     cam = _validate.camera(camera)
-    plt = pyplot()
-    if ax is None:
-        fig, axes = plt.subplots(2, 1, sharex=True, figsize=(11.5, 7.5), layout="constrained")
-    else:
-        axes = list(ax)
-        if len(axes) != 2:
-            raise ValueError("ax must be None or a pair of Axes (counts, gap)")
-        fig = axes[0].figure
+    axes = axes_pair(ax, (11.5, 7.5), "counts, gap")
     a_count, a_gap = axes
     z = sweep_depths(cam, z_range, n=n, max_n=max(max_n, 1))
     r = new_samples(cam, z, tol=tol, n_threads=n_threads)
@@ -87,5 +80,4 @@ def samples(
     a_gap.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     for a in axes:
         a.grid(True, which="both", lw=0.3, alpha=0.5)
-    del fig
     return a_count, a_gap
