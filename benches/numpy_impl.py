@@ -10,7 +10,7 @@ import numpy as np
 
 
 def curves(cam, z: np.ndarray) -> dict[str, np.ndarray]:
-    """W1: every closed-form curve of MODEL.md §2 at every depth."""
+    """W1: every closed-form curve of docs/model.md §2 at every depth."""
     F, D, d, v, mu = cam.F, cam.D, cam.d, cam.v, cam.mu
     n = z.size
     zc = F * z / (z - F)
@@ -87,7 +87,7 @@ def new_samples(cam, z: np.ndarray, tol: float, chunk: int = 256) -> dict[str, n
 # -- W2: footprints ------------------------------------------------------------------------
 
 def _half_geometry(cam, half: int):
-    """L_i, f_i and the ray-space constants of one half (MODEL.md §4)."""
+    """L_i, f_i and the ray-space constants of one half (docs/model.md §4)."""
     L = cam.v1 if half == 1 else cam.v1 * (1.0 + cam.kappa)
     f = cam.f1 if half == 1 else cam.f2
     return L, f, L / cam.v1, 1.0 - L / cam.v1, 1.0 + cam.v / L - cam.v / f
@@ -119,7 +119,7 @@ def _clip(V: np.ndarray, k: np.ndarray, n: tuple[np.ndarray, np.ndarray], h: np.
 @np.errstate(invalid="ignore", divide="ignore")  # NaN rows are empty polygons
 def polygons(cam, half: int, K: int):
     """Integration polygon of every pixel of one half along an axis with K microlenses
-    (MODEL.md §4), vectorised over pixels: vertices (P, 6, 2) padded by repeating the last
+    (docs/model.md §4), vectorised over pixels: vertices (P, 6, 2) padded by repeating the last
     vertex (NaN when empty), vertex counts, and centroids (P, 2)."""
     L, _, a, b, alpha = _half_geometry(cam, half)
     idx = np.arange(K * cam.Q)
@@ -174,7 +174,7 @@ def polygons(cam, half: int, K: int):
 
 def footprints(cam, z: np.ndarray, chunk: int = 16) -> dict[str, np.ndarray]:
     """W2: centroid position and extent [lo, hi] (object-space X) of every pixel of both
-    halves along x at every depth (MODEL.md §5). The projection p' = u + σ w is vectorised
+    halves along x at every depth (docs/model.md §5). The projection p' = u + σ w is vectorised
     over depths × pixels, one vertex at a time (6), with running min/max written in place
     into the outputs; chunks of depths keep the temporary in cache (16 was fastest here,
     ~5x faster than one (depths, pixels, 6) broadcast reduced along its last axis)."""

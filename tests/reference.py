@@ -1,7 +1,7 @@
-"""Plain NumPy transcriptions of MODEL.md, written independently of the package.
+"""Plain NumPy transcriptions of docs/model.md, written independently of the package.
 
 Only the camera's fields are read from the package; every derived quantity is computed
-here from MODEL.md's formulas.
+here from docs/model.md's formulas.
 """
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import numpy as np
 
 
 def array_planes(cam) -> tuple[float, float]:
-    """L_1 = v', L_2 = v'(1 + kappa) (MODEL §1)."""
+    """L_1 = v', L_2 = v'(1 + kappa) (docs/model.md §1)."""
     return cam.v1, cam.v1 * (1.0 + cam.kappa)
 
 
@@ -20,7 +20,7 @@ def ng_focal(L: float, v: float) -> float:
 
 
 def curves(cam, z) -> dict[str, np.ndarray]:
-    """MODEL §2: Eq. 1, H_i, rep_i, b_i, bounded LF blur, conventional blur."""
+    """docs/model.md §2: Eq. 1, H_i, rep_i, b_i, bounded LF blur, conventional blur."""
     z = np.asarray(z, dtype=np.float64)
     F, D, d, v, mu = cam.F, cam.D, cam.d, cam.v, cam.mu
     zc = F * z / (z - F)
@@ -46,7 +46,7 @@ def out_of_focus_depth(cam, half: int) -> float:
 
 
 def lit_pixels(cam, half: int) -> int:
-    """MODEL §6: pixel q is lit when |w_q| = (L_i/v) mu |q - (Q-1)/2| < D/2."""
+    """docs/model.md §6: pixel q is lit when |w_q| = (L_i/v) mu |q - (Q-1)/2| < D/2."""
     L = array_planes(cam)[half - 1]
     q = np.arange(cam.Q)
     w = -(L / cam.v) * cam.mu * (q - (cam.Q - 1) / 2.0)

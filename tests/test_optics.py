@@ -1,4 +1,4 @@
-"""Closed forms (Eqs. 1-7) and depth of field against the NumPy reference of MODEL.md."""
+"""Closed forms (Eqs. 1-7) and depth of field against the NumPy reference of docs/model.md."""
 
 from __future__ import annotations
 
@@ -45,7 +45,7 @@ def test_seed_out_of_focus_planes():
     assert cam.out_of_focus_depth(2) == pytest.approx(217.0, rel=1e-12)
     for h in (1, 2):
         assert cam.out_of_focus_depth(h) == pytest.approx(ref.out_of_focus_depth(cam, h), rel=1e-14)
-    # MODEL §7: kappa ~ 0.3866, rho ~ 35.3 mm, f/4, Ng's setting on both halves.
+    # docs/model.md §7: kappa ~ 0.3866, rho ~ 35.3 mm, f/4, Ng's setting on both halves.
     assert cam.kappa == pytest.approx(0.3866, abs=1e-4)
     assert cam.rho == pytest.approx(35.3, abs=0.05)
     assert cam.f_number == 4.0

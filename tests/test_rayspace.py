@@ -1,5 +1,5 @@
-"""Ray-space engine (MODEL.md §3-5, checks of §8): every native result is compared with an
-independent computation written here (NumPy from MODEL.md, shapely for the clipping)."""
+"""Ray-space engine (docs/model.md §3-5, checks of §8): every native result is compared with an
+independent computation written here (NumPy from docs/model.md, shapely for the clipping)."""
 
 from __future__ import annotations
 
@@ -21,9 +21,9 @@ PAPER = Camera.paper()
 SETTINGS = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
 
-# -- independent reference (MODEL.md §3-5, written from the text) -------------------------
+# -- independent reference (docs/model.md §3-5, written from the text) -------------------------
 def geometry(cam: Camera, half: int):
-    """a, b of x = a u + b w on array plane L, and the pixel-strip normal (MODEL §4)."""
+    """a, b of x = a u + b w on array plane L, and the pixel-strip normal (docs/model.md §4)."""
     L = cam.L(half)
     f = cam.f1 if half == 1 else cam.f2
     a, b = L / cam.v1, 1.0 - L / cam.v1
@@ -42,7 +42,7 @@ def offset(cam: Camera, q):
 def strips(cam: Camera, half: int, j: int, q: int, K: int):
     """(normal, lo, hi) of aperture, microlens and pixel strips: |w| <= D/2,
     |x - c| <= d/2, |s' - s| <= mu/2 with s' = alpha x - (v/L) w + (v/f) c and
-    s = c (1 + v/L) + theta_q (MODEL §3-4)."""
+    s = c (1 + v/L) + theta_q (docs/model.md §3-4)."""
     L, f, a, b, alpha = geometry(cam, half)
     c = centre(cam, j, K)
     s = c * (1 + cam.v / L) + offset(cam, q)
@@ -194,7 +194,7 @@ def test_light_never_exceeds_the_microlens_share(cam, half):
 
 @pytest.mark.parametrize("half", [1, 2])
 def test_light_is_conserved_in_the_seed_design(half):
-    # MODEL §8: the microlens image D v / L_i fits inside Q mu for both halves of the
+    # docs/model.md §8: the microlens image D v / L_i fits inside Q mu for both halves of the
     # preset (equal for half 1, smaller for half 2), so every ray through the aperture
     # and a microlens reaches one of its Q pixels: Σ areas = D d v'/L_i.
     assert PAPER.D * PAPER.v / PAPER.L(half) <= PAPER.Q * PAPER.mu * (1 + 1e-12)
@@ -205,7 +205,7 @@ def test_light_is_conserved_in_the_seed_design(half):
 
 
 def test_half1_ng_rectangles():
-    # MODEL §8: in Ng's setting half 1's polygons are axis-aligned rectangles of width d
+    # docs/model.md §8: in Ng's setting half 1's polygons are axis-aligned rectangles of width d
     # and height mu v'/v (pixel strip: -(v/v') w in theta_q ± mu/2).
     tr = splitlf.trace(PAPER, 1, "y")
     assert (tr.n_vertices == 4).all() and tr.lit.all()
@@ -247,8 +247,8 @@ def test_half2_ng_parallelograms_of_positive_slope():
 
 
 def test_lit_and_chief_follow_model():
-    # Chief ray: w_q = -(L/v) theta_q, through the microlens centre x = c (MODEL §4);
-    # lit iff |w_q| < D/2 (MODEL §6).
+    # Chief ray: w_q = -(L/v) theta_q, through the microlens centre x = c (docs/model.md §4);
+    # lit iff |w_q| < D/2 (docs/model.md §6).
     for half in (1, 2):
         tr = splitlf.trace(PAPER, half, "x")
         L, _, a, b, _ = geometry(PAPER, half)
@@ -264,7 +264,7 @@ def test_lit_and_chief_follow_model():
 
 # -- footprints ---------------------------------------------------------------------------
 def reference_footprints(cam: Camera, z, half, axis, sample):
-    """Plain NumPy footprints from the traced polygons (MODEL §5)."""
+    """Plain NumPy footprints from the traced polygons (docs/model.md §5)."""
     tr = splitlf.trace(cam, half, axis)
     K = cam.Kx if axis == "x" else cam.Ky
     z = np.asarray(z, float)[:, None]
@@ -349,7 +349,7 @@ def test_kernel_is_the_chord_length(cam, half, zf, frac):
 
 
 def test_chief_samples_collapse_on_out_of_focus_planes():
-    # MODEL §8: on z_i every chief sample of a microlens projects to that microlens
+    # docs/model.md §8: on z_i every chief sample of a microlens projects to that microlens
     # (p' = (v'/L) c), so half i has exactly K distinct positions per axis.
     for half in (1, 2):
         z = PAPER.out_of_focus_depth(half)

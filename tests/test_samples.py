@@ -1,5 +1,5 @@
 """Coincidence planes, genuinely new samples (Eqs. 8-9) and max gap, checked against a plain
-NumPy transcription of MODEL.md §3, §5 and §6 written here (sort, then merge)."""
+NumPy transcription of docs/model.md §3, §5 and §6 written here (sort, then merge)."""
 
 from __future__ import annotations
 
@@ -36,7 +36,7 @@ def off_ng() -> Camera:
 DESIGNS = {"seed": seed, "vignetted": vignetted, "off_ng": off_ng}
 
 # ---------------------------------------------------------------------------------------
-# NumPy reference (MODEL.md), independent of the core.
+# NumPy reference (docs/model.md), independent of the core.
 
 
 def L(cam: Camera, half: int) -> float:
@@ -48,7 +48,7 @@ def conj(cam: Camera, z: float) -> float:
 
 
 def lit_w(cam: Camera, half: int) -> np.ndarray:
-    """Chief-ray main-lens heights w_q of the lit pixels (MODEL §3-§4, §6)."""
+    """Chief-ray main-lens heights w_q of the lit pixels (docs/model.md §3-§4, §6)."""
     q = np.arange(cam.Q)
     theta = cam.mu * (q - (cam.Q - 1) / 2)
     w = -(L(cam, half) / cam.v) * theta
@@ -131,14 +131,14 @@ def reference(cam: Camera, z, tol: float = 1e-6):
 
 
 def closed_form(K: int, q_lit: int, N: int, T: int) -> int:
-    """MODEL §6 with Q_lit: N Q + T (K - N) when T <= Q and K >= N, else K Q."""
+    """docs/model.md §6 with Q_lit: N Q + T (K - N) when T <= Q and K >= N, else K Q."""
     if T <= q_lit and K >= N:
         return N * q_lit + T * (K - N)
     return K * q_lit
 
 
 def planes_ref(cam: Camera, half: int, max_n: int, max_t: int):
-    """(N, T, side) -> z' of every valid coincidence plane (MODEL §6)."""
+    """(N, T, side) -> z' of every valid coincidence plane (docs/model.md §6)."""
     Li = L(cam, half)
     out = {}
     for N in range(1, max_n + 1):
@@ -211,7 +211,7 @@ def test_seed_planes_hit_the_vignetting_branch():
 
 
 def test_f_number_matched_repetitions():
-    # Half 1 of the seed is f-number matched: rep = Q N / T on its planes (MODEL §6).
+    # Half 1 of the seed is f-number matched: rep = Q N / T on its planes (docs/model.md §6).
     t = splitlf.coincidence_planes(seed(), 1, max_n=3)
     np.testing.assert_allclose(t.repetitions, 15 * t.N / t.T, rtol=1e-12)
 

@@ -14,7 +14,7 @@ SEED = Camera.paper()
 
 
 def design_numbers(cam):
-    """v', L_i, delta(z), conjugate and sigma written from MODEL.md, independently."""
+    """v', L_i, delta(z), conjugate and sigma written from docs/model.md, independently."""
     L = {1: cam.v1, 2: cam.v1 * (1 + cam.kappa)}
 
     def delta(z):
@@ -174,7 +174,7 @@ def test_half1_cannot_resolve_finer_than_microlens_pitch_on_its_out_of_focus_pla
     _, delta, _ = design_numbers(cam)
     nyq = 0.5 / delta(z1)
     # Half 2's pixels integrate a microlens strip of width d v'/L_2 in u at fixed w
-    # (MODEL §4), so its transfer vanishes at multiples of L_2 / (d z) on the object: test
+    # (docs/model.md §4), so its transfer vanishes at multiples of L_2 / (d z) on the object: test
     # midway between those zeros, at periods finer than the pitch and below delta's Nyquist.
     L2 = cam.v1 * (1 + cam.kappa)
     for j in (1, 2, 3):

@@ -7,6 +7,7 @@ are positive distances in front of the main lens.
 
 from ._native import __version__
 from .camera import Camera
+from .errors import InvalidParameter, SplitlfError, TooLargeError
 from .optics import Curves, DepthOfField, curves, depth_of_field, sharp_fractions
 from .rayspace import Footprints, SampleGrid, Trace, footprints, sample_grid, trace
 from .samples import CoincidencePlanes, NewSamples, coincidence_planes, new_samples
@@ -20,11 +21,14 @@ __all__ = [
     "DepthOfField",
     "Footprints",
     "Image",
+    "InvalidParameter",
     "NewSamples",
     "RandomAlbedo",
     "SampleGrid",
     "Simulation",
     "Sinusoid",
+    "SplitlfError",
+    "TooLargeError",
     "Trace",
     "__version__",
     "coincidence_planes",

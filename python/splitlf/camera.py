@@ -1,4 +1,4 @@
-"""The camera description: an immutable, validated set of MODEL.md symbols.
+"""The camera description: an immutable, validated set of docs/model.md symbols.
 
 Validation of ranges and every derived optical value live in the Rust core
 (`splitlf._native.CameraCore`); this module checks Python types, holds the fields, and
@@ -68,7 +68,7 @@ def _count(name: str, value: Any) -> int:
 
 @dataclasses.dataclass(frozen=True)
 class Camera:
-    """A split-sensor light field camera (MODEL.md §1). Lengths in mm.
+    """A split-sensor light field camera (docs/model.md §1). Lengths in mm.
 
     Half 1 is the conventional light field camera (array at ``v1``); half 2 has its array
     at ``v1 * (1 + kappa)``. ``f1``/``f2`` default to Ng's setting, 1/f_i = 1/L_i + 1/v,
@@ -109,7 +109,7 @@ class Camera:
     # -- construction -------------------------------------------------------------------
     @classmethod
     def paper(cls) -> Camera:
-        """The seed design (MODEL.md §7): a reconstruction from the paper's out-of-focus
+        """The seed design (docs/model.md §7): a reconstruction from the paper's out-of-focus
         planes, 642 mm (array 1) and 217 mm (array 2), in Ng's setting."""
         f = _native.CameraCore.paper().fields()
         return cls(*f[:10])
@@ -177,7 +177,7 @@ class Camera:
 
     def to_toml(self, path: str | os.PathLike[str] | None = None) -> str:
         """Write the camera as TOML (exact: floats by repr); returns the text."""
-        lines = ["# splitlf camera: lengths in mm (MODEL.md symbols)", "[camera]"]
+        lines = ["# splitlf camera: lengths in mm (docs/model.md symbols)", "[camera]"]
         for name in FIELDS:
             value = getattr(self, name)
             text = f"{name} = {value!r}" if name not in COUNT_FIELDS else f"{name} = {int(value)}"
@@ -212,7 +212,8 @@ class Camera:
         return self._core.out_of_focus_depth(half)
 
     def lit_pixels(self, half: int) -> int:
-        """Pixels per microlens (one axis) whose chief ray passes the aperture (MODEL §6)."""
+        """Pixels per microlens (one axis) whose chief ray passes the aperture (docs/model.md
+        §6)."""
         return self._core.lit_pixels(half)
 
     def image_radius(self, half: int) -> float:

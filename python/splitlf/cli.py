@@ -15,7 +15,7 @@ import tomllib
 from .camera import Camera
 from .report import format_report, report_data
 
-SEED = "seed design (MODEL.md §7, reconstructed from the paper)"
+SEED = "seed design (docs/model.md §7, reconstructed from the paper)"
 
 
 class CliError(Exception):
@@ -302,7 +302,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     tr = sub.add_parser("trace", help="write every pixel's ray-space polygon to .npz",
                         description="Trace every pixel of both halves along one axis "
-                        "(MODEL.md §3-4) and write the arrays of splitlf.trace, prefixed "
+                        "(docs/model.md §3-4) and write the arrays of splitlf.trace, prefixed "
                         "half1_/half2_, with the camera as TOML, to an .npz file.")
     common(tr)
     tr.add_argument("--axis", choices=("x", "y"), default="x")

@@ -1,4 +1,4 @@
-"""Closed-form optics over depth (MODEL.md §2, Eqs. 1-7) and the depth of field.
+"""Closed-form optics over depth (docs/model.md §2, Eqs. 1-7) and the depth of field.
 
 Thin wrappers: the arithmetic runs in the Rust core, vectorised and parallel over depth.
 """

@@ -1,4 +1,4 @@
-"""Ray-space engine (MODEL.md §3-5): every pixel's integration polygon in (u, w) and its
+"""Ray-space engine (docs/model.md §3-5): every pixel's integration polygon in (u, w) and its
 footprint on a scene plane at any depth.
 
 Thin wrappers: the geometry runs in the Rust core (parallel, GIL released); this module
@@ -46,7 +46,7 @@ class Trace:
     - ``centroid`` (n, 2): (u, w) of the polygon's centroid (NaN when empty)
     - ``lens``, ``pixel`` (n,): microlens index j and pixel index q under it
     - ``chief`` (n, 2): (u, w) of the chief ray (through microlens and pixel centres)
-    - ``lit`` (n,): the chief ray passes the main-lens aperture (MODEL.md §6)
+    - ``lit`` (n,): the chief ray passes the main-lens aperture (docs/model.md §6)
     """
 
     half: int

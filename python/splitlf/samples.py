@@ -1,6 +1,6 @@
 """Coincidence planes, genuinely new samples (Eqs. 8-9) and resolution at every depth.
 
-MODEL.md §6; derivations in ``docs/samples.md``. Thin wrappers: the counts run in the
+docs/model.md §6; derivations in ``docs/samples.md``. Thin wrappers: the counts run in the
 Rust core (``splitlf._native``), parallel over depths with the GIL released.
 """
 
@@ -50,7 +50,7 @@ def _half(value: Any) -> int:
 
 @dataclasses.dataclass(frozen=True)
 class CoincidencePlanes:
-    """Coincidence planes of one half (MODEL §6), one row per plane, sorted by depth ``z``
+    """Coincidence planes of one half (docs/model.md §6), one row per plane, sorted by depth ``z``
     (nearest to the camera first). Every column is a NumPy array of the same length.
 
     - ``N``, ``T`` (int64): coprime, microlenses j and j + N share a sample with pixel
@@ -157,7 +157,7 @@ def new_samples(
 
     ``sample`` is ``"chief"`` (the chief ray's projection, the paper's convention; lit pixels
     only) or ``"centroid"`` (the projection of each pixel's integration-polygon centroid,
-    MODEL §5; every pixel that collects light, so partially vignetted pixels count too).
+    docs/model.md §5; every pixel that collects light, so partially vignetted pixels count too).
     """
     cam = _validate.camera(camera)
     zs = _validate.depths(z)

@@ -3,7 +3,7 @@
 A textured Lambertian plane at a known depth z is imaged by half 1 alone (the original
 light field camera), half 2 alone, both halves together (the split sensor) and the
 conventional camera of the same sensor; each image is inverted by regularised least
-squares on a grid of spacing delta(z) (full sensor resolution, MODEL.md §6), and the
+squares on a grid of spacing delta(z) (full sensor resolution, docs/model.md §6), and the
 reconstructions are scored (RMSE, PSNR, MTF50).
 
 The optics run in the Rust core: every pixel value is the exact integral of a

@@ -1,4 +1,4 @@
-"""Distinct samples and resolution (max gap) against depth: MODEL.md §6, docs/samples.md."""
+"""Distinct samples and resolution (max gap) against depth: docs/model.md §6, docs/samples.md."""
 
 from __future__ import annotations
 
@@ -72,7 +72,7 @@ def samples(
     a_count.set_ylabel("distinct samples along x")
     a_count.set_ylim(0, r.lit[2] * 1.12)
     a_count.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
-    a_count.set_title("Genuinely new samples and resolution (chief samples, MODEL.md §6)")
+    a_count.set_title("Genuinely new samples and resolution (chief samples, docs/model.md §6)")
     a_gap.set_yscale("log")
     a_gap.set_ylabel("max gap in the central field [delta(z)]")
     a_gap.set_xlabel("depth z [mm] (log)")

@@ -1,4 +1,4 @@
-//! The split-sensor light field camera (MODEL.md §1, §3, §7).
+//! The split-sensor light field camera (docs/model.md §1, §3, §7).
 //!
 //! Unfolded along the optical axis the device is two light field cameras sharing one main
 //! lens; half i has its microlens array at `L_i` (L_1 = v', L_2 = v'(1+κ)) with microlens
@@ -46,7 +46,7 @@ pub const MAX_Q: u64 = 65_535;
 /// Largest microlens count per half along one axis the core accepts.
 pub const MAX_K: u64 = 10_000_000;
 
-/// A validated camera. Construct with [`Camera::new`]; fields are the MODEL.md symbols.
+/// A validated camera. Construct with [`Camera::new`]; fields are the docs/model.md symbols.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Camera {
     /// F, main lens focal length.
@@ -165,7 +165,7 @@ impl Camera {
         })
     }
 
-    /// The seed design (MODEL.md §7), a reconstruction from the paper's two out-of-focus
+    /// The seed design (docs/model.md §7), a reconstruction from the paper's two out-of-focus
     /// planes (642 mm and 217 mm): F = 80, D = 20, d = 0.135, μ = 0.009, Q = 15,
     /// v = d v'/D (f-number matched on half 1), Ng's setting, K = 266 × 88 per half.
     pub fn paper() -> Camera {
@@ -237,7 +237,7 @@ impl Camera {
         }
     }
 
-    /// c_j = (j − (K−1)/2) d, centre of microlens j of K (MODEL.md §3).
+    /// c_j = (j − (K−1)/2) d, centre of microlens j of K (docs/model.md §3).
     pub fn lens_center(&self, j: u32, k: u32) -> f64 {
         (j as f64 - (k as f64 - 1.0) / 2.0) * self.d
     }
@@ -257,7 +257,7 @@ impl Camera {
         -(self.array_plane(half) / self.v) * self.pixel_offset(q)
     }
 
-    /// A pixel is lit when its chief ray passes the main-lens aperture, |w_q| < D/2 (MODEL §6).
+    /// A pixel is lit when its chief ray passes the main-lens aperture, |w_q| < D/2 (docs/model.md §6).
     pub fn is_lit(&self, half: Half, q: u32) -> bool {
         self.chief_w(half, q).abs() < self.aperture / 2.0
     }
@@ -268,7 +268,7 @@ impl Camera {
     }
 
     /// Chief sample of pixel q under microlens centre c on the plane with conjugate z'
-    /// (MODEL.md §5): p' = (v'/L_i) [c + w_q (L_i − z')/z'], its projection through the
+    /// (docs/model.md §5): p' = (v'/L_i) [c + w_q (L_i − z')/z'], its projection through the
     /// main-lens centre onto plane v'.
     pub fn chief_projection(&self, half: Half, c: f64, q: u32, zc: f64) -> f64 {
         let l = self.array_plane(half);
@@ -276,12 +276,12 @@ impl Camera {
     }
 
     /// Object-space lateral position on the plane at depth z of a point projecting to p'
-    /// on plane v': X = −p' z / v' (MODEL.md §5).
+    /// on plane v': X = −p' z / v' (docs/model.md §5).
     pub fn object_position(&self, p: f64, z: f64) -> f64 {
         -p * z / self.v1
     }
 
-    /// δ(z) = d z / (Q v'): object-space size of one sensor-resolution step (MODEL.md §6).
+    /// δ(z) = d z / (Q v'): object-space size of one sensor-resolution step (docs/model.md §6).
     pub fn resolution_step(&self, z: f64) -> f64 {
         self.d * z / (self.q as f64 * self.v1)
     }

@@ -1,9 +1,9 @@
 //! splitlf-core: the optics and ray-space engine of split-sensor light field cameras.
 //!
-//! Pure Rust (no Python): [`camera`] holds the validated design (MODEL.md §1, §3, §7),
+//! Pure Rust (no Python): [`camera`] holds the validated design (docs/model.md §1, §3, §7),
 //! [`optics`] the closed forms over depth (Eqs. 1–7) and the depth of field,
 //! [`rayspace`] every pixel's integration polygon in (u, w) and its footprints (§3–5),
-//! [`samples`] the coincidence planes and genuinely new samples (Eqs. 8–9, MODEL.md §6),
+//! [`samples`] the coincidence planes and genuinely new samples (Eqs. 8–9, docs/model.md §6),
 //! [`merit`] the figures of merit of one design that sweeps compare,
 //! [`simulate`] the forward model and system matrix of the super-resolution simulation.
 //! Every parallel entry point takes `n_threads` (see [`parallel`]).

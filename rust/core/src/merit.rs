@@ -1,6 +1,6 @@
 //! Figures of merit of one design over a set of depths (the quantities a design sweep
 //! compares): sharp fractions from the closed-form depth of field, and the worst and
-//! median resolution (max gap, MODEL.md §6) of each half and of the split sensor.
+//! median resolution (max gap, docs/model.md §6) of each half and of the split sensor.
 
 use crate::camera::{Camera, Half};
 use crate::error::Result;

@@ -1,7 +1,7 @@
-//! Closed-form optics over depth (MODEL.md §2: Eqs. 1, 4–7) and depth of field.
+//! Closed-form optics over depth (docs/model.md §2: Eqs. 1, 4–7) and depth of field.
 //!
 //! Every expression is written in one fixed order so that a NumPy transcription of
-//! MODEL.md evaluates to the same floating-point result.
+//! docs/model.md evaluates to the same floating-point result.
 
 use rayon::prelude::*;
 

@@ -1,4 +1,4 @@
-//! Ray-space engine (MODEL.md §3–5): every pixel's integration polygon in (u, w) and its
+//! Ray-space engine (docs/model.md §3–5): every pixel's integration polygon in (u, w) and its
 //! footprint on a scene plane at any depth.
 //!
 //! A ray is (u, w): w its height on the main lens, u where it crosses plane v' (the first
@@ -29,7 +29,7 @@ pub fn axis_from_name(name: &str) -> Result<Axis> {
     }
 }
 
-/// Which ray of a pixel stands for its sample position (MODEL.md §5).
+/// Which ray of a pixel stands for its sample position (docs/model.md §5).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Sample {
     /// Projection of the polygon's centroid (aperture-integrated, physical).
@@ -209,7 +209,7 @@ fn finish(buf: &[[f64; 2]]) -> Polygon {
 }
 
 /// The ray-space geometry of one half: x = a u + b w on the array plane and the pixel
-/// strip's normal (α a, α b − v/L_i), α = 1 + v/L_i − v/f_i (MODEL.md §4).
+/// strip's normal (α a, α b − v/L_i), α = 1 + v/L_i − v/f_i (docs/model.md §4).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HalfRays {
     pub half: Half,
@@ -302,7 +302,7 @@ pub struct Trace {
     pub lens: Vec<u32>,
     pub pixel: Vec<u32>,
     pub chief: Vec<[f64; 2]>,
-    /// The chief ray passes the main-lens aperture (MODEL.md §6, `Camera::is_lit`).
+    /// The chief ray passes the main-lens aperture (docs/model.md §6, `Camera::is_lit`).
     pub lit: Vec<bool>,
 }
 
@@ -310,7 +310,7 @@ pub struct Trace {
 const TRACE_BYTES_PER_PIXEL: u128 = 8 * (12 + 1 + 2 + 2 + 2) + 8 + 8;
 
 /// Trace every pixel of `half` along `axis`: its integration polygon, area, centroid,
-/// chief ray and lit flag (MODEL.md §3–4, §6). Parallel over pixels.
+/// chief ray and lit flag (docs/model.md §3–4, §6). Parallel over pixels.
 pub fn trace(cam: &Camera, half: Half, axis: Axis) -> Result<Trace> {
     let k = cam.lenses(axis);
     let n = k as u128 * cam.q as u128;
@@ -346,7 +346,7 @@ pub fn trace(cam: &Camera, half: Half, axis: Axis) -> Result<Trace> {
     })
 }
 
-/// σ = (v' − z')/z': a point of the plane at depth z is the line u + σ w = p' (MODEL.md §5).
+/// σ = (v' − z')/z': a point of the plane at depth z is the line u + σ w = p' (docs/model.md §5).
 #[inline]
 pub fn slope(cam: &Camera, zc: f64) -> f64 {
     (cam.v1 - zc) / zc
@@ -446,7 +446,7 @@ pub fn check_footprints(
 }
 
 /// Footprints of every pixel of `half` along `axis` on the planes at depths `z`
-/// (MODEL.md §5): sample position, extent [lo, hi] in object-space X (mm), and with
+/// (docs/model.md §5): sample position, extent [lo, hi] in object-space X (mm), and with
 /// `kernel` the weight profile. Validated before any work; parallel over depths.
 pub fn footprints(
     cam: &Camera,
@@ -664,7 +664,7 @@ fn footprint_row(
     }
 }
 
-/// Weight profile of a polygon on the lines u + σ w = p' (MODEL.md §5): breakpoints p'
+/// Weight profile of a polygon on the lines u + σ w = p' (docs/model.md §5): breakpoints p'
 /// (the vertex projections, ascending) and the chord length along w at each, the aperture
 /// length of the rays from that point the pixel collects (∫ weight dp' = area).
 /// An edge parallel to the lines makes a jump at an end of the support: the repeated
@@ -855,7 +855,7 @@ mod tests {
 
     #[test]
     fn half1_ng_rectangles() {
-        // MODEL §8: width d, height μ v'/v, axis-aligned, in Ng's setting.
+        // docs/model.md §8: width d, height μ v'/v, axis-aligned, in Ng's setting.
         let cam = Camera::paper();
         let tr = trace(&cam, Half::One, Axis::X).unwrap();
         let h = cam.mu * cam.v1 / cam.v;
@@ -876,7 +876,7 @@ mod tests {
 
     #[test]
     fn light_is_conserved_under_each_microlens() {
-        // MODEL §8: Σ areas = D d v'/L_i when the microlens image fits in its Q pixels.
+        // docs/model.md §8: Σ areas = D d v'/L_i when the microlens image fits in its Q pixels.
         let cam = Camera::paper();
         for half in Half::BOTH {
             let tr = trace(&cam, half, Axis::Y).unwrap();

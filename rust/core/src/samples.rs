@@ -1,7 +1,7 @@
 //! Coincidence planes, genuinely new samples (Eqs. 8–9) and resolution at every depth
-//! (MODEL.md §3, §5, §6). Derivations: `docs/samples.md`.
+//! (docs/model.md §3, §5, §6). Derivations: `docs/samples.md`.
 //!
-//! The sample positions are the chief samples p' of [`Camera::chief_projection`] (MODEL §5),
+//! The sample positions are the chief samples p' of [`Camera::chief_projection`] (docs/model.md §5),
 //! the same function the ray-space engine's `sample = "chief"` footprints use, over every
 //! lit pixel ([`Camera::is_lit`]) of a half. Everything is computed on plane v' (p' space);
 //! object space is the linear map X = −p' z / v', so
@@ -29,7 +29,7 @@ pub const MAX_SAMPLES_PER_AXIS: u64 = 1 << 24;
 /// Largest number of (N, T) pairs `coincidence_planes` enumerates.
 pub const MAX_PAIRS: u64 = 1_000_000;
 
-/// Which sample position of a pixel is counted (MODEL §5).
+/// Which sample position of a pixel is counted (docs/model.md §5).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum SampleMode {
     /// The chief ray's projection (the paper's convention); a pixel counts when lit.
@@ -251,7 +251,7 @@ fn insertion_fixup(x: &mut [f64]) {
     }
 }
 
-/// Sorted chief samples p' (MODEL §5) of every lit pixel of `half` along `axis` on the plane
+/// Sorted chief samples p' (docs/model.md §5) of every lit pixel of `half` along `axis` on the plane
 /// with conjugate `zc`. Values are bit-identical to [`Camera::chief_projection`]:
 /// p' = (v'/L)·(c_j + t_q) with t_q = w_q (L − z')/z' evaluated in the same order.
 fn half_samples(
@@ -476,7 +476,7 @@ fn depth_result(cam: &Camera, layout: &Layout, z: f64, tol: f64, s: &mut Scratch
 
 /// Centroid samples of every half and axis: the (u, w) centroids of the pixels that
 /// collect light. On the plane with conjugate z' the sample is p' = u + σ w with
-/// σ = (v' − z')/z' (MODEL.md §5), the projection the engine's `footprints` use.
+/// σ = (v' − z')/z' (docs/model.md §5), the projection the engine's `footprints` use.
 struct CentroidLayout {
     /// [half][axis: 0 x, 1 y] → centroids of the pixels with area > 0.
     uw: [[Vec<[f64; 2]>; 2]; 2],
@@ -654,7 +654,7 @@ impl Side {
     }
 }
 
-/// One coincidence plane of a half (MODEL §6).
+/// One coincidence plane of a half (docs/model.md §6).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CoincidencePlane {
     pub n: u32,

@@ -2,7 +2,7 @@
 //! textured Lambertian plane at depth z, and the sparse system matrix of pixels × cells of
 //! a reconstruction grid, both exact for piecewise-constant textures.
 //!
-//! A pixel's value is ∫ T(p') k(p') dp' with k its weight profile on the plane (MODEL.md §5,
+//! A pixel's value is ∫ T(p') k(p') dp' with k its weight profile on the plane (docs/model.md §5,
 //! [`weight_profile`]: the chord length along w of polygon ∩ line, ∫ k dp' = polygon
 //! area). With X = −p' z / v' the integral reads (v'/z) ∫ T(X) k(X) dX. Values are
 //! normalised by D μ, the (u, w) area of a pixel of width μ on plane v' that sees the full

@@ -96,7 +96,7 @@ impl CameraCore {
         Ok(CameraCore { inner })
     }
 
-    /// The seed design of MODEL.md §7.
+    /// The seed design of docs/model.md §7.
     #[staticmethod]
     fn paper() -> Self {
         CameraCore {
@@ -144,7 +144,7 @@ impl CameraCore {
         self.inner.f_number()
     }
 
-    /// δ(z) = d z / (Q v') (MODEL.md §6); z must be a valid depth.
+    /// δ(z) = d z / (Q v') (docs/model.md §6); z must be a valid depth.
     fn resolution_step(&self, z: f64) -> PyResult<f64> {
         optics::check_depths(&self.inner, &[z]).map_err(to_py)?;
         Ok(self.inner.resolution_step(z))
@@ -234,7 +234,7 @@ type NewSampleArrays<'py> = (
     Bound<'py, PyArray1<i64>>,
 );
 
-/// Genuinely new samples at every depth (MODEL.md §6):
+/// Genuinely new samples at every depth (docs/model.md §6):
 /// (distinct (3, m), distinct_2d (3, m), max_gap (3, m), lit (3,)).
 #[pyfunction]
 #[pyo3(signature = (camera, z, tol=1e-6, sample="chief", n_threads=None))]
@@ -337,7 +337,7 @@ type TraceArrays<'py> = (
     Bound<'py, PyArray1<bool>>,
 );
 
-/// Integration polygons of every pixel of one half along one axis (MODEL.md §3–4):
+/// Integration polygons of every pixel of one half along one axis (docs/model.md §3–4):
 /// (vertices (n, 6, 2), n_vertices, area, centroid (n, 2), lens, pixel, chief (n, 2), lit).
 #[pyfunction]
 #[pyo3(signature = (camera, half, axis="x"))]
@@ -380,7 +380,7 @@ type FootprintArrays<'py> = (
     Option<Bound<'py, numpy::PyArray3<f64>>>,
 );
 
-/// Footprints of every pixel of one half along one axis at every depth (MODEL.md §5):
+/// Footprints of every pixel of one half along one axis at every depth (docs/model.md §5):
 /// (position, lo, hi) each (m, n); with `kernel` also breaks and values (m, n, 6).
 #[pyfunction]
 #[pyo3(signature = (camera, z, half, axis="x", sample="centroid", kernel=false, n_threads=None))]
