@@ -75,11 +75,31 @@ pub struct Camera {
     pub f2: f64,
 }
 
+/// Lengths must be normal floats (not subnormal): the formulas divide by them, and the
+/// reciprocal of a subnormal length overflows.
 fn positive(name: &'static str, x: f64) -> Result<f64> {
-    if x.is_finite() && x > 0.0 {
+    if x.is_normal() && x > 0.0 {
         Ok(x)
     } else {
-        Err(Error::param(name, x, "a finite length > 0 mm"))
+        Err(Error::param(
+            name,
+            x,
+            "a finite length > 0 mm (a normal float, >= 2.2250738585072014e-308)",
+        ))
+    }
+}
+
+/// A value derived from the given fields must pass the same rule as a given one: a
+/// positive, finite, normal float whose reciprocal is finite.
+fn derived(name: &'static str, x: f64, from: &str) -> Result<()> {
+    if x.is_normal() && x > 0.0 && (1.0 / x).is_finite() {
+        Ok(())
+    } else {
+        Err(Error::param(
+            name,
+            x,
+            format!("a finite length > 0 mm (a normal float); it is derived from {from}, so choose them so that it is"),
+        ))
     }
 }
 
@@ -149,7 +169,7 @@ impl Camera {
             Some(f) => positive("f2", f)?,
             None => ng_focal_length(l2, v),
         };
-        Ok(Camera {
+        let cam = Camera {
             f_main,
             aperture,
             v1,
@@ -162,7 +182,39 @@ impl Camera {
             ky,
             f1,
             f2,
-        })
+        };
+        cam.check_derived()?;
+        Ok(cam)
+    }
+
+    /// Every derived quantity the formulas use must be as valid as a given field: the
+    /// microlens focal lengths (Ng's setting 1/f = 1/L + 1/v when not given), the image
+    /// radius R_i = D v / (2 L_i), the blur scale d v / 2, the aperture image D L_i / 2
+    /// and the chief-ray height of the outermost pixel (L_i / v) μ (Q − 1)/2.
+    fn check_derived(&self) -> Result<()> {
+        let ng = "Ng's setting 1/f = 1/L + 1/v (L = v1 or v1 (1 + kappa))";
+        derived("f1", self.f1, ng)?;
+        derived("f2", self.f2, ng)?;
+        derived("d v / 2", self.d * self.v / 2.0, "d and v")?;
+        for h in Half::BOTH {
+            let l = self.array_plane(h);
+            derived(
+                "R (microlens image radius D v / (2 L))",
+                self.image_radius(h),
+                "D, v, v1 and kappa",
+            )?;
+            derived("D L / 2", self.aperture * l / 2.0, "D, v1 and kappa")?;
+            derived("L / v", l / self.v, "v1, kappa and v")?;
+            let edge = self.chief_w(h, 0).abs();
+            if !edge.is_finite() {
+                return Err(Error::param(
+                    "mu",
+                    self.mu,
+                    "small enough that the outermost pixel's chief ray height (L / v) mu (Q - 1) / 2 is finite",
+                ));
+            }
+        }
+        Ok(())
     }
 
     /// The seed design (docs/model.md §7), a reconstruction from the paper's two out-of-focus
@@ -278,12 +330,23 @@ impl Camera {
     /// Object-space lateral position on the plane at depth z of a point projecting to p'
     /// on plane v': X = −p' z / v' (docs/model.md §5).
     pub fn object_position(&self, p: f64, z: f64) -> f64 {
-        -p * z / self.v1
+        let x = -p * z;
+        if x.is_finite() {
+            x / self.v1
+        } else {
+            // p' z overflows only for astronomically far planes; the quotient does not.
+            -p * (z / self.v1)
+        }
     }
 
     /// δ(z) = d z / (Q v'): object-space size of one sensor-resolution step (docs/model.md §6).
     pub fn resolution_step(&self, z: f64) -> f64 {
-        self.d * z / (self.q as f64 * self.v1)
+        let dz = self.d * z;
+        if dz.is_finite() {
+            dz / (self.q as f64 * self.v1)
+        } else {
+            self.d * (z / (self.q as f64 * self.v1))
+        }
     }
 }
 

@@ -34,9 +34,18 @@ pub fn check_depths(cam: &Camera, z: &[f64]) -> Result<()> {
 }
 
 /// Eq. 1: z' = F z / (z − F), the conjugate of depth z (z > F).
+///
+/// For depths so large that F z overflows (z > f64::MAX / F) the algebraically equal
+/// F / (1 − F/z) is used: it cannot overflow for z > F, while everywhere else the product
+/// form is kept so that results equal a plain transcription of Eq. 1 bit for bit.
 #[inline]
 pub fn conjugate(f_main: f64, z: f64) -> f64 {
-    f_main * z / (z - f_main)
+    let num = f_main * z;
+    if num.is_finite() {
+        num / (z - f_main)
+    } else {
+        f_main / (1.0 - f_main / z)
+    }
 }
 
 /// Inverse of Eq. 1: the depth whose conjugate is z' (z' > F; z' = ∞ gives F).
@@ -301,7 +310,9 @@ fn conventional_sharp(cam: &Camera, half: Half, t: f64) -> Intervals {
         }
     };
     if lo < hi.min(y_max) {
-        vec![(z_of(lo), z_of(hi))]
+        // Mapped to depth, a band of y narrower than the spacing of floats at z can
+        // collapse to one depth: `union_intervals` drops such empty intervals.
+        union_intervals(vec![(z_of(lo), z_of(hi))])
     } else {
         Vec::new()
     }

@@ -290,6 +290,21 @@ impl HalfRays {
     }
 }
 
+/// A polygon whose area is below this fraction of the largest polygon area of its half is
+/// unlit (docs/model.md §9, "Lit by area"): such an area is the rounding residue of a
+/// boundary contact (exact area 0), not light.
+pub const LIT_AREA_RTOL: f64 = 1e-9;
+
+/// Empty every polygon whose area is below [`LIT_AREA_RTOL`] of the largest in `polygons`.
+pub fn drop_residue(polygons: &mut [Polygon]) {
+    let floor = LIT_AREA_RTOL * polygons.iter().map(Polygon::area).fold(0.0, f64::max);
+    for p in polygons.iter_mut() {
+        if p.n > 0 && p.area() < floor {
+            *p = Polygon::EMPTY;
+        }
+    }
+}
+
 /// Every pixel of one half along one axis, microlens-major (index j Q + q).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Trace {
@@ -320,11 +335,12 @@ pub fn trace(cam: &Camera, half: Half, axis: Axis) -> Result<Trace> {
     let q_count = cam.q;
     let lens_of = |i: usize| (i / q_count as usize) as u32;
     let pixel_of = |i: usize| (i % q_count as usize) as u32;
-    let polygons: Vec<Polygon> = (0..n)
+    let mut polygons: Vec<Polygon> = (0..n)
         .into_par_iter()
         .with_min_len(1024)
         .map(|i| rays.polygon(cam, cam.lens_center(lens_of(i), k), pixel_of(i)))
         .collect();
+    drop_residue(&mut polygons);
     let area = polygons.iter().map(Polygon::area).collect();
     let centroid = polygons.iter().map(Polygon::centroid).collect();
     let lens = (0..n).map(lens_of).collect();
@@ -721,7 +737,17 @@ fn axis_samples(cam: &Camera, half: Half, axis: Axis, sample: Sample, z: f64) ->
     let zc = conjugate(cam.f_main, z);
     let rays = HalfRays::new(cam, half);
     let sigma = slope(cam, zc);
-    let mut out = Vec::with_capacity(k as usize * cam.q as usize);
+    let n = k as usize * cam.q as usize;
+    let mut polygons = Vec::new();
+    if sample == Sample::Centroid {
+        polygons.reserve_exact(n);
+        for j in 0..k {
+            let c = cam.lens_center(j, k);
+            polygons.extend((0..cam.q).map(|q| rays.polygon(cam, c, q)));
+        }
+        drop_residue(&mut polygons);
+    }
+    let mut out = Vec::with_capacity(n);
     for j in 0..k {
         let c = cam.lens_center(j, k);
         for q in 0..cam.q {
@@ -731,7 +757,7 @@ fn axis_samples(cam: &Camera, half: Half, axis: Axis, sample: Sample, z: f64) ->
                 }
                 Sample::Chief => f64::NAN,
                 Sample::Centroid => {
-                    let [u, w] = rays.polygon(cam, c, q).centroid();
+                    let [u, w] = polygons[j as usize * cam.q as usize + q as usize].centroid();
                     (u + sigma * w) * (-z / cam.v1)
                 }
             };

@@ -21,7 +21,7 @@ use crate::camera::{Axis, Camera, Half};
 use crate::error::{Error, Result};
 use crate::optics::{check_depths, conjugate, depth_of_conjugate, main_blur, repetitions};
 use crate::parallel::with_threads;
-use crate::rayspace::trace;
+use crate::rayspace::{slope, trace};
 
 /// Largest number of lit pixels along one axis of one half (K · Q_lit) the brute-force
 /// count accepts: each worker holds three buffers of this many f64.
@@ -52,6 +52,13 @@ impl SampleMode {
             )),
         }
     }
+}
+
+/// The merge tolerance `tol · δ(z)` in p' space: δ(z) = d z / (Q v') maps to d / Q on
+/// plane v' (X = −p' z / v'), independent of the depth.
+#[inline]
+pub fn merge_eps(cam: &Camera, tol: f64) -> f64 {
+    tol * cam.d / cam.q as f64
 }
 
 /// Validate the merge tolerance (a multiple of δ(z); 0 merges exactly equal positions only).
@@ -449,7 +456,7 @@ pub fn distinct_2d(x: [u64; 3], y: [u64; 3]) -> [u64; 3] {
 
 fn depth_result(cam: &Camera, layout: &Layout, z: f64, tol: f64, s: &mut Scratch) -> DepthResult {
     let zc = conjugate(cam.f_main, z);
-    let eps = tol * cam.d / cam.q as f64; // tol · δ(z) in p' space
+    let eps = merge_eps(cam, tol);
     let field = cam.kx as f64 * cam.d / 4.0; // |X| ≤ K_x d z / (4 v') in p' space
     let (dx, gap) = axis_counts(cam, layout, Axis::X, zc, eps, field, s);
     let lit = [&layout.lit[0], &layout.lit[1]].map(|l| l.len() as u64);
@@ -511,7 +518,7 @@ fn centroid_axis_counts(
     field: f64,
     s: &mut Scratch,
 ) -> ([u64; 3], [f64; 3]) {
-    let sigma = (cam.v1 - zc) / zc;
+    let sigma = slope(cam, zc);
     for h in Half::BOTH {
         let pos = &mut s.pos[h.index()];
         pos.clear();
@@ -533,7 +540,7 @@ fn centroid_depth_result(
     s: &mut Scratch,
 ) -> DepthResult {
     let zc = conjugate(cam.f_main, z);
-    let eps = tol * cam.d / cam.q as f64;
+    let eps = merge_eps(cam, tol);
     let field = cam.kx as f64 * cam.d / 4.0;
     let (dx, gap) = centroid_axis_counts(cam, cl, 0, zc, eps, field, s);
     let dy = centroid_axis_counts(cam, cl, 1, zc, eps, f64::INFINITY, s).0;
@@ -633,7 +640,7 @@ pub fn count_distinct(cam: &Camera, half: Half, axis: Axis, z: f64, tol: f64) ->
     let mut s = Scratch::default();
     let zc = conjugate(cam.f_main, z);
     half_samples(cam, &layout, half, axis, zc, &mut s.pos[0], &mut s.work);
-    Ok(scan(&s.pos[0], tol * cam.d / cam.q as f64, f64::INFINITY).0)
+    Ok(scan(&s.pos[0], merge_eps(cam, tol), f64::INFINITY).0)
 }
 
 /// Side of a coincidence plane relative to the half's out-of-focus plane.
@@ -750,7 +757,7 @@ pub fn coincidence_planes(
     }
     planes.sort_by(|a, b| a.z.total_cmp(&b.z));
     let layout = Layout::new(cam);
-    let eps = COINCIDENCE_TOL * cam.d / cam.q as f64;
+    let eps = merge_eps(cam, COINCIDENCE_TOL);
     with_threads(n_threads, || {
         planes
             .par_iter_mut()
@@ -986,62 +993,5 @@ mod tests {
         assert!(SampleMode::parse("foo").is_err());
         assert!(coincidence_planes(&cam, Half::One, 0, None, None).is_err());
         assert!(coincidence_planes(&cam, Half::One, 2, Some(0), None).is_err());
-    }
-}
-
-#[cfg(test)]
-mod timing {
-    use super::*;
-    use std::time::Instant;
-    #[test]
-    #[ignore]
-    fn timing_breakdown() {
-        let cam = Camera::paper();
-        let layout = Layout::new(&cam);
-        let mut s = Scratch::default();
-        let zs: Vec<f64> = (0..2000)
-            .map(|i| 150.0 * (10_000.0f64 / 150.0).powf(i as f64 / 1999.0))
-            .collect();
-        let (mut tg, mut tm, mut ts, mut sink) = (0.0, 0.0, 0.0, 0.0);
-        for &z in &zs {
-            let zc = conjugate(cam.f_main, z);
-            let t0 = Instant::now();
-            for h in Half::BOTH {
-                half_samples(
-                    &cam,
-                    &layout,
-                    h,
-                    Axis::X,
-                    zc,
-                    &mut s.pos[h.index()],
-                    &mut s.work,
-                );
-            }
-            let t1 = Instant::now();
-            let [p1, p2, pu] = &mut s.pos;
-            merge_into(pu, p1, p2);
-            let t2 = Instant::now();
-            for x in [&*p1, &*p2, &*pu] {
-                let (c, g) = scan(x, 1e-7, 10.0);
-                sink += c as f64 + g;
-            }
-            let t3 = Instant::now();
-            tg += (t1 - t0).as_secs_f64();
-            tm += (t2 - t1).as_secs_f64();
-            ts += (t3 - t2).as_secs_f64();
-        }
-        let t0 = Instant::now();
-        for &z in &zs {
-            depth_result(&cam, &layout, z, 1e-6, &mut s);
-        }
-        let full = t0.elapsed().as_secs_f64();
-        let us = |t: f64| t / 2000.0 * 1e6;
-        eprintln!(
-            "x axis: gen {:.1} us, merge {:.1} us, scans {:.1} us; full depth {:.1} us ({sink})",
-            us(tg),
-            us(tm),
-            us(ts),
-            us(full)
-        );
     }
 }

@@ -1,0 +1,190 @@
+//! Designs and depths at the edges of the floating-point range: every result stays finite
+//! and consistent, or the input is refused with a named error.
+
+use splitlf_core::camera::Camera;
+use splitlf_core::optics::{self, conjugate, curves};
+use splitlf_core::rayspace::{self, Sample, LIT_AREA_RTOL};
+use splitlf_core::samples::{new_samples, SampleMode};
+use splitlf_core::{Axis, Error, Half};
+
+fn seed_with(f: impl FnOnce(&mut [f64; 7])) -> Result<Camera, Error> {
+    let p = Camera::paper();
+    let mut x = [p.f_main, p.aperture, p.v1, p.kappa, p.d, p.v, p.mu];
+    f(&mut x);
+    Camera::new(
+        x[0], x[1], x[2], x[3], x[4], x[5], x[6], 15, 266, 88, None, None,
+    )
+}
+
+#[test]
+fn conjugate_of_huge_depths_is_finite_and_tends_to_f() {
+    for z in [1e300, 1e307, 1.7e308, f64::MAX] {
+        let zc = conjugate(80.0, z);
+        assert!(
+            zc.is_finite() && (80.0..80.0 + 1e-9).contains(&zc),
+            "{z} -> {zc}"
+        );
+    }
+    // Below the overflow threshold the product form of Eq. 1 is kept, bit for bit.
+    for z in [80.5, 642.0, 1e6, 1e300] {
+        assert_eq!(conjugate(80.0, z), 80.0 * z / (z - 80.0));
+    }
+}
+
+#[test]
+fn curves_at_huge_depths_equal_the_limit() {
+    let cam = Camera::paper();
+    let far = curves(&cam, &[1e307, f64::MAX], None).unwrap();
+    let near_inf = curves(&cam, &[1e30], None).unwrap();
+    for (k, v) in far.conjugate.iter().enumerate() {
+        assert!((v - 80.0).abs() < 1e-12, "conjugate[{k}] = {v}");
+    }
+    for (a, b) in far.blur_px.iter().zip([
+        near_inf.blur_px[0],
+        near_inf.blur_px[0],
+        near_inf.blur_px[1],
+        near_inf.blur_px[1],
+    ]) {
+        assert!(a.is_finite() && (a - b).abs() < 1e-9, "{a} vs {b}");
+    }
+}
+
+#[test]
+fn samples_and_footprints_at_huge_depths() {
+    let cam = Camera::paper();
+    let z = [1e307, f64::MAX];
+    for mode in [SampleMode::Chief, SampleMode::Centroid] {
+        let s = new_samples(&cam, &z, 1e-6, mode, None).unwrap();
+        let m = z.len();
+        for (k, zk) in z.iter().enumerate() {
+            let (h1, h2, u) = (s.distinct[k], s.distinct[m + k], s.distinct[2 * m + k]);
+            assert!(u >= h1 && u >= h2, "{mode:?} z = {zk}: {h1} {h2} {u}");
+            // At z' = F (far away) every half samples like at infinity.
+            let far = new_samples(&cam, &[1e12], 1e-6, mode, None).unwrap();
+            assert_eq!(s.distinct[k], far.distinct[0]);
+            assert_eq!(s.distinct[m + k], far.distinct[1]);
+            assert_eq!(s.distinct[2 * m + k], far.distinct[2]);
+        }
+    }
+    for sample in [Sample::Chief, Sample::Centroid] {
+        let fp = rayspace::footprints(&cam, &z, Half::One, Axis::X, sample, false, None).unwrap();
+        assert!(fp.lo.iter().chain(&fp.hi).all(|v| v.is_finite()));
+        assert!(fp.position.iter().all(|v| v.is_finite()));
+    }
+    assert!(cam.resolution_step(f64::MAX).is_finite());
+    assert!(cam.object_position(20.0, f64::MAX).is_finite());
+}
+
+#[test]
+fn derived_lengths_are_validated_like_given_ones() {
+    // v subnormal: 1/v overflows, Ng's f would be 0.
+    let e = seed_with(|x| x[5] = 5e-324).unwrap_err();
+    assert!(
+        matches!(e, Error::InvalidParameter { name: "v", .. }),
+        "{e}"
+    );
+    // Every length a normal float, but Ng's focal length underflows to a subnormal.
+    let e = seed_with(|x| {
+        x[5] = 1e-300;
+        x[2] = 1e-10 + 80.0;
+        x[4] = 1e-300;
+    });
+    if let Err(e) = e {
+        assert!(matches!(e, Error::InvalidParameter { .. }), "{e}");
+    }
+    // Products that overflow: D L / 2 with D and v1 near the top of the range.
+    let e = seed_with(|x| {
+        x[1] = 1e200;
+        x[2] = 1e200;
+    })
+    .unwrap_err();
+    assert!(matches!(e, Error::InvalidParameter { .. }), "{e}");
+    // Accepted designs give finite curves everywhere.
+    for v in [1e-200, 1e-12, 1.0, 1e10] {
+        if let Ok(cam) = seed_with(|x| x[5] = v) {
+            let c = curves(&cam, &[80.001, 200.0, 642.0, 1e9], None).unwrap();
+            assert!(c.blur_px.iter().all(|b| b.is_finite()), "v = {v}");
+            assert!(c.microlens_blur.iter().all(|b| !b.is_nan()), "v = {v}");
+        }
+    }
+}
+
+#[test]
+fn depth_of_field_never_returns_empty_intervals() {
+    let cams = [
+        seed_with(|x| x[2] = 1e300).unwrap(),
+        seed_with(|x| {
+            x[0] = 1e-300;
+            x[2] = 1.0;
+        })
+        .unwrap(),
+        Camera::paper(),
+    ];
+    for cam in cams {
+        for t in [1e-3, 0.5, 7.0, 1e6] {
+            let dof = optics::depth_of_field(&cam, t).unwrap();
+            let all = dof
+                .half
+                .iter()
+                .chain(dof.conventional.iter())
+                .chain([&dof.split]);
+            for iv in all {
+                for w in iv.windows(2) {
+                    assert!(w[0].1 <= w[1].0, "{iv:?}");
+                }
+                for &(lo, hi) in iv {
+                    assert!(lo < hi, "empty interval ({lo}, {hi}) at threshold {t}");
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn boundary_contacts_are_not_light() {
+    // A design whose half-2 polygons touch a strip boundary: exact area 0, computed area
+    // ~5e-16 of a full pixel before the rule.
+    let cam = Camera::new(
+        40.0,
+        10.0,
+        45.0,
+        0.2,
+        0.1,
+        0.45,
+        0.1 / 12.0,
+        12,
+        8,
+        4,
+        None,
+        None,
+    )
+    .unwrap();
+    for half in [Half::One, Half::Two] {
+        for axis in [Axis::X, Axis::Y] {
+            let tr = rayspace::trace(&cam, half, axis).unwrap();
+            let max = tr.area.iter().copied().fold(0.0, f64::max);
+            assert!(max > 0.0);
+            for (i, &a) in tr.area.iter().enumerate() {
+                assert!(
+                    a == 0.0 || a >= LIT_AREA_RTOL * max,
+                    "pixel {i}: area {a} of {max}"
+                );
+                assert_eq!(a == 0.0, tr.centroid[i][0].is_nan(), "pixel {i}");
+            }
+        }
+    }
+    // Centroid samples count only pixels with light: the same number as the sample grid's
+    // non-NaN centroid samples along x.
+    let s = new_samples(&cam, &[100.0], 1e-6, SampleMode::Centroid, None).unwrap();
+    for half in [Half::One, Half::Two] {
+        let (gx, _) = rayspace::sample_grid(&cam, 100.0, half, Sample::Centroid, None).unwrap();
+        // Rows are y pixels: a row whose y pixel collects light has every x sample.
+        let cols = (cam.kx * cam.q) as usize;
+        let with_light = gx
+            .chunks(cols)
+            .map(|row| row.iter().filter(|v| !v.is_nan()).count() as u64)
+            .max()
+            .unwrap();
+        assert_eq!(with_light, s.lit[half.index()]);
+    }
+}
