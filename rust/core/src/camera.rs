@@ -111,6 +111,32 @@ fn count(name: &'static str, n: i64, max: u64) -> Result<u32> {
     }
 }
 
+/// The array planes: v' behind the focal plane, κ ≥ 0 and L_2 = v'(1 + κ) finite.
+/// Returns L_2.
+fn check_planes(f_main: f64, v1: f64, kappa: f64) -> Result<f64> {
+    if !(v1.is_finite() && v1 > f_main) {
+        return Err(Error::param(
+            "v1",
+            v1,
+            format!(
+                "a finite length > F = {f_main} mm (the array must lie behind the focal plane)"
+            ),
+        ));
+    }
+    if !(kappa.is_finite() && kappa >= 0.0) {
+        return Err(Error::param("kappa", kappa, "a finite number >= 0"));
+    }
+    let l2 = v1 * (1.0 + kappa);
+    if !l2.is_finite() {
+        return Err(Error::param(
+            "kappa",
+            kappa,
+            "small enough that v1 (1 + kappa) is finite",
+        ));
+    }
+    Ok(l2)
+}
+
 /// Ng's setting: microlenses focused on the main lens, 1/f = 1/L + 1/v.
 pub fn ng_focal_length(l: f64, v: f64) -> f64 {
     1.0 / (1.0 / l + 1.0 / v)
@@ -135,32 +161,13 @@ impl Camera {
     ) -> Result<Camera> {
         let f_main = positive("F", f_main)?;
         let aperture = positive("D", aperture)?;
-        if !(v1.is_finite() && v1 > f_main) {
-            return Err(Error::param(
-                "v1",
-                v1,
-                format!(
-                    "a finite length > F = {f_main} mm (the array must lie behind the focal plane)"
-                ),
-            ));
-        }
-        if !(kappa.is_finite() && kappa >= 0.0) {
-            return Err(Error::param("kappa", kappa, "a finite number >= 0"));
-        }
+        let l2 = check_planes(f_main, v1, kappa)?;
         let d = positive("d", d)?;
         let v = positive("v", v)?;
         let mu = positive("mu", mu)?;
         let q = count("Q", q, MAX_Q)?;
         let kx = count("Kx", kx, MAX_K)?;
         let ky = count("Ky", ky, MAX_K)?;
-        let l2 = v1 * (1.0 + kappa);
-        if !l2.is_finite() {
-            return Err(Error::param(
-                "kappa",
-                kappa,
-                "small enough that v1 (1 + kappa) is finite",
-            ));
-        }
         let f1 = match f1 {
             Some(f) => positive("f1", f)?,
             None => ng_focal_length(v1, v),
