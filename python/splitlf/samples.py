@@ -13,6 +13,7 @@ import numpy as np
 
 from . import _native, _validate
 from .camera import Camera
+from .errors import InvalidParameter
 
 __all__ = [
     "CoincidencePlanes",
@@ -207,16 +208,29 @@ def sweep_depths(
     """Depths for a resolution sweep: ``n`` log-spaced depths over ``z_range`` plus, inside
     it, both out-of-focus planes and every coincidence plane (N <= ``max_n``, T <= Q) of
     both halves — where the counts dip and the gaps peak — so that the worst case is
-    sampled exactly. Sorted, unique."""
+    sampled exactly.
+
+    Parameters:
+        camera: the design.
+        z_range: (near, far) in mm with F < near < far < inf.
+        n: number of log-spaced depths, an integer >= 2 (default 600).
+        max_n: largest N of the coincidence planes added (default 3).
+
+    Returns:
+        Sorted, unique float64 depths [mm] inside ``z_range``.
+
+    Raises:
+        TypeError: a bound is not real, ``n`` or ``max_n`` is not an integer.
+        InvalidParameter: ``z_range`` is not F < near < far < inf, ``n`` < 2, or ``max_n``
+            is out of range (see :func:`coincidence_planes`).
+    """
     cam = _validate.camera(camera)
     lo, hi = (_validate.real(v, "z_range") for v in z_range)
     if not (cam.F < lo < hi < np.inf):
-        raise ValueError(
-            f"invalid z_range = ({lo}, {hi}): allowed F = {cam.F} mm < near < far < inf"
-        )
+        raise InvalidParameter.of("z_range", (lo, hi), f"F = {cam.F} mm < near < far < inf")
     n = _validate.integer(n, "n", "an integer >= 2")
     if n < 2:
-        raise ValueError(f"invalid n = {n}: allowed an integer >= 2")
+        raise InvalidParameter.of("n", n, "an integer >= 2")
     extra = [cam.out_of_focus_depth(1), cam.out_of_focus_depth(2)]
     for h in (1, 2):
         extra.extend(coincidence_planes(cam, h, max_n=max_n).z)
@@ -234,7 +248,23 @@ def worst_resolution(
 ) -> dict[str, Any]:
     """Largest max gap (worst resolution, in delta(z)) of half 1, half 2 and the split
     sensor over ``z_range``, on :func:`sweep_depths` (``n`` log-spaced depths plus the
-    out-of-focus and coincidence planes, N <= ``max_n``). JSON-ready (inf -> None)."""
+    out-of-focus and coincidence planes, N <= ``max_n``).
+
+    Parameters:
+        camera: the design.
+        z_range: (near, far) in mm, F < near < far < inf (default 150 to 10,000 mm).
+        n, max_n: as in :func:`sweep_depths` (defaults 2000 and 3).
+        tol: merge tolerance in delta(z), as in :func:`new_samples` (default 1e-6).
+        n_threads: threads of the core, ``None`` (default) for all cores.
+
+    Returns:
+        A JSON-ready dict: ``z_range_mm``, ``depths`` (how many), ``sampling`` (in words)
+        and for ``half1``, ``half2``, ``split``: ``max_gap`` (None when infinite), the depth
+        ``z_mm`` where it occurs and ``min_distinct`` (fewest distinct samples along x).
+
+    Raises:
+        The errors of :func:`sweep_depths` and :func:`new_samples`.
+    """
     z = sweep_depths(camera, z_range, n=n, max_n=max_n)
     r = new_samples(camera, z, tol=tol, n_threads=n_threads)
     out: dict[str, Any] = {

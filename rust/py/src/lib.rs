@@ -28,10 +28,12 @@ use splitlf_core::{camera, memory, merit, optics, parallel, Camera, Error, Half}
 /// A value of a core error message as a Python object: integers and floats as numbers, a
 /// quoted name as the name, anything else as its text.
 fn py_value(py: Python<'_>, text: &str) -> Py<PyAny> {
-    if let Ok(i) = text.parse::<i128>() {
-        return i
-            .into_pyobject(py)
-            .map_or_else(|e| match e {}, |v| v.into_any().unbind());
+    let digits = text.strip_prefix('-').unwrap_or(text);
+    if !digits.is_empty() && digits.bytes().all(|b| b.is_ascii_digit()) {
+        // An integer of any size: Python's int() parses it.
+        if let Ok(v) = py.get_type::<PyInt>().call1((text,)) {
+            return v.unbind();
+        }
     }
     if let Ok(x) = text.parse::<f64>() {
         return x
@@ -179,32 +181,34 @@ fn run<R: Send>(py: Python<'_>, f: impl FnOnce() -> splitlf_core::Result<R> + Se
 // ---- arguments ---------------------------------------------------------------------------
 
 /// An integer argument of any size (a Python int or anything with `__index__`, never a
-/// bool), or a `TypeError` naming it. Values beyond ±2^127 saturate (every range is far
-/// inside).
-fn int_arg(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<i128> {
+/// bool), or a `TypeError` naming it: its value saturated to i128 (every range is far
+/// inside) and its decimal text.
+fn int_arg(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<(i128, String)> {
     let type_name = obj.get_type().name()?.to_string();
+    let refuse = || -> PyResult<PyErr> {
+        Ok(PyTypeError::new_err(format!(
+            "{name} must be an integer, got {type_name} {}",
+            obj.repr()?
+        )))
+    };
     if obj.is_instance_of::<PyBool>() || type_name == "bool_" {
-        return Err(PyTypeError::new_err(format!(
-            "{name} must be an integer, got {type_name} {}",
-            obj.repr()?
-        )));
+        return Err(refuse()?);
     }
-    match obj.extract::<i128>() {
-        Ok(v) => Ok(v),
-        Err(_) if obj.is_instance_of::<PyInt>() => {
-            let negative = obj.lt(0)?;
-            Ok(if negative { i128::MIN } else { i128::MAX })
-        }
-        Err(_) => Err(PyTypeError::new_err(format!(
-            "{name} must be an integer, got {type_name} {}",
-            obj.repr()?
-        ))),
-    }
+    let Ok(index) = obj.call_method0("__index__") else {
+        return Err(refuse()?);
+    };
+    let text = index.str()?.to_string();
+    let value = match index.extract::<i128>() {
+        Ok(v) => v,
+        Err(_) if index.lt(0)? => i128::MIN,
+        Err(_) => i128::MAX,
+    };
+    Ok((value, text))
 }
 
 /// The core's range check applied to a value that may not fit its integer type: the core
 /// sees the value saturated (out of every range) and its error shows the value given.
-fn with_given(e: Error, given: i128) -> Error {
+fn with_given(e: Error, given: &str) -> Error {
     match e {
         Error::InvalidParameter { name, allowed, .. } => Error::InvalidParameter {
             name,
@@ -220,17 +224,17 @@ fn saturate(v: i128) -> i64 {
 }
 
 fn half_arg(obj: &Bound<'_, PyAny>) -> PyResult<Half> {
-    let v = int_arg(obj, "half")?;
-    Half::from_number(saturate(v)).map_err(|e| to_py(with_given(e, v)))
+    let (v, text) = int_arg(obj, "half")?;
+    Half::from_number(saturate(v)).map_err(|e| to_py(with_given(e, &text)))
 }
 
 fn threads_arg(obj: Option<&Bound<'_, PyAny>>) -> PyResult<Option<usize>> {
     let Some(obj) = obj.filter(|o| !o.is_none()) else {
         return Ok(None);
     };
-    let v = int_arg(obj, "n_threads")?;
+    let (v, text) = int_arg(obj, "n_threads")?;
     let n = v.clamp(0, parallel::MAX_THREADS as i128 + 1) as usize;
-    parallel::check_threads(Some(n)).map_err(|e| to_py(with_given(e, v)))?;
+    parallel::check_threads(Some(n)).map_err(|e| to_py(with_given(e, &text)))?;
     Ok(Some(n))
 }
 
@@ -579,22 +583,24 @@ fn coincidence_planes(
 ) -> PyResult<PlaneColumns> {
     let cam = camera.inner;
     let h = half_arg(half_)?;
-    let n_given = match max_n.filter(|o| !o.is_none()) {
+    let (n_given, n_text) = match max_n.filter(|o| !o.is_none()) {
         Some(o) => int_arg(o, "max_n")?,
-        None => samples::DEFAULT_MAX_N as i128,
+        None => {
+            let n = samples::DEFAULT_MAX_N;
+            (n as i128, n.to_string())
+        }
     };
     let t_given = match max_t.filter(|o| !o.is_none()) {
         Some(o) => Some(int_arg(o, "max_t")?),
         None => None,
     };
     let threads = threads_arg(n_threads)?;
-    let (mn, mt) = (saturate(n_given), t_given.map(saturate));
+    let (mn, mt) = (saturate(n_given), t_given.as_ref().map(|t| saturate(t.0)));
+    let t_text = t_given.map(|t| t.1).unwrap_or_default();
     let p = run(py, || {
         samples::coincidence_planes(&cam, h, mn, mt, threads).map_err(|e| match &e {
-            Error::InvalidParameter { name: "max_n", .. } => with_given(e, n_given),
-            Error::InvalidParameter { name: "max_t", .. } => {
-                with_given(e, t_given.unwrap_or_default())
-            }
+            Error::InvalidParameter { name: "max_n", .. } => with_given(e, &n_text),
+            Error::InvalidParameter { name: "max_t", .. } => with_given(e, &t_text),
             _ => e,
         })
     })?;
