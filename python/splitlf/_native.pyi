@@ -6,8 +6,29 @@ import numpy as np
 import numpy.typing as npt
 
 __all__ = [
+    "DEFAULT_MAX_N",
+    "DEFAULT_THRESHOLD_PX",
+    "DEFAULT_TOL",
+    "MAX_CELLS",
+    "MAX_COINCIDENCE_WORK",
+    "MAX_K",
+    "MAX_PAIRS",
+    "MAX_POOLS",
+    "MAX_Q",
+    "MAX_SAMPLES_PER_AXIS",
+    "MAX_THREADS",
     "CameraCore",
+    "CurvesArrays",
+    "DepthOfFieldIntervals",
+    "FootprintArrays",
+    "NewSamplesArrays",
+    "PlaneColumns",
+    "RenderArrays",
+    "SampleGridArrays",
+    "SystemMatrixArrays",
+    "TraceArrays",
     "__version__",
+    "available_memory",
     "coincidence_planes",
     "curves",
     "depth_of_field",
@@ -23,6 +44,17 @@ __all__ = [
 ]
 
 __version__: str
+MAX_THREADS: int
+MAX_POOLS: int
+MAX_Q: int
+MAX_K: int
+DEFAULT_TOL: float
+DEFAULT_THRESHOLD_PX: float
+DEFAULT_MAX_N: int
+MAX_PAIRS: int
+MAX_SAMPLES_PER_AXIS: int
+MAX_COINCIDENCE_WORK: int
+MAX_CELLS: int
 
 _F64 = npt.NDArray[np.float64]
 _I64 = npt.NDArray[np.int64]
@@ -59,48 +91,156 @@ class CameraCore:
     def f_number(self) -> float: ...
     def resolution_step(self, z: float) -> float: ...
 
-def curves(
-    camera: CameraCore, z: _F64, n_threads: int | None = None
-) -> tuple[_F64, _F64, _F64, _F64, _F64, _F64]: ...
-def depth_of_field(
-    camera: CameraCore, threshold_px: float = 0.5
-) -> tuple[_Intervals, _Intervals, _Intervals, _Intervals, _Intervals]: ...
+@final
+class CurvesArrays:
+    @property
+    def conjugate(self) -> _F64: ...
+    @property
+    def main_blur(self) -> _F64: ...
+    @property
+    def repetitions(self) -> _F64: ...
+    @property
+    def microlens_blur(self) -> _F64: ...
+    @property
+    def blur_px(self) -> _F64: ...
+    @property
+    def conventional_px(self) -> _F64: ...
+
+@final
+class DepthOfFieldIntervals:
+    @property
+    def half1(self) -> _Intervals: ...
+    @property
+    def half2(self) -> _Intervals: ...
+    @property
+    def split(self) -> _Intervals: ...
+    @property
+    def conventional1(self) -> _Intervals: ...
+    @property
+    def conventional2(self) -> _Intervals: ...
+
+@final
+class NewSamplesArrays:
+    @property
+    def distinct(self) -> _I64: ...
+    @property
+    def distinct_2d(self) -> _I64: ...
+    @property
+    def max_gap(self) -> _F64: ...
+    @property
+    def lit(self) -> _I64: ...
+
+@final
+class PlaneColumns:
+    @property
+    def N(self) -> _I64: ...
+    @property
+    def T(self) -> _I64: ...
+    @property
+    def side(self) -> list[str]: ...
+    @property
+    def conjugate(self) -> _F64: ...
+    @property
+    def z(self) -> _F64: ...
+    @property
+    def repetitions(self) -> _F64: ...
+    @property
+    def new_samples_x(self) -> _I64: ...
+    @property
+    def new_samples_y(self) -> _I64: ...
+    @property
+    def new_samples(self) -> _I64: ...
+    @property
+    def counted(self) -> _I64: ...
+
+@final
+class TraceArrays:
+    @property
+    def vertices(self) -> _F64: ...
+    @property
+    def n_vertices(self) -> _I64: ...
+    @property
+    def area(self) -> _F64: ...
+    @property
+    def centroid(self) -> _F64: ...
+    @property
+    def lens(self) -> _I64: ...
+    @property
+    def pixel(self) -> _I64: ...
+    @property
+    def chief(self) -> _F64: ...
+    @property
+    def lit(self) -> npt.NDArray[np.bool_]: ...
+
+@final
+class FootprintArrays:
+    @property
+    def position(self) -> _F64: ...
+    @property
+    def lo(self) -> _F64: ...
+    @property
+    def hi(self) -> _F64: ...
+    @property
+    def kernel_breaks(self) -> _F64 | None: ...
+    @property
+    def kernel_values(self) -> _F64 | None: ...
+
+@final
+class SampleGridArrays:
+    @property
+    def X(self) -> _F64: ...
+    @property
+    def Y(self) -> _F64: ...
+
+@final
+class SystemMatrixArrays:
+    @property
+    def indptr(self) -> _I64: ...
+    @property
+    def indices(self) -> _I64: ...
+    @property
+    def data(self) -> _F64: ...
+    @property
+    def pixels(self) -> _I64: ...
+    @property
+    def shape(self) -> tuple[int, int]: ...
+
+@final
+class RenderArrays:
+    @property
+    def values(self) -> _F64: ...
+    @property
+    def pixels(self) -> _I64: ...
+
+def curves(camera: CameraCore, z: _F64, n_threads: int | None = None) -> CurvesArrays: ...
+def depth_of_field(camera: CameraCore, threshold_px: float = ...) -> DepthOfFieldIntervals: ...
 def sharp_fractions(
     camera: CameraCore, threshold_px: float, lo: float, hi: float
 ) -> list[float]: ...
 def new_samples(
     camera: CameraCore,
     z: _F64,
-    tol: float = 1e-6,
+    tol: float = ...,
     sample: str = "chief",
     n_threads: int | None = None,
-) -> tuple[_I64, _I64, _F64, _I64]: ...
+) -> NewSamplesArrays: ...
 def coincidence_planes(
     camera: CameraCore,
     half_: int,
-    max_n: int = 4,
+    max_n: int | None = None,
     max_t: int | None = None,
     n_threads: int | None = None,
-) -> tuple[_I64, _I64, list[str], _F64, _F64, _F64, _I64, _I64, _I64, _I64]: ...
+) -> PlaneColumns: ...
 def figures_of_merit(
     camera: CameraCore,
     z: _F64,
-    threshold_px: float = 0.5,
-    tol: float = 1e-6,
+    threshold_px: float = ...,
+    tol: float = ...,
     n_threads: int | None = None,
 ) -> list[float]: ...
 def trace(
-    camera: CameraCore, half: int, axis: str = "x"
-) -> tuple[
-    _F64,
-    npt.NDArray[np.int64],
-    _F64,
-    _F64,
-    npt.NDArray[np.int64],
-    npt.NDArray[np.int64],
-    _F64,
-    npt.NDArray[np.bool_],
-]: ...
+    camera: CameraCore, half: int, axis: str = "x", n_threads: int | None = None
+) -> TraceArrays: ...
 def footprints(
     camera: CameraCore,
     z: _F64,
@@ -109,10 +249,10 @@ def footprints(
     sample: str = "centroid",
     kernel: bool = False,
     n_threads: int | None = None,
-) -> tuple[_F64, _F64, _F64, _F64 | None, _F64 | None]: ...
+) -> FootprintArrays: ...
 def sample_grid(
     camera: CameraCore, z: float, half: int, sample: str = "chief", n_threads: int | None = None
-) -> tuple[_F64, _F64]: ...
+) -> SampleGridArrays: ...
 def kernel_support(
     camera: CameraCore, z: float, source: str, n_threads: int | None = None
 ) -> float: ...
@@ -126,7 +266,7 @@ def system_matrix(
     field_lo: float,
     field_hi: float,
     n_threads: int | None = None,
-) -> tuple[_I64, _I64, _F64, _I64, tuple[int, int]]: ...
+) -> SystemMatrixArrays: ...
 def render(
     camera: CameraCore,
     z: float,
@@ -137,4 +277,5 @@ def render(
     field_hi: float,
     textures: _F64,
     n_threads: int | None = None,
-) -> tuple[_F64, _I64]: ...
+) -> RenderArrays: ...
+def available_memory() -> int: ...

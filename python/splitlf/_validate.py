@@ -1,4 +1,9 @@
-"""Argument checks shared by the public functions (types here; ranges in the core)."""
+"""Argument checks shared by the public functions: Python types here, ranges in the core.
+
+Wrong types raise ``TypeError`` naming the parameter; values outside their range raise
+:class:`splitlf.errors.InvalidParameter` (a ``ValueError``). Limits come from the core
+(``splitlf._native``), the single source of truth.
+"""
 
 from __future__ import annotations
 
@@ -7,7 +12,12 @@ from typing import Any
 
 import numpy as np
 
+from . import _native
 from .camera import Camera
+from .errors import InvalidParameter
+
+#: Largest thread count (from the core).
+MAX_THREADS: int = _native.MAX_THREADS
 
 
 def camera(value: Any) -> Camera:
@@ -16,14 +26,39 @@ def camera(value: Any) -> Camera:
     return value
 
 
+def _is_int(value: Any) -> bool:
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool | np.bool_)
+
+
+def integer(value: Any, name: str, kind: str = "an integer") -> int:
+    """A Python or NumPy integer of any size (never a bool), else ``TypeError``."""
+    if not _is_int(value):
+        raise TypeError(f"{name} must be {kind}, got {type(value).__name__} {value!r}")
+    return int(value)
+
+
 def n_threads(value: Any) -> int | None:
     if value is None:
         return None
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-        raise TypeError(f"n_threads must be an integer >= 1 or None, got {value!r}")
-    if not 1 <= int(value) <= 1024:
-        raise ValueError(f"invalid n_threads = {value}: allowed an integer in [1, 1024] or None")
-    return int(value)
+    allowed = f"an integer in [1, {MAX_THREADS}] or None for all cores"
+    n = integer(value, "n_threads", f"an integer >= 1 or None, not {type(value).__name__}")
+    if not 1 <= n <= MAX_THREADS:
+        raise InvalidParameter.of("n_threads", n, allowed)
+    return n
+
+
+def half(value: Any) -> int:
+    """1 or 2 (the range is checked by the core)."""
+    return integer(value, "half", "the integer 1 or 2")
+
+
+def choice(value: Any, name: str, allowed: tuple[str, ...]) -> str:
+    """A string (a non-string is a ``TypeError``; the core rejects a name not in ``allowed``
+    with :class:`InvalidParameter`)."""
+    if not isinstance(value, str):
+        words = ", ".join(map(repr, allowed))
+        raise TypeError(f"{name} must be one of {words}, got {type(value).__name__} {value!r}")
+    return value
 
 
 def depths(value: Any, name: str = "z") -> np.ndarray:
@@ -35,8 +70,22 @@ def depths(value: Any, name: str = "z") -> np.ndarray:
         raise TypeError(f"{name} must be an array of real depths in mm, got dtype {arr.dtype}")
     arr = np.atleast_1d(arr).astype(np.float64, copy=False)
     if arr.ndim != 1:
-        raise ValueError(f"{name} must be one-dimensional, got shape {arr.shape}")
+        raise InvalidParameter.of(name, f"an array of shape {arr.shape}",
+                                  "a scalar or a one-dimensional array of depths")
     return arr
+
+
+def depth(value: Any, name: str = "z") -> float:
+    """One depth: a real number, or an array-like holding exactly one (0-d or 1 element)."""
+    if isinstance(value, bool | np.bool_):
+        raise TypeError(f"{name} must be a real depth in mm, got bool {value!r}")
+    if isinstance(value, numbers.Real):
+        return float(value)
+    arr = depths(value, name)
+    if arr.size != 1:
+        raise InvalidParameter.of(name, f"{arr.size} depths",
+                                  "one depth: a number or an array-like of one element")
+    return float(arr[0])
 
 
 def real(value: Any, name: str) -> float:

@@ -8,9 +8,7 @@ checks argument types and packs the arrays. Derivations: ``docs/rayspace.md``.
 from __future__ import annotations
 
 import dataclasses
-import numbers
 from collections.abc import Iterator
-from typing import Any
 
 import numpy as np
 
@@ -18,21 +16,6 @@ from . import _native, _validate
 from .camera import Camera
 
 __all__ = ["Footprints", "SampleGrid", "Trace", "footprints", "sample_grid", "trace"]
-
-
-def _half(value: Any) -> int:
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-        raise TypeError(f"half must be the integer 1 or 2, got {type(value).__name__} {value!r}")
-    return int(value)
-
-
-def _choice(value: Any, name: str, allowed: tuple[str, ...]) -> str:
-    if not isinstance(value, str):
-        raise TypeError(
-            f"{name} must be one of {', '.join(map(repr, allowed))}, "
-            f"got {type(value).__name__} {value!r}"
-        )
-    return value
 
 
 @dataclasses.dataclass(frozen=True)
@@ -61,12 +44,34 @@ class Trace:
     lit: np.ndarray
 
 
-def trace(camera: Camera, half: int, axis: str = "x") -> Trace:
-    """Integration polygon of every pixel of ``half`` (1 or 2) along ``axis`` ("x"/"y")."""
+def trace(camera: Camera, half: int, axis: str = "x", n_threads: int | None = None) -> Trace:
+    """Integration polygon of every pixel of one half along one axis (docs/model.md §3-4).
+
+    Parameters:
+        camera: the design (:class:`splitlf.Camera`).
+        half: 1 or 2.
+        axis: ``"x"`` (Kx microlenses, default) or ``"y"`` (Ky microlenses).
+        n_threads: threads of the core, an integer in [1, ``_native.MAX_THREADS``];
+            ``None`` (default) for all cores.
+
+    Returns:
+        :class:`Trace` of n = K Q pixels (K = Kx or Ky), with the shapes listed there.
+
+    Raises:
+        TypeError: ``camera`` is not a Camera; ``half`` or ``n_threads`` is not an integer
+            (bools are refused); ``axis`` is not a string.
+        InvalidParameter: (a ``ValueError`` with ``.name``, ``.value``, ``.allowed``)
+            ``half`` is not 1 or 2, ``axis`` not "x"/"y", ``n_threads`` out of range.
+        TooLargeError: (a ``MemoryError``) the trace and its arrays (about 330 bytes per
+            pixel) do not fit in the memory available.
+        KeyboardInterrupt: on Ctrl-C (checked between chunks of pixels).
+    """
     cam = _validate.camera(camera)
-    h = _half(half)
-    ax = _choice(axis, "axis", ("x", "y"))
-    return Trace(h, ax, *_native.trace(cam.core, h, ax))
+    h = _validate.half(half)
+    ax = _validate.choice(axis, "axis", ("x", "y"))
+    r = _native.trace(cam.core, h, ax, _validate.n_threads(n_threads))
+    return Trace(h, ax, r.vertices, r.n_vertices, r.area, r.centroid, r.lens, r.pixel,
+                 r.chief, r.lit)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -102,18 +107,43 @@ def footprints(
     kernel: bool = False,
     n_threads: int | None = None,
 ) -> Footprints:
-    """Footprint of every pixel of ``half`` along ``axis`` on the planes at depths ``z``
-    (mm, each finite and > F). ``sample`` is "centroid" (projection of the polygon's
-    centroid) or "chief" (projection of the chief ray, the paper's convention)."""
+    """Footprint of every pixel of one half along one axis on the planes at depths ``z``
+    (docs/model.md §5).
+
+    Parameters:
+        camera: the design.
+        z: depths in mm: a number or any 1-D array-like (m,), each finite and > F.
+        half: 1 or 2.
+        axis: ``"x"`` (default) or ``"y"``.
+        sample: ``"centroid"`` (default: projection of the integration polygon's centroid)
+            or ``"chief"`` (projection of the chief ray, the paper's convention).
+        kernel: also return the piecewise-linear weight profiles (m, n, 6); default False.
+        n_threads: threads of the core, ``None`` (default) for all cores.
+
+    Returns:
+        :class:`Footprints` of n = K Q pixels (order of :func:`trace`) at m depths.
+
+    Raises:
+        TypeError: ``camera`` is not a Camera; ``z`` is not real; ``half`` or
+            ``n_threads`` is not an integer (bools refused); ``axis``/``sample`` is not a
+            string; ``kernel`` is not a bool.
+        InvalidParameter: (a ``ValueError``) ``z`` is not 1-D or an element is not finite
+            or not > F (``.name == "z"``, ``.index`` the element); ``half``, ``axis``,
+            ``sample`` or ``n_threads`` is out of range.
+        TooLargeError: (a ``MemoryError``) the outputs (24 bytes per depth and pixel, 120
+            with ``kernel``) and working buffers (about 290 bytes per pixel) do not fit
+            in the memory available.
+        KeyboardInterrupt: on Ctrl-C (checked between chunks of depths).
+    """
     cam = _validate.camera(camera)
     zs = _validate.depths(z)
-    h = _half(half)
-    ax = _choice(axis, "axis", ("x", "y"))
-    s = _choice(sample, "sample", ("centroid", "chief"))
+    h = _validate.half(half)
+    ax = _validate.choice(axis, "axis", ("x", "y"))
+    s = _validate.choice(sample, "sample", ("centroid", "chief"))
     if not isinstance(kernel, bool | np.bool_):
         raise TypeError(f"kernel must be a bool, got {type(kernel).__name__} {kernel!r}")
-    out = _native.footprints(cam.core, zs, h, ax, s, bool(kernel), _validate.n_threads(n_threads))
-    return Footprints(zs, h, ax, s, *out)
+    r = _native.footprints(cam.core, zs, h, ax, s, bool(kernel), _validate.n_threads(n_threads))
+    return Footprints(zs, h, ax, s, r.position, r.lo, r.hi, r.kernel_breaks, r.kernel_values)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -135,12 +165,34 @@ class SampleGrid:
 
 
 def sample_grid(
-    camera: Camera, z: float, half: int, sample: str = "chief", n_threads: int | None = None
+    camera: Camera, z, half: int, sample: str = "chief", n_threads: int | None = None
 ) -> SampleGrid:
-    """Sample position of every pixel of ``half`` on the plane at depth ``z`` (one depth)."""
+    """Sample position of every pixel of the full 2D sensor of one half on one plane.
+
+    Parameters:
+        camera: the design.
+        z: the plane's depth in mm, finite and > F: one depth only, given as a number, a
+            0-d array or an array-like of exactly one element.
+        half: 1 or 2.
+        sample: ``"chief"`` (default, the paper's convention) or ``"centroid"``.
+        n_threads: threads of the core, ``None`` (default) for all cores.
+
+    Returns:
+        :class:`SampleGrid` with ``X``, ``Y`` of shape (Ky Q, Kx Q) in mm (NaN where a
+        pixel yields no sample); unpacks as ``X, Y = sample_grid(...)``.
+
+    Raises:
+        TypeError: ``camera`` is not a Camera; ``z`` is not real; ``half`` or
+            ``n_threads`` is not an integer (bools refused); ``sample`` is not a string.
+        InvalidParameter: (a ``ValueError``) ``z`` holds more than one depth, is not
+            finite or not > F; ``half``, ``sample`` or ``n_threads`` is out of range.
+        TooLargeError: (a ``MemoryError``) the two outputs (16 bytes per pixel of the
+            2D half-sensor) do not fit in the memory available.
+        KeyboardInterrupt: on Ctrl-C (checked between chunks of rows).
+    """
     cam = _validate.camera(camera)
-    zf = _validate.real(z, "z")
-    h = _half(half)
-    s = _choice(sample, "sample", ("centroid", "chief"))
-    X, Y = _native.sample_grid(cam.core, zf, h, s, _validate.n_threads(n_threads))
-    return SampleGrid(zf, h, s, X, Y)
+    zf = _validate.depth(z)
+    h = _validate.half(half)
+    s = _validate.choice(sample, "sample", ("centroid", "chief"))
+    r = _native.sample_grid(cam.core, zf, h, s, _validate.n_threads(n_threads))
+    return SampleGrid(zf, h, s, r.X, r.Y)

@@ -7,13 +7,13 @@ Rust core (``splitlf._native``), parallel over depths with the GIL released.
 from __future__ import annotations
 
 import dataclasses
-import numbers
 from typing import Any
 
 import numpy as np
 
 from . import _native, _validate
 from .camera import Camera
+from .errors import InvalidParameter
 
 __all__ = [
     "CoincidencePlanes",
@@ -31,21 +31,9 @@ PLANE_COLUMNS = (
 )
 
 
-def _int(value: Any, name: str, allow_none: bool = False) -> int | None:
-    if value is None and allow_none:
-        return None
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-        kind = "an integer >= 1" + (" or None" if allow_none else "")
-        raise TypeError(f"{name} must be {kind}, got {value!r}")
-    return int(value)
-
-
-def _half(value: Any) -> int:
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-        raise TypeError(f"half must be 1 or 2, got {value!r}")
-    if int(value) not in (1, 2):
-        raise ValueError(f"invalid half = {value}: allowed 1 or 2")
-    return int(value)
+#: Default merge tolerance in units of delta(z), and default largest N (from the core).
+DEFAULT_TOL: float = _native.DEFAULT_TOL
+DEFAULT_MAX_N: int = _native.DEFAULT_MAX_N
 
 
 @dataclasses.dataclass(frozen=True)
@@ -102,21 +90,45 @@ class CoincidencePlanes:
 def coincidence_planes(
     camera: Camera,
     half: int,
-    max_n: int = 4,
+    max_n: int = DEFAULT_MAX_N,
     max_t: int | None = None,
     n_threads: int | None = None,
 ) -> CoincidencePlanes:
-    """Every coincidence plane of ``half`` with coprime N <= ``max_n`` and T <= ``max_t``
-    (default Q), on both sides of its out-of-focus plane wherever it exists (1 - r > 0 and
-    z' > F), with Eq. 8/9 and the brute-force count of distinct chief samples."""
+    """Every coincidence plane of one half with coprime N <= ``max_n`` and T <= ``max_t``,
+    on both sides of its out-of-focus plane wherever it exists (1 - r > 0 and z' > F),
+    with Eq. 8/9 and the brute-force count of distinct chief samples.
+
+    Parameters:
+        camera: the design.
+        half: 1 or 2.
+        max_n: largest N, an integer in [1, ``_native.MAX_PAIRS``] (default 4).
+        max_t: largest T, an integer in [1, ``_native.MAX_PAIRS``]; ``None`` (default)
+            for Q. At most ``_native.MAX_PAIRS`` (N, T) pairs in all.
+        n_threads: threads of the core, ``None`` (default) for all cores.
+
+    Returns:
+        :class:`CoincidencePlanes`, one row per plane, sorted by depth.
+
+    Raises:
+        TypeError: ``camera`` is not a Camera; ``half``, ``max_n``, ``max_t`` or
+            ``n_threads`` is not an integer (bools refused; any size accepted).
+        InvalidParameter: (a ``ValueError`` with ``.name``) a parameter out of range, or
+            ``max_n * max_t`` above ``_native.MAX_PAIRS``.
+        TooLargeError: (a ``MemoryError``) K Q above ``_native.MAX_SAMPLES_PER_AXIS``; the
+            brute-force count (planes x (Kx + Ky) x Q_lit sample positions) above
+            ``_native.MAX_COINCIDENCE_WORK`` (refused before any counting; lower ``max_n``
+            or ``max_t``); or the buffers do not fit in the memory available.
+        KeyboardInterrupt: on Ctrl-C (checked between chunks of planes).
+    """
     cam = _validate.camera(camera)
-    h = _half(half)
-    n = _int(max_n, "max_n")
-    t = _int(max_t, "max_t", allow_none=True)
-    cols = _native.coincidence_planes(cam.core, h, n, t, _validate.n_threads(n_threads))
-    values = list(cols)
-    values[2] = np.array(values[2], dtype="<U4")
-    return CoincidencePlanes(h, *values)
+    h = _validate.half(half)
+    n = _validate.integer(max_n, "max_n", "an integer >= 1")
+    t = None if max_t is None else _validate.integer(max_t, "max_t", "an integer >= 1 or None")
+    r = _native.coincidence_planes(cam.core, h, n, t, _validate.n_threads(n_threads))
+    return CoincidencePlanes(
+        h, r.N, r.T, np.array(r.side, dtype="<U4"), r.conjugate, r.z, r.repetitions,
+        r.new_samples_x, r.new_samples_y, r.new_samples, r.counted,
+    )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -148,24 +160,46 @@ class NewSamples:
 def new_samples(
     camera: Camera,
     z,
-    tol: float = 1e-6,
+    tol: float = DEFAULT_TOL,
     sample: str = "chief",
     n_threads: int | None = None,
 ) -> NewSamples:
     """Count the distinct sample positions of each half and of the split sensor at every
-    depth in ``z`` (mm, each finite and > F), and the worst gap between them.
+    depth, and the worst gap between them (docs/model.md §6).
 
-    ``sample`` is ``"chief"`` (the chief ray's projection, the paper's convention; lit pixels
-    only) or ``"centroid"`` (the projection of each pixel's integration-polygon centroid,
-    docs/model.md §5; every pixel that collects light, so partially vignetted pixels count too).
+    Parameters:
+        camera: the design.
+        z: depths in mm: a number or any 1-D array-like (m,), each finite and > F.
+        tol: merge tolerance in units of delta(z) = d z / (Q v'), finite and >= 0
+            (default ``DEFAULT_TOL`` = 1e-6; 0 merges only equal positions).
+        sample: ``"chief"`` (default: the chief ray's projection, the paper's convention;
+            lit pixels only) or ``"centroid"`` (the projection of each pixel's
+            integration-polygon centroid, docs/model.md §5; every pixel that collects
+            light, so partially vignetted pixels count too).
+        n_threads: threads of the core, ``None`` (default) for all cores.
+
+    Returns:
+        :class:`NewSamples` with (3, m) arrays (rows half 1, half 2, union).
+
+    Raises:
+        TypeError: ``camera`` is not a Camera; ``z`` or ``tol`` is not real; ``sample`` is
+            not a string; ``n_threads`` is not an integer.
+        InvalidParameter: (a ``ValueError``) ``z`` is not 1-D or an element is not finite
+            or not > F (``.name == "z"``, ``.index``); ``tol`` is negative or not finite;
+            ``sample`` is not "chief"/"centroid"; ``n_threads`` is out of range.
+        TooLargeError: (a ``MemoryError``) Kx Q or Ky Q above
+            ``_native.MAX_SAMPLES_PER_AXIS``, or the outputs (72 bytes per depth), the
+            layout and the per-thread buffers (about 16 bytes per pixel of both halves
+            along one axis, per thread; centroid mode also holds one trace, 168 bytes per
+            pixel) do not fit in the memory available.
+        KeyboardInterrupt: on Ctrl-C (checked between chunks of depths).
     """
     cam = _validate.camera(camera)
     zs = _validate.depths(z)
     t = _validate.real(tol, "tol")
-    if not isinstance(sample, str):
-        raise TypeError(f"sample must be \"chief\" or \"centroid\", got {sample!r}")
-    out = _native.new_samples(cam.core, zs, t, sample, _validate.n_threads(n_threads))
-    return NewSamples(zs, t, sample, *out)
+    s = _validate.choice(sample, "sample", ("chief", "centroid"))
+    r = _native.new_samples(cam.core, zs, t, s, _validate.n_threads(n_threads))
+    return NewSamples(zs, t, s, r.distinct, r.distinct_2d, r.max_gap, r.lit)
 
 
 def sweep_depths(
@@ -174,16 +208,29 @@ def sweep_depths(
     """Depths for a resolution sweep: ``n`` log-spaced depths over ``z_range`` plus, inside
     it, both out-of-focus planes and every coincidence plane (N <= ``max_n``, T <= Q) of
     both halves — where the counts dip and the gaps peak — so that the worst case is
-    sampled exactly. Sorted, unique."""
+    sampled exactly.
+
+    Parameters:
+        camera: the design.
+        z_range: (near, far) in mm with F < near < far < inf.
+        n: number of log-spaced depths, an integer >= 2 (default 600).
+        max_n: largest N of the coincidence planes added (default 3).
+
+    Returns:
+        Sorted, unique float64 depths [mm] inside ``z_range``.
+
+    Raises:
+        TypeError: a bound is not real, ``n`` or ``max_n`` is not an integer.
+        InvalidParameter: ``z_range`` is not F < near < far < inf, ``n`` < 2, or ``max_n``
+            is out of range (see :func:`coincidence_planes`).
+    """
     cam = _validate.camera(camera)
     lo, hi = (_validate.real(v, "z_range") for v in z_range)
     if not (cam.F < lo < hi < np.inf):
-        raise ValueError(
-            f"invalid z_range = ({lo}, {hi}): allowed F = {cam.F} mm < near < far < inf"
-        )
-    n = _int(n, "n")
+        raise InvalidParameter.of("z_range", (lo, hi), f"F = {cam.F} mm < near < far < inf")
+    n = _validate.integer(n, "n", "an integer >= 2")
     if n < 2:
-        raise ValueError(f"invalid n = {n}: allowed an integer >= 2")
+        raise InvalidParameter.of("n", n, "an integer >= 2")
     extra = [cam.out_of_focus_depth(1), cam.out_of_focus_depth(2)]
     for h in (1, 2):
         extra.extend(coincidence_planes(cam, h, max_n=max_n).z)
@@ -196,12 +243,28 @@ def worst_resolution(
     z_range: tuple[float, float] = (150.0, 10_000.0),
     n: int = 2000,
     max_n: int = 3,
-    tol: float = 1e-6,
+    tol: float = DEFAULT_TOL,
     n_threads: int | None = None,
 ) -> dict[str, Any]:
     """Largest max gap (worst resolution, in delta(z)) of half 1, half 2 and the split
     sensor over ``z_range``, on :func:`sweep_depths` (``n`` log-spaced depths plus the
-    out-of-focus and coincidence planes, N <= ``max_n``). JSON-ready (inf -> None)."""
+    out-of-focus and coincidence planes, N <= ``max_n``).
+
+    Parameters:
+        camera: the design.
+        z_range: (near, far) in mm, F < near < far < inf (default 150 to 10,000 mm).
+        n, max_n: as in :func:`sweep_depths` (defaults 2000 and 3).
+        tol: merge tolerance in delta(z), as in :func:`new_samples` (default 1e-6).
+        n_threads: threads of the core, ``None`` (default) for all cores.
+
+    Returns:
+        A JSON-ready dict: ``z_range_mm``, ``depths`` (how many), ``sampling`` (in words)
+        and for ``half1``, ``half2``, ``split``: ``max_gap`` (None when infinite), the depth
+        ``z_mm`` where it occurs and ``min_distinct`` (fewest distinct samples along x).
+
+    Raises:
+        The errors of :func:`sweep_depths` and :func:`new_samples`.
+    """
     z = sweep_depths(camera, z_range, n=n, max_n=max_n)
     r = new_samples(camera, z, tol=tol, n_threads=n_threads)
     out: dict[str, Any] = {

@@ -107,9 +107,9 @@ def forward(camera: Camera, z: float, source: str, origin: float, step: float,
     t2 = np.ascontiguousarray(np.atleast_2d(t), dtype=np.float64)
     o, h = _validate.real(origin, "origin"), _validate.real(step, "step")
     lo, hi = _field(o, h, t2.shape[1], field)
-    values, pixels = _native.render(cam.core, _validate.real(z, "z"), _source(source), o, h,
-                                    lo, hi, t2, _validate.n_threads(n_threads))
-    return (values[0] if t.ndim == 1 else values), pixels
+    r = _native.render(cam.core, _validate.real(z, "z"), _source(source), o, h,
+                       lo, hi, t2, _validate.n_threads(n_threads))
+    return (r.values[0] if t.ndim == 1 else r.values), r.pixels
 
 
 def system_matrix(camera: Camera, z: float, source: str, origin: float, step: float,
@@ -124,10 +124,10 @@ def system_matrix(camera: Camera, z: float, source: str, origin: float, step: fl
     o, h = _validate.real(origin, "origin"), _validate.real(step, "step")
     n = _int(n_cells, "n_cells", 1)
     lo, hi = _field(o, h, n, field)
-    indptr, indices, data, pixels, shape = _native.system_matrix(
+    a = _native.system_matrix(
         cam.core, _validate.real(z, "z"), _source(source), o, h, n, lo, hi,
         _validate.n_threads(n_threads))
-    return sp.csr_matrix((data, indices, indptr), shape=shape), pixels
+    return sp.csr_matrix((a.data, a.indices, a.indptr), shape=a.shape), a.pixels
 
 
 # -- textures ----------------------------------------------------------------------------
@@ -519,13 +519,12 @@ def simulate(
         cells[key] = slice(first, first + n)
         origin = origin_big + first * delta
         field = (origin + delta, origin + (n - 1) * delta)
-        y, _ = _native.render(core, zf, src, origin, delta / os_, *field,
-                              np.ascontiguousarray(fine[:, first * os_:(first + n) * os_]),
-                              threads)
+        y = _native.render(core, zf, src, origin, delta / os_, *field,
+                           np.ascontiguousarray(fine[:, first * os_:(first + n) * os_]),
+                           threads).values
         images[key] = _add_noise(y, nz, rng)
-        indptr, indices, data, _, shape = _native.system_matrix(
-            core, zf, src, origin, delta, n, *field, threads)
-        mats[key] = sp.csr_matrix((data, indices, indptr), shape=shape)
+        a = _native.system_matrix(core, zf, src, origin, delta, n, *field, threads)
+        mats[key] = sp.csr_matrix((a.data, a.indices, a.indptr), shape=a.shape)
     images["split"] = np.hstack([images["half1"], images["half2"]])
     mats["split"] = sp.vstack([mats["half1"], mats["half2"]]).tocsr()
     cells["split"] = cells["half1"]

@@ -1,7 +1,8 @@
 //! W3 at a modest size: `new_samples` (distinct per half and union, max gap) at 500 depths.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use splitlf_core::samples::{new_samples, SampleMode};
+use splitlf_core::rayspace::Sample;
+use splitlf_core::samples::new_samples;
 use splitlf_core::Camera;
 
 mod common;
@@ -13,7 +14,7 @@ fn bench(c: &mut Criterion) {
     g.throughput(Throughput::Elements(z.len() as u64));
     for t in common::thread_counts() {
         g.bench_function(common::label(t), |b| {
-            b.iter(|| new_samples(&cam, &z, 1e-6, SampleMode::Chief, t).unwrap())
+            b.iter(|| new_samples(&cam, &z, 1e-6, Sample::Chief, t).unwrap())
         });
     }
     g.finish();

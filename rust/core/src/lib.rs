@@ -10,6 +10,7 @@
 
 pub mod camera;
 pub mod error;
+pub mod memory;
 pub mod merit;
 pub mod optics;
 pub mod parallel;

@@ -5,7 +5,8 @@
 use crate::camera::{Camera, Half};
 use crate::error::Result;
 use crate::optics::{check_depths, sharp_fractions};
-use crate::samples::{new_samples, SampleMode};
+use crate::rayspace::Sample;
+use crate::samples::new_samples;
 
 /// Number of figures of merit, in the order of [`figures_of_merit`].
 pub const N_MERITS: usize = 9;
@@ -36,7 +37,7 @@ pub fn figures_of_merit(
     let lo = z.iter().copied().fold(f64::INFINITY, f64::min);
     let hi = z.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let sharp = sharp_fractions(cam, threshold_px, lo, hi)?;
-    let ns = new_samples(cam, z, tol, SampleMode::Chief, n_threads)?;
+    let ns = new_samples(cam, z, tol, Sample::Chief, n_threads)?;
     let m = z.len();
     let mut out = [0.0; N_MERITS];
     out[0] = sharp[0];

@@ -7,7 +7,11 @@ use rayon::prelude::*;
 
 use crate::camera::{Camera, Half};
 use crate::error::{Error, Result};
-use crate::parallel::with_threads;
+use crate::memory;
+use crate::parallel::for_chunks;
+
+/// Default sharpness threshold on the blur radius, in pixels.
+pub const DEFAULT_THRESHOLD_PX: f64 = 0.5;
 
 /// Check a depth array: every element finite and > F (Eq. 1 is defined for z > F only).
 pub fn check_depths(cam: &Camera, z: &[f64]) -> Result<()> {
@@ -114,17 +118,24 @@ pub struct CurvesOut<'a> {
     pub conventional_px: &'a mut [f64],
 }
 
+/// Bytes of the outputs of [`curves`] at n depths: 11 f64 per depth (no working buffers).
+pub fn curves_bytes(n: usize) -> u128 {
+    memory::bytes_of::<f64>(11 * n as u128)
+}
+
 /// Evaluate every curve at every depth (validated first), in parallel.
 pub fn curves(cam: &Camera, z: &[f64], n_threads: Option<usize>) -> Result<Curves> {
     check_depths(cam, z)?;
     let n = z.len();
+    memory::check("curves", curves_bytes(n))?;
+    let two = || memory::try_vec("curves", 2 * n, 0.0);
     let mut out = Curves {
-        conjugate: vec![0.0; n],
-        main_blur: vec![0.0; 2 * n],
-        repetitions: vec![0.0; 2 * n],
-        microlens_blur: vec![0.0; 2 * n],
-        blur_px: vec![0.0; 2 * n],
-        conventional_px: vec![0.0; 2 * n],
+        conjugate: memory::try_vec("curves", n, 0.0)?,
+        main_blur: two()?,
+        repetitions: two()?,
+        microlens_blur: two()?,
+        blur_px: two()?,
+        conventional_px: two()?,
     };
     let buffers = CurvesOut {
         conjugate: &mut out.conjugate,
@@ -169,14 +180,18 @@ pub fn curves_into(
     let (b0, b1) = out.microlens_blur.split_at_mut(n);
     let (p0, p1) = out.blur_px.split_at_mut(n);
     let (c0, c1) = out.conventional_px.split_at_mut(n);
-    let rows = [[h0, r0, b0, p0, c0], [h1, r1, b1, p1, c1]];
-    with_threads(n_threads, || {
-        // One task per chunk of depths; each task owns disjoint slices of every output.
+    // Chunks of depths with an interrupt checkpoint between them; inside a chunk one task
+    // per CHUNK depths, each owning disjoint slices of every output.
+    let step = CHUNK * 64;
+    for_chunks(n_threads, n, step, |r| {
+        let zs = &z[r.clone()];
+        let one = [&mut *h0, &mut *r0, &mut *b0, &mut *p0, &mut *c0].map(|s| &mut s[r.clone()]);
+        let two = [&mut *h1, &mut *r1, &mut *b1, &mut *p1, &mut *c1].map(|s| &mut s[r.clone()]);
         let [[h0, r0, b0, p0, c0], [h1, r1, b1, p1, c1]] =
-            rows.map(|r| r.map(|s| s.par_chunks_mut(CHUNK)));
-        out.conjugate
+            [one, two].map(|r| r.map(|s| s.par_chunks_mut(CHUNK)));
+        out.conjugate[r.clone()]
             .par_chunks_mut(CHUNK)
-            .zip(z.par_chunks(CHUNK))
+            .zip(zs.par_chunks(CHUNK))
             .zip(h0.zip(r0).zip(b0).zip(p0).zip(c0))
             .zip(h1.zip(r1).zip(b1).zip(p1).zip(c1))
             .for_each(|(((zc, zs), one), two)| {
@@ -184,6 +199,7 @@ pub fn curves_into(
                 let ((((h1, r1), b1), p1), c1) = two;
                 curves_chunk(cam, zs, zc, [h0, r0, b0, p0, c0], [h1, r1, b1, p1, c1]);
             });
+        Ok(())
     })
 }
 

@@ -14,8 +14,9 @@ use rayon::prelude::*;
 
 use crate::camera::{Axis, Camera, Half};
 use crate::error::{Error, Result};
+use crate::memory::{self, try_vec, try_with_capacity};
 use crate::optics::{check_depths, conjugate};
-use crate::parallel::{check_threads, with_threads};
+use crate::parallel::{check_threads, chunk_items, for_chunks, with_threads};
 
 /// Most vertices of an integration polygon (a parallelogram clipped by one strip).
 pub const MAX_VERTICES: usize = 6;
@@ -51,34 +52,6 @@ impl Sample {
             )),
         }
     }
-}
-
-/// Bytes the core may allocate for one call's outputs: the machine's physical memory
-/// (MemTotal of /proc/meminfo), or 2^40 where that cannot be read.
-pub fn memory_limit() -> u128 {
-    std::fs::read_to_string("/proc/meminfo")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with("MemTotal:"))
-                .and_then(|l| l.split_whitespace().nth(1))
-                .and_then(|kb| kb.parse::<u128>().ok())
-        })
-        .map(|kb| kb * 1024)
-        .unwrap_or(1 << 40)
-}
-
-/// Refuse an output of `bytes` bytes when it exceeds [`memory_limit`] (before any work).
-pub fn check_size(what: &str, bytes: u128) -> Result<()> {
-    let limit = memory_limit().min(isize::MAX as u128);
-    if bytes > limit {
-        return Err(Error::TooLarge {
-            what: what.to_string(),
-            bytes,
-            limit,
-        });
-    }
-    Ok(())
 }
 
 /// A convex polygon in (u, w), counter-clockwise; `n == 0` for an empty one.
@@ -322,44 +295,118 @@ pub struct Trace {
 }
 
 /// Bytes per traced pixel (polygon, area, centroid, indices, chief, lit) plus slack.
-const TRACE_BYTES_PER_PIXEL: u128 = 8 * (12 + 1 + 2 + 2 + 2) + 8 + 8;
+pub const TRACE_BYTES_PER_PIXEL: u128 = 8 * (12 + 1 + 2 + 2 + 2) + 8 + 8;
+
+/// Bytes of the arrays a caller builds from a trace, per pixel: vertices (12 f64), vertex
+/// count, lens and pixel (as i64), area, centroid and chief ray (5 f64) and lit (1 byte).
+pub const TRACE_OUTPUT_BYTES_PER_PIXEL: u128 = 8 * (12 + 3 + 5) + 1;
+
+/// Bytes a top-level trace of n pixels holds at its peak: the trace and the arrays built
+/// from it.
+pub fn trace_call_bytes(n: u128) -> u128 {
+    n.saturating_mul(TRACE_BYTES_PER_PIXEL + TRACE_OUTPUT_BYTES_PER_PIXEL)
+}
+
+/// Pixels of one half along `axis` (K Q).
+fn pixels(cam: &Camera, axis: Axis) -> u128 {
+    cam.lenses(axis) as u128 * cam.q as u128
+}
 
 /// Trace every pixel of `half` along `axis`: its integration polygon, area, centroid,
-/// chief ray and lit flag (docs/model.md §3–4, §6). Parallel over pixels.
+/// chief ray and lit flag (docs/model.md §3–4, §6). Parallel over pixels on the current
+/// rayon pool (callers run it inside their pool); the buffers are allocated fallibly.
 pub fn trace(cam: &Camera, half: Half, axis: Axis) -> Result<Trace> {
-    let k = cam.lenses(axis);
-    let n = k as u128 * cam.q as u128;
-    check_size("trace of one axis", n * TRACE_BYTES_PER_PIXEL)?;
+    let mut tr = alloc_trace(cam, half, axis)?;
+    let n = tr.polygons.len();
+    fill_trace(cam, &mut tr, 0..n);
+    drop_trace_residue(&mut tr);
+    Ok(tr)
+}
+
+/// [`trace`] as a top-level call: memory checked first (the trace, 168 bytes per pixel),
+/// run on the pool of `n_threads` in chunks of pixels with an interrupt checkpoint between
+/// chunks.
+pub fn trace_threads(
+    cam: &Camera,
+    half: Half,
+    axis: Axis,
+    n_threads: Option<usize>,
+) -> Result<Trace> {
+    check_threads(n_threads)?;
+    let mut tr = alloc_trace(cam, half, axis)?;
+    let n = tr.polygons.len();
+    for_chunks(n_threads, n, chunk_items(n_threads, 64), |r| {
+        fill_trace(cam, &mut tr, r);
+        Ok(())
+    })?;
+    drop_trace_residue(&mut tr);
+    Ok(tr)
+}
+
+/// A trace's buffers, checked against the memory available and allocated fallibly.
+fn alloc_trace(cam: &Camera, half: Half, axis: Axis) -> Result<Trace> {
+    let n = pixels(cam, axis);
+    memory::check("trace of one axis", n * TRACE_BYTES_PER_PIXEL)?;
     let n = n as usize;
-    let rays = HalfRays::new(cam, half);
-    let q_count = cam.q;
-    let lens_of = |i: usize| (i / q_count as usize) as u32;
-    let pixel_of = |i: usize| (i % q_count as usize) as u32;
-    let mut polygons: Vec<Polygon> = (0..n)
-        .into_par_iter()
-        .with_min_len(1024)
-        .map(|i| rays.polygon(cam, cam.lens_center(lens_of(i), k), pixel_of(i)))
-        .collect();
-    drop_residue(&mut polygons);
-    let area = polygons.iter().map(Polygon::area).collect();
-    let centroid = polygons.iter().map(Polygon::centroid).collect();
-    let lens = (0..n).map(lens_of).collect();
-    let pixel = (0..n).map(pixel_of).collect();
-    let chief = (0..n)
-        .map(|i| rays.chief(cam, cam.lens_center(lens_of(i), k), pixel_of(i)))
-        .collect();
-    let lit = (0..n).map(|i| cam.is_lit(half, pixel_of(i))).collect();
+    let what = "trace of one axis";
     Ok(Trace {
         half,
         axis,
-        polygons,
-        area,
-        centroid,
-        lens,
-        pixel,
-        chief,
-        lit,
+        polygons: try_vec(what, n, Polygon::EMPTY)?,
+        area: try_vec(what, n, 0.0)?,
+        centroid: try_vec(what, n, [0.0; 2])?,
+        lens: try_vec(what, n, 0)?,
+        pixel: try_vec(what, n, 0)?,
+        chief: try_vec(what, n, [0.0; 2])?,
+        lit: try_vec(what, n, false)?,
     })
+}
+
+/// [`drop_residue`] on a filled trace, keeping its area and centroid columns in step.
+fn drop_trace_residue(tr: &mut Trace) {
+    let floor = LIT_AREA_RTOL * tr.area.iter().copied().fold(0.0, f64::max);
+    for ((p, a), c) in tr
+        .polygons
+        .iter_mut()
+        .zip(&mut tr.area)
+        .zip(&mut tr.centroid)
+    {
+        if p.n > 0 && *a < floor {
+            *p = Polygon::EMPTY;
+            *a = 0.0;
+            *c = [f64::NAN; 2];
+        }
+    }
+}
+
+/// Trace pixels `r` (indices j Q + q) into `tr`, in parallel.
+fn fill_trace(cam: &Camera, tr: &mut Trace, r: std::ops::Range<usize>) {
+    let (half, k, q_count) = (tr.half, cam.lenses(tr.axis), cam.q as usize);
+    let rays = HalfRays::new(cam, half);
+    let lens_of = |i: usize| (i / q_count) as u32;
+    let pixel_of = |i: usize| (i % q_count) as u32;
+    let start = r.start;
+    tr.polygons[r.clone()]
+        .par_iter_mut()
+        .zip(tr.area[r.clone()].par_iter_mut())
+        .zip(tr.centroid[r.clone()].par_iter_mut())
+        .zip(tr.lens[r.clone()].par_iter_mut())
+        .zip(tr.pixel[r.clone()].par_iter_mut())
+        .zip(tr.chief[r.clone()].par_iter_mut())
+        .zip(tr.lit[r].par_iter_mut())
+        .with_min_len(1024)
+        .enumerate()
+        .for_each(|(o, ((((((p, a), cen), l), q), ch), lit))| {
+            let i = start + o;
+            let c = cam.lens_center(lens_of(i), k);
+            *p = rays.polygon(cam, c, pixel_of(i));
+            *a = p.area();
+            *cen = p.centroid();
+            *l = lens_of(i);
+            *q = pixel_of(i);
+            *ch = rays.chief(cam, c, pixel_of(i));
+            *lit = cam.is_lit(half, pixel_of(i));
+        });
 }
 
 /// σ = (v' − z')/z': a point of the plane at depth z is the line u + σ w = p' (docs/model.md §5).
@@ -391,38 +438,41 @@ struct Prepared {
     sw: Vec<f64>,
 }
 
-fn prepare(tr: &Trace, sample: Sample) -> Prepared {
+fn prepare(tr: &Trace, sample: Sample) -> Result<Prepared> {
     let n = tr.polygons.len();
+    let what = "footprints (per-pixel vertices)";
     let mut vu: [Vec<f64>; MAX_VERTICES] = Default::default();
     let mut vw: [Vec<f64>; MAX_VERTICES] = Default::default();
     // Vertex k of every polygon, coordinate c (0: u, 1: w); short polygons repeat their
     // last vertex, empty ones are NaN.
-    let column = |k: usize, c: usize| -> Vec<f64> {
-        tr.polygons
-            .iter()
-            .map(|p| {
-                if p.n == 0 {
-                    f64::NAN
-                } else {
-                    p.v[k.min(p.n - 1)][c]
-                }
-            })
-            .collect()
+    let column = |k: usize, c: usize| -> Result<Vec<f64>> {
+        let mut v = try_with_capacity(what, n)?;
+        v.extend(tr.polygons.iter().map(|p| {
+            if p.n == 0 {
+                f64::NAN
+            } else {
+                p.v[k.min(p.n - 1)][c]
+            }
+        }));
+        Ok(v)
     };
     for k in 0..MAX_VERTICES {
-        vu[k] = column(k, 0);
-        vw[k] = column(k, 1);
+        vu[k] = column(k, 0)?;
+        vw[k] = column(k, 1)?;
     }
-    let (su, sw) = (0..n)
-        .map(|i| match sample {
+    let (mut su, mut sw) = (try_with_capacity(what, n)?, try_with_capacity(what, n)?);
+    for i in 0..n {
+        let (u, w) = match sample {
             Sample::Centroid => (tr.centroid[i][0], tr.centroid[i][1]),
             // Chief: the position comes from `Camera::chief_projection` (see `footprints`);
             // the flag NaN marks an unlit pixel.
             Sample::Chief if tr.lit[i] => (0.0, 0.0),
             Sample::Chief => (f64::NAN, f64::NAN),
-        })
-        .unzip();
-    Prepared { n, vu, vw, su, sw }
+        };
+        su.push(u);
+        sw.push(w);
+    }
+    Ok(Prepared { n, vu, vw, su, sw })
 }
 
 /// Rows of output per parallel task (each row is one depth, n pixels).
@@ -439,8 +489,25 @@ pub struct FootprintsOut<'a> {
     pub kernel: Option<(&'a mut [f64], &'a mut [f64])>,
 }
 
+/// Working bytes per pixel of a footprints call: its trace, the prepared vertex columns
+/// and sample rays (14 f64) and the lens centre (1 f64).
+const FOOTPRINT_WORK_PER_PIXEL: u128 = TRACE_BYTES_PER_PIXEL + 8 * 15;
+
+/// Bytes a footprints call holds at its peak: the outputs (3 f64 per depth and pixel, 12
+/// more with the kernel) and the working buffers (see `FOOTPRINT_WORK_PER_PIXEL`).
+pub fn footprints_bytes(m: u128, n: u128, kernel: bool) -> u128 {
+    let per = if kernel {
+        3 + 2 * MAX_VERTICES as u128
+    } else {
+        3
+    };
+    m.saturating_mul(n)
+        .saturating_mul(per * 8)
+        .saturating_add(n * FOOTPRINT_WORK_PER_PIXEL)
+}
+
 /// Validate a footprints call before anything is allocated: thread count, every depth,
-/// and the output size. Returns (m, n): depths and pixels.
+/// and the memory it needs ([`footprints_bytes`]). Returns (m, n): depths and pixels.
 pub fn check_footprints(
     cam: &Camera,
     z: &[f64],
@@ -450,14 +517,9 @@ pub fn check_footprints(
 ) -> Result<(usize, usize)> {
     check_threads(n_threads)?;
     check_depths(cam, z)?;
-    let n = cam.lenses(axis) as u128 * cam.q as u128;
+    let n = pixels(cam, axis);
     let m = z.len() as u128;
-    let per = if kernel {
-        3 + 2 * MAX_VERTICES as u128
-    } else {
-        3
-    };
-    check_size("footprints", m * n * per * 8 + n * TRACE_BYTES_PER_PIXEL)?;
+    memory::check("footprints", footprints_bytes(m, n, kernel))?;
     Ok((m as usize, n as usize))
 }
 
@@ -474,11 +536,12 @@ pub fn footprints(
     n_threads: Option<usize>,
 ) -> Result<Footprints> {
     let (m, n) = check_footprints(cam, z, axis, kernel, n_threads)?;
-    let mut position = vec![0.0; m * n];
-    let mut lo = vec![0.0; m * n];
-    let mut hi = vec![0.0; m * n];
+    let what = "footprints";
+    let mut position = try_vec(what, m * n, 0.0)?;
+    let mut lo = try_vec(what, m * n, 0.0)?;
+    let mut hi = try_vec(what, m * n, 0.0)?;
     let k = if kernel { m * n * MAX_VERTICES } else { 0 };
-    let (mut kb, mut kv) = (vec![0.0; k], vec![0.0; k]);
+    let (mut kb, mut kv) = (try_vec(what, k, 0.0)?, try_vec(what, k, 0.0)?);
     let out = FootprintsOut {
         position: &mut position,
         lo: &mut lo,
@@ -497,7 +560,8 @@ pub fn footprints(
 }
 
 /// [`footprints`] written straight into caller-provided buffers (e.g. NumPy arrays), so
-/// the outputs are the only large allocation. Lengths are checked against (m, n).
+/// the outputs are the only large allocation. Lengths are checked against (m, n). Runs in
+/// chunks of depths with an interrupt checkpoint between chunks.
 pub fn footprints_into(
     cam: &Camera,
     z: &[f64],
@@ -525,31 +589,53 @@ pub fn footprints_into(
             ));
         }
     }
-    with_threads(n_threads, || {
-        footprints_unchecked(cam, z, half, axis, sample, out)
-    })?
-}
-
-fn footprints_unchecked(
-    cam: &Camera,
-    z: &[f64],
-    half: Half,
-    axis: Axis,
-    sample: Sample,
-    out: FootprintsOut<'_>,
-) -> Result<()> {
-    let tr = trace(cam, half, axis)?;
-    let pre = prepare(&tr, sample);
-    let k_lenses = cam.lenses(axis);
-    let centres: Vec<f64> = tr
-        .lens
-        .iter()
-        .map(|&j| cam.lens_center(j, k_lenses))
-        .collect();
-    let n = pre.n;
     if n == 0 || z.is_empty() {
         return Ok(());
     }
+    let work = with_threads(n_threads, || -> Result<_> {
+        let tr = trace(cam, half, axis)?;
+        let pre = prepare(&tr, sample)?;
+        let k_lenses = cam.lenses(axis);
+        let mut centres = try_with_capacity("footprints (lens centres)", n)?;
+        centres.extend(tr.lens.iter().map(|&j| cam.lens_center(j, k_lenses)));
+        Ok((tr, pre, centres))
+    })??;
+    let (tr, pre, centres) = (&work.0, &work.1, &work.2[..]);
+    let cost = n as u128 * if out.kernel.is_some() { 40 } else { 8 };
+    let FootprintsOut {
+        position,
+        lo,
+        hi,
+        mut kernel,
+    } = out;
+    for_chunks(n_threads, m, chunk_items(n_threads, cost), |r| {
+        let span = r.start * n..r.end * n;
+        let rows = FootprintsOut {
+            position: &mut position[span.clone()],
+            lo: &mut lo[span.clone()],
+            hi: &mut hi[span],
+            kernel: kernel.as_mut().map(|(b, v)| {
+                let w = r.start * n * MAX_VERTICES..r.end * n * MAX_VERTICES;
+                (&mut b[w.clone()], &mut v[w])
+            }),
+        };
+        footprint_rows(cam, &z[r], tr, pre, centres, sample, rows);
+        Ok(())
+    })
+}
+
+/// Footprints at the depths `z` into rows of the same count, in parallel over tasks of
+/// [`rows_per_task`] depths.
+fn footprint_rows(
+    cam: &Camera,
+    z: &[f64],
+    tr: &Trace,
+    pre: &Prepared,
+    centres: &[f64],
+    sample: Sample,
+    out: FootprintsOut<'_>,
+) {
+    let n = pre.n;
     let rows = rows_per_task(n);
     out.position
         .par_chunks_mut(rows * n)
@@ -562,9 +648,9 @@ fn footprints_unchecked(
                 let zc = conjugate(cam.f_main, zk);
                 footprint_row(
                     cam,
-                    &tr,
-                    &pre,
-                    &centres,
+                    tr,
+                    pre,
+                    centres,
                     sample,
                     zk,
                     zc,
@@ -601,7 +687,6 @@ fn footprints_unchecked(
                 }
             });
     }
-    Ok(())
 }
 
 /// One depth: positions and extents of all n pixels, written straight into the output rows.
@@ -732,22 +817,23 @@ pub fn weight_profile(p: &Polygon, sigma: f64) -> ([f64; MAX_VERTICES], [f64; MA
 
 /// Per-axis sample positions of one half on the plane at depth z: object-space position
 /// of every pixel along the axis (NaN where it yields no sample).
-fn axis_samples(cam: &Camera, half: Half, axis: Axis, sample: Sample, z: f64) -> Vec<f64> {
+fn axis_samples(cam: &Camera, half: Half, axis: Axis, sample: Sample, z: f64) -> Result<Vec<f64>> {
     let k = cam.lenses(axis);
     let zc = conjugate(cam.f_main, z);
     let rays = HalfRays::new(cam, half);
     let sigma = slope(cam, zc);
     let n = k as usize * cam.q as usize;
+    let what = "sample_grid (per-axis samples)";
     let mut polygons = Vec::new();
     if sample == Sample::Centroid {
-        polygons.reserve_exact(n);
+        polygons = try_with_capacity(what, n)?;
         for j in 0..k {
             let c = cam.lens_center(j, k);
             polygons.extend((0..cam.q).map(|q| rays.polygon(cam, c, q)));
         }
         drop_residue(&mut polygons);
     }
-    let mut out = Vec::with_capacity(n);
+    let mut out = try_with_capacity(what, n)?;
     for j in 0..k {
         let c = cam.lens_center(j, k);
         for q in 0..cam.q {
@@ -764,7 +850,16 @@ fn axis_samples(cam: &Camera, half: Half, axis: Axis, sample: Sample, z: f64) ->
             out.push(x);
         }
     }
-    out
+    Ok(out)
+}
+
+/// Bytes a sample_grid call holds: the two (Ky Q, Kx Q) outputs and the per-axis samples.
+pub fn sample_grid_bytes(cam: &Camera) -> u128 {
+    let cols = pixels(cam, Axis::X);
+    let rows = pixels(cam, Axis::Y);
+    (2 * 8 * rows)
+        .saturating_mul(cols)
+        .saturating_add(8 * (rows + cols))
 }
 
 /// Validate a sample_grid call before anything is allocated; returns (rows, cols) =
@@ -772,13 +867,8 @@ fn axis_samples(cam: &Camera, half: Half, axis: Axis, sample: Sample, z: f64) ->
 pub fn check_sample_grid(cam: &Camera, z: f64, n_threads: Option<usize>) -> Result<(usize, usize)> {
     check_threads(n_threads)?;
     check_depths(cam, &[z])?;
-    let cols = cam.kx as u128 * cam.q as u128;
-    let rows = cam.ky as u128 * cam.q as u128;
-    check_size(
-        "sample_grid (two outputs)",
-        2 * 8 * rows * cols + 8 * (rows + cols),
-    )?;
-    Ok((rows as usize, cols as usize))
+    memory::check("sample_grid (two outputs)", sample_grid_bytes(cam))?;
+    Ok((pixels(cam, Axis::Y) as usize, pixels(cam, Axis::X) as usize))
 }
 
 /// The full 2D sensor of one half on the plane at depth z: (X, Y), each (Ky Q, Kx Q)
@@ -794,13 +884,14 @@ pub fn sample_grid(
     n_threads: Option<usize>,
 ) -> Result<(Vec<f64>, Vec<f64>)> {
     let (rows, cols) = check_sample_grid(cam, z, n_threads)?;
-    let mut gx = vec![0.0; rows * cols];
-    let mut gy = vec![0.0; rows * cols];
+    let mut gx = try_vec("sample_grid", rows * cols, 0.0)?;
+    let mut gy = try_vec("sample_grid", rows * cols, 0.0)?;
     sample_grid_into(cam, z, half, sample, &mut gx, &mut gy, n_threads)?;
     Ok((gx, gy))
 }
 
-/// [`sample_grid`] written straight into caller-provided (Ky Q, Kx Q) buffers.
+/// [`sample_grid`] written straight into caller-provided (Ky Q, Kx Q) buffers, in chunks
+/// of rows with an interrupt checkpoint between chunks.
 pub fn sample_grid_into(
     cam: &Camera,
     z: f64,
@@ -821,13 +912,20 @@ pub fn sample_grid_into(
             ),
         ));
     }
-    with_threads(n_threads, || {
-        let xs = axis_samples(cam, half, Axis::X, sample, z);
-        let ys = axis_samples(cam, half, Axis::Y, sample, z);
-        let per = rows_per_task(cols);
-        gx.par_chunks_mut(per * cols)
-            .zip(gy.par_chunks_mut(per * cols))
-            .zip(ys.par_chunks(per))
+    let (xs, ys) = with_threads(n_threads, || -> Result<_> {
+        Ok((
+            axis_samples(cam, half, Axis::X, sample, z)?,
+            axis_samples(cam, half, Axis::Y, sample, z)?,
+        ))
+    })??;
+    let per = rows_per_task(cols);
+    let step = chunk_items(n_threads, 2 * cols as u128);
+    for_chunks(n_threads, rows, step, |r| {
+        let span = r.start * cols..r.end * cols;
+        gx[span.clone()]
+            .par_chunks_mut(per * cols)
+            .zip(gy[span].par_chunks_mut(per * cols))
+            .zip(ys[r].par_chunks(per))
             .for_each(|((gx, gy), yr)| {
                 for (r, &y) in yr.iter().enumerate() {
                     let rx = &mut gx[r * cols..(r + 1) * cols];
@@ -844,6 +942,7 @@ pub fn sample_grid_into(
                     }
                 }
             });
+        Ok(())
     })
 }
 

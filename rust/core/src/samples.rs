@@ -19,40 +19,24 @@ use rayon::prelude::*;
 
 use crate::camera::{Axis, Camera, Half};
 use crate::error::{Error, Result};
+use crate::memory::{self, try_reserve, try_vec};
 use crate::optics::{check_depths, conjugate, depth_of_conjugate, main_blur, repetitions};
-use crate::parallel::with_threads;
-use crate::rayspace::{slope, trace};
+use crate::parallel::{chunk_items, for_chunks, threads, with_threads};
+use crate::rayspace::{slope, trace, Sample, TRACE_BYTES_PER_PIXEL};
 
-/// Largest number of lit pixels along one axis of one half (K · Q_lit) the brute-force
-/// count accepts: each worker holds three buffers of this many f64.
+/// Largest number of pixels along one axis of one half (K · Q) the brute-force count
+/// accepts (a cap on the work per depth; the memory a call needs is estimated separately,
+/// see [`new_samples_bytes`], and checked against what is available).
 pub const MAX_SAMPLES_PER_AXIS: u64 = 1 << 24;
 /// Largest number of (N, T) pairs `coincidence_planes` enumerates.
 pub const MAX_PAIRS: u64 = 1_000_000;
-
-/// Which sample position of a pixel is counted (docs/model.md §5).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum SampleMode {
-    /// The chief ray's projection (the paper's convention); a pixel counts when lit.
-    Chief,
-    /// The projection of the integration polygon's centroid (aperture-integrated, from the
-    /// ray-space engine); a pixel counts when it collects light (area > 0).
-    Centroid,
-}
-
-impl SampleMode {
-    /// Parse `"chief"` or `"centroid"`.
-    pub fn parse(s: &str) -> Result<SampleMode> {
-        match s {
-            "chief" => Ok(SampleMode::Chief),
-            "centroid" => Ok(SampleMode::Centroid),
-            other => Err(Error::param(
-                "sample",
-                format!("{other:?}"),
-                "\"chief\" (the paper's convention) or \"centroid\"",
-            )),
-        }
-    }
-}
+/// Largest brute-force work of `coincidence_planes`: planes × (K_x + K_y) × Q_lit sample
+/// positions generated, sorted and scanned (about half a minute on one core).
+pub const MAX_COINCIDENCE_WORK: u64 = 1 << 33;
+/// Default largest N of `coincidence_planes`.
+pub const DEFAULT_MAX_N: i64 = 4;
+/// Default merge tolerance of the distinct counts, in units of δ(z).
+pub const DEFAULT_TOL: f64 = 1e-6;
 
 /// The merge tolerance `tol · δ(z)` in p' space: δ(z) = d z / (Q v') maps to d / Q on
 /// plane v' (X = −p' z / v'), independent of the depth.
@@ -100,13 +84,14 @@ fn check_size(cam: &Camera) -> Result<()> {
     let k = cam.kx.max(cam.ky) as u64;
     let n = k * cam.q as u64;
     if n > MAX_SAMPLES_PER_AXIS {
-        return Err(Error::TooLarge {
+        return Err(Error::TooMuchWork {
             what: format!(
                 "the brute-force sample count over K = {k} microlenses x Q = {} pixels",
                 cam.q
             ),
-            bytes: 24 * n as u128,
-            limit: 24 * MAX_SAMPLES_PER_AXIS as u128,
+            amount: n as u128,
+            limit: MAX_SAMPLES_PER_AXIS as u128,
+            unit: "pixels per axis",
         });
     }
     Ok(())
@@ -151,6 +136,42 @@ struct Scratch {
     /// Sorted chief samples of half 1, half 2 and their union (p' space).
     pos: [Vec<f64>; 3],
     work: Work,
+}
+
+impl Scratch {
+    /// Buffers reserved up front (fallibly, exactly), so that no later resize reallocates:
+    /// positions of at most `n[0]` and `n[1]` samples of each half along one axis (and
+    /// their union), `inner` inner terms of the window sort, `q` pixel terms.
+    fn reserved(n: [usize; 2], inner: usize, q: usize) -> Result<Scratch> {
+        let what = "new_samples (per-thread buffers)";
+        let mut s = Scratch::default();
+        try_reserve(&mut s.pos[0], what, n[0])?;
+        try_reserve(&mut s.pos[1], what, n[1])?;
+        try_reserve(&mut s.pos[2], what, n[0] + n[1])?;
+        try_reserve(&mut s.work.perm, what, inner)?;
+        try_reserve(&mut s.work.inner, what, inner)?;
+        try_reserve(&mut s.work.t, what, q)?;
+        Ok(s)
+    }
+
+    /// Bytes of [`Scratch::reserved`] with the same arguments.
+    fn bytes(n: [usize; 2], inner: usize, q: usize) -> u128 {
+        let n = n[0] as u128 + n[1] as u128;
+        16 * n + 40 * inner as u128 + 8 * q as u128
+    }
+
+    /// Sizes for the chief samples of a camera: (per-half positions, inner, pixel terms).
+    fn chief_sizes(cam: &Camera) -> ([usize; 2], usize, usize) {
+        let k = cam.kx.max(cam.ky) as usize;
+        let lit = Half::BOTH.map(|h| k * cam.lit_pixels(h) as usize);
+        (lit, k.max(cam.q as usize), cam.q as usize)
+    }
+
+    /// Sizes for the centroid samples: every pixel of a half along the longer axis.
+    fn centroid_sizes(cam: &Camera) -> ([usize; 2], usize, usize) {
+        let n = cam.kx.max(cam.ky) as usize * cam.q as usize;
+        ([n, n], 0, 0)
+    }
 }
 
 /// Working buffers of [`half_samples`].
@@ -569,22 +590,100 @@ pub struct NewSamples {
 /// Depths per parallel task.
 const CHUNK: usize = 8;
 
-/// Evaluate `f` at every depth in parallel, chunks of depths per task, one scratch per worker.
-fn per_depth<F>(z: &[f64], n_threads: Option<usize>, f: F) -> Result<Vec<DepthResult>>
+/// Output buffers of [`new_samples_into`], each row-major (3, m): rows half 1, half 2,
+/// union. Any initial content: every element is written once.
+pub struct NewSamplesOut<'a> {
+    pub distinct: &'a mut [u64],
+    pub distinct_2d: &'a mut [u64],
+    pub max_gap: &'a mut [f64],
+}
+
+/// Bytes a new_samples call at `m` depths holds at its peak, for `mode` on `threads`
+/// threads: the outputs (9 values per depth), one chunk of per-depth results, the layout
+/// (chief: lens centres and lit pixels; centroid: the centroids of every pixel of both
+/// halves and axes, plus the trace of one half and axis while they are collected) and one
+/// set of per-thread buffers per thread ([`Scratch::reserved`]).
+pub fn new_samples_bytes(cam: &Camera, m: usize, mode: Sample, threads: usize) -> u128 {
+    let m = m as u128;
+    let depth_result = std::mem::size_of::<DepthResult>() as u128;
+    let outputs = 72 * m;
+    let chunk = depth_result * m.min(1 << 20);
+    let (kx, ky, q) = (cam.kx as u128, cam.ky as u128, cam.q as u128);
+    let (layout, sizes) = match mode {
+        Sample::Chief => (8 * (kx + ky) + 8 * q, Scratch::chief_sizes(cam)),
+        Sample::Centroid => {
+            let centroids = 2 * 16 * q * (kx + ky);
+            let trace = TRACE_BYTES_PER_PIXEL * q * kx.max(ky);
+            (centroids + trace, Scratch::centroid_sizes(cam))
+        }
+    };
+    let workers = (threads as u128).min(m.div_ceil(CHUNK as u128)).max(1);
+    let scratch = workers * Scratch::bytes(sizes.0, sizes.1, sizes.2);
+    outputs + chunk + layout + scratch
+}
+
+/// Evaluate `f` at every depth in parallel, in chunks of depths with an interrupt
+/// checkpoint between chunks (CHUNK depths per task, one scratch per worker built by
+/// `scratch`), writing each depth's result into `out`.
+fn per_depth<F, S>(
+    z: &[f64],
+    n_threads: Option<usize>,
+    cost: u128,
+    scratch: S,
+    out: NewSamplesOut<'_>,
+    f: F,
+) -> Result<()>
 where
     F: Fn(f64, &mut Scratch) -> DepthResult + Sync,
+    S: Fn() -> Result<Scratch> + Sync,
 {
-    let mut res = vec![DepthResult::default(); z.len()];
-    with_threads(n_threads, || {
+    let m = z.len();
+    let step = chunk_items(n_threads, cost)
+        .max(CHUNK * threads(n_threads))
+        .min(1 << 20);
+    let mut res = try_vec(
+        "new_samples (per-depth results)",
+        step.min(m),
+        DepthResult::default(),
+    )?;
+    for_chunks(n_threads, m, step, |r| {
+        let res = &mut res[..r.len()];
         res.par_chunks_mut(CHUNK)
-            .zip(z.par_chunks(CHUNK))
-            .for_each_init(Scratch::default, |s, (r, zs)| {
-                for (ri, &zi) in r.iter_mut().zip(zs) {
+            .zip(z[r.clone()].par_chunks(CHUNK))
+            .try_for_each_init(&scratch, |s, (rs, zs)| -> Result<()> {
+                let s = s.as_mut().map_err(|e| e.clone())?;
+                for (ri, &zi) in rs.iter_mut().zip(zs) {
                     *ri = f(zi, s);
                 }
-            });
-    })?;
-    Ok(res)
+                Ok(())
+            })?;
+        for (k, d) in r.zip(res.iter()) {
+            for row in 0..3 {
+                out.distinct[row * m + k] = d.distinct[row];
+                out.distinct_2d[row * m + k] = d.distinct_2d[row];
+                out.max_gap[row * m + k] = d.max_gap[row];
+            }
+        }
+        Ok(())
+    })
+}
+
+/// Validate a new_samples call before any work: threads, tolerance, depths, the work cap
+/// ([`MAX_SAMPLES_PER_AXIS`]) and the memory ([`new_samples_bytes`]). Returns the tolerance.
+pub fn check_new_samples(
+    cam: &Camera,
+    z: &[f64],
+    tol: f64,
+    mode: Sample,
+    n_threads: Option<usize>,
+) -> Result<f64> {
+    crate::parallel::check_threads(n_threads)?;
+    let tol = check_tol(tol)?;
+    check_depths(cam, z)?;
+    check_size(cam)?;
+    let bytes = new_samples_bytes(cam, z.len(), mode, threads(n_threads));
+    memory::check("new_samples", bytes)?;
+    Ok(tol)
 }
 
 /// Distinct samples (chief or centroid) and max gaps at every depth (validated first),
@@ -593,42 +692,72 @@ pub fn new_samples(
     cam: &Camera,
     z: &[f64],
     tol: f64,
-    mode: SampleMode,
+    mode: Sample,
     n_threads: Option<usize>,
 ) -> Result<NewSamples> {
-    let tol = check_tol(tol)?;
-    check_depths(cam, z)?;
-    check_size(cam)?;
+    check_new_samples(cam, z, tol, mode, n_threads)?;
     let m = z.len();
+    let what = "new_samples";
+    let mut distinct = try_vec(what, 3 * m, 0)?;
+    let mut distinct_2d = try_vec(what, 3 * m, 0)?;
+    let mut max_gap = try_vec(what, 3 * m, 0.0)?;
+    let out = NewSamplesOut {
+        distinct: &mut distinct,
+        distinct_2d: &mut distinct_2d,
+        max_gap: &mut max_gap,
+    };
+    let lit = new_samples_into(cam, z, tol, mode, out, n_threads)?;
+    Ok(NewSamples {
+        distinct,
+        distinct_2d,
+        max_gap,
+        lit,
+    })
+}
+
+/// [`new_samples`] written into caller-provided (3, m) buffers; returns `lit`.
+pub fn new_samples_into(
+    cam: &Camera,
+    z: &[f64],
+    tol: f64,
+    mode: Sample,
+    out: NewSamplesOut<'_>,
+    n_threads: Option<usize>,
+) -> Result<[u64; 3]> {
+    let tol = check_new_samples(cam, z, tol, mode, n_threads)?;
+    let m = z.len();
+    let lens = [out.distinct.len(), out.distinct_2d.len(), out.max_gap.len()];
+    if lens.iter().any(|&l| l != 3 * m) {
+        return Err(Error::param(
+            "output length",
+            format!("{lens:?}"),
+            format!("{} (3 rows × m = {m} depths)", 3 * m),
+        ));
+    }
     let kx = cam.kx as u64;
-    let (res, lit) = match mode {
-        SampleMode::Chief => {
+    // Elementary steps per depth: every sample position of both halves along both axes.
+    let cost = 4 * (cam.kx as u128 + cam.ky as u128) * cam.q as u128;
+    let lit = match mode {
+        Sample::Chief => {
             let layout = Layout::new(cam);
-            let res = per_depth(z, n_threads, |zi, s| depth_result(cam, &layout, zi, tol, s))?;
-            (res, layout.lit.map(|l| kx * l.len() as u64))
+            let (n, inner, q) = Scratch::chief_sizes(cam);
+            let scratch = || Scratch::reserved(n, inner, q);
+            per_depth(z, n_threads, cost, scratch, out, |zi, s| {
+                depth_result(cam, &layout, zi, tol, s)
+            })?;
+            layout.lit.map(|l| kx * l.len() as u64)
         }
-        SampleMode::Centroid => {
+        Sample::Centroid => {
             let cl = with_threads(n_threads, || CentroidLayout::new(cam))??;
-            let res = per_depth(z, n_threads, |zi, s| {
+            let (n, inner, q) = Scratch::centroid_sizes(cam);
+            let scratch = || Scratch::reserved(n, inner, q);
+            per_depth(z, n_threads, cost, scratch, out, |zi, s| {
                 centroid_depth_result(cam, &cl, zi, tol, s)
             })?;
-            (res, cl.uw.map(|h| h[0].len() as u64))
+            cl.uw.map(|h| h[0].len() as u64)
         }
     };
-    let mut out = NewSamples {
-        distinct: vec![0; 3 * m],
-        distinct_2d: vec![0; 3 * m],
-        max_gap: vec![0.0; 3 * m],
-        lit: [lit[0], lit[1], lit[0] + lit[1]],
-    };
-    for (k, r) in res.iter().enumerate() {
-        for row in 0..3 {
-            out.distinct[row * m + k] = r.distinct[row];
-            out.distinct_2d[row * m + k] = r.distinct_2d[row];
-            out.max_gap[row * m + k] = r.max_gap[row];
-        }
-    }
-    Ok(out)
+    Ok([lit[0], lit[1], lit[0] + lit[1]])
 }
 
 /// Distinct chief samples of one half along one axis at depth z (the brute-force count).
@@ -722,6 +851,11 @@ pub fn coincidence_planes(
     let l = cam.array_plane(half);
     let q_lit = cam.lit_pixels(half) as u64;
     let mut planes = Vec::new();
+    try_reserve(
+        &mut planes,
+        "coincidence_planes",
+        2 * (max_n * max_t) as usize,
+    )?;
     for n in 1..=max_n as u32 {
         for t in 1..=max_t as u32 {
             if gcd(n as u64, t as u64) != 1 {
@@ -756,12 +890,37 @@ pub fn coincidence_planes(
         }
     }
     planes.sort_by(|a, b| a.z.total_cmp(&b.z));
+    // The brute force generates, sorts and scans (K_x + K_y) Q_lit positions per plane.
+    let per_plane = (cam.kx as u128 + cam.ky as u128) * q_lit as u128;
+    let work = planes.len() as u128 * per_plane;
+    if work > MAX_COINCIDENCE_WORK as u128 {
+        return Err(Error::TooMuchWork {
+            what: format!(
+                "coincidence_planes with max_n = {max_n}, max_t = {max_t}: {} planes x {per_plane} \
+                 lit pixels (lower max_n or max_t)",
+                planes.len()
+            ),
+            amount: work,
+            limit: MAX_COINCIDENCE_WORK as u128,
+            unit: "sample positions",
+        });
+    }
     let layout = Layout::new(cam);
     let eps = merge_eps(cam, COINCIDENCE_TOL);
-    with_threads(n_threads, || {
-        planes
-            .par_iter_mut()
-            .for_each_init(Scratch::default, |s, p| {
+    let k = cam.kx.max(cam.ky) as usize;
+    let n = k * q_lit as usize;
+    let (inner, q) = (k.max(cam.q as usize), cam.q as usize);
+    memory::check(
+        "coincidence_planes",
+        memory::bytes_of::<CoincidencePlane>(planes.len() as u128)
+            + threads(n_threads) as u128 * Scratch::bytes([n, 0], inner, q),
+    )?;
+    let step = chunk_items(n_threads, 4 * per_plane);
+    for_chunks(n_threads, planes.len(), step, |r| {
+        planes[r].par_iter_mut().try_for_each_init(
+            || Scratch::reserved([n, 0], inner, q),
+            |s, p| -> Result<()> {
+                let s = s.as_mut().map_err(|e| e.clone())?;
                 // The count runs at the plane's own conjugate z' (not re-derived from z).
                 let mut count = 1;
                 for axis in [Axis::X, Axis::Y] {
@@ -777,7 +936,9 @@ pub fn coincidence_planes(
                     count *= scan(&s.pos[0], eps, f64::INFINITY).0;
                 }
                 p.counted = count;
-            });
+                Ok(())
+            },
+        )
     })?;
     Ok(planes)
 }
@@ -924,7 +1085,7 @@ mod tests {
         }
         // Half 1 on its out-of-focus plane: pixelization, max gap = Q steps.
         let z1 = cam.out_of_focus_depth(Half::One);
-        let r = new_samples(&cam, &[z1], 1e-6, SampleMode::Chief, Some(1)).unwrap();
+        let r = new_samples(&cam, &[z1], 1e-6, Sample::Chief, Some(1)).unwrap();
         assert!((r.max_gap[0] - cam.q as f64).abs() < 1e-9);
     }
 
@@ -934,8 +1095,8 @@ mod tests {
         let z: Vec<f64> = (0..200)
             .map(|i| 150.0 * (10_000.0f64 / 150.0).powf(i as f64 / 199.0))
             .collect();
-        let a = new_samples(&cam, &z, 1e-6, SampleMode::Chief, Some(1)).unwrap();
-        let b = new_samples(&cam, &z, 1e-6, SampleMode::Chief, Some(2)).unwrap();
+        let a = new_samples(&cam, &z, 1e-6, Sample::Chief, Some(1)).unwrap();
+        let b = new_samples(&cam, &z, 1e-6, Sample::Chief, Some(2)).unwrap();
         assert_eq!(a, b);
         let m = z.len();
         for k in 0..m {
@@ -986,11 +1147,11 @@ mod tests {
     #[test]
     fn bad_input() {
         let cam = Camera::paper();
-        assert!(new_samples(&cam, &[500.0], -1.0, SampleMode::Chief, None).is_err());
-        assert!(new_samples(&cam, &[500.0], f64::NAN, SampleMode::Chief, None).is_err());
-        assert!(new_samples(&cam, &[80.0], 1e-6, SampleMode::Chief, None).is_err());
-        assert_eq!(SampleMode::parse("centroid").unwrap(), SampleMode::Centroid);
-        assert!(SampleMode::parse("foo").is_err());
+        assert!(new_samples(&cam, &[500.0], -1.0, Sample::Chief, None).is_err());
+        assert!(new_samples(&cam, &[500.0], f64::NAN, Sample::Chief, None).is_err());
+        assert!(new_samples(&cam, &[80.0], 1e-6, Sample::Chief, None).is_err());
+        assert_eq!(Sample::from_name("centroid").unwrap(), Sample::Centroid);
+        assert!(Sample::from_name("foo").is_err());
         assert!(coincidence_planes(&cam, Half::One, 0, None, None).is_err());
         assert!(coincidence_planes(&cam, Half::One, 2, Some(0), None).is_err());
     }

@@ -21,9 +21,10 @@ use rayon::prelude::*;
 
 use crate::camera::{Axis, Camera, Half};
 use crate::error::{Error, Result};
+use crate::memory::{self, try_vec, try_with_capacity};
 use crate::optics::{check_depths, conjugate, main_blur};
-use crate::parallel::{check_threads, with_threads};
-use crate::rayspace::{check_size, slope, trace, weight_profile, MAX_VERTICES};
+use crate::parallel::{check_threads, chunk_items, for_chunks, with_threads};
+use crate::rayspace::{slope, trace, weight_profile, MAX_VERTICES, TRACE_BYTES_PER_PIXEL};
 
 /// Fraction of the light each light-field half receives from the beam splitters.
 pub const BEAM_SPLITTER: f64 = 0.5;
@@ -195,6 +196,9 @@ pub fn kernels(cam: &Camera, z: f64, source: Source) -> Result<Vec<Kernel>> {
     let norm = source.transmission() * (cam.v1 / z) / (cam.aperture * cam.mu);
     match source {
         Source::Half(half) => {
+            let n_px = cam.kx as u128 * cam.q as u128;
+            let per = TRACE_BYTES_PER_PIXEL + memory::bytes_of::<Kernel>(1);
+            memory::check("kernels (trace and kernels)", n_px * per)?;
             let tr = trace(cam, half, Axis::X)?;
             let sigma = slope(cam, zc);
             Ok(tr
@@ -223,7 +227,10 @@ pub fn kernels(cam: &Camera, z: f64, source: Source) -> Result<Vec<Kernel>> {
             let l = cam.array_plane(half);
             let a = l / cam.v1;
             let n_px = cam.kx as u64 * cam.q as u64;
-            check_size("conventional kernels", n_px as u128 * 112)?;
+            memory::check(
+                "conventional kernels",
+                memory::bytes_of::<Kernel>(n_px as u128),
+            )?;
             // Pixel box half-width A = μ/(2a) and blur half-width B = H_i v'/L_i, in p'.
             let half_px = cam.mu / (2.0 * a);
             let blur = main_blur(cam, half, zc) * cam.v1 / l;
@@ -337,7 +344,8 @@ fn system_unchecked(
         .iter()
         .map(|k| (grid.cell(k.hi()) - grid.cell(k.lo()) + 1) as u128)
         .sum();
-    check_size("system matrix", nnz * 16 + ks.len() as u128 * 12)?;
+    // Per row: its own vector of (cell, value), then the CSR arrays (index and value).
+    memory::check("system matrix", nnz * 32 + ks.len() as u128 * 48)?;
     let rows: Vec<Vec<(u32, f64)>> = ks
         .par_iter()
         .with_min_len(64)
@@ -347,10 +355,11 @@ fn system_unchecked(
             r
         })
         .collect();
-    let mut indptr = Vec::with_capacity(rows.len() + 1);
+    let what = "system matrix";
+    let mut indptr = try_with_capacity(what, rows.len() + 1)?;
     let total: usize = rows.iter().map(Vec::len).sum();
-    let mut indices = Vec::with_capacity(total);
-    let mut data = Vec::with_capacity(total);
+    let mut indices = try_with_capacity(what, total)?;
+    let mut data = try_with_capacity(what, total)?;
     indptr.push(0i64);
     for r in &rows {
         for &(c, v) in r {
@@ -403,17 +412,22 @@ pub fn render(
         ));
     }
     let n_tex = textures.len() / grid.n;
-    with_threads(n_threads, || {
-        let sys = system_unchecked(cam, z, source, grid, field)?;
-        let m = &sys.matrix;
-        check_size("rendered values", (n_tex * m.rows) as u128 * 16)?;
-        // (n_pix, n_tex) in parallel over pixels, then transposed to (n_tex, n_pix).
-        let mut by_pixel = vec![0.0; m.rows * n_tex];
-        by_pixel
+    let sys = with_threads(n_threads, || system_unchecked(cam, z, source, grid, field))??;
+    let m = &sys.matrix;
+    check_rendered(n_tex, m.rows)?;
+    // (n_pix, n_tex) in parallel over pixels, in chunks of pixels with an interrupt
+    // checkpoint between them, then transposed to (n_tex, n_pix).
+    let mut by_pixel = try_vec("rendered values", m.rows * n_tex, 0.0)?;
+    let per_row = (m.data.len() / m.rows.max(1)).max(1) as u128;
+    let step = chunk_items(n_threads, per_row * n_tex as u128);
+    for_chunks(n_threads, m.rows, step, |r| {
+        let first = r.start;
+        by_pixel[r.start * n_tex..r.end * n_tex]
             .par_chunks_mut(n_tex)
             .enumerate()
             .with_min_len(16)
-            .for_each(|(p, out)| {
+            .for_each(|(o, out)| {
+                let p = first + o;
                 let span = m.indptr[p] as usize..m.indptr[p + 1] as usize;
                 for (t, o) in out.iter_mut().enumerate() {
                     let tex = &textures[t * grid.n..(t + 1) * grid.n];
@@ -424,14 +438,20 @@ pub fn render(
                         .sum();
                 }
             });
-        let mut values = vec![0.0; m.rows * n_tex];
-        for p in 0..m.rows {
-            for t in 0..n_tex {
-                values[t * m.rows + p] = by_pixel[p * n_tex + t];
-            }
+        Ok(())
+    })?;
+    let mut values = try_vec("rendered values", m.rows * n_tex, 0.0)?;
+    for p in 0..m.rows {
+        for t in 0..n_tex {
+            values[t * m.rows + p] = by_pixel[p * n_tex + t];
         }
-        Ok((values, sys.pixels))
-    })?
+    }
+    Ok((values, sys.pixels))
+}
+
+/// The rendered values: two (n_tex, n_pix) f64 buffers (by pixel, then transposed).
+fn check_rendered(n_tex: usize, n_pix: usize) -> Result<()> {
+    memory::check("rendered values", (n_tex as u128 * n_pix as u128) * 16)
 }
 
 #[cfg(test)]

@@ -4,7 +4,7 @@
 use splitlf_core::camera::Camera;
 use splitlf_core::optics::{self, conjugate, curves};
 use splitlf_core::rayspace::{self, Sample, LIT_AREA_RTOL};
-use splitlf_core::samples::{new_samples, SampleMode};
+use splitlf_core::samples::new_samples;
 use splitlf_core::{Axis, Error, Half};
 
 fn seed_with(f: impl FnOnce(&mut [f64; 7])) -> Result<Camera, Error> {
@@ -53,7 +53,7 @@ fn curves_at_huge_depths_equal_the_limit() {
 fn samples_and_footprints_at_huge_depths() {
     let cam = Camera::paper();
     let z = [1e307, f64::MAX];
-    for mode in [SampleMode::Chief, SampleMode::Centroid] {
+    for mode in [Sample::Chief, Sample::Centroid] {
         let s = new_samples(&cam, &z, 1e-6, mode, None).unwrap();
         let m = z.len();
         for (k, zk) in z.iter().enumerate() {
@@ -175,7 +175,7 @@ fn boundary_contacts_are_not_light() {
     }
     // Centroid samples count only pixels with light: the same number as the sample grid's
     // non-NaN centroid samples along x.
-    let s = new_samples(&cam, &[100.0], 1e-6, SampleMode::Centroid, None).unwrap();
+    let s = new_samples(&cam, &[100.0], 1e-6, Sample::Centroid, None).unwrap();
     for half in [Half::One, Half::Two] {
         let (gx, _) = rayspace::sample_grid(&cam, 100.0, half, Sample::Centroid, None).unwrap();
         // Rows are y pixels: a row whose y pixel collects light has every x sample.

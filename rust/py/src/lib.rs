@@ -1,65 +1,317 @@
-//! PyO3 bindings of splitlf-core. Nothing physical lives here: argument conversion,
-//! GIL release around the core, and mapping of core errors to Python exceptions.
+//! PyO3 bindings of splitlf-core. Nothing physical lives here: argument conversion, GIL
+//! release around the core (with Ctrl-C checked between the core's chunks of work),
+//! fallible allocation of the NumPy outputs, named result objects, and mapping of core
+//! errors to the exceptions of `splitlf.errors`.
 
 use std::borrow::Cow;
+use std::sync::{Arc, Mutex};
 
-use numpy::ndarray::Array1;
-use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
-use pyo3::exceptions::PyValueError;
+use numpy::ndarray::Dimension;
+use numpy::{
+    Element, IntoPyArray, PyArray, PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray1,
+    PyReadonlyArray2,
+};
+use pyo3::exceptions::{
+    PyKeyboardInterrupt, PyMemoryError, PyRuntimeError, PyTypeError, PyValueError,
+};
 use pyo3::prelude::*;
+use pyo3::sync::PyOnceLock;
+use pyo3::types::{PyBool, PyDict, PyInt, PyTuple};
 
 use splitlf_core::rayspace::{self, Sample};
-use splitlf_core::samples::{self, SampleMode};
+use splitlf_core::samples;
 use splitlf_core::simulate::{self, Grid, Source};
-use splitlf_core::{optics, Camera, Error, Half};
+use splitlf_core::{camera, memory, merit, optics, parallel, Camera, Error, Half};
 
-/// Core errors are all bad input: `ValueError` with the core's message (which names the
-/// parameter, its value and the allowed range).
-fn to_py(e: Error) -> PyErr {
-    PyValueError::new_err(e.to_string())
+// ---- errors ------------------------------------------------------------------------------
+
+/// A value of a core error message as a Python object: integers and floats as numbers, a
+/// quoted name as the name, anything else as its text.
+fn py_value(py: Python<'_>, text: &str) -> Py<PyAny> {
+    let digits = text.strip_prefix('-').unwrap_or(text);
+    if !digits.is_empty() && digits.bytes().all(|b| b.is_ascii_digit()) {
+        // An integer of any size: Python's int() parses it.
+        if let Ok(v) = py.get_type::<PyInt>().call1((text,)) {
+            return v.unbind();
+        }
+    }
+    if let Ok(x) = text.parse::<f64>() {
+        return x
+            .into_pyobject(py)
+            .map_or_else(|e| match e {}, |v| v.into_any().unbind());
+    }
+    let unquoted = text
+        .strip_prefix('"')
+        .and_then(|t| t.strip_suffix('"'))
+        .unwrap_or(text);
+    unquoted
+        .into_pyobject(py)
+        .map_or_else(|e| match e {}, |v| v.into_any().unbind())
 }
 
-fn internal(e: impl std::fmt::Display) -> PyErr {
-    PyValueError::new_err(format!("internal error: {e}"))
+/// An exception class of `splitlf.errors`, or `fallback` when it cannot be imported.
+fn raise(
+    py: Python<'_>,
+    class: &'static str,
+    message: String,
+    kwargs: impl FnOnce(&Bound<'_, PyDict>) -> PyResult<()>,
+    fallback: impl FnOnce(String) -> PyErr,
+) -> PyErr {
+    let build = || -> PyResult<PyErr> {
+        let cls = py.import("splitlf.errors")?.getattr(class)?;
+        let kw = PyDict::new(py);
+        kwargs(&kw)?;
+        Ok(PyErr::from_value(cls.call((message.clone(),), Some(&kw))?))
+    };
+    build().unwrap_or_else(|_| fallback(message))
 }
 
-fn half(n: i64) -> PyResult<Half> {
-    Half::from_number(n).map_err(to_py)
-}
-
-/// Borrow a 1-D float64 array as a slice, copying only when it is not contiguous.
-fn as_slice<'a>(a: &'a PyReadonlyArray1<'_, f64>) -> Cow<'a, [f64]> {
-    match a.as_slice() {
-        Ok(s) => Cow::Borrowed(s),
-        Err(_) => Cow::Owned(a.as_array().to_vec()),
+/// Map a core error to `splitlf.errors`: bad input to `InvalidParameter` (a `ValueError`;
+/// a bad depth names `depth`, the call's depth parameter, with the element's index), sizes
+/// to `TooLargeError` (a `MemoryError`). `Interrupted` is handled by [`run`].
+fn core_error(py: Python<'_>, e: Error, depth: &'static str) -> PyErr {
+    let message = e.to_string();
+    match e {
+        Error::InvalidParameter {
+            name,
+            value,
+            allowed,
+        } => raise(
+            py,
+            "InvalidParameter",
+            message,
+            |kw| {
+                kw.set_item("name", name)?;
+                kw.set_item("value", py_value(py, &value))?;
+                kw.set_item("allowed", allowed)
+            },
+            PyValueError::new_err,
+        ),
+        Error::InvalidDepth {
+            index,
+            value,
+            reason,
+        } => {
+            let message = message.replacen("depth z[", &format!("depth {depth}["), 1);
+            raise(
+                py,
+                "InvalidParameter",
+                message,
+                |kw| {
+                    kw.set_item("name", depth)?;
+                    kw.set_item("value", value)?;
+                    kw.set_item("allowed", reason)?;
+                    kw.set_item("index", index)
+                },
+                PyValueError::new_err,
+            )
+        }
+        Error::TooLarge { what, bytes, limit } => raise(
+            py,
+            "TooLargeError",
+            message,
+            |kw| {
+                kw.set_item("what", what)?;
+                kw.set_item("nbytes", bytes)?;
+                kw.set_item("limit", limit)
+            },
+            PyMemoryError::new_err,
+        ),
+        Error::TooMuchWork {
+            what, limit, unit, ..
+        } => raise(
+            py,
+            "TooLargeError",
+            message,
+            |kw| {
+                kw.set_item("what", format!("{what} ({unit})"))?;
+                kw.set_item("limit", limit)
+            },
+            PyMemoryError::new_err,
+        ),
+        Error::Interrupted => PyKeyboardInterrupt::new_err(()),
     }
 }
 
-/// Row-major (rows, n) array from a vector, without copying.
-fn rows<'py, T: numpy::Element>(
-    py: Python<'py>,
-    v: Vec<T>,
-    n_rows: usize,
-) -> PyResult<Bound<'py, PyArray2<T>>> {
-    let n = v.len() / n_rows.max(1);
-    shaped(py, (n_rows, n), v)
+fn to_py(e: Error) -> PyErr {
+    Python::attach(|py| core_error(py, e, "z"))
 }
 
-/// An n-D array of `shape` from a vector, without copying.
-fn shaped<'py, T, D, Sh>(
-    py: Python<'py>,
-    shape: Sh,
-    v: Vec<T>,
-) -> PyResult<Bound<'py, numpy::PyArray<T, D>>>
-where
-    T: numpy::Element,
-    D: numpy::ndarray::Dimension,
-    Sh: numpy::ndarray::ShapeBuilder<Dim = D>,
-{
-    let a = numpy::ndarray::Array::from_shape_vec(shape, v)
-        .map_err(|e| PyValueError::new_err(format!("internal shape error: {e}")))?;
-    Ok(a.into_pyarray(py))
+/// A fault of splitlf itself (never bad input): `RuntimeError`.
+fn internal(e: impl std::fmt::Display) -> PyErr {
+    PyRuntimeError::new_err(format!("splitlf internal error: {e}"))
 }
+
+/// Run a core call without the GIL, checking for signals (Ctrl-C) between the core's
+/// chunks: the check re-attaches briefly on this (the calling) thread, and the Python
+/// exception a signal handler raised is returned as is.
+fn run_as<R: Send>(
+    py: Python<'_>,
+    depth: &'static str,
+    f: impl FnOnce() -> splitlf_core::Result<R> + Send,
+) -> PyResult<R> {
+    let caught: Arc<Mutex<Option<PyErr>>> = Arc::default();
+    let slot = Arc::clone(&caught);
+    let result = py.detach(move || {
+        let stop = move || {
+            Python::attach(|py| match py.check_signals() {
+                Ok(()) => false,
+                Err(e) => {
+                    *slot.lock().unwrap_or_else(|p| p.into_inner()) = Some(e);
+                    true
+                }
+            })
+        };
+        parallel::interruptible(stop, f)
+    });
+    match result {
+        Ok(v) => Ok(v),
+        Err(Error::Interrupted) => {
+            let e = caught.lock().unwrap_or_else(|p| p.into_inner()).take();
+            Err(e.unwrap_or_else(|| PyKeyboardInterrupt::new_err(())))
+        }
+        Err(e) => Err(core_error(py, e, depth)),
+    }
+}
+
+fn run<R: Send>(py: Python<'_>, f: impl FnOnce() -> splitlf_core::Result<R> + Send) -> PyResult<R> {
+    run_as(py, "z", f)
+}
+
+// ---- arguments ---------------------------------------------------------------------------
+
+/// An integer argument of any size (a Python int or anything with `__index__`, never a
+/// bool), or a `TypeError` naming it: its value saturated to i128 (every range is far
+/// inside) and its decimal text.
+fn int_arg(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<(i128, String)> {
+    let type_name = obj.get_type().name()?.to_string();
+    let refuse = || -> PyResult<PyErr> {
+        Ok(PyTypeError::new_err(format!(
+            "{name} must be an integer, got {type_name} {}",
+            obj.repr()?
+        )))
+    };
+    if obj.is_instance_of::<PyBool>() || type_name == "bool_" {
+        return Err(refuse()?);
+    }
+    let Ok(index) = obj.call_method0("__index__") else {
+        return Err(refuse()?);
+    };
+    let text = index.str()?.to_string();
+    let value = match index.extract::<i128>() {
+        Ok(v) => v,
+        Err(_) if index.lt(0)? => i128::MIN,
+        Err(_) => i128::MAX,
+    };
+    Ok((value, text))
+}
+
+/// The core's range check applied to a value that may not fit its integer type: the core
+/// sees the value saturated (out of every range) and its error shows the value given.
+fn with_given(e: Error, given: &str) -> Error {
+    match e {
+        Error::InvalidParameter { name, allowed, .. } => Error::InvalidParameter {
+            name,
+            value: given.to_string(),
+            allowed,
+        },
+        other => other,
+    }
+}
+
+fn saturate(v: i128) -> i64 {
+    v.clamp(i64::MIN as i128, i64::MAX as i128) as i64
+}
+
+fn half_arg(obj: &Bound<'_, PyAny>) -> PyResult<Half> {
+    let (v, text) = int_arg(obj, "half")?;
+    Half::from_number(saturate(v)).map_err(|e| to_py(with_given(e, &text)))
+}
+
+fn threads_arg(obj: Option<&Bound<'_, PyAny>>) -> PyResult<Option<usize>> {
+    let Some(obj) = obj.filter(|o| !o.is_none()) else {
+        return Ok(None);
+    };
+    let (v, text) = int_arg(obj, "n_threads")?;
+    let n = v.clamp(0, parallel::MAX_THREADS as i128 + 1) as usize;
+    parallel::check_threads(Some(n)).map_err(|e| to_py(with_given(e, &text)))?;
+    Ok(Some(n))
+}
+
+/// Borrow a 1-D float64 array as a slice, copying (fallibly) only when it is not contiguous.
+fn as_slice<'a>(a: &'a PyReadonlyArray1<'_, f64>) -> PyResult<Cow<'a, [f64]>> {
+    match a.as_slice() {
+        Ok(s) => Ok(Cow::Borrowed(s)),
+        Err(_) => {
+            let view = a.as_array();
+            let mut v =
+                memory::try_with_capacity("contiguous copy of z", view.len()).map_err(to_py)?;
+            v.extend(view.iter().copied());
+            Ok(Cow::Owned(v))
+        }
+    }
+}
+
+// ---- outputs -----------------------------------------------------------------------------
+
+/// An uninitialised C-contiguous NumPy array, allocated by `numpy.empty` so that a failed
+/// allocation is a `TooLargeError` naming the call (rust-numpy's constructors would panic).
+fn empty<'py, T: Element, D: Dimension>(
+    py: Python<'py>,
+    shape: &[usize],
+    what: &str,
+) -> PyResult<Bound<'py, PyArray<T, D>>> {
+    static EMPTY: PyOnceLock<Py<PyAny>> = PyOnceLock::new();
+    let empty = EMPTY.import(py, "numpy", "empty")?;
+    let dims = PyTuple::new(py, shape)?;
+    match empty.call1((dims, numpy::dtype::<T>(py))) {
+        Ok(a) => a.cast_into::<PyArray<T, D>>().map_err(internal),
+        Err(e) if e.is_instance_of::<PyMemoryError>(py) => {
+            let n: u128 = shape.iter().map(|&d| d as u128).product();
+            Err(to_py(Error::TooLarge {
+                what: format!("{what} (NumPy output {shape:?})"),
+                bytes: n * std::mem::size_of::<T>() as u128,
+                limit: memory::available(),
+            }))
+        }
+        Err(e) => Err(e),
+    }
+}
+
+/// A NumPy array holding `values`, allocated fallibly (see [`empty`]).
+fn filled<'py, T: Element + Copy, D: Dimension>(
+    py: Python<'py>,
+    shape: &[usize],
+    what: &str,
+    values: impl Iterator<Item = T>,
+) -> PyResult<Bound<'py, PyArray<T, D>>> {
+    let a = empty::<T, D>(py, shape, what)?;
+    {
+        let mut w = a.readwrite();
+        let s = w.as_slice_mut().map_err(internal)?;
+        let mut written = 0;
+        for (o, v) in s.iter_mut().zip(values) {
+            *o = v;
+            written += 1;
+        }
+        if written != s.len() {
+            return Err(internal(format!(
+                "{what}: {written} values for {}",
+                s.len()
+            )));
+        }
+    }
+    Ok(a)
+}
+
+/// An int64 array's buffer seen as u64 (the core's counts; every count is < 2^63).
+fn as_u64(s: &mut [i64]) -> &mut [u64] {
+    // SAFETY: i64 and u64 have the same size and alignment and every bit pattern is valid
+    // for both; the borrow of `s` is carried over.
+    unsafe { std::slice::from_raw_parts_mut(s.as_mut_ptr().cast::<u64>(), s.len()) }
+}
+
+// ---- the camera --------------------------------------------------------------------------
 
 /// A validated camera held by the core (wrapped by `splitlf.Camera`).
 #[pyclass(
@@ -112,25 +364,25 @@ impl CameraCore {
         )
     }
 
-    fn array_plane(&self, half_: i64) -> PyResult<f64> {
-        Ok(self.inner.array_plane(half(half_)?))
+    fn array_plane(&self, half_: &Bound<'_, PyAny>) -> PyResult<f64> {
+        Ok(self.inner.array_plane(half_arg(half_)?))
     }
 
-    fn out_of_focus_depth(&self, half_: i64) -> PyResult<f64> {
-        Ok(self.inner.out_of_focus_depth(half(half_)?))
+    fn out_of_focus_depth(&self, half_: &Bound<'_, PyAny>) -> PyResult<f64> {
+        Ok(self.inner.out_of_focus_depth(half_arg(half_)?))
     }
 
-    fn image_radius(&self, half_: i64) -> PyResult<f64> {
-        Ok(self.inner.image_radius(half(half_)?))
+    fn image_radius(&self, half_: &Bound<'_, PyAny>) -> PyResult<f64> {
+        Ok(self.inner.image_radius(half_arg(half_)?))
     }
 
-    fn lit_pixels(&self, half_: i64) -> PyResult<u32> {
-        Ok(self.inner.lit_pixels(half(half_)?))
+    fn lit_pixels(&self, half_: &Bound<'_, PyAny>) -> PyResult<u32> {
+        Ok(self.inner.lit_pixels(half_arg(half_)?))
     }
 
-    fn ng_focal_length(&self, half_: i64) -> PyResult<f64> {
-        let h = half(half_)?;
-        Ok(splitlf_core::camera::ng_focal_length(
+    fn ng_focal_length(&self, half_: &Bound<'_, PyAny>) -> PyResult<f64> {
+        let h = half_arg(half_)?;
+        Ok(camera::ng_focal_length(
             self.inner.array_plane(h),
             self.inner.v,
         ))
@@ -151,36 +403,39 @@ impl CameraCore {
     }
 }
 
-type CurveArrays<'py> = (
-    Bound<'py, PyArray1<f64>>,
-    Bound<'py, PyArray2<f64>>,
-    Bound<'py, PyArray2<f64>>,
-    Bound<'py, PyArray2<f64>>,
-    Bound<'py, PyArray2<f64>>,
-    Bound<'py, PyArray2<f64>>,
-);
+// ---- closed forms ------------------------------------------------------------------------
 
-/// Closed-form curves (Eqs. 1–7) at every depth:
-/// (conjugate, main_blur, repetitions, microlens_blur, blur_px, conventional_px).
+/// Closed-form curves (Eqs. 1–7) at n depths; two-row arrays (2, n), row 0 half 1.
+#[pyclass(frozen, get_all, module = "splitlf._native")]
+struct CurvesArrays {
+    conjugate: Py<PyArray1<f64>>,
+    main_blur: Py<PyArray2<f64>>,
+    repetitions: Py<PyArray2<f64>>,
+    microlens_blur: Py<PyArray2<f64>>,
+    blur_px: Py<PyArray2<f64>>,
+    conventional_px: Py<PyArray2<f64>>,
+}
+
+/// Closed-form curves (Eqs. 1–7) at every depth.
 #[pyfunction]
 #[pyo3(signature = (camera, z, n_threads=None))]
-fn curves<'py>(
-    py: Python<'py>,
+fn curves(
+    py: Python<'_>,
     camera: &CameraCore,
-    z: PyReadonlyArray1<'py, f64>,
-    n_threads: Option<usize>,
-) -> PyResult<CurveArrays<'py>> {
+    z: PyReadonlyArray1<'_, f64>,
+    n_threads: Option<&Bound<'_, PyAny>>,
+) -> PyResult<CurvesArrays> {
     let cam = camera.inner;
-    let zs = as_slice(&z);
-    // Validate, then let NumPy allocate the outputs (its allocator asks for huge pages) and
+    let threads = threads_arg(n_threads)?;
+    let zs = as_slice(&z)?;
+    // Validate and check the memory, then let NumPy allocate the outputs (fallibly) and
     // have the core write each element exactly once, in place, without the GIL.
     optics::check_depths(&cam, &zs).map_err(to_py)?;
     let n = zs.len();
-    // SAFETY: uninitialised arrays; `curves_into` writes every element (it checks the
-    // lengths first, and on error the arrays are dropped without being read).
-    let conjugate = unsafe { PyArray1::<f64>::new(py, [n], false) };
-    let two = || unsafe { PyArray2::<f64>::new(py, [2, n], false) };
-    let arrays = [two(), two(), two(), two(), two()];
+    memory::check("curves", optics::curves_bytes(n)).map_err(to_py)?;
+    let conjugate = empty::<f64, _>(py, &[n], "curves")?;
+    let two = || empty::<f64, _>(py, &[2, n], "curves");
+    let arrays = [two()?, two()?, two()?, two()?, two()?];
     {
         let mut zw = conjugate.readwrite();
         let mut w = arrays.each_ref().map(|a| a.readwrite());
@@ -193,26 +448,45 @@ fn curves<'py>(
             blur_px: p.map_err(internal)?,
             conventional_px: c.map_err(internal)?,
         };
-        py.detach(|| optics::curves_into(&cam, &zs, out, n_threads))
-            .map_err(to_py)?;
+        run(py, || optics::curves_into(&cam, &zs, out, threads))?;
     }
-    let [h, r, b, p, c] = arrays;
-    Ok((conjugate, h, r, b, p, c))
+    let [h, r, b, p, c] = arrays.map(Bound::unbind);
+    Ok(CurvesArrays {
+        conjugate: conjugate.unbind(),
+        main_blur: h,
+        repetitions: r,
+        microlens_blur: b,
+        blur_px: p,
+        conventional_px: c,
+    })
 }
 
 type Intervals = Vec<(f64, f64)>;
 
-/// Sharp depth intervals: (half1, half2, split, conventional1, conventional2).
+/// Sharp depth intervals (near, far) in mm of every configuration.
+#[pyclass(frozen, get_all, module = "splitlf._native")]
+struct DepthOfFieldIntervals {
+    half1: Intervals,
+    half2: Intervals,
+    split: Intervals,
+    conventional1: Intervals,
+    conventional2: Intervals,
+}
+
+/// Sharp depth intervals of each half, the split sensor and the conventional cameras.
 #[pyfunction]
-#[pyo3(signature = (camera, threshold_px=0.5))]
-fn depth_of_field(
-    camera: &CameraCore,
-    threshold_px: f64,
-) -> PyResult<(Intervals, Intervals, Intervals, Intervals, Intervals)> {
+#[pyo3(signature = (camera, threshold_px=optics::DEFAULT_THRESHOLD_PX))]
+fn depth_of_field(camera: &CameraCore, threshold_px: f64) -> PyResult<DepthOfFieldIntervals> {
     let dof = optics::depth_of_field(&camera.inner, threshold_px).map_err(to_py)?;
-    let [h1, h2] = dof.half;
-    let [c1, c2] = dof.conventional;
-    Ok((h1, h2, dof.split, c1, c2))
+    let [half1, half2] = dof.half;
+    let [conventional1, conventional2] = dof.conventional;
+    Ok(DepthOfFieldIntervals {
+        half1,
+        half2,
+        split: dof.split,
+        conventional1,
+        conventional2,
+    })
 }
 
 /// Sharp fraction in log depth over [lo, hi]: (half1, half2, split, conventional1, conventional2).
@@ -222,205 +496,261 @@ fn sharp_fractions(camera: &CameraCore, threshold_px: f64, lo: f64, hi: f64) -> 
     optics::sharp_fractions(&camera.inner, threshold_px, lo, hi).map_err(to_py)
 }
 
-/// Counts are returned as int64 (they are far below 2^63: the core caps K Q per axis).
-fn to_i64(v: Vec<u64>) -> Vec<i64> {
-    v.into_iter().map(|x| x as i64).collect()
+// ---- samples -----------------------------------------------------------------------------
+
+/// Genuinely new samples at m depths, rows (half 1, half 2, union).
+#[pyclass(frozen, get_all, module = "splitlf._native")]
+struct NewSamplesArrays {
+    distinct: Py<PyArray2<i64>>,
+    distinct_2d: Py<PyArray2<i64>>,
+    max_gap: Py<PyArray2<f64>>,
+    lit: Py<PyArray1<i64>>,
 }
 
-type NewSampleArrays<'py> = (
-    Bound<'py, PyArray2<i64>>,
-    Bound<'py, PyArray2<i64>>,
-    Bound<'py, PyArray2<f64>>,
-    Bound<'py, PyArray1<i64>>,
-);
+fn sample_arg(sample: &str) -> PyResult<Sample> {
+    Sample::from_name(sample).map_err(to_py)
+}
 
-/// Genuinely new samples at every depth (docs/model.md §6):
-/// (distinct (3, m), distinct_2d (3, m), max_gap (3, m), lit (3,)).
+/// Genuinely new samples at every depth (docs/model.md §6).
 #[pyfunction]
-#[pyo3(signature = (camera, z, tol=1e-6, sample="chief", n_threads=None))]
-fn new_samples<'py>(
-    py: Python<'py>,
+#[pyo3(signature = (camera, z, tol=samples::DEFAULT_TOL, sample="chief", n_threads=None))]
+fn new_samples(
+    py: Python<'_>,
     camera: &CameraCore,
-    z: PyReadonlyArray1<'py, f64>,
+    z: PyReadonlyArray1<'_, f64>,
     tol: f64,
     sample: &str,
-    n_threads: Option<usize>,
-) -> PyResult<NewSampleArrays<'py>> {
+    n_threads: Option<&Bound<'_, PyAny>>,
+) -> PyResult<NewSamplesArrays> {
     let cam = camera.inner;
-    let mode = SampleMode::parse(sample).map_err(to_py)?;
-    let zs = as_slice(&z);
-    let out = py
-        .detach(|| samples::new_samples(&cam, &zs, tol, mode, n_threads))
-        .map_err(to_py)?;
-    Ok((
-        rows(py, to_i64(out.distinct), 3)?,
-        rows(py, to_i64(out.distinct_2d), 3)?,
-        rows(py, out.max_gap, 3)?,
-        to_i64(out.lit.to_vec()).into_pyarray(py),
-    ))
+    let mode = sample_arg(sample)?;
+    let threads = threads_arg(n_threads)?;
+    let zs = as_slice(&z)?;
+    samples::check_new_samples(&cam, &zs, tol, mode, threads).map_err(to_py)?;
+    let m = zs.len();
+    let what = "new_samples";
+    let distinct = empty::<i64, _>(py, &[3, m], what)?;
+    let distinct_2d = empty::<i64, _>(py, &[3, m], what)?;
+    let max_gap = empty::<f64, _>(py, &[3, m], what)?;
+    let lit = {
+        let mut d = distinct.readwrite();
+        let mut d2 = distinct_2d.readwrite();
+        let mut g = max_gap.readwrite();
+        let out = samples::NewSamplesOut {
+            distinct: as_u64(d.as_slice_mut().map_err(internal)?),
+            distinct_2d: as_u64(d2.as_slice_mut().map_err(internal)?),
+            max_gap: g.as_slice_mut().map_err(internal)?,
+        };
+        run(py, || {
+            samples::new_samples_into(&cam, &zs, tol, mode, out, threads)
+        })?
+    };
+    Ok(NewSamplesArrays {
+        distinct: distinct.unbind(),
+        distinct_2d: distinct_2d.unbind(),
+        max_gap: max_gap.unbind(),
+        lit: lit.map(|x| x as i64).to_vec().into_pyarray(py).unbind(),
+    })
 }
 
-type PlaneColumns<'py> = (
-    Bound<'py, PyArray1<i64>>,
-    Bound<'py, PyArray1<i64>>,
-    Vec<&'static str>,
-    Bound<'py, PyArray1<f64>>,
-    Bound<'py, PyArray1<f64>>,
-    Bound<'py, PyArray1<f64>>,
-    Bound<'py, PyArray1<i64>>,
-    Bound<'py, PyArray1<i64>>,
-    Bound<'py, PyArray1<i64>>,
-    Bound<'py, PyArray1<i64>>,
-);
+/// Coincidence planes of one half sorted by depth, one column per field.
+#[pyclass(frozen, get_all, module = "splitlf._native")]
+struct PlaneColumns {
+    #[pyo3(name = "N")]
+    n: Py<PyArray1<i64>>,
+    #[pyo3(name = "T")]
+    t: Py<PyArray1<i64>>,
+    side: Vec<&'static str>,
+    conjugate: Py<PyArray1<f64>>,
+    z: Py<PyArray1<f64>>,
+    repetitions: Py<PyArray1<f64>>,
+    new_samples_x: Py<PyArray1<i64>>,
+    new_samples_y: Py<PyArray1<i64>>,
+    new_samples: Py<PyArray1<i64>>,
+    counted: Py<PyArray1<i64>>,
+}
 
-/// Coincidence planes of one half, sorted by depth, as columns:
-/// (N, T, side, conjugate, z, repetitions, new_samples_x, new_samples_y, new_samples, counted).
+/// Coincidence planes of one half (docs/model.md §6), with Eqs. 8–9 and the brute-force count.
 #[pyfunction]
-#[pyo3(signature = (camera, half_, max_n=4, max_t=None, n_threads=None))]
-fn coincidence_planes<'py>(
-    py: Python<'py>,
+#[pyo3(signature = (camera, half_, max_n=None, max_t=None, n_threads=None))]
+fn coincidence_planes(
+    py: Python<'_>,
     camera: &CameraCore,
-    half_: i64,
-    max_n: i64,
-    max_t: Option<i64>,
-    n_threads: Option<usize>,
-) -> PyResult<PlaneColumns<'py>> {
+    half_: &Bound<'_, PyAny>,
+    max_n: Option<&Bound<'_, PyAny>>,
+    max_t: Option<&Bound<'_, PyAny>>,
+    n_threads: Option<&Bound<'_, PyAny>>,
+) -> PyResult<PlaneColumns> {
     let cam = camera.inner;
-    let h = half(half_)?;
-    let p = py
-        .detach(|| samples::coincidence_planes(&cam, h, max_n, max_t, n_threads))
-        .map_err(to_py)?;
-    let int = |f: &dyn Fn(&samples::CoincidencePlane) -> u64| -> Vec<i64> {
-        p.iter().map(|x| f(x) as i64).collect()
+    let h = half_arg(half_)?;
+    let (n_given, n_text) = match max_n.filter(|o| !o.is_none()) {
+        Some(o) => int_arg(o, "max_n")?,
+        None => {
+            let n = samples::DEFAULT_MAX_N;
+            (n as i128, n.to_string())
+        }
     };
-    let real =
-        |f: &dyn Fn(&samples::CoincidencePlane) -> f64| -> Vec<f64> { p.iter().map(f).collect() };
-    Ok((
-        int(&|x| x.n as u64).into_pyarray(py),
-        int(&|x| x.t as u64).into_pyarray(py),
-        p.iter().map(|x| x.side.name()).collect(),
-        real(&|x| x.conjugate).into_pyarray(py),
-        real(&|x| x.z).into_pyarray(py),
-        real(&|x| x.repetitions).into_pyarray(py),
-        int(&|x| x.new_samples_x).into_pyarray(py),
-        int(&|x| x.new_samples_y).into_pyarray(py),
-        int(&|x| x.new_samples).into_pyarray(py),
-        int(&|x| x.counted).into_pyarray(py),
-    ))
+    let t_given = match max_t.filter(|o| !o.is_none()) {
+        Some(o) => Some(int_arg(o, "max_t")?),
+        None => None,
+    };
+    let threads = threads_arg(n_threads)?;
+    let (mn, mt) = (saturate(n_given), t_given.as_ref().map(|t| saturate(t.0)));
+    let t_text = t_given.map(|t| t.1).unwrap_or_default();
+    let p = run(py, || {
+        samples::coincidence_planes(&cam, h, mn, mt, threads).map_err(|e| match &e {
+            Error::InvalidParameter { name: "max_n", .. } => with_given(e, &n_text),
+            Error::InvalidParameter { name: "max_t", .. } => with_given(e, &t_text),
+            _ => e,
+        })
+    })?;
+    let n = p.len();
+    let what = "coincidence_planes";
+    let int = |f: &dyn Fn(&samples::CoincidencePlane) -> u64| {
+        filled::<i64, _>(py, &[n], what, p.iter().map(|x| f(x) as i64)).map(Bound::unbind)
+    };
+    let real = |f: &dyn Fn(&samples::CoincidencePlane) -> f64| {
+        filled::<f64, _>(py, &[n], what, p.iter().map(f)).map(Bound::unbind)
+    };
+    Ok(PlaneColumns {
+        n: int(&|x| x.n as u64)?,
+        t: int(&|x| x.t as u64)?,
+        side: p.iter().map(|x| x.side.name()).collect(),
+        conjugate: real(&|x| x.conjugate)?,
+        z: real(&|x| x.z)?,
+        repetitions: real(&|x| x.repetitions)?,
+        new_samples_x: int(&|x| x.new_samples_x)?,
+        new_samples_y: int(&|x| x.new_samples_y)?,
+        new_samples: int(&|x| x.new_samples)?,
+        counted: int(&|x| x.counted)?,
+    })
 }
 
 /// Figures of merit of one design over depths (see `splitlf.sweep.METRICS`).
 #[pyfunction]
-#[pyo3(signature = (camera, z, threshold_px=0.5, tol=1e-6, n_threads=None))]
+#[pyo3(signature = (camera, z, threshold_px=optics::DEFAULT_THRESHOLD_PX, tol=samples::DEFAULT_TOL, n_threads=None))]
 fn figures_of_merit(
     py: Python<'_>,
     camera: &CameraCore,
     z: PyReadonlyArray1<'_, f64>,
     threshold_px: f64,
     tol: f64,
-    n_threads: Option<usize>,
-) -> PyResult<[f64; splitlf_core::merit::N_MERITS]> {
+    n_threads: Option<&Bound<'_, PyAny>>,
+) -> PyResult<[f64; merit::N_MERITS]> {
     let cam = camera.inner;
-    let zs = as_slice(&z);
-    py.detach(|| splitlf_core::merit::figures_of_merit(&cam, &zs, threshold_px, tol, n_threads))
-        .map_err(to_py)
+    let threads = threads_arg(n_threads)?;
+    let zs = as_slice(&z)?;
+    run_as(py, "depths", || {
+        merit::figures_of_merit(&cam, &zs, threshold_px, tol, threads)
+    })
 }
 
-type TraceArrays<'py> = (
-    Bound<'py, numpy::PyArray3<f64>>,
-    Bound<'py, PyArray1<i64>>,
-    Bound<'py, PyArray1<f64>>,
-    Bound<'py, PyArray2<f64>>,
-    Bound<'py, PyArray1<i64>>,
-    Bound<'py, PyArray1<i64>>,
-    Bound<'py, PyArray2<f64>>,
-    Bound<'py, PyArray1<bool>>,
-);
+// ---- ray space ---------------------------------------------------------------------------
 
-/// Integration polygons of every pixel of one half along one axis (docs/model.md §3–4):
-/// (vertices (n, 6, 2), n_vertices, area, centroid (n, 2), lens, pixel, chief (n, 2), lit).
+/// Integration polygons of n pixels of one half along one axis (microlens-major).
+#[pyclass(frozen, get_all, module = "splitlf._native")]
+struct TraceArrays {
+    vertices: Py<PyArray3<f64>>,
+    n_vertices: Py<PyArray1<i64>>,
+    area: Py<PyArray1<f64>>,
+    centroid: Py<PyArray2<f64>>,
+    lens: Py<PyArray1<i64>>,
+    pixel: Py<PyArray1<i64>>,
+    chief: Py<PyArray2<f64>>,
+    lit: Py<PyArray1<bool>>,
+}
+
+/// Integration polygons of every pixel of one half along one axis (docs/model.md §3–4).
 #[pyfunction]
-#[pyo3(signature = (camera, half, axis="x"))]
-fn trace<'py>(
-    py: Python<'py>,
+#[pyo3(signature = (camera, half, axis="x", n_threads=None))]
+fn trace(
+    py: Python<'_>,
     camera: &CameraCore,
-    half: i64,
+    half: &Bound<'_, PyAny>,
     axis: &str,
-) -> PyResult<TraceArrays<'py>> {
+    n_threads: Option<&Bound<'_, PyAny>>,
+) -> PyResult<TraceArrays> {
     let cam = camera.inner;
-    let h = Half::from_number(half).map_err(to_py)?;
+    let h = half_arg(half)?;
     let ax = rayspace::axis_from_name(axis).map_err(to_py)?;
-    let tr = py.detach(|| rayspace::trace(&cam, h, ax)).map_err(to_py)?;
+    let threads = threads_arg(n_threads)?;
+    let n = cam.lenses(ax) as u128 * cam.q as u128;
+    memory::check("trace", rayspace::trace_call_bytes(n)).map_err(to_py)?;
+    let tr = run(py, || rayspace::trace_threads(&cam, h, ax, threads))?;
     let n = tr.polygons.len();
-    let verts: Vec<f64> = tr
+    let what = "trace";
+    let v = MAX_VERTICES;
+    let verts = tr
         .polygons
         .iter()
-        .flat_map(|p| p.v.iter().flatten().copied())
-        .collect();
-    let nv: Vec<i64> = tr.polygons.iter().map(|p| p.n as i64).collect();
-    let flat = |v: &[[f64; 2]]| v.iter().flatten().copied().collect::<Vec<f64>>();
-    let ints = |v: &[u32]| Array1::from_iter(v.iter().map(|&x| x as i64)).into_pyarray(py);
-    Ok((
-        shaped(py, (n, rayspace::MAX_VERTICES, 2), verts)?,
-        nv.into_pyarray(py),
-        tr.area.into_pyarray(py),
-        shaped(py, (n, 2), flat(&tr.centroid))?,
-        ints(&tr.lens),
-        ints(&tr.pixel),
-        shaped(py, (n, 2), flat(&tr.chief))?,
-        tr.lit.into_pyarray(py),
-    ))
+        .flat_map(|p| p.v.iter().flatten().copied());
+    Ok(TraceArrays {
+        vertices: filled::<f64, _>(py, &[n, v, 2], what, verts)?.unbind(),
+        n_vertices: filled::<i64, _>(py, &[n], what, tr.polygons.iter().map(|p| p.n as i64))?
+            .unbind(),
+        area: filled::<f64, _>(py, &[n], what, tr.area.iter().copied())?.unbind(),
+        centroid: filled::<f64, _>(py, &[n, 2], what, tr.centroid.iter().flatten().copied())?
+            .unbind(),
+        lens: filled::<i64, _>(py, &[n], what, tr.lens.iter().map(|&x| x as i64))?.unbind(),
+        pixel: filled::<i64, _>(py, &[n], what, tr.pixel.iter().map(|&x| x as i64))?.unbind(),
+        chief: filled::<f64, _>(py, &[n, 2], what, tr.chief.iter().flatten().copied())?.unbind(),
+        lit: filled::<bool, _>(py, &[n], what, tr.lit.iter().copied())?.unbind(),
+    })
 }
 
-type FootprintArrays<'py> = (
-    Bound<'py, PyArray2<f64>>,
-    Bound<'py, PyArray2<f64>>,
-    Bound<'py, PyArray2<f64>>,
-    Option<Bound<'py, numpy::PyArray3<f64>>>,
-    Option<Bound<'py, numpy::PyArray3<f64>>>,
-);
+use rayspace::MAX_VERTICES;
 
-/// Footprints of every pixel of one half along one axis at every depth (docs/model.md §5):
-/// (position, lo, hi) each (m, n); with `kernel` also breaks and values (m, n, 6).
+/// Footprints of n pixels at m depths: (m, n) arrays; the kernel (m, n, 6) when asked.
+#[pyclass(frozen, get_all, module = "splitlf._native")]
+struct FootprintArrays {
+    position: Py<PyArray2<f64>>,
+    lo: Py<PyArray2<f64>>,
+    hi: Py<PyArray2<f64>>,
+    kernel_breaks: Option<Py<PyArray3<f64>>>,
+    kernel_values: Option<Py<PyArray3<f64>>>,
+}
+
+/// Footprints of every pixel of one half along one axis at every depth (docs/model.md §5).
 #[pyfunction]
 #[pyo3(signature = (camera, z, half, axis="x", sample="centroid", kernel=false, n_threads=None))]
 #[allow(clippy::too_many_arguments)]
-fn footprints<'py>(
-    py: Python<'py>,
+fn footprints(
+    py: Python<'_>,
     camera: &CameraCore,
-    z: PyReadonlyArray1<'py, f64>,
-    half: i64,
+    z: PyReadonlyArray1<'_, f64>,
+    half: &Bound<'_, PyAny>,
     axis: &str,
     sample: &str,
     kernel: bool,
-    n_threads: Option<usize>,
-) -> PyResult<FootprintArrays<'py>> {
+    n_threads: Option<&Bound<'_, PyAny>>,
+) -> PyResult<FootprintArrays> {
     let cam = camera.inner;
-    let h = Half::from_number(half).map_err(to_py)?;
+    let h = half_arg(half)?;
     let ax = rayspace::axis_from_name(axis).map_err(to_py)?;
-    let s = Sample::from_name(sample).map_err(to_py)?;
-    let zs = as_slice(&z);
-    // Validate everything, then let NumPy allocate the outputs (its allocator asks for
-    // huge pages) and have the core write straight into them without the GIL.
-    let (m, n) = rayspace::check_footprints(&cam, &zs, ax, kernel, n_threads).map_err(to_py)?;
-    let position = PyArray2::<f64>::zeros(py, [m, n], false);
-    let lo = PyArray2::<f64>::zeros(py, [m, n], false);
-    let hi = PyArray2::<f64>::zeros(py, [m, n], false);
-    let k = kernel.then(|| {
-        let dims = [m, n, rayspace::MAX_VERTICES];
-        (
-            numpy::PyArray3::<f64>::zeros(py, dims, false),
-            numpy::PyArray3::<f64>::zeros(py, dims, false),
-        )
-    });
+    let s = sample_arg(sample)?;
+    let threads = threads_arg(n_threads)?;
+    let zs = as_slice(&z)?;
+    // Validate everything (memory included), then let NumPy allocate the outputs
+    // (fallibly) and have the core write straight into them without the GIL.
+    let (m, n) = rayspace::check_footprints(&cam, &zs, ax, kernel, threads).map_err(to_py)?;
+    let what = "footprints";
+    let position = empty::<f64, _>(py, &[m, n], what)?;
+    let lo = empty::<f64, _>(py, &[m, n], what)?;
+    let hi = empty::<f64, _>(py, &[m, n], what)?;
+    let k = if kernel {
+        let dims = [m, n, MAX_VERTICES];
+        Some((
+            empty::<f64, _>(py, &dims, what)?,
+            empty::<f64, _>(py, &dims, what)?,
+        ))
+    } else {
+        None
+    };
     {
         let mut pw = position.readwrite();
         let mut lw = lo.readwrite();
         let mut hw = hi.readwrite();
         let mut kw = k.as_ref().map(|(b, v)| (b.readwrite(), v.readwrite()));
-        let ps = pw.as_slice_mut().map_err(internal)?;
-        let ls = lw.as_slice_mut().map_err(internal)?;
-        let hs = hw.as_slice_mut().map_err(internal)?;
         let ks = match kw.as_mut() {
             Some((b, v)) => Some((
                 b.as_slice_mut().map_err(internal)?,
@@ -429,51 +759,72 @@ fn footprints<'py>(
             None => None,
         };
         let out = rayspace::FootprintsOut {
-            position: ps,
-            lo: ls,
-            hi: hs,
+            position: pw.as_slice_mut().map_err(internal)?,
+            lo: lw.as_slice_mut().map_err(internal)?,
+            hi: hw.as_slice_mut().map_err(internal)?,
             kernel: ks,
         };
-        py.detach(|| rayspace::footprints_into(&cam, &zs, h, ax, s, out, n_threads))
-            .map_err(to_py)?;
+        run(py, || {
+            rayspace::footprints_into(&cam, &zs, h, ax, s, out, threads)
+        })?;
     }
     let (kb, kv) = match k {
-        Some((b, v)) => (Some(b), Some(v)),
+        Some((b, v)) => (Some(b.unbind()), Some(v.unbind())),
         None => (None, None),
     };
-    Ok((position, lo, hi, kb, kv))
+    Ok(FootprintArrays {
+        position: position.unbind(),
+        lo: lo.unbind(),
+        hi: hi.unbind(),
+        kernel_breaks: kb,
+        kernel_values: kv,
+    })
 }
 
-type GridArrays<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>);
+/// Object-space sample positions (X, Y), each (Ky Q, Kx Q), of one half on one plane.
+#[pyclass(frozen, get_all, module = "splitlf._native")]
+struct SampleGridArrays {
+    #[pyo3(name = "X")]
+    x: Py<PyArray2<f64>>,
+    #[pyo3(name = "Y")]
+    y: Py<PyArray2<f64>>,
+}
 
-/// Object-space sample positions (X, Y), each (Ky Q, Kx Q), of every pixel of one half
-/// on the plane at depth z; NaN where a pixel yields no sample.
+/// Sample positions of every pixel of one half on the plane at depth z; NaN where a pixel
+/// yields no sample.
 #[pyfunction]
 #[pyo3(signature = (camera, z, half, sample="chief", n_threads=None))]
-fn sample_grid<'py>(
-    py: Python<'py>,
+fn sample_grid(
+    py: Python<'_>,
     camera: &CameraCore,
     z: f64,
-    half: i64,
+    half: &Bound<'_, PyAny>,
     sample: &str,
-    n_threads: Option<usize>,
-) -> PyResult<GridArrays<'py>> {
+    n_threads: Option<&Bound<'_, PyAny>>,
+) -> PyResult<SampleGridArrays> {
     let cam = camera.inner;
-    let h = Half::from_number(half).map_err(to_py)?;
-    let s = Sample::from_name(sample).map_err(to_py)?;
-    let (rows, cols) = rayspace::check_sample_grid(&cam, z, n_threads).map_err(to_py)?;
-    let gx = PyArray2::<f64>::zeros(py, [rows, cols], false);
-    let gy = PyArray2::<f64>::zeros(py, [rows, cols], false);
+    let h = half_arg(half)?;
+    let s = sample_arg(sample)?;
+    let threads = threads_arg(n_threads)?;
+    let (rows, cols) = rayspace::check_sample_grid(&cam, z, threads).map_err(to_py)?;
+    let gx = empty::<f64, _>(py, &[rows, cols], "sample_grid")?;
+    let gy = empty::<f64, _>(py, &[rows, cols], "sample_grid")?;
     {
         let mut xw = gx.readwrite();
         let mut yw = gy.readwrite();
         let xs = xw.as_slice_mut().map_err(internal)?;
         let ys = yw.as_slice_mut().map_err(internal)?;
-        py.detach(|| rayspace::sample_grid_into(&cam, z, h, s, xs, ys, n_threads))
-            .map_err(to_py)?;
+        run(py, || {
+            rayspace::sample_grid_into(&cam, z, h, s, xs, ys, threads)
+        })?;
     }
-    Ok((gx, gy))
+    Ok(SampleGridArrays {
+        x: gx.unbind(),
+        y: gy.unbind(),
+    })
 }
+
+// ---- simulation --------------------------------------------------------------------------
 
 /// Widest pixel kernel (hi − lo, mm in object-space X) of a source at depth z.
 #[pyfunction]
@@ -483,29 +834,32 @@ fn kernel_support(
     camera: &CameraCore,
     z: f64,
     source: &str,
-    n_threads: Option<usize>,
+    n_threads: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<f64> {
     let cam = camera.inner;
     let src = Source::from_name(source).map_err(to_py)?;
-    py.detach(|| simulate::kernel_support(&cam, z, src, n_threads))
-        .map_err(to_py)
+    let threads = threads_arg(n_threads)?;
+    run(py, || simulate::kernel_support(&cam, z, src, threads))
 }
 
-type CsrArrays<'py> = (
-    Bound<'py, PyArray1<i64>>,
-    Bound<'py, PyArray1<i64>>,
-    Bound<'py, PyArray1<f64>>,
-    Bound<'py, PyArray1<i64>>,
-    (usize, usize),
-);
+/// A system matrix in CSR form (SciPy's `csr_matrix((data, indices, indptr), shape)`) and
+/// the pixel each row stands for.
+#[pyclass(frozen, get_all, module = "splitlf._native")]
+struct SystemMatrixArrays {
+    indptr: Py<PyArray1<i64>>,
+    indices: Py<PyArray1<i64>>,
+    data: Py<PyArray1<f64>>,
+    pixels: Py<PyArray1<i64>>,
+    shape: (usize, usize),
+}
 
 /// System matrix of a source at depth z on the grid (origin, step, n_cells), rows the
-/// pixels whose kernels lie in [field_lo, field_hi]: (indptr, indices, data, pixels, shape).
+/// pixels whose kernels lie in [field_lo, field_hi].
 #[pyfunction]
 #[pyo3(signature = (camera, z, source, origin, step, n_cells, field_lo, field_hi, n_threads=None))]
 #[allow(clippy::too_many_arguments)]
-fn system_matrix<'py>(
-    py: Python<'py>,
+fn system_matrix(
+    py: Python<'_>,
     camera: &CameraCore,
     z: f64,
     source: &str,
@@ -514,34 +868,40 @@ fn system_matrix<'py>(
     n_cells: usize,
     field_lo: f64,
     field_hi: f64,
-    n_threads: Option<usize>,
-) -> PyResult<CsrArrays<'py>> {
+    n_threads: Option<&Bound<'_, PyAny>>,
+) -> PyResult<SystemMatrixArrays> {
     let cam = camera.inner;
     let src = Source::from_name(source).map_err(to_py)?;
     let grid = Grid::new(origin, step, n_cells).map_err(to_py)?;
-    let sys = py
-        .detach(|| simulate::system_matrix(&cam, z, src, grid, (field_lo, field_hi), n_threads))
-        .map_err(to_py)?;
+    let threads = threads_arg(n_threads)?;
+    let sys = run(py, || {
+        simulate::system_matrix(&cam, z, src, grid, (field_lo, field_hi), threads)
+    })?;
     let m = sys.matrix;
-    let px: Vec<i64> = sys.pixels.iter().map(|&p| p as i64).collect();
-    Ok((
-        m.indptr.into_pyarray(py),
-        m.indices.into_pyarray(py),
-        m.data.into_pyarray(py),
-        px.into_pyarray(py),
-        (m.rows, m.cols),
-    ))
+    let px = sys.pixels.iter().map(|&p| p as i64);
+    Ok(SystemMatrixArrays {
+        indptr: m.indptr.into_pyarray(py).unbind(),
+        indices: m.indices.into_pyarray(py).unbind(),
+        data: m.data.into_pyarray(py).unbind(),
+        pixels: filled::<i64, _>(py, &[sys.pixels.len()], "system_matrix", px)?.unbind(),
+        shape: (m.rows, m.cols),
+    })
 }
 
-type RenderArrays<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray1<i64>>);
+/// Noise-free pixel values (n_tex, n_pix) and the pixels they belong to.
+#[pyclass(frozen, get_all, module = "splitlf._native")]
+struct RenderArrays {
+    values: Py<PyArray2<f64>>,
+    pixels: Py<PyArray1<i64>>,
+}
 
 /// Noise-free pixel values of a source at depth z for textures (n_tex, n_cells) constant on
-/// each cell of the grid: (values (n_tex, n_pix), pixels).
+/// each cell of the grid.
 #[pyfunction]
 #[pyo3(signature = (camera, z, source, origin, step, field_lo, field_hi, textures, n_threads=None))]
 #[allow(clippy::too_many_arguments)]
-fn render<'py>(
-    py: Python<'py>,
+fn render(
+    py: Python<'_>,
     camera: &CameraCore,
     z: f64,
     source: &str,
@@ -549,28 +909,69 @@ fn render<'py>(
     step: f64,
     field_lo: f64,
     field_hi: f64,
-    textures: PyReadonlyArray2<'py, f64>,
-    n_threads: Option<usize>,
-) -> PyResult<RenderArrays<'py>> {
+    textures: PyReadonlyArray2<'_, f64>,
+    n_threads: Option<&Bound<'_, PyAny>>,
+) -> PyResult<RenderArrays> {
     let cam = camera.inner;
     let src = Source::from_name(source).map_err(to_py)?;
     let (n_tex, n_cells) = textures.as_array().dim();
     let grid = Grid::new(origin, step, n_cells).map_err(to_py)?;
+    let threads = threads_arg(n_threads)?;
     let flat: Cow<'_, [f64]> = match textures.as_slice() {
         Ok(s) => Cow::Borrowed(s),
-        Err(_) => Cow::Owned(textures.as_array().iter().copied().collect()),
+        Err(_) => {
+            let view = textures.as_array();
+            let mut v = memory::try_with_capacity("contiguous copy of textures", view.len())
+                .map_err(to_py)?;
+            v.extend(view.iter().copied());
+            Cow::Owned(v)
+        }
     };
-    let (values, pixels) = py
-        .detach(|| simulate::render(&cam, z, src, grid, (field_lo, field_hi), &flat, n_threads))
-        .map_err(to_py)?;
-    let px: Vec<i64> = pixels.iter().map(|&p| p as i64).collect();
-    Ok((rows(py, values, n_tex)?, px.into_pyarray(py)))
+    let (values, pixels) = run(py, || {
+        simulate::render(&cam, z, src, grid, (field_lo, field_hi), &flat, threads)
+    })?;
+    let n_pix = pixels.len();
+    let values = numpy::ndarray::Array2::from_shape_vec((n_tex, n_pix), values)
+        .map_err(internal)?
+        .into_pyarray(py);
+    let px = pixels.iter().map(|&p| p as i64);
+    Ok(RenderArrays {
+        values: values.unbind(),
+        pixels: filled::<i64, _>(py, &[n_pix], "render", px)?.unbind(),
+    })
+}
+
+/// Bytes the memory guard lets one call allocate now (see `splitlf_core::memory`).
+#[pyfunction]
+fn available_memory() -> u128 {
+    memory::available()
 }
 
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    // Limits and defaults: the single source for the Python layer and the CLI.
+    m.add("MAX_THREADS", parallel::MAX_THREADS)?;
+    m.add("MAX_POOLS", parallel::MAX_POOLS)?;
+    m.add("MAX_Q", camera::MAX_Q)?;
+    m.add("MAX_K", camera::MAX_K)?;
+    m.add("DEFAULT_TOL", samples::DEFAULT_TOL)?;
+    m.add("DEFAULT_THRESHOLD_PX", optics::DEFAULT_THRESHOLD_PX)?;
+    m.add("DEFAULT_MAX_N", samples::DEFAULT_MAX_N)?;
+    m.add("MAX_PAIRS", samples::MAX_PAIRS)?;
+    m.add("MAX_SAMPLES_PER_AXIS", samples::MAX_SAMPLES_PER_AXIS)?;
+    m.add("MAX_COINCIDENCE_WORK", samples::MAX_COINCIDENCE_WORK)?;
+    m.add("MAX_CELLS", simulate::MAX_CELLS)?;
     m.add_class::<CameraCore>()?;
+    m.add_class::<CurvesArrays>()?;
+    m.add_class::<DepthOfFieldIntervals>()?;
+    m.add_class::<NewSamplesArrays>()?;
+    m.add_class::<PlaneColumns>()?;
+    m.add_class::<TraceArrays>()?;
+    m.add_class::<FootprintArrays>()?;
+    m.add_class::<SampleGridArrays>()?;
+    m.add_class::<SystemMatrixArrays>()?;
+    m.add_class::<RenderArrays>()?;
     m.add_function(wrap_pyfunction!(curves, m)?)?;
     m.add_function(wrap_pyfunction!(depth_of_field, m)?)?;
     m.add_function(wrap_pyfunction!(sharp_fractions, m)?)?;
@@ -583,5 +984,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(kernel_support, m)?)?;
     m.add_function(wrap_pyfunction!(system_matrix, m)?)?;
     m.add_function(wrap_pyfunction!(render, m)?)?;
+    m.add_function(wrap_pyfunction!(available_memory, m)?)?;
     Ok(())
 }
