@@ -10,8 +10,11 @@ trap 'rm -rf "$work"' EXIT
 echo "== wheel: build (maturin --zig, manylinux2014, abi3)"
 python -m venv "$work/build"
 "$work/build/bin/pip" install -q "maturin>=1.9.4,<2" "ziglang>=0.13"
-"$work/build/bin/maturin" build --release --zig --compatibility manylinux2014 \
-    --out "$work/dist" --quiet
+# maturin finds zig as `python -m ziglang`: the build venv's python must come first.
+(
+    export PATH="$work/build/bin:$PATH"
+    maturin build --release --zig --compatibility manylinux2014 --out "$work/dist" --quiet
+)
 ls "$work/dist"
 wheels=("$work"/dist/*.whl)
 if [ "${#wheels[@]}" -ne 1 ]; then
