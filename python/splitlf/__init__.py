@@ -5,6 +5,9 @@ description, presets, presentation and orchestration. Lengths are in millimetres
 are positive distances in front of the main lens.
 """
 
+import importlib
+from types import ModuleType
+
 from ._native import __version__
 from .camera import Camera
 from .errors import InvalidParameter, SplitlfError, TooLargeError
@@ -41,3 +44,20 @@ __all__ = [
     "simulate",
     "trace",
 ]
+
+#: Submodules whose optional dependencies (matplotlib, xarray, pandas, dask) are imported
+#: only on first use: ``splitlf.plot.blur(...)`` and ``splitlf.sweep.sweep(...)`` work
+#: after a plain ``import splitlf``, which itself imports neither.
+_LAZY_SUBMODULES = ("cli", "plot", "report", "sweep")
+
+
+def __getattr__(name: str) -> ModuleType:
+    if name in _LAZY_SUBMODULES:
+        module = importlib.import_module(f".{name}", __name__)
+        globals()[name] = module
+        return module
+    raise AttributeError(f"module 'splitlf' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_LAZY_SUBMODULES])
