@@ -452,7 +452,8 @@ HUGE = Camera(80.0, 20.0, 90.0, 0.3, 0.1, 1.0, 0.01, 65535, 10_000_000, 10_000_0
         (lambda: splitlf.sample_grid(HUGE, 500.0, 1), MemoryError, "bytes"),
         (lambda: splitlf.trace(HUGE, 1), MemoryError, "bytes"),
         (lambda: splitlf.footprints(HUGE, [500.0], 1), MemoryError, "bytes"),
-        (lambda: splitlf.footprints(PAPER, np.full(10**9, 500.0), 1), MemoryError, "bytes"),
+        # 2e6 depths x 3,990 pixels x 3 outputs = 190 GB: refused before anything is allocated.
+        (lambda: splitlf.footprints(PAPER, np.full(2 * 10**6, 500.0), 1), MemoryError, "bytes"),
     ],
 )
 def test_bad_input_raises_before_work(call, exc, words):

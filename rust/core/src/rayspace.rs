@@ -600,7 +600,11 @@ pub fn footprints_into(
         centres.extend(tr.lens.iter().map(|&j| cam.lens_center(j, k_lenses)));
         Ok((tr, pre, centres))
     })??;
-    let (tr, pre, centres) = (&work.0, &work.1, &work.2[..]);
+    let px = PixelSet {
+        tr: &work.0,
+        pre: &work.1,
+        centres: &work.2[..],
+    };
     let cost = n as u128 * if out.kernel.is_some() { 40 } else { 8 };
     let FootprintsOut {
         position,
@@ -619,9 +623,17 @@ pub fn footprints_into(
                 (&mut b[w.clone()], &mut v[w])
             }),
         };
-        footprint_rows(cam, &z[r], tr, pre, centres, sample, rows);
+        footprint_rows(cam, &z[r], &px, sample, rows);
         Ok(())
     })
+}
+
+/// What the footprint loops read of one half: its trace, the vertex columns and the lens
+/// centre of every pixel.
+struct PixelSet<'a> {
+    tr: &'a Trace,
+    pre: &'a Prepared,
+    centres: &'a [f64],
 }
 
 /// Footprints at the depths `z` into rows of the same count, in parallel over tasks of
@@ -629,13 +641,11 @@ pub fn footprints_into(
 fn footprint_rows(
     cam: &Camera,
     z: &[f64],
-    tr: &Trace,
-    pre: &Prepared,
-    centres: &[f64],
+    px: &PixelSet<'_>,
     sample: Sample,
     out: FootprintsOut<'_>,
 ) {
-    let n = pre.n;
+    let n = px.pre.n;
     let rows = rows_per_task(n);
     out.position
         .par_chunks_mut(rows * n)
@@ -646,66 +656,58 @@ fn footprint_rows(
             for (r, &zk) in zs.iter().enumerate() {
                 let span = r * n..(r + 1) * n;
                 let zc = conjugate(cam.f_main, zk);
-                footprint_row(
-                    cam,
-                    tr,
-                    pre,
-                    centres,
-                    sample,
-                    zk,
-                    zc,
-                    &mut pos[span.clone()],
+                // X = −p' z / v' (negative: lo comes from the largest p').
+                let (sigma, scale) = (slope(cam, zc), -zk / cam.v1);
+                extent_row(
+                    px.pre,
+                    sigma,
+                    scale,
                     &mut lo[span.clone()],
-                    &mut hi[span],
+                    &mut hi[span.clone()],
                 );
+                position_row(cam, px, sample, zk, zc, &mut pos[span]);
             }
         });
     if let Some((br, va)) = out.kernel {
-        let w = n * MAX_VERTICES;
-        br.par_chunks_mut(rows * w)
-            .zip(va.par_chunks_mut(rows * w))
-            .zip(z.par_chunks(rows))
-            .for_each(|((br, va), zs)| {
-                for (r, &zk) in zs.iter().enumerate() {
-                    let sigma = slope(cam, conjugate(cam.f_main, zk));
-                    let scale = -zk / cam.v1;
-                    for (i, p) in tr.polygons.iter().enumerate() {
-                        let o = (r * n + i) * MAX_VERTICES;
-                        let (b, v) = weight_profile(p, sigma);
-                        for t in 0..MAX_VERTICES {
-                            // X = −p' z / v' reverses the order: write ascending in X,
-                            // then the NaN padding.
-                            let (bt, vt) = if t < p.n {
-                                (b[p.n - 1 - t] * scale, v[p.n - 1 - t])
-                            } else {
-                                (f64::NAN, f64::NAN)
-                            };
-                            br[o + t] = bt;
-                            va[o + t] = vt;
-                        }
-                    }
-                }
-            });
+        kernel_rows(cam, z, px.tr, br, va);
     }
 }
 
-/// One depth: positions and extents of all n pixels, written straight into the output rows.
-#[allow(clippy::too_many_arguments)]
+/// Weight profiles of every pixel at the depths `z` (rows of n × 6 breakpoints and values).
+fn kernel_rows(cam: &Camera, z: &[f64], tr: &Trace, br: &mut [f64], va: &mut [f64]) {
+    let n = tr.polygons.len();
+    let rows = rows_per_task(n);
+    let w = n * MAX_VERTICES;
+    br.par_chunks_mut(rows * w)
+        .zip(va.par_chunks_mut(rows * w))
+        .zip(z.par_chunks(rows))
+        .for_each(|((br, va), zs)| {
+            for (r, &zk) in zs.iter().enumerate() {
+                let sigma = slope(cam, conjugate(cam.f_main, zk));
+                let scale = -zk / cam.v1;
+                for (i, p) in tr.polygons.iter().enumerate() {
+                    let o = (r * n + i) * MAX_VERTICES;
+                    let (b, v) = weight_profile(p, sigma);
+                    for t in 0..MAX_VERTICES {
+                        // X = −p' z / v' reverses the order: write ascending in X,
+                        // then the NaN padding.
+                        let (bt, vt) = if t < p.n {
+                            (b[p.n - 1 - t] * scale, v[p.n - 1 - t])
+                        } else {
+                            (f64::NAN, f64::NAN)
+                        };
+                        br[o + t] = bt;
+                        va[o + t] = vt;
+                    }
+                }
+            }
+        });
+}
+
+/// Extents [lo, hi] of all n pixels at one depth (slope σ, object-space scale −z/v'),
+/// written straight into the output rows.
 #[inline]
-fn footprint_row(
-    cam: &Camera,
-    tr: &Trace,
-    pre: &Prepared,
-    centres: &[f64],
-    sample: Sample,
-    z: f64,
-    zc: f64,
-    pos: &mut [f64],
-    lo: &mut [f64],
-    hi: &mut [f64],
-) {
-    let sigma = slope(cam, zc);
-    let scale = -z / cam.v1; // X = −p' z / v' (negative: lo comes from the largest p')
+fn extent_row(pre: &Prepared, sigma: f64, scale: f64, lo: &mut [f64], hi: &mut [f64]) {
     let n = pre.n;
     let (vu, vw) = (&pre.vu, &pre.vw);
     // Blocks of pixels, vertex by vertex inside a block: every inner loop runs over
@@ -749,17 +751,24 @@ fn footprint_row(
         }
         start = end;
     }
+}
+
+/// Sample positions of all n pixels at one depth z (conjugate zc).
+#[inline]
+fn position_row(cam: &Camera, px: &PixelSet<'_>, sample: Sample, z: f64, zc: f64, pos: &mut [f64]) {
+    let pre = px.pre;
     match sample {
         Sample::Centroid => {
+            let (sigma, scale) = (slope(cam, zc), -z / cam.v1);
             for ((o, &u), &w) in pos.iter_mut().zip(&pre.su).zip(&pre.sw) {
                 *o = (u + sigma * w) * scale;
             }
         }
         Sample::Chief => {
-            for i in 0..n {
-                let p = cam.chief_projection(tr.half, centres[i], tr.pixel[i], zc);
+            for (i, o) in pos.iter_mut().enumerate().take(pre.n) {
+                let p = cam.chief_projection(px.tr.half, px.centres[i], px.tr.pixel[i], zc);
                 // su is 0 for lit pixels and NaN for unlit ones.
-                pos[i] = cam.object_position(p, z) + pre.su[i];
+                *o = cam.object_position(p, z) + pre.su[i];
             }
         }
     }

@@ -816,8 +816,8 @@ pub struct CoincidencePlane {
 pub const COINCIDENCE_TOL: f64 = 1e-6;
 
 /// Every coincidence plane of `half` with coprime N ≤ max_n, T ≤ max_t (default Q), on both
-/// sides of the out-of-focus plane where it exists (1 − r > 0, z' > F), sorted by depth z.
-/// r = N d v / (T μ L_i); z' = L_i / (1 ± r).
+/// sides of the out-of-focus plane where it exists (1 − r > 0, z' > F), sorted by depth z,
+/// each with the closed form of Eqs. 8–9 and the brute-force count.
 pub fn coincidence_planes(
     cam: &Camera,
     half: Half,
@@ -825,6 +825,16 @@ pub fn coincidence_planes(
     max_t: Option<i64>,
     n_threads: Option<usize>,
 ) -> Result<Vec<CoincidencePlane>> {
+    let (max_n, max_t) = check_pairs(cam, max_n, max_t)?;
+    check_size(cam)?;
+    let mut planes = enumerate_planes(cam, half, max_n, max_t)?;
+    check_coincidence_work(cam, half, planes.len(), max_n, max_t)?;
+    count_planes(cam, half, &mut planes, n_threads)?;
+    Ok(planes)
+}
+
+/// Validate max_n and max_t (None: Q) and their product against [`MAX_PAIRS`].
+fn check_pairs(cam: &Camera, max_n: i64, max_t: Option<i64>) -> Result<(u32, u32)> {
     if !(1..=MAX_PAIRS as i64).contains(&max_n) {
         return Err(Error::param(
             "max_n",
@@ -847,23 +857,29 @@ pub fn coincidence_planes(
             format!("at most {MAX_PAIRS} (N, T) pairs"),
         ));
     }
-    check_size(cam)?;
+    Ok((max_n as u32, max_t as u32))
+}
+
+/// The planes of docs/model.md §6 with r = N d v / (T μ L_i), z' = L_i / (1 ± r), sorted by
+/// depth, with Eqs. 8–9 (Q_lit for Q) and `counted` still 0.
+fn enumerate_planes(
+    cam: &Camera,
+    half: Half,
+    max_n: u32,
+    max_t: u32,
+) -> Result<Vec<CoincidencePlane>> {
     let l = cam.array_plane(half);
     let q_lit = cam.lit_pixels(half) as u64;
     let mut planes = Vec::new();
     try_reserve(
         &mut planes,
         "coincidence_planes",
-        2 * (max_n * max_t) as usize,
+        2 * max_n as usize * max_t as usize,
     )?;
-    for n in 1..=max_n as u32 {
-        for t in 1..=max_t as u32 {
-            if gcd(n as u64, t as u64) != 1 {
-                continue;
-            }
+    for n in 1..=max_n {
+        for t in (1..=max_t).filter(|&t| gcd(n as u64, t as u64) == 1) {
             let r = n as f64 * cam.d * cam.v / (t as f64 * cam.mu * l);
-            let far = l / (1.0 + r);
-            let sides = [(Side::Far, far), (Side::Near, l / (1.0 - r))];
+            let sides = [(Side::Far, l / (1.0 + r)), (Side::Near, l / (1.0 - r))];
             for (side, zc) in sides {
                 let valid = match side {
                     Side::Far => zc > cam.f_main,
@@ -890,38 +906,62 @@ pub fn coincidence_planes(
         }
     }
     planes.sort_by(|a, b| a.z.total_cmp(&b.z));
-    // The brute force generates, sorts and scans (K_x + K_y) Q_lit positions per plane.
-    let per_plane = (cam.kx as u128 + cam.ky as u128) * q_lit as u128;
-    let work = planes.len() as u128 * per_plane;
+    Ok(planes)
+}
+
+/// Sample positions the brute force generates, sorts and scans per plane: (K_x + K_y) Q_lit.
+fn positions_per_plane(cam: &Camera, half: Half) -> u128 {
+    (cam.kx as u128 + cam.ky as u128) * cam.lit_pixels(half) as u128
+}
+
+/// Refuse a brute-force count above [`MAX_COINCIDENCE_WORK`] before it starts.
+fn check_coincidence_work(
+    cam: &Camera,
+    half: Half,
+    n_planes: usize,
+    max_n: u32,
+    max_t: u32,
+) -> Result<()> {
+    let per_plane = positions_per_plane(cam, half);
+    let work = n_planes as u128 * per_plane;
     if work > MAX_COINCIDENCE_WORK as u128 {
         return Err(Error::TooMuchWork {
             what: format!(
-                "coincidence_planes with max_n = {max_n}, max_t = {max_t}: {} planes x {per_plane} \
-                 lit pixels (lower max_n or max_t)",
-                planes.len()
+                "coincidence_planes with max_n = {max_n}, max_t = {max_t}: {n_planes} planes x \
+                 {per_plane} lit pixels (lower max_n or max_t)"
             ),
             amount: work,
             limit: MAX_COINCIDENCE_WORK as u128,
             unit: "sample positions",
         });
     }
+    Ok(())
+}
+
+/// The brute-force count of every plane: distinct chief samples along x times along y,
+/// at the plane's own conjugate z' (not re-derived from z), in interruptible chunks.
+fn count_planes(
+    cam: &Camera,
+    half: Half,
+    planes: &mut [CoincidencePlane],
+    n_threads: Option<usize>,
+) -> Result<()> {
     let layout = Layout::new(cam);
     let eps = merge_eps(cam, COINCIDENCE_TOL);
     let k = cam.kx.max(cam.ky) as usize;
-    let n = k * q_lit as usize;
+    let n = k * cam.lit_pixels(half) as usize;
     let (inner, q) = (k.max(cam.q as usize), cam.q as usize);
     memory::check(
         "coincidence_planes",
         memory::bytes_of::<CoincidencePlane>(planes.len() as u128)
             + threads(n_threads) as u128 * Scratch::bytes([n, 0], inner, q),
     )?;
-    let step = chunk_items(n_threads, 4 * per_plane);
+    let step = chunk_items(n_threads, 4 * positions_per_plane(cam, half));
     for_chunks(n_threads, planes.len(), step, |r| {
         planes[r].par_iter_mut().try_for_each_init(
             || Scratch::reserved([n, 0], inner, q),
             |s, p| -> Result<()> {
                 let s = s.as_mut().map_err(|e| e.clone())?;
-                // The count runs at the plane's own conjugate z' (not re-derived from z).
                 let mut count = 1;
                 for axis in [Axis::X, Axis::Y] {
                     half_samples(
@@ -939,8 +979,7 @@ pub fn coincidence_planes(
                 Ok(())
             },
         )
-    })?;
-    Ok(planes)
+    })
 }
 
 #[cfg(test)]

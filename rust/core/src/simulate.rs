@@ -195,75 +195,91 @@ pub fn kernels(cam: &Camera, z: f64, source: Source) -> Result<Vec<Kernel>> {
     let scale = -z / cam.v1; // X = −p' z / v'
     let norm = source.transmission() * (cam.v1 / z) / (cam.aperture * cam.mu);
     match source {
-        Source::Half(half) => {
-            let n_px = cam.kx as u128 * cam.q as u128;
-            let per = TRACE_BYTES_PER_PIXEL + memory::bytes_of::<Kernel>(1);
-            memory::check("kernels (trace and kernels)", n_px * per)?;
-            let tr = trace(cam, half, Axis::X)?;
-            let sigma = slope(cam, zc);
-            Ok(tr
-                .polygons
-                .par_iter()
-                .enumerate()
-                .filter(|(_, p)| p.n > 0)
-                .map(|(i, p)| {
-                    let (b, v) = weight_profile(p, sigma);
-                    let mut k = Kernel {
-                        pixel: i as u32,
-                        n: p.n,
-                        x: [f64::NAN; MAX_VERTICES],
-                        w: [f64::NAN; MAX_VERTICES],
-                    };
-                    // X = −p' z/v' reverses the order.
-                    for t in 0..p.n {
-                        k.x[t] = b[p.n - 1 - t] * scale;
-                        k.w[t] = v[p.n - 1 - t] * norm;
-                    }
-                    k
-                })
-                .collect())
-        }
-        Source::Conventional(half) => {
-            let l = cam.array_plane(half);
-            let a = l / cam.v1;
-            let n_px = cam.kx as u64 * cam.q as u64;
-            memory::check(
-                "conventional kernels",
-                memory::bytes_of::<Kernel>(n_px as u128),
-            )?;
-            // Pixel box half-width A = μ/(2a) and blur half-width B = H_i v'/L_i, in p'.
-            let half_px = cam.mu / (2.0 * a);
-            let blur = main_blur(cam, half, zc) * cam.v1 / l;
-            // Weight on the plateau: the aperture length min(2A, 2B)/|g| with
-            // |g| = 2B/D the shear of w into p'; D when in focus (B ≤ A).
-            let plateau = if blur <= half_px {
-                cam.aperture
-            } else {
-                cam.aperture * half_px / blur
-            };
-            let (outer, inner) = (half_px + blur, (half_px - blur).abs());
-            Ok((0..n_px)
-                .into_par_iter()
-                .map(|k| {
-                    let s = (k as f64 - (n_px as f64 - 1.0) / 2.0) * cam.mu;
-                    let c = s / a;
-                    let br = [c + outer, c + inner, c - inner, c - outer];
-                    let va = [0.0, plateau, plateau, 0.0];
-                    let mut kern = Kernel {
-                        pixel: k as u32,
-                        n: 4,
-                        x: [f64::NAN; MAX_VERTICES],
-                        w: [f64::NAN; MAX_VERTICES],
-                    };
-                    for t in 0..4 {
-                        kern.x[t] = br[t] * scale; // scale < 0: ascending in X
-                        kern.w[t] = va[t] * norm;
-                    }
-                    kern
-                })
-                .collect())
-        }
+        Source::Half(half) => light_field_kernels(cam, half, zc, scale, norm),
+        Source::Conventional(half) => conventional_kernels(cam, half, zc, scale, norm),
     }
+}
+
+/// A kernel from breakpoints in p' (ascending) and weights: X = −p' z/v' (scale < 0)
+/// reverses the order, so the kernel is ascending in X.
+fn kernel_from(pixel: u32, br: &[f64], va: &[f64], scale: f64, norm: f64) -> Kernel {
+    let n = br.len();
+    let mut k = Kernel {
+        pixel,
+        n,
+        x: [f64::NAN; MAX_VERTICES],
+        w: [f64::NAN; MAX_VERTICES],
+    };
+    for t in 0..n {
+        k.x[t] = br[n - 1 - t] * scale;
+        k.w[t] = va[n - 1 - t] * norm;
+    }
+    k
+}
+
+/// A light field half: the weight profile of every pixel's integration polygon.
+fn light_field_kernels(
+    cam: &Camera,
+    half: Half,
+    zc: f64,
+    scale: f64,
+    norm: f64,
+) -> Result<Vec<Kernel>> {
+    let n_px = cam.kx as u128 * cam.q as u128;
+    let per = TRACE_BYTES_PER_PIXEL + memory::bytes_of::<Kernel>(1);
+    memory::check("kernels (trace and kernels)", n_px * per)?;
+    let tr = trace(cam, half, Axis::X)?;
+    let sigma = slope(cam, zc);
+    Ok(tr
+        .polygons
+        .par_iter()
+        .enumerate()
+        .filter(|(_, p)| p.n > 0)
+        .map(|(i, p)| {
+            let (b, v) = weight_profile(p, sigma);
+            kernel_from(i as u32, &b[..p.n], &v[..p.n], scale, norm)
+        })
+        .collect())
+}
+
+/// The camera without microlenses, sensor on plane L_i: a trapezoid per pixel (pixel box
+/// convolved with the main-lens blur).
+fn conventional_kernels(
+    cam: &Camera,
+    half: Half,
+    zc: f64,
+    scale: f64,
+    norm: f64,
+) -> Result<Vec<Kernel>> {
+    let l = cam.array_plane(half);
+    let a = l / cam.v1;
+    let n_px = cam.kx as u64 * cam.q as u64;
+    memory::check(
+        "conventional kernels",
+        memory::bytes_of::<Kernel>(n_px as u128),
+    )?;
+    // Pixel box half-width A = μ/(2a) and blur half-width B = H_i v'/L_i, in p'.
+    let half_px = cam.mu / (2.0 * a);
+    let blur = main_blur(cam, half, zc) * cam.v1 / l;
+    // Weight on the plateau: the aperture length min(2A, 2B)/|g| with
+    // |g| = 2B/D the shear of w into p'; D when in focus (B ≤ A).
+    let plateau = if blur <= half_px {
+        cam.aperture
+    } else {
+        cam.aperture * half_px / blur
+    };
+    let (outer, inner) = (half_px + blur, (half_px - blur).abs());
+    Ok((0..n_px)
+        .into_par_iter()
+        .map(|k| {
+            let s = (k as f64 - (n_px as f64 - 1.0) / 2.0) * cam.mu;
+            let c = s / a;
+            // Ascending in p' (`kernel_from` reverses them into ascending X).
+            let br = [c - outer, c - inner, c + inner, c + outer];
+            let va = [0.0, plateau, plateau, 0.0];
+            kernel_from(k as u32, &br, &va, scale, norm)
+        })
+        .collect())
 }
 
 /// Widest kernel support (hi − lo, mm in X) over the pixels of `source` at depth z.
