@@ -75,6 +75,5 @@ def test_boundary_contacts_are_not_lit():
         assert (np.isnan(tr.centroid[:, 0]) == (tr.area == 0)).all()
     s = splitlf.new_samples(cam, [100.0], sample="centroid")
     lit_x = [int((splitlf.trace(cam, h).area > 0).sum()) for h in (1, 2)]
-    counted = getattr(s, "sampled", s.lit)
-    assert list(counted[:2]) == lit_x
+    assert list(s.sampled[:2]) == lit_x
     assert not any(math.isnan(v) for v in s.max_gap.ravel() if not math.isinf(v))

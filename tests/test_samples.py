@@ -272,7 +272,7 @@ def test_union_bounds(name):
     assert np.all(r.distinct[2] <= r.distinct[0] + r.distinct[1])
     assert np.all(r.distinct_2d[2] >= np.maximum(r.distinct_2d[0], r.distinct_2d[1]))
     assert np.all(r.max_gap[2] <= np.minimum(r.max_gap[0], r.max_gap[1]))
-    assert np.all(r.distinct[:2] <= r.lit[:2, None])
+    assert np.all(r.distinct[:2] <= r.sampled[:2, None])
 
 
 @pytest.mark.parametrize("name", DESIGNS)
@@ -285,7 +285,7 @@ def test_matches_numpy_reference(name):
     distinct, d2, gap, lit = reference(cam, z)
     np.testing.assert_array_equal(r.distinct, distinct)
     np.testing.assert_array_equal(r.distinct_2d, d2)
-    np.testing.assert_array_equal(r.lit, lit)
+    np.testing.assert_array_equal(r.sampled, lit)
     np.testing.assert_array_equal(np.isinf(r.max_gap), np.isinf(gap))
     np.testing.assert_allclose(r.max_gap, gap, rtol=1e-9)
     assert r.distinct.dtype == np.int64 and r.max_gap.shape == (3, z.size)
@@ -409,7 +409,7 @@ def test_property_matches_reference(cam, t):
     distinct, d2, gap, lit = reference(cam, z)
     np.testing.assert_array_equal(r.distinct, distinct)
     np.testing.assert_array_equal(r.distinct_2d, d2)
-    np.testing.assert_array_equal(r.lit, lit)
+    np.testing.assert_array_equal(r.sampled, lit)
     np.testing.assert_allclose(r.max_gap, gap, rtol=1e-9)
 
 
@@ -573,7 +573,7 @@ def test_centroid_samples_match_footprints(name):
         counts, gaps, lit = _centroid_reference(cam, zk, 1e-6)
         assert list(r.distinct[:, k]) == counts, zk
         np.testing.assert_allclose(r.max_gap[:, k], gaps, rtol=1e-9)
-        assert list(r.lit[:2]) == lit
+        assert list(r.sampled[:2]) == lit
 
 
 def test_centroid_equals_chief_for_fully_lit_ng_pixels():
@@ -587,5 +587,5 @@ def test_centroid_equals_chief_for_fully_lit_ng_pixels():
     cen = splitlf.new_samples(cam, z, sample="centroid")
     np.testing.assert_array_equal(cen.distinct[0], chief.distinct[0])
     np.testing.assert_allclose(cen.max_gap[0], chief.max_gap[0], rtol=1e-9)
-    assert cen.lit[1] == chief.lit[1] == cam.Kx * 11
+    assert cen.sampled[1] == chief.sampled[1] == cam.Kx * 11
     assert np.any(np.abs(cen.max_gap[1] / chief.max_gap[1] - 1.0) > 1e-3)

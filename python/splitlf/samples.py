@@ -144,8 +144,11 @@ class NewSamples:
       field |X| <= K_x d z / (4 v'), in units of delta(z) = d z / (Q v'); about 1 is full
       sensor resolution, Q the microlens resolution; ``inf`` when the samples do not cover
       the field
-    - ``lit`` (3,) int64: pixels along x that yield a sample (``chief``: lit, K_x Q_lit;
-      ``centroid``: collecting any light) of half 1, of half 2, their sum
+    - ``sampled`` (3,) int64: pixels along x that yield a sample, of half 1, of half 2 and
+      their sum. ``chief``: the pixels lit by the chief-ray rule (K_x Q_lit, docs/model.md
+      §6); ``centroid``: the pixels whose integration polygon collects light (area at least
+      1e-9 of the half's largest, docs/model.md §9 "Lit by area"), which include partially
+      vignetted pixels the chief rule leaves out
     """
 
     z: np.ndarray
@@ -154,7 +157,7 @@ class NewSamples:
     distinct: np.ndarray
     distinct_2d: np.ndarray
     max_gap: np.ndarray
-    lit: np.ndarray
+    sampled: np.ndarray
 
 
 def new_samples(
@@ -199,7 +202,7 @@ def new_samples(
     t = _validate.real(tol, "tol")
     s = _validate.choice(sample, "sample", ("chief", "centroid"))
     r = _native.new_samples(cam.core, zs, t, s, _validate.n_threads(n_threads))
-    return NewSamples(zs, t, s, r.distinct, r.distinct_2d, r.max_gap, r.lit)
+    return NewSamples(zs, t, s, r.distinct, r.distinct_2d, r.max_gap, r.sampled)
 
 
 def sweep_depths(

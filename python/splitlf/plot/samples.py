@@ -38,8 +38,8 @@ def samples(
     a_count, a_gap = axes
     z = sweep_depths(cam, z_range, n=n, max_n=max(max_n, 1))
     r = new_samples(cam, z, tol=tol, n_threads=n_threads)
-    labels = {0: f"half 1 (lit {r.lit[0]})", 1: f"half 2 (lit {r.lit[1]})",
-              2: f"split sensor (lit {r.lit[2]})"}
+    labels = {0: f"half 1 ({r.sampled[0]} pixels)", 1: f"half 2 ({r.sampled[1]} pixels)",
+              2: f"split sensor ({r.sampled[2]} pixels)"}
     colors = [_COLORS[1], _COLORS[2], _COLORS["split"]]
     for row in range(3):
         lw = 1.6 if row == 2 else 1.1
@@ -47,7 +47,7 @@ def samples(
         gap = np.where(np.isfinite(r.max_gap[row]), r.max_gap[row], np.nan)
         a_gap.plot(z, gap, color=colors[row], lw=lw, label=labels[row].split(" (")[0])
     for row in range(3):
-        a_count.axhline(r.lit[row], color=colors[row], lw=0.6, ls=":")
+        a_count.axhline(r.sampled[row], color=colors[row], lw=0.6, ls=":")
     a_gap.axhline(1.0, color="0.4", lw=0.8, ls=":")
     a_gap.axhline(cam.Q, color="0.4", lw=0.8, ls=":")
     a_gap.annotate("full sensor resolution (1)", (z[-1], 1.0), xytext=(-4, -11), ha="right",
@@ -70,7 +70,7 @@ def samples(
                      label=f"coincidence planes, half {h} (N <= {max_n})")
     a_count.set_xscale("log")
     a_count.set_ylabel("distinct samples along x")
-    a_count.set_ylim(0, r.lit[2] * 1.12)
+    a_count.set_ylim(0, r.sampled[2] * 1.12)
     a_count.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     a_count.set_title("Genuinely new samples and resolution (chief samples, docs/model.md §6)")
     a_gap.set_yscale("log")

@@ -504,7 +504,8 @@ struct NewSamplesArrays {
     distinct: Py<PyArray2<i64>>,
     distinct_2d: Py<PyArray2<i64>>,
     max_gap: Py<PyArray2<f64>>,
-    lit: Py<PyArray1<i64>>,
+    /// Pixels along x that yield a sample (half 1, half 2, their sum).
+    sampled: Py<PyArray1<i64>>,
 }
 
 fn sample_arg(sample: &str) -> PyResult<Sample> {
@@ -549,7 +550,7 @@ fn new_samples(
         distinct: distinct.unbind(),
         distinct_2d: distinct_2d.unbind(),
         max_gap: max_gap.unbind(),
-        lit: lit.map(|x| x as i64).to_vec().into_pyarray(py).unbind(),
+        sampled: lit.map(|x| x as i64).to_vec().into_pyarray(py).unbind(),
     })
 }
 
