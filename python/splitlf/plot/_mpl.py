@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import inspect
 from typing import Any
 
 HALF_COLORS = {1: "tab:blue", 2: "tab:orange"}
+#: Most depths a curve figure draws (far beyond what a figure can show).
+MAX_POINTS = 1_000_000
 SPLIT_COLOR = "black"
 
 
@@ -53,9 +56,26 @@ def depth_grid(camera: Any, z_range: tuple[float, float], n: int) -> Any:
         raise ValueError(
             f"invalid z_range = ({lo}, {hi}): allowed F = {camera.F} < near < far < inf (mm)"
         )
-    if not isinstance(n, int) or n < 2:
-        raise ValueError(f"invalid n = {n!r}: allowed an integer >= 2")
+    if isinstance(n, bool) or not isinstance(n, int) or not 2 <= n <= MAX_POINTS:
+        raise ValueError(f"invalid n = {n!r}: allowed an integer in [2, {MAX_POINTS}]")
     z = np.geomspace(lo, hi, n)
     extra = [camera.out_of_focus_depth(h) for h in (1, 2)]
     extra = [e for e in extra if lo < e < hi]
     return np.unique(np.concatenate([z, extra]))
+
+
+def trace_threads(n_threads: int | None) -> dict[str, int]:
+    """Keyword arguments that run :func:`splitlf.trace` on ``n_threads`` threads.
+
+    Empty for None (all cores). Raises ``TypeError`` when a thread count is asked for and
+    the installed :func:`splitlf.trace` takes none (it then runs on all cores), so a
+    thread count is never silently ignored.
+    """
+    if n_threads is None:
+        return {}
+    from .. import rayspace
+
+    if "n_threads" not in inspect.signature(rayspace.trace).parameters:
+        raise TypeError("n_threads: splitlf.trace of this build takes no thread count "
+                        "(it runs on all cores)")
+    return {"n_threads": n_threads}
