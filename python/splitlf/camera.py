@@ -108,6 +108,19 @@ class Camera:
     Half 1 is the conventional light field camera (array at ``v1``); half 2 has its array
     at ``v1 * (1 + kappa)``. ``f1``/``f2`` default to Ng's setting, 1/f_i = 1/L_i + 1/v,
     and keep tracking it through :meth:`replace` unless given explicitly.
+
+    Fields: ``F`` main lens focal length, ``D`` aperture width (square), ``v1`` main lens
+    to array 1 (> F), ``kappa`` extra optical path of half 2 over v1 (>= 0, no unit),
+    ``d`` microlens pitch, ``v`` array to sensor, ``mu`` pixel width (all mm, finite,
+    > 0 unless stated); ``Q`` pixels per microlens (an integer in [1, 65535]), ``Kx``,
+    ``Ky`` microlenses per half along x, y (integers in [1, 10**7]); ``f1``, ``f2``
+    microlens focal lengths [mm] or None for Ng's setting.
+
+    Raises ``TypeError`` for a field of the wrong type (a count must be an integer, never
+    a bool or a float) and :class:`~splitlf.errors.InvalidParameter` (a ``ValueError``)
+    for a value, given or derived, out of range. Per-half methods take ``half``, the
+    integer 1 or 2 (``TypeError`` for anything else, :class:`InvalidParameter` for other
+    integers). Instances are immutable, hashable, picklable.
     """
 
     F: float
@@ -177,7 +190,10 @@ class Camera:
     # -- TOML ---------------------------------------------------------------------------
     @classmethod
     def from_dict(cls, data: dict[str, Any], source: str = "camera") -> Camera:
-        """Build from a mapping of field names; unknown names are a ValueError."""
+        """Build from a mapping of field names (``source`` names it in messages).
+
+        Raises ``TypeError`` when ``data`` is not a dict, ``ValueError`` naming ``source``
+        for unknown or missing fields, and the errors of the constructor."""
         if not isinstance(data, dict):
             raise TypeError(
                 f"{source}: expected a table of camera fields, got {type(data).__name__}"
@@ -194,7 +210,11 @@ class Camera:
 
     @classmethod
     def from_toml(cls, path: str | os.PathLike[str]) -> Camera:
-        """Read a camera from a TOML file: fields in a ``[camera]`` table (or at top level)."""
+        """Read a camera from a TOML file: fields in a ``[camera]`` table (or at top level).
+
+        Raises ``OSError`` when the file cannot be read, ``ValueError`` naming the file for
+        invalid TOML, a non-text file or unknown keys, and the errors of
+        :meth:`from_dict`."""
         doc = read_toml(path)
         table = doc.get("camera", doc) if isinstance(doc.get("camera"), dict) else doc
         if table is not doc:
@@ -207,7 +227,9 @@ class Camera:
         return cls.from_dict(table, source=os.fspath(path))
 
     def to_toml(self, path: str | os.PathLike[str] | None = None) -> str:
-        """Write the camera as TOML (exact: floats by repr); returns the text."""
+        """The camera as TOML text (exact: floats by repr). With ``path``, the file is
+        also written, atomically (a temporary file in its folder, then renamed over it: an
+        existing file is replaced whole or not at all); ``OSError`` if it cannot be."""
         lines = ["# splitlf camera: lengths in mm (docs/model.md symbols)", "[camera]"]
         for name in FIELDS:
             value = getattr(self, name)

@@ -81,6 +81,7 @@ def _check_suffix(option: str, path: Path, allowed: Iterable[str]) -> None:
 
 def _integer_type(what: str, lo: int, hi: int) -> Callable[[str], int]:
     def parse(text: str) -> int:
+        """An integer in [lo, hi], else argparse's error naming ``what``."""
         try:
             n = int(text)
         except ValueError:
@@ -98,6 +99,7 @@ def _integer_type(what: str, lo: int, hi: int) -> Callable[[str], int]:
 def _real_type(what: str, lo: float, allowed: str, *, lo_open: bool = True
                ) -> Callable[[str], float]:
     def parse(text: str) -> float:
+        """A finite real above ``lo``, else argparse's error naming ``what``."""
         try:
             x = float(text)
         except ValueError:

@@ -103,7 +103,11 @@ def forward(camera: Camera, z: float, source: str, origin: float, step: float,
     kernel lies inside ``field`` (default: the grid) are rendered. Returns (values
     (n_textures, n_pixels) or (n_pixels,), pixel indices along x). Units: a pixel of width
     mu on plane v' seeing the whole aperture under a white texture reads 1; the
-    light-field halves include the beam splitter's 1/2."""
+    light-field halves include the beam splitter's 1/2.
+
+    ``z`` depth [mm] > F; ``source`` one of :data:`SOURCES`; ``origin``, ``step`` [mm]
+    (step > 0); ``field`` (lo, hi) [mm]; ``n_threads`` threads of the core (None: all).
+    Raises ``TypeError`` (types) and ``ValueError`` (ranges, checked by the core)."""
     cam = _validate.camera(camera)
     t = np.asarray(texture)
     if t.dtype == object or not (np.issubdtype(t.dtype, np.floating)
@@ -125,7 +129,10 @@ def system_matrix(camera: Camera, z: float, source: str, origin: float, step: fl
     """The sparse system matrix (``scipy.sparse.csr_matrix``, pixels x cells) of ``source``
     on the plane at depth ``z``: entry (p, k) is the exact integral of pixel p's kernel over
     cell k (assembled in the core), in the units of :func:`forward`. Returns (matrix,
-    pixel indices along x)."""
+    pixel indices along x).
+
+    ``n_cells`` an integer >= 1; the other arguments as in :func:`forward`. Raises
+    ``TypeError``, ``ValueError`` and ``ImportError`` without SciPy."""
     sp = _scipy()[0]
     cam = _validate.camera(camera)
     o, h = _validate.real(origin, "origin"), _validate.real(step, "step")
@@ -168,7 +175,11 @@ def _albedo(value: Any, name: str) -> float:
 @dataclasses.dataclass(frozen=True)
 class Sinusoid:
     """mean + amplitude sin(2 pi frequency X + phase); frequency in cycles/mm on the
-    object, X the object-space position [mm] (0 on the optical axis)."""
+    object, X the object-space position [mm] (0 on the optical axis).
+
+    ``frequency`` finite > 0; ``mean``, ``amplitude`` finite >= 0 with amplitude <= mean
+    (albedo >= 0); ``phase`` [rad]. Raises ``TypeError`` (not real numbers) and
+    :class:`~splitlf.errors.InvalidParameter` (out of range)."""
 
     frequency: float
     mean: float = MTF_MEAN
@@ -183,6 +194,8 @@ class Sinusoid:
             raise ValueError(f"invalid amplitude = {a}: allowed <= mean = {m} (albedo >= 0)")
 
     def antiderivative(self, x: np.ndarray) -> np.ndarray:
+        """The integral of the albedo from 0 to each X in ``x`` [mm] (any shape); its
+        differences give exact cell averages."""
         w = 2 * np.pi * self.frequency
         return self.mean * x - self.amplitude / w * np.cos(w * x + self.phase)
 
@@ -190,7 +203,10 @@ class Sinusoid:
 @dataclasses.dataclass(frozen=True)
 class BarChart:
     """A square wave: ``high`` on the first half of each period, ``low`` on the second;
-    ``frequency`` in bar pairs (cycles) per mm on the object, a bar edge at X = 0."""
+    ``frequency`` in bar pairs (cycles) per mm on the object, a bar edge at X = 0.
+
+    ``frequency`` finite > 0; ``low``, ``high`` finite albedos >= 0. Raises ``TypeError``
+    (not real numbers) and :class:`~splitlf.errors.InvalidParameter` (out of range)."""
 
     frequency: float
     low: float = 0.1
@@ -202,6 +218,7 @@ class BarChart:
         _albedo(self.high, "high")
 
     def antiderivative(self, x: np.ndarray) -> np.ndarray:
+        """The integral of the albedo from 0 to each X in ``x`` [mm] (any shape)."""
         s = self.frequency * x
         k = np.floor(s)
         high_part = 0.5 * k + np.minimum(s - k, 0.5)  # high-bar length, in periods
@@ -212,7 +229,10 @@ class BarChart:
 class RandomAlbedo:
     """Independent albedos uniform in [low, high] on cells of ``cell`` mm (default
     delta(z)), aligned with X = 0, drawn from the simulation's seeded generator. A row of a
-    2D i.i.d. albedo field is a 1D i.i.d. albedo, so this is the 2D random albedo too."""
+    2D i.i.d. albedo field is a 1D i.i.d. albedo, so this is the 2D random albedo too.
+
+    ``cell`` [mm] finite > 0 or None; 0 <= ``low`` <= ``high``, finite. Raises
+    ``TypeError`` and :class:`~splitlf.errors.InvalidParameter`."""
 
     cell: float | None = None
     low: float = 0.0
@@ -230,7 +250,11 @@ class RandomAlbedo:
 class Image:
     """A user image: a 2D array of albedos (finite, >= 0) ``width`` mm wide on the object,
     centred on the optical axis; the simulation reads one row (default the middle one),
-    pixels as constant cells. Outside the image the albedo is the row's mean."""
+    pixels as constant cells. Outside the image the albedo is the row's mean.
+
+    ``array``: 2D (rows, columns) numeric array; ``width`` [mm] finite > 0; ``row`` an
+    integer in [0, rows) or None. Raises ``TypeError`` (dtype, row type) and
+    ``ValueError`` (shape, non-finite or negative albedo, range)."""
 
     array: np.ndarray
     width: float
@@ -256,6 +280,7 @@ class Image:
         object.__setattr__(self, "array", a)
 
     def line(self) -> np.ndarray:
+        """The row the simulation reads (``row``, default the middle one), shape (width,)."""
         r = self.array.shape[0] // 2 if self.row is None else int(self.row)
         return self.array[r]
 
@@ -410,6 +435,7 @@ class Simulation:
         that is not finite is None (the PSNR of an exact reconstruction is +inf)."""
 
         def finite(m: Mapping[str, float]) -> dict[str, float | None]:
+            """The mapping with +-inf and NaN as None."""
             return {k: (v if math.isfinite(v) else None) for k, v in m.items()}
 
         return {

@@ -12,6 +12,7 @@ SPLIT_COLOR = "black"
 
 
 def pyplot() -> Any:
+    """``matplotlib.pyplot``, imported on first use; ``ImportError`` naming the extra."""
     try:
         import matplotlib.pyplot as plt
     except ImportError as e:  # pragma: no cover - exercised only without matplotlib
@@ -41,6 +42,8 @@ def axes_pair(ax: Any, figsize: tuple[float, float], names: str) -> list[Any]:
 
 
 def mark_out_of_focus(ax: Any, camera: Any, label: bool = True) -> None:
+    """Dotted vertical lines at both out-of-focus planes [mm] on ``ax`` (labelled when
+    ``label``)."""
     for h in (1, 2):
         z = camera.out_of_focus_depth(h)
         ax.axvline(z, color=HALF_COLORS[h], lw=0.8, ls=":",
