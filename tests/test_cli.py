@@ -283,3 +283,16 @@ def test_figures_pass_threads_to_every_figure(tmp_path, monkeypatch, capsys):
                       "--dpi", "10"], capsys)
     assert code == 0 and seen == {"a": 3, "b": 3}
     assert sorted(p.name for p in (tmp_path / "f").iterdir()) == ["a.png", "b.png"]
+
+
+def test_written_files_get_the_usual_permissions(tmp_path, capsys):
+    import os
+
+    out = tmp_path / "t.npz"
+    assert main(["trace", "--out", str(out)]) == 0
+    umask = os.umask(0o022)
+    os.umask(umask)
+    assert out.stat().st_mode & 0o777 == 0o666 & ~umask  # not mkstemp's 0o600
+    out.chmod(0o640)
+    assert main(["trace", "--out", str(out), "--force"]) == 0
+    assert out.stat().st_mode & 0o777 == 0o640  # a replaced file keeps its permissions
