@@ -173,6 +173,7 @@ def test_option_values_are_checked_with_named_types(tmp_path, monkeypatch, capsy
     assert e.value.code == 2
     err = capsys.readouterr().err
     assert needle in err and "_threads" not in err and "Traceback" not in err
+    assert err.count("\n") == 1 and err.startswith(f"splitlf {args[0]}: error: argument")
     assert list(tmp_path.iterdir()) == []  # e.g. figures --dpi 0 made no folder
 
 

@@ -17,7 +17,7 @@ import os
 import sys
 from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 import tomllib
@@ -471,6 +471,13 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 
 # -- parser ------------------------------------------------------------------------------
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with its errors on one line, like every other error of the command line."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def _common(p: argparse.ArgumentParser, threads_help: str) -> None:
     p.add_argument("--config", metavar="CAM.toml",
                    help="camera TOML file (default: the seed design)")
@@ -537,7 +544,7 @@ def _add_sweep(sub: Any) -> None:
                        description="Full-factorial design sweep from a TOML file with "
                        "[grid], [depths] (min, max, num; log-spaced), [options] and an "
                        "optional [camera] base design.")
-    _common(p, "threads of the core (in-process sweeps)")
+    _common(p, "threads of the core for in-process sweeps")
     p.add_argument("--grid", required=True, metavar="SWEEP.toml",
                    help="the sweep file: [grid], [depths], [options], [camera]")
     p.add_argument("--scheduler", metavar="ADDRESS",
@@ -582,7 +589,7 @@ def _add_simulate(sub: Any) -> None:
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of every subcommand (report, figures, trace, sweep, simulate)."""
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="splitlf",
         description="Design and analysis of split-sensor light field cameras.",
     )
