@@ -10,4 +10,5 @@ from pathlib import Path
 from splitlf.cli import main
 
 if __name__ == "__main__":
-    raise SystemExit(main(["figures", "--out", str(Path(__file__).resolve().parent)]))
+    raise SystemExit(main(["figures", "--out", str(Path(__file__).resolve().parent),
+                          "--force"]))

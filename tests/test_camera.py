@@ -5,12 +5,13 @@ from __future__ import annotations
 import math
 import pickle
 
+import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import reference as ref
-from splitlf import Camera
+from splitlf import Camera, InvalidParameter
 
 LENGTHS = ("F", "D", "d", "v", "mu", "f1", "f2")
 
@@ -167,3 +168,46 @@ def test_pickle():
     back = pickle.loads(pickle.dumps(cam))
     assert back == cam and not back.is_ng(2) and back.is_ng(1)
     assert back.out_of_focus_depth(1) == cam.out_of_focus_depth(1)
+
+
+def test_half_is_the_integer_1_or_2():
+    cam = Camera.paper()
+    for method in (cam.L, cam.is_ng, cam.out_of_focus_depth, cam.lit_pixels,
+                   cam.image_radius, cam.ng_focal_length):
+        with pytest.raises(TypeError, match="half"):
+            method(True)
+        with pytest.raises(TypeError, match="half"):
+            method(1.0)
+        for bad in (0, 3, 2**63):
+            with pytest.raises(InvalidParameter, match="half") as e:
+                method(bad)
+            assert e.value.name == "half" and e.value.value == bad
+    assert cam.L(np.int64(2)) == cam.L(2) and cam.is_ng(np.int8(1))
+
+
+def test_integers_beyond_the_float_range_are_named_errors():
+    cam = Camera.paper()
+    with pytest.raises(InvalidParameter, match=r"invalid F = ") as e:
+        cam.replace(F=10**400)
+    assert e.value.name == "F"
+    with pytest.raises(InvalidParameter, match=r"\[1, 65535\]") as e:
+        cam.replace(Q=10**400)
+    assert e.value.name == "Q" and len(str(e.value)) < 200
+    with pytest.raises(InvalidParameter, match=r"\[1, 10000000\]"):
+        cam.replace(Kx=-(10**30))
+
+
+def test_binary_toml_error_names_the_file(tmp_path):
+    p = tmp_path / "camera.toml"
+    p.write_bytes(b"\x89PNG\r\n\x1a\n\x00\xff\xfe")
+    with pytest.raises(ValueError, match="camera.toml") as e:
+        Camera.from_toml(p)
+    assert "not a TOML text file" in str(e.value)
+
+
+def test_to_toml_replaces_the_file_whole(tmp_path):
+    p = tmp_path / "c.toml"
+    p.write_text("old")
+    Camera.paper().to_toml(p)
+    assert Camera.from_toml(p) == Camera.paper()
+    assert [q.name for q in tmp_path.iterdir()] == ["c.toml"]  # no temporary file left

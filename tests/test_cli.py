@@ -2,14 +2,18 @@
 
 from __future__ import annotations
 
+import errno
 import json
 import math
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
+import numpy as np
 import pytest
 
+import splitlf
 from splitlf import Camera, depth_of_field
 from splitlf.cli import main
 
@@ -77,10 +81,6 @@ def test_console_script():
 
 
 def test_trace_npz(tmp_path, capsys):
-    import numpy as np
-
-    import splitlf
-
     out = tmp_path / "t.npz"
     code, stdout, _ = run(["trace", "--out", str(out), "--json"], capsys)
     assert code == 0
@@ -122,3 +122,178 @@ def test_help(cmd, capsys):
     with pytest.raises(SystemExit) as e:
         main([cmd, "--help"])
     assert e.value.code == 0 and "--threads" in capsys.readouterr().out
+
+
+# -- options: every one has help, named types, one-line user errors -------------------------
+
+def _subparsers():
+    import argparse
+
+    from splitlf.cli import build_parser
+
+    parser = build_parser()
+    action = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return action.choices
+
+
+def test_every_option_has_help_text(capsys):
+    subs = _subparsers()
+    assert set(subs) == {"report", "figures", "trace", "sweep", "simulate"}
+    for name, sub in subs.items():
+        for action in sub._actions:
+            assert action.help and action.help.strip(), (name, action.option_strings)
+        with pytest.raises(SystemExit) as e:
+            main([name, "--help"])
+        assert e.value.code == 0
+        text = capsys.readouterr().out
+        for action in sub._actions:
+            for opt in action.option_strings:
+                assert opt in text
+
+
+@pytest.mark.parametrize("args, needle", [
+    (["report", "--threads", "abc"], "invalid thread count 'abc'"),
+    (["report", "--threads", "0"], "invalid thread count 0: allowed an integer in [1, 1024]"),
+    (["figures", "--dpi", "0"], "invalid dpi 0: allowed an integer in [10, 1000]"),
+    (["figures", "--dpi", "100000"], "invalid dpi 100000"),
+    (["simulate", "--n", "0", "--z-range", "300", "900"], "invalid depth count 0"),
+    (["simulate", "--z-range", "500", "inf"], "invalid depth 'inf'"),
+    (["simulate", "--z", "nan"], "invalid depth 'nan'"),
+    (["simulate", "--seed", "-1"], "invalid seed -1"),
+    (["simulate", "--photons", "1e400"], "invalid photon count"),
+    (["report", "--threshold", "-1"], "invalid threshold"),
+])
+def test_option_values_are_checked_with_named_types(tmp_path, monkeypatch, capsys, args,
+                                                    needle):
+    monkeypatch.chdir(tmp_path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(SystemExit) as e:
+            main(args)
+    assert e.value.code == 2
+    err = capsys.readouterr().err
+    assert needle in err and "_threads" not in err and "Traceback" not in err
+    assert err.count("\n") == 1 and err.startswith(f"splitlf {args[0]}: error: argument")
+    assert list(tmp_path.iterdir()) == []  # e.g. figures --dpi 0 made no folder
+
+
+@pytest.mark.parametrize("exc, code", [
+    (ValueError("bad value"), 2),
+    (TypeError("bad type"), 2),
+    (FileExistsError("exists"), 2),
+    (splitlf.TooLargeError("too large"), 2),
+    (RuntimeError("a bug"), None),
+    (AssertionError("a bug"), None),
+    (KeyError("a bug"), None),
+])
+def test_only_user_errors_are_caught(monkeypatch, capsys, exc, code):
+    import splitlf.cli as cli
+
+    def fail(*args, **kwargs):
+        raise exc
+
+    monkeypatch.setattr(cli, "report_data", fail)
+    if code is None:
+        with pytest.raises(type(exc)):
+            main(["report"])
+    else:
+        assert main(["report"]) == code
+        err = capsys.readouterr().err
+        assert err.startswith("splitlf report: error:") and err.count("\n") == 1
+
+
+def test_binary_config_error_names_the_file(tmp_path, capsys):
+    p = tmp_path / "cam.toml"
+    p.write_bytes(b"\x00\xff\xfe binary")
+    code, out, err = run(["report", "--config", str(p)], capsys)
+    assert code == 2 and str(p) in err and err.count("\n") == 1
+
+
+# -- output files: never overwritten without --force, written atomically --------------------
+
+def test_trace_refuses_to_overwrite(tmp_path, capsys):
+    out = tmp_path / "t.npz"
+    out.write_bytes(b"previous")
+    code, stdout, err = run(["trace", "--out", str(out)], capsys)
+    assert code == 2 and "exists" in err and "--force" in err and stdout == ""
+    assert out.read_bytes() == b"previous"
+    code, stdout, _ = run(["trace", "--out", str(out), "--force"], capsys)
+    assert code == 0 and stdout.strip() == str(out)
+    assert "half1_area" in np.load(out).files
+
+
+def test_failed_write_keeps_the_previous_file(tmp_path, monkeypatch, capsys):
+    """A writer failing part-way (e.g. a full disk) leaves the old file and no temporary."""
+    out = tmp_path / "t.npz"
+    out.write_bytes(b"previous good file")
+
+    def full_disk(path, **arrays):
+        with open(path, "wb") as fh:
+            fh.write(b"PK truncated")
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(np, "savez_compressed", full_disk)
+    code, _, err = run(["trace", "--out", str(out), "--force"], capsys)
+    assert code == 2 and "No space left" in err
+    assert out.read_bytes() == b"previous good file"
+    assert [p.name for p in tmp_path.iterdir()] == ["t.npz"]
+
+
+def test_trace_passes_threads(tmp_path, monkeypatch, capsys):
+    import splitlf.rayspace as rs
+
+    real = rs.trace
+    seen = []
+
+    def trace(camera, half, axis="x", n_threads=None):
+        seen.append(n_threads)
+        return real(camera, half, axis)
+
+    monkeypatch.setattr(rs, "trace", trace)
+    code, _, _ = run(["trace", "--out", str(tmp_path / "t.npz"), "--threads", "2"], capsys)
+    assert code == 0 and seen == [2, 2]
+
+
+def test_figures_check_every_target_before_writing(tmp_path, capsys):
+    (tmp_path / "samples.png").write_bytes(b"previous")
+    code, stdout, err = run(["figures", "--out", str(tmp_path)], capsys)
+    assert code == 2 and "samples.png" in err and "--force" in err and stdout == ""
+    assert [p.name for p in tmp_path.iterdir()] == ["samples.png"]  # nothing drawn
+    file = tmp_path / "file"
+    file.write_text("x")
+    code, _, err = run(["figures", "--out", str(file)], capsys)
+    assert code == 2 and "not a folder" in err
+
+
+def test_figures_pass_threads_to_every_figure(tmp_path, monkeypatch, capsys):
+    import splitlf.cli as cli
+    import splitlf.rayspace as rs
+
+    seen = {}
+
+    def fake(stem):
+        def draw(camera, ax=None, n_threads=None):
+            seen[stem] = n_threads
+        return draw
+
+    monkeypatch.setattr(cli, "figure_functions",
+                        lambda: {s: (fake(s), 1, (1.0, 1.0)) for s in ("a", "b")})
+    real = rs.trace
+    monkeypatch.setattr(rs, "trace", lambda c, h, axis="x", n_threads=None: real(c, h, axis))
+    code, _, _ = run(["figures", "--out", str(tmp_path / "f"), "--threads", "3",
+                      "--dpi", "10"], capsys)
+    assert code == 0 and seen == {"a": 3, "b": 3}
+    assert sorted(p.name for p in (tmp_path / "f").iterdir()) == ["a.png", "b.png"]
+
+
+def test_written_files_get_the_usual_permissions(tmp_path, capsys):
+    import os
+
+    out = tmp_path / "t.npz"
+    assert main(["trace", "--out", str(out)]) == 0
+    umask = os.umask(0o022)
+    os.umask(umask)
+    assert out.stat().st_mode & 0o777 == 0o666 & ~umask  # not mkstemp's 0o600
+    out.chmod(0o640)
+    assert main(["trace", "--out", str(out), "--force"]) == 0
+    assert out.stat().st_mode & 0o777 == 0o640  # a replaced file keeps its permissions

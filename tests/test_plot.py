@@ -42,3 +42,33 @@ def test_bad_range(fn):
         fn(Camera.paper(), (50.0, 1000.0))
     with pytest.raises(TypeError, match="camera"):
         fn("seed")
+
+
+def test_threads_reach_the_core(monkeypatch):
+    from matplotlib.figure import Figure
+
+    import splitlf.rayspace as rs
+
+    cam = Camera.paper()
+    ax = plot.blur(cam, (150.0, 5000.0), n=200, ax=Figure().add_subplot(), n_threads=1)
+    z, y = ax.get_lines()[0].get_data()
+    np.testing.assert_array_equal(y, splitlf.curves(cam, z).blur_px[0])
+    real, seen = rs.trace, []
+
+    def trace(camera, half, axis="x", n_threads=None):
+        seen.append(n_threads)
+        return real(camera, half, axis)
+
+    monkeypatch.setattr(rs, "trace", trace)
+    plot.ray_space(cam, ax=Figure().add_subplot(), n_threads=2)
+    assert seen == [2, 2]
+
+
+def test_bad_sizes():
+    cam = Camera.paper()
+    with pytest.raises(ValueError, match=r"invalid n = 10000000000: allowed an integer in"):
+        plot.blur(cam, n=10**10)
+    with pytest.raises(ValueError, match="threshold_px"):
+        plot.blur(cam, threshold_px=float("nan"))
+    with pytest.raises(ValueError, match="depths"):
+        plot.ray_space(cam, depths=[50.0])

@@ -317,3 +317,79 @@ def test_plot_resolution_returns_axes():
     assert len(out[0].lines) >= 6
     with pytest.raises(ValueError):
         resolution(SEED, (1000.0, 300.0), ax=axes)
+
+
+def test_seed_and_photons_have_named_errors():
+    with pytest.raises(splitlf.InvalidParameter, match="invalid seed = -1") as e:
+        simulate(SEED, 700.0, seed=-1, mtf=False)
+    assert e.value.name == "seed"
+    with pytest.raises(TypeError, match="seed"):
+        simulate(SEED, 700.0, seed=True, mtf=False)
+    with pytest.raises(splitlf.InvalidParameter, match="photons") as e:
+        simulate(SEED, 700.0, noise={"photons": 1e300}, mtf=False)
+    assert "1e+15" in str(e.value)
+    with pytest.raises(splitlf.InvalidParameter, match="photons"):
+        simulate(SEED, 700.0, noise={"photons": 10**400}, mtf=False)
+    # a bright texture: the Poisson mean itself is checked, with the parameter's name
+    bright = Image(np.full((2, 2), 1e6), 50.0)
+    with pytest.raises(splitlf.InvalidParameter, match="photons.*brightest pixel"):
+        simulate(SEED, 700.0, texture=bright, noise={"photons": 1e15}, window=16,
+                 mtf=False)
+
+
+def test_summary_is_json_ready_for_an_exact_reconstruction():
+    import json
+
+    r = simulate(SEED, 700.0, texture=Image(np.zeros((2, 2)), 10.0), window=16,
+                 n_frequencies=4)
+    assert r.psnr["split"] == float("inf")
+    s = r.summary()
+    assert s["psnr_db"]["split"] is None
+    json.dumps(s, allow_nan=False)
+
+
+def test_cli_simulate_exact_reconstruction_gives_valid_json(tmp_path, capsys):
+    import json
+
+    from splitlf.cli import main
+
+    np.save(tmp_path / "zeros.npy", np.zeros((4, 4)))
+    assert main(["simulate", "--texture", f"image:{tmp_path / 'zeros.npy'}:10",
+                 "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["results"][0]["psnr_db"]["split"] is None
+    assert doc["results"][0]["rmse"]["split"] == 0.0
+
+
+@pytest.mark.parametrize("args, needle", [
+    (["--n", "3"], "--n: only with --z-range"),
+    (["--read-noise", "2"], "--read-noise: only with --photons"),
+    (["--z-range", "900", "300"], "needs 0 < A < B"),
+    (["--out", "x.txt"], ".json"),
+])
+def test_cli_simulate_options_never_ignored(tmp_path, monkeypatch, capsys, args, needle):
+    from splitlf.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(["simulate", *args]) == 2
+    out = capsys.readouterr()
+    assert out.out == "" and needle in out.err and out.err.count("\n") == 1
+
+
+def test_cli_simulate_out(tmp_path, capsys):
+    import json
+
+    from splitlf.cli import main
+
+    out = tmp_path / "sim.json"
+    base = ["simulate", "--z", "700", "--threads", "1", "--out", str(out)]
+    assert main([*base, "--json"]) == 0
+    printed = json.loads(capsys.readouterr().out)
+    written = json.loads(out.read_text())
+    assert printed["path"] == str(out) and printed["results"] == written["results"]
+    assert main(base) == 2
+    assert "--force" in capsys.readouterr().err
+    assert json.loads(out.read_text()) == written
+    assert main([*base, "--force", "--seed", "1"]) == 0
+    assert capsys.readouterr().out.strip() == str(out)
+    assert json.loads(out.read_text())["results"] != written["results"]

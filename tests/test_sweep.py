@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import json
+import warnings
 
 import numpy as np
 import pytest
@@ -134,3 +135,133 @@ def test_cli_sweep_bad_files(tmp_path, capsys, body, needle):
     assert main(["sweep", "--grid", spec]) == 2
     err = capsys.readouterr().err
     assert needle in err and err.count("\n") == 1
+
+
+# -- counts, whole-sweep errors, limits ------------------------------------------------------
+
+FEW = np.geomspace(150.0, 10_000.0, 6)
+
+
+def test_integral_floats_of_counts_are_counts():
+    as_floats = sweep(Camera.paper(), {"Q": np.linspace(9, 15, 3), "Kx": [100.0, 101.0]},
+                      FEW, progress=False)
+    as_ints = sweep(Camera.paper(), {"Q": [9, 12, 15], "Kx": [100, 101]}, FEW, progress=False)
+    assert as_floats["valid"].all()
+    assert as_floats["Q"].dtype == np.int64 and as_floats["Kx"].dtype == np.int64
+    xr.testing.assert_identical(as_floats, as_ints)
+    # a non-integral value stays an error of that design only
+    mixed = sweep(Camera.paper(), {"Q": [9.0, 9.5]}, FEW, progress=False)
+    assert mixed["valid"].values.tolist() == [True, False]
+    assert "integer" in str(mixed["reason"].values[1])
+
+
+@pytest.mark.parametrize("kwargs, name", [
+    ({"threshold_px": -1}, "threshold_px"),
+    ({"threshold_px": 10**400}, "threshold_px"),
+    ({"tol": float("nan")}, "tol"),
+    ({"tol": -1e-6}, "tol"),
+    ({"depths": [150.0, np.inf]}, "depths"),
+    ({"depths": [-5.0, 100.0]}, "depths"),
+    ({"depths": [50.0, 500.0]}, "depths"),  # <= F of every design
+    ({"depths": [500.0, 500.0]}, "depths"),
+])
+def test_whole_sweep_errors_are_one_error_before_any_work(monkeypatch, kwargs, name):
+    import splitlf.sweep as sw
+
+    def no_work(*args, **kw):
+        raise AssertionError("a design was evaluated before the sweep's arguments were checked")
+
+    monkeypatch.setattr(sw, "_evaluate_batch", no_work)
+    args = {"depths": FEW} | kwargs
+    depths = args.pop("depths")
+    with pytest.raises(splitlf.InvalidParameter) as e:
+        sweep(Camera.paper(), {"D": [10.0, 20.0]}, depths, progress=False, **args)
+    assert e.value.name == name
+
+
+def test_depths_below_some_designs_F_only_invalidate_those():
+    ds = sweep(Camera.paper(), {"F": [80.0, 200.0], "v1": [91.3879, 250.0]},
+               np.geomspace(150.0, 5000.0, 5), progress=False)
+    assert bool(ds["valid"].sel(F=80.0, v1=91.3879))
+    assert not ds["valid"].sel(F=200.0).any()
+
+
+def test_grid_larger_than_the_limit_is_refused_up_front():
+    from splitlf.sweep import MAX_DESIGNS
+
+    big = {"D": np.linspace(10.0, 20.0, 10**4), "kappa": np.linspace(0.2, 0.6, 10**4)}
+    with pytest.raises(splitlf.TooLargeError, match=f"{MAX_DESIGNS}") as e:
+        sweep(Camera.paper(), big, FEW, progress=False)
+    assert "100000000 designs" in str(e.value) and e.value.limit == MAX_DESIGNS
+    with pytest.raises(splitlf.TooLargeError, match="depths"):
+        sweep(Camera.paper(), {"D": [20.0]}, np.geomspace(150.0, 1e4, 100_001))
+
+
+def test_cli_sweep_toml_range_of_counts(tmp_path, capsys):
+    spec = _write_sweep(tmp_path, "[grid]\nKx = {start = 100, stop = 300, num = 3}\n"
+                        "[depths]\nmin = 150.0\nmax = 10000.0\nnum = 6\n")
+    assert main(["sweep", "--grid", spec, "--json"]) == 0
+    designs = json.loads(capsys.readouterr().out)["designs"]
+    assert [d["Kx"] for d in designs] == [100, 200, 300]
+    assert all(d["valid"] and d["reason"] == "" for d in designs)
+
+
+@pytest.mark.parametrize("body, needle", [
+    ("[grid]\nD = [10.0]\n[options]\nthreshold_px = -1\n", "threshold_px"),
+    ("[grid]\nD = [10.0]\n[options]\ntol = nan\n", "tol"),
+    ("[grid]\nD = [10.0]\n[depths]\nnum = 100000000000\n", "depths.num"),
+    ("[grid]\nD = [10.0]\n[depths]\nmax = inf\n", "depths.max"),
+    ("[grid]\nD = [10.0]\n[depths]\nmin = 1" + "0" * 400 + "\n", "depths.min"),
+    ("[grid]\nD = {start = 1" + "0" * 400 + ", stop = 2.0, num = 2}\n", "grid.D.start"),
+    ("[grid]\nD = {start = 1.0, stop = 2.0, num = 10000000000}\n", "grid.D.num"),
+    ("[grid]\nD = [10.0]\n" + Camera.paper().to_toml().replace("F = 80.0", "F = 1" + "0" * 400),
+     "invalid F"),
+    ("[grid]\nD = [10.0]\n" + Camera.paper().to_toml().replace("Q = 15", "Q = 1" + "0" * 400),
+     "invalid Q"),
+])
+def test_cli_sweep_whole_sweep_errors_exit_2(tmp_path, capsys, body, needle):
+    spec = _write_sweep(tmp_path, body)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no RuntimeWarning before the error
+        assert main(["sweep", "--grid", spec]) == 2
+    out = capsys.readouterr()
+    assert out.out == "" and needle in out.err and out.err.count("\n") == 1
+    assert len(out.err) < 400
+
+
+def test_cli_sweep_binary_file_names_it(tmp_path, capsys):
+    p = tmp_path / "grid.toml"
+    p.write_bytes(bytes(range(256)))
+    assert main(["sweep", "--grid", str(p)]) == 2
+    assert "grid.toml" in capsys.readouterr().err
+
+
+def test_cli_sweep_never_overwrites_without_force(tmp_path, capsys):
+    spec = _write_sweep(tmp_path, "[grid]\nD = [10.0, 20.0]\n[depths]\nnum = 6\n")
+    for suffix in (".nc", ".parquet", ".json"):
+        out = tmp_path / f"old{suffix}"
+        out.write_text("previous results")
+        assert main(["sweep", "--grid", spec, "--out", str(out)]) == 2
+        assert "--force" in capsys.readouterr().err
+        assert out.read_text() == "previous results"
+        assert main(["sweep", "--grid", spec, "--out", str(out), "--force"]) == 0
+        assert capsys.readouterr().out.strip() == str(out)
+        assert out.read_bytes() != b"previous results"
+    assert len(json.loads((tmp_path / "old.json").read_text())["designs"]) == 2
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "old.json", "old.nc", "old.parquet", "sweep.toml"]  # no temporary files
+
+
+def test_cli_sweep_json_with_out_does_both(tmp_path, capsys):
+    spec = _write_sweep(tmp_path, "[grid]\nD = [10.0, 20.0]\n[depths]\nnum = 6\n")
+    out = tmp_path / "s.json"
+    assert main(["sweep", "--grid", spec, "--out", str(out), "--json"]) == 0
+    printed = json.loads(capsys.readouterr().out)
+    assert printed["path"] == str(out)
+    assert printed["designs"] == json.loads(out.read_text())["designs"]
+
+
+def test_cli_sweep_bad_suffix_before_work(tmp_path, capsys):
+    spec = _write_sweep(tmp_path, "[grid]\nD = [10.0]\n")
+    assert main(["sweep", "--grid", spec, "--out", str(tmp_path / "s.csv")]) == 2
+    assert ".parquet" in capsys.readouterr().err

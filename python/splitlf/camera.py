@@ -13,9 +13,14 @@ import numbers
 import os
 from typing import Any
 
-import tomllib
+try:  # Python >= 3.11
+    import tomllib
+except ModuleNotFoundError:  # pragma: no cover - Python 3.10 (the tomli backport)
+    import tomli as tomllib
 
 from . import _native
+from ._files import atomic_output
+from .errors import InvalidParameter
 
 __all__ = ["Camera", "LENGTH_FIELDS", "COUNT_FIELDS", "FIELDS"]
 
@@ -42,15 +47,23 @@ _DESCRIPTIONS = {
 }
 
 
+#: The core's upper limits of the counts (pixels per microlens, microlenses per axis).
+_COUNT_LIMITS = {"Q": _native.MAX_Q, "Kx": _native.MAX_K, "Ky": _native.MAX_K}
+
+
 def _real(name: str, value: Any) -> float:
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise TypeError(
             f"Camera.{name} must be a real number ({_DESCRIPTIONS[name]}), "
             f"got {type(value).__name__} {value!r}"
         )
-    x = float(value)
+    try:
+        x = float(value)
+    except OverflowError:  # an integer beyond the float range (e.g. a 400-digit TOML integer)
+        x = math.inf if value > 0 else -math.inf
     if math.isnan(x) or math.isinf(x):
-        raise ValueError(f"invalid {name} = {x}: allowed a finite value ({_DESCRIPTIONS[name]})")
+        shown = x if isinstance(value, float) else f"{str(value)[:12]}... ({x})"
+        raise InvalidParameter.of(name, shown, f"a finite value ({_DESCRIPTIONS[name]})")
     return x
 
 
@@ -61,9 +74,34 @@ def _count(name: str, value: Any) -> int:
             f"got {type(value).__name__} {value!r}"
         )
     n = int(value)
-    if not -(2**62) < n < 2**62:
-        raise ValueError(f"invalid {name} = {n}: allowed an integer in [1, 10000000]")
+    if not -(2**62) < n < 2**62:  # the core checks the range; this keeps n within an i64
+        shown = n if abs(n) < 10**15 else f"{str(n)[:12]}... ({len(str(abs(n)))} digits)"
+        raise InvalidParameter.of(name, shown,
+                                  f"an integer in [1, {_COUNT_LIMITS[name]}]")
     return n
+
+
+def _half(value: Any) -> int:
+    """The half argument of the per-half methods: the integer 1 or 2 (never a bool)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise TypeError(f"half must be the integer 1 or 2, got {type(value).__name__} {value!r}")
+    if value not in (1, 2):
+        raise InvalidParameter.of("half", int(value), "1 or 2 (the half of the split sensor)")
+    return int(value)
+
+
+def read_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """Parse a TOML file. Every parse error names the file: ``ValueError`` for invalid
+    TOML or text that is not UTF-8 (e.g. a binary file); ``OSError`` when unreadable."""
+    name = os.fspath(path)
+    with open(path, "rb") as fh:
+        data = fh.read()
+    try:
+        return tomllib.loads(data.decode("utf-8"))
+    except UnicodeDecodeError as e:
+        raise ValueError(f"{name}: not a TOML text file (not UTF-8 at byte {e.start})") from None
+    except tomllib.TOMLDecodeError as e:
+        raise ValueError(f"{name}: not valid TOML: {e}") from None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -73,6 +111,19 @@ class Camera:
     Half 1 is the conventional light field camera (array at ``v1``); half 2 has its array
     at ``v1 * (1 + kappa)``. ``f1``/``f2`` default to Ng's setting, 1/f_i = 1/L_i + 1/v,
     and keep tracking it through :meth:`replace` unless given explicitly.
+
+    Fields: ``F`` main lens focal length, ``D`` aperture width (square), ``v1`` main lens
+    to array 1 (> F), ``kappa`` extra optical path of half 2 over v1 (>= 0, no unit),
+    ``d`` microlens pitch, ``v`` array to sensor, ``mu`` pixel width (all mm, finite,
+    > 0 unless stated); ``Q`` pixels per microlens (an integer in [1, 65535]), ``Kx``,
+    ``Ky`` microlenses per half along x, y (integers in [1, 10**7]); ``f1``, ``f2``
+    microlens focal lengths [mm] or None for Ng's setting.
+
+    Raises ``TypeError`` for a field of the wrong type (a count must be an integer, never
+    a bool or a float) and :class:`~splitlf.errors.InvalidParameter` (a ``ValueError``)
+    for a value, given or derived, out of range. Per-half methods take ``half``, the
+    integer 1 or 2 (``TypeError`` for anything else, :class:`InvalidParameter` for other
+    integers). Instances are immutable, hashable, picklable.
     """
 
     F: float
@@ -142,7 +193,10 @@ class Camera:
     # -- TOML ---------------------------------------------------------------------------
     @classmethod
     def from_dict(cls, data: dict[str, Any], source: str = "camera") -> Camera:
-        """Build from a mapping of field names; unknown names are a ValueError."""
+        """Build from a mapping of field names (``source`` names it in messages).
+
+        Raises ``TypeError`` when ``data`` is not a dict, ``ValueError`` naming ``source``
+        for unknown or missing fields, and the errors of the constructor."""
         if not isinstance(data, dict):
             raise TypeError(
                 f"{source}: expected a table of camera fields, got {type(data).__name__}"
@@ -159,12 +213,12 @@ class Camera:
 
     @classmethod
     def from_toml(cls, path: str | os.PathLike[str]) -> Camera:
-        """Read a camera from a TOML file: fields in a ``[camera]`` table (or at top level)."""
-        with open(path, "rb") as fh:
-            try:
-                doc = tomllib.load(fh)
-            except tomllib.TOMLDecodeError as e:
-                raise ValueError(f"{os.fspath(path)}: not valid TOML: {e}") from None
+        """Read a camera from a TOML file: fields in a ``[camera]`` table (or at top level).
+
+        Raises ``OSError`` when the file cannot be read, ``ValueError`` naming the file for
+        invalid TOML, a non-text file or unknown keys, and the errors of
+        :meth:`from_dict`."""
+        doc = read_toml(path)
         table = doc.get("camera", doc) if isinstance(doc.get("camera"), dict) else doc
         if table is not doc:
             extra = [k for k in doc if k != "camera"]
@@ -176,7 +230,9 @@ class Camera:
         return cls.from_dict(table, source=os.fspath(path))
 
     def to_toml(self, path: str | os.PathLike[str] | None = None) -> str:
-        """Write the camera as TOML (exact: floats by repr); returns the text."""
+        """The camera as TOML text (exact: floats by repr). With ``path``, the file is
+        also written, atomically (a temporary file in its folder, then renamed over it: an
+        existing file is replaced whole or not at all); ``OSError`` if it cannot be."""
         lines = ["# splitlf camera: lengths in mm (docs/model.md symbols)", "[camera]"]
         for name in FIELDS:
             value = getattr(self, name)
@@ -188,8 +244,8 @@ class Camera:
             lines.append(text)
         body = "\n".join(lines) + "\n"
         if path is not None:
-            with open(path, "w", encoding="utf-8") as fh:
-                fh.write(body)
+            with atomic_output(path, force=True) as tmp:
+                tmp.write_text(body, encoding="utf-8")
         return body
 
     # -- derived values (computed by the core) -------------------------------------------
@@ -205,29 +261,28 @@ class Camera:
 
     def L(self, half: int) -> float:
         """Array plane of half 1 or 2: L_1 = v', L_2 = v'(1 + kappa) [mm]."""
-        return self._core.array_plane(half)
+        return self._core.array_plane(_half(half))
 
     def out_of_focus_depth(self, half: int) -> float:
         """Depth whose conjugate lies on array ``half``: z_i = F L_i / (L_i - F) [mm]."""
-        return self._core.out_of_focus_depth(half)
+        return self._core.out_of_focus_depth(_half(half))
 
     def lit_pixels(self, half: int) -> int:
         """Pixels per microlens (one axis) whose chief ray passes the aperture (docs/model.md
         §6)."""
-        return self._core.lit_pixels(half)
+        return self._core.lit_pixels(_half(half))
 
     def image_radius(self, half: int) -> float:
         """R_i = D v / (2 L_i): radius of one microlens image on the sensor [mm]."""
-        return self._core.image_radius(half)
+        return self._core.image_radius(_half(half))
 
     def ng_focal_length(self, half: int) -> float:
         """Microlens focal length of Ng's setting for this geometry, 1/(1/L_i + 1/v) [mm]."""
-        return self._core.ng_focal_length(half)
+        return self._core.ng_focal_length(_half(half))
 
     def is_ng(self, half: int) -> bool:
         """True when half's microlens focal length was left to Ng's setting."""
-        self._core.array_plane(half)  # validates half
-        return not self._explicit[f"f{half}"]
+        return not self._explicit[f"f{_half(half)}"]
 
     @property
     def core(self) -> _native.CameraCore:

@@ -1,25 +1,51 @@
-"""The ``splitlf`` command line. Errors are one line on stderr and exit status 2."""
+"""The ``splitlf`` command line.
+
+A user error (bad input, a file that cannot be read or would be overwritten) is one line on
+stderr and exit status 2; every option is checked before any work or any file is written.
+A fault of splitlf itself (``RuntimeError``, ``AssertionError``, ...) keeps its traceback.
+Output files are never overwritten without ``--force`` and are written atomically (a
+temporary file in the same folder, then a rename), so a failed run leaves the previous
+file intact.
+"""
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import sys
+from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
-import tomllib
 
-from .camera import Camera
+try:  # Python >= 3.11
+    import tomllib
+except ModuleNotFoundError:  # pragma: no cover - Python 3.10 (the tomli backport)
+    import tomli as tomllib
+
+from . import _native
+from ._files import atomic_output, check_new
+from .camera import Camera, read_toml
+from .errors import SplitlfError
 from .report import format_report, report_data
 
 SEED = "seed design (docs/model.md §7, reconstructed from the paper)"
+#: Resolution of ``splitlf figures`` [dots per inch]: the allowed range.
+DPI_RANGE = (10, 1000)
+#: Depths of ``splitlf simulate --z-range``: the allowed range of ``--n``.
+SIMULATE_N_RANGE = (1, 1000)
+#: Threads of the core: the allowed range of ``--threads``.
+THREADS_RANGE = (1, _native.MAX_THREADS)
+#: What the CLI reports as a user error (one line, exit 2); anything else is a bug.
+USER_ERRORS = (SplitlfError, ValueError, TypeError, OSError, tomllib.TOMLDecodeError)
+FORCE_HINT = "pass --force to overwrite"
 
 
-class CliError(Exception):
-    """A user error with a message fit for one line."""
+class CliError(SplitlfError):
+    """A user error found by the command line, with a message fit for one line."""
 
 
 def _load_camera(path: str | None) -> tuple[Camera, str]:
@@ -28,9 +54,78 @@ def _load_camera(path: str | None) -> tuple[Camera, str]:
     return Camera.from_toml(path), path
 
 
-def _dump_json(data: Any) -> None:
-    json.dump(data, sys.stdout, indent=2, allow_nan=False)
-    sys.stdout.write("\n")
+def _finite(data: Any) -> Any:
+    """``data`` with every non-finite float replaced by None (JSON has no inf or NaN)."""
+    if isinstance(data, float):
+        return data if math.isfinite(data) else None
+    if isinstance(data, dict):
+        return {k: _finite(v) for k, v in data.items()}
+    if isinstance(data, list | tuple):
+        return [_finite(v) for v in data]
+    return data
+
+
+def json_text(data: Any) -> str:
+    """The whole JSON document as text (built before anything is written, so a value that
+    cannot be serialised never leaves half a document behind); inf and NaN become null."""
+    return json.dumps(_finite(data), indent=2, allow_nan=False) + "\n"
+
+
+def _write_text(path: Path, text: str, force: bool) -> None:
+    with atomic_output(path, force=force, hint=FORCE_HINT) as tmp:
+        tmp.write_text(text, encoding="utf-8")
+
+
+def _check_suffix(option: str, path: Path, allowed: Iterable[str]) -> None:
+    allowed = tuple(allowed)
+    if path.suffix not in allowed:
+        raise CliError(f"{option} {path}: allowed suffixes {', '.join(allowed)}")
+
+
+# -- argument types: each named, so argparse's message says what was expected ----------------
+
+def _integer_type(what: str, lo: int, hi: int) -> Callable[[str], int]:
+    def parse(text: str) -> int:
+        """An integer in [lo, hi], else argparse's error naming ``what``."""
+        try:
+            n = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"invalid {what} {text!r}: allowed an integer in [{lo}, {hi}]") from None
+        if not lo <= n <= hi:
+            raise argparse.ArgumentTypeError(
+                f"invalid {what} {text}: allowed an integer in [{lo}, {hi}]")
+        return n
+
+    parse.__name__ = what
+    return parse
+
+
+def _real_type(what: str, lo: float, allowed: str, *, lo_open: bool = True
+               ) -> Callable[[str], float]:
+    def parse(text: str) -> float:
+        """A finite real above ``lo``, else argparse's error naming ``what``."""
+        try:
+            x = float(text)
+        except ValueError:
+            x = math.nan
+        if not (math.isfinite(x) and (x > lo if lo_open else x >= lo)):
+            raise argparse.ArgumentTypeError(f"invalid {what} {text!r}: allowed {allowed}")
+        return x
+
+    parse.__name__ = what
+    return parse
+
+
+_threads = _integer_type("thread count", *THREADS_RANGE)
+_depth = _real_type("depth", 0.0, "a finite depth > 0 (mm)")
+_dpi = _integer_type("dpi", *DPI_RANGE)
+_n_depths = _integer_type("depth count", *SIMULATE_N_RANGE)
+_seed = _integer_type("seed", 0, 2**63 - 1)
+_photons = _real_type("photon count", 0.0, "a finite number > 0")
+_read_noise = _real_type("read noise", 0.0, "a finite number >= 0 (electrons rms)",
+                         lo_open=False)
+_threshold = _real_type("threshold", 0.0, "a finite number > 0 (pixels)")
 
 
 # -- report ------------------------------------------------------------------------------
@@ -39,7 +134,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
     camera, source = _load_camera(args.config)
     data = report_data(camera, args.threshold, n_threads=args.threads)
     if args.json:
-        _dump_json({"source": source, **data})
+        sys.stdout.write(json_text({"source": source, **data}))
     else:
         sys.stdout.write(format_report(data, f"splitlf report: {source}"))
     return 0
@@ -48,11 +143,24 @@ def _cmd_report(args: argparse.Namespace) -> int:
 # -- figures -----------------------------------------------------------------------------
 
 def figure_functions() -> dict[str, tuple[Any, int, tuple[float, float]]]:
-    """File stem -> (plot function taking (camera, ax=...), stacked panels, size [in])."""
+    """File stem -> (plot function taking (camera, ax=..., n_threads=...), stacked panels,
+    figure size [in])."""
     from . import plot
 
     return {stem: (getattr(plot, fn), panels, size)
             for stem, (fn, panels, size) in plot.FIGURES.items()}
+
+
+def _figure_targets(out: Path, fmt: str, force: bool) -> dict[str, Path]:
+    """The file of every figure, checked (folder not a file, no file overwritten without
+    --force) before the folder is created or anything is drawn."""
+    if out.exists() and not out.is_dir():
+        raise CliError(f"--out {out}: exists and is not a folder")
+    targets = {stem: out / f"{stem}.{fmt}" for stem in figure_functions()}
+    for path in targets.values():
+        if out.is_dir():
+            check_new(path, force, FORCE_HINT)
+    return targets
 
 
 def _cmd_figures(args: argparse.Namespace) -> int:
@@ -60,19 +168,21 @@ def _cmd_figures(args: argparse.Namespace) -> int:
         from matplotlib.figure import Figure
     except ImportError:
         raise CliError('figures need matplotlib: pip install "splitlf[plot]"') from None
+    from .plot._mpl import trace_threads
+
+    trace_threads(args.threads)  # the ray-space figure traces: refuse what it cannot honour
     camera, _ = _load_camera(args.config)
     out = Path(args.out)
+    targets = _figure_targets(out, args.format, args.force)
     out.mkdir(parents=True, exist_ok=True)
     for stem, (fn, panels, size) in figure_functions().items():
         # A bare Figure needs no pyplot backend: nothing global is changed.
         fig = Figure(figsize=size, layout="constrained")
-        if panels == 1:
-            fn(camera, ax=fig.add_subplot())
-        else:
-            fn(camera, ax=fig.subplots(panels, 1, sharex=True))
-        path = out / f"{stem}.{args.format}"
-        fig.savefig(path, dpi=args.dpi)
-        print(path)
+        ax = fig.add_subplot() if panels == 1 else fig.subplots(panels, 1, sharex=True)
+        fn(camera, ax=ax, n_threads=args.threads)
+        with atomic_output(targets[stem], force=args.force, hint=FORCE_HINT) as tmp:
+            fig.savefig(tmp, dpi=args.dpi, format=args.format)
+        print(targets[stem])
     return 0
 
 
@@ -81,132 +191,212 @@ def _cmd_figures(args: argparse.Namespace) -> int:
 TRACE_FIELDS = ("vertices", "n_vertices", "area", "centroid", "lens", "pixel", "chief", "lit")
 
 
+def _trace_half(t: Any) -> dict[str, Any]:
+    """JSON summary of the trace of one half."""
+    return {
+        "pixels": int(t.area.size),
+        "lit": int(np.count_nonzero(t.lit)),
+        "polygons_by_vertex_count": {
+            str(k): int(np.count_nonzero(t.n_vertices == k)) for k in range(7)
+            if np.any(t.n_vertices == k)
+        },
+        "total_area_mm2": float(t.area.sum()),
+    }
+
+
 def _cmd_trace(args: argparse.Namespace) -> int:
-    from .rayspace import trace
+    from . import rayspace
+    from .plot._mpl import trace_threads
 
     camera, source = _load_camera(args.config)
     out = Path(args.out)
-    if out.suffix != ".npz":
-        raise CliError(f"--out {out}: the ray-space arrays are written as .npz")
+    _check_suffix("--out", out, (".npz",))
+    check_new(out, args.force, FORCE_HINT)
+    threads = trace_threads(args.threads)
     arrays: dict[str, Any] = {"camera_toml": np.array(camera.to_toml())}
     summary: dict[str, Any] = {"path": str(out), "source": source, "axis": args.axis}
     for h in (1, 2):
-        t = trace(camera, h, axis=args.axis)
+        t = rayspace.trace(camera, h, axis=args.axis, **threads)
         for name in TRACE_FIELDS:
             arrays[f"half{h}_{name}"] = getattr(t, name)
-        summary[f"half{h}"] = {
-            "pixels": int(t.area.size),
-            "lit": int(np.count_nonzero(t.lit)),
-            "polygons_by_vertex_count": {
-                str(k): int(np.count_nonzero(t.n_vertices == k)) for k in range(7)
-                if np.any(t.n_vertices == k)
-            },
-            "total_area_mm2": float(t.area.sum()),
-        }
-    np.savez_compressed(out, **arrays)
-    if args.json:
-        _dump_json(summary)
-    else:
-        print(out)
+        summary[f"half{h}"] = _trace_half(t)
+    with atomic_output(out, force=args.force, hint=FORCE_HINT) as tmp:
+        np.savez_compressed(tmp, **arrays)
+    sys.stdout.write(json_text(summary) if args.json else f"{out}\n")
     return 0
 
 
 # -- sweep -------------------------------------------------------------------------------
 
-def _linspace(name: str, spec: Any) -> list[Any]:
+def _toml_real(where: str, value: Any) -> float:
+    """A finite real number from a TOML file (a 400-digit integer is out of range too)."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise CliError(f"{where}: expected a number, got {type(value).__name__} {value!r}")
+    try:
+        x = float(value)
+    except OverflowError:
+        x = math.inf
+    if not math.isfinite(x):
+        shown = value if isinstance(value, float) else f"{str(value)[:12]}..."
+        raise CliError(f"{where} = {shown}: allowed a finite number")
+    return x
+
+
+def _toml_count(where: str, value: Any, lo: int, hi: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
+        shown = value if not isinstance(value, int) or abs(value) < 10**15 \
+            else f"{str(value)[:12]}..."
+        raise CliError(f"{where} = {shown!r}: allowed an integer in [{lo}, {hi}]")
+    return value
+
+
+def _linspace(where: str, spec: Any) -> list[Any]:
+    """A grid axis from TOML: a list of values, or {start, stop, num, log}."""
+    from .sweep import MAX_DESIGNS
+
     if isinstance(spec, list):
         return spec
-    if isinstance(spec, dict):
-        unknown = set(spec) - {"start", "stop", "num", "log"}
-        if unknown or not {"start", "stop", "num"} <= set(spec):
-            raise CliError(f"grid.{name}: a range needs start, stop, num (and optional log)")
-        make = np.geomspace if spec.get("log", False) else np.linspace
-        return make(spec["start"], spec["stop"], int(spec["num"])).tolist()
-    raise CliError(f"grid.{name}: expected a list of values or {{start, stop, num}}")
+    if not isinstance(spec, dict):
+        raise CliError(f"{where}: expected a list of values or {{start, stop, num}}")
+    unknown = set(spec) - {"start", "stop", "num", "log"}
+    if unknown or not {"start", "stop", "num"} <= set(spec):
+        raise CliError(f"{where}: a range needs start, stop, num (and optional log)")
+    lo, hi = _toml_real(f"{where}.start", spec["start"]), _toml_real(f"{where}.stop", spec["stop"])
+    num = _toml_count(f"{where}.num", spec["num"], 1, MAX_DESIGNS)
+    log = spec.get("log", False)
+    if not isinstance(log, bool):
+        raise CliError(f"{where}.log = {log!r}: allowed true or false")
+    if log and not (lo > 0 and hi > 0):
+        raise CliError(f"{where}: a log range needs start > 0 and stop > 0")
+    return (np.geomspace if log else np.linspace)(lo, hi, num).tolist()
+
+
+def _sweep_depths(path: str, dep: Any) -> np.ndarray:
+    """[depths] min, max (mm), num (log-spaced), checked before anything is allocated."""
+    from .sweep import MAX_DEPTHS
+
+    if not isinstance(dep, dict):
+        raise CliError(f"{path}: [depths] must be a table")
+    bad = set(dep) - {"min", "max", "num"}
+    if bad:
+        raise CliError(f"{path}: unknown [depths] key(s) {sorted(bad)}; allowed: min, max, num")
+    lo = _toml_real(f"{path}: depths.min", dep.get("min", 150.0))
+    hi = _toml_real(f"{path}: depths.max", dep.get("max", 10_000.0))
+    num = _toml_count(f"{path}: depths.num", dep.get("num", 200), 2, MAX_DEPTHS)
+    if not 0 < lo < hi:
+        raise CliError(f"{path}: depths needs 0 < min < max (mm), got min={lo!r}, max={hi!r}")
+    return np.geomspace(lo, hi, num)
 
 
 def load_sweep(path: str) -> dict[str, Any]:
-    """Read a sweep TOML: [grid] (required), [depths] min/max/num (log-spaced),
-    [options] threshold_px/tol, optional [camera] base design."""
-    with open(path, "rb") as fh:
-        try:
-            doc = tomllib.load(fh)
-        except tomllib.TOMLDecodeError as e:
-            raise CliError(f"{path}: not valid TOML: {e}") from None
+    """Read and check a sweep TOML file: ``[grid]`` (required; camera field -> list of
+    values or ``{start, stop, num, log}``), ``[depths]`` (``min``, ``max`` in mm, ``num``
+    log-spaced depths), ``[options]`` (``threshold_px``, ``tol``) and an optional
+    ``[camera]`` base design.
+
+    Returns {"grid", "depths", "options", "camera" (None without [camera])}. Raises
+    :class:`CliError` / ``ValueError`` naming the file and the key for anything invalid
+    (ranges, limits :data:`splitlf.sweep.MAX_DESIGNS` and :data:`~splitlf.sweep.MAX_DEPTHS`),
+    ``OSError`` when the file cannot be read.
+    """
+    from .sweep import _threshold, _tol
+
+    doc = read_toml(path)
     unknown = set(doc) - {"grid", "depths", "options", "camera"}
     if unknown:
         raise CliError(f"{path}: unknown table(s) {sorted(unknown)}; "
                        "allowed: grid, depths, options, camera")
     if not isinstance(doc.get("grid"), dict) or not doc["grid"]:
         raise CliError(f"{path}: needs a non-empty [grid] table of camera fields")
-    grid = {k: _linspace(k, v) for k, v in doc["grid"].items()}
-    dep = doc.get("depths", {})
-    bad = set(dep) - {"min", "max", "num"}
-    if bad:
-        raise CliError(f"{path}: unknown [depths] key(s) {sorted(bad)}; allowed: min, max, num")
-    lo, hi, num = dep.get("min", 150.0), dep.get("max", 10_000.0), dep.get("num", 200)
-    if not (isinstance(num, int) and num >= 2):
-        raise CliError(f"{path}: depths.num must be an integer >= 2, got {num!r}")
-    if not (isinstance(lo, int | float) and isinstance(hi, int | float) and 0 < lo < hi):
-        raise CliError(f"{path}: depths needs 0 < min < max (mm), got min={lo!r}, max={hi!r}")
+    grid = {k: _linspace(f"{path}: grid.{k}", v) for k, v in doc["grid"].items()}
+    depths = _sweep_depths(path, doc.get("depths", {}))
     opts = doc.get("options", {})
-    bad = set(opts) - {"threshold_px", "tol"}
+    bad = set(opts) - {"threshold_px", "tol"} if isinstance(opts, dict) else {"(not a table)"}
     if bad:
         raise CliError(f"{path}: unknown [options] key(s) {sorted(bad)}; "
                        "allowed: threshold_px, tol")
+    try:
+        options = {k: (_threshold if k == "threshold_px" else _tol)(v) for k, v in opts.items()}
+    except (ValueError, TypeError) as e:
+        raise CliError(f"{path}: options: {e}") from None
     camera = Camera.from_dict(doc["camera"], source=f"{path} [camera]") if "camera" in doc \
         else None
-    return {"grid": grid, "depths": np.geomspace(lo, hi, num), "options": opts,
-            "camera": camera}
+    return {"grid": grid, "depths": depths, "options": options, "camera": camera}
+
+
+SWEEP_SUFFIXES = (".nc", ".parquet", ".json")
+
+
+def _sweep_document(ds: Any) -> dict[str, Any]:
+    """The sweep as JSON: attributes (without the base camera TOML) and one record per
+    design."""
+    df = ds.to_dataframe().reset_index()
+    return {"attrs": {k: v for k, v in ds.attrs.items() if k != "base_camera"},
+            "designs": json.loads(df.to_json(orient="records"))}
+
+
+def _write_sweep(ds: Any, out: Path, force: bool) -> None:
+    with atomic_output(out, force=force, hint=FORCE_HINT) as tmp:
+        if out.suffix == ".nc":
+            ds.to_netcdf(tmp)
+        elif out.suffix == ".parquet":
+            ds.to_dataframe().reset_index().to_parquet(tmp)
+        else:
+            tmp.write_text(json_text(_sweep_document(ds)), encoding="utf-8")
+
+
+def _run_sweep(camera: Camera, spec: dict[str, Any], scheduler: str | None,
+               n_threads: int | None) -> Any:
+    from .sweep import sweep
+
+    if scheduler is None:
+        return sweep(camera, spec["grid"], spec["depths"], n_threads=n_threads,
+                     **spec["options"])
+    try:
+        from distributed import Client
+    except ImportError:
+        raise CliError('--scheduler needs Dask: pip install "splitlf[dask]"') from None
+    with Client(scheduler) as client:
+        return sweep(camera, spec["grid"], spec["depths"], executor=client.get_executor(),
+                     n_threads=n_threads, **spec["options"])
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
-    from .sweep import METRICS, sweep
+    try:
+        import xarray  # noqa: F401
+    except ImportError:
+        raise CliError('sweep needs xarray: pip install "splitlf[sweep]"') from None
+    from .sweep import METRICS
 
+    out = None if args.out is None else Path(args.out)
+    if out is not None:
+        _check_suffix("--out", out, SWEEP_SUFFIXES)
+        check_new(out, args.force, FORCE_HINT)
     spec = load_sweep(args.grid)
     camera = spec["camera"] or _load_camera(args.config)[0]
-    executor = None
-    client = None
-    if args.scheduler:
-        try:
-            from distributed import Client
-        except ImportError:
-            raise CliError('--scheduler needs Dask: pip install "splitlf[dask]"') from None
-        client = Client(args.scheduler)
-        executor = client.get_executor()
-    try:
-        ds = sweep(camera, spec["grid"], spec["depths"], executor=executor,
-                   n_threads=args.threads, **spec["options"])
-    finally:
-        if client is not None:
-            client.close()
-    if args.out:
-        out = Path(args.out)
-        if out.suffix == ".nc":
-            ds.to_netcdf(out)
-        elif out.suffix == ".parquet":
-            ds.to_dataframe().reset_index().to_parquet(out)
-        else:
-            raise CliError(f"--out {out}: allowed suffixes .nc (NetCDF) or .parquet")
-        print(out)
-        return 0
-    df = ds.to_dataframe().reset_index()
+    ds = _run_sweep(camera, spec, args.scheduler, args.threads)
+    if out is not None:
+        _write_sweep(ds, out, args.force)
     if args.json:
-        records = json.loads(df.to_json(orient="records"))
-        _dump_json({"attrs": {k: v for k, v in ds.attrs.items() if k != "base_camera"},
-                    "designs": records})
-        return 0
-    cols = list(spec["grid"]) + ["sharp_fraction_split", "max_gap_worst_union", "reason"]
-    cols = [c for c in cols if c in df.columns]
-    sys.stdout.write(df[cols].to_string(index=False) + "\n")
-    sys.stdout.write(f"\n{len(df)} designs; metrics: {', '.join(METRICS)}\n")
+        doc = _sweep_document(ds)
+        sys.stdout.write(json_text(doc if out is None else {"path": str(out), **doc}))
+    elif out is not None:
+        print(out)
+    else:
+        df = ds.to_dataframe().reset_index()
+        cols = list(spec["grid"]) + ["sharp_fraction_split", "max_gap_worst_union", "reason"]
+        cols = [c for c in cols if c in df.columns]
+        sys.stdout.write(df[cols].to_string(index=False) + "\n")
+        sys.stdout.write(f"\n{len(df)} designs; metrics: {', '.join(METRICS)}\n")
     return 0
 
 
 # -- simulate ----------------------------------------------------------------------------
 
 def parse_texture(spec: str) -> Any:
-    """random | sinusoid:F | bars:F (F in cycles/mm) | image:FILE.npy:WIDTH_MM."""
+    """The texture of ``--texture``: random | sinusoid:F | bars:F (F in cycles/mm on the
+    object) | image:FILE.npy:WIDTH_MM (a 2D array of albedos, WIDTH mm wide). Raises
+    :class:`CliError` (or the loader's ``OSError``/``ValueError``) for anything else."""
     from .simulation import BarChart, Image, RandomAlbedo, Sinusoid
 
     kind, _, rest = spec.partition(":")
@@ -225,127 +415,200 @@ def parse_texture(spec: str) -> Any:
                    "or image:FILE.npy:WIDTH_MM")
 
 
-def _cmd_simulate(args: argparse.Namespace) -> int:
-    from .simulation import CONFIGS, simulate
+def _simulate_depths(args: argparse.Namespace) -> list[float]:
+    if args.z_range is None:
+        if args.n is not None:
+            raise CliError("--n: only with --z-range")
+        return [args.z]
+    lo, hi = args.z_range
+    if not lo < hi:
+        raise CliError(f"--z-range {lo:g} {hi:g}: needs 0 < A < B (mm)")
+    return np.geomspace(lo, hi, 8 if args.n is None else args.n).tolist()
 
-    camera, source = _load_camera(args.config)
-    texture = parse_texture(args.texture)
-    noise = None if args.photons is None else {"photons": args.photons,
-                                              "read_noise": args.read_noise}
-    if args.z_range is not None:
-        lo, hi = args.z_range
-        if not 0 < lo < hi:
-            raise CliError(f"--z-range {lo} {hi}: needs 0 < A < B (mm)")
-        depths = np.geomspace(lo, hi, args.n)
-    else:
-        depths = [args.z]
-    rows = [simulate(camera, float(z), texture=texture, noise=noise, seed=args.seed,
-                     n_threads=args.threads).summary() for z in depths]
-    if args.json:
-        _dump_json({"source": source, "texture": args.texture, "results": rows})
-        return 0
-    head = f"{'z [mm]':>9}  {'config':<13}{'RMSE':>9}{'PSNR [dB]':>11}{'MTF50 [c/mm]':>14}"
-    print(f"splitlf simulate: {source}; texture {args.texture}; "
-          f"{'noise-free' if noise is None else f'{args.photons:g} photons'}")
-    print(head)
+
+def _simulate_noise(args: argparse.Namespace) -> dict[str, float] | None:
+    if args.photons is None:
+        if args.read_noise is not None:
+            raise CliError("--read-noise: only with --photons (noise-free without it)")
+        return None
+    return {"photons": args.photons, "read_noise": args.read_noise or 0.0}
+
+
+def _simulate_table(rows: list[dict[str, Any]], source: str, args: argparse.Namespace) -> str:
+    from .simulation import CONFIGS
+
+    noise = "noise-free" if args.photons is None else f"{args.photons:g} photons"
+    out = [f"splitlf simulate: {source}; texture {args.texture}; {noise}",
+           f"{'z [mm]':>9}  {'config':<13}{'RMSE':>9}{'PSNR [dB]':>11}{'MTF50 [c/mm]':>14}"]
     for r in rows:
         for c in CONFIGS:
-            print(f"{r['z_mm']:>9.1f}  {c:<13}{r['rmse'][c]:>9.4f}{r['psnr_db'][c]:>11.2f}"
-                  f"{r['mtf50_cycles_per_mm'][c]:>14.3f}")
+            psnr = r["psnr_db"][c]
+            out.append(f"{r['z_mm']:>9.1f}  {c:<13}{r['rmse'][c]:>9.4f}"
+                       f"{math.inf if psnr is None else psnr:>11.2f}"
+                       f"{r['mtf50_cycles_per_mm'][c]:>14.3f}")
+    return "\n".join(out) + "\n"
+
+
+def _cmd_simulate(args: argparse.Namespace) -> int:
+    from .simulation import simulate
+
+    out = None if args.out is None else Path(args.out)
+    if out is not None:
+        _check_suffix("--out", out, (".json",))
+        check_new(out, args.force, FORCE_HINT)
+    depths = _simulate_depths(args)
+    noise = _simulate_noise(args)
+    camera, source = _load_camera(args.config)
+    texture = parse_texture(args.texture)
+    rows = [simulate(camera, z, texture=texture, noise=noise, seed=args.seed,
+                     n_threads=args.threads).summary() for z in depths]
+    doc = {"source": source, "texture": args.texture, "results": rows}
+    if out is not None:
+        _write_text(out, json_text(doc), args.force)
+    if args.json:
+        sys.stdout.write(json_text(doc if out is None else {"path": str(out), **doc}))
+    elif out is not None:
+        print(out)
+    else:
+        sys.stdout.write(_simulate_table(rows, source, args))
     return 0
 
 
 # -- parser ------------------------------------------------------------------------------
 
-def _threads(value: str) -> int:
-    n = int(value)
-    if not 1 <= n <= 1024:
-        raise argparse.ArgumentTypeError(f"invalid thread count {value}: allowed 1..1024")
-    return n
+class _Parser(argparse.ArgumentParser):
+    """argparse with its errors on one line, like every other error of the command line."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="splitlf",
-        description="Design and analysis of split-sensor light field cameras.",
-    )
-    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+def _common(p: argparse.ArgumentParser, threads_help: str) -> None:
+    p.add_argument("--config", metavar="CAM.toml",
+                   help="camera TOML file (default: the seed design)")
+    p.add_argument("--threads", type=_threads, default=None, metavar="N",
+                   help=f"{threads_help} (an integer in [{THREADS_RANGE[0]}, "
+                   f"{THREADS_RANGE[1]}]; default: all cores)")
 
-    def common(p: argparse.ArgumentParser, config: bool = True) -> None:
-        if config:
-            p.add_argument("--config", metavar="CAM.toml",
-                           help="camera TOML file (default: the seed design)")
-        p.add_argument("--threads", type=_threads, default=None, metavar="N",
-                       help="threads for the core (default: all cores)")
 
-    rep = sub.add_parser(
+def _force(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--force", action="store_true",
+                   help="overwrite existing output files (default: refuse)")
+
+
+def _add_report(sub: Any) -> None:
+    p = sub.add_parser(
         "report",
         help="the camera, its derived values, out-of-focus planes and depth of field",
         description="Print the camera (the seed design unless --config), its derived values, "
         "the out-of-focus planes and the depth-of-field intervals of each half, of the split "
         "sensor and of the conventional cameras.",
     )
-    common(rep)
-    rep.add_argument("--json", action="store_true", help="print one JSON document")
-    rep.add_argument("--threshold", type=float, default=0.5, metavar="PX",
-                     help="sharpness threshold on the blur radius in pixels (default 0.5)")
-    rep.set_defaults(func=_cmd_report)
+    _common(p, "threads for the coincidence planes and the resolution figures")
+    p.add_argument("--json", action="store_true", help="print one JSON document")
+    p.add_argument("--threshold", type=_threshold, default=0.5, metavar="PX",
+                   help="sharpness threshold on the blur radius in pixels (default 0.5)")
+    p.set_defaults(func=_cmd_report)
 
-    fig = sub.add_parser("figures", help="write every figure of a design",
-                         description="Write the paper's figures (1, 4, 5) and the samples "
-                         "figure for a design.")
-    common(fig)
-    fig.add_argument("--out", default="figures", metavar="DIR", help="output folder")
-    fig.add_argument("--format", choices=("png", "svg"), default="png")
-    fig.add_argument("--dpi", type=int, default=150)
-    fig.set_defaults(func=_cmd_figures)
 
-    tr = sub.add_parser("trace", help="write every pixel's ray-space polygon to .npz",
-                        description="Trace every pixel of both halves along one axis "
-                        "(docs/model.md §3-4) and write the arrays of splitlf.trace, prefixed "
-                        "half1_/half2_, with the camera as TOML, to an .npz file.")
-    common(tr)
-    tr.add_argument("--axis", choices=("x", "y"), default="x")
-    tr.add_argument("--out", default="trace.npz", metavar="FILE.npz")
-    tr.add_argument("--json", action="store_true", help="print a JSON summary of the arrays")
-    tr.set_defaults(func=_cmd_trace)
+def _add_figures(sub: Any) -> None:
+    p = sub.add_parser("figures", help="write every figure of a design",
+                       description="Write the paper's figures (1, 4, 5) and the samples "
+                       "figure for a design. Every option is checked, and no existing file "
+                       "is overwritten without --force, before the folder is created.")
+    _common(p, "threads of the core for every figure")
+    p.add_argument("--out", default="figures", metavar="DIR",
+                   help="output folder, created if missing (default: figures)")
+    p.add_argument("--format", choices=("png", "svg"), default="png",
+                   help="image format (default: png)")
+    p.add_argument("--dpi", type=_dpi, default=150,
+                   help=f"resolution in dots per inch, an integer in [{DPI_RANGE[0]}, "
+                   f"{DPI_RANGE[1]}] (default 150)")
+    _force(p)
+    p.set_defaults(func=_cmd_figures)
 
-    sw = sub.add_parser("sweep", help="figures of merit over a grid of designs",
-                        description="Full-factorial design sweep from a TOML file with "
-                        "[grid], [depths] (min, max, num; log-spaced), [options] and an "
-                        "optional [camera] base design.")
-    common(sw)
-    sw.add_argument("--grid", required=True, metavar="SWEEP.toml")
-    sw.add_argument("--scheduler", metavar="ADDRESS",
-                    help="Dask scheduler address, e.g. tcp://host:8786")
-    sw.add_argument("--out", metavar="FILE", help="write .nc (NetCDF) or .parquet")
-    sw.add_argument("--json", action="store_true", help="print the designs as JSON records")
-    sw.set_defaults(func=_cmd_sweep)
 
-    si = sub.add_parser("simulate", help="super-resolution simulation at one or more depths",
-                        description="Image a textured plane with half 1, half 2, the split "
-                        "sensor and the conventional camera, reconstruct it with known depth "
-                        "and print RMSE, PSNR and MTF50 (docs/simulate.md).")
-    common(si)
-    where = si.add_mutually_exclusive_group()
-    where.add_argument("--z", type=float, default=1000.0, metavar="MM",
-                       help="depth of the plane (default 1000)")
-    where.add_argument("--z-range", type=float, nargs=2, metavar=("A", "B"),
-                       help="log-spaced depths from A to B (see --n)")
-    si.add_argument("--n", type=int, default=8, help="depths of --z-range (default 8)")
-    si.add_argument("--texture", default="random",
-                    help="random | sinusoid:F | bars:F (cycles/mm) | image:FILE.npy:WIDTH_MM")
-    si.add_argument("--photons", type=float, default=None,
-                    help="add noise: photo-electrons of a full-aperture pixel, white texture")
-    si.add_argument("--read-noise", type=float, default=0.0, metavar="E",
-                    help="read noise in electrons rms (with --photons)")
-    si.add_argument("--seed", type=int, default=0)
-    si.add_argument("--json", action="store_true", help="print one JSON document")
-    si.set_defaults(func=_cmd_simulate)
+def _add_trace(sub: Any) -> None:
+    p = sub.add_parser("trace", help="write every pixel's ray-space polygon to .npz",
+                       description="Trace every pixel of both halves along one axis "
+                       "(docs/model.md §3-4) and write the arrays of splitlf.trace, prefixed "
+                       "half1_/half2_, with the camera as TOML, to an .npz file.")
+    _common(p, "threads of the trace")
+    p.add_argument("--axis", choices=("x", "y"), default="x",
+                   help="the sensor axis traced (default: x)")
+    p.add_argument("--out", default="trace.npz", metavar="FILE.npz",
+                   help="output file (default: trace.npz)")
+    p.add_argument("--json", action="store_true",
+                   help="print a JSON summary of the arrays instead of the path")
+    _force(p)
+    p.set_defaults(func=_cmd_trace)
+
+
+def _add_sweep(sub: Any) -> None:
+    p = sub.add_parser("sweep", help="figures of merit over a grid of designs",
+                       description="Full-factorial design sweep from a TOML file with "
+                       "[grid], [depths] (min, max, num; log-spaced), [options] and an "
+                       "optional [camera] base design.")
+    _common(p, "threads of the core for in-process sweeps")
+    p.add_argument("--grid", required=True, metavar="SWEEP.toml",
+                   help="the sweep file: [grid], [depths], [options], [camera]")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="Dask scheduler address, e.g. tcp://host:8786")
+    p.add_argument("--out", metavar="FILE",
+                   help="write the sweep to .nc (NetCDF), .parquet or .json")
+    p.add_argument("--json", action="store_true",
+                   help="print the designs as JSON records (with --out: as well)")
+    _force(p)
+    p.set_defaults(func=_cmd_sweep)
+
+
+def _add_simulate(sub: Any) -> None:
+    p = sub.add_parser("simulate", help="super-resolution simulation at one or more depths",
+                       description="Image a textured plane with half 1, half 2, the split "
+                       "sensor and the conventional camera, reconstruct it with known depth "
+                       "and print RMSE, PSNR and MTF50 (docs/simulate.md).")
+    _common(p, "threads of the core")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--z", type=_depth, default=1000.0, metavar="MM",
+                       help="depth of the plane in mm (default 1000)")
+    where.add_argument("--z-range", type=_depth, nargs=2, metavar=("A", "B"),
+                       help="log-spaced depths from A to B mm (see --n)")
+    p.add_argument("--n", type=_n_depths, default=None,
+                   help=f"depths of --z-range, an integer in [{SIMULATE_N_RANGE[0]}, "
+                   f"{SIMULATE_N_RANGE[1]}] (default 8)")
+    p.add_argument("--texture", default="random",
+                   help="random | sinusoid:F | bars:F (cycles/mm) | image:FILE.npy:WIDTH_MM")
+    p.add_argument("--photons", type=_photons, default=None,
+                   help="add noise: photo-electrons of a full-aperture pixel, white texture")
+    p.add_argument("--read-noise", type=_read_noise, default=None, metavar="E",
+                   help="read noise in electrons rms (needs --photons; default 0)")
+    p.add_argument("--seed", type=_seed, default=0,
+                   help="seed of the random texture and the noise, an integer >= 0 "
+                   "(default 0)")
+    p.add_argument("--json", action="store_true",
+                   help="print one JSON document (with --out: as well)")
+    p.add_argument("--out", metavar="FILE.json", help="write the JSON document to a file")
+    _force(p)
+    p.set_defaults(func=_cmd_simulate)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of every subcommand (report, figures, trace, sweep, simulate)."""
+    parser = _Parser(
+        prog="splitlf",
+        description="Design and analysis of split-sensor light field cameras.",
+    )
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
+                                help="what to do (COMMAND --help for its options)")
+    for add in (_add_report, _add_figures, _add_trace, _add_sweep, _add_simulate):
+        add(sub)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the command line on ``argv`` (default: ``sys.argv[1:]``); returns the exit
+    status: 0, or 2 after a one-line message on stderr for a user error (argparse exits 2
+    itself for a malformed command line). Other exceptions propagate: they are bugs."""
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
@@ -354,7 +617,7 @@ def main(argv: list[str] | None = None) -> int:
         # The reader went away (e.g. `splitlf report | head`): not an error of ours.
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
-    except (CliError, ValueError, TypeError, OSError, ImportError, KeyError) as e:
+    except USER_ERRORS as e:
         msg = " ".join(str(e).split()) or type(e).__name__
         print(f"splitlf {args.command}: error: {msg}", file=sys.stderr)
         return 2

@@ -19,7 +19,19 @@ REPORT_Z_RANGE = (150.0, 10_000.0)
 
 def report_data(camera: Camera, threshold_px: float = 0.5,
                 n_threads: int | None = None) -> dict[str, Any]:
-    """Camera, derived values, out-of-focus planes and depth of field as a JSON-ready dict."""
+    """Camera, derived values, out-of-focus planes and depth of field as a JSON-ready dict.
+
+    - ``camera``: the :class:`~splitlf.Camera`
+    - ``threshold_px``: sharpness threshold on the blur radius [pixels], finite > 0
+    - ``n_threads``: threads of the core for the coincidence planes and the worst
+      resolution (None: all cores)
+
+    Keys: ``camera`` (fields, mm), ``derived`` (f-number, rho and per-half values),
+    ``depth_of_field`` (intervals [near, far] mm, far None when infinite),
+    ``coincidence_planes`` (N <= :data:`REPORT_MAX_N`) and ``resolution`` (worst max gap
+    over :data:`REPORT_Z_RANGE`). Raises ``TypeError`` and ``ValueError`` (from the
+    functions it calls) for bad arguments.
+    """
     halves = {}
     for h in (1, 2):
         halves[f"half{h}"] = {
@@ -60,6 +72,8 @@ def _interval_text(iv: list) -> str:
 
 
 def format_report(data: dict[str, Any], title: str) -> str:
+    """The report as text for people: ``data`` from :func:`report_data`, under ``title``.
+    Returns the text, ending in a newline."""
     cam, der, dof = data["camera"], data["derived"], data["depth_of_field"]
     h1, h2 = der["half1"], der["half2"]
     out = [title, "", "Camera (lengths in mm)"]
@@ -76,6 +90,7 @@ def format_report(data: dict[str, Any], title: str) -> str:
     ]
 
     def row(label: str, key: str, fmt: str) -> str:
+        """One line: label, then the value of ``key`` for half 1 and half 2."""
         return f"  {label:<34} {format(h1[key], fmt):>10} {format(h2[key], fmt):>10}"
 
     out += [

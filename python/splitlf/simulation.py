@@ -28,6 +28,7 @@ import numpy as np
 
 from . import _native, _validate
 from .camera import Camera
+from .errors import InvalidParameter
 
 __all__ = [
     "CONFIGS",
@@ -55,6 +56,12 @@ NOISE_FREE_WEIGHT = 1e-6
 MTF_MEAN, MTF_AMPLITUDE = 0.5, 0.4
 #: Normal equations up to this many cells are solved by dense Cholesky, larger by sparse LU.
 DENSE_CELLS = 6000
+#: Largest ``photons`` of the noise model (a full-aperture pixel's photo-electrons; real
+#: full wells hold ~1e4-1e6): beyond it shot noise is nil at double precision anyway.
+MAX_PHOTONS = 1e15
+#: Largest mean photo-electron count of one pixel that the Poisson draw accepts (NumPy's
+#: generator refuses means near 2**63).
+MAX_POISSON_MEAN = 1e18
 
 
 def _scipy():
@@ -96,7 +103,11 @@ def forward(camera: Camera, z: float, source: str, origin: float, step: float,
     kernel lies inside ``field`` (default: the grid) are rendered. Returns (values
     (n_textures, n_pixels) or (n_pixels,), pixel indices along x). Units: a pixel of width
     mu on plane v' seeing the whole aperture under a white texture reads 1; the
-    light-field halves include the beam splitter's 1/2."""
+    light-field halves include the beam splitter's 1/2.
+
+    ``z`` depth [mm] > F; ``source`` one of :data:`SOURCES`; ``origin``, ``step`` [mm]
+    (step > 0); ``field`` (lo, hi) [mm]; ``n_threads`` threads of the core (None: all).
+    Raises ``TypeError`` (types) and ``ValueError`` (ranges, checked by the core)."""
     cam = _validate.camera(camera)
     t = np.asarray(texture)
     if t.dtype == object or not (np.issubdtype(t.dtype, np.floating)
@@ -118,7 +129,10 @@ def system_matrix(camera: Camera, z: float, source: str, origin: float, step: fl
     """The sparse system matrix (``scipy.sparse.csr_matrix``, pixels x cells) of ``source``
     on the plane at depth ``z``: entry (p, k) is the exact integral of pixel p's kernel over
     cell k (assembled in the core), in the units of :func:`forward`. Returns (matrix,
-    pixel indices along x)."""
+    pixel indices along x).
+
+    ``n_cells`` an integer >= 1; the other arguments as in :func:`forward`. Raises
+    ``TypeError``, ``ValueError`` and ``ImportError`` without SciPy."""
     sp = _scipy()[0]
     cam = _validate.camera(camera)
     o, h = _validate.real(origin, "origin"), _validate.real(step, "step")
@@ -132,24 +146,40 @@ def system_matrix(camera: Camera, z: float, source: str, origin: float, step: fl
 
 # -- textures ----------------------------------------------------------------------------
 
-def _positive(value: Any, name: str) -> float:
-    x = _validate.real(value, name)
-    if not (math.isfinite(x) and x > 0):
-        raise ValueError(f"invalid {name} = {x}: allowed a finite value > 0")
+def _real(value: Any, name: str) -> float:
+    """A real number (an integer beyond the float range becomes +-inf, for the range
+    check to reject), else ``TypeError``."""
+    if isinstance(value, numbers.Integral) and not isinstance(value, bool):
+        try:
+            return float(value)
+        except OverflowError:
+            return math.inf if value > 0 else -math.inf
+    return _validate.real(value, name)
+
+
+def _positive(value: Any, name: str, upper: float = math.inf) -> float:
+    x = _real(value, name)
+    if not (math.isfinite(x) and 0 < x <= upper):
+        allowed = "a finite value > 0" if upper == math.inf else f"a value in (0, {upper:g}]"
+        raise InvalidParameter.of(name, x, allowed)
     return x
 
 
 def _albedo(value: Any, name: str) -> float:
-    x = _validate.real(value, name)
+    x = _real(value, name)
     if not (math.isfinite(x) and x >= 0):
-        raise ValueError(f"invalid {name} = {x}: allowed a finite albedo >= 0")
+        raise InvalidParameter.of(name, x, "a finite value >= 0")
     return x
 
 
 @dataclasses.dataclass(frozen=True)
 class Sinusoid:
     """mean + amplitude sin(2 pi frequency X + phase); frequency in cycles/mm on the
-    object, X the object-space position [mm] (0 on the optical axis)."""
+    object, X the object-space position [mm] (0 on the optical axis).
+
+    ``frequency`` finite > 0; ``mean``, ``amplitude`` finite >= 0 with amplitude <= mean
+    (albedo >= 0); ``phase`` [rad]. Raises ``TypeError`` (not real numbers) and
+    :class:`~splitlf.errors.InvalidParameter` (out of range)."""
 
     frequency: float
     mean: float = MTF_MEAN
@@ -164,6 +194,8 @@ class Sinusoid:
             raise ValueError(f"invalid amplitude = {a}: allowed <= mean = {m} (albedo >= 0)")
 
     def antiderivative(self, x: np.ndarray) -> np.ndarray:
+        """The integral of the albedo from 0 to each X in ``x`` [mm] (any shape); its
+        differences give exact cell averages."""
         w = 2 * np.pi * self.frequency
         return self.mean * x - self.amplitude / w * np.cos(w * x + self.phase)
 
@@ -171,7 +203,10 @@ class Sinusoid:
 @dataclasses.dataclass(frozen=True)
 class BarChart:
     """A square wave: ``high`` on the first half of each period, ``low`` on the second;
-    ``frequency`` in bar pairs (cycles) per mm on the object, a bar edge at X = 0."""
+    ``frequency`` in bar pairs (cycles) per mm on the object, a bar edge at X = 0.
+
+    ``frequency`` finite > 0; ``low``, ``high`` finite albedos >= 0. Raises ``TypeError``
+    (not real numbers) and :class:`~splitlf.errors.InvalidParameter` (out of range)."""
 
     frequency: float
     low: float = 0.1
@@ -183,6 +218,7 @@ class BarChart:
         _albedo(self.high, "high")
 
     def antiderivative(self, x: np.ndarray) -> np.ndarray:
+        """The integral of the albedo from 0 to each X in ``x`` [mm] (any shape)."""
         s = self.frequency * x
         k = np.floor(s)
         high_part = 0.5 * k + np.minimum(s - k, 0.5)  # high-bar length, in periods
@@ -193,7 +229,10 @@ class BarChart:
 class RandomAlbedo:
     """Independent albedos uniform in [low, high] on cells of ``cell`` mm (default
     delta(z)), aligned with X = 0, drawn from the simulation's seeded generator. A row of a
-    2D i.i.d. albedo field is a 1D i.i.d. albedo, so this is the 2D random albedo too."""
+    2D i.i.d. albedo field is a 1D i.i.d. albedo, so this is the 2D random albedo too.
+
+    ``cell`` [mm] finite > 0 or None; 0 <= ``low`` <= ``high``, finite. Raises
+    ``TypeError`` and :class:`~splitlf.errors.InvalidParameter`."""
 
     cell: float | None = None
     low: float = 0.0
@@ -211,7 +250,11 @@ class RandomAlbedo:
 class Image:
     """A user image: a 2D array of albedos (finite, >= 0) ``width`` mm wide on the object,
     centred on the optical axis; the simulation reads one row (default the middle one),
-    pixels as constant cells. Outside the image the albedo is the row's mean."""
+    pixels as constant cells. Outside the image the albedo is the row's mean.
+
+    ``array``: 2D (rows, columns) numeric array; ``width`` [mm] finite > 0; ``row`` an
+    integer in [0, rows) or None. Raises ``TypeError`` (dtype, row type) and
+    ``ValueError`` (shape, non-finite or negative albedo, range)."""
 
     array: np.ndarray
     width: float
@@ -237,6 +280,7 @@ class Image:
         object.__setattr__(self, "array", a)
 
     def line(self) -> np.ndarray:
+        """The row the simulation reads (``row``, default the middle one), shape (width,)."""
         r = self.array.shape[0] // 2 if self.row is None else int(self.row)
         return self.array[r]
 
@@ -315,7 +359,7 @@ def _noise(value: Any) -> dict[str, float] | None:
         raise ValueError(
             f"invalid noise keys {sorted(value)}: needs photons and optional read_noise"
         )
-    photons = _positive(value["photons"], "noise photons")
+    photons = _positive(value["photons"], "noise photons", MAX_PHOTONS)
     read = _albedo(value.get("read_noise", 0.0), "noise read_noise")
     return {"photons": photons, "read_noise": read}
 
@@ -327,7 +371,13 @@ def _add_noise(y: np.ndarray, noise: dict[str, float] | None,
     if noise is None:
         return y
     n = noise["photons"]
-    counts = rng.poisson(np.maximum(y, 0.0) * n).astype(np.float64)
+    lam = np.maximum(y, 0.0) * n
+    peak = float(lam.max(initial=0.0))
+    if peak > MAX_POISSON_MEAN:
+        raise InvalidParameter.of(
+            "noise photons", n, f"at most {MAX_POISSON_MEAN:g} photo-electrons in the "
+            f"brightest pixel (here photons x {peak / n:g}): lower photons or the albedo")
+    counts = rng.poisson(lam).astype(np.float64)
     if noise["read_noise"] > 0:
         counts += rng.normal(0.0, noise["read_noise"], size=y.shape)
     return counts / n
@@ -374,19 +424,27 @@ class Simulation:
     conventional_half: int
 
     def reconstruction(self, config: str) -> np.ndarray:
+        """The reconstruction (W,) of ``config``, one of :data:`CONFIGS`; else
+        :class:`~splitlf.errors.InvalidParameter`."""
         if config not in CONFIGS:
-            raise ValueError(f"invalid config = {config!r}: allowed {', '.join(CONFIGS)}")
+            raise InvalidParameter.of("config", config, ", ".join(CONFIGS))
         return getattr(self, config)
 
     def summary(self) -> dict[str, Any]:
-        """JSON-ready figures of merit."""
+        """JSON-ready figures of merit: a dict of numbers, strings, dicts and None. A value
+        that is not finite is None (the PSNR of an exact reconstruction is +inf)."""
+
+        def finite(m: Mapping[str, float]) -> dict[str, float | None]:
+            """The mapping with +-inf and NaN as None."""
+            return {k: (v if math.isfinite(v) else None) for k, v in m.items()}
+
         return {
             "z_mm": self.z,
             "delta_mm": self.delta,
             "nyquist_cycles_per_mm": self.nyquist,
             "microlens_frequency_cycles_per_mm": self.microlens_frequency,
             "rmse": dict(self.rmse),
-            "psnr_db": dict(self.psnr),
+            "psnr_db": finite(self.psnr),
             "mtf50_cycles_per_mm": dict(self.mtf50),
             "regularization": dict(self.regularization),
             "pixels": dict(self.pixels),
@@ -401,7 +459,7 @@ def _int(value: Any, name: str, lo: int) -> int:
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
         raise TypeError(f"{name} must be an integer >= {lo}, got {value!r}")
     if int(value) < lo:
-        raise ValueError(f"invalid {name} = {value}: allowed an integer >= {lo}")
+        raise InvalidParameter.of(name, int(value), f"an integer >= {lo}")
     return int(value)
 
 
@@ -424,6 +482,178 @@ def _mtf50(freqs: np.ndarray, contrast: np.ndarray) -> float:
     return f0 + (f1 - f0) * (c0 - 0.5) / (c0 - c1) if c0 != c1 else f1
 
 
+@dataclasses.dataclass(frozen=True)
+class _Options:
+    """The validated arguments of :func:`simulate`."""
+
+    z: float
+    texture: Any
+    noise: dict[str, float] | None
+    seed: int | None
+    window: int
+    oversample: int
+    mtf: bool
+    n_frequencies: int
+    regularization: float | None
+    conventional_half: int
+    n_threads: int | None
+
+
+def _seed(value: Any) -> int | None:
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise TypeError(f"seed must be an integer >= 0 or None, got {value!r}")
+    if value < 0:
+        raise InvalidParameter.of("seed", int(value), "an integer >= 0 or None")
+    return int(value)
+
+
+def _options(z: Any, texture: Any, noise: Any, seed: Any, window: Any, oversample: Any,
+             mtf: Any, n_frequencies: Any, regularization: Any, conventional_half: Any,
+             n_threads: Any) -> _Options:
+    """Check every argument of :func:`simulate` before any work."""
+    win = _int(window, "window", 8)
+    if not isinstance(mtf, bool):
+        raise TypeError(f"mtf must be a bool, got {mtf!r}")
+    ch = _int(conventional_half, "conventional_half", 1)
+    if ch not in (1, 2):
+        raise InvalidParameter.of("conventional_half", ch, "1 or 2")
+    return _Options(
+        z=_validate.real(z, "z"), texture=_texture(texture), noise=_noise(noise),
+        seed=_seed(seed), window=win + win % 2, oversample=_int(oversample, "oversample", 1),
+        mtf=mtf, n_frequencies=_int(n_frequencies, "n_frequencies", 2),
+        regularization=None if regularization is None
+        else _albedo(regularization, "regularization"),
+        conventional_half=ch, n_threads=_validate.n_threads(n_threads),
+    )
+
+
+@dataclasses.dataclass(frozen=True)
+class _Grid:
+    """The cells of delta(z) of one plane: the central window of ``win`` cells plus, on
+    each side, a margin of the widest kernel (+1 free cell). The light-field halves share
+    one grid, the conventional camera has its own; all lie inside the largest ("big")
+    grid of ``n_big`` cells starting at ``origin`` [mm], window cells from ``w0``."""
+
+    delta: float
+    win: int
+    margin: dict[str, int]
+    big: int
+    n_big: int
+    origin: float
+    w0: int
+
+
+def _grid(core: Any, z: float, sources: Mapping[str, str], delta: float, win: int,
+          threads: int | None) -> _Grid:
+    support = {k: _native.kernel_support(core, z, s, threads) for k, s in sources.items()}
+    margin_lf = math.ceil(max(support["half1"], support["half2"]) / delta) + 1
+    margin = {"half1": margin_lf, "half2": margin_lf,
+              "conventional": math.ceil(support["conventional"] / delta) + 1}
+    big = max(margin.values())
+    n_big = win + 2 * big + 2
+    return _Grid(delta=delta, win=win, margin=margin, big=big, n_big=n_big,
+                 origin=-(n_big // 2) * delta, w0=big + 1)
+
+
+def _textures(tex: Any, grid: _Grid, oversample: int, freqs: np.ndarray, mtf: bool,
+              rng: np.random.Generator) -> np.ndarray:
+    """The textures on the fine cells (``oversample`` per delta(z) cell) of the big grid:
+    row 0 the texture, then the MTF sinusoids (two phases per frequency)."""
+    fine_edges = grid.origin + np.arange(grid.n_big * oversample + 1) * (grid.delta / oversample)
+    rows = [_fine_texture(tex, fine_edges, grid.delta, rng)]
+    if mtf:
+        for f in freqs:
+            for ph in (0.0, 0.5 * np.pi):
+                rows.append(_fine_texture(Sinusoid(f, phase=ph), fine_edges, grid.delta, rng))
+    return np.ascontiguousarray(np.vstack(rows))
+
+
+def _image_systems(core: Any, z: float, sources: Mapping[str, str], grid: _Grid,
+                   fine: np.ndarray, oversample: int, noise: dict[str, float] | None,
+                   rng: np.random.Generator, threads: int | None
+                   ) -> tuple[dict[str, np.ndarray], dict[str, Any], dict[str, slice]]:
+    """Render each source (noise added in the fixed order half1, half2, conventional) and
+    assemble its system matrix; add the split sensor (both halves stacked). Returns
+    (images, matrices, the cells of the big grid each system covers)."""
+    sp = _scipy()[0]
+    images: dict[str, np.ndarray] = {}
+    mats: dict[str, Any] = {}
+    cells: dict[str, slice] = {}
+    delta = grid.delta
+    for key, src in sources.items():
+        m = grid.margin[key]
+        first = grid.big - m  # grid of this source: cells [first, first + n) of the big grid
+        n = grid.win + 2 * m + 2
+        cells[key] = slice(first, first + n)
+        origin = grid.origin + first * delta
+        field = (origin + delta, origin + (n - 1) * delta)
+        y = _native.render(core, z, src, origin, delta / oversample, *field,
+                           np.ascontiguousarray(
+                               fine[:, first * oversample:(first + n) * oversample]),
+                           threads).values
+        images[key] = _add_noise(y, noise, rng)
+        a = _native.system_matrix(core, z, src, origin, delta, n, *field, threads)
+        mats[key] = sp.csr_matrix((a.data, a.indices, a.indptr), shape=a.shape)
+    images["split"] = np.hstack([images["half1"], images["half2"]])
+    mats["split"] = sp.vstack([mats["half1"], mats["half2"]]).tocsr()
+    cells["split"] = cells["half1"]
+    return images, mats, cells
+
+
+def _weight(AtA: Any, y: np.ndarray, user: float | None,
+            noise: dict[str, float] | None) -> float:
+    """The weight lambda of the first-difference penalty (docs/simulate.md)."""
+    if user is not None:
+        return user
+    if noise is None:
+        return NOISE_FREE_WEIGHT * float(AtA.diagonal().mean())
+    # MAP weight: pixel noise variance over the prior variance of a cell step.
+    mean_signal = float(np.mean(np.maximum(y[0], 0.0)))
+    var = mean_signal / noise["photons"] + (noise["read_noise"] / noise["photons"]) ** 2
+    return var / PRIOR_STEP**2
+
+
+def _solve(A: Any, y: np.ndarray, user: float | None,
+           noise: dict[str, float] | None) -> tuple[np.ndarray, float]:
+    """Regularised least squares min |A x - y|^2 + lambda |D x|^2 for every row of ``y``
+    (D: first differences). Returns (solutions (rows, cells), lambda)."""
+    sp, spla, sla = _scipy()
+    n = A.shape[1]
+    dense = n <= DENSE_CELLS
+    if dense:
+        # Banded but often wide (defocused kernels): dense BLAS is faster here.
+        Ad = A.toarray()
+        AtA = Ad.T @ Ad
+    else:
+        AtA = (A.T @ A).tocsc()
+    D = sp.diags([-np.ones(n - 1), np.ones(n - 1)], [0, 1], shape=(n - 1, n))
+    lam = _weight(AtA, y, user, noise)
+    rhs = np.asarray(A.T @ y.T)
+    if dense:
+        normal = AtA + lam * (D.T @ D).toarray()
+        try:
+            sol = sla.cho_solve(sla.cho_factor(normal), rhs).T
+        except np.linalg.LinAlgError:  # only with a user weight too small to help
+            sol = np.linalg.lstsq(normal, rhs, rcond=None)[0].T
+    else:
+        sol = spla.splu((AtA + lam * (D.T @ D)).tocsc()).solve(rhs).T
+    return sol, lam
+
+
+def _mtf_contrast(rec: np.ndarray, x: np.ndarray, freqs: np.ndarray) -> np.ndarray:
+    """Contrast of each MTF sinusoid (rows 1, 2 of ``rec`` for the first frequency, ...):
+    the mean over both phases of the fitted amplitude over the texture's."""
+    c = np.empty(freqs.size)
+    for i, f in enumerate(freqs):
+        w = 2 * np.pi * f
+        basis = np.column_stack([np.ones(x.size), np.sin(w * x), np.cos(w * x)])
+        pair = rec[1 + 2 * i: 3 + 2 * i]
+        c[i] = float(np.mean(_fit_contrast(pair, basis, MTF_AMPLITUDE)))
+    return c
+
+
 def simulate(
     camera: Camera,
     z: float,
@@ -442,151 +672,75 @@ def simulate(
     """Simulate the plane at depth ``z`` [mm] carrying ``texture`` and reconstruct it with
     known depth from half 1, half 2, the split sensor and the conventional camera.
 
+    - ``camera``: the :class:`~splitlf.Camera`; ``z``: the plane's depth [mm], > F
     - ``texture``: ``"random"`` (:class:`RandomAlbedo` on delta(z) cells), a
       :class:`Sinusoid`, :class:`BarChart`, :class:`RandomAlbedo`, :class:`Image`, or a
       callable albedo(X [mm]) (sampled at the centres of the fine cells)
     - ``noise``: None (noise-free) or ``{"photons": N, "read_noise": r}``: N is the mean
       photo-electron count of a pixel that collects the full aperture x pixel etendue
       (D mu in ray space) from a white (albedo 1) texture with no beam splitter; each half
-      gets half of that; r is the read noise in electrons rms
-    - ``seed``: seed of NumPy's Generator (random texture, noise); same seed, same result
-    - ``window``: cells of delta(z) in the central field that are scored (the grid extends
-      beyond it by the widest kernel so that every used pixel sees only grid cells)
-    - ``oversample``: fine cells per delta(z) cell of the rendered texture
+      gets half of that; N finite in (0, :data:`MAX_PHOTONS`]; r (>= 0, finite) is the
+      read noise in electrons rms
+    - ``seed``: seed of NumPy's Generator (random texture, noise), an integer >= 0 or None
+      (fresh entropy); same seed, same result
+    - ``window``: cells of delta(z) in the central field that are scored (an integer >= 8,
+      rounded up to even; the grid extends beyond it by the widest kernel so that every
+      used pixel sees only grid cells)
+    - ``oversample``: fine cells per delta(z) cell of the rendered texture (>= 1)
     - ``mtf``: run the MTF search (``n_frequencies`` - 1 frequencies k / n_frequencies of
-      the Nyquist frequency 1/(2 delta), two phases each)
-    - ``regularization``: the weight lambda of the first-difference penalty; None for the
-      default rule (docs/simulate.md)
+      the Nyquist frequency 1/(2 delta), two phases each; ``n_frequencies`` >= 2)
+    - ``regularization``: the weight lambda of the first-difference penalty (finite >= 0);
+      None for the default rule (docs/simulate.md)
     - ``conventional_half``: the conventional camera has its sensor on array plane 1 or 2
+    - ``n_threads``: threads of the core (None: all cores)
+
+    Returns a :class:`Simulation`. Raises ``TypeError`` for arguments of the wrong type,
+    :class:`~splitlf.errors.InvalidParameter` (a ``ValueError``) for values out of range
+    (all checked before any work, except a texture callable's output and the Poisson mean,
+    checked when computed), ``ImportError`` without SciPy.
     """
-    sp, spla, sla = _scipy()
+    _scipy()
     cam = _validate.camera(camera)
-    zf = _validate.real(z, "z")
-    tex = _texture(texture)
-    nz = _noise(noise)
-    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, numbers.Integral)):
-        raise TypeError(f"seed must be an integer or None, got {seed!r}")
-    win = _int(window, "window", 8)
-    win += win % 2
-    os_ = _int(oversample, "oversample", 1)
-    nf = _int(n_frequencies, "n_frequencies", 2)
-    if not isinstance(mtf, bool):
-        raise TypeError(f"mtf must be a bool, got {mtf!r}")
-    lam_user = None if regularization is None else _albedo(regularization, "regularization")
-    ch = _int(conventional_half, "conventional_half", 1)
-    if ch not in (1, 2):
-        raise ValueError(f"invalid conventional_half = {ch}: allowed 1 or 2")
-    threads = _validate.n_threads(n_threads)
+    o = _options(z, texture, noise, seed, window, oversample, mtf, n_frequencies,
+                 regularization, conventional_half, n_threads)
     core = cam.core
-    delta = core.resolution_step(zf)  # validates z
-    rng = np.random.default_rng(seed)
-
-    # Grids: the central window plus a margin of the widest kernel (+1 free cell) on each
-    # side; the light-field halves share one grid, the conventional camera has its own.
-    sources = {"half1": "half1", "half2": "half2", "conventional": f"conventional{ch}"}
-    support = {k: _native.kernel_support(core, zf, s, threads) for k, s in sources.items()}
-    margin_lf = math.ceil(max(support["half1"], support["half2"]) / delta) + 1
-    margin = {"half1": margin_lf, "half2": margin_lf,
-              "conventional": math.ceil(support["conventional"] / delta) + 1}
-    big = max(margin.values())
-    n_big = win + 2 * big + 2
-    origin_big = -(n_big // 2) * delta
-    fine_edges = origin_big + np.arange(n_big * os_ + 1) * (delta / os_)
-
-    # Textures on the fine grid of the largest grid: row 0 the texture, then the MTF
-    # sinusoids (two phases per frequency).
-    freqs = np.arange(1, nf) / nf * (0.5 / delta)
-    rows = [_fine_texture(tex, fine_edges, delta, rng)]
-    if mtf:
-        for f in freqs:
-            for ph in (0.0, 0.5 * np.pi):
-                rows.append(_fine_texture(Sinusoid(f, phase=ph), fine_edges, delta, rng))
-    fine = np.ascontiguousarray(np.vstack(rows))
-    coarse = fine.reshape(fine.shape[0], n_big, os_).mean(axis=2)
-    w0 = big + 1  # first window cell in the big grid
-    win_slice = slice(w0, w0 + win)
-    truth = coarse[0, win_slice]
-    x = origin_big + (np.arange(w0, w0 + win) + 0.5) * delta
-
-    # Render and add noise (fixed order: half1, half2, conventional), then the systems.
-    images: dict[str, np.ndarray] = {}
-    mats: dict[str, Any] = {}
-    cells: dict[str, slice] = {}
-    for key, src in sources.items():
-        m = margin[key]
-        first = big - m  # grid of this source: cells [first, first + n) of the big grid
-        n = win + 2 * m + 2
-        cells[key] = slice(first, first + n)
-        origin = origin_big + first * delta
-        field = (origin + delta, origin + (n - 1) * delta)
-        y = _native.render(core, zf, src, origin, delta / os_, *field,
-                           np.ascontiguousarray(fine[:, first * os_:(first + n) * os_]),
-                           threads).values
-        images[key] = _add_noise(y, nz, rng)
-        a = _native.system_matrix(core, zf, src, origin, delta, n, *field, threads)
-        mats[key] = sp.csr_matrix((a.data, a.indices, a.indptr), shape=a.shape)
-    images["split"] = np.hstack([images["half1"], images["half2"]])
-    mats["split"] = sp.vstack([mats["half1"], mats["half2"]]).tocsr()
-    cells["split"] = cells["half1"]
+    delta = core.resolution_step(o.z)  # validates z
+    rng = np.random.default_rng(o.seed)
+    sources = {"half1": "half1", "half2": "half2",
+               "conventional": f"conventional{o.conventional_half}"}
+    grid = _grid(core, o.z, sources, delta, o.window, o.n_threads)
+    win = o.window
+    freqs = np.arange(1, o.n_frequencies) / o.n_frequencies * (0.5 / delta)
+    fine = _textures(o.texture, grid, o.oversample, freqs, o.mtf, rng)
+    coarse = fine.reshape(fine.shape[0], grid.n_big, o.oversample).mean(axis=2)
+    truth = coarse[0, grid.w0:grid.w0 + win]
+    x = grid.origin + (np.arange(grid.w0, grid.w0 + win) + 0.5) * delta
+    images, mats, cells = _image_systems(core, o.z, sources, grid, fine, o.oversample,
+                                         o.noise, rng, o.n_threads)
 
     recs: dict[str, np.ndarray] = {}
     lams: dict[str, float] = {}
     contrast: dict[str, np.ndarray] = {}
     for key in CONFIGS:
-        A = mats[key]
-        y = images[key]
-        n = A.shape[1]
-        dense = n <= DENSE_CELLS
-        if dense:
-            # Banded but often wide (defocused kernels): dense BLAS is faster here.
-            Ad = A.toarray()
-            AtA = Ad.T @ Ad
-        else:
-            AtA = (A.T @ A).tocsc()
-        D = sp.diags([-np.ones(n - 1), np.ones(n - 1)], [0, 1], shape=(n - 1, n))
-        if lam_user is not None:
-            lam = lam_user
-        elif nz is None:
-            lam = NOISE_FREE_WEIGHT * float(AtA.diagonal().mean())
-        else:
-            # MAP weight: pixel noise variance over the prior variance of a cell step.
-            mean_signal = float(np.mean(np.maximum(y[0], 0.0)))
-            var = mean_signal / nz["photons"] + (nz["read_noise"] / nz["photons"]) ** 2
-            lam = var / PRIOR_STEP**2
-        lams[key] = lam
-        rhs = np.asarray(A.T @ y.T)
-        if dense:
-            normal = AtA + lam * (D.T @ D).toarray()
-            try:
-                sol = sla.cho_solve(sla.cho_factor(normal), rhs).T
-            except np.linalg.LinAlgError:  # only with a user weight too small to help
-                sol = np.linalg.lstsq(normal, rhs, rcond=None)[0].T
-        else:
-            sol = spla.splu((AtA + lam * (D.T @ D)).tocsc()).solve(rhs).T
-        local = slice(w0 - cells[key].start, w0 - cells[key].start + win)
-        rec = sol[:, local]
+        sol, lams[key] = _solve(mats[key], images[key], o.regularization, o.noise)
+        first = grid.w0 - cells[key].start
+        rec = sol[:, first:first + win]
         recs[key] = rec[0]
-        if mtf:
-            c = np.empty(freqs.size)
-            for i, f in enumerate(freqs):
-                w = 2 * np.pi * f
-                basis = np.column_stack([np.ones(win), np.sin(w * x), np.cos(w * x)])
-                pair = rec[1 + 2 * i: 3 + 2 * i]
-                c[i] = float(np.mean(_fit_contrast(pair, basis, MTF_AMPLITUDE)))
-            contrast[key] = c
+        if o.mtf:
+            contrast[key] = _mtf_contrast(rec, x, freqs)
 
     rmse = {k: float(np.sqrt(np.mean((recs[k] - truth) ** 2))) for k in CONFIGS}
     psnr = {k: (float("inf") if v == 0 else float(-20 * np.log10(v))) for k, v in rmse.items()}
-    mtf50 = {k: _mtf50(freqs, contrast[k]) for k in CONFIGS} if mtf else {}
+    mtf50 = {k: _mtf50(freqs, contrast[k]) for k in CONFIGS} if o.mtf else {}
     ro = types.MappingProxyType
     return Simulation(
-        z=zf, delta=delta, x=x, truth=truth,
+        z=o.z, delta=delta, x=x, truth=truth,
         half1=recs["half1"], half2=recs["half2"], split=recs["split"],
         conventional=recs["conventional"],
         rmse=ro(rmse), psnr=ro(psnr), mtf50=ro(mtf50),
-        frequencies=freqs if mtf else np.empty(0), contrast=ro(contrast),
+        frequencies=freqs if o.mtf else np.empty(0), contrast=ro(contrast),
         nyquist=0.5 / delta, microlens_frequency=1.0 / (cam.Q * delta),
         regularization=ro(lams), pixels=ro({k: int(mats[k].shape[0]) for k in CONFIGS}),
-        noise=None if nz is None else ro(nz), seed=None if seed is None else int(seed),
-        conventional_half=ch,
+        noise=None if o.noise is None else ro(o.noise), seed=o.seed,
+        conventional_half=o.conventional_half,
     )

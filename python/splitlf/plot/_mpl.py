@@ -5,10 +5,13 @@ from __future__ import annotations
 from typing import Any
 
 HALF_COLORS = {1: "tab:blue", 2: "tab:orange"}
+#: Most depths a curve figure draws (far beyond what a figure can show).
+MAX_POINTS = 1_000_000
 SPLIT_COLOR = "black"
 
 
 def pyplot() -> Any:
+    """``matplotlib.pyplot``, imported on first use; ``ImportError`` naming the extra."""
     try:
         import matplotlib.pyplot as plt
     except ImportError as e:  # pragma: no cover - exercised only without matplotlib
@@ -38,6 +41,8 @@ def axes_pair(ax: Any, figsize: tuple[float, float], names: str) -> list[Any]:
 
 
 def mark_out_of_focus(ax: Any, camera: Any, label: bool = True) -> None:
+    """Dotted vertical lines at both out-of-focus planes [mm] on ``ax`` (labelled when
+    ``label``)."""
     for h in (1, 2):
         z = camera.out_of_focus_depth(h)
         ax.axvline(z, color=HALF_COLORS[h], lw=0.8, ls=":",
@@ -53,9 +58,15 @@ def depth_grid(camera: Any, z_range: tuple[float, float], n: int) -> Any:
         raise ValueError(
             f"invalid z_range = ({lo}, {hi}): allowed F = {camera.F} < near < far < inf (mm)"
         )
-    if not isinstance(n, int) or n < 2:
-        raise ValueError(f"invalid n = {n!r}: allowed an integer >= 2")
+    if isinstance(n, bool) or not isinstance(n, int) or not 2 <= n <= MAX_POINTS:
+        raise ValueError(f"invalid n = {n!r}: allowed an integer in [2, {MAX_POINTS}]")
     z = np.geomspace(lo, hi, n)
     extra = [camera.out_of_focus_depth(h) for h in (1, 2)]
     extra = [e for e in extra if lo < e < hi]
     return np.unique(np.concatenate([z, extra]))
+
+
+def trace_threads(n_threads: int | None) -> dict[str, int]:
+    """Keyword arguments that run :func:`splitlf.trace` on ``n_threads`` threads (empty for
+    None: all cores)."""
+    return {} if n_threads is None else {"n_threads": n_threads}

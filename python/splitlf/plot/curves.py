@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 from .. import _validate
@@ -10,14 +11,28 @@ from ._mpl import HALF_COLORS, axes, depth_grid, mark_out_of_focus
 
 
 def blur(camera, z_range: tuple[float, float] = (100.0, 10_000.0), *, n: int = 4000,
-         threshold_px: float = 0.5, ax: Any = None) -> Any:
+         threshold_px: float = 0.5, ax: Any = None, n_threads: int | None = None) -> Any:
     """The paper's Fig. 1: blur radius in pixels against depth (log axis) for both light
     field halves (solid, bounded by the microlens image) and the conventional cameras with
     the sensor on each array plane (dashed), the sharpness line and the out-of-focus planes.
+
+    - ``threshold_px``: the sharpness line [pixels], finite > 0
+    - ``camera``: the :class:`~splitlf.Camera`
+    - ``z_range``: (near, far) depths [mm], F < near < far < inf, drawn on a log axis
+    - ``n``: log-spaced depths drawn (an integer in [2, 10**6]); both out-of-focus planes
+      are added so that the peaks are drawn
+    - ``ax``: a matplotlib Axes, or None for a new figure
+    - ``n_threads``: threads of the core (None: all cores)
+
+    Returns the Axes. Raises ``TypeError`` (camera) and ``ValueError`` (z_range, n);
+    ``ImportError`` without matplotlib.
     """
     cam = _validate.camera(camera)
+    threshold_px = _validate.real(threshold_px, "threshold_px")
+    if not (math.isfinite(threshold_px) and threshold_px > 0):
+        raise ValueError(f"invalid threshold_px = {threshold_px}: allowed a finite number > 0")
     z = depth_grid(cam, z_range, n)
-    c = curves(cam, z)
+    c = curves(cam, z, n_threads=n_threads)
     ax = axes(ax)
     for h in (1, 2):
         ax.plot(z, c.blur_px[h - 1], color=HALF_COLORS[h], lw=1.8,
@@ -38,14 +53,25 @@ def blur(camera, z_range: tuple[float, float] = (100.0, 10_000.0), *, n: int = 4
     return ax
 
 
+
 def repetitions(camera, z_range: tuple[float, float] = (100.0, 10_000.0), *, n: int = 4000,
-                ax: Any = None) -> Any:
+                ax: Any = None, n_threads: int | None = None) -> Any:
     """The paper's Fig. 5: repetitions 2 H_i / d under each array against depth (log axis).
     Where one array's repetitions drop to zero (its out-of-focus plane) the other's are high.
+
+    - ``camera``: the :class:`~splitlf.Camera`
+    - ``z_range``: (near, far) depths [mm], F < near < far < inf, drawn on a log axis
+    - ``n``: log-spaced depths drawn (an integer in [2, 10**6]); both out-of-focus planes
+      are added so that the peaks are drawn
+    - ``ax``: a matplotlib Axes, or None for a new figure
+    - ``n_threads``: threads of the core (None: all cores)
+
+    Returns the Axes. Raises ``TypeError`` (camera) and ``ValueError`` (z_range, n);
+    ``ImportError`` without matplotlib.
     """
     cam = _validate.camera(camera)
     z = depth_grid(cam, z_range, n)
-    c = curves(cam, z)
+    c = curves(cam, z, n_threads=n_threads)
     ax = axes(ax)
     for h in (1, 2):
         ax.plot(z, c.repetitions[h - 1], color=HALF_COLORS[h], lw=1.8,

@@ -7,10 +7,9 @@ from typing import Any
 
 import numpy as np
 
-from .. import _validate
+from .. import _validate, rayspace
 from ..camera import Camera
-from ..rayspace import trace
-from ._mpl import pyplot
+from ._mpl import pyplot, trace_threads
 
 __all__ = ["ray_space"]
 
@@ -23,72 +22,61 @@ def _polygons(tr, keep):
     return [tr.vertices[i, : tr.n_vertices[i]] for i in np.flatnonzero(keep)]
 
 
-def ray_space(
-    camera: Camera,
-    depths: Sequence[float] | None = None,
-    n_lenses: int = 3,
-    axis: str = "x",
-    ax: Any = None,
-) -> Any:
-    """The paper's Fig. 4 (right) for ``camera``: in the ray space (u on plane v', w on the
-    main lens), the integration regions of every pixel under ``n_lenses`` neighbouring
-    central microlenses of half 1 (grey) and of half 2 (yellow), and the
-    constant-intensity lines u + sigma w = p' of up to three scene planes (red, green,
-    blue), one line through each drawn microlens centre at w = 0 (of the half
-    whose out-of-focus plane it is, else of half 1). ``depths`` default
-    to the out-of-focus planes of half 1 (vertical lines) and half 2 (lines parallel to
-    half 2's microlens columns) and a far plane at 2.5 z_1. Returns the Axes."""
-    cam = _validate.camera(camera)
+def _check(camera: Camera, depths: Sequence[float] | None, n_lenses: int) -> np.ndarray:
+    """The depths to draw (default: both out-of-focus planes and 2.5 z_1), validated."""
     if depths is None:
-        z1, z2 = cam.out_of_focus_depth(1), cam.out_of_focus_depth(2)
+        z1, z2 = camera.out_of_focus_depth(1), camera.out_of_focus_depth(2)
         depths = (z1, z2, 2.5 * z1)
     zs = _validate.depths(depths, "depths")
     if not 1 <= len(zs) <= len(DEPTH_COLOURS):
         raise ValueError(f"depths: give 1 to {len(DEPTH_COLOURS)} depths, got {len(zs)}")
+    if not np.all(np.isfinite(zs) & (zs > camera.F)):
+        raise ValueError(f"invalid depths = {zs.tolist()}: allowed finite depths > F = "
+                         f"{camera.F} mm")
     if isinstance(n_lenses, bool) or not isinstance(n_lenses, int) or n_lenses < 1:
         raise ValueError(f"invalid n_lenses = {n_lenses!r}: allowed an integer >= 1")
-    plt = pyplot()
+    return zs
+
+
+def _draw_half(ax: Any, cam: Camera, half: int, axis: str, n_lenses: int,
+               n_threads: int | None) -> tuple[np.ndarray, np.ndarray, Any]:
+    """The integration polygons of ``n_lenses`` central microlenses of ``half``. Returns
+    (their vertices, u at w = 0 of the drawn microlens centres, a legend handle)."""
     from matplotlib.collections import PolyCollection
-    from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
-    if ax is None:
-        _, ax = plt.subplots(figsize=(9.0, 6.0), layout="constrained")
+    tr = rayspace.trace(cam, half, axis, **trace_threads(n_threads))
+    K = int(tr.lens.max()) + 1
+    first = max(0, (K - n_lenses) // 2)
+    keep = (tr.lens >= first) & (tr.lens < first + n_lenses) & (tr.n_vertices > 0)
+    face, edge = HALF_COLOURS[half]
+    alpha = 0.75 if half == 1 else 0.6
+    ax.add_collection(
+        PolyCollection(
+            _polygons(tr, keep),
+            facecolors=face,
+            edgecolors=edge,
+            linewidths=0.7,
+            alpha=alpha,
+            zorder=1 + half,
+        )
+    )
+    # u at w = 0 of the drawn microlens centres, (v'/L_i) c_j
+    j = np.arange(first, min(first + n_lenses, K))
+    centres = cam.v1 / cam.L(half) * (j - (K - 1) / 2) * cam.d
+    n_px = int(keep.sum())
+    handle = Patch(facecolor=face, edgecolor=edge, alpha=alpha,
+                   label=f"half {half}: {n_px} pixels under {n_lenses} microlenses")
+    return tr.vertices[keep], centres, handle
 
+
+def _draw_planes(ax: Any, cam: Camera, zs: np.ndarray, centres: dict[int, np.ndarray]
+                 ) -> list[Any]:
+    """The constant-intensity lines of each scene plane; returns the legend handles."""
+    from matplotlib.lines import Line2D
+
+    w = np.array([-cam.D / 2, cam.D / 2])
     handles = []
-    drawn = []
-    centres = {}
-    for half in (1, 2):
-        tr = trace(cam, half, axis)
-        K = int(tr.lens.max()) + 1
-        first = max(0, (K - n_lenses) // 2)
-        keep = (tr.lens >= first) & (tr.lens < first + n_lenses) & (tr.n_vertices > 0)
-        face, edge = HALF_COLOURS[half]
-        alpha = 0.75 if half == 1 else 0.6
-        ax.add_collection(
-            PolyCollection(
-                _polygons(tr, keep),
-                facecolors=face,
-                edgecolors=edge,
-                linewidths=0.7,
-                alpha=alpha,
-                zorder=1 + half,
-            )
-        )
-        drawn.append(tr.vertices[keep])
-        # u at w = 0 of the drawn microlens centres, (v'/L_i) c_j
-        j = np.arange(first, min(first + n_lenses, K))
-        centres[half] = cam.v1 / cam.L(half) * (j - (K - 1) / 2) * cam.d
-        n_px = int(keep.sum())
-        handles.append(
-            Patch(facecolor=face, edgecolor=edge, alpha=alpha,
-                  label=f"half {half}: {n_px} pixels under {n_lenses} microlenses")
-        )
-    allv = np.concatenate(drawn)
-    u_lo, u_hi = np.nanmin(allv[..., 0]), np.nanmax(allv[..., 0])
-
-    half_d = cam.D / 2
-    w = np.array([-half_d, half_d])
     for z, colour in zip(zs, DEPTH_COLOURS, strict=False):
         zc = cam.F * z / (z - cam.F)
         sigma = (cam.v1 - zc) / zc  # a point of the plane is the line u + sigma w = p'
@@ -98,7 +86,53 @@ def ray_space(
         for p in centres[own[0] if own else 1]:
             ax.plot(p - sigma * w, w, color=colour, lw=1.5, zorder=5)
         handles.append(Line2D([], [], color=colour, lw=1.5, label=_depth_label(cam, z)))
+    return handles
 
+
+def ray_space(
+    camera: Camera,
+    depths: Sequence[float] | None = None,
+    n_lenses: int = 3,
+    axis: str = "x",
+    ax: Any = None,
+    *,
+    n_threads: int | None = None,
+) -> Any:
+    """The paper's Fig. 4 (right) for ``camera``: in the ray space (u on plane v', w on the
+    main lens), the integration regions of every pixel under ``n_lenses`` neighbouring
+    central microlenses of half 1 (grey) and of half 2 (yellow), and the
+    constant-intensity lines u + sigma w = p' of up to three scene planes (red, green,
+    blue), one line through each drawn microlens centre at w = 0 (of the half
+    whose out-of-focus plane it is, else of half 1).
+
+    - ``camera``: the :class:`~splitlf.Camera`
+    - ``depths``: 1 to 3 scene depths [mm], finite and > F; default the out-of-focus
+      planes of half 1 (vertical lines) and half 2 (lines parallel to half 2's microlens
+      columns) and a far plane at 2.5 z_1
+    - ``n_lenses``: microlenses drawn per half (an integer >= 1)
+    - ``axis``: "x" or "y", the axis traced (:func:`splitlf.trace`)
+    - ``ax``: a matplotlib Axes, or None for a new figure
+    - ``n_threads``: threads of the trace (None: all cores)
+
+    Returns the Axes. Raises ``TypeError`` (camera, types) and ``ValueError`` (depths,
+    n_lenses, axis out of range); ``ImportError`` without matplotlib.
+    """
+    cam = _validate.camera(camera)
+    zs = _check(cam, depths, n_lenses)
+    plt = pyplot()
+    if ax is None:
+        _, ax = plt.subplots(figsize=(9.0, 6.0), layout="constrained")
+
+    handles, drawn, centres = [], [], {}
+    for half in (1, 2):
+        verts, centres[half], handle = _draw_half(ax, cam, half, axis, n_lenses, n_threads)
+        drawn.append(verts)
+        handles.append(handle)
+    allv = np.concatenate(drawn)
+    u_lo, u_hi = np.nanmin(allv[..., 0]), np.nanmax(allv[..., 0])
+    handles += _draw_planes(ax, cam, zs, centres)
+
+    half_d = cam.D / 2
     pad = 0.03 * (u_hi - u_lo)
     ax.set_xlim(u_lo - pad, u_hi + pad)
     ax.set_ylim(-1.08 * half_d, 1.08 * half_d)

@@ -43,7 +43,13 @@ def resolution(
     ``z_range`` plus the two out-of-focus planes; ``noise``, ``seed``, ``window``,
     ``n_frequencies`` are passed to :func:`splitlf.simulate`.
 
-    ``ax``: None (a new figure with two stacked axes) or a pair of Axes. Returns the pair.
+    - ``camera``: the :class:`~splitlf.Camera`; ``z_range``: (near, far) [mm],
+      F < near < far < inf
+    - ``ax``: None (a new figure with two stacked axes) or a pair of Axes
+    - ``n``: log-spaced depths (an integer >= 2); ``n_threads``: threads of the core
+
+    Returns the pair of Axes. Raises ``TypeError`` and ``ValueError`` for bad arguments
+    (those of :func:`splitlf.simulate` too), ``ImportError`` without matplotlib or SciPy.
     """
     cam = _validate.camera(camera)
     lo, hi = (_validate.real(v, "z_range") for v in z_range)

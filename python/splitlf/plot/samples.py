@@ -30,8 +30,16 @@ def samples(
     for half 1, half 2 and the split sensor (union), with the out-of-focus planes (dashed
     vertical lines) and the coincidence planes N <= ``max_n`` (ticks on the top axis) marked.
 
-    ``ax``: None (a new figure with two stacked axes) or a pair of matplotlib Axes
-    (counts, gap). Returns the pair of Axes. The depths are :func:`splitlf.samples.sweep_depths`.
+    - ``camera``: the :class:`~splitlf.Camera`
+    - ``z_range``: (near, far) depths [mm]; ``n`` depths over it from
+      :func:`splitlf.samples.sweep_depths` (log-spaced plus the coincidence planes)
+    - ``ax``: None (a new figure with two stacked axes) or a pair of matplotlib Axes
+      (counts, gap)
+    - ``max_n``: coincidence planes marked up to this N; ``tol``: merge tolerance
+      [delta(z)]; ``n_threads``: threads of the core (None: all cores)
+
+    Returns the pair of Axes. Raises ``TypeError`` and ``ValueError`` for bad arguments
+    (checked by the functions it calls), ``ImportError`` without matplotlib.
     """
     cam = _validate.camera(camera)
     axes = axes_pair(ax, (11.5, 7.5), "counts, gap")

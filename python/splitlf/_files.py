@@ -1,0 +1,89 @@
+"""Writing output files without losing data: one helper for every file splitlf writes.
+
+A writer never touches the target directly. It writes a temporary file in the target's
+folder (same file system, so the final rename is atomic), the data are flushed to disk,
+and only then ``os.replace`` puts the file in place. A failure part-way (a full disk, an
+interrupted run, a bug) leaves the previous file untouched and removes the temporary one.
+An existing target is refused unless ``force`` is given.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+
+__all__ = ["atomic_output", "check_new"]
+
+
+def check_new(path: str | os.PathLike[str], force: bool, hint: str = "") -> Path:
+    """``path`` as a :class:`~pathlib.Path`, after checking it may be written.
+
+    Raises ``FileExistsError`` when ``path`` exists and ``force`` is false (``hint`` is
+    appended to the message, e.g. "pass --force to overwrite"), ``IsADirectoryError`` when
+    it is a folder and ``FileNotFoundError`` when its folder does not exist.
+    """
+    p = Path(path)
+    if p.is_dir():
+        raise IsADirectoryError(f"{p}: is a folder, not a file")
+    if p.exists() and not force:
+        more = f"; {hint}" if hint else ""
+        raise FileExistsError(f"{p}: exists, not overwritten{more}")
+    folder = p.parent
+    if not folder.is_dir():
+        raise FileNotFoundError(f"{p}: folder {folder} does not exist")
+    return p
+
+
+def _mode_for(path: Path) -> int:
+    """Permissions of the new file: those of the file it replaces, else 0o666 & ~umask."""
+    try:
+        return os.stat(path).st_mode & 0o7777
+    except FileNotFoundError:
+        return 0o666 & ~_umask()
+
+
+def _umask() -> int:
+    # Linux reports the umask without changing it; os.umask must set it to read it, which
+    # would briefly affect files other threads create.
+    try:
+        with open("/proc/self/status", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    umask = os.umask(0o022)
+    os.umask(umask)
+    return umask
+
+
+@contextlib.contextmanager
+def atomic_output(path: str | os.PathLike[str], *, force: bool = False,
+                  hint: str = "") -> Iterator[Path]:
+    """Context manager: yields a temporary path in the folder of ``path`` (same suffix, so
+    writers that choose a format by suffix still do); when the block ends without error,
+    the file is flushed to disk and renamed onto ``path``; on any error it is removed and
+    ``path`` is left as it was.
+
+    ``force``: overwrite an existing ``path`` (otherwise ``FileExistsError``, checked both
+    before the block and again just before the rename). Raises the errors of
+    :func:`check_new` and any ``OSError`` of the writer.
+    """
+    target = check_new(path, force, hint)
+    fd, name = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.",
+                                suffix=f".tmp{target.suffix}")
+    os.close(fd)
+    tmp = Path(name)
+    try:
+        yield tmp
+        with open(tmp, "rb+") as fh:
+            os.fsync(fh.fileno())
+        os.chmod(tmp, _mode_for(target))
+        check_new(target, force, hint)
+        os.replace(tmp, target)
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            tmp.unlink()
