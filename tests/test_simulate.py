@@ -1,4 +1,4 @@
-"""Super-resolution simulation (issue 7): forward model against Monte-Carlo ray integration
+"""Super-resolution simulation: forward model against Monte-Carlo ray integration
 and a NumPy reference, reconstruction with known depth, bad input, determinism."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Super-resolution simulation: what the split sensor buys (issue 7, ``docs/simulate.md``).
+"""Super-resolution simulation: what the split sensor buys (``docs/simulate.md``).
 
 A textured Lambertian plane at a known depth z is imaged by half 1 alone (the original
 light field camera), half 2 alone, both halves together (the split sensor) and the

@@ -1,5 +1,5 @@
 """What the split sensor buys: MTF50 and RMSE of the reconstruction against depth
-(issue 7, docs/simulate.md)."""
+(docs/simulate.md)."""
 
 from __future__ import annotations
 
