@@ -61,7 +61,10 @@ python -m venv "$work/user"
     splitlf figures --out figs --dpi 60
     ls figs
     splitlf trace --out trace.npz
-    splitlf trace --json > trace.json
+    splitlf trace --out trace-json.npz --json > trace.json
+    ! splitlf trace --out trace.npz 2>refused.txt   # an existing output is never overwritten
+    grep -q -- '--force' refused.txt
+    splitlf trace --out trace.npz --force
     printf '[grid]\nD = [10.0, 20.0]\n[depths]\nmin = 150.0\nmax = 10000.0\nnum = 20\n' > sweep.toml
     splitlf sweep --grid sweep.toml --json > sweep.json
     splitlf sweep --grid sweep.toml --out sweep.nc
