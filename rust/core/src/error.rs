@@ -13,6 +13,8 @@ pub enum Error {
         name: &'static str,
         value: String,
         allowed: String,
+        /// The channel (numbered from 1) of a design whose field `name` is meant, if any.
+        channel: Option<usize>,
     },
     /// One element of a depth array is not a valid depth.
     InvalidDepth {
@@ -70,6 +72,39 @@ impl Error {
             name,
             value: short_value(value.to_string()),
             allowed: allowed.into(),
+            channel: None,
+        }
+    }
+
+    /// The same error, said of channel `number` (from 1) of a design: an invalid parameter
+    /// is then named `channels[number].name`.
+    pub fn in_channel(self, number: usize) -> Self {
+        match self {
+            Error::InvalidParameter {
+                name,
+                value,
+                allowed,
+                ..
+            } => Error::InvalidParameter {
+                name,
+                value,
+                allowed,
+                channel: Some(number),
+            },
+            other => other,
+        }
+    }
+
+    /// The parameter's full name: `name`, or `channels[i].name` for a design's channel i.
+    pub fn parameter_name(&self) -> Option<String> {
+        match self {
+            Error::InvalidParameter {
+                name,
+                channel: Some(i),
+                ..
+            } => Some(format!("channels[{i}].{name}")),
+            Error::InvalidParameter { name, .. } => Some(name.to_string()),
+            _ => None,
         }
     }
 }
@@ -77,11 +112,10 @@ impl Error {
 impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Error::InvalidParameter {
-                name,
-                value,
-                allowed,
-            } => write!(f, "invalid {name} = {value}: allowed {allowed}"),
+            Error::InvalidParameter { value, allowed, .. } => {
+                let name = self.parameter_name().unwrap_or_default();
+                write!(f, "invalid {name} = {value}: allowed {allowed}")
+            }
             Error::InvalidDepth {
                 index,
                 value,

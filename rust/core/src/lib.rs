@@ -1,6 +1,7 @@
 //! splitlf-core: the optics and ray-space engine of split-sensor light field cameras.
 //!
 //! Pure Rust (no Python): [`camera`] holds the validated design (docs/model.md §1, §3, §7),
+//! [`design`] the general architectures (channels, lattices, lens types, layouts; §9),
 //! [`optics`] the closed forms over depth (Eqs. 1–7) and the depth of field,
 //! [`rayspace`] every pixel's integration polygon in (u, w) and its footprints (§3–5),
 //! [`samples`] the coincidence planes and genuinely new samples (Eqs. 8–9, docs/model.md §6),
@@ -9,6 +10,7 @@
 //! Every parallel entry point takes `n_threads` (see [`parallel`]).
 
 pub mod camera;
+pub mod design;
 pub mod error;
 pub mod memory;
 pub mod merit;
@@ -19,4 +21,5 @@ pub mod samples;
 pub mod simulate;
 
 pub use camera::{Axis, Camera, Half};
+pub use design::{Aperture, Channel, ChannelSpec, Design, Grid, Layout};
 pub use error::{Error, Result};

@@ -71,17 +71,14 @@ fn raise(
 /// to `TooLargeError` (a `MemoryError`). `Interrupted` is handled by [`run`].
 fn core_error(py: Python<'_>, e: Error, depth: &'static str) -> PyErr {
     let message = e.to_string();
+    let full_name = e.parameter_name();
     match e {
-        Error::InvalidParameter {
-            name,
-            value,
-            allowed,
-        } => raise(
+        Error::InvalidParameter { value, allowed, .. } => raise(
             py,
             "InvalidParameter",
             message,
             |kw| {
-                kw.set_item("name", name)?;
+                kw.set_item("name", full_name.as_deref().unwrap_or_default())?;
                 kw.set_item("value", py_value(py, &value))?;
                 kw.set_item("allowed", allowed)
             },
@@ -210,10 +207,16 @@ fn int_arg(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<(i128, String)> {
 /// sees the value saturated (out of every range) and its error shows the value given.
 fn with_given(e: Error, given: &str) -> Error {
     match e {
-        Error::InvalidParameter { name, allowed, .. } => Error::InvalidParameter {
+        Error::InvalidParameter {
+            name,
+            allowed,
+            channel,
+            ..
+        } => Error::InvalidParameter {
             name,
             value: given.to_string(),
             allowed,
+            channel,
         },
         other => other,
     }
