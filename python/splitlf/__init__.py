@@ -10,6 +10,7 @@ from types import ModuleType
 
 from ._native import __version__
 from .camera import Camera
+from .design import Channel, Design
 from .errors import InvalidParameter, SplitlfError, TooLargeError
 from .optics import Curves, DepthOfField, curves, depth_of_field, sharp_fractions
 from .rayspace import Footprints, SampleGrid, Trace, footprints, sample_grid, trace
@@ -19,9 +20,11 @@ from .simulation import BarChart, Image, RandomAlbedo, Simulation, Sinusoid, sim
 __all__ = [
     "BarChart",
     "Camera",
+    "Channel",
     "CoincidencePlanes",
     "Curves",
     "DepthOfField",
+    "Design",
     "Footprints",
     "Image",
     "InvalidParameter",

@@ -1,6 +1,6 @@
 """Type stubs of the Rust extension module (rust/py)."""
 
-from typing import final
+from typing import Any, final
 
 import numpy as np
 import numpy.typing as npt
@@ -55,6 +55,9 @@ MAX_PAIRS: int
 MAX_SAMPLES_PER_AXIS: int
 MAX_COINCIDENCE_WORK: int
 MAX_CELLS: int
+MAX_CHANNELS: int
+MAX_TYPES: int
+MAX_M: int
 
 _F64 = npt.NDArray[np.float64]
 _I64 = npt.NDArray[np.int64]
@@ -89,6 +92,17 @@ class CameraCore:
     def ng_focal_length(self, half_: int) -> float: ...
     def rho(self) -> float: ...
     def f_number(self) -> float: ...
+    def resolution_step(self, z: float) -> float: ...
+
+@final
+class DesignCore:
+    def __new__(
+        cls, f_main: float, aperture: float, shape: str, channels: list[dict[str, Any]]
+    ) -> DesignCore: ...
+    @staticmethod
+    def from_camera(camera: CameraCore) -> DesignCore: ...
+    def main_lens(self) -> tuple[float, float, str]: ...
+    def channels(self) -> list[dict[str, Any]]: ...
     def resolution_step(self, z: float) -> float: ...
 
 @final

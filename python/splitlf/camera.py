@@ -11,7 +11,7 @@ import dataclasses
 import math
 import numbers
 import os
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 try:  # Python >= 3.11
     import tomllib
@@ -21,6 +21,9 @@ except ModuleNotFoundError:  # pragma: no cover - Python 3.10 (the tomli backpor
 from . import _native
 from ._files import atomic_output
 from .errors import InvalidParameter
+
+if TYPE_CHECKING:
+    from .design import Design
 
 __all__ = ["Camera", "LENGTH_FIELDS", "COUNT_FIELDS", "FIELDS"]
 
@@ -283,6 +286,16 @@ class Camera:
     def is_ng(self, half: int) -> bool:
         """True when half's microlens focal length was left to Ng's setting."""
         return not self._explicit[f"f{_half(half)}"]
+
+    @property
+    def design(self) -> Design:
+        """The camera as a general two-channel :class:`~splitlf.design.Design`
+        (docs/model.md §9): channel i is half i (L_1 = v', L_2 = v'(1 + kappa)), rect
+        grids, the ideal layout with Q, shares 1/2 each, a square aperture, and each half's
+        microlens focal length (None where it is Ng's setting)."""
+        from .design import Design
+
+        return Design._from_core(_native.DesignCore.from_camera(self._core))
 
     @property
     def core(self) -> _native.CameraCore:

@@ -15,6 +15,11 @@ pub const DEFAULT_THRESHOLD_PX: f64 = 0.5;
 
 /// Check a depth array: every element finite and > F (Eq. 1 is defined for z > F only).
 pub fn check_depths(cam: &Camera, z: &[f64]) -> Result<()> {
+    check_design_depths(cam.f_main, z)
+}
+
+/// [`check_depths`] for any main lens of focal length `f_main`.
+pub fn check_design_depths(f_main: f64, z: &[f64]) -> Result<()> {
     for (index, &value) in z.iter().enumerate() {
         if !value.is_finite() {
             return Err(Error::InvalidDepth {
@@ -23,13 +28,12 @@ pub fn check_depths(cam: &Camera, z: &[f64]) -> Result<()> {
                 reason: "depths must be finite".into(),
             });
         }
-        if value <= cam.f_main {
+        if value <= f_main {
             return Err(Error::InvalidDepth {
                 index,
                 value,
                 reason: format!(
-                    "depths must be > F = {} mm (Eq. 1 has no real conjugate at or inside the focal length)",
-                    cam.f_main
+                    "depths must be > F = {f_main} mm (Eq. 1 has no real conjugate at or inside the focal length)"
                 ),
             });
         }

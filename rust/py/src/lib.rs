@@ -21,7 +21,7 @@ use pyo3::types::{PyBool, PyDict, PyInt, PyTuple};
 use splitlf_core::rayspace::{self, Sample};
 use splitlf_core::samples;
 use splitlf_core::simulate::{self, Grid, Source};
-use splitlf_core::{camera, memory, merit, optics, parallel, Camera, Error, Half};
+use splitlf_core::{camera, design, memory, merit, optics, parallel, Camera, Design, Error, Half};
 
 // ---- errors ------------------------------------------------------------------------------
 
@@ -402,6 +402,121 @@ impl CameraCore {
     /// δ(z) = d z / (Q v') (docs/model.md §6); z must be a valid depth.
     fn resolution_step(&self, z: f64) -> PyResult<f64> {
         optics::check_depths(&self.inner, &[z]).map_err(to_py)?;
+        Ok(self.inner.resolution_step(z))
+    }
+}
+
+// ---- designs (docs/model.md §9) ----------------------------------------------------------
+
+/// One key of a channel's dict (see `splitlf.design.Channel`), converted.
+fn item<'py, T: FromPyObjectOwned<'py>>(d: &Bound<'py, PyDict>, key: &str) -> PyResult<T> {
+    match d.get_item(key)? {
+        Some(v) => v.extract::<T>().map_err(Into::into),
+        None => Err(PyRuntimeError::new_err(format!(
+            "internal: channel dict without {key:?}"
+        ))),
+    }
+}
+
+fn channel_spec(d: &Bound<'_, PyDict>) -> PyResult<design::ChannelSpec> {
+    let grid: String = item(d, "grid")?;
+    let grid = design::Grid::from_name(&grid).map_err(to_py)?;
+    Ok(design::ChannelSpec {
+        l: item(d, "L")?,
+        d: item(d, "d")?,
+        v: item(d, "v")?,
+        mu: item(d, "mu")?,
+        kx: item(d, "Kx")?,
+        ky: item(d, "Ky")?,
+        grid,
+        f: item(d, "f")?,
+        layout: item(d, "layout")?,
+        q: item(d, "Q")?,
+        mx: item(d, "Mx")?,
+        my: item(d, "My")?,
+        share: item(d, "share")?,
+    })
+}
+
+/// A validated design (docs/model.md §9): main lens and channels.
+#[pyclass(
+    frozen,
+    skip_from_py_object,
+    name = "DesignCore",
+    module = "splitlf._native"
+)]
+struct DesignCore {
+    inner: Design,
+}
+
+#[pymethods]
+impl DesignCore {
+    /// `channels`: one dict per channel with the keys L, d, v, mu, Kx, Ky, grid, f (None or
+    /// a list), layout, Q, Mx, My, share.
+    #[new]
+    fn new(
+        f_main: f64,
+        aperture: f64,
+        shape: &str,
+        channels: Vec<Bound<'_, PyDict>>,
+    ) -> PyResult<Self> {
+        let shape = design::Aperture::from_name(shape).map_err(to_py)?;
+        let specs = channels
+            .iter()
+            .map(channel_spec)
+            .collect::<PyResult<Vec<_>>>()?;
+        let inner = Design::new(f_main, aperture, shape, &specs).map_err(to_py)?;
+        Ok(DesignCore { inner })
+    }
+
+    /// The camera as its two-channel design.
+    #[staticmethod]
+    fn from_camera(camera: &CameraCore) -> Self {
+        DesignCore {
+            inner: Design::from_camera(&camera.inner),
+        }
+    }
+
+    /// (F, D, aperture) of the main lens.
+    fn main_lens(&self) -> (f64, f64, &'static str) {
+        let d = &self.inner;
+        (d.f_main, d.aperture, d.shape.name())
+    }
+
+    /// Each channel's fields as validated (f resolved: Ng's setting as one value; the
+    /// sensor layout's M_x, M_y resolved), as dicts with the constructor's keys plus "ng".
+    fn channels<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        self.inner
+            .channels
+            .iter()
+            .map(|c| {
+                let d = PyDict::new(py);
+                d.set_item("L", c.l)?;
+                d.set_item("d", c.d)?;
+                d.set_item("v", c.v)?;
+                d.set_item("mu", c.mu)?;
+                d.set_item("Kx", c.kx)?;
+                d.set_item("Ky", c.ky)?;
+                d.set_item("grid", c.grid.name())?;
+                d.set_item("f", c.f.clone())?;
+                d.set_item("ng", c.ng)?;
+                d.set_item("layout", c.layout.name())?;
+                let (q, mx, my) = match c.layout {
+                    design::Layout::Ideal { q } => (Some(q), None, None),
+                    design::Layout::Sensor { mx, my } => (None, Some(mx), Some(my)),
+                };
+                d.set_item("Q", q)?;
+                d.set_item("Mx", mx)?;
+                d.set_item("My", my)?;
+                d.set_item("share", c.share)?;
+                Ok(d)
+            })
+            .collect()
+    }
+
+    /// δ(z) = μ_1 z / L_1 (docs/model.md §9); z must be finite and > F.
+    fn resolution_step(&self, z: f64) -> PyResult<f64> {
+        optics::check_design_depths(self.inner.f_main, &[z]).map_err(to_py)?;
         Ok(self.inner.resolution_step(z))
     }
 }
@@ -967,6 +1082,10 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("MAX_COINCIDENCE_WORK", samples::MAX_COINCIDENCE_WORK)?;
     m.add("MAX_CELLS", simulate::MAX_CELLS)?;
     m.add_class::<CameraCore>()?;
+    m.add_class::<DesignCore>()?;
+    m.add("MAX_CHANNELS", design::MAX_CHANNELS)?;
+    m.add("MAX_TYPES", design::MAX_TYPES)?;
+    m.add("MAX_M", design::MAX_M)?;
     m.add_class::<CurvesArrays>()?;
     m.add_class::<DepthOfFieldIntervals>()?;
     m.add_class::<NewSamplesArrays>()?;
