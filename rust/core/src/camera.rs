@@ -77,7 +77,7 @@ pub struct Camera {
 
 /// Lengths must be normal floats (not subnormal): the formulas divide by them, and the
 /// reciprocal of a subnormal length overflows.
-fn positive(name: &'static str, x: f64) -> Result<f64> {
+pub(crate) fn positive(name: &'static str, x: f64) -> Result<f64> {
     if x.is_normal() && x > 0.0 {
         Ok(x)
     } else {
@@ -91,7 +91,7 @@ fn positive(name: &'static str, x: f64) -> Result<f64> {
 
 /// A value derived from the given fields must pass the same rule as a given one: a
 /// positive, finite, normal float whose reciprocal is finite.
-fn derived(name: &'static str, x: f64, from: &str) -> Result<()> {
+pub(crate) fn derived(name: &'static str, x: f64, from: &str) -> Result<()> {
     if x.is_normal() && x > 0.0 && (1.0 / x).is_finite() {
         Ok(())
     } else {
@@ -103,7 +103,7 @@ fn derived(name: &'static str, x: f64, from: &str) -> Result<()> {
     }
 }
 
-fn count(name: &'static str, n: i64, max: u64) -> Result<u32> {
+pub(crate) fn count(name: &'static str, n: i64, max: u64) -> Result<u32> {
     if n >= 1 && (n as u64) <= max {
         Ok(n as u32)
     } else {

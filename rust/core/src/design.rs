@@ -10,7 +10,9 @@
 //! nearest), which pixels are lit (square or circular aperture) and each pixel's 2-D chief
 //! sample on a plane at depth z. All lengths in mm.
 
-use crate::camera::{ng_focal_length, Camera, Half, MAX_K, MAX_Q};
+use crate::camera::{
+    count, derived, ng_focal_length, positive as length, Camera, Half, MAX_K, MAX_Q,
+};
 use crate::error::{Error, Result};
 use crate::optics::conjugate;
 
@@ -155,38 +157,6 @@ pub struct Channel {
     pub layout: Layout,
     /// Fraction of the main lens's light that reaches this channel.
     pub share: f64,
-}
-
-fn length(name: &'static str, x: f64) -> Result<f64> {
-    if x.is_normal() && x > 0.0 {
-        Ok(x)
-    } else {
-        Err(Error::param(
-            name,
-            x,
-            "a finite length > 0 mm (a normal float, >= 2.2250738585072014e-308)",
-        ))
-    }
-}
-
-fn count(name: &'static str, n: i64, max: u64) -> Result<u32> {
-    if n >= 1 && (n as u64) <= max {
-        Ok(n as u32)
-    } else {
-        Err(Error::param(name, n, format!("an integer in [1, {max}]")))
-    }
-}
-
-fn derived(name: &'static str, x: f64, from: &str) -> Result<()> {
-    if x.is_normal() && x > 0.0 && (1.0 / x).is_finite() {
-        Ok(())
-    } else {
-        Err(Error::param(
-            name,
-            x,
-            format!("a finite length > 0 mm (a normal float); it is derived from {from}, so choose them so that it is"),
-        ))
-    }
 }
 
 /// Number of distinct values of the lens-type index before `mod T` over the lattice: the
