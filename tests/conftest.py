@@ -1,10 +1,24 @@
-"""Shared designs: the seed design, one outside Ng's setting, an f/2 design."""
+"""Shared designs: the seed design, one outside Ng's setting, an f/2 design; and the
+hypothesis profiles.
+
+Hypothesis profiles: ``ci`` (derandomized: the same examples on every run, no example
+database) is loaded when the environment variable ``CI`` is set, as it is in ``.ci/run``;
+``dev`` (random examples, failures replayed from the local database) otherwise.
+``HYPOTHESIS_PROFILE=ci bash tests/run.sh`` reproduces a CI run locally.
+"""
 
 from __future__ import annotations
 
+import os
+
 import pytest
+from hypothesis import settings
 
 from splitlf import Camera
+
+settings.register_profile("ci", derandomize=True, database=None, print_blob=True)
+settings.register_profile("dev")
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci" if os.environ.get("CI") else "dev"))
 
 
 def seed() -> Camera:
