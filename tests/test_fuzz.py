@@ -147,10 +147,10 @@ def test_new_samples_union_bounds(case, sample):
 # outermost samples lie exactly on the edges of the central field, W = K_x d / 4 = 0.5, so
 # it covers the field with a largest gap of 0.25 (1.25 delta). Half 1 adds p' = -0.825
 # outside the field; the union's gap [-0.825, -0.5] meets the field only in its edge point
-# -W, yet the rule "x_{k+1} >= -W and x_k <= W" (docs/samples.md §6; core
-# samples.rs field_gap, and gap_ref in the tests' reference) counts it: union 1.625 delta >
-# half 2's 1.25. Counting only the gaps whose interior meets the field (x_{k+1} > -W and
-# x_k < W) restores the monotonicity that docs/samples.md §6 states.
+# -W, yet the rule "x_{k+1} >= -W and x_k <= W" (docs/samples.md §6; field_gap in the
+# core's samples.rs and in tests/reference.py) counts it: union 1.625 delta > half 2's
+# 1.25. Counting only the gaps whose interior meets the field (x_{k+1} > -W and x_k < W)
+# restores the monotonicity that docs/samples.md §6 states.
 EDGE_GAP = (Camera(F=8.0, D=2.0, v1=16.0, kappa=1.0, d=1.0, v=8.0, mu=0.2, Q=5, Kx=2, Ky=1),
             np.array([256 / 29]))
 
