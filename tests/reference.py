@@ -1,12 +1,20 @@
 """Plain NumPy transcriptions of docs/model.md, written independently of the package.
 
-Only the camera's fields are read from the package; every derived quantity is computed
-here from docs/model.md's formulas.
+Nothing here calls the package: the camera's fields are read, every derived quantity is
+computed here from docs/model.md's formulas. Where a test checks one stage of the engine on
+its own earlier stage (footprints from the traced polygons, centroid counts from the
+footprint positions), that stage's arrays are arguments.
 """
 
 from __future__ import annotations
 
+import math
+import warnings
+from fractions import Fraction
+
 import numpy as np
+
+# -- §1, §3: the camera and its pixels ------------------------------------------------------
 
 
 def array_planes(cam) -> tuple[float, float]:
@@ -14,16 +22,56 @@ def array_planes(cam) -> tuple[float, float]:
     return cam.v1, cam.v1 * (1.0 + cam.kappa)
 
 
+def array_plane(cam, half: int) -> float:
+    """L_i of half 1 or 2."""
+    return array_planes(cam)[half - 1]
+
+
 def ng_focal(L: float, v: float) -> float:
     """Ng's setting: 1/f = 1/L + 1/v."""
     return 1.0 / (1.0 / L + 1.0 / v)
 
 
+def lens_centre(cam, j, K: int):
+    """c_j = (j - (K - 1)/2) d, centre of microlens j of K (docs/model.md §3)."""
+    return (j - (K - 1) / 2) * cam.d
+
+
+def pixel_offset(cam, q):
+    """theta_q = mu (q - (Q - 1)/2), pixel q's offset from its microlens image centre."""
+    return cam.mu * (q - (cam.Q - 1) / 2)
+
+
+def chief_w(cam, half: int, q):
+    """w_q = -(L_i / v) theta_q: main-lens height of pixel q's chief ray (docs/model.md §4)."""
+    return -(array_plane(cam, half) / cam.v) * pixel_offset(cam, q)
+
+
+# -- §2: closed forms over depth ------------------------------------------------------------
+
+
+def conjugate(cam, z):
+    """Eq. 1: z' = F z / (z - F)."""
+    return cam.F * z / (z - cam.F)
+
+
+def sigma_of(cam, z):
+    """(sigma, z'): a point of the plane at depth z is the line u + sigma w = p' in ray
+    space, sigma = (v' - z') / z' (docs/model.md §5)."""
+    zc = conjugate(cam, z)
+    return (cam.v1 - zc) / zc, zc
+
+
+def resolution_step(cam, z):
+    """delta(z) = d z / (Q v'), one sensor-resolution step in object space (§6)."""
+    return cam.d * z / (cam.Q * cam.v1)
+
+
 def curves(cam, z) -> dict[str, np.ndarray]:
     """docs/model.md §2: Eq. 1, H_i, rep_i, b_i, bounded LF blur, conventional blur."""
     z = np.asarray(z, dtype=np.float64)
-    F, D, d, v, mu = cam.F, cam.D, cam.d, cam.v, cam.mu
-    zc = F * z / (z - F)
+    D, d, v, mu = cam.D, cam.d, cam.v, cam.mu
+    zc = conjugate(cam, z)
     out = {k: np.empty((2, z.size)) for k in
            ("main_blur", "repetitions", "microlens_blur", "blur_px", "conventional_px")}
     with np.errstate(divide="ignore"):
@@ -41,13 +89,279 @@ def curves(cam, z) -> dict[str, np.ndarray]:
 
 
 def out_of_focus_depth(cam, half: int) -> float:
-    L = array_planes(cam)[half - 1]
+    L = array_plane(cam, half)
     return cam.F * L / (L - cam.F)
 
 
 def lit_pixels(cam, half: int) -> int:
     """docs/model.md §6: pixel q is lit when |w_q| = (L_i/v) mu |q - (Q-1)/2| < D/2."""
-    L = array_planes(cam)[half - 1]
+    L = array_plane(cam, half)
     q = np.arange(cam.Q)
     w = -(L / cam.v) * cam.mu * (q - (cam.Q - 1) / 2.0)
     return int(np.count_nonzero(np.abs(w) < cam.D / 2.0))
+
+
+# -- §4: ray space ----------------------------------------------------------------------------
+
+
+def geometry(cam, half: int):
+    """(L, f, a, b, alpha): x = a u + b w on array plane L, and the pixel-strip factor
+    alpha = 1 + v/L - v/f (docs/model.md §4)."""
+    L = array_plane(cam, half)
+    f = cam.f1 if half == 1 else cam.f2
+    a, b = L / cam.v1, 1.0 - L / cam.v1
+    alpha = 1.0 + cam.v / L - cam.v / f
+    return L, f, a, b, alpha
+
+
+def strips(cam, half: int, j: int, q: int, K: int):
+    """(normal, lo, hi) of aperture, microlens and pixel strips: |w| <= D/2,
+    |x - c| <= d/2, |s' - s| <= mu/2 with s' = alpha x - (v/L) w + (v/f) c and
+    s = c (1 + v/L) + theta_q (docs/model.md §3-4)."""
+    L, f, a, b, alpha = geometry(cam, half)
+    c = lens_centre(cam, j, K)
+    s = c * (1 + cam.v / L) + pixel_offset(cam, q)
+    rest = s - cam.v / f * c
+    return [
+        ((0.0, 1.0), -cam.D / 2, cam.D / 2),
+        ((a, b), c - cam.d / 2, c + cam.d / 2),
+        ((alpha * a, alpha * b - cam.v / L), rest - cam.mu / 2, rest + cam.mu / 2),
+    ]
+
+
+def exact_region(cam, half: int, j: int, q: int, K: int):
+    """(area, centroid u, centroid w) of the same three strips (their float coefficients
+    taken as exact rationals), clipped in exact rational arithmetic: no rounding at all,
+    so it measures the engine's own rounding. None when empty."""
+    (_, wlo, whi), (nm, xlo, xhi), (npx, plo, phi) = [
+        (tuple(map(Fraction, n)), Fraction(lo), Fraction(hi))
+        for n, lo, hi in strips(cam, half, j, q, K)
+    ]
+    a, b = nm
+
+    def u(x, w):
+        return (x - b * w) / a
+
+    poly = [(u(xlo, wlo), wlo), (u(xhi, wlo), wlo), (u(xhi, whi), whi), (u(xlo, whi), whi)]
+
+    def keep_below(poly, n, h):  # {p: n.p <= h}
+        out = []
+        for i, A in enumerate(poly):
+            B = poly[(i + 1) % len(poly)]
+            da = h - (n[0] * A[0] + n[1] * A[1])
+            db = h - (n[0] * B[0] + n[1] * B[1])
+            if da >= 0:
+                out.append(A)
+            if da * db < 0:
+                t = da / (da - db)
+                out.append((A[0] + t * (B[0] - A[0]), A[1] + t * (B[1] - A[1])))
+        return out
+
+    poly = keep_below(keep_below(poly, npx, phi), (-npx[0], -npx[1]), -plo)
+    a2 = cu = cw = Fraction(0)
+    for i, (u0, w0) in enumerate(poly):
+        u1, w1 = poly[(i + 1) % len(poly)]
+        cross = u0 * w1 - u1 * w0
+        a2 += cross
+        cu += cross * (u0 + u1)
+        cw += cross * (w0 + w1)
+    if len(poly) < 3 or a2 <= 0:
+        return None
+    return float(a2 / 2), float(cu / (3 * a2)), float(cw / (3 * a2))
+
+
+# -- §5: footprints on a scene plane ----------------------------------------------------------
+
+
+def footprints(cam, tr, z, half: int, axis: str, sample: str):
+    """(position, lo, hi), each (m, n), of the n pixels of the trace ``tr`` (its vertices,
+    n_vertices, centroid, lens, pixel and lit arrays) on the planes at depths z
+    (docs/model.md §5): extents from the polygon vertices, positions from the centroid or
+    the chief ray (NaN where there is no sample)."""
+    K = cam.Kx if axis == "x" else cam.Ky
+    z = np.asarray(z, float)[:, None]
+    sigma, zc = sigma_of(cam, z)
+    scale = -z / cam.v1
+    u, w = tr.vertices[..., 0], tr.vertices[..., 1]  # (n, 6)
+    p = u[None] + sigma[..., None] * w[None]  # (m, n, 6)
+    X = p * scale[..., None]
+    with warnings.catch_warnings():  # all-NaN rows are the empty polygons
+        warnings.simplefilter("ignore", RuntimeWarning)
+        lo, hi = np.nanmin(X, axis=2), np.nanmax(X, axis=2)
+    empty = tr.n_vertices == 0
+    lo[:, empty] = np.nan
+    hi[:, empty] = np.nan
+    if sample == "centroid":
+        pos = (tr.centroid[:, 0] + sigma * tr.centroid[:, 1]) * scale
+    else:
+        L = array_plane(cam, half)
+        c = lens_centre(cam, tr.lens, K)
+        wq = -(L / cam.v) * pixel_offset(cam, tr.pixel)
+        pos = -(cam.v1 / L) * (c + wq * (L - zc) / zc) * z / cam.v1
+        pos[:, ~tr.lit] = np.nan
+    return pos, lo, hi
+
+
+# -- §6: coincidence planes and new samples ---------------------------------------------------
+
+
+def lit_w(cam, half: int) -> np.ndarray:
+    """Chief-ray main-lens heights w_q of the lit pixels (docs/model.md §3-§4, §6)."""
+    w = chief_w(cam, half, np.arange(cam.Q))
+    return w[np.abs(w) < cam.D / 2]
+
+
+def chief_p(cam, half: int, K: int, zc: float) -> np.ndarray:
+    """Chief samples p' = (v'/L)[c_j + w_q (L - z')/z'] of every lit pixel, (K, Q_lit)."""
+    Li = array_plane(cam, half)
+    c = lens_centre(cam, np.arange(K), K)[:, None]
+    w = lit_w(cam, half)[None, :]
+    return (cam.v1 / Li) * (c + w * (Li - zc) / zc)
+
+
+def greedy_representatives(x: np.ndarray, eps: float) -> list[float]:
+    """The first position of each of the least number of closed intervals of length eps
+    that cover the sorted positions x, found greedily (docs/samples.md §4)."""
+    reps: list[float] = []
+    for v in x:
+        if not reps or v - reps[-1] > eps:
+            reps.append(v)
+    return reps
+
+
+def greedy_count(x: np.ndarray, eps: float) -> int:
+    """Least number of closed intervals of length eps covering the sorted positions x."""
+    return len(greedy_representatives(x, eps))
+
+
+def field_gap(x: np.ndarray, W: float) -> float:
+    """Largest consecutive gap whose interval meets [-W, W]; inf if [-W, W] is not covered."""
+    if x.size == 0 or x[0] > -W or x[-1] < W:
+        return math.inf
+    lo, hi = x[:-1], x[1:]
+    m = (hi >= -W) & (lo <= W)
+    return float(np.max(hi[m] - lo[m])) if m.any() else 0.0
+
+
+def matched(a: np.ndarray, b: np.ndarray, eps: float) -> int:
+    """Distinct samples of a (greedy clusters) that have a sample of b within eps."""
+    if a.size == 0 or b.size == 0:
+        return 0
+    reps = np.array(greedy_representatives(a, eps))
+    i = np.clip(np.searchsorted(b, reps), 1, b.size - 1) if b.size > 1 else np.zeros(
+        reps.size, dtype=int)
+    near = np.minimum(np.abs(b[i] - reps), np.abs(b[np.maximum(i - 1, 0)] - reps))
+    return int(np.sum(near <= eps))
+
+
+def new_samples(cam, z, tol: float = 1e-6):
+    """(distinct, distinct_2d, max_gap, sampled) of the chief samples at depths z, as
+    ``splitlf.new_samples`` returns them (docs/model.md §6, docs/samples.md)."""
+    z = np.atleast_1d(np.asarray(z, dtype=float))
+    m = z.size
+    distinct = np.zeros((3, m), dtype=np.int64)
+    d2 = np.zeros((3, m), dtype=np.int64)
+    gap = np.zeros((3, m))
+    eps = tol * cam.d / cam.Q  # tol * delta(z) mapped to plane v' (X = -p' z / v')
+    W = cam.Kx * cam.d / 4  # |X| <= Kx d z / (4 v')  <=>  |p'| <= Kx d / 4
+    for k, zk in enumerate(z):
+        zc = conjugate(cam, zk)
+        counts = {}
+        for axis, K in (("x", cam.Kx), ("y", cam.Ky)):
+            p1 = np.sort(chief_p(cam, 1, K, zc).ravel())
+            p2 = np.sort(chief_p(cam, 2, K, zc).ravel())
+            pu = np.sort(np.concatenate([p1, p2]))
+            counts[axis] = [greedy_count(p, eps) for p in (p1, p2, pu)]
+            counts[axis + "i"] = matched(p1, p2, eps)
+            if axis == "x":
+                distinct[:, k] = counts["x"]
+                gap[:, k] = [field_gap(p, W) * cam.Q / cam.d for p in (p1, p2, pu)]
+        (x1, x2, _), (y1, y2, _) = counts["x"], counts["y"]
+        d2[:, k] = [x1 * y1, x2 * y2, x1 * y1 + x2 * y2 - counts["xi"] * counts["yi"]]
+    lit = np.array([cam.Kx * lit_w(cam, h).size for h in (1, 2)])
+    return distinct, d2, gap, np.append(lit, lit.sum())
+
+
+def centroid_counts(cam, z: float, positions, tol: float):
+    """(counts, gaps, sampled) of the centroid samples at depth z from the footprint
+    positions X of half 1 and half 2 (NaN: no sample): sorted and merged with the greedy
+    rule at tol * delta(z), gaps over the central field in delta(z)."""
+    delta = resolution_step(cam, z)
+    field = cam.Kx * cam.d * z / (4 * cam.v1)
+    pos = [np.sort(x[np.isfinite(x)]) for x in positions]
+    pos.append(np.sort(np.concatenate(pos)))
+    counts = [greedy_count(p, tol * delta) for p in pos]
+    gaps = [field_gap(p, field) / delta for p in pos]
+    return counts, gaps, [pos[0].size, pos[1].size]
+
+
+def closed_form(K: int, q_lit: int, N: int, T: int) -> int:
+    """docs/model.md §6 with Q_lit: N Q + T (K - N) when T <= Q and K >= N, else K Q."""
+    if T <= q_lit and K >= N:
+        return N * q_lit + T * (K - N)
+    return K * q_lit
+
+
+def coincidence_planes(cam, half: int, max_n: int, max_t: int):
+    """(N, T, side) -> z' of every valid coincidence plane (docs/model.md §6)."""
+    Li = array_plane(cam, half)
+    out = {}
+    for N in range(1, max_n + 1):
+        for T in range(1, max_t + 1):
+            if math.gcd(N, T) != 1:
+                continue
+            r = N * cam.d * cam.v / (T * cam.mu * Li)
+            if Li / (1 + r) > cam.F:
+                out[(N, T, "far")] = Li / (1 + r)
+            if 1 - r > 0 and Li / (1 - r) > cam.F:
+                out[(N, T, "near")] = Li / (1 - r)
+    return out
+
+
+def chief_2d(cam, half: int, zc: float) -> np.ndarray:
+    """Every lit pixel's 2D chief sample: chief ray through the square aperture, both axes."""
+    Li = array_plane(cam, half)
+    q = np.arange(cam.Q)
+    w = chief_w(cam, half, q)
+    jx, qx, jy, qy = np.meshgrid(np.arange(cam.Kx), q, np.arange(cam.Ky), q, indexing="ij")
+    wx, wy = w[qx], w[qy]
+    lit = (np.abs(wx) < cam.D / 2) & (np.abs(wy) < cam.D / 2)  # |w| inside the square
+    cx = lens_centre(cam, np.arange(cam.Kx), cam.Kx)[jx]
+    cy = lens_centre(cam, np.arange(cam.Ky), cam.Ky)[jy]
+    px = (cam.v1 / Li) * (cx + wx * (Li - zc) / zc)
+    py = (cam.v1 / Li) * (cy + wy * (Li - zc) / zc)
+    return np.stack([px[lit], py[lit]], axis=1)
+
+
+def components(p: np.ndarray, eps: float) -> int:
+    """Connected components of points closer than eps in both coordinates."""
+    if len(p) == 0:
+        return 0
+    adj = (np.abs(p[:, None, 0] - p[None, :, 0]) <= eps) & (
+        np.abs(p[:, None, 1] - p[None, :, 1]) <= eps)
+    label = np.arange(len(p))
+    while True:
+        new = np.where(adj, label[None, :], len(p)).min(axis=1)
+        new = new[new]
+        if np.array_equal(new, label):
+            return int(np.unique(label).size)
+        label = new
+
+
+# -- simulation: the system matrix ------------------------------------------------------------
+
+
+def cell_integrals(breaks, vals, edges):
+    """Exact integral over each cell of the piecewise-linear function (breaks ascending)."""
+    pts = np.unique(np.concatenate([breaks, edges[(edges > breaks[0]) & (edges < breaks[-1])]]))
+    mid = 0.5 * (pts[1:] + pts[:-1])
+    # the linear piece holding each sub-interval (evaluated from inside: jumps at the ends)
+    t = np.clip(np.searchsorted(breaks, mid, side="right") - 1, 0, breaks.size - 2)
+    slope = (vals[t + 1] - vals[t]) / (breaks[t + 1] - breaks[t])
+    f_lo = vals[t] + slope * (pts[:-1] - breaks[t])
+    f_hi = vals[t] + slope * (pts[1:] - breaks[t])
+    seg = 0.5 * (f_lo + f_hi) * np.diff(pts)
+    cell = np.searchsorted(edges, mid) - 1
+    out = np.zeros(edges.size - 1)
+    np.add.at(out, cell, seg)
+    return out

@@ -1,6 +1,9 @@
 #!/usr/bin/env bash
 # Every check of the project: lint, Rust tests, Python tests. Run from anywhere after
 # `pip install ".[test]"` (the installed package is what pytest imports).
+# The benchmark harness smoke test (pytest marker `bench`) is deselected by default; run it
+# with `python -m pytest -q -m bench tests/test_benches.py` (.ci/run does, after this).
+# Hypothesis examples are random unless CI is set (then derandomized; see tests/conftest.py).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 

@@ -1,5 +1,8 @@
 """Smoke test of the benchmark harness at --quick sizes (no timing assertions): it must run,
-find NumPy and native results equal, and write its JSON and Markdown reports."""
+find NumPy and native results equal, and write its JSON and Markdown reports.
+
+Marked ``bench``, which the default pytest options deselect (it spends several seconds
+timing); run it with ``python -m pytest -m bench tests/test_benches.py``, as CI does."""
 
 from __future__ import annotations
 
@@ -7,6 +10,10 @@ import json
 import subprocess
 import sys
 from pathlib import Path
+
+import pytest
+
+pytestmark = pytest.mark.bench
 
 BENCHES = Path(__file__).resolve().parent.parent / "benches"
 

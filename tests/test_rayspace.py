@@ -1,11 +1,10 @@
 """Ray-space engine (docs/model.md §3-5, checks of §8): every native result is compared with an
-independent computation written here (NumPy from docs/model.md, shapely for the clipping)."""
+independent computation (tests/reference.py's NumPy and exact rational clipping from
+docs/model.md, shapely here)."""
 
 from __future__ import annotations
 
 import math
-import warnings
-from fractions import Fraction
 
 import numpy as np
 import pytest
@@ -14,6 +13,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from shapely.geometry import LineString, Polygon
 
+import reference as ref
 import splitlf
 from splitlf import Camera
 
@@ -21,39 +21,7 @@ PAPER = Camera.paper()
 SETTINGS = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
 
-# -- independent reference (docs/model.md §3-5, written from the text) -------------------------
-def geometry(cam: Camera, half: int):
-    """a, b of x = a u + b w on array plane L, and the pixel-strip normal (docs/model.md §4)."""
-    L = cam.L(half)
-    f = cam.f1 if half == 1 else cam.f2
-    a, b = L / cam.v1, 1.0 - L / cam.v1
-    alpha = 1.0 + cam.v / L - cam.v / f
-    return L, f, a, b, alpha
-
-
-def centre(cam: Camera, j, K):
-    return (j - (K - 1) / 2) * cam.d
-
-
-def offset(cam: Camera, q):
-    return cam.mu * (q - (cam.Q - 1) / 2)
-
-
-def strips(cam: Camera, half: int, j: int, q: int, K: int):
-    """(normal, lo, hi) of aperture, microlens and pixel strips: |w| <= D/2,
-    |x - c| <= d/2, |s' - s| <= mu/2 with s' = alpha x - (v/L) w + (v/f) c and
-    s = c (1 + v/L) + theta_q (docs/model.md §3-4)."""
-    L, f, a, b, alpha = geometry(cam, half)
-    c = centre(cam, j, K)
-    s = c * (1 + cam.v / L) + offset(cam, q)
-    rest = s - cam.v / f * c
-    return [
-        ((0.0, 1.0), -cam.D / 2, cam.D / 2),
-        ((a, b), c - cam.d / 2, c + cam.d / 2),
-        ((alpha * a, alpha * b - cam.v / L), rest - cam.mu / 2, rest + cam.mu / 2),
-    ]
-
-
+# -- independent clipping by shapely (the strips from tests/reference.py) -------------------
 def strip_polygon(n, lo, hi, C, R):
     """A strip as a long quadrilateral centred near C, half-length R."""
     n = np.asarray(n, float)
@@ -66,65 +34,19 @@ def strip_polygon(n, lo, hi, C, R):
 
 def shapely_region(cam: Camera, half: int, j: int, q: int, K: int):
     """Integration region of pixel (j, q) as the intersection of three strips (shapely)."""
-    _, _, a, _, _ = geometry(cam, half)
-    C = np.array([centre(cam, j, K) / a, 0.0])
+    _, _, a, _, _ = ref.geometry(cam, half)
+    C = np.array([ref.lens_centre(cam, j, K) / a, 0.0])
     R = 4 * (cam.D + cam.d / a) * (1 + abs(1 - a) / a)
     region = None
-    for n, lo, hi in strips(cam, half, j, q, K):
+    for n, lo, hi in ref.strips(cam, half, j, q, K):
         s = strip_polygon(n, lo, hi, C, R)
         region = s if region is None else region.intersection(s)
     return region
 
 
-def exact_region(cam: Camera, half: int, j: int, q: int, K: int):
-    """(area, centroid u, centroid w) of the same three strips (their float coefficients
-    taken as exact rationals), clipped in exact rational arithmetic: no rounding at all,
-    so it measures the engine's own rounding. None when empty."""
-    (_, wlo, whi), (nm, xlo, xhi), (npx, plo, phi) = [
-        (tuple(map(Fraction, n)), Fraction(lo), Fraction(hi))
-        for n, lo, hi in strips(cam, half, j, q, K)
-    ]
-    a, b = nm
-
-    def u(x, w):
-        return (x - b * w) / a
-
-    poly = [(u(xlo, wlo), wlo), (u(xhi, wlo), wlo), (u(xhi, whi), whi), (u(xlo, whi), whi)]
-
-    def keep_below(poly, n, h):  # {p: n.p <= h}
-        out = []
-        for i, A in enumerate(poly):
-            B = poly[(i + 1) % len(poly)]
-            da = h - (n[0] * A[0] + n[1] * A[1])
-            db = h - (n[0] * B[0] + n[1] * B[1])
-            if da >= 0:
-                out.append(A)
-            if da * db < 0:
-                t = da / (da - db)
-                out.append((A[0] + t * (B[0] - A[0]), A[1] + t * (B[1] - A[1])))
-        return out
-
-    poly = keep_below(keep_below(poly, npx, phi), (-npx[0], -npx[1]), -plo)
-    a2 = cu = cw = Fraction(0)
-    for i, (u0, w0) in enumerate(poly):
-        u1, w1 = poly[(i + 1) % len(poly)]
-        cross = u0 * w1 - u1 * w0
-        a2 += cross
-        cu += cross * (u0 + u1)
-        cw += cross * (w0 + w1)
-    if len(poly) < 3 or a2 <= 0:
-        return None
-    return float(a2 / 2), float(cu / (3 * a2)), float(cw / (3 * a2))
-
-
 def signed_area(v):
     u, w = v[:, 0], v[:, 1]
     return 0.5 * np.sum(u * np.roll(w, -1) - np.roll(u, -1) * w)
-
-
-def sigma_of(cam: Camera, z):
-    zc = cam.F * z / (z - cam.F)
-    return (cam.v1 - zc) / zc, zc
 
 
 # -- designs ------------------------------------------------------------------------------
@@ -161,7 +83,7 @@ def test_polygons_match_independent_clipping(cam, half, axis):
         assert (j, q) == divmod(i, cam.Q)
         k = int(tr.n_vertices[i])
         assert np.isnan(tr.vertices[i, k:]).all()
-        exact = exact_region(cam, half, j, q, K)
+        exact = ref.exact_region(cam, half, j, q, K)
         geos = shapely_region(cam, half, j, q, K)
         if exact is None or exact[0] <= 1e-13 * full:
             # empty, or a sliver below rounding: area (near) 0
@@ -230,7 +152,7 @@ def test_half2_ng_parallelograms_of_positive_slope():
     # Half 2 in Ng's setting: pixel-strip edges are horizontal (alpha = 0), microlens
     # edges are x = a u + b w = const with b = 1 - L2/v' < 0: slope dw/du = -a/b > 0.
     tr = splitlf.trace(PAPER, 2, "x")
-    _, _, a, b, _ = geometry(PAPER, 2)
+    _, _, a, b, _ = ref.geometry(PAPER, 2)
     lit = tr.n_vertices > 0
     assert (tr.n_vertices[lit] == 4).all()
     v = tr.vertices[lit, :4]
@@ -251,9 +173,9 @@ def test_lit_and_chief_follow_model():
     # lit iff |w_q| < D/2 (docs/model.md §6).
     for half in (1, 2):
         tr = splitlf.trace(PAPER, half, "x")
-        L, _, a, b, _ = geometry(PAPER, half)
-        wq = -(L / PAPER.v) * offset(PAPER, tr.pixel)
-        c = centre(PAPER, tr.lens, PAPER.Kx)
+        L, _, a, b, _ = ref.geometry(PAPER, half)
+        wq = -(L / PAPER.v) * ref.pixel_offset(PAPER, tr.pixel)
+        c = ref.lens_centre(PAPER, tr.lens, PAPER.Kx)
         np.testing.assert_allclose(tr.chief[:, 1], wq, rtol=1e-14, atol=1e-15)
         np.testing.assert_allclose(tr.chief[:, 0], (c - b * wq) / a, rtol=1e-13, atol=1e-13)
         np.testing.assert_array_equal(tr.lit, np.abs(wq) < PAPER.D / 2)
@@ -263,33 +185,6 @@ def test_lit_and_chief_follow_model():
 
 
 # -- footprints ---------------------------------------------------------------------------
-def reference_footprints(cam: Camera, z, half, axis, sample):
-    """Plain NumPy footprints from the traced polygons (docs/model.md §5)."""
-    tr = splitlf.trace(cam, half, axis)
-    K = cam.Kx if axis == "x" else cam.Ky
-    z = np.asarray(z, float)[:, None]
-    sigma, zc = sigma_of(cam, z)
-    scale = -z / cam.v1
-    u, w = tr.vertices[..., 0], tr.vertices[..., 1]  # (n, 6)
-    p = u[None] + sigma[..., None] * w[None]  # (m, n, 6)
-    X = p * scale[..., None]
-    with warnings.catch_warnings():  # all-NaN rows are the empty polygons
-        warnings.simplefilter("ignore", RuntimeWarning)
-        lo, hi = np.nanmin(X, axis=2), np.nanmax(X, axis=2)
-    empty = tr.n_vertices == 0
-    lo[:, empty] = np.nan
-    hi[:, empty] = np.nan
-    if sample == "centroid":
-        pos = (tr.centroid[:, 0] + sigma * tr.centroid[:, 1]) * scale
-    else:
-        L = cam.L(half)
-        c = centre(cam, tr.lens, K)
-        wq = -(L / cam.v) * offset(cam, tr.pixel)
-        pos = -(cam.v1 / L) * (c + wq * (L - zc) / zc) * z / cam.v1
-        pos[:, ~tr.lit] = np.nan
-    return tr, pos, lo, hi
-
-
 @SETTINGS
 @given(
     designs(),
@@ -301,7 +196,8 @@ def reference_footprints(cam: Camera, z, half, axis, sample):
 def test_footprints_match_numpy_reference(cam, half, axis, sample, zf):
     z = cam.F * np.asarray(zf)
     fp = splitlf.footprints(cam, z, half, axis, sample, kernel=True)
-    tr, pos, lo, hi = reference_footprints(cam, z, half, axis, sample)
+    tr = splitlf.trace(cam, half, axis)
+    pos, lo, hi = ref.footprints(cam, tr, z, half, axis, sample)
     n = len(tr.area)
     assert fp.position.shape == fp.lo.shape == (len(z), n)
     span = np.nanmax(np.abs(hi)) if np.isfinite(hi).any() else 1.0
@@ -311,7 +207,7 @@ def test_footprints_match_numpy_reference(cam, half, axis, sample, zf):
     # kernel: breakpoints are the sorted vertex projections; ∫ weight dX = area z / v'
     assert fp.kernel_breaks.shape == (len(z), n, 6)
     for r, zr in enumerate(z):
-        sigma, _ = sigma_of(cam, zr)
+        sigma, _ = ref.sigma_of(cam, zr)
         for i in range(n):
             k = int(tr.n_vertices[i])
             b, v = fp.kernel_breaks[r, i], fp.kernel_values[r, i]
@@ -332,7 +228,7 @@ def test_kernel_is_the_chord_length(cam, half, zf, frac):
     z = cam.F * zf
     fp = splitlf.footprints(cam, [z], half, "x", kernel=True)
     tr = splitlf.trace(cam, half, "x")
-    sigma, _ = sigma_of(cam, z)
+    sigma, _ = ref.sigma_of(cam, z)
     for i in np.flatnonzero(tr.n_vertices > 0):
         k = int(tr.n_vertices[i])
         b, v = fp.kernel_breaks[0, i, :k], fp.kernel_values[0, i, :k]
@@ -359,7 +255,8 @@ def test_chief_samples_collapse_on_out_of_focus_planes():
             lit = ~np.isnan(pos)
             spread = np.nanmax(pos, 1) - np.nanmin(pos, 1)
             assert (spread <= 1e-12 * np.nanmax(np.abs(pos))).all()
-            want = -centre(PAPER, np.arange(K), K) * PAPER.v1 / PAPER.L(half) * z / PAPER.v1
+            c = ref.lens_centre(PAPER, np.arange(K), K)
+            want = -c * PAPER.v1 / PAPER.L(half) * z / PAPER.v1
             np.testing.assert_allclose(np.nanmean(pos, 1), want, rtol=1e-12, atol=1e-12)
             assert len(np.unique(np.round(pos[lit] / PAPER.d, 6))) == K
             # the other half does not collapse there

@@ -1,5 +1,5 @@
-"""Coincidence planes, genuinely new samples (Eqs. 8-9) and max gap, checked against a plain
-NumPy transcription of docs/model.md §3, §5 and §6 written here (sort, then merge)."""
+"""Coincidence planes, genuinely new samples (Eqs. 8-9) and max gap, checked against the plain
+NumPy transcription of docs/model.md §3, §5 and §6 in tests/reference.py (sort, then merge)."""
 
 from __future__ import annotations
 
@@ -11,146 +11,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+import reference as ref
 import splitlf
+from designs import SAMPLES as DESIGNS
+from designs import off_ng, seed
 from splitlf import Camera
-
-# ---------------------------------------------------------------------------------------
-# Designs: the seed, one with both halves vignetted (f-number mismatched on both), one
-# outside Ng's setting (explicit microlens focal lengths, even Q, K_y below max N).
-
-
-def seed() -> Camera:
-    return Camera.paper()
-
-
-def vignetted() -> Camera:
-    # D = 14 with the seed's v: half 1 lights 11 of 15 pixels, half 2 lights 7.
-    return Camera.paper().replace(D=14.0, Kx=60, Ky=20)
-
-
-def off_ng() -> Camera:
-    return Camera(F=50.0, D=12.5, v1=60.0, kappa=0.8, d=0.1, v=0.48, mu=0.01, Q=10,
-                  Kx=40, Ky=3, f1=0.5, f2=0.45)
-
-
-DESIGNS = {"seed": seed, "vignetted": vignetted, "off_ng": off_ng}
-
-# ---------------------------------------------------------------------------------------
-# NumPy reference (docs/model.md), independent of the core.
-
-
-def L(cam: Camera, half: int) -> float:
-    return cam.v1 if half == 1 else cam.v1 * (1.0 + cam.kappa)
-
-
-def conj(cam: Camera, z: float) -> float:
-    return cam.F * z / (z - cam.F)  # Eq. 1
-
-
-def lit_w(cam: Camera, half: int) -> np.ndarray:
-    """Chief-ray main-lens heights w_q of the lit pixels (docs/model.md §3-§4, §6)."""
-    q = np.arange(cam.Q)
-    theta = cam.mu * (q - (cam.Q - 1) / 2)
-    w = -(L(cam, half) / cam.v) * theta
-    return w[np.abs(w) < cam.D / 2]
-
-
-def centers(cam: Camera, K: int) -> np.ndarray:
-    return (np.arange(K) - (K - 1) / 2) * cam.d
-
-
-def chief_p(cam: Camera, half: int, K: int, zc: float) -> np.ndarray:
-    """Chief samples p' = (v'/L)[c_j + w_q (L - z')/z'] of every lit pixel, (K, Q_lit)."""
-    Li = L(cam, half)
-    c = centers(cam, K)[:, None]
-    w = lit_w(cam, half)[None, :]
-    return (cam.v1 / Li) * (c + w * (Li - zc) / zc)
-
-
-def greedy_count(x: np.ndarray, eps: float) -> int:
-    """Least number of closed intervals of length eps covering the sorted positions x."""
-    count, anchor = 0, 0.0
-    for v in x:
-        if count == 0 or v - anchor > eps:
-            count += 1
-            anchor = v
-    return count
-
-
-def gap_ref(x: np.ndarray, W: float) -> float:
-    """Largest consecutive gap whose interval meets [-W, W]; inf if [-W, W] is not covered."""
-    if x.size == 0 or x[0] > -W or x[-1] < W:
-        return math.inf
-    lo, hi = x[:-1], x[1:]
-    m = (hi >= -W) & (lo <= W)
-    return float(np.max(hi[m] - lo[m])) if m.any() else 0.0
-
-
-def matched(a: np.ndarray, b: np.ndarray, eps: float) -> int:
-    """Distinct samples of a (greedy clusters) that have a sample of b within eps."""
-    if a.size == 0 or b.size == 0:
-        return 0
-    reps = []
-    count, anchor = 0, 0.0
-    for v in a:
-        if count == 0 or v - anchor > eps:
-            count += 1
-            anchor = v
-            reps.append(v)
-    reps = np.array(reps)
-    i = np.clip(np.searchsorted(b, reps), 1, b.size - 1) if b.size > 1 else np.zeros(
-        reps.size, dtype=int)
-    near = np.minimum(np.abs(b[i] - reps), np.abs(b[np.maximum(i - 1, 0)] - reps))
-    return int(np.sum(near <= eps))
-
-
-def reference(cam: Camera, z, tol: float = 1e-6):
-    z = np.atleast_1d(np.asarray(z, dtype=float))
-    m = z.size
-    distinct = np.zeros((3, m), dtype=np.int64)
-    d2 = np.zeros((3, m), dtype=np.int64)
-    gap = np.zeros((3, m))
-    eps = tol * cam.d / cam.Q  # tol * delta(z) mapped to plane v' (X = -p' z / v')
-    W = cam.Kx * cam.d / 4  # |X| <= Kx d z / (4 v')  <=>  |p'| <= Kx d / 4
-    for k, zk in enumerate(z):
-        zc = conj(cam, zk)
-        counts = {}
-        for axis, K in (("x", cam.Kx), ("y", cam.Ky)):
-            p1 = np.sort(chief_p(cam, 1, K, zc).ravel())
-            p2 = np.sort(chief_p(cam, 2, K, zc).ravel())
-            pu = np.sort(np.concatenate([p1, p2]))
-            counts[axis] = [greedy_count(p, eps) for p in (p1, p2, pu)]
-            counts[axis + "i"] = matched(p1, p2, eps)
-            if axis == "x":
-                distinct[:, k] = counts["x"]
-                gap[:, k] = [gap_ref(p, W) * cam.Q / cam.d for p in (p1, p2, pu)]
-        (x1, x2, _), (y1, y2, _) = counts["x"], counts["y"]
-        d2[:, k] = [x1 * y1, x2 * y2, x1 * y1 + x2 * y2 - counts["xi"] * counts["yi"]]
-    lit = np.array([cam.Kx * lit_w(cam, h).size for h in (1, 2)])
-    return distinct, d2, gap, np.append(lit, lit.sum())
-
-
-def closed_form(K: int, q_lit: int, N: int, T: int) -> int:
-    """docs/model.md §6 with Q_lit: N Q + T (K - N) when T <= Q and K >= N, else K Q."""
-    if T <= q_lit and K >= N:
-        return N * q_lit + T * (K - N)
-    return K * q_lit
-
-
-def planes_ref(cam: Camera, half: int, max_n: int, max_t: int):
-    """(N, T, side) -> z' of every valid coincidence plane (docs/model.md §6)."""
-    Li = L(cam, half)
-    out = {}
-    for N in range(1, max_n + 1):
-        for T in range(1, max_t + 1):
-            if math.gcd(N, T) != 1:
-                continue
-            r = N * cam.d * cam.v / (T * cam.mu * Li)
-            if Li / (1 + r) > cam.F:
-                out[(N, T, "far")] = Li / (1 + r)
-            if 1 - r > 0 and Li / (1 - r) > cam.F:
-                out[(N, T, "near")] = Li / (1 - r)
-    return out
 
 
 def special_depths(cam: Camera, max_n: int = 2) -> list[float]:
@@ -170,30 +35,30 @@ def special_depths(cam: Camera, max_n: int = 2) -> list[float]:
 def test_counted_equals_eqs_8_9_on_every_plane(name, half):
     cam = DESIGNS[name]()
     t = splitlf.coincidence_planes(cam, half, max_n=5)
-    want = planes_ref(cam, half, 5, cam.Q)
+    want = ref.coincidence_planes(cam, half, 5, cam.Q)
     got = {(int(n), int(tt), str(s)): zc for n, tt, s, zc in zip(t.N, t.T, t.side, t.conjugate,
                                                                  strict=True)}
     assert set(got) == set(want)
     assert {"far", "near"} <= set(t.side)
     for key, zc in want.items():
         assert got[key] == pytest.approx(zc, rel=1e-13)
-    q_lit = lit_w(cam, half).size
+    q_lit = ref.lit_w(cam, half).size
     assert q_lit == cam.lit_pixels(half)
     for i in range(len(t)):
         N, T = int(t.N[i]), int(t.T[i])
-        nx, ny = closed_form(cam.Kx, q_lit, N, T), closed_form(cam.Ky, q_lit, N, T)
+        nx, ny = ref.closed_form(cam.Kx, q_lit, N, T), ref.closed_form(cam.Ky, q_lit, N, T)
         assert (t.new_samples_x[i], t.new_samples_y[i]) == (nx, ny)
         assert t.new_samples[i] == nx * ny
         assert t.counted[i] == t.new_samples[i], (name, half, N, T, t.side[i])
         # The count itself, redone by the NumPy reference (sort and merge, x and y).
         eps = 1e-6 * cam.d / cam.Q
-        cx = greedy_count(np.sort(chief_p(cam, half, cam.Kx, t.conjugate[i]).ravel()), eps)
-        cy = greedy_count(np.sort(chief_p(cam, half, cam.Ky, t.conjugate[i]).ravel()), eps)
+        cx = ref.greedy_count(np.sort(ref.chief_p(cam, half, cam.Kx, t.conjugate[i]).ravel()), eps)
+        cy = ref.greedy_count(np.sort(ref.chief_p(cam, half, cam.Ky, t.conjugate[i]).ravel()), eps)
         assert cx * cy == t.counted[i]
         # Depth, repetitions = D r / d (Eqs. 1, 4-5 on the plane).
         zc = t.conjugate[i]
         assert t.z[i] == pytest.approx(cam.F * zc / (zc - cam.F), rel=1e-13)
-        r = N * cam.d * cam.v / (T * cam.mu * L(cam, half))
+        r = N * cam.d * cam.v / (T * cam.mu * ref.array_plane(cam, half))
         assert t.repetitions[i] == pytest.approx(cam.D * r / cam.d, rel=1e-12)
     assert np.all(np.diff(t.z) > 0)  # sorted by depth, nearest first
 
@@ -282,7 +147,7 @@ def test_matches_numpy_reference(name):
     z = np.concatenate([cam.F * (1 + rng.uniform(0.02, 3, 12)),
                         np.geomspace(150, 1e4, 12), special_depths(cam, 2)[:12]])
     r = splitlf.new_samples(cam, z)
-    distinct, d2, gap, lit = reference(cam, z)
+    distinct, d2, gap, lit = ref.new_samples(cam, z)
     np.testing.assert_array_equal(r.distinct, distinct)
     np.testing.assert_array_equal(r.distinct_2d, d2)
     np.testing.assert_array_equal(r.sampled, lit)
@@ -299,7 +164,7 @@ def test_tolerance_merges():
     coarse = splitlf.new_samples(cam, z, tol=0.5)
     assert np.all(coarse.distinct <= fine.distinct)
     assert np.any(coarse.distinct < fine.distinct)
-    np.testing.assert_array_equal(coarse.distinct, reference(cam, z, tol=0.5)[0])
+    np.testing.assert_array_equal(coarse.distinct, ref.new_samples(cam, z, tol=0.5)[0])
 
 
 def test_threads_agree_and_strided_input():
@@ -324,37 +189,6 @@ def test_empty_and_scalar_depths():
 # 2D: separability proven by a brute-force count over the full 2D sample grid.
 
 
-def chief_2d(cam: Camera, half: int, zc: float) -> np.ndarray:
-    """Every lit pixel's 2D chief sample: chief ray through the square aperture, both axes."""
-    Li = L(cam, half)
-    q = np.arange(cam.Q)
-    theta = cam.mu * (q - (cam.Q - 1) / 2)
-    w = -(Li / cam.v) * theta
-    jx, qx, jy, qy = np.meshgrid(np.arange(cam.Kx), q, np.arange(cam.Ky), q, indexing="ij")
-    wx, wy = w[qx], w[qy]
-    lit = (np.abs(wx) < cam.D / 2) & (np.abs(wy) < cam.D / 2)  # |w| inside the square
-    cx = centers(cam, cam.Kx)[jx]
-    cy = centers(cam, cam.Ky)[jy]
-    px = (cam.v1 / Li) * (cx + wx * (Li - zc) / zc)
-    py = (cam.v1 / Li) * (cy + wy * (Li - zc) / zc)
-    return np.stack([px[lit], py[lit]], axis=1)
-
-
-def components(p: np.ndarray, eps: float) -> int:
-    """Connected components of points closer than eps in both coordinates."""
-    if len(p) == 0:
-        return 0
-    adj = (np.abs(p[:, None, 0] - p[None, :, 0]) <= eps) & (
-        np.abs(p[:, None, 1] - p[None, :, 1]) <= eps)
-    label = np.arange(len(p))
-    while True:
-        new = np.where(adj, label[None, :], len(p)).min(axis=1)
-        new = new[new]
-        if np.array_equal(new, label):
-            return int(np.unique(label).size)
-        label = new
-
-
 SMALL = {
     "odd": lambda: Camera.paper().replace(Kx=7, Ky=5, Q=5, D=16.0),
     "even": lambda: Camera.paper().replace(Kx=6, Ky=4, Q=4, kappa=0.6),
@@ -370,10 +204,10 @@ def test_2d_count_equals_brute_force(name):
     eps = 1e-6 * cam.d / cam.Q
     shared = 0
     for k, zk in enumerate(z):
-        zc = conj(cam, zk)
-        p1, p2 = chief_2d(cam, 1, zc), chief_2d(cam, 2, zc)
-        n1, n2 = components(p1, eps), components(p2, eps)
-        nu = components(np.concatenate([p1, p2]), eps)
+        zc = ref.conjugate(cam, zk)
+        p1, p2 = ref.chief_2d(cam, 1, zc), ref.chief_2d(cam, 2, zc)
+        n1, n2 = ref.components(p1, eps), ref.components(p2, eps)
+        nu = ref.components(np.concatenate([p1, p2]), eps)
         assert [n1, n2, nu] == list(r.distinct_2d[:, k]), (name, zk)
         shared += n1 + n2 - nu
     if name == "odd":
@@ -406,7 +240,7 @@ def small_cameras(draw):
 def test_property_matches_reference(cam, t):
     z = [cam.F * t, cam.out_of_focus_depth(1), cam.out_of_focus_depth(2)]
     r = splitlf.new_samples(cam, z)
-    distinct, d2, gap, lit = reference(cam, z)
+    distinct, d2, gap, lit = ref.new_samples(cam, z)
     np.testing.assert_array_equal(r.distinct, distinct)
     np.testing.assert_array_equal(r.distinct_2d, d2)
     np.testing.assert_array_equal(r.sampled, lit)
@@ -419,7 +253,7 @@ def test_property_counted_equals_closed_form(cam, half, max_n):
     t = splitlf.coincidence_planes(cam, half, max_n=max_n)
     assert np.array_equal(t.counted, t.new_samples)
     assert set(zip(t.N.tolist(), t.T.tolist(), t.side.tolist(), strict=True)) == set(
-        planes_ref(cam, half, max_n, cam.Q))
+        ref.coincidence_planes(cam, half, max_n, cam.Q))
 
 
 # ---------------------------------------------------------------------------------------
@@ -549,28 +383,14 @@ def test_plot_without_matplotlib(monkeypatch):
 # Centroid samples
 
 
-def _centroid_reference(cam: Camera, z: float, tol: float):
-    """Counts and gaps from the engine's centroid footprints (object space X), sorted and
-    merged in NumPy with the greedy rule, at tol * delta(z)."""
-    delta = cam.d * z / (cam.Q * cam.v1)
-    field = cam.Kx * cam.d * z / (4 * cam.v1)
-    pos = []
-    for h in (1, 2):
-        x = splitlf.footprints(cam, [z], h, sample="centroid").position[0]
-        pos.append(np.sort(x[np.isfinite(x)]))
-    pos.append(np.sort(np.concatenate(pos)))
-    counts = [greedy_count(p, tol * delta) for p in pos]
-    gaps = [gap_ref(p, field) / delta for p in pos]
-    return counts, gaps, [pos[0].size, pos[1].size]
-
-
-@pytest.mark.parametrize("name", ["seed", "vignetted", "off_ng"])
+@pytest.mark.parametrize("name", DESIGNS)
 def test_centroid_samples_match_footprints(name):
-    cam = {"seed": seed, "vignetted": vignetted, "off_ng": off_ng}[name]()
+    cam = DESIGNS[name]()
     z = [150.0, 217.0, 300.0, 642.0, 1000.0, 2224.0, 9000.0]
     r = splitlf.new_samples(cam, z, sample="centroid")
     for k, zk in enumerate(z):
-        counts, gaps, lit = _centroid_reference(cam, zk, 1e-6)
+        pos = [splitlf.footprints(cam, [zk], h, sample="centroid").position[0] for h in (1, 2)]
+        counts, gaps, lit = ref.centroid_counts(cam, zk, pos, 1e-6)
         assert list(r.distinct[:, k]) == counts, zk
         np.testing.assert_allclose(r.max_gap[:, k], gaps, rtol=1e-9)
         assert list(r.sampled[:2]) == lit

@@ -6,25 +6,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+import reference as ref
 import splitlf
 from splitlf import Camera, Image, RandomAlbedo, Sinusoid, simulate
 from splitlf.simulation import forward, system_matrix
 
 SEED = Camera.paper()
-
-
-def design_numbers(cam):
-    """v', L_i, delta(z), conjugate and sigma written from docs/model.md, independently."""
-    L = {1: cam.v1, 2: cam.v1 * (1 + cam.kappa)}
-
-    def delta(z):
-        return cam.d * z / (cam.Q * cam.v1)
-
-    def sigma(z):
-        zc = cam.F * z / (z - cam.F)
-        return (cam.v1 - zc) / zc
-
-    return L, delta, sigma
 
 
 def contrast_at(x, rec, f):
@@ -55,9 +42,8 @@ def _sample_polygon(verts, n, rng):
 @pytest.mark.parametrize("source", ["half1", "half2", "conventional1", "conventional2"])
 def test_forward_matches_monte_carlo_rays(z, source):
     cam = SEED
-    L, delta, sigma = design_numbers(cam)
     rng = np.random.default_rng(7)
-    h = delta(z) / 4
+    h = ref.resolution_step(cam, z) / 4
     n_cells = 6000 if source.startswith("conv") else 1200
     origin = -n_cells * h / 2
     tex = rng.uniform(0, 1, n_cells)
@@ -81,7 +67,7 @@ def test_forward_matches_monte_carlo_rays(z, source):
             u, w = uw[:, 0], uw[:, 1]
         else:
             # No microlenses: rays through the aperture and pixel px (width mu) on plane L.
-            Lh = L[half]
+            Lh = ref.array_plane(cam, half)
             n_px = cam.Kx * cam.Q
             s = (px - (n_px - 1) / 2) * cam.mu
             w = rng.uniform(-cam.D / 2, cam.D / 2, n_rays)
@@ -89,7 +75,7 @@ def test_forward_matches_monte_carlo_rays(z, source):
             a, b = Lh / cam.v1, 1 - Lh / cam.v1
             u = (xl - b * w) / a
             area = cam.D * cam.mu / a
-        X = -(u + sigma(z) * w) * z / cam.v1
+        X = -(u + ref.sigma_of(cam, z)[0] * w) * z / cam.v1
         k = np.floor((X - origin) / h).astype(int)
         assert k.min() >= 0 and k.max() < n_cells
         t = tex[k]
@@ -103,31 +89,15 @@ def test_forward_matches_monte_carlo_rays(z, source):
 
 # -- the sparse matrix against a NumPy reference ------------------------------------------------
 
-def _reference_row(breaks, vals, edges):
-    """Exact integral over each cell of the piecewise-linear function (breaks ascending)."""
-    pts = np.unique(np.concatenate([breaks, edges[(edges > breaks[0]) & (edges < breaks[-1])]]))
-    mid = 0.5 * (pts[1:] + pts[:-1])
-    # the linear piece holding each sub-interval (evaluated from inside: jumps at the ends)
-    t = np.clip(np.searchsorted(breaks, mid, side="right") - 1, 0, breaks.size - 2)
-    slope = (vals[t + 1] - vals[t]) / (breaks[t + 1] - breaks[t])
-    f_lo = vals[t] + slope * (pts[:-1] - breaks[t])
-    f_hi = vals[t] + slope * (pts[1:] - breaks[t])
-    seg = 0.5 * (f_lo + f_hi) * np.diff(pts)
-    cell = np.searchsorted(edges, mid) - 1
-    out = np.zeros(edges.size - 1)
-    np.add.at(out, cell, seg)
-    return out
-
-
 @pytest.mark.parametrize("z", [217.0, 642.0, 1500.0])
 @pytest.mark.parametrize("half", [1, 2])
 def test_system_matrix_matches_numpy_reference(z, half):
     cam = SEED.replace(Kx=40)  # a small design: 600 pixels per half
-    _, delta, _ = design_numbers(cam)
+    delta = ref.resolution_step(cam, z)
     n = 900
-    origin = -n * delta(z) / 2
-    edges = origin + np.arange(n + 1) * delta(z)
-    A, pixels = system_matrix(cam, z, f"half{half}", origin, delta(z), n)
+    origin = -n * delta / 2
+    edges = origin + np.arange(n + 1) * delta
+    A, pixels = system_matrix(cam, z, f"half{half}", origin, delta, n)
     assert A.shape == (pixels.size, n) and pixels.size > 100
     fp = splitlf.footprints(cam, [z], half, kernel=True)
     dense = A.toarray()
@@ -136,7 +106,7 @@ def test_system_matrix_matches_numpy_reference(z, half):
         ok = np.isfinite(fp.kernel_breaks[0, p])
         b, v = fp.kernel_breaks[0, p][ok], fp.kernel_values[0, p][ok]
         # (v'/z) from dp' = (v'/z) dX, beam splitter 1/2, units of D mu.
-        want = _reference_row(b, v, edges) * (cam.v1 / z) * 0.5 / (cam.D * cam.mu)
+        want = ref.cell_integrals(b, v, edges) * (cam.v1 / z) * 0.5 / (cam.D * cam.mu)
         np.testing.assert_allclose(dense[r], want, rtol=1e-9, atol=1e-12 * want.max())
     # Every pixel of the design whose footprint fits in the grid is a row.
     inside = (fp.lo[0] >= edges[0]) & (fp.hi[0] <= edges[-1])
@@ -147,14 +117,13 @@ def test_system_matrix_matches_numpy_reference(z, half):
 
 def test_split_recovers_band_limited_texture_where_union_resolves():
     cam = SEED
-    _, delta, _ = design_numbers(cam)
     candidates = np.array([300.0, 400.0, 1000.0, 2000.0, 5000.0])
     gap = splitlf.new_samples(cam, candidates).max_gap[2]
     depths = candidates[gap <= 1.6]
     assert depths.size >= 3, gap
     rng = np.random.default_rng(3)
     for z in depths:
-        nyq = 0.5 / delta(z)
+        nyq = 0.5 / ref.resolution_step(cam, z)
         f = rng.uniform(0.02, 0.3, 6) * nyq  # band-limited well below the sampling limit
         ph = rng.uniform(0, 2 * np.pi, 6)
 
@@ -171,8 +140,7 @@ def test_half1_cannot_resolve_finer_than_microlens_pitch_on_its_out_of_focus_pla
     z1 = cam.F * cam.v1 / (cam.v1 - cam.F)  # half 1's out-of-focus plane, 642 mm
     assert z1 == pytest.approx(642.0)
     pitch = cam.d * z1 / cam.v1  # microlens pitch on the object
-    _, delta, _ = design_numbers(cam)
-    nyq = 0.5 / delta(z1)
+    nyq = 0.5 / ref.resolution_step(cam, z1)
     # Half 2's pixels integrate a microlens strip of width d v'/L_2 in u at fixed w
     # (docs/model.md §4), so its transfer vanishes at multiples of L_2 / (d z) on the object: test
     # midway between those zeros, at periods finer than the pitch and below delta's Nyquist.
