@@ -52,11 +52,11 @@ def _chief_p(cam, L: float, K: int, zc: np.ndarray) -> np.ndarray:
 
 
 def _count_and_gap(p: np.ndarray, eps: float, half_field: float, scale: float):
-    """Distinct count (neighbours closer than eps merge) and the largest gap touching the
-    central field |p'| <= half_field, per row of a row-sorted array."""
+    """Distinct count (neighbours closer than eps merge) and the largest gap overlapping the
+    open central field |p'| < half_field, per row of a row-sorted array."""
     dif = np.diff(p, axis=1)
     distinct = 1 + np.count_nonzero(dif > eps, axis=1)
-    touches = (p[:, 1:] >= -half_field) & (p[:, :-1] <= half_field)
+    touches = (p[:, 1:] > -half_field) & (p[:, :-1] < half_field)
     gap = np.max(np.where(touches, dif, 0.0), axis=1) * scale
     open_edge = (p[:, 0] > -half_field) | (p[:, -1] < half_field)
     gap[open_edge] = np.inf

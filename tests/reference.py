@@ -235,11 +235,12 @@ def greedy_count(x: np.ndarray, eps: float) -> int:
 
 
 def field_gap(x: np.ndarray, W: float) -> float:
-    """Largest consecutive gap whose interval meets [-W, W]; inf if [-W, W] is not covered."""
+    """Largest consecutive gap overlapping the open field (-W, W); inf if [-W, W] is not
+    covered."""
     if x.size == 0 or x[0] > -W or x[-1] < W:
         return math.inf
     lo, hi = x[:-1], x[1:]
-    m = (hi >= -W) & (lo <= W)
+    m = (hi > -W) & (lo < W)
     return float(np.max(hi[m] - lo[m])) if m.any() else 0.0
 
 

@@ -145,19 +145,19 @@ def test_new_samples_union_bounds(case, sample):
 # z' = 256/3 mm), has chief samples p' = -0.5, -0.25, 0, 0, 0.25, 0.5 on plane v': its
 # outermost samples lie exactly on the edges of the central field, W = K_x d / 4 = 0.5, so
 # it covers the field with a largest gap of 0.25 (1.25 delta). Half 1 adds p' = -0.825
-# outside the field; the union's gap [-0.825, -0.5] meets the field only in its edge point
-# -W, yet the rule "x_{k+1} >= -W and x_k <= W" (docs/samples.md §6; field_gap in the
-# core's samples.rs and in tests/reference.py) counts it: union 1.625 delta > half 2's
-# 1.25. Counting only the gaps whose interior meets the field (x_{k+1} > -W and x_k < W)
-# restores the monotonicity that docs/samples.md §6 states.
+# outside the field; the union's gap [-0.825, -0.5] only touches the field at its edge
+# point -W and must not count (docs/samples.md §6: gaps count when x_{k+1} > -W and
+# x_k < W). Under the former rule (>= and <=) the union's gap was 1.625 delta > 1.25.
 EDGE_GAP = (Camera(F=8.0, D=2.0, v1=16.0, kappa=1.0, d=1.0, v=8.0, mu=0.2, Q=5, Kx=2, Ky=1),
             np.array([256 / 29]))
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
-    "core bug: max_gap(union) > max_gap(half 2) when a half's outermost samples lie exactly "
-    "on the field edges +-W: Camera(F=8, D=2, v1=16, kappa=1, d=1, v=8, mu=0.2, Q=5, Kx=2, "
-    "Ky=1), new_samples(cam, [256/29]).max_gap[:, 0] == [1.625, 1.25, 1.625]"))
+def test_gap_touching_the_field_edge_from_outside_does_not_count():
+    cam, z = EDGE_GAP
+    gap = splitlf.new_samples(cam, z).max_gap[:, 0]
+    np.testing.assert_allclose(gap, [1.625, 1.25, 1.25], rtol=1e-12)
+
+
 @fuzz(300)
 @example(case=EDGE_GAP, sample="chief")
 @given(design_and_depths(), st.sampled_from(["chief", "centroid"]))

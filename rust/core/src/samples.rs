@@ -378,15 +378,18 @@ fn scan(x: &[f64], eps: f64, field: f64) -> (u64, f64) {
 }
 
 /// Largest gap over the field [−W, W] of ascending positions (+∞ when they do not reach
-/// both field edges, or when there are none): the gaps [x_k, x_{k+1}] that meet the field,
-/// x_{k+1} ≥ −W and x_k ≤ W.
+/// both field edges, or when there are none): the gaps [x_k, x_{k+1}] that overlap the
+/// open field, x_{k+1} > −W and x_k < W. A gap that only touches an edge from outside
+/// does not count (the sample on the edge covers it): otherwise a sample added outside the
+/// field could make the gap larger, and the union's gap could exceed a half's.
 fn field_gap(x: &[f64], field: f64) -> f64 {
     let n = x.len();
     if n == 0 || x[0] > -field || x[n - 1] < field {
         return f64::INFINITY;
     }
-    let lo = x.partition_point(|&v| v < -field).saturating_sub(1);
-    let hi = x.partition_point(|&v| v <= field).min(n - 1);
+    // x[0] <= −W gives lo >= 0; x[n−1] >= W gives hi <= n − 1; −W < W gives lo < hi.
+    let lo = x.partition_point(|&v| v <= -field) - 1;
+    let hi = x.partition_point(|&v| v < field);
     max_step(&x[lo..=hi])
 }
 
