@@ -907,7 +907,7 @@ mod tests {
         let t = 0.5;
         let dof = design_depth_of_field(&design, t).unwrap();
         let inside = |iv: &Intervals, x: f64| iv.iter().any(|&(a, b)| a < x && x < b);
-        for k in 0..n {
+        for (k, &zk) in z.iter().enumerate() {
             let row = |r: usize| c.blur_px[r * n + k];
             let ch0 = row(0).min(row(1)).min(row(2));
             assert_eq!(c.channel_blur_px[k], ch0);
@@ -920,7 +920,7 @@ mod tests {
                 (&dof.union, c.union_blur_px[k]),
             ] {
                 if (blur / t - 1.0).abs() > 1e-9 {
-                    assert_eq!(inside(iv, z[k]), blur < t, "z = {}", z[k]);
+                    assert_eq!(inside(iv, zk), blur < t, "z = {zk}");
                 }
             }
             let zc = c.conjugate[k];
