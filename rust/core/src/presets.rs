@@ -117,7 +117,7 @@ fn raytrix_r12() -> Result<Design> {
 /// Lytro Illum (an unfocused plenoptic camera: one hexagonal array of identical lenses).
 /// Public numbers: a 7728 × 5368 sensor of 1.4 µm pixels, a hexagonal array of 20 µm pitch
 /// (the Illum's own metadata, github.com/imageio/imageio tests/test_lytro.py), 541 × 434
-/// lenses and the wide end of the zoom, F = 9.9845 mm at f/2 (the Illum intrinsics of Bok
+/// lenses and, near the wide end of the zoom, F = 9.9845 mm at f/2 (the Illum intrinsics of Bok
 /// et al. 2017 quoted by github.com/comsee-research/plenoptic-datasets). Derived:
 /// D = F / N with N = 2; focused at the hyperfocal distance H = F² / (N d) + F (circle of
 /// confusion one lens, d), whose conjugate is L = F H / (H − F) = F + N d; v = d L / D
