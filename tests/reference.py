@@ -366,3 +366,46 @@ def cell_integrals(breaks, vals, edges):
     out = np.zeros(edges.size - 1)
     np.add.at(out, cell, seg)
     return out
+
+
+# -- §9: general designs (closed forms per channel and lens type) ------------------------------
+
+
+def design_focals(ch) -> list[float]:
+    """The lens types' focal lengths of a channel: f as given, or Ng's setting (one type)."""
+    return [ng_focal(ch.L, ch.v)] if ch.f is None else list(ch.f)
+
+
+def design_curves(design, z) -> dict:
+    """docs/model.md §2 for every channel (H, rep, H/mu) and every lens type (b_t, bounded
+    LF blur with f_t; §9), the smallest LF blur of each channel and of the whole design.
+    Rows of the per-type arrays: ``rows`` = [(channel, type)] from 0, channel-major."""
+    z = np.asarray(z, dtype=np.float64)
+    zc = design.F * z / (z - design.F)
+    D = design.D
+    per_channel: dict[str, list] = {k: [] for k in ("main_blur", "repetitions",
+                                                    "conventional_px", "channel_blur_px")}
+    per_type: dict[str, list] = {"microlens_blur": [], "blur_px": []}
+    rows = []
+    with np.errstate(divide="ignore"):
+        for c, ch in enumerate(design.channels):
+            L, d, v, mu = ch.L, ch.d, ch.v, ch.mu
+            H = (D * L / 2.0) * np.abs(1.0 / zc - 1.0 / L)
+            per_channel["main_blur"].append(H)
+            per_channel["repetitions"].append(2.0 * H / d)
+            per_channel["conventional_px"].append(H / mu)
+            R = D * v / (2.0 * L)
+            own = []
+            for t, f in enumerate(design_focals(ch)):
+                b = (d * v / 2.0) * np.abs(1.0 / f - 1.0 / (L - zc) - 1.0 / v)
+                px = np.minimum(b, R) / mu
+                per_type["microlens_blur"].append(b)
+                per_type["blur_px"].append(px)
+                own.append(px)
+                rows.append((c, t))
+            per_channel["channel_blur_px"].append(np.min(own, axis=0))
+    out = {k: np.array(v) for k, v in {**per_channel, **per_type}.items()}
+    out["union_blur_px"] = out["channel_blur_px"].min(axis=0)
+    out["conjugate"] = zc
+    out["rows"] = rows
+    return out

@@ -12,7 +12,15 @@ from ._native import __version__
 from .camera import Camera
 from .design import Channel, Design
 from .errors import InvalidParameter, SplitlfError, TooLargeError
-from .optics import Curves, DepthOfField, curves, depth_of_field, sharp_fractions
+from .optics import (
+    Curves,
+    DepthOfField,
+    DesignCurves,
+    DesignDepthOfField,
+    curves,
+    depth_of_field,
+    sharp_fractions,
+)
 from .rayspace import Footprints, SampleGrid, Trace, footprints, sample_grid, trace
 from .samples import CoincidencePlanes, NewSamples, coincidence_planes, new_samples
 from .simulation import BarChart, Image, RandomAlbedo, Simulation, Sinusoid, simulate
@@ -25,6 +33,8 @@ __all__ = [
     "Curves",
     "DepthOfField",
     "Design",
+    "DesignCurves",
+    "DesignDepthOfField",
     "Footprints",
     "Image",
     "InvalidParameter",

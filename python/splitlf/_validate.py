@@ -14,6 +14,7 @@ import numpy as np
 
 from . import _native
 from .camera import Camera
+from .design import Design
 from .errors import InvalidParameter
 
 #: Largest thread count (from the core).
@@ -23,6 +24,14 @@ MAX_THREADS: int = _native.MAX_THREADS
 def camera(value: Any) -> Camera:
     if not isinstance(value, Camera):
         raise TypeError(f"camera must be a splitlf.Camera, got {type(value).__name__}")
+    return value
+
+
+def camera_or_design(value: Any) -> Camera | Design:
+    """A :class:`Camera` or a :class:`~splitlf.design.Design`, else ``TypeError``."""
+    if not isinstance(value, Camera | Design):
+        raise TypeError("camera must be a splitlf.Camera or a splitlf.Design, got "
+                        f"{type(value).__name__}")
     return value
 
 

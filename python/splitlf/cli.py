@@ -29,8 +29,9 @@ except ModuleNotFoundError:  # pragma: no cover - Python 3.10 (the tomli backpor
 from . import _native
 from ._files import atomic_output, check_new
 from .camera import Camera, read_toml
+from .design import PRESETS, Design
 from .errors import SplitlfError
-from .report import format_report, report_data
+from .report import design_report_data, format_design_report, format_report, report_data
 
 SEED = "seed design (docs/model.md §7, reconstructed from the paper)"
 #: Resolution of ``splitlf figures`` [dots per inch]: the allowed range.
@@ -130,13 +131,30 @@ _threshold = _real_type("threshold", 0.0, "a finite number > 0 (pixels)")
 
 # -- report ------------------------------------------------------------------------------
 
+def _load_report_subject(args: argparse.Namespace) -> tuple[Camera | Design, str]:
+    """What `report` describes: a preset design, a [design] or [camera] TOML file, or the
+    seed camera."""
+    if args.preset is not None:
+        if args.config is not None:
+            raise CliError("--preset and --config: give one of them")
+        return Design.preset(args.preset), f"preset {args.preset}"
+    if args.config is not None and "design" in read_toml(args.config):
+        return Design.from_toml(args.config), args.config
+    return _load_camera(args.config)
+
+
 def _cmd_report(args: argparse.Namespace) -> int:
-    camera, source = _load_camera(args.config)
-    data = report_data(camera, args.threshold, n_threads=args.threads)
+    subject, source = _load_report_subject(args)
+    if isinstance(subject, Design):
+        data = design_report_data(subject, args.threshold)
+        text = format_design_report
+    else:
+        data = report_data(subject, args.threshold, n_threads=args.threads)
+        text = format_report
     if args.json:
         sys.stdout.write(json_text({"source": source, **data}))
     else:
-        sys.stdout.write(format_report(data, f"splitlf report: {source}"))
+        sys.stdout.write(text(data, f"splitlf report: {source}"))
     return 0
 
 
@@ -485,7 +503,8 @@ class _Parser(argparse.ArgumentParser):
 
 def _common(p: argparse.ArgumentParser, threads_help: str) -> None:
     p.add_argument("--config", metavar="CAM.toml",
-                   help="camera TOML file (default: the seed design)")
+                   help="camera TOML file, a [camera] table (report also reads a [design] "
+                   "file); default: the seed design")
     p.add_argument("--threads", type=_threads, default=None, metavar="N",
                    help=f"{threads_help} (an integer in [{THREADS_RANGE[0]}, "
                    f"{THREADS_RANGE[1]}]; default: all cores)")
@@ -502,9 +521,15 @@ def _add_report(sub: Any) -> None:
         help="the camera, its derived values, out-of-focus planes and depth of field",
         description="Print the camera (the seed design unless --config), its derived values, "
         "the out-of-focus planes and the depth-of-field intervals of each half, of the split "
-        "sensor and of the conventional cameras.",
+        "sensor and of the conventional cameras. A general design (--preset, or a --config "
+        "file with a [design] table; docs/architectures.md) is reported per channel and per "
+        "lens type: array planes, out-of-focus planes, depth of field of each and of their "
+        "union.",
     )
     _common(p, "threads for the coincidence planes and the resolution figures")
+    p.add_argument("--preset", choices=PRESETS, default=None, metavar="NAME",
+                   help=f"report a named design instead: {', '.join(PRESETS)} "
+                   "(docs/architectures.md)")
     p.add_argument("--json", action="store_true", help="print one JSON document")
     p.add_argument("--threshold", type=_threshold, default=0.5, metavar="PX",
                    help="sharpness threshold on the blur radius in pixels (default 0.5)")

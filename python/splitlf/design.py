@@ -16,16 +16,30 @@ from __future__ import annotations
 import dataclasses
 import math
 import numbers
+import os
 from typing import Any
 
 from . import _native
+from ._files import atomic_output
 from .errors import InvalidParameter
 
-__all__ = ["Channel", "Design", "CHANNEL_FIELDS"]
+__all__ = ["Channel", "Design", "CHANNEL_FIELDS", "DESIGN_FIELDS", "PRESETS"]
 
 #: Channel fields, in constructor order.
 CHANNEL_FIELDS = ("L", "d", "v", "mu", "Kx", "Ky", "f", "grid", "layout", "Q", "Mx", "My",
                   "share")
+#: Channel fields without a default.
+_REQUIRED_CHANNEL_FIELDS = ("L", "d", "v", "mu", "Kx", "Ky")
+#: Design fields, in constructor order.
+DESIGN_FIELDS = ("F", "D", "channels", "aperture")
+#: The names of :meth:`Design.preset` (from the core), in the documented order.
+PRESETS: tuple[str, ...] = tuple(_native.DesignCore.presets())
+
+_DESIGN_DESCRIPTIONS = {
+    "F": "main lens focal length [mm]",
+    "D": "main lens aperture width (side of the square, diameter of the circle) [mm]",
+    "aperture": 'main lens aperture shape, "square" or "circle"',
+}
 
 _CHANNEL_DESCRIPTIONS = {
     "L": "optical path main lens -> microlens array [mm], > F",
@@ -215,7 +229,129 @@ class Design:
     def __reduce__(self):
         return (Design, (self.F, self.D, self.channels, self.aperture))
 
+    # -- presets ------------------------------------------------------------------------
+    @classmethod
+    def preset(cls, name: str) -> Design:
+        """A named design (docs/architectures.md, "Presets"): ``"seed"`` (the split sensor
+        of docs/model.md §7, equal to ``Camera.paper().design``), ``"seed-plain"`` (its
+        half 1 alone on the whole sensor), ``"split3"`` (a three-way split),
+        ``"raytrix-r12"`` and ``"lytro-illum"`` (two commercial plenoptic cameras rebuilt
+        from public numbers). ``TypeError`` for a non-string, :class:`InvalidParameter`
+        (``.name == "preset"``) for another name."""
+        if not isinstance(name, str):
+            raise TypeError(f"preset must be one of {PRESETS}, got {type(name).__name__} "
+                            f"{name!r}")
+        return cls._from_core(_native.DesignCore.preset(name))
+
+    # -- dict and TOML ------------------------------------------------------------------
+    def as_dict(self) -> dict[str, Any]:
+        """The fields as given: ``F``, ``D``, ``aperture`` and ``channels`` (a list of
+        :meth:`Channel.as_dict`); :meth:`from_dict` inverts it."""
+        return {"F": self.F, "D": self.D, "aperture": self.aperture,
+                "channels": [ch.as_dict() for ch in self.channels]}
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], source: str = "design") -> Design:
+        """Build from a mapping with ``F``, ``D``, ``channels`` (a list of mappings of
+        channel fields; omitted optional fields take their defaults) and optionally
+        ``aperture``. ``source`` names the input in messages (a file, for
+        :meth:`from_toml`); a channel is named ``channels[i]`` (i from 1).
+
+        Raises ``TypeError`` (not a mapping, a field of the wrong type), ``ValueError``
+        for unknown or missing fields, and :class:`InvalidParameter` for values out of
+        range (``.name`` as the constructor names it, e.g. ``channels[2].L``); every
+        message starts with ``source``."""
+        if not isinstance(data, dict):
+            raise TypeError(f"{source}: expected a table of design fields "
+                            f"({', '.join(DESIGN_FIELDS)}), got {type(data).__name__}")
+        unknown = [k for k in data if k not in DESIGN_FIELDS]
+        if unknown:
+            raise ValueError(f"{source}: unknown design field(s) {unknown}; allowed fields: "
+                             f"{', '.join(DESIGN_FIELDS)}")
+        missing = [k for k in ("F", "D", "channels") if k not in data]
+        if missing:
+            raise ValueError(f"{source}: missing design field(s) {missing}")
+        tables = data["channels"]
+        if not isinstance(tables, list | tuple):
+            raise TypeError(f"{source}: channels must be a list of tables of channel fields "
+                            f"([[design.channels]] in TOML), got {type(tables).__name__}")
+        channels = tuple(_channel_from_dict(t, f"{source}: channels[{i}]", i)
+                         for i, t in enumerate(tables, 1))
+        fields = {k: v for k, v in data.items() if k != "channels"}
+        with _in_source(source):
+            return cls(channels=channels, **fields)
+
+    @classmethod
+    def from_toml(cls, path: str | os.PathLike[str]) -> Design:
+        """Read a design from a TOML file: a ``[design]`` table (``F``, ``D``,
+        ``aperture``) and one ``[[design.channels]]`` table per channel (see
+        :meth:`to_toml`).
+
+        Raises ``OSError`` when the file cannot be read, ``ValueError`` naming the file for
+        invalid TOML, a non-text file, a missing ``[design]`` table or other top-level
+        keys, and the errors of :meth:`from_dict` (naming the file and the key)."""
+        from .camera import read_toml
+
+        name = os.fspath(path)
+        doc = read_toml(path)
+        if not isinstance(doc.get("design"), dict):
+            raise ValueError(f"{name}: needs a [design] table with [[design.channels]] "
+                             "tables")
+        extra = [k for k in doc if k != "design"]
+        if extra:
+            raise ValueError(f"{name}: unknown top-level key(s) {extra}; a design file holds "
+                             "one [design] table and its [[design.channels]]")
+        return cls.from_dict(doc["design"], source=name)
+
+    def to_toml(self, path: str | os.PathLike[str] | None = None) -> str:
+        """The design as TOML text: ``[design]`` and one ``[[design.channels]]`` per
+        channel; exact (floats by repr), so :meth:`from_toml` gives an equal design.
+        Optional channel fields left to their defaults (``f`` None for Ng's setting, ``Q``,
+        ``Mx``, ``My`` None) are omitted. With ``path`` the file is also written,
+        atomically (a temporary file in its folder, then renamed over it); ``OSError`` if
+        it cannot be."""
+        lines = ["# splitlf design: lengths in mm (docs/architectures.md)", "[design]"]
+        for name in ("F", "D"):
+            lines.append(f"{f'{name} = {getattr(self, name)!r}':<40} # "
+                         f"{_DESIGN_DESCRIPTIONS[name]}")
+        lines.append(f"{f'aperture = {_toml_string(self.aperture)}':<40} # "
+                     f"{_DESIGN_DESCRIPTIONS['aperture']}")
+        for ch in self.channels:
+            lines += ["", "[[design.channels]]"]
+            for name in CHANNEL_FIELDS:
+                text = _toml_field(name, getattr(ch, name))
+                if text is not None:
+                    lines.append(f"{text:<40} # {_CHANNEL_DESCRIPTIONS[name]}")
+                elif name == "f":
+                    lines.append("# f omitted: Ng's setting 1/f = 1/L + 1/v")
+        body = "\n".join(lines) + "\n"
+        if path is not None:
+            with atomic_output(path, force=True) as tmp:
+                tmp.write_text(body, encoding="utf-8")
+        return body
+
     # -- derived values (computed by the core) -------------------------------------------
+    @property
+    def f_number(self) -> float:
+        """Main-lens f-number F / D."""
+        return self.F / self.D
+
+    def out_of_focus_depth(self, channel: int) -> float:
+        """Depth whose conjugate lies on channel ``channel``'s array (from 1):
+        F L / (L - F) [mm]."""
+        return self._core.out_of_focus_depth(channel)
+
+    def image_radius(self, channel: int) -> float:
+        """R = D v / (2 L) of channel ``channel`` (from 1): radius of one microlens image
+        on the sensor [mm], the bound of its light field blur."""
+        return self._core.image_radius(channel)
+
+    def focus_depths(self, channel: int) -> list[float | None]:
+        """The depth [mm] each lens type of channel ``channel`` (from 1) is focused on
+        (microlens blur 0: 1/(L - z') = 1/f_t - 1/v), or None where no depth is (Ng's
+        setting: the microlenses are focused on the main lens)."""
+        return self._core.focus_depths(channel)
+
     def resolved(self) -> list[dict[str, Any]]:
         """Each channel's fields as validated: ``f`` resolved (Ng's setting as one focal
         length), the sensor layout's ``Mx``, ``My`` resolved, and ``ng`` (f not given)."""
@@ -230,3 +366,59 @@ class Design:
     def core(self) -> _native.DesignCore:
         """The native handle (for the functions of this package)."""
         return self._core
+
+
+def _toml_string(text: str) -> str:
+    """A TOML basic string (the values written are plain names: no escapes needed)."""
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def _toml_field(name: str, value: Any) -> str | None:
+    """``name = value`` in TOML, or None for a field left to its default None."""
+    if value is None:
+        return None
+    if name == "f":
+        return f"f = [{', '.join(repr(x) for x in value)}]"
+    if name in ("grid", "layout"):
+        return f"{name} = {_toml_string(value)}"
+    if name in _COUNT_LIMITS:
+        return f"{name} = {int(value)}"
+    return f"{name} = {value!r}"
+
+
+class _in_source:
+    """Context manager: errors of a constructor re-raised with ``source: `` in front (the
+    same class, and for :class:`InvalidParameter` the same name, value and allowed range,
+    ``name`` qualified by ``channel`` when given)."""
+
+    def __init__(self, source: str, channel: int | None = None) -> None:
+        self.source = source
+        self.channel = channel
+
+    def __enter__(self) -> None:
+        return None
+
+    def __exit__(self, kind: Any, e: Any, tb: Any) -> bool:
+        if isinstance(e, InvalidParameter):
+            name = e.name if self.channel is None else f"channels[{self.channel}].{e.name}"
+            raise InvalidParameter(f"{self.source}: {e}", name=name, value=e.value,
+                                   allowed=e.allowed, index=e.index) from None
+        if isinstance(e, TypeError):
+            raise TypeError(f"{self.source}: {e}") from None
+        return False
+
+
+def _channel_from_dict(table: Any, where: str, number: int) -> Channel:
+    """Channel ``number`` (from 1) of a design's mapping, its errors prefixed by ``where``."""
+    if not isinstance(table, dict):
+        raise TypeError(f"{where}: expected a table of channel fields, got "
+                        f"{type(table).__name__}")
+    unknown = [k for k in table if k not in CHANNEL_FIELDS]
+    if unknown:
+        raise ValueError(f"{where}: unknown channel field(s) {unknown}; allowed fields: "
+                         f"{', '.join(CHANNEL_FIELDS)}")
+    missing = [k for k in _REQUIRED_CHANNEL_FIELDS if k not in table]
+    if missing:
+        raise ValueError(f"{where}: missing channel field(s) {missing}")
+    with _in_source(where, number):
+        return Channel(**table)

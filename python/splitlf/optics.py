@@ -1,4 +1,6 @@
-"""Closed-form optics over depth (docs/model.md §2, Eqs. 1-7) and the depth of field.
+"""Closed-form optics over depth (docs/model.md §2, Eqs. 1-7) and the depth of field, of
+the split-sensor :class:`~splitlf.Camera` and of any :class:`~splitlf.Design` (docs/model.md
+§9; result shapes in docs/architectures.md).
 
 Thin wrappers: the arithmetic runs in the Rust core, vectorised and parallel over depth.
 """
@@ -7,13 +9,16 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import Any, overload
 
 import numpy as np
 
 from . import _native, _validate
 from .camera import Camera
+from .design import Design
 
-__all__ = ["Curves", "DepthOfField", "curves", "depth_of_field", "sharp_fractions"]
+__all__ = ["Curves", "DepthOfField", "DesignCurves", "DesignDepthOfField", "curves",
+           "depth_of_field", "sharp_fractions"]
 
 #: Default sharpness threshold on the blur radius, in pixels (from the core).
 DEFAULT_THRESHOLD_PX: float = _native.DEFAULT_THRESHOLD_PX
@@ -41,32 +46,93 @@ class Curves:
     conventional_px: np.ndarray
 
 
-def curves(camera: Camera, z, n_threads: int | None = None) -> Curves:
+@dataclasses.dataclass(frozen=True)
+class DesignCurves:
+    """Closed forms of a :class:`~splitlf.Design` at n depths (docs/architectures.md).
+
+    Rows are named: ``channels`` names the rows of the per-channel arrays
+    (``"channel 1"``, ...), ``rows`` those of the per-lens-type arrays, one per (channel,
+    lens type): ``"channel c"`` for a channel with one lens type (Ng's setting or one
+    focal length), ``"channel c type t"`` for each type of a channel with several.
+
+    - ``z`` (n,) depths [mm]; ``conjugate`` (n,) z' = F z / (z - F) [mm]
+    - per channel (C, n): ``main_blur`` H = (D L / 2) |1/z' - 1/L| [mm], ``repetitions``
+      2 H / d, ``conventional_px`` H / mu [px], ``channel_blur_px`` the smallest
+      ``blur_px`` of the channel's lens types [px] (the channel is sharp where it is below
+      the threshold)
+    - per lens type (R, n): ``microlens_blur`` b_t = (d v / 2) |1/f_t - 1/(L - z') - 1/v|
+      [mm] (unbounded), ``blur_px`` min(b_t, R) / mu with R = D v / (2 L) [px]
+    - ``union_blur_px`` (n,) the smallest ``blur_px`` of all rows [px]: the design is
+      sharp where it is below the threshold
+    """
+
+    z: np.ndarray
+    conjugate: np.ndarray
+    channels: tuple[str, ...]
+    rows: tuple[str, ...]
+    main_blur: np.ndarray
+    repetitions: np.ndarray
+    conventional_px: np.ndarray
+    channel_blur_px: np.ndarray
+    microlens_blur: np.ndarray
+    blur_px: np.ndarray
+    union_blur_px: np.ndarray
+
+
+def _channel_names(n: int) -> tuple[str, ...]:
+    return tuple(f"channel {i}" for i in range(1, n + 1))
+
+
+def _type_names(rows: list[tuple[int, int]]) -> tuple[str, ...]:
+    """Names of the per-type rows ((channel, type) from 0, as the core lists them)."""
+    types: dict[int, int] = {}
+    for c, _ in rows:
+        types[c] = types.get(c, 0) + 1
+    return tuple(f"channel {c + 1}" if types[c] == 1 else f"channel {c + 1} type {t + 1}"
+                 for c, t in rows)
+
+
+@overload
+def curves(camera: Camera, z: Any, n_threads: int | None = None) -> Curves: ...
+@overload
+def curves(camera: Design, z: Any, n_threads: int | None = None) -> DesignCurves: ...
+def curves(camera: Camera | Design, z: Any,
+           n_threads: int | None = None) -> Curves | DesignCurves:
     """Evaluate every closed form (Eqs. 1-7) at the depths ``z``.
 
     Parameters:
-        camera: the design (:class:`splitlf.Camera`).
+        camera: a :class:`splitlf.Camera` or a :class:`splitlf.Design`.
         z: depths in mm: a number or any 1-D array-like of real numbers (n,), each finite
             and > F. Integers are converted to float64; a float64 array is not copied.
         n_threads: threads of the core (an integer in [1, ``_native.MAX_THREADS``]);
             ``None`` (default) uses all cores.
 
     Returns:
-        :class:`Curves` with ``z`` (n,) and the arrays listed there (float64).
+        For a Camera, :class:`Curves` with ``z`` (n,) and the arrays listed there; for a
+        Design, :class:`DesignCurves` (named rows per channel and per lens type, and their
+        union). Float64 throughout. ``Camera.design`` gives, row for row, the camera's
+        numbers bit for bit.
 
     Raises:
-        TypeError: ``camera`` is not a Camera, ``z`` is not real, ``n_threads`` is not an
-            integer.
+        TypeError: ``camera`` is neither a Camera nor a Design, ``z`` is not real,
+            ``n_threads`` is not an integer.
         InvalidParameter: (a ``ValueError``) ``z`` is not 1-D, or an element is not finite
             or not > F (``.name == "z"``, ``.index`` the element), or ``n_threads`` is out
             of range.
-        TooLargeError: (a ``MemoryError``) the outputs (88 bytes per depth) do not fit in
-            the memory available.
+        TooLargeError: (a ``MemoryError``) the outputs (88 bytes per depth for a Camera,
+            8 (2 + 4 C + 2 R) for a Design) do not fit in the memory available.
         KeyboardInterrupt: on Ctrl-C (checked between chunks of about a million depths).
     """
-    cam = _validate.camera(camera)
+    subject = _validate.camera_or_design(camera)
     zs = _validate.depths(z)
-    r = _native.curves(cam.core, zs, _validate.n_threads(n_threads))
+    threads = _validate.n_threads(n_threads)
+    if isinstance(subject, Design):
+        d = _native.design_curves(subject.core, zs, threads)
+        return DesignCurves(zs, d.conjugate, _channel_names(len(subject.channels)),
+                            _type_names(d.rows), d.main_blur, d.repetitions,
+                            d.conventional_px, d.channel_blur_px, d.microlens_blur,
+                            d.blur_px, d.union_blur_px)
+    r = _native.curves(subject.core, zs, threads)
     return Curves(zs, r.conjugate, r.main_blur, r.repetitions, r.microlens_blur, r.blur_px,
                   r.conventional_px)
 
@@ -103,26 +169,102 @@ class DepthOfField:
         }
 
 
-def depth_of_field(camera: Camera, threshold_px: float = DEFAULT_THRESHOLD_PX) -> DepthOfField:
+def _json_intervals(iv: Intervals) -> list[list[float | None]]:
+    return [[a, None if math.isinf(b) else b] for a, b in iv]
+
+
+@dataclasses.dataclass(frozen=True)
+class DesignDepthOfField:
+    """Sharp depth intervals (near, far) of a :class:`~splitlf.Design`, in mm, open,
+    sorted; ``far`` may be ``inf`` (docs/architectures.md).
+
+    ``rows`` names the light field rows and ``intervals`` holds theirs, in this order: for
+    each channel, each of its lens types (``"channel c type t"``, only when it has several)
+    and then the channel (``"channel c"``: sharp where any of its types is); last
+    ``"union"`` (sharp where any channel is), when the design has several channels.
+    ``channels`` names the rows of ``conventional``: the camera without microlenses with
+    its sensor on that channel's array plane (blur H / mu). ``dof[name]`` is a row's
+    intervals; :attr:`union` is the design's (the ``"union"`` row, or the only channel's).
+    """
+
+    threshold_px: float
+    rows: tuple[str, ...]
+    intervals: tuple[Intervals, ...]
+    channels: tuple[str, ...]
+    conventional: tuple[Intervals, ...]
+
+    def __getitem__(self, name: str) -> Intervals:
+        try:
+            return self.intervals[self.rows.index(name)]
+        except ValueError:
+            raise KeyError(f"{name!r}: the rows are {', '.join(self.rows)}") from None
+
+    @property
+    def union(self) -> Intervals:
+        """Where the design is sharp: the last row (the union, or the only channel)."""
+        return self.intervals[-1]
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready dict: ``threshold_px``, ``light_field`` and ``conventional`` (row
+        name -> list of [near, far], an infinite ``far`` as ``None``)."""
+        return {
+            "threshold_px": self.threshold_px,
+            "light_field": {n: _json_intervals(iv)
+                            for n, iv in zip(self.rows, self.intervals, strict=True)},
+            "conventional": {n: _json_intervals(iv)
+                             for n, iv in zip(self.channels, self.conventional, strict=True)},
+        }
+
+
+def _design_dof(design: Design, t: float) -> DesignDepthOfField:
+    r = _native.design_depth_of_field(design.core, t)
+    type_names = _type_names(r.rows)
+    rows: list[str] = []
+    intervals: list[Intervals] = []
+    for c, channel in enumerate(_channel_names(len(design.channels))):
+        own = [k for k, (ch, _) in enumerate(r.rows) if ch == c]
+        if len(own) > 1:
+            rows += [type_names[k] for k in own]
+            intervals += [r.types[k] for k in own]
+        rows.append(channel)
+        intervals.append(r.channels[c])
+    if len(design.channels) > 1:
+        rows.append("union")
+        intervals.append(r.union)
+    return DesignDepthOfField(t, tuple(rows), tuple(intervals),
+                              _channel_names(len(design.channels)), tuple(r.conventional))
+
+
+@overload
+def depth_of_field(camera: Camera, threshold_px: float = ...) -> DepthOfField: ...
+@overload
+def depth_of_field(camera: Design, threshold_px: float = ...) -> DesignDepthOfField: ...
+def depth_of_field(camera: Camera | Design, threshold_px: float = DEFAULT_THRESHOLD_PX
+                   ) -> DepthOfField | DesignDepthOfField:
     """Sharp depth intervals of each configuration, every boundary solved in closed form
     (the blur equations inverted; no sampling).
 
     Parameters:
-        camera: the design.
+        camera: a :class:`splitlf.Camera` or a :class:`splitlf.Design`.
         threshold_px: a depth is sharp where the blur radius is below this many pixels
             (a finite number > 0; default ``DEFAULT_THRESHOLD_PX`` = 0.5).
 
     Returns:
-        :class:`DepthOfField`: for each configuration a sorted list of disjoint open
-        intervals (near, far) in mm with near < far; ``far`` may be ``inf``.
+        For a Camera, :class:`DepthOfField`; for a Design, :class:`DesignDepthOfField`
+        (per lens type, per channel, their union, and the conventional cameras). Each
+        configuration is a sorted list of disjoint open intervals (near, far) in mm with
+        near < far; ``far`` may be ``inf``.
 
     Raises:
-        TypeError: ``threshold_px`` is not a real number.
+        TypeError: ``camera`` is neither a Camera nor a Design, or ``threshold_px`` is not
+            a real number.
         InvalidParameter: ``threshold_px`` is not finite or not > 0.
     """
-    cam = _validate.camera(camera)
+    subject = _validate.camera_or_design(camera)
     t = _validate.real(threshold_px, "threshold_px")
-    r = _native.depth_of_field(cam.core, t)
+    if isinstance(subject, Design):
+        return _design_dof(subject, t)
+    r = _native.depth_of_field(subject.core, t)
     return DepthOfField(t, r.half1, r.half2, r.split, r.conventional1, r.conventional2)
 
 

@@ -6,10 +6,11 @@ import math
 from typing import Any
 
 from .camera import _DESCRIPTIONS, COUNT_FIELDS, FIELDS, Camera
+from .design import Design
 from .optics import depth_of_field
 from .samples import coincidence_planes, worst_resolution
 
-__all__ = ["report_data", "format_report"]
+__all__ = ["report_data", "format_report", "design_report_data", "format_design_report"]
 
 #: Coincidence planes listed in the report: N <= 3 (T <= Q).
 REPORT_MAX_N = 3
@@ -139,3 +140,79 @@ def _samples_text(data: dict[str, Any]) -> list[str]:
         out.append(f"  {label:<14} max gap {_gap_text(r['max_gap']):>8} at z = {r['z_mm']:.1f} mm"
                    f"   (fewest distinct samples along x: {r['min_distinct']})")
     return out
+
+
+# -- general designs (docs/architectures.md) ------------------------------------------------
+
+def design_report_data(design: Design, threshold_px: float = 0.5) -> dict[str, Any]:
+    """A :class:`~splitlf.Design`'s report as a JSON-ready dict: ``design`` (its fields,
+    :meth:`Design.as_dict`), ``derived`` (f-number, and per channel its array plane, its
+    out-of-focus plane, its microlens image radius and each lens type's focal length and
+    the depth it is focused on) and ``depth_of_field`` (:meth:`DesignDepthOfField.as_dict`:
+    per lens type, per channel, the union, the conventional cameras; [near, far] in mm,
+    far None when infinite) at ``threshold_px`` (finite > 0, pixels). Raises the errors
+    of :func:`~splitlf.depth_of_field`."""
+    channels = []
+    for i, (ch, res) in enumerate(zip(design.channels, design.resolved(), strict=True), 1):
+        radius = design.image_radius(i)
+        types = [{"focal_length_mm": f, "focus_depth_mm": z}
+                 for f, z in zip(res["f"], design.focus_depths(i), strict=True)]
+        channels.append({
+            "name": f"channel {i}",
+            "array_plane_mm": ch.L,
+            "out_of_focus_depth_mm": design.out_of_focus_depth(i),
+            "microlens_image_radius_mm": radius,
+            "microlens_image_radius_px": radius / ch.mu,
+            "ng_setting": res["ng"],
+            "lens_types": types,
+            "pixels": [res["Mx"], res["My"]] if ch.layout == "sensor"
+            else [res["Q"] * ch.Kx, res["Q"] * ch.Ky],
+        })
+    dof = depth_of_field(design, threshold_px)
+    return {
+        "design": design.as_dict(),
+        "derived": {"f_number": design.f_number, "channels": channels},
+        "depth_of_field": dof.as_dict(),
+    }
+
+
+def _channel_text(ch: dict[str, Any], der: dict[str, Any]) -> list[str]:
+    """One channel's block: its fields and derived values."""
+    layout = (f"ideal layout, Q = {ch['Q']}" if ch["layout"] == "ideal"
+              else f"sensor layout, {der['pixels'][0]} x {der['pixels'][1]} pixels")
+    out = [
+        f"{der['name'].capitalize()}: share {ch['share']:.6g}, {ch['grid']} grid of "
+        f"{ch['Kx']} x {ch['Ky']} lenses, {layout}",
+        f"  {'array plane L':<34} {ch['L']:>12.6g} mm",
+        f"  {'pitch d':<34} {ch['d']:>12.6g} mm",
+        f"  {'array -> sensor v':<34} {ch['v']:>12.6g} mm",
+        f"  {'pixel pitch mu':<34} {ch['mu']:>12.6g} mm",
+        f"  {'out-of-focus plane z':<34} {der['out_of_focus_depth_mm']:>12.2f} mm",
+        f"  {'microlens image radius R':<34} {der['microlens_image_radius_px']:>12.3f} px",
+    ]
+    for t, lt in enumerate(der["lens_types"], 1):
+        label = "lens type" if len(der["lens_types"]) == 1 else f"lens type {t}"
+        ng = " (Ng's setting)" if der["ng_setting"] else ""
+        z = lt["focus_depth_mm"]
+        focus = "focused on the main lens" if z is None else f"focused at z = {z:.2f} mm"
+        out.append(f"  {label + ': f':<34} {lt['focal_length_mm']:>12.6g} mm{ng}, {focus}")
+    return out
+
+
+def format_design_report(data: dict[str, Any], title: str) -> str:
+    """A design's report as text for people: ``data`` from :func:`design_report_data`,
+    under ``title``. Returns the text, ending in a newline."""
+    des, der, dof = data["design"], data["derived"], data["depth_of_field"]
+    out = [title, "", "Main lens (lengths in mm)",
+           f"  {'F':<6} = {des['F']:<12.6g} main lens focal length",
+           f"  {'D':<6} = {des['D']:<12.6g} aperture width ({des['aperture']})",
+           f"  f-number {der['f_number']:.3g}"]
+    for ch, cd in zip(des["channels"], der["channels"], strict=True):
+        out += ["", *_channel_text(ch, cd)]
+    out += ["", f"Depth of field (sharp: blur < {dof['threshold_px']:g} px), depths in mm"]
+    for name, iv in dof["light_field"].items():
+        label = "union (any channel)" if name == "union" else f"{name} (light field)"
+        out.append(f"  {label:<34} {_interval_text(iv)}")
+    for name, iv in dof["conventional"].items():
+        out.append(f"  {'conventional, sensor on ' + name:<34} {_interval_text(iv)}")
+    return "\n".join(out) + "\n"

@@ -2,6 +2,7 @@
 //!
 //! Pure Rust (no Python): [`camera`] holds the validated design (docs/model.md §1, §3, §7),
 //! [`design`] the general architectures (channels, lattices, lens types, layouts; §9),
+//! [`presets`] named designs (the seed, its variants, a Raytrix R12, a Lytro Illum),
 //! [`optics`] the closed forms over depth (Eqs. 1–7) and the depth of field,
 //! [`rayspace`] every pixel's integration polygon in (u, w) and its footprints (§3–5),
 //! [`samples`] the coincidence planes and genuinely new samples (Eqs. 8–9, docs/model.md §6),
@@ -16,6 +17,7 @@ pub mod memory;
 pub mod merit;
 pub mod optics;
 pub mod parallel;
+pub mod presets;
 pub mod rayspace;
 pub mod samples;
 pub mod simulate;

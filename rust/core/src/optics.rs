@@ -6,6 +6,7 @@
 use rayon::prelude::*;
 
 use crate::camera::{Camera, Half};
+use crate::design::{Channel, Design};
 use crate::error::{Error, Result};
 use crate::memory;
 use crate::parallel::for_chunks;
@@ -66,32 +67,142 @@ pub fn depth_of_conjugate(f_main: f64, zc: f64) -> f64 {
     }
 }
 
+/// One light field array as the closed forms of docs/model.md §2 see it: the main lens
+/// (focal length F, aperture D), the array plane L, the microlens pitch d, the distance v
+/// from the array to the sensor, the pixel pitch μ and one microlens focal length f.
+///
+/// Every formula of §2 is written here once. A half of the split sensor is one
+/// ([`LensOptics::of_half`]); a channel of a general design gives one per lens type
+/// ([`LensOptics::of_channel`], docs/model.md §9). The camera's results are bit for bit
+/// what they were before designs existed: the fields are the values the camera's formulas
+/// read, and every expression keeps its order of operations.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LensOptics {
+    /// F, main lens focal length.
+    pub f_main: f64,
+    /// D, main lens aperture width (the blur formulas use D / 2 as the cone's radius).
+    pub aperture: f64,
+    /// L, main lens to microlens array.
+    pub l: f64,
+    /// d, microlens pitch (= microlens aperture).
+    pub d: f64,
+    /// v, microlens array to sensor.
+    pub v: f64,
+    /// μ, pixel pitch.
+    pub mu: f64,
+    /// f, microlens focal length of this lens type.
+    pub f: f64,
+}
+
+impl LensOptics {
+    /// Half `half` of the split-sensor camera: L_i, f_i and the shared d, v, μ.
+    pub fn of_half(cam: &Camera, half: Half) -> LensOptics {
+        LensOptics {
+            f_main: cam.f_main,
+            aperture: cam.aperture,
+            l: cam.array_plane(half),
+            d: cam.d,
+            v: cam.v,
+            mu: cam.mu,
+            f: cam.microlens_focal(half),
+        }
+    }
+
+    /// Lens type `t` (from 0) of channel `ch` of `design` (docs/model.md §9: the microlens
+    /// and LF blur of type t are §2 with f_t). `t` must be below `ch.types()`.
+    pub fn of_channel(design: &Design, ch: &Channel, t: usize) -> LensOptics {
+        LensOptics {
+            f_main: design.f_main,
+            aperture: design.aperture,
+            l: ch.l,
+            d: ch.d,
+            v: ch.v,
+            mu: ch.mu,
+            f: ch.f[t],
+        }
+    }
+
+    /// Eqs. 2–3 (missing in the paper): main-lens blur radius on the array plane,
+    /// H = (D L / 2) |1/z' − 1/L|.
+    #[inline]
+    pub fn main_blur(&self, zc: f64) -> f64 {
+        (self.aperture * self.l / 2.0) * (1.0 / zc - 1.0 / self.l).abs()
+    }
+
+    /// Eqs. 4–5: repetitions rep = 2 H / d.
+    #[inline]
+    pub fn repetitions(&self, h: f64) -> f64 {
+        2.0 * h / self.d
+    }
+
+    /// Eqs. 6–7: microlens blur b = (d v / 2) |1/f − 1/(L − z') − 1/v| (mm, unbounded).
+    #[inline]
+    pub fn microlens_blur(&self, zc: f64) -> f64 {
+        (self.d * self.v / 2.0) * (1.0 / self.f - 1.0 / (self.l - zc) - 1.0 / self.v).abs()
+    }
+
+    /// R = D v / (2 L): radius of one microlens image on the sensor (the LF blur's bound).
+    #[inline]
+    pub fn image_radius(&self) -> f64 {
+        self.aperture * self.v / (2.0 * self.l)
+    }
+
+    /// The bounded LF blur of Fig. 1 in pixels: min(b, R) / μ.
+    #[inline]
+    pub fn lf_blur_px(&self, b: f64) -> f64 {
+        b.min(self.image_radius()) / self.mu
+    }
+
+    /// Conventional blur in pixels (the sensor on the array plane, no microlenses): H / μ.
+    #[inline]
+    pub fn conventional_px(&self, h: f64) -> f64 {
+        h / self.mu
+    }
+
+    /// Out-of-focus plane: the depth whose conjugate lies on the array, F L / (L − F).
+    pub fn out_of_focus_depth(&self) -> f64 {
+        self.f_main * self.l / (self.l - self.f_main)
+    }
+
+    /// The depth this lens type is focused on (b = 0): the conjugate z' with
+    /// 1/(L − z') = 1/f − 1/v, mapped to depth by the inverse of Eq. 1. `None` when no
+    /// real depth has b = 0 (z' = L − 1/(1/f − 1/v) not beyond F, or 1/f = 1/v: focused at
+    /// z' = ∞, i.e. on the main lens's front focal plane). In Ng's setting 1/f − 1/v = 1/L,
+    /// so z' = 0: the microlenses are focused on the main lens, and there is none.
+    pub fn focus_depth(&self) -> Option<f64> {
+        let a = 1.0 / self.f - 1.0 / self.v;
+        if a == 0.0 {
+            return None;
+        }
+        let zc = self.l - 1.0 / a;
+        (zc.is_finite() && zc > self.f_main).then(|| depth_of_conjugate(self.f_main, zc))
+    }
+}
+
 /// Eqs. 2–3 (missing in the paper): main-lens blur radius on array plane i,
-/// H_i = (D L_i / 2) |1/z' − 1/L_i|.
+/// H_i = (D L_i / 2) |1/z' − 1/L_i| ([`LensOptics::main_blur`]).
 #[inline]
 pub fn main_blur(cam: &Camera, half: Half, zc: f64) -> f64 {
-    let l = cam.array_plane(half);
-    (cam.aperture * l / 2.0) * (1.0 / zc - 1.0 / l).abs()
+    LensOptics::of_half(cam, half).main_blur(zc)
 }
 
-/// Eqs. 4–5: repetitions rep_i = 2 H_i / d.
+/// Eqs. 4–5: repetitions rep_i = 2 H_i / d ([`LensOptics::repetitions`]).
 #[inline]
 pub fn repetitions(cam: &Camera, h: f64) -> f64 {
-    2.0 * h / cam.d
+    LensOptics::of_half(cam, Half::One).repetitions(h)
 }
 
-/// Eqs. 6–7: microlens blur b_i = (d v / 2) |1/f_i − 1/(L_i − z') − 1/v| (mm, unbounded).
+/// Eqs. 6–7: microlens blur b_i = (d v / 2) |1/f_i − 1/(L_i − z') − 1/v| (mm, unbounded;
+/// [`LensOptics::microlens_blur`]).
 #[inline]
 pub fn microlens_blur(cam: &Camera, half: Half, zc: f64) -> f64 {
-    let l = cam.array_plane(half);
-    let f = cam.microlens_focal(half);
-    (cam.d * cam.v / 2.0) * (1.0 / f - 1.0 / (l - zc) - 1.0 / cam.v).abs()
+    LensOptics::of_half(cam, half).microlens_blur(zc)
 }
 
-/// The bounded LF blur of Fig. 1 in pixels: min(b_i, R_i) / μ.
+/// The bounded LF blur of Fig. 1 in pixels: min(b_i, R_i) / μ ([`LensOptics::lf_blur_px`]).
 #[inline]
 pub fn lf_blur_px(cam: &Camera, half: Half, b: f64) -> f64 {
-    b.min(cam.image_radius(half)) / cam.mu
+    LensOptics::of_half(cam, half).lf_blur_px(b)
 }
 
 /// All closed-form curves for a set of depths. Two-row arrays are row-major (2, n):
@@ -221,23 +332,24 @@ fn curves_chunk(
     let zc = &mut zc[..m];
     let [h0, r0, b0, p0, c0] = one.map(|s| &mut s[..m]);
     let [h1, r1, b1, p1, c1] = two.map(|s| &mut s[..m]);
+    let [o1, o2] = Half::BOTH.map(|h| LensOptics::of_half(cam, h));
     for k in 0..m {
         let zck = conjugate(cam.f_main, zs[k]);
         zc[k] = zck;
-        let hk = main_blur(cam, Half::One, zck);
-        let bk = microlens_blur(cam, Half::One, zck);
+        let hk = o1.main_blur(zck);
+        let bk = o1.microlens_blur(zck);
         h0[k] = hk;
-        r0[k] = repetitions(cam, hk);
+        r0[k] = o1.repetitions(hk);
         b0[k] = bk;
-        p0[k] = lf_blur_px(cam, Half::One, bk);
-        c0[k] = hk / cam.mu;
-        let hk = main_blur(cam, Half::Two, zck);
-        let bk = microlens_blur(cam, Half::Two, zck);
+        p0[k] = o1.lf_blur_px(bk);
+        c0[k] = o1.conventional_px(hk);
+        let hk = o2.main_blur(zck);
+        let bk = o2.microlens_blur(zck);
         h1[k] = hk;
-        r1[k] = repetitions(cam, hk);
+        r1[k] = o2.repetitions(hk);
         b1[k] = bk;
-        p1[k] = lf_blur_px(cam, Half::Two, bk);
-        c1[k] = hk / cam.mu;
+        p1[k] = o2.lf_blur_px(bk);
+        c1[k] = o2.conventional_px(hk);
     }
 }
 
@@ -271,84 +383,96 @@ pub fn union_intervals(mut iv: Intervals) -> Intervals {
     out
 }
 
-/// LF half i: min(b_i, R_i)/μ < t. With y = 1/(L_i − z') and a = 1/f_i − 1/v,
-/// b_i < tμ ⇔ a − c < y < a + c, c = 2tμ/(d v). y is increasing in z' on each branch
-/// z' ∈ (F, L_i) (y > 1/(L_i − F)) and z' ∈ (L_i, ∞) (y < 0); z' = L_i − 1/y on both.
-fn lf_sharp(cam: &Camera, half: Half, t: f64) -> Intervals {
-    let f_main = cam.f_main;
-    if cam.image_radius(half) / cam.mu < t {
-        return vec![(f_main, f64::INFINITY)];
-    }
-    let l = cam.array_plane(half);
-    let a = 1.0 / cam.microlens_focal(half) - 1.0 / cam.v;
-    let c = 2.0 * t * cam.mu / (cam.d * cam.v);
-    let zc_of = |y: f64| -> f64 {
-        if y == 0.0 {
-            f64::INFINITY
-        } else {
-            l - 1.0 / y
+impl LensOptics {
+    /// Sharp depths of the light field camera: min(b, R)/μ < t. With y = 1/(L − z') and
+    /// a = 1/f − 1/v, b < tμ ⇔ a − c < y < a + c, c = 2tμ/(d v). y is increasing in z' on
+    /// each branch z' ∈ (F, L) (y > 1/(L − F)) and z' ∈ (L, ∞) (y < 0); z' = L − 1/y on
+    /// both.
+    pub fn lf_sharp(&self, t: f64) -> Intervals {
+        let f_main = self.f_main;
+        if self.image_radius() / self.mu < t {
+            return vec![(f_main, f64::INFINITY)];
         }
-    };
-    let mut iv = Vec::new();
-    // Branch z' ∈ (F, L): y ∈ (1/(L − F), ∞). The lower end y = 1/(L − F) is z' = F, z = ∞.
-    let y_min = 1.0 / (l - f_main);
-    let (lo, hi) = ((a - c).max(y_min), a + c);
-    if lo < hi {
-        let far = if lo == y_min {
-            f64::INFINITY
-        } else {
-            depth_of_conjugate(f_main, zc_of(lo))
+        let l = self.l;
+        let a = 1.0 / self.f - 1.0 / self.v;
+        let c = 2.0 * t * self.mu / (self.d * self.v);
+        let zc_of = |y: f64| -> f64 {
+            if y == 0.0 {
+                f64::INFINITY
+            } else {
+                l - 1.0 / y
+            }
         };
-        iv.push((depth_of_conjugate(f_main, zc_of(hi)), far));
+        let mut iv = Vec::new();
+        // Branch z' ∈ (F, L): y ∈ (1/(L − F), ∞). The lower end y = 1/(L − F) is z' = F, z = ∞.
+        let y_min = 1.0 / (l - f_main);
+        let (lo, hi) = ((a - c).max(y_min), a + c);
+        if lo < hi {
+            let far = if lo == y_min {
+                f64::INFINITY
+            } else {
+                depth_of_conjugate(f_main, zc_of(lo))
+            };
+            iv.push((depth_of_conjugate(f_main, zc_of(hi)), far));
+        }
+        // Branch z' ∈ (L, ∞): y ∈ (−∞, 0). y → 0⁻ is z' → ∞, z → F.
+        let (lo, hi) = (a - c, (a + c).min(0.0));
+        if lo < hi {
+            iv.push((
+                depth_of_conjugate(f_main, zc_of(hi)),
+                depth_of_conjugate(f_main, zc_of(lo)),
+            ));
+        }
+        union_intervals(iv)
     }
-    // Branch z' ∈ (L, ∞): y ∈ (−∞, 0). y → 0⁻ is z' → ∞, z → F.
-    let (lo, hi) = (a - c, (a + c).min(0.0));
-    if lo < hi {
-        iv.push((
-            depth_of_conjugate(f_main, zc_of(hi)),
-            depth_of_conjugate(f_main, zc_of(lo)),
-        ));
+
+    /// Sharp depths of the conventional camera with its sensor on the array plane:
+    /// H/μ < t ⇔ |y − 1/L| < c', y = 1/z' ∈ (0, 1/F), c' = 2tμ/(D L); the depth is
+    /// z = 1/(1/F − y), increasing in y. (f does not enter.)
+    pub fn conventional_sharp(&self, t: f64) -> Intervals {
+        let l = self.l;
+        let c = 2.0 * t * self.mu / (self.aperture * l);
+        let y_max = 1.0 / self.f_main;
+        let lo = (1.0 / l - c).max(0.0);
+        let hi = 1.0 / l + c;
+        let z_of = |y: f64| -> f64 {
+            if y >= y_max {
+                f64::INFINITY
+            } else if y <= 0.0 {
+                self.f_main
+            } else {
+                depth_of_conjugate(self.f_main, 1.0 / y)
+            }
+        };
+        if lo < hi.min(y_max) {
+            // Mapped to depth, a band of y narrower than the spacing of floats at z can
+            // collapse to one depth: `union_intervals` drops such empty intervals.
+            union_intervals(vec![(z_of(lo), z_of(hi))])
+        } else {
+            Vec::new()
+        }
     }
-    union_intervals(iv)
 }
 
-/// Conventional camera on plane i: H_i/μ < t ⇔ |y − 1/L_i| < c', y = 1/z' ∈ (0, 1/F),
-/// c' = 2tμ/(D L_i); the depth is z = 1/(1/F − y), increasing in y.
-fn conventional_sharp(cam: &Camera, half: Half, t: f64) -> Intervals {
-    let l = cam.array_plane(half);
-    let c = 2.0 * t * cam.mu / (cam.aperture * l);
-    let y_max = 1.0 / cam.f_main;
-    let lo = (1.0 / l - c).max(0.0);
-    let hi = 1.0 / l + c;
-    let z_of = |y: f64| -> f64 {
-        if y >= y_max {
-            f64::INFINITY
-        } else if y <= 0.0 {
-            cam.f_main
-        } else {
-            depth_of_conjugate(cam.f_main, 1.0 / y)
-        }
-    };
-    if lo < hi.min(y_max) {
-        // Mapped to depth, a band of y narrower than the spacing of floats at z can
-        // collapse to one depth: `union_intervals` drops such empty intervals.
-        union_intervals(vec![(z_of(lo), z_of(hi))])
+/// A sharpness threshold must be a finite number of pixels > 0.
+fn check_threshold(threshold_px: f64) -> Result<()> {
+    if threshold_px.is_finite() && threshold_px > 0.0 {
+        Ok(())
     } else {
-        Vec::new()
+        Err(Error::param(
+            "threshold_px",
+            threshold_px,
+            "a finite number of pixels > 0",
+        ))
     }
 }
 
 /// Depth of field, every boundary in closed form (the blur equations inverted).
 pub fn depth_of_field(cam: &Camera, threshold_px: f64) -> Result<DepthOfField> {
-    if !(threshold_px.is_finite() && threshold_px > 0.0) {
-        return Err(Error::param(
-            "threshold_px",
-            threshold_px,
-            "a finite number of pixels > 0",
-        ));
-    }
-    let half = Half::BOTH.map(|h| lf_sharp(cam, h, threshold_px));
-    let conventional = Half::BOTH.map(|h| conventional_sharp(cam, h, threshold_px));
+    check_threshold(threshold_px)?;
+    let optics = Half::BOTH.map(|h| LensOptics::of_half(cam, h));
+    let half = optics.map(|o| o.lf_sharp(threshold_px));
+    let conventional = optics.map(|o| o.conventional_sharp(threshold_px));
     let split = union_intervals(half.iter().flatten().copied().collect());
     Ok(DepthOfField {
         half,
@@ -387,6 +511,244 @@ pub fn sharp_fractions(cam: &Camera, threshold_px: f64, lo: f64, hi: f64) -> Res
         log_fraction(&dof.conventional[0], lo, hi)?,
         log_fraction(&dof.conventional[1], lo, hi)?,
     ])
+}
+
+// ---- general designs (docs/model.md §9) ----------------------------------------------
+
+/// The per-type rows of a design's outputs: (channel, lens type), both from 0, channels in
+/// order and each channel's types in order. A channel in Ng's setting has one type.
+pub fn type_rows(design: &Design) -> Vec<(usize, usize)> {
+    design
+        .channels
+        .iter()
+        .enumerate()
+        .flat_map(|(i, ch)| (0..ch.types()).map(move |t| (i, t)))
+        .collect()
+}
+
+/// Closed-form curves of a design at n depths. Per-channel arrays are row-major (C, n),
+/// one row per channel; per-type arrays (R, n), one row per [`type_rows`] entry.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DesignCurves {
+    /// z' (n).
+    pub conjugate: Vec<f64>,
+    /// H of each channel (C, n).
+    pub main_blur: Vec<f64>,
+    /// rep = 2 H / d of each channel (C, n).
+    pub repetitions: Vec<f64>,
+    /// H / μ of each channel (C, n).
+    pub conventional_px: Vec<f64>,
+    /// b of each (channel, type) (R, n).
+    pub microlens_blur: Vec<f64>,
+    /// min(b, R) / μ of each (channel, type) (R, n).
+    pub blur_px: Vec<f64>,
+    /// The smallest `blur_px` of each channel's types (C, n): the channel is sharp where it
+    /// is below the threshold.
+    pub channel_blur_px: Vec<f64>,
+    /// The smallest `blur_px` of every row (n): the design is sharp where it is below the
+    /// threshold.
+    pub union_blur_px: Vec<f64>,
+}
+
+/// Output buffers of [`design_curves_into`] (shapes as in [`DesignCurves`]). Any initial
+/// content: every element is written exactly once.
+pub struct DesignCurvesOut<'a> {
+    pub conjugate: &'a mut [f64],
+    pub main_blur: &'a mut [f64],
+    pub repetitions: &'a mut [f64],
+    pub conventional_px: &'a mut [f64],
+    pub microlens_blur: &'a mut [f64],
+    pub blur_px: &'a mut [f64],
+    pub channel_blur_px: &'a mut [f64],
+    pub union_blur_px: &'a mut [f64],
+}
+
+/// Bytes of the outputs of [`design_curves`] at n depths: (2 + 4 C + 2 R) f64 per depth.
+pub fn design_curves_bytes(design: &Design, n: usize) -> u128 {
+    let c = design.channels.len() as u128;
+    let r = type_rows(design).len() as u128;
+    memory::bytes_of::<f64>((2 + 4 * c + 2 * r) * n as u128)
+}
+
+/// Evaluate every curve of a design at every depth (validated first), in parallel.
+pub fn design_curves(design: &Design, z: &[f64], n_threads: Option<usize>) -> Result<DesignCurves> {
+    check_design_depths(design.f_main, z)?;
+    let n = z.len();
+    memory::check("curves", design_curves_bytes(design, n))?;
+    let c = design.channels.len();
+    let r = type_rows(design).len();
+    let buf = |rows: usize| memory::try_vec("curves", rows * n, 0.0);
+    let mut out = DesignCurves {
+        conjugate: buf(1)?,
+        main_blur: buf(c)?,
+        repetitions: buf(c)?,
+        conventional_px: buf(c)?,
+        microlens_blur: buf(r)?,
+        blur_px: buf(r)?,
+        channel_blur_px: buf(c)?,
+        union_blur_px: buf(1)?,
+    };
+    let buffers = DesignCurvesOut {
+        conjugate: &mut out.conjugate,
+        main_blur: &mut out.main_blur,
+        repetitions: &mut out.repetitions,
+        conventional_px: &mut out.conventional_px,
+        microlens_blur: &mut out.microlens_blur,
+        blur_px: &mut out.blur_px,
+        channel_blur_px: &mut out.channel_blur_px,
+        union_blur_px: &mut out.union_blur_px,
+    };
+    design_curves_into(design, z, buffers, n_threads)?;
+    Ok(out)
+}
+
+/// `out[k] = f(z[k])` over one range of depths, in parallel.
+fn fill(out: &mut [f64], z: &[f64], f: impl Fn(f64) -> f64 + Sync) {
+    out.par_chunks_mut(CHUNK)
+        .zip(z.par_chunks(CHUNK))
+        .for_each(|(o, z)| {
+            for (o, &z) in o.iter_mut().zip(z) {
+                *o = f(z);
+            }
+        });
+}
+
+/// `out[k] = min over rows of rows[row][k]` over one range of depths, in parallel.
+fn fill_min(out: &mut [f64], rows: &[&[f64]]) {
+    out.par_chunks_mut(CHUNK).enumerate().for_each(|(i, o)| {
+        let start = i * CHUNK;
+        for (k, o) in o.iter_mut().enumerate() {
+            *o = rows
+                .iter()
+                .map(|r| r[start + k])
+                .fold(f64::INFINITY, f64::min);
+        }
+    });
+}
+
+/// [`design_curves`] written straight into caller-provided buffers (e.g. NumPy arrays).
+/// Each row is computed by the same [`LensOptics`] formulas as the camera's
+/// [`curves_into`], in the same order of operations, so a camera's two-channel design
+/// ([`Design::from_camera`]) gives the camera's curves bit for bit. Depths are validated
+/// and lengths checked before any write.
+pub fn design_curves_into(
+    design: &Design,
+    z: &[f64],
+    out: DesignCurvesOut<'_>,
+    n_threads: Option<usize>,
+) -> Result<()> {
+    check_design_depths(design.f_main, z)?;
+    let n = z.len();
+    let rows = type_rows(design);
+    let (c, r) = (design.channels.len(), rows.len());
+    let lengths = [
+        (out.conjugate.len(), n),
+        (out.main_blur.len(), c * n),
+        (out.repetitions.len(), c * n),
+        (out.conventional_px.len(), c * n),
+        (out.microlens_blur.len(), r * n),
+        (out.blur_px.len(), r * n),
+        (out.channel_blur_px.len(), c * n),
+        (out.union_blur_px.len(), n),
+    ];
+    if lengths.iter().any(|&(got, want)| got != want) {
+        return Err(Error::param(
+            "output length",
+            format!("{:?}", lengths.map(|l| l.0)),
+            format!("{:?}", lengths.map(|l| l.1)),
+        ));
+    }
+    let f_main = design.f_main;
+    // The channel-level formulas (H, rep, H/μ) do not read f: any type stands for them.
+    let channel: Vec<LensOptics> = design
+        .channels
+        .iter()
+        .map(|ch| LensOptics::of_channel(design, ch, 0))
+        .collect();
+    let typed: Vec<LensOptics> = rows
+        .iter()
+        .map(|&(i, t)| LensOptics::of_channel(design, &design.channels[i], t))
+        .collect();
+    let at = |i: usize, span: &std::ops::Range<usize>| i * n + span.start..i * n + span.end;
+    let step = CHUNK * 64;
+    for_chunks(n_threads, n, step, |span| {
+        let zs = &z[span.clone()];
+        fill(&mut out.conjugate[span.clone()], zs, |z| {
+            conjugate(f_main, z)
+        });
+        for (i, o) in channel.iter().enumerate() {
+            let h = |z: f64| o.main_blur(conjugate(f_main, z));
+            fill(&mut out.main_blur[at(i, &span)], zs, h);
+            fill(&mut out.repetitions[at(i, &span)], zs, |z| {
+                o.repetitions(h(z))
+            });
+            fill(&mut out.conventional_px[at(i, &span)], zs, |z| {
+                o.conventional_px(h(z))
+            });
+        }
+        for (k, o) in typed.iter().enumerate() {
+            let b = |z: f64| o.microlens_blur(conjugate(f_main, z));
+            fill(&mut out.microlens_blur[at(k, &span)], zs, b);
+            fill(&mut out.blur_px[at(k, &span)], zs, |z| o.lf_blur_px(b(z)));
+        }
+        let blur: &[f64] = out.blur_px;
+        for i in 0..c {
+            let own: Vec<&[f64]> = rows
+                .iter()
+                .enumerate()
+                .filter(|(_, &(ch, _))| ch == i)
+                .map(|(k, _)| &blur[at(k, &span)])
+                .collect();
+            fill_min(&mut out.channel_blur_px[at(i, &span)], &own);
+        }
+        let all: Vec<&[f64]> = (0..r).map(|k| &blur[at(k, &span)]).collect();
+        fill_min(&mut out.union_blur_px[span.clone()], &all);
+        Ok(())
+    })
+}
+
+/// Depth of field of a design (docs/model.md §9): sharp intervals of each lens type of
+/// each channel (the LF blur of §2 with f_t), of each channel (sharp where any of its
+/// types is), of the design (where any channel is), and of the conventional camera with
+/// its sensor on each channel's array plane.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DesignDepthOfField {
+    /// One entry per [`type_rows`] row.
+    pub types: Vec<Intervals>,
+    /// One entry per channel: the union of its types' intervals.
+    pub channels: Vec<Intervals>,
+    /// The union over channels.
+    pub union: Intervals,
+    /// One entry per channel: blur H/μ with the sensor on its array plane.
+    pub conventional: Vec<Intervals>,
+}
+
+/// Depth of field of a design, every boundary in closed form ([`LensOptics::lf_sharp`],
+/// [`LensOptics::conventional_sharp`], [`union_intervals`]: the camera's own code). For a
+/// camera's two-channel design the channels and their union equal [`depth_of_field`]'s
+/// halves and split bit for bit.
+pub fn design_depth_of_field(design: &Design, threshold_px: f64) -> Result<DesignDepthOfField> {
+    check_threshold(threshold_px)?;
+    let mut types = Vec::new();
+    let mut channels = Vec::with_capacity(design.channels.len());
+    let mut conventional = Vec::with_capacity(design.channels.len());
+    for ch in &design.channels {
+        let first = types.len();
+        for t in 0..ch.types() {
+            types.push(LensOptics::of_channel(design, ch, t).lf_sharp(threshold_px));
+        }
+        channels.push(union_intervals(
+            types[first..].iter().flatten().copied().collect(),
+        ));
+        conventional.push(LensOptics::of_channel(design, ch, 0).conventional_sharp(threshold_px));
+    }
+    let union = union_intervals(channels.iter().flatten().copied().collect());
+    Ok(DesignDepthOfField {
+        types,
+        channels,
+        union,
+        conventional,
+    })
 }
 
 #[cfg(test)]
@@ -462,5 +824,120 @@ mod tests {
         let s = sharp_fractions(&Camera::paper(), 0.5, 150.0, 10_000.0).unwrap();
         assert_eq!(s[2], 1.0);
         assert!(s[0] < 1.0 && s[1] < 1.0 && s[3] < 0.01);
+    }
+    #[test]
+    fn camera_design_is_the_camera_bit_for_bit() {
+        for cam in [
+            Camera::paper(),
+            Camera::new(
+                50.0,
+                12.5,
+                60.0,
+                0.8,
+                0.1,
+                0.48,
+                0.01,
+                10,
+                40,
+                3,
+                Some(0.5),
+                Some(0.45),
+            )
+            .unwrap(),
+        ] {
+            let design = Design::from_camera(&cam);
+            let z: Vec<f64> = (0..30_000)
+                .map(|i| cam.f_main * (1.0 + 1e-6 * 1.0009f64.powi(i)))
+                .collect();
+            let a = curves(&cam, &z, Some(2)).unwrap();
+            let b = design_curves(&design, &z, Some(3)).unwrap();
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&a.conjugate), bits(&b.conjugate));
+            assert_eq!(bits(&a.main_blur), bits(&b.main_blur));
+            assert_eq!(bits(&a.repetitions), bits(&b.repetitions));
+            assert_eq!(bits(&a.microlens_blur), bits(&b.microlens_blur));
+            assert_eq!(bits(&a.blur_px), bits(&b.blur_px));
+            assert_eq!(bits(&a.conventional_px), bits(&b.conventional_px));
+            assert_eq!(bits(&a.blur_px), bits(&b.channel_blur_px));
+            for t in [0.5, 0.1, 2.0, 9.0] {
+                let d1 = depth_of_field(&cam, t).unwrap();
+                let d2 = design_depth_of_field(&design, t).unwrap();
+                assert_eq!(d1.half.to_vec(), d2.channels);
+                assert_eq!(d1.half.to_vec(), d2.types);
+                assert_eq!(d1.split, d2.union);
+                assert_eq!(d1.conventional.to_vec(), d2.conventional);
+            }
+        }
+    }
+
+    fn multi_focus() -> Design {
+        use crate::design::{Aperture, ChannelSpec, Grid};
+        let spec = ChannelSpec {
+            l: 56.86,
+            d: 0.12744,
+            v: 0.33713,
+            mu: 0.0055,
+            kx: 12,
+            ky: 10,
+            grid: Grid::Hex,
+            f: Some(vec![0.58267, 0.52402, 0.56057]),
+            layout: "sensor".into(),
+            q: None,
+            mx: None,
+            my: None,
+            share: 0.6,
+        };
+        let plain = ChannelSpec {
+            f: None,
+            l: 70.0,
+            share: 0.4,
+            ..spec.clone()
+        };
+        Design::new(49.885, 21.0, Aperture::Circle, &[spec, plain]).unwrap()
+    }
+
+    #[test]
+    fn design_rows_minima_and_dof_agree() {
+        let design = multi_focus();
+        let rows = type_rows(&design);
+        assert_eq!(rows, vec![(0, 0), (0, 1), (0, 2), (1, 0)]);
+        let z: Vec<f64> = (0..20_000).map(|i| 50.0 + 0.05 * i as f64).collect();
+        let n = z.len();
+        let c = design_curves(&design, &z, Some(2)).unwrap();
+        let t = 0.5;
+        let dof = design_depth_of_field(&design, t).unwrap();
+        let inside = |iv: &Intervals, x: f64| iv.iter().any(|&(a, b)| a < x && x < b);
+        for (k, &zk) in z.iter().enumerate() {
+            let row = |r: usize| c.blur_px[r * n + k];
+            let ch0 = row(0).min(row(1)).min(row(2));
+            assert_eq!(c.channel_blur_px[k], ch0);
+            assert_eq!(c.channel_blur_px[n + k], row(3));
+            assert_eq!(c.union_blur_px[k], ch0.min(row(3)));
+            // Membership in the closed-form intervals is sharpness, away from the boundaries.
+            for (iv, blur) in [
+                (&dof.types[1], row(1)),
+                (&dof.channels[0], ch0),
+                (&dof.union, c.union_blur_px[k]),
+            ] {
+                if (blur / t - 1.0).abs() > 1e-9 {
+                    assert_eq!(inside(iv, zk), blur < t, "z = {zk}");
+                }
+            }
+            let zc = c.conjugate[k];
+            let o = LensOptics::of_channel(&design, &design.channels[0], 2);
+            assert_eq!(c.microlens_blur[2 * n + k], o.microlens_blur(zc));
+        }
+        // Each lens type is sharp around the depth it is focused on.
+        for (r, &(i, t)) in rows.iter().enumerate() {
+            let o = LensOptics::of_channel(&design, &design.channels[i], t);
+            match o.focus_depth() {
+                Some(zf) => {
+                    assert!(inside(&dof.types[r], zf), "type {t}: {zf}");
+                    let zc = conjugate(design.f_main, zf);
+                    assert!(o.microlens_blur(zc) < 1e-12);
+                }
+                None => assert_eq!(i, 1),
+            }
+        }
     }
 }

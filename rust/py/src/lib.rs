@@ -18,6 +18,7 @@ use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
 use pyo3::types::{PyBool, PyDict, PyInt, PyTuple};
 
+use splitlf_core::presets;
 use splitlf_core::rayspace::{self, Sample};
 use splitlf_core::samples;
 use splitlf_core::simulate::{self, Grid, Source};
@@ -449,6 +450,18 @@ struct DesignCore {
     inner: Design,
 }
 
+impl DesignCore {
+    /// The design and its channel `number` (an integer from 1; other values are named errors).
+    fn channel_arg(&self, number: &Bound<'_, PyAny>) -> PyResult<(&Design, &design::Channel)> {
+        let (v, text) = int_arg(number, "channel")?;
+        let ch = self
+            .inner
+            .channel(saturate(v))
+            .map_err(|e| to_py(with_given(e, &text)))?;
+        Ok((&self.inner, ch))
+    }
+}
+
 #[pymethods]
 impl DesignCore {
     /// `channels`: one dict per channel with the keys L, d, v, mu, Kx, Ky, grid, f (None or
@@ -475,6 +488,40 @@ impl DesignCore {
         DesignCore {
             inner: Design::from_camera(&camera.inner),
         }
+    }
+
+    /// The named design `name` (see `splitlf_core::presets`).
+    #[staticmethod]
+    fn preset(name: &str) -> PyResult<Self> {
+        let inner = presets::preset(name).map_err(to_py)?;
+        Ok(DesignCore { inner })
+    }
+
+    /// The preset names, in the documented order.
+    #[staticmethod]
+    fn presets() -> Vec<&'static str> {
+        presets::PRESETS.to_vec()
+    }
+
+    /// Out-of-focus plane of channel `channel` (from 1): F L / (L − F).
+    fn out_of_focus_depth(&self, channel: &Bound<'_, PyAny>) -> PyResult<f64> {
+        let (d, ch) = self.channel_arg(channel)?;
+        Ok(optics::LensOptics::of_channel(d, ch, 0).out_of_focus_depth())
+    }
+
+    /// Microlens image radius of channel `channel` (from 1): R = D v / (2 L).
+    fn image_radius(&self, channel: &Bound<'_, PyAny>) -> PyResult<f64> {
+        let (d, ch) = self.channel_arg(channel)?;
+        Ok(optics::LensOptics::of_channel(d, ch, 0).image_radius())
+    }
+
+    /// The depth each lens type of channel `channel` (from 1) is focused on (b = 0), None
+    /// where there is none (Ng's setting: focused on the main lens).
+    fn focus_depths(&self, channel: &Bound<'_, PyAny>) -> PyResult<Vec<Option<f64>>> {
+        let (d, ch) = self.channel_arg(channel)?;
+        Ok((0..ch.types())
+            .map(|t| optics::LensOptics::of_channel(d, ch, t).focus_depth())
+            .collect())
     }
 
     /// (F, D, aperture) of the main lens.
@@ -612,6 +659,108 @@ fn depth_of_field(camera: &CameraCore, threshold_px: f64) -> PyResult<DepthOfFie
 #[pyo3(signature = (camera, threshold_px, lo, hi))]
 fn sharp_fractions(camera: &CameraCore, threshold_px: f64, lo: f64, hi: f64) -> PyResult<[f64; 5]> {
     optics::sharp_fractions(&camera.inner, threshold_px, lo, hi).map_err(to_py)
+}
+
+/// Closed-form curves of a design at n depths: per-channel arrays (C, n), per-type arrays
+/// (R, n) in `splitlf_core::optics::type_rows` order, the union (n).
+#[pyclass(frozen, get_all, module = "splitlf._native")]
+struct DesignCurvesArrays {
+    conjugate: Py<PyArray1<f64>>,
+    main_blur: Py<PyArray2<f64>>,
+    repetitions: Py<PyArray2<f64>>,
+    conventional_px: Py<PyArray2<f64>>,
+    microlens_blur: Py<PyArray2<f64>>,
+    blur_px: Py<PyArray2<f64>>,
+    channel_blur_px: Py<PyArray2<f64>>,
+    union_blur_px: Py<PyArray1<f64>>,
+    /// (channel, type) of each per-type row, both from 0.
+    rows: Vec<(usize, usize)>,
+}
+
+/// Closed-form curves (docs/model.md §2 per channel and lens type, §9) at every depth.
+#[pyfunction]
+#[pyo3(signature = (design, z, n_threads=None))]
+fn design_curves(
+    py: Python<'_>,
+    design: &DesignCore,
+    z: PyReadonlyArray1<'_, f64>,
+    n_threads: Option<&Bound<'_, PyAny>>,
+) -> PyResult<DesignCurvesArrays> {
+    let d = &design.inner;
+    let threads = threads_arg(n_threads)?;
+    let zs = as_slice(&z)?;
+    optics::check_design_depths(d.f_main, &zs).map_err(to_py)?;
+    let n = zs.len();
+    memory::check("curves", optics::design_curves_bytes(d, n)).map_err(to_py)?;
+    let rows = optics::type_rows(d);
+    let (c, r) = (d.channels.len(), rows.len());
+    let one = || empty::<f64, _>(py, &[n], "curves");
+    let grid = |k: usize| empty::<f64, _>(py, &[k, n], "curves");
+    let (conjugate, union) = (one()?, one()?);
+    let per_channel = [grid(c)?, grid(c)?, grid(c)?, grid(c)?];
+    let per_type = [grid(r)?, grid(r)?];
+    {
+        let mut zw = conjugate.readwrite();
+        let mut uw = union.readwrite();
+        let mut cw = per_channel.each_ref().map(|a| a.readwrite());
+        let mut tw = per_type.each_ref().map(|a| a.readwrite());
+        let [h, rep, conv, chan] = cw.each_mut().map(|a| a.as_slice_mut());
+        let [b, p] = tw.each_mut().map(|a| a.as_slice_mut());
+        let out = optics::DesignCurvesOut {
+            conjugate: zw.as_slice_mut().map_err(internal)?,
+            main_blur: h.map_err(internal)?,
+            repetitions: rep.map_err(internal)?,
+            conventional_px: conv.map_err(internal)?,
+            microlens_blur: b.map_err(internal)?,
+            blur_px: p.map_err(internal)?,
+            channel_blur_px: chan.map_err(internal)?,
+            union_blur_px: uw.as_slice_mut().map_err(internal)?,
+        };
+        run(py, || optics::design_curves_into(d, &zs, out, threads))?;
+    }
+    let [h, rep, conv, chan] = per_channel.map(Bound::unbind);
+    let [b, p] = per_type.map(Bound::unbind);
+    Ok(DesignCurvesArrays {
+        conjugate: conjugate.unbind(),
+        main_blur: h,
+        repetitions: rep,
+        conventional_px: conv,
+        microlens_blur: b,
+        blur_px: p,
+        channel_blur_px: chan,
+        union_blur_px: union.unbind(),
+        rows,
+    })
+}
+
+/// Sharp depth intervals (near, far) in mm of a design: per (channel, type) row, per
+/// channel, their union, and the conventional camera on each channel's array plane.
+#[pyclass(frozen, get_all, module = "splitlf._native")]
+struct DesignDepthOfFieldIntervals {
+    types: Vec<Intervals>,
+    channels: Vec<Intervals>,
+    union: Intervals,
+    conventional: Vec<Intervals>,
+    /// (channel, type) of each entry of `types`, both from 0.
+    rows: Vec<(usize, usize)>,
+}
+
+/// Depth of field of a design, every boundary in closed form.
+#[pyfunction]
+#[pyo3(signature = (design, threshold_px=optics::DEFAULT_THRESHOLD_PX))]
+fn design_depth_of_field(
+    design: &DesignCore,
+    threshold_px: f64,
+) -> PyResult<DesignDepthOfFieldIntervals> {
+    let d = &design.inner;
+    let dof = optics::design_depth_of_field(d, threshold_px).map_err(to_py)?;
+    Ok(DesignDepthOfFieldIntervals {
+        types: dof.types,
+        channels: dof.channels,
+        union: dof.union,
+        conventional: dof.conventional,
+        rows: optics::type_rows(d),
+    })
 }
 
 // ---- samples -----------------------------------------------------------------------------
@@ -1088,6 +1237,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("MAX_M", design::MAX_M)?;
     m.add_class::<CurvesArrays>()?;
     m.add_class::<DepthOfFieldIntervals>()?;
+    m.add_class::<DesignCurvesArrays>()?;
+    m.add_class::<DesignDepthOfFieldIntervals>()?;
     m.add_class::<NewSamplesArrays>()?;
     m.add_class::<PlaneColumns>()?;
     m.add_class::<TraceArrays>()?;
@@ -1098,6 +1249,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(curves, m)?)?;
     m.add_function(wrap_pyfunction!(depth_of_field, m)?)?;
     m.add_function(wrap_pyfunction!(sharp_fractions, m)?)?;
+    m.add_function(wrap_pyfunction!(design_curves, m)?)?;
+    m.add_function(wrap_pyfunction!(design_depth_of_field, m)?)?;
     m.add_function(wrap_pyfunction!(new_samples, m)?)?;
     m.add_function(wrap_pyfunction!(coincidence_planes, m)?)?;
     m.add_function(wrap_pyfunction!(figures_of_merit, m)?)?;
