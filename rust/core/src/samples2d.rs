@@ -25,7 +25,7 @@
 use rayon::prelude::*;
 use spade::{DelaunayTriangulation, HierarchyHintGenerator, Point2, Triangulation};
 
-use crate::design::{Channel, Design, Grid, Layout, SQRT3_2};
+use crate::design::{Aperture, Channel, Design, Grid, Layout, SQRT3_2};
 use crate::error::{Error, Result};
 use crate::memory::{self, try_reserve, try_vec};
 use crate::optics::check_design_depths;
@@ -70,12 +70,36 @@ struct ColumnCandidates {
 }
 
 /// Nearest-lens candidates of one sensor row: the lattice rows that
-/// [`Channel::nearest_lens`] tries (rect: 2, hex: 4, clamped) and their squared y distances.
+/// [`Channel::nearest_lens`] tries (rect: 2, hex: 4, clamped), their parities and squared y
+/// distances, less the rows that can never win (see [`Tables::row`]).
 #[derive(Debug, Clone, Copy)]
 struct RowCandidates {
     k: [u32; 4],
+    par: [usize; 4],
     dyy: [f64; 4],
+    /// θ_y, w_y and the sample's Y of a pixel of this row belonging to row k's lenses.
+    theta: [f64; 4],
+    w: [f64; 4],
+    y: [f64; 4],
     n: usize,
+}
+
+/// θ_x, w_x and the sample's X of a pixel of one column for each candidate lens
+/// ([parity][lower/upper], as [`ColumnCandidates`]) on the plane at hand.
+#[derive(Debug, Clone, Copy, Default)]
+struct ColumnX {
+    theta: [[f64; 2]; 2],
+    w: [[f64; 2]; 2],
+    x: [[f64; 2]; 2],
+}
+
+/// A sensor pixel: its lens, chief sample and lit flag.
+#[derive(Debug, Clone, Copy)]
+struct SensorPx {
+    j: u32,
+    k: u32,
+    lit: bool,
+    xy: [f64; 2],
 }
 
 /// The sensor layout's tables: pixel centres, per-column candidates, magnified centres.
@@ -90,6 +114,10 @@ struct Sensor {
     p: f64,
     /// The hex lattice's mean (x, y) / d ([`Channel::hex_mean`]); rect: unused.
     mean: (f64, f64),
+    /// Half the image pitch ([`Channel::in_cell`]) and the aperture's radius D/2
+    /// ([`crate::design::Aperture::contains`]).
+    half_cell: f64,
+    radius: f64,
 }
 
 #[derive(Debug)]
@@ -145,7 +173,8 @@ fn tables_bytes(ch: &Channel) -> u128 {
         Layout::Ideal { q } => lenses + 8 * q as u128,
         Layout::Sensor { mx, my } => {
             let (mx, my) = (mx as u128, my as u128);
-            lenses + 16 * kx + 8 * ky + 8 * (mx + my) + 48 * mx
+            // Pixel centres, column candidates (48 B) and their values on a plane (96 B).
+            lenses + 16 * kx + 8 * ky + 8 * (mx + my) + 48 * mx + 96 * mx
         }
     }
 }
@@ -238,6 +267,8 @@ impl<'a> Tables<'a> {
                     cym,
                     p,
                     mean,
+                    half_cell: ch.image_pitch() / 2.0,
+                    radius: design.aperture / 2.0,
                 });
                 (mx as usize, my as usize, px)
             }
@@ -268,29 +299,41 @@ impl<'a> Tables<'a> {
         }
     }
 
-    #[inline]
-    fn parity(&self, k: u32) -> usize {
-        if self.hex {
-            (k % 2) as usize
-        } else {
-            0
-        }
-    }
-
     /// Sensor row b's nearest-lens candidates (the rows of [`Channel::nearest_lens`]).
-    fn row(&self, sen: &Sensor, s1: f64) -> RowCandidates {
+    fn row(&self, sen: &Sensor, s1: f64, g: f64, s: f64) -> RowCandidates {
         let (cym, p, mean) = (&sen.cym, sen.p, sen.mean);
         let ky = self.ch.ky;
         let mut rc = RowCandidates {
             k: [0; 4],
+            par: [0; 4],
             dyy: [0.0; 4],
+            theta: [0.0; 4],
+            w: [0.0; 4],
+            y: [0.0; 4],
             n: 0,
         };
+        let (lv, cy) = (self.lv, &self.cy);
+        let hex = self.hex;
         let mut push = |k: u32| {
             let dy = s1 - cym[k as usize];
-            rc.k[rc.n] = k;
-            rc.dyy[rc.n] = dy * dy;
-            rc.n += 1;
+            let (par, dyy) = (if hex { (k % 2) as usize } else { 0 }, dy * dy);
+            // A row never wins when a row of the same parity (same lens x positions, so
+            // the same j candidates) with a lower or equal index is no farther: for every j
+            // its rounded distance² is no smaller and a tie goes to the lower k. Rows come
+            // in non-decreasing k (clamping is monotone), so only the new row can be so
+            // dominated; dropping it changes no result.
+            let dominated = (0..rc.n).any(|i| rc.par[i] == par && rc.dyy[i] <= dyy);
+            if !dominated {
+                // As sensor_pixel and sample: θ = s − c m, w = −(L/v) θ, Y = −g (c + w s).
+                let w = -lv * dy;
+                rc.k[rc.n] = k;
+                rc.par[rc.n] = par;
+                rc.dyy[rc.n] = dyy;
+                rc.theta[rc.n] = dy;
+                rc.w[rc.n] = w;
+                rc.y[rc.n] = -g * (cy[k as usize] + w * s);
+                rc.n += 1;
+            }
         };
         if self.hex {
             let row = s1 / (p * SQRT3_2) + mean.1 / SQRT3_2;
@@ -306,37 +349,77 @@ impl<'a> Tables<'a> {
         rc
     }
 
-    /// The lens of sensor pixel (column candidates `c`, row candidates `rc`): the least
-    /// (distance², j, k) over the candidates, exactly [`Channel::nearest_lens`].
-    #[inline]
-    fn nearest(&self, c: &ColumnCandidates, rc: &RowCandidates) -> (u32, u32) {
-        let mut best = (u32::MAX, u32::MAX);
-        let mut bd = f64::INFINITY;
-        for i in 0..rc.n {
-            let k = rc.k[i];
-            let par = self.parity(k);
-            for h in 0..2 {
-                let j = c.j[par][h];
-                let dd = c.dxx[par][h] + rc.dyy[i];
-                if dd < bd || (dd == bd && (j, k) < best) {
-                    best = (j, k);
-                    bd = dd;
+    /// Every column's [`ColumnX`] on the plane (g = z/L, s = (L − z')/z').
+    fn columns_x(&self, sen: &Sensor, g: f64, s: f64, out: &mut Vec<ColumnX>) -> Result<()> {
+        out.clear();
+        try_reserve(out, "chief samples (column tables)", sen.cols.len())?;
+        let parities = if self.cx[1].is_empty() { 1 } else { 2 };
+        for (c, &s0) in sen.cols.iter().zip(&sen.sx) {
+            let mut v = ColumnX::default();
+            for par in 0..parities {
+                for h in 0..2 {
+                    let j = c.j[par][h] as usize;
+                    let theta = s0 - sen.cxm[par][j];
+                    let w = -self.lv * theta;
+                    v.theta[par][h] = theta;
+                    v.w[par][h] = w;
+                    v.x[par][h] = -g * (self.cx[par][j] + w * s);
                 }
             }
+            out.push(v);
         }
-        best
+        Ok(())
     }
 
-    /// Sensor pixel (a, b) with its row's candidates.
-    #[inline]
-    fn sensor_pixel(&self, sen: &Sensor, a: usize, s1: f64, rc: &RowCandidates) -> Px {
-        let (sx, cxm, cym) = (&sen.sx, &sen.cxm, &sen.cym);
-        let (j, k) = self.nearest(&sen.cols[a], rc);
-        let par = self.parity(k);
-        let theta = [sx[a] - cxm[par][j as usize], s1 - cym[k as usize]];
-        let w = [-self.lv * theta[0], -self.lv * theta[1]];
-        let lit = self.ch.in_cell(theta) && self.design.passes(w);
-        Px { j, k, par, w, lit }
+    /// Sensor pixel of column candidates `c` (with their values `cx` on the plane) in a row
+    /// of candidates `rc`. Its lens is the least (distance², j, k) over the candidates:
+    /// exactly [`Channel::nearest_lens`]; θ, w and the sample are read from the tables,
+    /// computed by the expressions of [`Design::pixel`] and [`Design::chief_sample`]; lit
+    /// is [`Channel::in_cell`] and [`Design::passes`] with their constants hoisted.
+    #[inline(always)]
+    fn sensor_pixel(
+        &self,
+        sen: &Sensor,
+        c: &ColumnCandidates,
+        cx: &ColumnX,
+        rc: &RowCandidates,
+    ) -> SensorPx {
+        // (j, k) packed so that integer order is (j, k) order; selects, not branches.
+        let mut best = u64::MAX;
+        let mut bd = f64::INFINITY;
+        let (mut bi, mut bh) = (0, 0);
+        for i in 0..rc.n {
+            let (k, par, dyy) = (rc.k[i], rc.par[i], rc.dyy[i]);
+            for h in 0..2 {
+                let j = c.j[par][h];
+                let dd = c.dxx[par][h] + dyy;
+                let key = ((j as u64) << 32) | k as u64;
+                let better = (dd < bd) | ((dd == bd) & (key < best));
+                best = if better { key } else { best };
+                bd = if better { dd } else { bd };
+                bi = if better { i } else { bi };
+                bh = if better { h } else { bh };
+            }
+        }
+        let par = rc.par[bi];
+        let (ax, ay) = (cx.theta[par][bh].abs(), rc.theta[bi].abs());
+        let half = sen.half_cell;
+        let in_cell = if self.hex {
+            (ax <= half) & (ax / 2.0 + ay * SQRT3_2 <= half)
+        } else {
+            (ax <= half) & (ay <= half)
+        };
+        let (w0, w1, r) = (cx.w[par][bh], rc.w[bi], sen.radius);
+        let passes = match self.design.shape {
+            Aperture::Square => (w0.abs() < r) & (w1.abs() < r),
+            Aperture::Circle => w0 * w0 + w1 * w1 < r * r,
+        };
+        SensorPx {
+            j: (best >> 32) as u32,
+            k: best as u32,
+            lit: in_cell & passes,
+            xy: [cx.x[par][bh], rc.y[bi]],
+        }
     }
 
     /// Chief sample of a pixel: [`Design::chief_sample`] with g = z/L, s = (L − z')/z'.
@@ -347,7 +430,7 @@ impl<'a> Tables<'a> {
     }
 
     /// Fill one pixel row (b) of the chief-sample outputs.
-    fn fill_row(&self, b: usize, g: f64, s: f64, out: RowOut<'_>) {
+    fn fill_row(&self, b: usize, g: f64, s: f64, colx: &[ColumnX], out: RowOut<'_>) {
         let RowOut {
             x,
             y,
@@ -389,11 +472,15 @@ impl<'a> Tables<'a> {
                 }
             }
             PixelTables::Sensor(sen) => {
-                let s1 = sen.sy[b];
-                let rc = self.row(sen, s1);
-                for a in 0..self.cols {
-                    let px = self.sensor_pixel(sen, a, s1, &rc);
-                    put(a, &px);
+                let rc = self.row(sen, sen.sy[b], g, s);
+                for (a, (c, cx)) in sen.cols.iter().zip(colx).enumerate() {
+                    let px = self.sensor_pixel(sen, c, cx, &rc);
+                    x[a] = if px.lit { px.xy[0] } else { f64::NAN };
+                    y[a] = if px.lit { px.xy[1] } else { f64::NAN };
+                    lit[a] = px.lit;
+                    lens[2 * a] = px.j as i64;
+                    lens[2 * a + 1] = px.k as i64;
+                    types[a] = self.lens_type(px.j, px.k) as i64;
                 }
             }
         }
@@ -501,12 +588,9 @@ impl<'a> Tables<'a> {
             PixelTables::Sensor(sen) => {
                 let r = self.design.aperture / 2.0;
                 for (b, &s1) in sen.sy.iter().enumerate() {
-                    let rc = self.row(sen, s1);
-                    let hit = rc.k[..rc.n].iter().any(|&k| {
-                        let k = k as usize;
-                        let w1 = -self.lv * (s1 - sen.cym[k]);
-                        w1.abs() < r && (-g * (self.cy[k] + w1 * s)).abs() <= by
-                    });
+                    // The rows dropped by Tables::row never hold the pixel's lens.
+                    let rc = self.row(sen, s1, g, s);
+                    let hit = (0..rc.n).any(|i| rc.w[i].abs() < r && rc.y[i].abs() <= by);
                     if hit {
                         out.push(b as u32);
                     }
@@ -559,16 +643,15 @@ impl<'a> Tables<'a> {
                 }
             }
             PixelTables::Sensor(sen) => {
+                let mut colx = Vec::new();
+                self.columns_x(sen, g, s, &mut colx)?;
                 for &b in rows.iter() {
-                    let s1 = sen.sy[b as usize];
-                    let rc = self.row(sen, s1);
+                    let rc = self.row(sen, sen.sy[b as usize], g, s);
                     for &a in cols.iter() {
-                        let px = self.sensor_pixel(sen, a as usize, s1, &rc);
-                        if px.lit {
-                            let xy = self.sample(&px, g, s);
-                            if keep(xy) {
-                                out.push(xy);
-                            }
+                        let a = a as usize;
+                        let px = self.sensor_pixel(sen, &sen.cols[a], &colx[a], &rc);
+                        if px.lit && keep(px.xy) {
+                            out.push(px.xy);
                         }
                     }
                 }
@@ -671,6 +754,11 @@ pub fn chief_samples_into(
     let t = Tables::new(design, ch)?;
     let zc = design.conjugate(z);
     let (g, s) = (z / ch.l, (ch.l - zc) / zc);
+    let mut colx = Vec::new();
+    if let PixelTables::Sensor(sen) = &t.px {
+        t.columns_x(sen, g, s, &mut colx)?;
+    }
+    let colx = &colx[..];
     let step = chunk_items(n_threads, 12 * cols as u128).max(1);
     let ChiefSamplesOut {
         x,
@@ -698,7 +786,7 @@ pub fn chief_samples_into(
                     lens,
                     types,
                 };
-                t.fill_row(r.start + i, g, s, out);
+                t.fill_row(r.start + i, g, s, colx, out);
             });
         Ok(())
     })
