@@ -10,6 +10,7 @@ from types import ModuleType
 
 from ._native import __version__
 from .camera import Camera
+from .coverage import ChiefSamples, Coverage, Samples2D, chief_samples, coverage, samples_2d
 from .design import Channel, Design
 from .errors import InvalidParameter, SplitlfError, TooLargeError
 from .optics import (
@@ -29,7 +30,9 @@ __all__ = [
     "BarChart",
     "Camera",
     "Channel",
+    "ChiefSamples",
     "CoincidencePlanes",
+    "Coverage",
     "Curves",
     "DepthOfField",
     "Design",
@@ -41,18 +44,22 @@ __all__ = [
     "NewSamples",
     "RandomAlbedo",
     "SampleGrid",
+    "Samples2D",
     "Simulation",
     "Sinusoid",
     "SplitlfError",
     "TooLargeError",
     "Trace",
     "__version__",
+    "chief_samples",
     "coincidence_planes",
+    "coverage",
     "curves",
     "depth_of_field",
     "footprints",
     "new_samples",
     "sample_grid",
+    "samples_2d",
     "sharp_fractions",
     "simulate",
     "trace",

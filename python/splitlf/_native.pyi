@@ -9,9 +9,11 @@ __all__ = [
     "DEFAULT_MAX_N",
     "DEFAULT_THRESHOLD_PX",
     "DEFAULT_TOL",
+    "DEFAULT_WINDOW",
     "MAX_CELLS",
     "MAX_CHANNELS",
     "MAX_COINCIDENCE_WORK",
+    "MAX_COVERAGE_WORK",
     "MAX_K",
     "MAX_M",
     "MAX_PAIRS",
@@ -19,8 +21,11 @@ __all__ = [
     "MAX_Q",
     "MAX_SAMPLES_PER_AXIS",
     "MAX_THREADS",
+    "MAX_TOL_2D",
     "MAX_TYPES",
     "CameraCore",
+    "ChiefSampleArrays",
+    "CoverageArrays",
     "CurvesArrays",
     "DepthOfFieldIntervals",
     "DesignCore",
@@ -31,11 +36,14 @@ __all__ = [
     "PlaneColumns",
     "RenderArrays",
     "SampleGridArrays",
+    "Samples2dArrays",
     "SystemMatrixArrays",
     "TraceArrays",
     "__version__",
     "available_memory",
+    "chief_samples",
     "coincidence_planes",
+    "coverage",
     "curves",
     "depth_of_field",
     "design_curves",
@@ -46,6 +54,7 @@ __all__ = [
     "new_samples",
     "render",
     "sample_grid",
+    "samples_2d",
     "sharp_fractions",
     "system_matrix",
     "trace",
@@ -66,9 +75,13 @@ MAX_CELLS: int
 MAX_CHANNELS: int
 MAX_TYPES: int
 MAX_M: int
+DEFAULT_WINDOW: float
+MAX_TOL_2D: float
+MAX_COVERAGE_WORK: int
 
 _F64 = npt.NDArray[np.float64]
 _I64 = npt.NDArray[np.int64]
+_Bool = npt.NDArray[np.bool_]
 _Intervals = list[tuple[float, float]]
 
 @final
@@ -256,6 +269,39 @@ class SampleGridArrays:
     def Y(self) -> _F64: ...
 
 @final
+class ChiefSampleArrays:
+    @property
+    def X(self) -> _F64: ...
+    @property
+    def Y(self) -> _F64: ...
+    @property
+    def lit(self) -> _Bool: ...
+    @property
+    def lens(self) -> _I64: ...
+    @property
+    def type(self) -> _I64: ...
+
+@final
+class Samples2dArrays:
+    @property
+    def samples(self) -> tuple[_F64, ...]: ...
+    @property
+    def distinct(self) -> _I64: ...
+    @property
+    def covering_radius(self) -> _F64: ...
+    @property
+    def covering_radius_mm(self) -> _F64: ...
+
+@final
+class CoverageArrays:
+    @property
+    def distinct(self) -> _I64: ...
+    @property
+    def covering_radius(self) -> _F64: ...
+    @property
+    def covering_radius_mm(self) -> _F64: ...
+
+@final
 class SystemMatrixArrays:
     @property
     def indptr(self) -> _I64: ...
@@ -322,6 +368,17 @@ def footprints(
 def sample_grid(
     camera: CameraCore, z: float, half: int, sample: str = "chief", n_threads: int | None = None
 ) -> SampleGridArrays: ...
+def chief_samples(
+    design: DesignCore, channel: int, z: float, n_threads: int | None = None
+) -> ChiefSampleArrays: ...
+def samples_2d(design: DesignCore, z: float, tol: float, window: float) -> Samples2dArrays: ...
+def coverage(
+    design: DesignCore,
+    z: npt.NDArray[np.float64],
+    tol: float,
+    window: float,
+    n_threads: int | None = None,
+) -> CoverageArrays: ...
 def kernel_support(
     camera: CameraCore, z: float, source: str, n_threads: int | None = None
 ) -> float: ...

@@ -26,7 +26,9 @@ pub const MAX_M: u64 = 10_000_000;
 /// 1.0000000000000002 in floating point).
 pub const SHARE_RTOL: f64 = 1e-12;
 
-const SQRT3_2: f64 = 0.866_025_403_784_438_6;
+/// √3/2, the row spacing of the hex lattice in pitches (shared with `samples2d`, which
+/// replicates the nearest-lens rule bit for bit).
+pub(crate) const SQRT3_2: f64 = 0.866_025_403_784_438_6;
 
 /// The microlens lattice of a channel.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -391,7 +393,7 @@ impl Channel {
     }
 
     /// The mean of the hex lattice's uncentred centres, (x, y) / d.
-    fn hex_mean(&self) -> (f64, f64) {
+    pub(crate) fn hex_mean(&self) -> (f64, f64) {
         let odd = (self.ky / 2) as f64 / self.ky as f64;
         (
             (self.kx as f64 - 1.0) / 2.0 + odd / 2.0,

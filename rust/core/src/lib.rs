@@ -6,6 +6,7 @@
 //! [`optics`] the closed forms over depth (Eqs. 1–7) and the depth of field,
 //! [`rayspace`] every pixel's integration polygon in (u, w) and its footprints (§3–5),
 //! [`samples`] the coincidence planes and genuinely new samples (Eqs. 8–9, docs/model.md §6),
+//! [`samples2d`] the 2-D chief samples, distinct samples and covering radius of a design (§9),
 //! [`merit`] the figures of merit of one design that sweeps compare,
 //! [`simulate`] the forward model and system matrix of the super-resolution simulation.
 //! Every parallel entry point takes `n_threads` (see [`parallel`]).
@@ -20,6 +21,7 @@ pub mod parallel;
 pub mod presets;
 pub mod rayspace;
 pub mod samples;
+pub mod samples2d;
 pub mod simulate;
 
 pub use camera::{Axis, Camera, Half};
