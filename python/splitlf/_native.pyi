@@ -369,7 +369,11 @@ def sample_grid(
     camera: CameraCore, z: float, half: int, sample: str = "chief", n_threads: int | None = None
 ) -> SampleGridArrays: ...
 def chief_samples(
-    design: DesignCore, channel: int, z: float, n_threads: int | None = None
+    design: DesignCore,
+    channel: int,
+    z: float,
+    n_threads: int | None = None,
+    rows: tuple[int, int] | None = None,
 ) -> ChiefSampleArrays: ...
 def samples_2d(design: DesignCore, z: float, tol: float, window: float) -> Samples2dArrays: ...
 def coverage(

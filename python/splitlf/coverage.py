@@ -20,6 +20,7 @@ import numpy as np
 from . import _native, _validate
 from .camera import Camera
 from .design import Design
+from .errors import InvalidParameter
 
 __all__ = [
     "DEFAULT_WINDOW",
@@ -58,9 +59,10 @@ class ChiefSamples:
     """The 2-D chief sample of every pixel of one channel on the plane at depth ``z``.
 
     Arrays are indexed like the channel's pixel grid, rows y then columns x: (My, Mx) for
-    the sensor layout, (Ky Q, Kx Q) for the ideal layout (lens-major: column j Q + q_x).
+    the sensor layout, (Ky Q, Kx Q) for the ideal layout (lens-major: column j Q + q_x);
+    with a window of rows, (stop - start, cols) from row ``first_row``.
 
-    - ``channel`` (from 1), ``z`` [mm]
+    - ``channel`` (from 1), ``z`` [mm], ``first_row``: the grid row of the arrays' row 0
     - ``X``, ``Y`` (rows, cols) float64: the sample [mm] on the plane,
       X = -(z/L) [c + w (L - z')/z'] (docs/model.md §9); NaN where the pixel is unlit
     - ``lit`` (rows, cols) bool: the chief ray passes the aperture (and, sensor layout, the
@@ -72,6 +74,7 @@ class ChiefSamples:
 
     channel: int
     z: float
+    first_row: int
     X: np.ndarray
     Y: np.ndarray
     lit: np.ndarray
@@ -130,9 +133,12 @@ def chief_samples(
     channel: int,
     z: float,
     n_threads: int | None = None,
+    *,
+    rows: tuple[int, int] | None = None,
 ) -> ChiefSamples:
     """Every pixel's chief sample, lens, lens type and lit flag for one channel on the
-    plane at depth ``z`` (docs/model.md §9, "Chief samples in 2-D").
+    plane at depth ``z`` (docs/model.md §9, "Chief samples in 2-D"), or for a window of
+    its pixel rows.
 
     Parameters:
         design: a :class:`~splitlf.Design`, or a :class:`~splitlf.Camera` (its halves are
@@ -140,6 +146,9 @@ def chief_samples(
         channel: the channel, an integer from 1 (a bool is refused).
         z: depth in mm, finite and > F (a number, or an array-like holding one).
         n_threads: threads of the core, ``None`` (default) for all cores.
+        rows: ``None`` (default) for every pixel row, or ``(start, stop)``: the rows
+            start..stop-1 only, 0 <= start < stop <= the grid's rows (each value equal to
+            the whole grid's, bit for bit; a crop of a large sensor without its memory).
 
     Returns:
         :class:`ChiefSamples` with (rows, cols) arrays over the channel's pixel grid.
@@ -149,7 +158,7 @@ def chief_samples(
             ``n_threads`` is not an integer; ``z`` is not real.
         InvalidParameter: (a ``ValueError`` with ``.name``) ``channel`` outside
             [1, number of channels]; ``z`` not finite or not > F; ``n_threads`` out of
-            range.
+            range; ``rows`` not a window of the grid's rows.
         TooLargeError: (a ``MemoryError``) the outputs (41 bytes per pixel) and the
             channel's lens and pixel tables do not fit in the memory available.
         KeyboardInterrupt: on Ctrl-C (checked between chunks of rows).
@@ -157,8 +166,18 @@ def chief_samples(
     d = _design(design)
     ch = _validate.integer(channel, "channel", "an integer from 1")
     zf = _validate.depth(z)
-    r = _native.chief_samples(d.core, ch, zf, _validate.n_threads(n_threads))
-    return ChiefSamples(ch, zf, r.X, r.Y, r.lit, r.lens, r.type)
+    window = None
+    if rows is not None:
+        if not isinstance(rows, tuple | list) or len(rows) != 2:
+            raise TypeError(f"rows must be None or a pair (start, stop), got {rows!r}")
+        window = (_validate.integer(rows[0], "rows[0]"), _validate.integer(rows[1], "rows[1]"))
+        lim = 2**62
+        if not all(-lim < v < lim for v in window):
+            raise InvalidParameter.of("rows", tuple(rows), "(start, stop) with 0 <= start < "
+                                      "stop <= the channel's pixel rows")
+    r = _native.chief_samples(d.core, ch, zf, _validate.n_threads(n_threads), window)
+    return ChiefSamples(ch, zf, 0 if window is None else window[0], r.X, r.Y, r.lit, r.lens,
+                        r.type)
 
 
 def samples_2d(

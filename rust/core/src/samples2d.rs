@@ -731,7 +731,43 @@ pub fn chief_samples_into(
     out: ChiefSamplesOut<'_>,
     n_threads: Option<usize>,
 ) -> Result<()> {
+    chief_samples_rows_into(design, channel, z, None, out, n_threads)
+}
+
+/// Validate a window of pixel rows `[start, stop)` of a grid of `rows` rows: it must lie
+/// in the grid and not be empty. Returns (start, stop).
+pub fn check_row_window(rows: usize, window: (i64, i64)) -> Result<(usize, usize)> {
+    let rows = rows as i64;
+    let (start, stop) = window;
+    if !(0 <= start && start < stop && stop <= rows) {
+        return Err(Error::param(
+            "rows",
+            format!("({start}, {stop})"),
+            format!("(start, stop) with 0 <= start < stop <= {rows} (the channel's pixel rows)"),
+        ));
+    }
+    Ok((start as usize, stop as usize))
+}
+
+/// [`chief_samples_into`] for the pixel rows `[start, stop)` of the channel only (all
+/// rows for `None`): the outputs hold (stop − start) × columns pixels, row `start` first.
+/// Every value is that of the whole grid's call, bit for bit (the rows are independent).
+pub fn chief_samples_rows_into(
+    design: &Design,
+    channel: i64,
+    z: f64,
+    window: Option<(i64, i64)>,
+    out: ChiefSamplesOut<'_>,
+    n_threads: Option<usize>,
+) -> Result<()> {
     let (index, rows, cols) = check_chief_samples(design, channel, z, n_threads)?;
+    let (first, rows) = match window {
+        None => (0, rows),
+        Some(w) => {
+            let (start, stop) = check_row_window(rows, w)?;
+            (start, stop - start)
+        }
+    };
     let n = rows * cols;
     let lens = [
         out.x.len(),
@@ -786,7 +822,7 @@ pub fn chief_samples_into(
                     lens,
                     types,
                 };
-                t.fill_row(r.start + i, g, s, colx, out);
+                t.fill_row(first + r.start + i, g, s, colx, out);
             });
         Ok(())
     })

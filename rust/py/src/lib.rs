@@ -1117,20 +1117,30 @@ fn channel_arg(design: &Design, obj: &Bound<'_, PyAny>) -> PyResult<i64> {
     Ok(n)
 }
 
-/// Chief samples of every pixel of channel `channel` on the plane at depth z.
+/// Chief samples of every pixel of channel `channel` on the plane at depth z (of the pixel
+/// rows [start, stop) only when `rows` is given).
 #[pyfunction]
-#[pyo3(signature = (design, channel, z, n_threads=None))]
+#[pyo3(signature = (design, channel, z, n_threads=None, rows=None))]
 fn chief_samples(
     py: Python<'_>,
     design: &DesignCore,
     channel: &Bound<'_, PyAny>,
     z: f64,
     n_threads: Option<&Bound<'_, PyAny>>,
+    rows: Option<(i64, i64)>,
 ) -> PyResult<ChiefSampleArrays> {
     let d = design.inner.clone();
     let ch = channel_arg(&d, channel)?;
     let threads = threads_arg(n_threads)?;
-    let (_, rows, cols) = samples2d::check_chief_samples(&d, ch, z, threads).map_err(to_py)?;
+    let (_, all_rows, cols) = samples2d::check_chief_samples(&d, ch, z, threads).map_err(to_py)?;
+    let window = rows;
+    let rows = match window {
+        None => all_rows,
+        Some(w) => {
+            let (start, stop) = samples2d::check_row_window(all_rows, w).map_err(to_py)?;
+            stop - start
+        }
+    };
     let what = "chief_samples";
     let gx = empty::<f64, _>(py, &[rows, cols], what)?;
     let gy = empty::<f64, _>(py, &[rows, cols], what)?;
@@ -1151,7 +1161,7 @@ fn chief_samples(
             types: tw.as_slice_mut().map_err(internal)?,
         };
         run(py, || {
-            samples2d::chief_samples_into(&d, ch, z, out, threads)
+            samples2d::chief_samples_rows_into(&d, ch, z, window, out, threads)
         })?;
     }
     Ok(ChiefSampleArrays {
