@@ -107,12 +107,13 @@ def test_figures_pngs(tmp_path, capsys):
     code, stdout, _ = run(["figures", "--out", str(tmp_path), "--dpi", "100"], capsys)
     assert code == 0
     paths = stdout.split()
-    assert len(paths) == 4
     from splitlf.plot import FIGURES
 
+    assert [Path(p).stem for p in paths] == list(FIGURES)
     for p in paths:
         img = imread(p)
-        w, h = FIGURES[Path(p).stem][2]
+        _, panels, (w, h) = FIGURES[Path(p).stem]
+        w *= 2 if panels == "channels" else 1  # the seed camera's two halves side by side
         assert img.shape[:2] == (round(h * 100), round(w * 100))
         assert img[..., :3].std() > 0.05  # not blank
 
@@ -277,7 +278,7 @@ def test_figures_pass_threads_to_every_figure(tmp_path, monkeypatch, capsys):
         return draw
 
     monkeypatch.setattr(cli, "figure_functions",
-                        lambda: {s: (fake(s), 1, (1.0, 1.0)) for s in ("a", "b")})
+                        lambda design=False: {s: (fake(s), 1, (1.0, 1.0)) for s in ("a", "b")})
     real = rs.trace
     monkeypatch.setattr(rs, "trace", lambda c, h, axis="x", n_threads=None: real(c, h, axis))
     code, _, _ = run(["figures", "--out", str(tmp_path / "f"), "--threads", "3",

@@ -160,21 +160,23 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
 # -- figures -----------------------------------------------------------------------------
 
-def figure_functions() -> dict[str, tuple[Any, int, tuple[float, float]]]:
-    """File stem -> (plot function taking (camera, ax=..., n_threads=...), stacked panels,
-    figure size [in])."""
+def figure_functions(design: bool = False) -> dict[str, tuple[Any, int | str,
+                                                             tuple[float, float]]]:
+    """File stem -> (plot function taking (camera, ax=..., n_threads=...), its panels: a
+    number stacked or "channels" side by side, figure size [in]), for a camera or (when
+    ``design``) a general design."""
     from . import plot
 
-    return {stem: (getattr(plot, fn), panels, size)
-            for stem, (fn, panels, size) in plot.FIGURES.items()}
+    table = plot.DESIGN_FIGURES if design else plot.FIGURES
+    return {stem: (getattr(plot, fn), panels, size) for stem, (fn, panels, size) in table.items()}
 
 
-def _figure_targets(out: Path, fmt: str, force: bool) -> dict[str, Path]:
+def _figure_targets(out: Path, fmt: str, force: bool, design: bool) -> dict[str, Path]:
     """The file of every figure, checked (folder not a file, no file overwritten without
     --force) before the folder is created or anything is drawn."""
     if out.exists() and not out.is_dir():
         raise CliError(f"--out {out}: exists and is not a folder")
-    targets = {stem: out / f"{stem}.{fmt}" for stem in figure_functions()}
+    targets = {stem: out / f"{stem}.{fmt}" for stem in figure_functions(design)}
     for path in targets.values():
         if out.is_dir():
             check_new(path, force, FORCE_HINT)
@@ -189,15 +191,24 @@ def _cmd_figures(args: argparse.Namespace) -> int:
     from .plot._mpl import trace_threads
 
     trace_threads(args.threads)  # the ray-space figure traces: refuse what it cannot honour
-    camera, _ = _load_camera(args.config)
+    subject, _ = _load_report_subject(args)
+    design = isinstance(subject, Design)
+    if args.z is not None and not args.z > subject.F:
+        raise CliError(f"invalid --z {args.z:g}: allowed a depth > F = {subject.F:g} mm")
     out = Path(args.out)
-    targets = _figure_targets(out, args.format, args.force)
+    targets = _figure_targets(out, args.format, args.force, design)
     out.mkdir(parents=True, exist_ok=True)
-    for stem, (fn, panels, size) in figure_functions().items():
+    for stem, (fn, panels, (w, h)) in figure_functions(design).items():
         # A bare Figure needs no pyplot backend: nothing global is changed.
-        fig = Figure(figsize=size, layout="constrained")
-        ax = fig.add_subplot() if panels == 1 else fig.subplots(panels, 1, sharex=True)
-        fn(camera, ax=ax, n_threads=args.threads)
+        if panels == "channels":
+            n = len(subject.channels) if design else 2
+            fig = Figure(figsize=(w * n, h), layout="constrained")
+            ax = list(fig.subplots(1, n, squeeze=False)[0])
+        else:
+            fig = Figure(figsize=(w, h), layout="constrained")
+            ax = fig.add_subplot() if panels == 1 else fig.subplots(panels, 1, sharex=True)
+        extra = {"z": args.z} if stem == "sample_map" else {}
+        fn(subject, ax=ax, n_threads=args.threads, **extra)
         with atomic_output(targets[stem], force=args.force, hint=FORCE_HINT) as tmp:
             fig.savefig(tmp, dpi=args.dpi, format=args.format)
         print(targets[stem])
@@ -538,10 +549,21 @@ def _add_report(sub: Any) -> None:
 
 def _add_figures(sub: Any) -> None:
     p = sub.add_parser("figures", help="write every figure of a design",
-                       description="Write the paper's figures (1, 4, 5) and the samples "
-                       "figure for a design. Every option is checked, and no existing file "
-                       "is overwritten without --force, before the folder is created.")
+                       description="Write the paper's figures (1, 4, 5), the samples "
+                       "figure, the microlens images on the sensor and the 2-D sample map "
+                       "for the camera (the seed design unless --config). A general design "
+                       "(--preset, or a --config file with a [design] table; "
+                       "docs/architectures.md) gets Figs. 1 and 5 per channel and lens "
+                       "type, its microlens images and its sample map. Every option is "
+                       "checked, and no existing file is overwritten without --force, "
+                       "before the folder is created.")
     _common(p, "threads of the core for every figure")
+    p.add_argument("--preset", choices=PRESETS, default=None, metavar="NAME",
+                   help=f"draw a named design instead: {', '.join(PRESETS)} "
+                   "(docs/architectures.md)")
+    p.add_argument("--z", type=_depth, default=None, metavar="MM",
+                   help="depth of the sample map [mm], > F (default: channel 1's "
+                   "out-of-focus plane with several channels, twice it with one)")
     p.add_argument("--out", default="figures", metavar="DIR",
                    help="output folder, created if missing (default: figures)")
     p.add_argument("--format", choices=("png", "svg"), default="png",

@@ -2,18 +2,41 @@
 only when a figure is drawn; every function takes ``ax=None`` and returns the Axes it drew
 on; this package never selects a backend."""
 
+from .architecture import microlens_images, sample_map
 from .curves import blur, repetitions
 from .rayspace import ray_space
 from .resolution import resolution
 from .samples import samples
 
-__all__ = ["FIGURES", "blur", "ray_space", "repetitions", "resolution", "samples"]
+__all__ = [
+    "DESIGN_FIGURES",
+    "FIGURES",
+    "blur",
+    "microlens_images",
+    "ray_space",
+    "repetitions",
+    "resolution",
+    "sample_map",
+    "samples",
+]
 
-#: What ``splitlf figures`` writes: file stem -> (function name in this module, number of
-#: stacked panels the function draws on, figure size in inches).
+#: What ``splitlf figures`` writes for a camera: file stem -> (function name in this
+#: module, the panels it draws on: a number stacked, or "channels" for one per channel side
+#: by side, figure size in inches (per panel side by side)).
 FIGURES = {
     "fig1_blur": ("blur", 1, (7.0, 4.2)),
     "fig4_ray_space": ("ray_space", 1, (9.0, 6.0)),
     "fig5_repetitions": ("repetitions", 1, (7.0, 4.2)),
     "samples": ("samples", 2, (11.5, 7.5)),
+    "microlens_images": ("microlens_images", "channels", (4.6, 5.0)),
+    "sample_map": ("sample_map", 1, (7.0, 7.6)),
+}
+
+#: What ``splitlf figures`` writes for a general design (``--preset``, or a ``[design]``
+#: file), as :data:`FIGURES`.
+DESIGN_FIGURES = {
+    "fig1_blur": ("blur", 1, (7.5, 4.6)),
+    "fig5_repetitions": ("repetitions", 1, (7.0, 4.2)),
+    "microlens_images": ("microlens_images", "channels", (4.6, 5.0)),
+    "sample_map": ("sample_map", 1, (7.0, 7.6)),
 }

@@ -40,6 +40,25 @@ def axes_pair(ax: Any, figsize: tuple[float, float], names: str) -> list[Any]:
     return axs
 
 
+#: Colours of the rows of a general design's figures (channels, or lens types), cycled.
+ROW_COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown",
+              "tab:pink", "tab:olive", "tab:cyan", "tab:gray")
+
+
+def channels(camera: Any) -> range:
+    """The channel numbers of a Design (1..C), or a Camera's halves (1, 2)."""
+    n = len(camera.channels) if hasattr(camera, "channels") else 2
+    return range(1, n + 1)
+
+
+def mark_channels_out_of_focus(ax: Any, design: Any, colors: dict[int, str]) -> None:
+    """Dotted vertical lines at every channel's out-of-focus plane [mm], labelled."""
+    for c in channels(design):
+        z = design.out_of_focus_depth(c)
+        ax.axvline(z, color=colors[c], lw=0.8, ls=":",
+                   label=f"out-of-focus plane {c} ({z:.0f} mm)")
+
+
 def mark_out_of_focus(ax: Any, camera: Any, label: bool = True) -> None:
     """Dotted vertical lines at both out-of-focus planes [mm] on ``ax`` (labelled when
     ``label``)."""
@@ -61,7 +80,7 @@ def depth_grid(camera: Any, z_range: tuple[float, float], n: int) -> Any:
     if isinstance(n, bool) or not isinstance(n, int) or not 2 <= n <= MAX_POINTS:
         raise ValueError(f"invalid n = {n!r}: allowed an integer in [2, {MAX_POINTS}]")
     z = np.geomspace(lo, hi, n)
-    extra = [camera.out_of_focus_depth(h) for h in (1, 2)]
+    extra = [camera.out_of_focus_depth(h) for h in channels(camera)]
     extra = [e for e in extra if lo < e < hi]
     return np.unique(np.concatenate([z, extra]))
 
