@@ -29,7 +29,7 @@ FIGURES = {
     "fig5_repetitions": ("repetitions", 1, (7.0, 4.2)),
     "samples": ("samples", 2, (11.5, 7.5)),
     "microlens_images": ("microlens_images", "channels", (4.6, 5.0)),
-    "sample_map": ("sample_map", 1, (7.0, 7.6)),
+    "sample_map": ("sample_map", 1, (7.0, 8.4)),
 }
 
 #: What ``splitlf figures`` writes for a general design (``--preset``, or a ``[design]``
@@ -38,5 +38,5 @@ DESIGN_FIGURES = {
     "fig1_blur": ("blur", 1, (7.5, 4.6)),
     "fig5_repetitions": ("repetitions", 1, (7.0, 4.2)),
     "microlens_images": ("microlens_images", "channels", (4.6, 5.0)),
-    "sample_map": ("sample_map", 1, (7.0, 7.6)),
+    "sample_map": ("sample_map", 1, (7.0, 8.4)),
 }
