@@ -44,6 +44,18 @@ def test_row_window_equals_the_whole_grid(name):
             np.testing.assert_array_equal(getattr(w, field), getattr(full, field)[start:stop])
 
 
+def test_a_sensor_too_large_for_memory_is_refused_but_its_rows_are_not():
+    ch = Channel(L=60.0, d=0.05, v=0.25, mu=0.001, Kx=3000, Ky=3000, grid="hex",
+                 layout="sensor")
+    d = Design(F=50.0, D=10.0, channels=(ch,), aperture="circle")
+    mx, my = d.resolved()[0]["Mx"], d.resolved()[0]["My"]
+    assert mx * my > 1.5e10  # 41 bytes per pixel: far beyond this machine's memory
+    with pytest.raises(splitlf.TooLargeError, match="chief_samples needs"):
+        splitlf.chief_samples(d, 1, 500.0)
+    s = splitlf.chief_samples(d, 1, 500.0, rows=(my // 2, my // 2 + 2))
+    assert s.lit.shape == (2, mx) and s.lit.any()
+
+
 def test_row_window_errors():
     d = small_hex()
     rows = d.resolved()[0]["My"]

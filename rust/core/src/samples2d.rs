@@ -710,16 +710,37 @@ pub fn check_chief_samples(
     z: f64,
     n_threads: Option<usize>,
 ) -> Result<(usize, usize, usize)> {
+    let (index, _, rows, cols) = check_chief_rows(design, channel, z, n_threads, None)?;
+    Ok((index, rows, cols))
+}
+
+/// [`check_chief_samples`] for the pixel rows `[start, stop)` of the window (every row for
+/// `None`): validates the window too and checks the memory of the window's outputs only.
+/// Returns the channel's index (from 0), the first row, and the (rows, columns) computed.
+pub fn check_chief_rows(
+    design: &Design,
+    channel: i64,
+    z: f64,
+    n_threads: Option<usize>,
+    window: Option<(i64, i64)>,
+) -> Result<(usize, usize, usize, usize)> {
     parallel::check_threads(n_threads)?;
     let ch = design.channel(channel)?;
     check_design_depths(design.f_main, &[z])?;
-    let n = ch.pixel_count();
+    let (cols, rows) = design.pixel_grid(ch);
+    let (first, rows) = match window {
+        None => (0, rows as usize),
+        Some(w) => {
+            let (start, stop) = check_row_window(rows as usize, w)?;
+            (start, stop - start)
+        }
+    };
+    let n = rows as u128 * cols as u128;
     memory::check(
         "chief_samples",
         n.saturating_mul(CHIEF_BYTES_PER_PIXEL) + tables_bytes(ch),
     )?;
-    let (cols, rows) = design.pixel_grid(ch);
-    Ok((channel as usize - 1, rows as usize, cols as usize))
+    Ok((channel as usize - 1, first, rows, cols as usize))
 }
 
 /// Every pixel's chief sample on the plane at depth z, its lens, type and lit flag,
@@ -760,14 +781,7 @@ pub fn chief_samples_rows_into(
     out: ChiefSamplesOut<'_>,
     n_threads: Option<usize>,
 ) -> Result<()> {
-    let (index, rows, cols) = check_chief_samples(design, channel, z, n_threads)?;
-    let (first, rows) = match window {
-        None => (0, rows),
-        Some(w) => {
-            let (start, stop) = check_row_window(rows, w)?;
-            (start, stop - start)
-        }
-    };
+    let (index, first, rows, cols) = check_chief_rows(design, channel, z, n_threads, window)?;
     let n = rows * cols;
     let lens = [
         out.x.len(),

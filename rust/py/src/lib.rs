@@ -1132,15 +1132,9 @@ fn chief_samples(
     let d = design.inner.clone();
     let ch = channel_arg(&d, channel)?;
     let threads = threads_arg(n_threads)?;
-    let (_, all_rows, cols) = samples2d::check_chief_samples(&d, ch, z, threads).map_err(to_py)?;
     let window = rows;
-    let rows = match window {
-        None => all_rows,
-        Some(w) => {
-            let (start, stop) = samples2d::check_row_window(all_rows, w).map_err(to_py)?;
-            stop - start
-        }
-    };
+    let (_, _, rows, cols) =
+        samples2d::check_chief_rows(&d, ch, z, threads, window).map_err(to_py)?;
     let what = "chief_samples";
     let gx = empty::<f64, _>(py, &[rows, cols], what)?;
     let gy = empty::<f64, _>(py, &[rows, cols], what)?;
