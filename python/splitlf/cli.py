@@ -127,6 +127,7 @@ _photons = _real_type("photon count", 0.0, "a finite number > 0")
 _read_noise = _real_type("read noise", 0.0, "a finite number >= 0 (electrons rms)",
                          lo_open=False)
 _threshold = _real_type("threshold", 0.0, "a finite number > 0 (pixels)")
+_f_number = _real_type("f-number", 0.0, "a finite number > 0")
 
 
 # -- report ------------------------------------------------------------------------------
@@ -503,6 +504,110 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     return 0
 
 
+# -- optimise ----------------------------------------------------------------------------
+
+def parse_free(spec: str) -> tuple[str, tuple[float, float]]:
+    """``--free NAME=LO:HI`` -> (NAME, (LO, HI)); integers stay integers (counts)."""
+    name, eq, rng = spec.partition("=")
+    lo, colon, hi = rng.partition(":")
+    try:
+        if not (eq and colon and name):
+            raise ValueError
+        bounds = tuple(int(b) if b.strip().lstrip("+-").isdigit() else float(b)
+                       for b in (lo, hi))
+    except ValueError:
+        raise CliError(f"--free {spec}: expected NAME=LOW:HIGH, e.g. kappa=0.05:0.8") from None
+    return name.strip(), (bounds[0], bounds[1])
+
+
+def parse_constraint(spec: str) -> tuple[str, tuple[str, float]]:
+    """``--constraint MERIT<=VALUE`` or ``MERIT>=VALUE``."""
+    for op in ("<=", ">="):
+        merit, found, value = spec.partition(op)
+        if found:
+            try:
+                return merit.strip(), (op, float(value))
+            except ValueError:
+                break
+    raise CliError(f"--constraint {spec}: expected MERIT<=VALUE or MERIT>=VALUE")
+
+
+def _optimise_depths(spec: str) -> np.ndarray:
+    parts = spec.split(":")
+    try:
+        lo, hi, num = float(parts[0]), float(parts[1]), int(parts[2])
+        if len(parts) != 3:
+            raise ValueError
+    except (ValueError, IndexError):
+        raise CliError(f"--depths {spec}: expected MIN:MAX:NUM (mm, log-spaced)") from None
+    if not (0 < lo < hi and math.isfinite(hi) and 2 <= num <= 100_000):
+        raise CliError(f"--depths {spec}: needs 0 < MIN < MAX (mm) and NUM in [2, 100000]")
+    return np.geomspace(lo, hi, num)
+
+
+def _optimise_document(res: Any, source: str, args: argparse.Namespace) -> dict[str, Any]:
+    return {"source": source, "objective": args.objective, "objective_value": res.objective,
+            "free": res.free, "feasible": res.feasible, "active": list(res.active),
+            "slack": res.slack, "merits": res.merits, "nfev": res.nfev,
+            "generations": res.generations, "camera": res.design.as_dict()}
+
+
+def _cmd_optimise(args: argparse.Namespace) -> int:
+    from .optimisation import optimise
+
+    out = None if args.out is None else Path(args.out)
+    if out is not None:
+        _check_suffix("--out", out, (".toml",))
+        check_new(out, args.force, FORCE_HINT)
+    hist = None if args.history is None else Path(args.history)
+    if hist is not None:
+        _check_suffix("--history", hist, (".csv", ".parquet"))
+        check_new(hist, args.force, FORCE_HINT)
+    free = dict(parse_free(f) for f in args.free)
+    constraints = dict(parse_constraint(c) for c in args.constraint or [])
+    depths = _optimise_depths(args.depths)
+    camera, source = _load_camera(args.config)
+    kwargs = dict(sense=args.sense, constraints=constraints, depths=depths, seed=args.seed,
+                  maxiter=args.maxiter, popsize=args.popsize, polish=not args.no_polish,
+                  min_microlens_f_number=args.min_microlens_f_number, n_threads=args.threads)
+    if args.scheduler is None:
+        res = optimise(camera, free, args.objective, **kwargs)
+    else:
+        try:
+            from distributed import Client
+        except ImportError:
+            raise CliError('--scheduler needs Dask: pip install "splitlf[dask]"') from None
+        with Client(args.scheduler) as client:
+            res = optimise(camera, free, args.objective, executor=client.get_executor(),
+                           **kwargs)
+    if not res.feasible:
+        raise CliError(f"no feasible design found in {res.nfev} candidates (least violation: "
+                       f"{res.slack}); widen --free or relax --constraint")
+    if out is not None:
+        with atomic_output(out, force=args.force, hint=FORCE_HINT) as tmp:
+            tmp.write_text(res.design.to_toml(), encoding="utf-8")
+    if hist is not None:
+        with atomic_output(hist, force=args.force, hint=FORCE_HINT) as tmp:
+            if hist.suffix == ".csv":
+                res.history.to_csv(tmp, index=False)
+            else:
+                res.history.to_parquet(tmp, index=False)
+    doc = _optimise_document(res, source, args)
+    if args.json:
+        sys.stdout.write(json_text(doc if out is None else {"path": str(out), **doc}))
+        return 0
+    lines = [f"splitlf optimise: {source}; {res.generations} generations, {res.nfev} "
+             "candidates",
+             f"{args.objective} = {res.objective!r}",
+             *(f"  {k} = {v!r}" for k, v in res.free.items()),
+             "active: " + ("; ".join(res.active) if res.active else "none (an interior "
+                           "optimum)")]
+    if out is not None:
+        lines.append(str(out))
+    sys.stdout.write("\n".join(lines) + "\n")
+    return 0
+
+
 # -- parser ------------------------------------------------------------------------------
 
 class _Parser(argparse.ArgumentParser):
@@ -639,15 +744,54 @@ def _add_simulate(sub: Any) -> None:
     p.set_defaults(func=_cmd_simulate)
 
 
+def _add_optimise(sub: Any) -> None:
+    p = sub.add_parser("optimise", help="the best design for an objective (inverse design)",
+                       description="Search the free fields of the camera (the seed design "
+                       "unless --config) with differential evolution, polished locally, for "
+                       "the design that optimises a figure of merit subject to constraints "
+                       "(docs/optimise.md); write it as a camera TOML that report --config "
+                       "reads.")
+    _common(p, "threads of the core for in-process evaluation")
+    p.add_argument("--free", action="append", required=True, metavar="NAME=LOW:HIGH",
+                   help="a free camera field and its bounds (repeat; counts such as Q are "
+                   "searched as integers)")
+    p.add_argument("--objective", required=True, metavar="MERIT",
+                   help="the merit to optimise (docs/optimise.md lists them)")
+    p.add_argument("--sense", choices=("max", "min"), default=None,
+                   help="maximise or minimise (default: the merit's natural direction)")
+    p.add_argument("--constraint", action="append", metavar="MERIT<=VALUE",
+                   help="a constraint MERIT<=VALUE or MERIT>=VALUE (repeat)")
+    p.add_argument("--depths", default="150:10000:200", metavar="MIN:MAX:NUM",
+                   help="log-spaced scene depths of the merits [mm] (default 150:10000:200)")
+    p.add_argument("--min-microlens-f-number", type=_f_number, default=None, metavar="N",
+                   help="manufacturable floor on the microlens f-number f_i/d")
+    p.add_argument("--seed", type=_seed, default=0, help="seed of the search (default 0)")
+    p.add_argument("--maxiter", type=_integer_type("generation count", 1, 100_000),
+                   default=100, help="generations of differential evolution (default 100)")
+    p.add_argument("--popsize", type=_integer_type("population multiplier", 1, 10_000),
+                   default=15, help="population per free field (default 15)")
+    p.add_argument("--no-polish", action="store_true", help="skip the local polish")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="Dask scheduler address, e.g. tcp://host:8786")
+    p.add_argument("--out", metavar="BEST.toml", help="write the best design (camera TOML)")
+    p.add_argument("--history", metavar="FILE",
+                   help="write every evaluated candidate to .csv or .parquet")
+    p.add_argument("--json", action="store_true", help="print one JSON document")
+    _force(p)
+    p.set_defaults(func=_cmd_optimise)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    """The argument parser of every subcommand (report, figures, trace, sweep, simulate)."""
+    """The argument parser of every subcommand (report, figures, trace, sweep, simulate,
+    optimise)."""
     parser = _Parser(
         prog="splitlf",
         description="Design and analysis of split-sensor light field cameras.",
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
                                 help="what to do (COMMAND --help for its options)")
-    for add in (_add_report, _add_figures, _add_trace, _add_sweep, _add_simulate):
+    for add in (_add_report, _add_figures, _add_trace, _add_sweep, _add_simulate,
+                _add_optimise):
         add(sub)
     return parser
 

@@ -1,0 +1,674 @@
+"""Inverse design: the camera that optimises a figure of merit, subject to constraints.
+
+:func:`optimise` searches the free fields of a base :class:`~splitlf.Camera` with SciPy's
+``differential_evolution`` (global, deterministic for a seed), then polishes the best
+feasible design locally (Nelder-Mead on the same penalised objective, integer fields held).
+Every candidate is first built with the :class:`~splitlf.Camera` constructor and checked
+against the physical constraints (``min_microlens_f_number``, depths beyond F); only a
+valid design reaches the core, which computes its figures of merit
+(:data:`splitlf.sweep.METRICS`) over the depths. Candidates are evaluated one generation at
+a time through ``differential_evolution``'s ``workers=`` hook: in-process on the core's
+thread pool, or in batches of plain field dicts on any ``concurrent.futures.Executor``
+(e.g. a Dask cluster's ``client.get_executor()``), exactly as :func:`splitlf.sweep.sweep`.
+
+See docs/optimise.md for the API, the penalty and the decisions behind it.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import dataclasses
+import inspect
+import math
+import numbers
+import sys
+import time
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from . import _native, _validate
+from .camera import COUNT_FIELDS, FIELDS, Camera
+from .design import Design
+from .errors import InvalidParameter, TooLargeError
+from .sweep import (
+    DEFAULT_THRESHOLD_PX,
+    DEFAULT_TOL,
+    MAX_DEPTHS,
+    METRICS,
+    _evaluate_batch,
+    _threshold,
+    _tol,
+)
+
+__all__ = ["DERIVED", "MERITS", "OptimiseResult", "optimise"]
+
+#: Closed-form quantities of a design added to the core's figures of merit (each from the
+#: core's derived values of the :class:`~splitlf.Camera`).
+DERIVED = (
+    "f_number",
+    "out_of_focus_depth_half1",
+    "out_of_focus_depth_half2",
+    "image_fill_half1",
+    "image_fill_half2",
+    "lit_fraction_half1",
+    "microlens_f_number_half1",
+    "microlens_f_number_half2",
+)
+
+#: Every merit an objective or a constraint may name: the core's figures of merit over the
+#: depths (:data:`splitlf.sweep.METRICS`), then :data:`DERIVED`.
+MERITS = METRICS + DERIVED
+
+MERIT_DOCS = {
+    "f_number": "main-lens f-number F / D",
+    "out_of_focus_depth_half1": "out-of-focus plane of half 1, F L_1 / (L_1 - F) [mm]",
+    "out_of_focus_depth_half2": "out-of-focus plane of half 2, F L_2 / (L_2 - F) [mm]",
+    "image_fill_half1": "microlens image diameter of half 1 over its Q pixels, "
+                        "D v / (L_1 Q mu): 1 = f-number matched, > 1 images spill over",
+    "image_fill_half2": "the same for half 2, D v / (L_2 Q mu)",
+    "lit_fraction_half1": "lit pixels per microlens of half 1 over Q",
+    "microlens_f_number_half1": "microlens f-number of half 1, f_1 / d",
+    "microlens_f_number_half2": "microlens f-number of half 2, f_2 / d",
+}
+
+#: The direction in which a merit is better, used when ``sense`` is not given.
+NATURAL_SENSE = {
+    "sharp_fraction_half1": "max",
+    "sharp_fraction_split": "max",
+    **{m: "min" for m in METRICS if m.startswith("max_gap_")},
+    "lit_fraction_half2": "max",
+    "lit_fraction_half1": "max",
+}
+
+#: Energy offsets of the penalty: a valid design that violates a constraint scores
+#: PENALTY + its relative violation, an invalid design 2 PENALTY, so every feasible design
+#: beats every infeasible one. Objective values must stay below OBJECTIVE_LIMIT in size.
+PENALTY = 1e12
+OBJECTIVE_LIMIT = 1e11
+#: Differential-evolution keywords a caller may pass through ``de_options``.
+DE_OPTIONS = ("strategy", "mutation", "recombination", "init", "tol", "atol")
+#: Step of the probes around the optimum that find the active constraints, as a fraction
+#: of each continuous field's bound range (integer fields step by 1).
+PROBE_STEP = 1e-6
+
+
+class _Abort(Exception):
+    """Stops differential_evolution when a user callable fails (SciPy turns a TypeError or
+    ValueError raised by the map into a RuntimeError; this one passes through)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Free:
+    """One free field: its name, bounds and whether it is searched as an integer."""
+
+    name: str
+    lo: float
+    hi: float
+    integer: bool
+
+    def value(self, x: float) -> float | int:
+        return int(round(x)) if self.integer else float(x)
+
+
+@dataclasses.dataclass(frozen=True)
+class OptimiseResult:
+    """What :func:`optimise` found.
+
+    - ``design``: the best :class:`~splitlf.Camera` (feasible when ``feasible``)
+    - ``merits``: its figures of merit {name in :data:`MERITS`: value}
+    - ``objective``: the objective's value there (as defined, not negated)
+    - ``free``: the free fields' values {name: value}
+    - ``feasible``: the design satisfies every constraint (else it is the valid design of
+      least violation and no feasible design was found)
+    - ``active``: what bounds the optimum, e.g. ``"bound: D <= 40.0"``,
+      ``"constraint: image_fill_half1 <= 1.0"``, ``"physical: invalid v1 = 79.9 ..."``: the
+      bounds the design lies on and the constraints a probe step of :data:`PROBE_STEP`
+      (of the bound range; 1 for an integer field) from it violates
+    - ``slack``: per constraint, how far the design is inside it (>= 0 when satisfied)
+    - ``history``: a ``pandas.DataFrame``, one row per evaluated candidate in evaluation
+      order: ``stage`` (init, de, polish, probe), ``generation``, the free fields,
+      ``valid``, ``feasible``, ``objective``, every merit (NaN when invalid: an invalid
+      design never reaches the core) and ``reason`` (why invalid or infeasible)
+    - ``nfev`` candidates evaluated, ``generations`` run, ``message`` (SciPy's)
+    - ``timing``: {"total_s", "core_s" (in-process core calls; 0 with an executor),
+      "evaluations" (designs that reached the core)}
+    """
+
+    design: Camera
+    merits: dict[str, float]
+    objective: float
+    free: dict[str, float | int]
+    feasible: bool
+    active: tuple[str, ...]
+    slack: dict[str, float]
+    history: Any
+    nfev: int
+    generations: int
+    message: str
+    timing: dict[str, float]
+
+
+# -- argument checks ---------------------------------------------------------------------
+
+def _base(base: Any) -> Camera:
+    if isinstance(base, Design):
+        raise NotImplementedError(
+            "splitlf.optimise supports a Camera base for now (free fields: "
+            f"{', '.join(FIELDS)}); a Design base, with free fields named like 'D' and "
+            "'channels[2].L', is planned (docs/optimise.md)")
+    if not isinstance(base, Camera):
+        raise TypeError(f"base must be a splitlf.Camera, got {type(base).__name__}")
+    return base
+
+
+def _real(value: Any, where: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{where} must be a real number, got {type(value).__name__} {value!r}")
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf if value > 0 else -math.inf
+
+
+def _free(free: Any) -> list[Free]:
+    if not isinstance(free, Mapping) or not free:
+        raise TypeError("free must be a non-empty mapping {camera field: (low, high)}")
+    out = []
+    for name, bounds in free.items():
+        if name not in FIELDS:
+            raise InvalidParameter.of("free", name, f"camera field names: {', '.join(FIELDS)}")
+        if isinstance(bounds, str | bytes) or not isinstance(bounds, Sequence) \
+                or len(bounds) != 2:
+            raise TypeError(f"free[{name!r}] must be a pair (low, high), got {bounds!r}")
+        lo, hi = (_real(b, f"free[{name!r}] bound") for b in bounds)
+        integer = name in COUNT_FIELDS
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+            raise InvalidParameter.of(f"free[{name!r}]", (lo, hi),
+                                      "finite bounds with low < high")
+        if integer and not (lo.is_integer() and hi.is_integer()):
+            raise InvalidParameter.of(f"free[{name!r}]", (lo, hi),
+                                      "integer bounds (a count is searched as an integer)")
+        out.append(Free(name, lo, hi, integer))
+    return out
+
+
+def _objective(objective: Any, sense: Any) -> tuple[Callable[[dict[str, float]], Any], str,
+                                                   str]:
+    """(function of the merit dict, its name, "max" | "min")."""
+    if isinstance(objective, str):
+        if objective not in MERITS:
+            raise InvalidParameter.of("objective", objective,
+                                      f"a merit name ({', '.join(MERITS)}) or a callable")
+        name = objective
+
+        def fn(m: dict[str, float]) -> float:
+            return m[name]
+    elif callable(objective):
+        fn, name = objective, getattr(objective, "__name__", "objective")
+    else:
+        raise TypeError("objective must be a merit name or a callable on the merit dict, "
+                        f"got {type(objective).__name__}")
+    if sense is None:
+        if isinstance(objective, str) and objective in NATURAL_SENSE:
+            return fn, name, NATURAL_SENSE[objective]
+        raise InvalidParameter.of("sense", None, "'max' or 'min' (needed: the objective "
+                                  "has no natural direction)")
+    if sense not in ("max", "min"):
+        raise InvalidParameter.of("sense", sense, "'max' or 'min'")
+    return fn, name, sense
+
+
+def _constraints(constraints: Any) -> list[tuple[str, str, float]]:
+    if constraints is None:
+        return []
+    if not isinstance(constraints, Mapping):
+        raise TypeError("constraints must be a mapping {merit: ('<=' | '>=', value)}")
+    out = []
+    for merit, spec in constraints.items():
+        if merit not in MERITS:
+            raise InvalidParameter.of("constraints", merit, f"merit names: {', '.join(MERITS)}")
+        if isinstance(spec, str | bytes) or not isinstance(spec, Sequence) or len(spec) != 2:
+            raise TypeError(f"constraints[{merit!r}] must be a pair (op, value), "
+                            f"got {spec!r}")
+        op, limit = spec
+        if op not in ("<=", ">="):
+            raise InvalidParameter.of(f"constraints[{merit!r}]", op, "'<=' or '>='")
+        x = _real(limit, f"constraints[{merit!r}] value")
+        if not math.isfinite(x):
+            raise InvalidParameter.of(f"constraints[{merit!r}]", x, "a finite value")
+        out.append((merit, op, x))
+    return out
+
+
+def _depths(depths: Any) -> np.ndarray:
+    if depths is None:
+        return np.geomspace(150.0, 10_000.0, 200)
+    z = _validate.depths(depths, "depths")
+    if z.size > MAX_DEPTHS:
+        raise TooLargeError(f"{z.size} depths; the limit is {MAX_DEPTHS}", what="depths",
+                            limit=MAX_DEPTHS)
+    bad = np.flatnonzero(~np.isfinite(z) | (z <= 0))
+    if bad.size:
+        i = int(bad[0])
+        raise InvalidParameter.of("depths", float(z[i]), "finite depths > 0 mm", index=i)
+    if z.size < 2 or z.min() == z.max():
+        raise InvalidParameter.of("depths", f"{z.size} depth(s), {np.unique(z).size} distinct",
+                                  "at least two distinct depths (mm)")
+    return z
+
+
+def _count(value: Any, name: str, lo: int = 1) -> int:
+    n = _validate.integer(value, name, f"an integer >= {lo}")
+    if n < lo:
+        raise InvalidParameter.of(name, n, f"an integer >= {lo}")
+    return n
+
+
+def _de_options(options: Any) -> dict[str, Any]:
+    if options is None:
+        return {}
+    if not isinstance(options, Mapping):
+        raise TypeError("de_options must be a mapping of differential_evolution keywords")
+    bad = [k for k in options if k not in DE_OPTIONS]
+    if bad:
+        raise InvalidParameter.of("de_options", bad, f"keywords {', '.join(DE_OPTIONS)} "
+                                  "(seed, workers, bounds, integrality, polish, maxiter, "
+                                  "popsize, callback are set by optimise)")
+    return dict(options)
+
+
+# -- the problem: candidates -> validated designs -> merits -> penalised energies ----------
+
+class _Problem:
+    def __init__(self, base: Camera, free: list[Free], z: np.ndarray, objective: Callable,
+                 sense: str, constraints: list[tuple[str, str, float]],
+                 min_f_number: float | None, core_args: tuple[float, float],
+                 executor: cf.Executor | None, n_threads: int | None, threads_per_task: int,
+                 batch_size: int | None) -> None:
+        self.base = base.as_dict(resolved=False)
+        self.free = free
+        self.z = z
+        self.objective = objective
+        self.sign = -1.0 if sense == "max" else 1.0
+        self.constraints = constraints
+        self.min_f_number = min_f_number
+        self.threshold_px, self.tol = core_args
+        self.executor = executor
+        self.n_threads = n_threads
+        self.threads_per_task = threads_per_task
+        self.batch_size = batch_size
+        self.rows: list[dict[str, Any]] = []
+        self.stage = "init"
+        self.generation = 0
+        self.map_calls = 0
+        self.core_s = 0.0
+        self.evaluations = 0
+        self.error: BaseException | None = None
+
+    # candidates
+    def changes(self, x: Sequence[float]) -> dict[str, float | int]:
+        return {f.name: f.value(v) for f, v in zip(self.free, x, strict=True)}
+
+    def check(self, changes: dict[str, Any]) -> tuple[Camera | None, str, str]:
+        """(the design of ``changes``, "", "") if it is valid, else (None, why, the name of
+        the rule it breaks). Valid: the Camera constructor accepts it, so does its general
+        form ``Camera.design`` (docs/model.md §9: microlens images must not overlap), every
+        depth lies beyond F and both microlens f-numbers reach the floor."""
+        try:
+            cam = Camera(**{**self.base, **changes})
+            cam.design  # noqa: B018 - the §9 rules (overlapping microlens images)
+        except InvalidParameter as e:
+            return None, str(e), e.name
+        except (ValueError, TypeError) as e:
+            return None, str(e), "camera"
+        if not self.z.min() > cam.F:
+            return None, (f"invalid F = {cam.F!r}: allowed F < the nearest depth "
+                          f"{float(self.z.min())!r} mm"), "F"
+        if self.min_f_number is not None:
+            for h, f in ((1, cam.f1), (2, cam.f2)):
+                n = f / cam.d
+                if not n >= self.min_f_number:
+                    return None, (f"invalid microlens f-number of half {h} f{h}/d = {n!r}: "
+                                  f"allowed >= min_microlens_f_number = {self.min_f_number!r}"
+                                  ), "min_microlens_f_number"
+        return cam, "", ""
+
+    def derived(self, cam: Camera) -> dict[str, float]:
+        return {
+            "f_number": cam.f_number,
+            "out_of_focus_depth_half1": cam.out_of_focus_depth(1),
+            "out_of_focus_depth_half2": cam.out_of_focus_depth(2),
+            "image_fill_half1": 2.0 * cam.image_radius(1) / (cam.Q * cam.mu),
+            "image_fill_half2": 2.0 * cam.image_radius(2) / (cam.Q * cam.mu),
+            "lit_fraction_half1": cam.lit_pixels(1) / cam.Q,
+            "microlens_f_number_half1": cam.f1 / cam.d,
+            "microlens_f_number_half2": cam.f2 / cam.d,
+        }
+
+    # the core
+    def core_merits(self, cams: list[Camera]) -> list[list[float]]:
+        """The core's figures of merit of valid designs, in order."""
+        if not cams:
+            return []
+        if self.executor is None:
+            out = []
+            for cam in cams:
+                t = time.perf_counter()
+                out.append(list(_native.figures_of_merit(cam.core, self.z, self.threshold_px,
+                                                         self.tol, self.n_threads)))
+                self.core_s += time.perf_counter() - t
+            return out
+        size = self.batch_size or max(1, math.ceil(len(cams) / 16))
+        dicts = [c.as_dict(resolved=False) for c in cams]
+        futures = [self.executor.submit(_evaluate_batch, {}, dicts[i:i + size], self.z,
+                                        self.threshold_px, self.tol, self.threads_per_task)
+                   for i in range(0, len(dicts), size)]
+        out = []
+        for fut in futures:
+            for values, reason in fut.result():
+                if values is None:  # a valid design refused by the core: a bug, not input
+                    raise RuntimeError(f"optimise: the core refused a checked design: {reason}")
+                out.append(values)
+        return out
+
+    # energies
+    def score(self, merits: dict[str, float]) -> tuple[float, float, str]:
+        """(objective value, relative violation of the constraints, reason, the names of
+        the violated constraints)."""
+        try:
+            value = self.objective(dict(merits))
+        except Exception as e:  # a user callable: re-raised after the search stops
+            self.error = e
+            raise _Abort from e
+        if isinstance(value, bool) or not isinstance(value, numbers.Real):
+            self.error = TypeError(f"the objective must return a real number, got "
+                                   f"{type(value).__name__} {value!r}")
+            raise _Abort
+        value = float(value)
+        violation, why, names = 0.0, [], []
+        for merit, op, limit in self.constraints:
+            v = merits[merit]
+            over = (v - limit) if op == "<=" else (limit - v)
+            if not over <= 0.0:  # NaN counts as violated
+                violation += (over if math.isfinite(over) else OBJECTIVE_LIMIT) \
+                    / max(1.0, abs(limit))
+                why.append(f"{merit} = {v!r} violates {op} {limit!r}")
+                names.append(merit)
+        if not (math.isfinite(value) and abs(value) < OBJECTIVE_LIMIT):
+            violation += 1.0
+            why.append(f"objective = {value!r} is not finite or beyond {OBJECTIVE_LIMIT:g}")
+            names.append("objective")
+        return value, violation, "; ".join(why), ",".join(names)
+
+    def evaluate(self, xs: Sequence[Sequence[float]]) -> list[float]:
+        """Penalised energies of candidates (one history row each)."""
+        cands = [self.changes(x) for x in xs]
+        checked = [self.check(c) for c in cands]
+        valid = [cam for cam, _, _ in checked if cam is not None]
+        merits_core = iter(self.core_merits(valid))
+        self.evaluations += len(valid)
+        energies = []
+        for changes, (cam, reason, rule) in zip(cands, checked, strict=True):
+            row: dict[str, Any] = {"stage": self.stage, "generation": self.generation,
+                                   **changes}
+            if cam is None:
+                row.update(valid=False, feasible=False, objective=math.nan,
+                           **{m: math.nan for m in MERITS}, violated=rule, reason=reason)
+                energies.append(2.0 * PENALTY)
+            else:
+                merits = dict(zip(METRICS, next(merits_core), strict=True))
+                merits.update(self.derived(cam))
+                value, violation, why, names = self.score(merits)
+                row.update(valid=True, feasible=violation == 0.0, objective=value, **merits,
+                           violated=names, reason=why)
+                energies.append(self.sign * value if violation == 0.0
+                                else PENALTY + min(violation, PENALTY / 2))
+            self.rows.append(row)
+        return energies
+
+    def map(self, func: Any, xs: Any) -> list[float]:
+        """The ``workers=`` hook of differential_evolution: one call per generation (the
+        first is the initial population)."""
+        self.stage = "init" if self.map_calls == 0 else "de"
+        self.generation = self.map_calls
+        self.map_calls += 1
+        return self.evaluate([np.asarray(x, dtype=float) for x in xs])
+
+    def one(self, x: Sequence[float]) -> float:
+        return self.evaluate([x])[0]
+
+
+# -- the search --------------------------------------------------------------------------
+
+def _progress_bar(total: int, progress: bool | None):
+    if progress is None:
+        progress = sys.stderr.isatty()
+    if not progress:
+        return None
+    try:
+        from tqdm.auto import tqdm
+    except ImportError:
+        return None
+    return tqdm(total=total, desc="splitlf optimise", unit="gen")
+
+
+def _de_seed_keyword(de: Callable) -> str:
+    """SciPy >= 1.15 names the seed ``rng``; older releases ``seed``."""
+    return "rng" if "rng" in inspect.signature(de).parameters else "seed"
+
+
+def _polish(problem: _Problem, x0: np.ndarray, maxfev: int) -> None:
+    """Nelder-Mead on the continuous free fields (scaled to [0, 1]) from ``x0``, integer
+    fields held; every point is evaluated (and recorded) through ``problem``."""
+    from scipy.optimize import minimize
+
+    cont = [i for i, f in enumerate(problem.free) if not f.integer]
+    if not cont:
+        return
+    lo = np.array([problem.free[i].lo for i in cont])
+    span = np.array([problem.free[i].hi for i in cont]) - lo
+
+    def energy(u: np.ndarray) -> float:
+        x = x0.copy()
+        x[cont] = lo + np.clip(u, 0.0, 1.0) * span
+        return problem.one(x)
+
+    u0 = (x0[cont] - lo) / span
+    step = 1e-2
+    simplex = np.array([u0] + [u0 + step * (1 if u0[k] <= 0.5 else -1) * np.eye(len(cont))[k]
+                               for k in range(len(cont))])
+    problem.stage = "polish"
+    minimize(energy, u0, method="Nelder-Mead", bounds=[(0.0, 1.0)] * len(cont),
+             options={"initial_simplex": simplex, "xatol": 1e-10, "fatol": 1e-12,
+                      "maxfev": maxfev})
+
+
+def _best(rows: list[dict[str, Any]], sign: float) -> dict[str, Any] | None:
+    """The best row: feasible by objective, else valid by least violation (first wins)."""
+    feasible = [r for r in rows if r["feasible"]]
+    if feasible:
+        return min(feasible, key=lambda r: sign * r["objective"])
+    return None
+
+
+def _active(problem: _Problem, best: dict[str, Any]) -> tuple[str, ...]:
+    """The bounds the optimum lies on, and the constraints (user or physical, each once, a
+    physical one with the message of its first violating probe) that one probe step from it
+    along a free field violates."""
+    out: list[str] = []
+    x = np.array([float(best[f.name]) for f in problem.free])
+    for i, f in enumerate(problem.free):
+        step = 1.0 if f.integer else PROBE_STEP * (f.hi - f.lo)
+        if x[i] - f.lo < step * (1 - 1e-9) or (f.integer and x[i] == f.lo):
+            out.append(f"bound: {f.name} >= {_num(f.lo, f.integer)}")
+        if f.hi - x[i] < step * (1 - 1e-9) or (f.integer and x[i] == f.hi):
+            out.append(f"bound: {f.name} <= {_num(f.hi, f.integer)}")
+    problem.stage = "probe"
+    probes = []
+    for i, f in enumerate(problem.free):
+        step = 1.0 if f.integer else PROBE_STEP * (f.hi - f.lo)
+        for s in (-step, step):
+            if f.lo <= x[i] + s <= f.hi:
+                y = x.copy()
+                y[i] += s
+                probes.append(y)
+    start = len(problem.rows)
+    problem.evaluate(probes)
+    cons = {merit: f"constraint: {merit} {op} {limit!r}"
+            for merit, op, limit in problem.constraints}
+    seen = set()
+    for row in problem.rows[start:]:
+        for name in filter(None, row["violated"].split(",")):
+            if name in seen:
+                continue
+            seen.add(name)
+            out.append(cons.get(name) or f"physical: {row['reason']}")
+    return tuple(out)
+
+
+def _num(x: float, integer: bool) -> str:
+    return str(int(x)) if integer else repr(float(x))
+
+
+def optimise(base: Camera, free: Mapping[str, tuple[float, float]], objective: str | Callable,
+             sense: str | None = None, constraints: Mapping[str, tuple[str, float]] | None = None,
+             depths: Any = None, seed: int = 0, executor: cf.Executor | None = None,
+             progress: bool | None = None, *, maxiter: int = 100, popsize: int = 15,
+             polish: bool = True, polish_maxfev: int | None = None,
+             min_microlens_f_number: float | None = None,
+             threshold_px: float = DEFAULT_THRESHOLD_PX, tol: float = DEFAULT_TOL,
+             n_threads: int | None = None, threads_per_task: int = 1,
+             batch_size: int | None = None, de_options: Mapping[str, Any] | None = None
+             ) -> OptimiseResult:
+    """The design around ``base`` that optimises ``objective`` subject to ``constraints``.
+
+    - ``base``: a :class:`~splitlf.Camera` (a ``Design`` base raises
+      ``NotImplementedError`` for now); every field not free keeps its value (focal lengths
+      left to Ng's setting keep tracking the geometry)
+    - ``free``: {camera field: (low, high)}; the counts Q, Kx, Ky are searched as integers
+      (integer bounds); the others are continuous
+    - ``objective``: a merit name (:data:`MERITS`) or a callable on the merit dict returning
+      a real number; ``sense``: "max" or "min" (default: the merit's natural direction —
+      max for sharp and lit fractions, min for max gaps — and required otherwise)
+    - ``constraints``: {merit: ("<=" | ">=", value)}
+    - ``depths``: scene depths [mm] of the core's merits (default 200 log-spaced over
+      150-10 000 mm); a design with F >= the nearest depth is invalid
+    - ``seed``: the search is deterministic for a seed, in-process or on any executor
+    - ``executor``: a ``concurrent.futures.Executor`` (Dask: ``client.get_executor()``);
+      each generation is sent as batches of plain field dicts (``batch_size`` designs per
+      task, default at most 16 tasks), each task on ``threads_per_task`` core threads;
+      None evaluates in-process on ``n_threads`` (None: all cores)
+    - ``progress``: a tqdm bar over generations (None: only when stderr is a terminal)
+    - ``maxiter``, ``popsize``: generations and population (popsize x free fields) of
+      differential evolution; ``de_options``: other keywords of
+      ``scipy.optimize.differential_evolution`` (:data:`DE_OPTIONS`)
+    - ``polish``: refine the best feasible design with Nelder-Mead over the continuous
+      fields (``polish_maxfev`` evaluations, default 100 + 100 per field)
+    - ``min_microlens_f_number``: a manufacturable floor on f_i / d of both halves; a design
+      below it is invalid (never evaluated)
+    - ``threshold_px``, ``tol``: sharpness threshold [px] and merge tolerance [delta(z)] of
+      the core's merits, as in :func:`splitlf.sweep.sweep`
+
+    Returns an :class:`OptimiseResult`. Every argument is checked before any work:
+    ``TypeError`` for wrong types, :class:`~splitlf.errors.InvalidParameter` for values out
+    of range (unknown fields or merits, bounds, sense, depths), ``ImportError`` without
+    SciPy or pandas. If no candidate was a valid design, :class:`InvalidParameter` names the
+    free bounds; if none was feasible the result has ``feasible=False``. An exception raised
+    by a callable objective propagates.
+    """
+    cam = _base(base)
+    fields = _free(free)
+    fn, _, sense_ = _objective(objective, sense)
+    cons = _constraints(constraints)
+    z = _depths(depths)
+    seed_ = _validate.integer(seed, "seed", "an integer >= 0")
+    if seed_ < 0:
+        raise InvalidParameter.of("seed", seed_, "an integer >= 0")
+    maxiter_, popsize_ = _count(maxiter, "maxiter"), _count(popsize, "popsize")
+    if polish_maxfev is None:
+        polish_maxfev = 100 + 100 * len(fields)
+    polish_maxfev = _count(polish_maxfev, "polish_maxfev")
+    min_f = None
+    if min_microlens_f_number is not None:
+        min_f = _real(min_microlens_f_number, "min_microlens_f_number")
+        if not (math.isfinite(min_f) and min_f > 0):
+            raise InvalidParameter.of("min_microlens_f_number", min_f, "a finite number > 0")
+    core_args = (_threshold(threshold_px), _tol(tol))
+    n_threads = _validate.n_threads(n_threads)
+    tpt = _validate.n_threads(threads_per_task)
+    if batch_size is not None:
+        batch_size = _count(batch_size, "batch_size")
+    if executor is not None and not isinstance(executor, cf.Executor):
+        raise TypeError("executor must be a concurrent.futures.Executor or None, got "
+                        f"{type(executor).__name__}")
+    opts = _de_options(de_options)
+    try:
+        import pandas as pd
+        from scipy.optimize import differential_evolution
+    except ImportError as e:
+        raise ImportError('splitlf.optimise needs SciPy and pandas: '
+                          'pip install "splitlf[sweep]"') from e
+
+    problem = _Problem(cam, fields, z, fn, sense_, cons, min_f, core_args, executor,
+                       n_threads, tpt or 1, batch_size)
+    bar = _progress_bar(maxiter_, progress)
+
+    def callback(xk: Any, convergence: float = 0.0) -> None:
+        if bar is not None:
+            bar.update(1)
+
+    t0 = time.perf_counter()
+    opts.setdefault("tol", 0.01)
+    try:
+        res = differential_evolution(
+            problem.one, [(f.lo, f.hi) for f in fields], maxiter=maxiter_, popsize=popsize_,
+            polish=False, workers=problem.map, updating="deferred", callback=callback,
+            integrality=[f.integer for f in fields],
+            **{_de_seed_keyword(differential_evolution): seed_}, **opts)
+        best = _best(problem.rows, problem.sign)
+        if polish and best is not None:
+            _polish(problem, np.array([float(best[f.name]) for f in fields]), polish_maxfev)
+    except _Abort:
+        raise problem.error from None  # type: ignore[misc]
+    finally:
+        if bar is not None:
+            bar.close()
+    best = _best(problem.rows, problem.sign)
+    feasible = best is not None
+    if best is None:
+        valid = [r for r in problem.rows if r["valid"]]
+        if not valid:
+            reasons = sorted({r["reason"] for r in problem.rows})
+            raise InvalidParameter.of("free", {f.name: (f.lo, f.hi) for f in fields},
+                                      "bounds holding at least one valid design; every "
+                                      f"candidate was invalid, e.g.: {reasons[0]}")
+        best = min(valid, key=lambda r: _violation(r, cons))
+    generations = max(problem.map_calls - 1, 0)
+    active = _active(problem, best) if feasible else ()
+    total_s = time.perf_counter() - t0
+    design = Camera(**{**problem.base, **{f.name: best[f.name] for f in fields}})
+    merits = {m: float(best[m]) for m in MERITS}
+    slack = {f"{m} {op} {limit!r}": (limit - merits[m]) if op == "<=" else (merits[m] - limit)
+             for m, op, limit in cons}
+    history = pd.DataFrame(problem.rows)
+    for f in fields:
+        if f.integer:
+            history[f.name] = history[f.name].astype("int64")
+    return OptimiseResult(
+        design=design, merits=merits, objective=float(best["objective"]),
+        free={f.name: best[f.name] for f in fields}, feasible=feasible, active=active,
+        slack=slack, history=history, nfev=len(problem.rows), generations=generations,
+        message=str(res.message),
+        timing={"total_s": total_s, "core_s": problem.core_s,
+                "evaluations": float(problem.evaluations)})
+
+
+def _violation(row: dict[str, Any], cons: list[tuple[str, str, float]]) -> float:
+    total = 0.0
+    for merit, op, limit in cons:
+        over = (row[merit] - limit) if op == "<=" else (limit - row[merit])
+        if not over <= 0.0:
+            total += (over if math.isfinite(over) else OBJECTIVE_LIMIT) / max(1.0, abs(limit))
+    return total
