@@ -22,6 +22,7 @@ from .optics import (
     depth_of_field,
     sharp_fractions,
 )
+from .optimisation import OptimiseResult, optimise
 from .rayspace import Footprints, SampleGrid, Trace, footprints, sample_grid, trace
 from .samples import CoincidencePlanes, NewSamples, coincidence_planes, new_samples
 from .simulation import BarChart, Image, RandomAlbedo, Simulation, Sinusoid, simulate
@@ -42,6 +43,7 @@ __all__ = [
     "Image",
     "InvalidParameter",
     "NewSamples",
+    "OptimiseResult",
     "RandomAlbedo",
     "SampleGrid",
     "Samples2D",
@@ -58,6 +60,7 @@ __all__ = [
     "depth_of_field",
     "footprints",
     "new_samples",
+    "optimise",
     "sample_grid",
     "samples_2d",
     "sharp_fractions",
