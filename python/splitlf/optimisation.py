@@ -130,7 +130,9 @@ class OptimiseResult:
     - ``history``: a ``pandas.DataFrame``, one row per evaluated candidate in evaluation
       order: ``stage`` (init, de, polish, probe), ``generation``, the free fields,
       ``valid``, ``feasible``, ``objective``, every merit (NaN when invalid: an invalid
-      design never reaches the core) and ``reason`` (why invalid or infeasible)
+      design never reaches the core), ``violated`` (the broken rules: a constructor
+      parameter such as ``v1``, ``F``, ``min_microlens_f_number``, constrained merits,
+      ``objective``) and ``reason`` (why invalid or infeasible)
     - ``nfev`` candidates evaluated, ``generations`` run, ``message`` (SciPy's)
     - ``timing``: {"total_s", "core_s" (in-process core calls; 0 with an executor),
       "evaluations" (designs that reached the core)}
