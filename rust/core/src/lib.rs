@@ -14,6 +14,7 @@
 pub mod camera;
 pub mod design;
 pub mod error;
+pub mod line;
 pub mod memory;
 pub mod merit;
 pub mod optics;
