@@ -1646,6 +1646,34 @@ mod tests {
     }
 
     #[test]
+    fn camera_design_counts_equal_the_camera_counts() {
+        // The design path on Camera::design: the same distinct counts, lit pixels and
+        // coincidence planes bit for bit; gaps in μ_1 z/L_1 instead of d z/(Q v').
+        for cam in [Camera::paper(), small(0.8, 14.0, 10, 23, 7)] {
+            let d = Design::from_camera(&cam);
+            let z: Vec<f64> = (0..120)
+                .map(|i| 120.0 * (20_000.0f64 / 120.0).powf(i as f64 / 119.0))
+                .collect();
+            for mode in [Sample::Chief, Sample::Centroid] {
+                let a = new_samples(&cam, &z, 1e-6, mode, Some(2)).unwrap();
+                let b = design_new_samples(&d, &z, 1e-6, mode, Some(2)).unwrap();
+                assert_eq!(a.distinct, b.distinct);
+                assert_eq!(a.lit.to_vec(), b.sampled);
+                let scale = cam.q as f64 * cam.mu / cam.d;
+                for (x, y) in a.max_gap.iter().zip(&b.max_gap) {
+                    assert!(x == y || ((y * scale - x) / x).abs() < 1e-14, "{x} {y}");
+                }
+            }
+            for half in Half::BOTH {
+                let a = coincidence_planes(&cam, half, 3, None, Some(1)).unwrap();
+                let b = design_coincidence_planes(&d, half.index() as i64 + 1, 3, None, Some(1))
+                    .unwrap();
+                assert_eq!(a, b);
+            }
+        }
+    }
+
+    #[test]
     fn bad_input() {
         let cam = Camera::paper();
         assert!(new_samples(&cam, &[500.0], -1.0, Sample::Chief, None).is_err());
