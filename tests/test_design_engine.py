@@ -253,6 +253,44 @@ def test_design_coincidence_planes_equal_eqs_8_9(channel):
         assert p.new_samples[k] == want
 
 
+# -- the 2-D grid of a rect channel -----------------------------------------------------------
+@pytest.mark.parametrize("name", ["seed", "vignetted"])
+def test_camera_design_sample_grid_bit_for_bit(name):
+    cam = CAMERAS[name]().replace(Kx=30, Ky=12)
+    for h in (1, 2):
+        for sample in ("chief", "centroid"):
+            a = splitlf.sample_grid(cam, 400.0, h, sample)
+            b = splitlf.sample_grid(cam.design, 400.0, channel=h, sample=sample)
+            assert same(a.X, b.X) and same(a.Y, b.Y)
+
+
+@pytest.mark.parametrize("channel", [1, 2, 3])
+def test_sample_grid_of_a_design_is_its_chief_samples(channel):
+    """Per-axis lines combined under the circular aperture: the lit pixels and samples of
+    the 2-D chief samples (docs/model.md §9), up to the order of operations."""
+    for z in (150.0, 700.0, 5_000.0):
+        g = splitlf.sample_grid(MIX, z, channel=channel)
+        c = splitlf.chief_samples(MIX, channel, z)
+        assert np.array_equal(np.isfinite(g.X), c.lit)
+        assert np.array_equal(np.isfinite(g.Y), c.lit)
+        np.testing.assert_allclose(g.X[c.lit], c.X[c.lit], rtol=1e-12, atol=1e-12 * z)
+        np.testing.assert_allclose(g.Y[c.lit], c.Y[c.lit], rtol=1e-12, atol=1e-12 * z)
+    with pytest.raises(InvalidParameter) as e:
+        splitlf.sample_grid(MIX, 500.0, channel=channel, sample="centroid")
+    assert e.value.name == "aperture"
+
+
+def test_centroid_sample_grid_of_a_design_is_the_product_of_its_footprints():
+    z = 900.0
+    g = splitlf.sample_grid(IDEAL, z, channel=1, sample="centroid")
+    fx = splitlf.footprints(IDEAL, [z], channel=1, axis="x").position[0]
+    fy = splitlf.footprints(IDEAL, [z], channel=1, axis="y").position[0]
+    lit = np.isfinite(fy)[:, None] & np.isfinite(fx)[None, :]
+    assert np.array_equal(np.isfinite(g.X), lit)
+    assert same(g.X[lit], np.broadcast_to(fx, g.X.shape)[lit])
+    assert same(g.Y[lit], np.broadcast_to(fy[:, None], g.Y.shape)[lit])
+
+
 # -- refusals ---------------------------------------------------------------------------------
 def test_hex_channels_are_refused_by_the_1d_engine():
     raytrix = Design.preset("raytrix-r12")

@@ -52,6 +52,7 @@ __all__ = [
     "design_depth_of_field",
     "design_footprints",
     "design_new_samples",
+    "design_sample_grid",
     "design_sharp_fractions",
     "design_trace",
     "figures_of_merit",
@@ -413,6 +414,9 @@ def design_footprints(
     kernel: bool = False,
     n_threads: int | None = None,
 ) -> FootprintArrays: ...
+def design_sample_grid(
+    design: DesignCore, z: float, channel: int, sample: str = "chief", n_threads: int | None = None
+) -> SampleGridArrays: ...
 def sample_grid(
     camera: CameraCore, z: float, half: int, sample: str = "chief", n_threads: int | None = None
 ) -> SampleGridArrays: ...

@@ -221,40 +221,54 @@ class SampleGrid:
     sample: str
     X: np.ndarray
     Y: np.ndarray
+    #: The channel number (a Design's; for a Camera the same as ``half``).
+    channel: int | None = None
 
     def __iter__(self) -> Iterator[np.ndarray]:
         return iter((self.X, self.Y))
 
 
 def sample_grid(
-    camera: Camera, z, half: int, sample: str = "chief", n_threads: int | None = None
+    camera: Camera | Design, z, half: int | None = None, sample: str = "chief",
+    n_threads: int | None = None, *, channel: int | None = None,
 ) -> SampleGrid:
     """Sample position of every pixel of the full 2D sensor of one half on one plane.
 
     Parameters:
-        camera: the design.
+        camera: a :class:`splitlf.Camera` or a :class:`splitlf.Design` (rect channel).
         z: the plane's depth in mm, finite and > F: one depth only, given as a number, a
             0-d array or an array-like of exactly one element.
-        half: 1 or 2.
-        sample: ``"chief"`` (default, the paper's convention) or ``"centroid"``.
+        half: 1 or 2 (Camera); for a Design the channel number (or pass ``channel``).
+        sample: ``"chief"`` (default, the paper's convention) or ``"centroid"`` (a
+            Design's: square aperture only).
         n_threads: threads of the core, ``None`` (default) for all cores.
+        channel: the channel number (from 1) of a Design; give ``half`` or ``channel``.
 
     Returns:
-        :class:`SampleGrid` with ``X``, ``Y`` of shape (Ky Q, Kx Q) in mm (NaN where a
-        pixel yields no sample); unpacks as ``X, Y = sample_grid(...)``.
+        :class:`SampleGrid` with ``X``, ``Y`` of shape (Ky Q, Kx Q) in mm ((My, Mx) for a
+        sensor layout; NaN where a pixel yields no sample); unpacks as
+        ``X, Y = sample_grid(...)``. For a Design X = -p' z / L_1 per axis (docs/model.md
+        §5), the same values as :func:`splitlf.chief_samples` up to rounding.
 
     Raises:
-        TypeError: ``camera`` is not a Camera; ``z`` is not real; ``half`` or
-            ``n_threads`` is not an integer (bools refused); ``sample`` is not a string.
+        TypeError: ``camera`` is neither a Camera nor a Design; ``z`` is not real;
+            ``half``/``channel`` or ``n_threads`` is not an integer (bools refused); both
+            or neither of ``half`` and ``channel``; ``sample`` is not a string.
         InvalidParameter: (a ``ValueError``) ``z`` holds more than one depth, is not
-            finite or not > F; ``half``, ``sample`` or ``n_threads`` is out of range.
+            finite or not > F; ``half``/``channel``, ``sample`` or ``n_threads`` is out of
+            range; a hex channel (``channels[i].grid``); ``sample="centroid"`` behind a
+            circular aperture (``aperture``).
         TooLargeError: (a ``MemoryError``) the two outputs (16 bytes per pixel of the
             2D half-sensor) do not fit in the memory available.
         KeyboardInterrupt: on Ctrl-C (checked between chunks of rows).
     """
-    cam = _validate.camera(camera)
+    subject = _subject(camera)
     zf = _validate.depth(z)
-    h = _validate.half(half)
+    h = _number(half, channel)
     s = _validate.choice(sample, "sample", ("centroid", "chief"))
-    r = _native.sample_grid(cam.core, zf, h, s, _validate.n_threads(n_threads))
-    return SampleGrid(zf, h, s, r.X, r.Y)
+    threads = _validate.n_threads(n_threads)
+    if isinstance(subject, Design):
+        r = _native.design_sample_grid(subject.core, zf, h, s, threads)
+    else:
+        r = _native.sample_grid(subject.core, zf, h, s, threads)
+    return SampleGrid(zf, h, s, r.X, r.Y, h)

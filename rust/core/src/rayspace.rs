@@ -13,6 +13,7 @@
 use rayon::prelude::*;
 
 use crate::camera::{Axis, Camera, Half};
+use crate::design::{Aperture, Design};
 use crate::error::{Error, Result};
 use crate::line::Line;
 use crate::memory::{self, try_vec, try_with_capacity};
@@ -1036,21 +1037,50 @@ pub fn sample_grid_into(
             ),
         ));
     }
+    let (lx, ly) = (
+        Line::of_half(cam, half, Axis::X),
+        Line::of_half(cam, half, Axis::Y),
+    );
+    grid_into(&lx, &ly, None, z, sample, gx, gy, n_threads)
+}
+
+/// The 2-D grid of a pair of lines: X from the column's line, Y from the row's, NaN where
+/// either axis yields no sample; with `disc` = Some(D/2) (a circular aperture, chief
+/// samples) also NaN where the chief ray's (w_x, w_y) is not strictly inside the disc.
+#[allow(clippy::too_many_arguments)]
+fn grid_into(
+    lx: &Line,
+    ly: &Line,
+    disc: Option<f64>,
+    z: f64,
+    sample: Sample,
+    gx: &mut [f64],
+    gy: &mut [f64],
+    n_threads: Option<usize>,
+) -> Result<()> {
+    let (rows, cols) = (ly.pixel_count() as usize, lx.pixel_count() as usize);
     let (xs, ys) = with_threads(n_threads, || -> Result<_> {
-        Ok((
-            axis_samples(&Line::of_half(cam, half, Axis::X), sample, z)?,
-            axis_samples(&Line::of_half(cam, half, Axis::Y), sample, z)?,
-        ))
+        Ok((axis_samples(lx, sample, z)?, axis_samples(ly, sample, z)?))
     })??;
+    let chief_w = |line: &Line, n: usize| -> Result<Vec<f64>> {
+        let mut w = try_with_capacity("sample_grid (chief heights)", n)?;
+        if disc.is_some() {
+            w.extend((0..n as u32).map(|i| line.chief_w(line.pixel(i).theta)));
+        }
+        Ok(w)
+    };
+    let (wx, wy) = (chief_w(lx, cols)?, chief_w(ly, rows)?);
     let per = rows_per_task(cols);
     let step = chunk_items(n_threads, 2 * cols as u128);
     for_chunks(n_threads, rows, step, |r| {
         let span = r.start * cols..r.end * cols;
+        let first = r.start;
         gx[span.clone()]
             .par_chunks_mut(per * cols)
             .zip(gy[span].par_chunks_mut(per * cols))
             .zip(ys[r].par_chunks(per))
-            .for_each(|((gx, gy), yr)| {
+            .enumerate()
+            .for_each(|(task, ((gx, gy), yr))| {
                 for (r, &y) in yr.iter().enumerate() {
                     let rx = &mut gx[r * cols..(r + 1) * cols];
                     let ry = &mut gy[r * cols..(r + 1) * cols];
@@ -1063,11 +1093,76 @@ pub fn sample_grid_into(
                             // y + 0·x is y where x is a sample, NaN where it is not.
                             *oy = y + 0.0 * x;
                         }
+                        if let Some(rad) = disc {
+                            let w2 = wy[first + task * per + r];
+                            for ((ox, oy), &w1) in rx.iter_mut().zip(ry.iter_mut()).zip(&wx) {
+                                if w1 * w1 + w2 * w2 >= rad * rad {
+                                    *ox = f64::NAN;
+                                    *oy = f64::NAN;
+                                }
+                            }
+                        }
                     }
                 }
             });
         Ok(())
     })
+}
+
+/// Validate a design's sample_grid call before anything is allocated: threads, the depth,
+/// a rect channel, the aperture (centroid samples need the square aperture: only then is a
+/// pixel's 4-D region the product of its two 1-D polygons) and the memory. Returns the
+/// channel's lines along x and y.
+pub fn check_design_sample_grid(
+    design: &Design,
+    channel: i64,
+    z: f64,
+    sample: Sample,
+    n_threads: Option<usize>,
+) -> Result<(Line, Line)> {
+    check_threads(n_threads)?;
+    check_design_depths(design.f_main, &[z])?;
+    let lx = Line::of_channel(design, channel, Axis::X)?;
+    let ly = Line::of_channel(design, channel, Axis::Y)?;
+    if sample == Sample::Centroid && design.shape == Aperture::Circle {
+        return Err(Error::param(
+            "aperture",
+            "\"circle\"",
+            "\"square\" for sample=\"centroid\" (behind a circular aperture a pixel's \
+             region in 4-D ray space is not the product of its x and y polygons; use \
+             sample=\"chief\")",
+        ));
+    }
+    let (rows, cols) = (ly.pixel_count(), lx.pixel_count());
+    let bytes = (2 * 8 * rows)
+        .saturating_mul(cols)
+        .saturating_add(16 * (rows + cols));
+    memory::check("sample_grid (two outputs)", bytes)?;
+    Ok((lx, ly))
+}
+
+/// [`sample_grid_into`] of channel `channel` (from 1) of a design (rect grids): rows the
+/// channel's pixel rows along y, columns along x ((K_y Q, K_x Q) or (M_y, M_x)).
+pub fn design_sample_grid_into(
+    design: &Design,
+    channel: i64,
+    z: f64,
+    sample: Sample,
+    gx: &mut [f64],
+    gy: &mut [f64],
+    n_threads: Option<usize>,
+) -> Result<()> {
+    let (lx, ly) = check_design_sample_grid(design, channel, z, sample, n_threads)?;
+    let n = (ly.pixel_count() * lx.pixel_count()) as usize;
+    if gx.len() != n || gy.len() != n {
+        return Err(Error::param(
+            "output length",
+            format!("{:?}", (gx.len(), gy.len())),
+            format!("{n}"),
+        ));
+    }
+    let disc = (design.shape == Aperture::Circle).then_some(design.aperture / 2.0);
+    grid_into(&lx, &ly, disc, z, sample, gx, gy, n_threads)
 }
 
 #[cfg(test)]

@@ -1266,6 +1266,41 @@ fn sample_grid(
     })
 }
 
+/// Sample positions of every pixel of one channel of a design (rect grid) on the plane at
+/// depth z; NaN where a pixel yields no sample.
+#[pyfunction]
+#[pyo3(signature = (design, z, channel, sample="chief", n_threads=None))]
+fn design_sample_grid(
+    py: Python<'_>,
+    design: &DesignCore,
+    z: f64,
+    channel: &Bound<'_, PyAny>,
+    sample: &str,
+    n_threads: Option<&Bound<'_, PyAny>>,
+) -> PyResult<SampleGridArrays> {
+    let d = &design.inner;
+    let ch = channel_arg(d, channel)?;
+    let s = sample_arg(sample)?;
+    let threads = threads_arg(n_threads)?;
+    let (lx, ly) = rayspace::check_design_sample_grid(d, ch, z, s, threads).map_err(to_py)?;
+    let (rows, cols) = (ly.pixel_count() as usize, lx.pixel_count() as usize);
+    let gx = empty::<f64, _>(py, &[rows, cols], "sample_grid")?;
+    let gy = empty::<f64, _>(py, &[rows, cols], "sample_grid")?;
+    {
+        let mut xw = gx.readwrite();
+        let mut yw = gy.readwrite();
+        let xs = xw.as_slice_mut().map_err(internal)?;
+        let ys = yw.as_slice_mut().map_err(internal)?;
+        run(py, || {
+            rayspace::design_sample_grid_into(d, ch, z, s, xs, ys, threads)
+        })?;
+    }
+    Ok(SampleGridArrays {
+        x: gx.unbind(),
+        y: gy.unbind(),
+    })
+}
+
 // ---- 2-D samples (docs/model.md §9) -------------------------------------------------------
 
 /// Every pixel of one channel (rows y, columns x of its pixel grid): chief sample (X, Y)
@@ -1607,5 +1642,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(design_trace, m)?)?;
     m.add_function(wrap_pyfunction!(design_sharp_fractions, m)?)?;
     m.add_function(wrap_pyfunction!(design_footprints, m)?)?;
+    m.add_function(wrap_pyfunction!(design_sample_grid, m)?)?;
     Ok(())
 }
