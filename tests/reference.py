@@ -551,3 +551,120 @@ def central_field(design, z: float, window: float) -> tuple[float, float]:
     g = z / ch["L"]
     w = window / 2.0 * d
     return min(w, ex / 4.0) * g, min(w, ey / 4.0) * g
+
+
+# -- §9: the 1-D engine on a design's channel (along x, rect grids) -----------------------------
+
+
+def line_pixels(design, channel: int) -> dict[str, np.ndarray]:
+    """Every pixel of a channel (from 1) along x (docs/model.md §9, 1-D): its lens j, type
+    j mod T, offset theta from the lens's image centre c_j (1 + v/L), chief height
+    w = -(L/v) theta, and lit (|w| < D/2 and, sensor layout, |theta| <= d (1 + v/L)/2).
+    Ideal: pixel i = j Q + q, theta = mu (q - (Q-1)/2). Sensor: s = mu (m - (M-1)/2), the
+    nearest image centre by brute force over every lens (ties to the lower j)."""
+    ch = design.resolved()[channel - 1]
+    L, v, mu, d, kx = ch["L"], ch["v"], ch["mu"], ch["d"], ch["Kx"]
+    mag = 1.0 + v / L
+    c = d * (np.arange(kx) - (kx - 1.0) / 2.0)
+    if ch["layout"] == "ideal":
+        q = ch["Q"]
+        i = np.arange(kx * q)
+        j = i // q
+        theta = mu * (i % q - (q - 1.0) / 2.0)
+        in_cell = np.ones(i.size, dtype=bool)
+    else:
+        s = mu * (np.arange(ch["Mx"]) - (ch["Mx"] - 1.0) / 2.0)
+        dist = np.abs(s[:, None] - c[None, :] * mag)
+        j = np.argmin(dist, axis=1)  # the first minimum: the lower j on a tie
+        theta = s - c[j] * mag
+        in_cell = np.abs(theta) <= d * mag / 2.0
+    w = -(L / v) * theta
+    return {"j": j, "c": c[j], "type": j % len(ch["f"]), "theta": theta, "w": w,
+            "lit": in_cell & (np.abs(w) < design.D / 2.0)}
+
+
+def line_strips(design, channel: int, c: float, theta: float, t: int):
+    """(normal, lo, hi) of the aperture, lens and pixel strips of a pixel of a channel in
+    ray space referred to channel 1's array plane L_1 (docs/model.md §4 with v' = L_1):
+    |w| <= D/2, |x - c| <= d/2 with x = (L/L_1) u + (1 - L/L_1) w, |s' - s| <= mu/2 with
+    s' = alpha x - (v/L) w + (v/f_t) c, alpha = 1 + v/L - v/f_t, s = c (1 + v/L) + theta."""
+    chs = design.resolved()
+    ch = chs[channel - 1]
+    L, v, mu, d, f = ch["L"], ch["v"], ch["mu"], ch["d"], ch["f"][t]
+    a, b = L / chs[0]["L"], 1.0 - L / chs[0]["L"]
+    alpha = 1.0 + v / L - v / f
+    s = c * (1.0 + v / L) + theta
+    rest = s - v / f * c
+    return [
+        ((0.0, 1.0), -design.D / 2, design.D / 2),
+        ((a, b), c - d / 2, c + d / 2),
+        ((alpha * a, alpha * b - v / L), rest - mu / 2, rest + mu / 2),
+    ]
+
+
+def exact_strip_region(strips):
+    """(area, centroid u, centroid w) of the intersection of an aperture strip (normal
+    (0, 1)), a lens strip and a pixel strip, their float coefficients taken as exact
+    rationals and clipped in exact rational arithmetic. None when empty."""
+    (_, wlo, whi), (nm, xlo, xhi), (npx, plo, phi) = [
+        (tuple(map(Fraction, n)), Fraction(lo), Fraction(hi)) for n, lo, hi in strips
+    ]
+    a, b = nm
+    poly = [((x - b * w) / a, w) for x, w in ((xlo, wlo), (xhi, wlo), (xhi, whi), (xlo, whi))]
+
+    def keep_below(poly, n, h):  # {p: n.p <= h}
+        out = []
+        for i, A in enumerate(poly):
+            B = poly[(i + 1) % len(poly)]
+            da = h - (n[0] * A[0] + n[1] * A[1])
+            db = h - (n[0] * B[0] + n[1] * B[1])
+            if da >= 0:
+                out.append(A)
+            if da * db < 0:
+                t = da / (da - db)
+                out.append((A[0] + t * (B[0] - A[0]), A[1] + t * (B[1] - A[1])))
+        return out
+
+    poly = keep_below(keep_below(poly, npx, phi), (-npx[0], -npx[1]), -plo)
+    a2 = cu = cw = Fraction(0)
+    for i, (u0, w0) in enumerate(poly):
+        u1, w1 = poly[(i + 1) % len(poly)]
+        cross = u0 * w1 - u1 * w0
+        a2 += cross
+        cu += cross * (u0 + u1)
+        cw += cross * (w0 + w1)
+    if len(poly) < 3 or a2 <= 0:
+        return None
+    return float(a2 / 2), float(cu / (3 * a2)), float(cw / (3 * a2))
+
+
+def line_chief_X(design, channel: int, z: float) -> np.ndarray:
+    """Object-space chief samples X = -p' z / L_1 of the lit pixels of a channel along x,
+    p' = (L_1/L) [c + w (L - z')/z'] (docs/model.md §5 with v' = L_1; §9)."""
+    px = line_pixels(design, channel)
+    chs = design.resolved()
+    L, L1 = chs[channel - 1]["L"], chs[0]["L"]
+    zc = conjugate_f(design.F, z)
+    p = (L1 / L) * (px["c"] + px["w"] * (L - zc) / zc)
+    return (-p * z / L1)[px["lit"]]
+
+
+def design_new_samples(design, z, tol: float = 1e-6):
+    """(distinct, max_gap, sampled) of the chief samples of every channel of a design along
+    x and of their union, as ``splitlf.new_samples(design, ...)`` returns them: greedy merge
+    at tol delta(z), delta(z) = mu_1 z / L_1; gaps over |X| <= Kx_1 d_1 z / (4 L_1) in
+    delta(z) (docs/model.md §6, §9)."""
+    z = np.atleast_1d(np.asarray(z, dtype=float))
+    C = len(design.channels)
+    ch1 = design.resolved()[0]
+    distinct = np.zeros((C + 1, z.size), dtype=np.int64)
+    gap = np.zeros((C + 1, z.size))
+    for k, zk in enumerate(z):
+        delta = ch1["mu"] * zk / ch1["L"]
+        W = ch1["Kx"] * ch1["d"] * zk / (4 * ch1["L"])
+        pos = [np.sort(line_chief_X(design, c, zk)) for c in range(1, C + 1)]
+        pos.append(np.sort(np.concatenate(pos)))
+        distinct[:, k] = [greedy_count(p, tol * delta) for p in pos]
+        gap[:, k] = [field_gap(p, W) / delta for p in pos]
+    lit = np.array([line_pixels(design, c)["lit"].sum() for c in range(1, C + 1)])
+    return distinct, gap, np.append(lit, lit.sum())

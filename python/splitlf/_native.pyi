@@ -31,6 +31,7 @@ __all__ = [
     "DesignCore",
     "DesignCurvesArrays",
     "DesignDepthOfFieldIntervals",
+    "DesignSamplesArrays",
     "FootprintArrays",
     "NewSamplesArrays",
     "PlaneColumns",
@@ -46,8 +47,14 @@ __all__ = [
     "coverage",
     "curves",
     "depth_of_field",
+    "design_coincidence_planes",
     "design_curves",
     "design_depth_of_field",
+    "design_footprints",
+    "design_new_samples",
+    "design_sample_grid",
+    "design_sharp_fractions",
+    "design_trace",
     "figures_of_merit",
     "footprints",
     "kernel_support",
@@ -207,6 +214,15 @@ class NewSamplesArrays:
     def sampled(self) -> _I64: ...
 
 @final
+class DesignSamplesArrays:
+    @property
+    def distinct(self) -> _I64: ...
+    @property
+    def max_gap(self) -> _F64: ...
+    @property
+    def sampled(self) -> _I64: ...
+
+@final
 class PlaneColumns:
     @property
     def N(self) -> _I64: ...
@@ -247,6 +263,10 @@ class TraceArrays:
     def chief(self) -> _F64: ...
     @property
     def lit(self) -> npt.NDArray[np.bool_]: ...
+    @property
+    def theta(self) -> _F64: ...
+    @property
+    def type(self) -> _I64: ...
 
 @final
 class FootprintArrays:
@@ -346,6 +366,23 @@ def coincidence_planes(
     max_t: int | None = None,
     n_threads: int | None = None,
 ) -> PlaneColumns: ...
+def design_new_samples(
+    design: DesignCore,
+    z: _F64,
+    tol: float = ...,
+    sample: str = "chief",
+    n_threads: int | None = None,
+) -> DesignSamplesArrays: ...
+def design_coincidence_planes(
+    design: DesignCore,
+    channel: int,
+    max_n: int | None = None,
+    max_t: int | None = None,
+    n_threads: int | None = None,
+) -> PlaneColumns: ...
+def design_sharp_fractions(
+    design: DesignCore, threshold_px: float, lo: float, hi: float
+) -> tuple[list[float], list[float], float, list[float]]: ...
 def figures_of_merit(
     camera: CameraCore,
     z: _F64,
@@ -365,6 +402,21 @@ def footprints(
     kernel: bool = False,
     n_threads: int | None = None,
 ) -> FootprintArrays: ...
+def design_trace(
+    design: DesignCore, channel: int, axis: str = "x", n_threads: int | None = None
+) -> TraceArrays: ...
+def design_footprints(
+    design: DesignCore,
+    z: _F64,
+    channel: int,
+    axis: str = "x",
+    sample: str = "centroid",
+    kernel: bool = False,
+    n_threads: int | None = None,
+) -> FootprintArrays: ...
+def design_sample_grid(
+    design: DesignCore, z: float, channel: int, sample: str = "chief", n_threads: int | None = None
+) -> SampleGridArrays: ...
 def sample_grid(
     camera: CameraCore, z: float, half: int, sample: str = "chief", n_threads: int | None = None
 ) -> SampleGridArrays: ...

@@ -268,29 +268,55 @@ def depth_of_field(camera: Camera | Design, threshold_px: float = DEFAULT_THRESH
     return DepthOfField(t, r.half1, r.half2, r.split, r.conventional1, r.conventional2)
 
 
-def sharp_fractions(camera: Camera, z_range: tuple[float, float],
+def sharp_fractions(camera: Camera | Design, z_range: tuple[float, float],
                     threshold_px: float = DEFAULT_THRESHOLD_PX) -> dict[str, float]:
     """Fraction of the depth range that is sharp, measured in log depth, for each
     configuration of :func:`depth_of_field`.
 
     Parameters:
-        camera: the design.
+        camera: a :class:`splitlf.Camera` or a :class:`splitlf.Design`.
         z_range: (near, far) in mm, finite, 0 < near < far.
         threshold_px: as in :func:`depth_of_field` (default 0.5 px).
 
     Returns:
         ``{"half1", "half2", "split", "conventional1", "conventional2"}`` -> fraction in
         [0, 1]: the summed log length of the sharp intervals inside the range over
-        log(far / near).
+        log(far / near). For a Design the keys are the rows of
+        :func:`depth_of_field` (``DesignDepthOfField.rows``: lens types where a channel
+        has several, each channel, ``"union"`` when there are several channels), then
+        ``"conventional channel 1"``, ... (one per channel); ``Camera.design`` gives the
+        camera's values bit for bit (``"channel 1"`` is ``"half1"``, ``"union"`` is
+        ``"split"``).
 
     Raises:
-        TypeError: a bound or ``threshold_px`` is not a real number.
+        TypeError: ``camera`` is neither a Camera nor a Design, a bound or
+            ``threshold_px`` is not a real number.
         InvalidParameter: the range is not 0 < near < far (finite), or ``threshold_px``
             is not finite and > 0.
     """
-    cam = _validate.camera(camera)
+    cam = _validate.camera_or_design(camera)
     lo, hi = (_validate.real(v, "z_range") for v in z_range)
     t = _validate.real(threshold_px, "threshold_px")
+    if isinstance(cam, Design):
+        return _design_fractions(cam, t, lo, hi)
     values = _native.sharp_fractions(cam.core, t, lo, hi)
     return dict(zip(("half1", "half2", "split", "conventional1", "conventional2"), values,
                     strict=True))
+
+
+def _design_fractions(design: Design, t: float, lo: float, hi: float) -> dict[str, float]:
+    """:func:`sharp_fractions` of a Design, in the row order of :func:`_design_dof`."""
+    types, channels, union, conventional = _native.design_sharp_fractions(design.core, t, lo, hi)
+    rows = _native.design_depth_of_field(design.core, t).rows
+    type_names = _type_names(rows)
+    out: dict[str, float] = {}
+    names = _channel_names(len(design.channels))
+    for c, channel in enumerate(names):
+        own = [k for k, (ch, _) in enumerate(rows) if ch == c]
+        if len(own) > 1:
+            out.update({type_names[k]: types[k] for k in own})
+        out[channel] = channels[c]
+    if len(design.channels) > 1:
+        out["union"] = union
+    out.update({f"conventional {name}": v for name, v in zip(names, conventional, strict=True)})
+    return out

@@ -3,33 +3,47 @@ footprint on a scene plane at any depth.
 
 Thin wrappers: the geometry runs in the Rust core (parallel, GIL released); this module
 checks argument types and packs the arrays. Derivations: ``docs/rayspace.md``.
+
+:func:`trace` and :func:`footprints` take a :class:`~splitlf.Camera` and its ``half``, or a
+:class:`~splitlf.Design` and its ``channel`` (numbered from 1; rect grids only, the 1-D
+analysis of docs/model.md §9; see docs/architectures.md, "The 1-D engine"). A Camera's
+half i is its design's channel i, bit for bit.
 """
 
 from __future__ import annotations
 
 import dataclasses
 from collections.abc import Iterator
+from typing import Any
 
 import numpy as np
 
 from . import _native, _validate
 from .camera import Camera
+from .design import Design
 
 __all__ = ["Footprints", "SampleGrid", "Trace", "footprints", "sample_grid", "trace"]
 
 
 @dataclasses.dataclass(frozen=True)
 class Trace:
-    """Every pixel of one half along one axis, n = K Q, microlens-major (index j Q + q).
+    """Every pixel of one half (or channel) along one axis: n = K Q, microlens-major (index
+    j Q + q) for the ideal layout; n = M (sensor order, index m) for a design channel's
+    sensor layout.
 
     - ``vertices`` (n, 6, 2): (u, w) of the integration polygon [mm], counter-clockwise,
       unused rows NaN (u: height on plane v', w: height on the main lens)
     - ``n_vertices`` (n,): vertex count (0 for a fully vignetted pixel)
     - ``area`` (n,): polygon area [mm^2], proportional to the light collected
     - ``centroid`` (n, 2): (u, w) of the polygon's centroid (NaN when empty)
-    - ``lens``, ``pixel`` (n,): microlens index j and pixel index q under it
+    - ``lens``, ``pixel`` (n,): microlens index j and pixel index q under it (sensor
+      layout: the lens whose image centre is nearest, and the sensor index m)
     - ``chief`` (n, 2): (u, w) of the chief ray (through microlens and pixel centres)
-    - ``lit`` (n,): the chief ray passes the main-lens aperture (docs/model.md §6)
+    - ``lit`` (n,): the chief ray passes the main-lens aperture (docs/model.md §6; sensor
+      layout: and the pixel centre lies in its lens's image cell)
+    - ``theta`` (n,): offset of the pixel centre from its lens's image centre c (1 + v/L)
+      [mm]; ``type`` (n,): its lens's type j mod T (its focal length is ``f[type]``)
+    - ``half``: the half (Camera) or channel (Design) number; ``channel`` the same number
     """
 
     half: int
@@ -42,36 +56,71 @@ class Trace:
     pixel: np.ndarray
     chief: np.ndarray
     lit: np.ndarray
+    theta: np.ndarray | None = None
+    type: np.ndarray | None = None
+    channel: int | None = None
 
 
-def trace(camera: Camera, half: int, axis: str = "x", n_threads: int | None = None) -> Trace:
+def _subject(camera: Any) -> Camera | Design:
+    if not isinstance(camera, Camera | Design):
+        raise TypeError("camera must be a splitlf.Camera or a splitlf.Design, got "
+                        f"{type(camera).__name__}")
+    return camera
+
+
+def _number(half: Any, channel: Any) -> int:
+    """The half or channel number: exactly one of ``half`` and ``channel`` (the same
+    number for a Camera, whose half i is its design's channel i)."""
+    if half is not None and channel is not None:
+        raise TypeError("give half or channel, not both (a Camera's half i is its design's "
+                        "channel i)")
+    if half is None and channel is None:
+        raise TypeError("missing the half (Camera) or channel (Design) number")
+    if channel is not None:
+        return _validate.integer(channel, "channel", "an integer >= 1")
+    return _validate.half(half)
+
+
+def trace(camera: Camera | Design, half: int | None = None, axis: str = "x",
+          n_threads: int | None = None, *, channel: int | None = None) -> Trace:
     """Integration polygon of every pixel of one half along one axis (docs/model.md §3-4).
 
     Parameters:
-        camera: the design (:class:`splitlf.Camera`).
-        half: 1 or 2.
-        axis: ``"x"`` (Kx microlenses, default) or ``"y"`` (Ky microlenses).
+        camera: a :class:`splitlf.Camera` or a :class:`splitlf.Design` (rect channels).
+        half: 1 or 2 (Camera); for a Design the channel number (or pass ``channel``).
+        axis: ``"x"`` (Kx microlenses, default) or ``"y"`` (Ky microlenses; for a Design
+            the lens types along y are k mod T).
         n_threads: threads of the core, an integer in [1, ``_native.MAX_THREADS``];
             ``None`` (default) for all cores.
+        channel: the channel number (from 1) of a Design (the same as ``half`` for a
+            Camera); give ``half`` or ``channel``, not both.
 
     Returns:
-        :class:`Trace` of n = K Q pixels (K = Kx or Ky), with the shapes listed there.
+        :class:`Trace` of n = K Q pixels (K = Kx or Ky; M for a sensor layout), with the
+        shapes listed there.
 
     Raises:
-        TypeError: ``camera`` is not a Camera; ``half`` or ``n_threads`` is not an integer
-            (bools are refused); ``axis`` is not a string.
+        TypeError: ``camera`` is neither a Camera nor a Design; ``half``/``channel`` or
+            ``n_threads`` is not an integer (bools are refused); both or neither of
+            ``half`` and ``channel`` given; ``axis`` is not a string.
         InvalidParameter: (a ``ValueError`` with ``.name``, ``.value``, ``.allowed``)
-            ``half`` is not 1 or 2, ``axis`` not "x"/"y", ``n_threads`` out of range.
+            ``half`` is not 1 or 2 (``channel`` not in [1, C]), ``axis`` not "x"/"y",
+            ``n_threads`` out of range; a Design's channel on a hex grid
+            (``.name == "channels[i].grid"``).
         TooLargeError: (a ``MemoryError``) the trace and its arrays (about 330 bytes per
             pixel) do not fit in the memory available.
         KeyboardInterrupt: on Ctrl-C (checked between chunks of pixels).
     """
-    cam = _validate.camera(camera)
-    h = _validate.half(half)
+    subject = _subject(camera)
+    h = _number(half, channel)
     ax = _validate.choice(axis, "axis", ("x", "y"))
-    r = _native.trace(cam.core, h, ax, _validate.n_threads(n_threads))
+    threads = _validate.n_threads(n_threads)
+    if isinstance(subject, Design):
+        r = _native.design_trace(subject.core, h, ax, threads)
+    else:
+        r = _native.trace(subject.core, h, ax, threads)
     return Trace(h, ax, r.vertices, r.n_vertices, r.area, r.centroid, r.lens, r.pixel,
-                 r.chief, r.lit)
+                 r.chief, r.lit, r.theta, r.type, h)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -96,54 +145,67 @@ class Footprints:
     hi: np.ndarray
     kernel_breaks: np.ndarray | None = None
     kernel_values: np.ndarray | None = None
+    #: The channel number (a Design's; for a Camera the same as ``half``).
+    channel: int | None = None
 
 
 def footprints(
-    camera: Camera,
+    camera: Camera | Design,
     z,
-    half: int,
+    half: int | None = None,
     axis: str = "x",
     sample: str = "centroid",
     kernel: bool = False,
     n_threads: int | None = None,
+    *,
+    channel: int | None = None,
 ) -> Footprints:
     """Footprint of every pixel of one half along one axis on the planes at depths ``z``
     (docs/model.md §5).
 
     Parameters:
-        camera: the design.
+        camera: a :class:`splitlf.Camera` or a :class:`splitlf.Design` (rect channels).
         z: depths in mm: a number or any 1-D array-like (m,), each finite and > F.
-        half: 1 or 2.
+        half: 1 or 2 (Camera); for a Design the channel number (or pass ``channel``).
         axis: ``"x"`` (default) or ``"y"``.
         sample: ``"centroid"`` (default: projection of the integration polygon's centroid)
             or ``"chief"`` (projection of the chief ray, the paper's convention).
         kernel: also return the piecewise-linear weight profiles (m, n, 6); default False.
         n_threads: threads of the core, ``None`` (default) for all cores.
+        channel: the channel number (from 1) of a Design; give ``half`` or ``channel``.
 
     Returns:
-        :class:`Footprints` of n = K Q pixels (order of :func:`trace`) at m depths.
+        :class:`Footprints` of n pixels (order of :func:`trace`) at m depths. For a Design
+        X = -p' z / L_1: ray space is referred to channel 1's array plane.
 
     Raises:
-        TypeError: ``camera`` is not a Camera; ``z`` is not real; ``half`` or
-            ``n_threads`` is not an integer (bools refused); ``axis``/``sample`` is not a
-            string; ``kernel`` is not a bool.
+        TypeError: ``camera`` is neither a Camera nor a Design; ``z`` is not real;
+            ``half``/``channel`` or ``n_threads`` is not an integer (bools refused); both
+            or neither of ``half`` and ``channel``; ``axis``/``sample`` is not a string;
+            ``kernel`` is not a bool.
         InvalidParameter: (a ``ValueError``) ``z`` is not 1-D or an element is not finite
-            or not > F (``.name == "z"``, ``.index`` the element); ``half``, ``axis``,
-            ``sample`` or ``n_threads`` is out of range.
+            or not > F (``.name == "z"``, ``.index`` the element); ``half``/``channel``,
+            ``axis``, ``sample`` or ``n_threads`` is out of range; a hex channel
+            (``channels[i].grid``).
         TooLargeError: (a ``MemoryError``) the outputs (24 bytes per depth and pixel, 120
             with ``kernel``) and working buffers (about 290 bytes per pixel) do not fit
             in the memory available.
         KeyboardInterrupt: on Ctrl-C (checked between chunks of depths).
     """
-    cam = _validate.camera(camera)
+    subject = _subject(camera)
     zs = _validate.depths(z)
-    h = _validate.half(half)
+    h = _number(half, channel)
     ax = _validate.choice(axis, "axis", ("x", "y"))
     s = _validate.choice(sample, "sample", ("centroid", "chief"))
     if not isinstance(kernel, bool | np.bool_):
         raise TypeError(f"kernel must be a bool, got {type(kernel).__name__} {kernel!r}")
-    r = _native.footprints(cam.core, zs, h, ax, s, bool(kernel), _validate.n_threads(n_threads))
-    return Footprints(zs, h, ax, s, r.position, r.lo, r.hi, r.kernel_breaks, r.kernel_values)
+    threads = _validate.n_threads(n_threads)
+    if isinstance(subject, Design):
+        r = _native.design_footprints(subject.core, zs, h, ax, s, bool(kernel), threads)
+    else:
+        r = _native.footprints(subject.core, zs, h, ax, s, bool(kernel), threads)
+    return Footprints(zs, h, ax, s, r.position, r.lo, r.hi, r.kernel_breaks, r.kernel_values,
+                      h)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -159,40 +221,54 @@ class SampleGrid:
     sample: str
     X: np.ndarray
     Y: np.ndarray
+    #: The channel number (a Design's; for a Camera the same as ``half``).
+    channel: int | None = None
 
     def __iter__(self) -> Iterator[np.ndarray]:
         return iter((self.X, self.Y))
 
 
 def sample_grid(
-    camera: Camera, z, half: int, sample: str = "chief", n_threads: int | None = None
+    camera: Camera | Design, z, half: int | None = None, sample: str = "chief",
+    n_threads: int | None = None, *, channel: int | None = None,
 ) -> SampleGrid:
     """Sample position of every pixel of the full 2D sensor of one half on one plane.
 
     Parameters:
-        camera: the design.
+        camera: a :class:`splitlf.Camera` or a :class:`splitlf.Design` (rect channel).
         z: the plane's depth in mm, finite and > F: one depth only, given as a number, a
             0-d array or an array-like of exactly one element.
-        half: 1 or 2.
-        sample: ``"chief"`` (default, the paper's convention) or ``"centroid"``.
+        half: 1 or 2 (Camera); for a Design the channel number (or pass ``channel``).
+        sample: ``"chief"`` (default, the paper's convention) or ``"centroid"`` (a
+            Design's: square aperture only).
         n_threads: threads of the core, ``None`` (default) for all cores.
+        channel: the channel number (from 1) of a Design; give ``half`` or ``channel``.
 
     Returns:
-        :class:`SampleGrid` with ``X``, ``Y`` of shape (Ky Q, Kx Q) in mm (NaN where a
-        pixel yields no sample); unpacks as ``X, Y = sample_grid(...)``.
+        :class:`SampleGrid` with ``X``, ``Y`` of shape (Ky Q, Kx Q) in mm ((My, Mx) for a
+        sensor layout; NaN where a pixel yields no sample); unpacks as
+        ``X, Y = sample_grid(...)``. For a Design X = -p' z / L_1 per axis (docs/model.md
+        §5), the same values as :func:`splitlf.chief_samples` up to rounding.
 
     Raises:
-        TypeError: ``camera`` is not a Camera; ``z`` is not real; ``half`` or
-            ``n_threads`` is not an integer (bools refused); ``sample`` is not a string.
+        TypeError: ``camera`` is neither a Camera nor a Design; ``z`` is not real;
+            ``half``/``channel`` or ``n_threads`` is not an integer (bools refused); both
+            or neither of ``half`` and ``channel``; ``sample`` is not a string.
         InvalidParameter: (a ``ValueError``) ``z`` holds more than one depth, is not
-            finite or not > F; ``half``, ``sample`` or ``n_threads`` is out of range.
+            finite or not > F; ``half``/``channel``, ``sample`` or ``n_threads`` is out of
+            range; a hex channel (``channels[i].grid``); ``sample="centroid"`` behind a
+            circular aperture (``aperture``).
         TooLargeError: (a ``MemoryError``) the two outputs (16 bytes per pixel of the
             2D half-sensor) do not fit in the memory available.
         KeyboardInterrupt: on Ctrl-C (checked between chunks of rows).
     """
-    cam = _validate.camera(camera)
+    subject = _subject(camera)
     zf = _validate.depth(z)
-    h = _validate.half(half)
+    h = _number(half, channel)
     s = _validate.choice(sample, "sample", ("centroid", "chief"))
-    r = _native.sample_grid(cam.core, zf, h, s, _validate.n_threads(n_threads))
-    return SampleGrid(zf, h, s, r.X, r.Y)
+    threads = _validate.n_threads(n_threads)
+    if isinstance(subject, Design):
+        r = _native.design_sample_grid(subject.core, zf, h, s, threads)
+    else:
+        r = _native.sample_grid(subject.core, zf, h, s, threads)
+    return SampleGrid(zf, h, s, r.X, r.Y, h)

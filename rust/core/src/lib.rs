@@ -5,6 +5,7 @@
 //! [`presets`] named designs (the seed, its variants, a Raytrix R12, a Lytro Illum),
 //! [`optics`] the closed forms over depth (Eqs. 1–7) and the depth of field,
 //! [`rayspace`] every pixel's integration polygon in (u, w) and its footprints (§3–5),
+//! [`line`] one channel (or camera half) along one axis, the view the 1-D engine runs on,
 //! [`samples`] the coincidence planes and genuinely new samples (Eqs. 8–9, docs/model.md §6),
 //! [`samples2d`] the 2-D chief samples, distinct samples and covering radius of a design (§9),
 //! [`merit`] the figures of merit of one design that sweeps compare,
@@ -14,6 +15,7 @@
 pub mod camera;
 pub mod design;
 pub mod error;
+pub mod line;
 pub mod memory;
 pub mod merit;
 pub mod optics;

@@ -751,6 +751,31 @@ pub fn design_depth_of_field(design: &Design, threshold_px: f64) -> Result<Desig
     })
 }
 
+/// Sharp fractions (log depth) over [lo, hi] of every row of [`design_depth_of_field`]:
+/// (per [`type_rows`] row, per channel, the union, per channel's conventional camera).
+/// For a camera's two-channel design the channels, union and conventional rows equal
+/// [`sharp_fractions`] bit for bit.
+pub type DesignFractions = (Vec<f64>, Vec<f64>, f64, Vec<f64>);
+
+/// [`DesignFractions`] of a design.
+pub fn design_sharp_fractions(
+    design: &Design,
+    threshold_px: f64,
+    lo: f64,
+    hi: f64,
+) -> Result<DesignFractions> {
+    let dof = design_depth_of_field(design, threshold_px)?;
+    let each = |rows: &[Intervals]| -> Result<Vec<f64>> {
+        rows.iter().map(|iv| log_fraction(iv, lo, hi)).collect()
+    };
+    Ok((
+        each(&dof.types)?,
+        each(&dof.channels)?,
+        log_fraction(&dof.union, lo, hi)?,
+        each(&dof.conventional)?,
+    ))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -13,9 +13,11 @@
 use rayon::prelude::*;
 
 use crate::camera::{Axis, Camera, Half};
+use crate::design::{Aperture, Design};
 use crate::error::{Error, Result};
+use crate::line::Line;
 use crate::memory::{self, try_vec, try_with_capacity};
-use crate::optics::{check_depths, conjugate};
+use crate::optics::{check_depths, check_design_depths, conjugate};
 use crate::parallel::{check_threads, chunk_items, for_chunks, with_threads};
 
 /// Most vertices of an integration polygon (a parallelogram clipped by one strip).
@@ -181,39 +183,44 @@ fn finish(buf: &[[f64; 2]]) -> Polygon {
     out
 }
 
-/// The ray-space geometry of one half: x = a u + b w on the array plane and the pixel
-/// strip's normal (α a, α b − v/L_i), α = 1 + v/L_i − v/f_i (docs/model.md §4).
+/// The ray-space geometry of one lens type of a line: x = a u + b w on the array plane
+/// (a = L/v_ref, b = 1 − L/v_ref) and the pixel strip's normal (α a, α b − v/L),
+/// α = 1 + v/L − v/f (docs/model.md §4).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct HalfRays {
-    pub half: Half,
+pub struct Rays {
     pub a: f64,
     pub b: f64,
     pub alpha: f64,
     pub half_aperture: f64,
+    /// Lens pitch d, pixel pitch μ and v/L.
+    pub d: f64,
+    pub mu: f64,
+    pub v_l: f64,
 }
 
-impl HalfRays {
-    pub fn new(cam: &Camera, half: Half) -> HalfRays {
-        let l = cam.array_plane(half);
-        let f = cam.microlens_focal(half);
-        HalfRays {
-            half,
-            a: l / cam.v1,
-            b: 1.0 - l / cam.v1,
-            alpha: 1.0 + cam.v / l - cam.v / f,
-            half_aperture: cam.aperture / 2.0,
+impl Rays {
+    /// Lens type `t` of `line`.
+    pub fn new(line: &Line, t: usize) -> Rays {
+        let l = line.l;
+        Rays {
+            a: l / line.v_ref,
+            b: 1.0 - l / line.v_ref,
+            alpha: 1.0 + line.v / l - line.v / line.focal[t],
+            half_aperture: line.aperture / 2.0,
+            d: line.d,
+            mu: line.mu,
+            v_l: line.v / l,
         }
     }
 
-    /// The three strips of pixel q under the microlens centred at c: aperture, microlens,
-    /// pixel. The pixel strip |s' − s| ≤ μ/2 with s' = α x − (v/L) w + (v/f) c and
-    /// s = `pixel_center` reads α a u + (α b − v/L) w ∈ α c + θ_q ± μ/2, since
-    /// s − (v/f) c = c (1 + v/L − v/f) + θ_q (the exact form, no cancellation).
-    pub fn strips(&self, cam: &Camera, c: f64, q: u32) -> [Strip; 3] {
-        let l = cam.array_plane(self.half);
-        let t = cam.pixel_offset(q);
+    /// The three strips of a pixel at offset θ from the image centre of the lens centred
+    /// at c: aperture, microlens, pixel. The pixel strip |s' − s| ≤ μ/2 with
+    /// s' = α x − (v/L) w + (v/f) c and s = c (1 + v/L) + θ reads
+    /// α a u + (α b − v/L) w ∈ α c + θ ± μ/2, since s − (v/f) c = c (1 + v/L − v/f) + θ
+    /// (the exact form, no cancellation).
+    pub fn strips(&self, c: f64, theta: f64) -> [Strip; 3] {
         let h = self.half_aperture;
-        let mid = self.alpha * c + t;
+        let mid = self.alpha * c + theta;
         [
             Strip {
                 n: [0.0, 1.0],
@@ -222,21 +229,21 @@ impl HalfRays {
             },
             Strip {
                 n: [self.a, self.b],
-                lo: c - cam.d / 2.0,
-                hi: c + cam.d / 2.0,
+                lo: c - self.d / 2.0,
+                hi: c + self.d / 2.0,
             },
             Strip {
-                n: [self.alpha * self.a, self.alpha * self.b - cam.v / l],
-                lo: mid - cam.mu / 2.0,
-                hi: mid + cam.mu / 2.0,
+                n: [self.alpha * self.a, self.alpha * self.b - self.v_l],
+                lo: mid - self.mu / 2.0,
+                hi: mid + self.mu / 2.0,
             },
         ]
     }
 
-    /// Integration polygon of pixel q under the microlens centred at c: the parallelogram
-    /// aperture strip × microlens strip, clipped by the pixel strip.
-    pub fn polygon(&self, cam: &Camera, c: f64, q: u32) -> Polygon {
-        let [_, lens, pixel] = self.strips(cam, c, q);
+    /// Integration polygon of the pixel at offset θ under the lens centred at c: the
+    /// parallelogram aperture strip × microlens strip, clipped by the pixel strip.
+    pub fn polygon(&self, c: f64, theta: f64) -> Polygon {
+        let [_, lens, pixel] = self.strips(c, theta);
         let h = self.half_aperture;
         // u = (x − b w)/a at w = ∓D/2, x = c ∓ d/2: bottom-left, bottom-right, top-right,
         // top-left (a > 0, so counter-clockwise).
@@ -255,11 +262,60 @@ impl HalfRays {
         finish(&b2[..n2])
     }
 
+    /// Chief ray (u, w) through the lens centre (x = c) at main-lens height w.
+    pub fn chief(&self, c: f64, w: f64) -> [f64; 2] {
+        [(c - self.b * w) / self.a, w]
+    }
+}
+
+/// The ray-space geometry of one half of the camera ([`Rays`] of its line).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HalfRays {
+    pub half: Half,
+    pub a: f64,
+    pub b: f64,
+    pub alpha: f64,
+    pub half_aperture: f64,
+}
+
+impl HalfRays {
+    pub fn new(cam: &Camera, half: Half) -> HalfRays {
+        let r = Rays::new(&Line::of_half(cam, half, Axis::X), 0);
+        HalfRays {
+            half,
+            a: r.a,
+            b: r.b,
+            alpha: r.alpha,
+            half_aperture: r.half_aperture,
+        }
+    }
+
+    fn rays(&self, cam: &Camera) -> Rays {
+        Rays {
+            a: self.a,
+            b: self.b,
+            alpha: self.alpha,
+            half_aperture: self.half_aperture,
+            d: cam.d,
+            mu: cam.mu,
+            v_l: cam.v / cam.array_plane(self.half),
+        }
+    }
+
+    /// The three strips of pixel q under the microlens centred at c ([`Rays::strips`]).
+    pub fn strips(&self, cam: &Camera, c: f64, q: u32) -> [Strip; 3] {
+        self.rays(cam).strips(c, cam.pixel_offset(q))
+    }
+
+    /// Integration polygon of pixel q under the microlens centred at c ([`Rays::polygon`]).
+    pub fn polygon(&self, cam: &Camera, c: f64, q: u32) -> Polygon {
+        self.rays(cam).polygon(c, cam.pixel_offset(q))
+    }
+
     /// Chief ray (u, w) of pixel q under the microlens centred at c: through the microlens
     /// centre (x = c) at w = w_q (`Camera::chief_w`).
     pub fn chief(&self, cam: &Camera, c: f64, q: u32) -> [f64; 2] {
-        let w = cam.chief_w(self.half, q);
-        [(c - self.b * w) / self.a, w]
+        self.rays(cam).chief(c, cam.chief_w(self.half, q))
     }
 }
 
@@ -278,28 +334,38 @@ pub fn drop_residue(polygons: &mut [Polygon]) {
     }
 }
 
-/// Every pixel of one half along one axis, microlens-major (index j Q + q).
+/// Every pixel of one half (or channel) along one axis: microlens-major (index j Q + q) for
+/// the ideal layout, sensor order (index m) for the sensor layout.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Trace {
-    pub half: Half,
+    /// The channel's index from 0 (half 1 is 0).
+    pub channel: usize,
     pub axis: Axis,
     /// Polygons, each padded with NaN rows to 6 vertices.
     pub polygons: Vec<Polygon>,
     pub area: Vec<f64>,
     pub centroid: Vec<[f64; 2]>,
     pub lens: Vec<u32>,
+    /// Pixel index under its lens, q (ideal layout), or on the sensor, m (sensor layout).
     pub pixel: Vec<u32>,
+    /// Offset θ of the pixel centre from its lens's image centre c (1 + v/L).
+    pub theta: Vec<f64>,
+    /// Lens type of the pixel's lens (j mod T).
+    pub types: Vec<u32>,
     pub chief: Vec<[f64; 2]>,
-    /// The chief ray passes the main-lens aperture (docs/model.md §6, `Camera::is_lit`).
+    /// The chief ray passes the main-lens aperture (docs/model.md §6, `Camera::is_lit`;
+    /// sensor layout: and the pixel centre lies in its lens's image cell).
     pub lit: Vec<bool>,
 }
 
-/// Bytes per traced pixel (polygon, area, centroid, indices, chief, lit) plus slack.
+/// Bytes per traced pixel (polygon, area, centroid, indices, offset, type, chief, lit):
+/// 165, rounded up.
 pub const TRACE_BYTES_PER_PIXEL: u128 = 8 * (12 + 1 + 2 + 2 + 2) + 8 + 8;
 
 /// Bytes of the arrays a caller builds from a trace, per pixel: vertices (12 f64), vertex
-/// count, lens and pixel (as i64), area, centroid and chief ray (5 f64) and lit (1 byte).
-pub const TRACE_OUTPUT_BYTES_PER_PIXEL: u128 = 8 * (12 + 3 + 5) + 1;
+/// count, lens, pixel and type (as i64), area, θ, centroid and chief ray (6 f64) and lit (1
+/// byte).
+pub const TRACE_OUTPUT_BYTES_PER_PIXEL: u128 = 8 * (12 + 4 + 6) + 1;
 
 /// Bytes a top-level trace of n pixels holds at its peak: the trace and the arrays built
 /// from it.
@@ -307,18 +373,18 @@ pub fn trace_call_bytes(n: u128) -> u128 {
     n.saturating_mul(TRACE_BYTES_PER_PIXEL + TRACE_OUTPUT_BYTES_PER_PIXEL)
 }
 
-/// Pixels of one half along `axis` (K Q).
-fn pixels(cam: &Camera, axis: Axis) -> u128 {
-    cam.lenses(axis) as u128 * cam.q as u128
-}
-
 /// Trace every pixel of `half` along `axis`: its integration polygon, area, centroid,
 /// chief ray and lit flag (docs/model.md §3–4, §6). Parallel over pixels on the current
 /// rayon pool (callers run it inside their pool); the buffers are allocated fallibly.
 pub fn trace(cam: &Camera, half: Half, axis: Axis) -> Result<Trace> {
-    let mut tr = alloc_trace(cam, half, axis)?;
+    trace_line(&Line::of_half(cam, half, axis))
+}
+
+/// [`trace`] of any line (a camera half or a design channel along one axis).
+pub fn trace_line(line: &Line) -> Result<Trace> {
+    let mut tr = alloc_trace(line)?;
     let n = tr.polygons.len();
-    fill_trace(cam, &mut tr, 0..n);
+    fill_trace(line, &mut tr, 0..n);
     drop_trace_residue(&mut tr);
     Ok(tr)
 }
@@ -332,11 +398,16 @@ pub fn trace_threads(
     axis: Axis,
     n_threads: Option<usize>,
 ) -> Result<Trace> {
+    trace_line_threads(&Line::of_half(cam, half, axis), n_threads)
+}
+
+/// [`trace_threads`] of any line.
+pub fn trace_line_threads(line: &Line, n_threads: Option<usize>) -> Result<Trace> {
     check_threads(n_threads)?;
-    let mut tr = alloc_trace(cam, half, axis)?;
+    let mut tr = alloc_trace(line)?;
     let n = tr.polygons.len();
     for_chunks(n_threads, n, chunk_items(n_threads, 64), |r| {
-        fill_trace(cam, &mut tr, r);
+        fill_trace(line, &mut tr, r);
         Ok(())
     })?;
     drop_trace_residue(&mut tr);
@@ -344,19 +415,21 @@ pub fn trace_threads(
 }
 
 /// A trace's buffers, checked against the memory available and allocated fallibly.
-fn alloc_trace(cam: &Camera, half: Half, axis: Axis) -> Result<Trace> {
-    let n = pixels(cam, axis);
+fn alloc_trace(line: &Line) -> Result<Trace> {
+    let n = line.pixel_count();
     memory::check("trace of one axis", n * TRACE_BYTES_PER_PIXEL)?;
     let n = n as usize;
     let what = "trace of one axis";
     Ok(Trace {
-        half,
-        axis,
+        channel: line.index,
+        axis: line.axis,
         polygons: try_vec(what, n, Polygon::EMPTY)?,
         area: try_vec(what, n, 0.0)?,
         centroid: try_vec(what, n, [0.0; 2])?,
         lens: try_vec(what, n, 0)?,
         pixel: try_vec(what, n, 0)?,
+        theta: try_vec(what, n, 0.0)?,
+        types: try_vec(what, n, 0)?,
         chief: try_vec(what, n, [0.0; 2])?,
         lit: try_vec(what, n, false)?,
     })
@@ -379,12 +452,10 @@ fn drop_trace_residue(tr: &mut Trace) {
     }
 }
 
-/// Trace pixels `r` (indices j Q + q) into `tr`, in parallel.
-fn fill_trace(cam: &Camera, tr: &mut Trace, r: std::ops::Range<usize>) {
-    let (half, k, q_count) = (tr.half, cam.lenses(tr.axis), cam.q as usize);
-    let rays = HalfRays::new(cam, half);
-    let lens_of = |i: usize| (i / q_count) as u32;
-    let pixel_of = |i: usize| (i % q_count) as u32;
+/// Trace pixels `r` of `line` into `tr`, in parallel.
+fn fill_trace(line: &Line, tr: &mut Trace, r: std::ops::Range<usize>) {
+    let rays: Vec<Rays> = (0..line.types()).map(|t| Rays::new(line, t)).collect();
+    let q_count = line.q();
     let start = r.start;
     tr.polygons[r.clone()]
         .par_iter_mut()
@@ -392,20 +463,27 @@ fn fill_trace(cam: &Camera, tr: &mut Trace, r: std::ops::Range<usize>) {
         .zip(tr.centroid[r.clone()].par_iter_mut())
         .zip(tr.lens[r.clone()].par_iter_mut())
         .zip(tr.pixel[r.clone()].par_iter_mut())
+        .zip(tr.theta[r.clone()].par_iter_mut())
+        .zip(tr.types[r.clone()].par_iter_mut())
         .zip(tr.chief[r.clone()].par_iter_mut())
         .zip(tr.lit[r].par_iter_mut())
         .with_min_len(1024)
         .enumerate()
-        .for_each(|(o, ((((((p, a), cen), l), q), ch), lit))| {
-            let i = start + o;
-            let c = cam.lens_center(lens_of(i), k);
-            *p = rays.polygon(cam, c, pixel_of(i));
+        .for_each(|(o, ((((((((p, a), cen), l), q), th), ty), ch), lit))| {
+            let i = (start + o) as u32;
+            let px = line.pixel(i);
+            let c = line.lens_center(px.j);
+            let t = line.lens_type(px.j);
+            let rays = &rays[t];
+            *p = rays.polygon(c, px.theta);
             *a = p.area();
             *cen = p.centroid();
-            *l = lens_of(i);
-            *q = pixel_of(i);
-            *ch = rays.chief(cam, c, pixel_of(i));
-            *lit = cam.is_lit(half, pixel_of(i));
+            *l = px.j;
+            *q = q_count.map_or(i, |qc| i % qc);
+            *th = px.theta;
+            *ty = t as u32;
+            *ch = rays.chief(c, line.chief_w(px.theta));
+            *lit = px.lit;
         });
 }
 
@@ -515,9 +593,19 @@ pub fn check_footprints(
     kernel: bool,
     n_threads: Option<usize>,
 ) -> Result<(usize, usize)> {
+    check_footprints_line(&Line::of_half(cam, Half::One, axis), z, kernel, n_threads)
+}
+
+/// [`check_footprints`] of any line.
+pub fn check_footprints_line(
+    line: &Line,
+    z: &[f64],
+    kernel: bool,
+    n_threads: Option<usize>,
+) -> Result<(usize, usize)> {
     check_threads(n_threads)?;
-    check_depths(cam, z)?;
-    let n = pixels(cam, axis);
+    check_design_depths(line.f_main, z)?;
+    let n = line.pixel_count();
     let m = z.len() as u128;
     memory::check("footprints", footprints_bytes(m, n, kernel))?;
     Ok((m as usize, n as usize))
@@ -535,7 +623,24 @@ pub fn footprints(
     kernel: bool,
     n_threads: Option<usize>,
 ) -> Result<Footprints> {
-    let (m, n) = check_footprints(cam, z, axis, kernel, n_threads)?;
+    footprints_line(
+        &Line::of_half(cam, half, axis),
+        z,
+        sample,
+        kernel,
+        n_threads,
+    )
+}
+
+/// [`footprints`] of any line.
+pub fn footprints_line(
+    line: &Line,
+    z: &[f64],
+    sample: Sample,
+    kernel: bool,
+    n_threads: Option<usize>,
+) -> Result<Footprints> {
+    let (m, n) = check_footprints_line(line, z, kernel, n_threads)?;
     let what = "footprints";
     let mut position = try_vec(what, m * n, 0.0)?;
     let mut lo = try_vec(what, m * n, 0.0)?;
@@ -548,7 +653,7 @@ pub fn footprints(
         hi: &mut hi,
         kernel: kernel.then_some((&mut kb[..], &mut kv[..])),
     };
-    footprints_into(cam, z, half, axis, sample, out, n_threads)?;
+    footprints_line_into(line, z, sample, out, n_threads)?;
     Ok(Footprints {
         m,
         n,
@@ -571,7 +676,19 @@ pub fn footprints_into(
     out: FootprintsOut<'_>,
     n_threads: Option<usize>,
 ) -> Result<()> {
-    let (m, n) = check_footprints(cam, z, axis, out.kernel.is_some(), n_threads)?;
+    let line = Line::of_half(cam, half, axis);
+    footprints_line_into(&line, z, sample, out, n_threads)
+}
+
+/// [`footprints_into`] of any line.
+pub fn footprints_line_into(
+    line: &Line,
+    z: &[f64],
+    sample: Sample,
+    out: FootprintsOut<'_>,
+    n_threads: Option<usize>,
+) -> Result<()> {
+    let (m, n) = check_footprints_line(line, z, out.kernel.is_some(), n_threads)?;
     let lens = [out.position.len(), out.lo.len(), out.hi.len()];
     if lens.iter().any(|&l| l != m * n) {
         return Err(Error::param(
@@ -593,11 +710,10 @@ pub fn footprints_into(
         return Ok(());
     }
     let work = with_threads(n_threads, || -> Result<_> {
-        let tr = trace(cam, half, axis)?;
+        let tr = trace_line(line)?;
         let pre = prepare(&tr, sample)?;
-        let k_lenses = cam.lenses(axis);
         let mut centres = try_with_capacity("footprints (lens centres)", n)?;
-        centres.extend(tr.lens.iter().map(|&j| cam.lens_center(j, k_lenses)));
+        centres.extend(tr.lens.iter().map(|&j| line.lens_center(j)));
         Ok((tr, pre, centres))
     })??;
     let px = PixelSet {
@@ -623,7 +739,7 @@ pub fn footprints_into(
                 (&mut b[w.clone()], &mut v[w])
             }),
         };
-        footprint_rows(cam, &z[r], &px, sample, rows);
+        footprint_rows(line, &z[r], &px, sample, rows);
         Ok(())
     })
 }
@@ -639,7 +755,7 @@ struct PixelSet<'a> {
 /// Footprints at the depths `z` into rows of the same count, in parallel over tasks of
 /// [`rows_per_task`] depths.
 fn footprint_rows(
-    cam: &Camera,
+    line: &Line,
     z: &[f64],
     px: &PixelSet<'_>,
     sample: Sample,
@@ -655,9 +771,9 @@ fn footprint_rows(
         .for_each(|(((pos, lo), hi), zs)| {
             for (r, &zk) in zs.iter().enumerate() {
                 let span = r * n..(r + 1) * n;
-                let zc = conjugate(cam.f_main, zk);
+                let zc = conjugate(line.f_main, zk);
                 // X = −p' z / v' (negative: lo comes from the largest p').
-                let (sigma, scale) = (slope(cam, zc), -zk / cam.v1);
+                let (sigma, scale) = (line.slope(zc), -zk / line.v_ref);
                 extent_row(
                     px.pre,
                     sigma,
@@ -665,16 +781,16 @@ fn footprint_rows(
                     &mut lo[span.clone()],
                     &mut hi[span.clone()],
                 );
-                position_row(cam, px, sample, zk, zc, &mut pos[span]);
+                position_row(line, px, sample, zk, zc, &mut pos[span]);
             }
         });
     if let Some((br, va)) = out.kernel {
-        kernel_rows(cam, z, px.tr, br, va);
+        kernel_rows(line, z, px.tr, br, va);
     }
 }
 
 /// Weight profiles of every pixel at the depths `z` (rows of n × 6 breakpoints and values).
-fn kernel_rows(cam: &Camera, z: &[f64], tr: &Trace, br: &mut [f64], va: &mut [f64]) {
+fn kernel_rows(line: &Line, z: &[f64], tr: &Trace, br: &mut [f64], va: &mut [f64]) {
     let n = tr.polygons.len();
     let rows = rows_per_task(n);
     let w = n * MAX_VERTICES;
@@ -683,8 +799,8 @@ fn kernel_rows(cam: &Camera, z: &[f64], tr: &Trace, br: &mut [f64], va: &mut [f6
         .zip(z.par_chunks(rows))
         .for_each(|((br, va), zs)| {
             for (r, &zk) in zs.iter().enumerate() {
-                let sigma = slope(cam, conjugate(cam.f_main, zk));
-                let scale = -zk / cam.v1;
+                let sigma = line.slope(conjugate(line.f_main, zk));
+                let scale = -zk / line.v_ref;
                 for (i, p) in tr.polygons.iter().enumerate() {
                     let o = (r * n + i) * MAX_VERTICES;
                     let (b, v) = weight_profile(p, sigma);
@@ -755,20 +871,20 @@ fn extent_row(pre: &Prepared, sigma: f64, scale: f64, lo: &mut [f64], hi: &mut [
 
 /// Sample positions of all n pixels at one depth z (conjugate zc).
 #[inline]
-fn position_row(cam: &Camera, px: &PixelSet<'_>, sample: Sample, z: f64, zc: f64, pos: &mut [f64]) {
+fn position_row(line: &Line, px: &PixelSet<'_>, sample: Sample, z: f64, zc: f64, pos: &mut [f64]) {
     let pre = px.pre;
     match sample {
         Sample::Centroid => {
-            let (sigma, scale) = (slope(cam, zc), -z / cam.v1);
+            let (sigma, scale) = (line.slope(zc), -z / line.v_ref);
             for ((o, &u), &w) in pos.iter_mut().zip(&pre.su).zip(&pre.sw) {
                 *o = (u + sigma * w) * scale;
             }
         }
         Sample::Chief => {
             for (i, o) in pos.iter_mut().enumerate().take(pre.n) {
-                let p = cam.chief_projection(px.tr.half, px.centres[i], px.tr.pixel[i], zc);
+                let p = line.chief_projection(px.centres[i], px.tr.chief[i][1], zc);
                 // su is 0 for lit pixels and NaN for unlit ones.
-                *o = cam.object_position(p, z) + pre.su[i];
+                *o = line.object_position(p, z) + pre.su[i];
             }
         }
     }
@@ -824,48 +940,47 @@ pub fn weight_profile(p: &Polygon, sigma: f64) -> ([f64; MAX_VERTICES], [f64; MA
     (br, va)
 }
 
-/// Per-axis sample positions of one half on the plane at depth z: object-space position
+/// Per-axis sample positions of one line on the plane at depth z: object-space position
 /// of every pixel along the axis (NaN where it yields no sample).
-fn axis_samples(cam: &Camera, half: Half, axis: Axis, sample: Sample, z: f64) -> Result<Vec<f64>> {
-    let k = cam.lenses(axis);
-    let zc = conjugate(cam.f_main, z);
-    let rays = HalfRays::new(cam, half);
-    let sigma = slope(cam, zc);
-    let n = k as usize * cam.q as usize;
+fn axis_samples(line: &Line, sample: Sample, z: f64) -> Result<Vec<f64>> {
+    let zc = conjugate(line.f_main, z);
+    let sigma = line.slope(zc);
+    let n = line.pixel_count() as usize;
     let what = "sample_grid (per-axis samples)";
     let mut polygons = Vec::new();
     if sample == Sample::Centroid {
+        let rays: Vec<Rays> = (0..line.types()).map(|t| Rays::new(line, t)).collect();
         polygons = try_with_capacity(what, n)?;
-        for j in 0..k {
-            let c = cam.lens_center(j, k);
-            polygons.extend((0..cam.q).map(|q| rays.polygon(cam, c, q)));
-        }
+        polygons.extend((0..n as u32).map(|i| {
+            let px = line.pixel(i);
+            rays[line.lens_type(px.j)].polygon(line.lens_center(px.j), px.theta)
+        }));
         drop_residue(&mut polygons);
     }
     let mut out = try_with_capacity(what, n)?;
-    for j in 0..k {
-        let c = cam.lens_center(j, k);
-        for q in 0..cam.q {
-            let x = match sample {
-                Sample::Chief if cam.is_lit(half, q) => {
-                    cam.object_position(cam.chief_projection(half, c, q, zc), z)
-                }
-                Sample::Chief => f64::NAN,
-                Sample::Centroid => {
-                    let [u, w] = polygons[j as usize * cam.q as usize + q as usize].centroid();
-                    (u + sigma * w) * (-z / cam.v1)
-                }
-            };
-            out.push(x);
-        }
+    for i in 0..n as u32 {
+        let px = line.pixel(i);
+        let x = match sample {
+            Sample::Chief if px.lit => {
+                let w = line.chief_w(px.theta);
+                let p = line.chief_projection(line.lens_center(px.j), w, zc);
+                line.object_position(p, z)
+            }
+            Sample::Chief => f64::NAN,
+            Sample::Centroid => {
+                let [u, w] = polygons[i as usize].centroid();
+                (u + sigma * w) * (-z / line.v_ref)
+            }
+        };
+        out.push(x);
     }
     Ok(out)
 }
 
 /// Bytes a sample_grid call holds: the two (Ky Q, Kx Q) outputs and the per-axis samples.
 pub fn sample_grid_bytes(cam: &Camera) -> u128 {
-    let cols = pixels(cam, Axis::X);
-    let rows = pixels(cam, Axis::Y);
+    let cols = cam.kx as u128 * cam.q as u128;
+    let rows = cam.ky as u128 * cam.q as u128;
     (2 * 8 * rows)
         .saturating_mul(cols)
         .saturating_add(8 * (rows + cols))
@@ -877,7 +992,8 @@ pub fn check_sample_grid(cam: &Camera, z: f64, n_threads: Option<usize>) -> Resu
     check_threads(n_threads)?;
     check_depths(cam, &[z])?;
     memory::check("sample_grid (two outputs)", sample_grid_bytes(cam))?;
-    Ok((pixels(cam, Axis::Y) as usize, pixels(cam, Axis::X) as usize))
+    let q = cam.q as usize;
+    Ok((cam.ky as usize * q, cam.kx as usize * q))
 }
 
 /// The full 2D sensor of one half on the plane at depth z: (X, Y), each (Ky Q, Kx Q)
@@ -921,21 +1037,50 @@ pub fn sample_grid_into(
             ),
         ));
     }
+    let (lx, ly) = (
+        Line::of_half(cam, half, Axis::X),
+        Line::of_half(cam, half, Axis::Y),
+    );
+    grid_into(&lx, &ly, None, z, sample, gx, gy, n_threads)
+}
+
+/// The 2-D grid of a pair of lines: X from the column's line, Y from the row's, NaN where
+/// either axis yields no sample; with `disc` = Some(D/2) (a circular aperture, chief
+/// samples) also NaN where the chief ray's (w_x, w_y) is not strictly inside the disc.
+#[allow(clippy::too_many_arguments)]
+fn grid_into(
+    lx: &Line,
+    ly: &Line,
+    disc: Option<f64>,
+    z: f64,
+    sample: Sample,
+    gx: &mut [f64],
+    gy: &mut [f64],
+    n_threads: Option<usize>,
+) -> Result<()> {
+    let (rows, cols) = (ly.pixel_count() as usize, lx.pixel_count() as usize);
     let (xs, ys) = with_threads(n_threads, || -> Result<_> {
-        Ok((
-            axis_samples(cam, half, Axis::X, sample, z)?,
-            axis_samples(cam, half, Axis::Y, sample, z)?,
-        ))
+        Ok((axis_samples(lx, sample, z)?, axis_samples(ly, sample, z)?))
     })??;
+    let chief_w = |line: &Line, n: usize| -> Result<Vec<f64>> {
+        let mut w = try_with_capacity("sample_grid (chief heights)", n)?;
+        if disc.is_some() {
+            w.extend((0..n as u32).map(|i| line.chief_w(line.pixel(i).theta)));
+        }
+        Ok(w)
+    };
+    let (wx, wy) = (chief_w(lx, cols)?, chief_w(ly, rows)?);
     let per = rows_per_task(cols);
     let step = chunk_items(n_threads, 2 * cols as u128);
     for_chunks(n_threads, rows, step, |r| {
         let span = r.start * cols..r.end * cols;
+        let first = r.start;
         gx[span.clone()]
             .par_chunks_mut(per * cols)
             .zip(gy[span].par_chunks_mut(per * cols))
             .zip(ys[r].par_chunks(per))
-            .for_each(|((gx, gy), yr)| {
+            .enumerate()
+            .for_each(|(task, ((gx, gy), yr))| {
                 for (r, &y) in yr.iter().enumerate() {
                     let rx = &mut gx[r * cols..(r + 1) * cols];
                     let ry = &mut gy[r * cols..(r + 1) * cols];
@@ -948,11 +1093,76 @@ pub fn sample_grid_into(
                             // y + 0·x is y where x is a sample, NaN where it is not.
                             *oy = y + 0.0 * x;
                         }
+                        if let Some(rad) = disc {
+                            let w2 = wy[first + task * per + r];
+                            for ((ox, oy), &w1) in rx.iter_mut().zip(ry.iter_mut()).zip(&wx) {
+                                if w1 * w1 + w2 * w2 >= rad * rad {
+                                    *ox = f64::NAN;
+                                    *oy = f64::NAN;
+                                }
+                            }
+                        }
                     }
                 }
             });
         Ok(())
     })
+}
+
+/// Validate a design's sample_grid call before anything is allocated: threads, the depth,
+/// a rect channel, the aperture (centroid samples need the square aperture: only then is a
+/// pixel's 4-D region the product of its two 1-D polygons) and the memory. Returns the
+/// channel's lines along x and y.
+pub fn check_design_sample_grid(
+    design: &Design,
+    channel: i64,
+    z: f64,
+    sample: Sample,
+    n_threads: Option<usize>,
+) -> Result<(Line, Line)> {
+    check_threads(n_threads)?;
+    check_design_depths(design.f_main, &[z])?;
+    let lx = Line::of_channel(design, channel, Axis::X)?;
+    let ly = Line::of_channel(design, channel, Axis::Y)?;
+    if sample == Sample::Centroid && design.shape == Aperture::Circle {
+        return Err(Error::param(
+            "aperture",
+            "\"circle\"",
+            "\"square\" for sample=\"centroid\" (behind a circular aperture a pixel's \
+             region in 4-D ray space is not the product of its x and y polygons; use \
+             sample=\"chief\")",
+        ));
+    }
+    let (rows, cols) = (ly.pixel_count(), lx.pixel_count());
+    let bytes = (2 * 8 * rows)
+        .saturating_mul(cols)
+        .saturating_add(16 * (rows + cols));
+    memory::check("sample_grid (two outputs)", bytes)?;
+    Ok((lx, ly))
+}
+
+/// [`sample_grid_into`] of channel `channel` (from 1) of a design (rect grids): rows the
+/// channel's pixel rows along y, columns along x ((K_y Q, K_x Q) or (M_y, M_x)).
+pub fn design_sample_grid_into(
+    design: &Design,
+    channel: i64,
+    z: f64,
+    sample: Sample,
+    gx: &mut [f64],
+    gy: &mut [f64],
+    n_threads: Option<usize>,
+) -> Result<()> {
+    let (lx, ly) = check_design_sample_grid(design, channel, z, sample, n_threads)?;
+    let n = (ly.pixel_count() * lx.pixel_count()) as usize;
+    if gx.len() != n || gy.len() != n {
+        return Err(Error::param(
+            "output length",
+            format!("{:?}", (gx.len(), gy.len())),
+            format!("{n}"),
+        ));
+    }
+    let disc = (design.shape == Aperture::Circle).then_some(design.aperture / 2.0);
+    grid_into(&lx, &ly, disc, z, sample, gx, gy, n_threads)
 }
 
 #[cfg(test)]

@@ -18,11 +18,13 @@
 use rayon::prelude::*;
 
 use crate::camera::{Axis, Camera, Half};
+use crate::design::Design;
 use crate::error::{Error, Result};
+use crate::line::{check_coincidence_channel, Line};
 use crate::memory::{self, try_reserve, try_vec};
-use crate::optics::{check_depths, conjugate, depth_of_conjugate, main_blur, repetitions};
+use crate::optics::{check_depths, check_design_depths, conjugate, depth_of_conjugate, LensOptics};
 use crate::parallel::{chunk_items, for_chunks, threads, with_threads};
-use crate::rayspace::{slope, trace, Sample, TRACE_BYTES_PER_PIXEL};
+use crate::rayspace::{slope, trace, trace_line, Sample, TRACE_BYTES_PER_PIXEL};
 
 /// Largest number of pixels along one axis of one half (K · Q) the brute-force count
 /// accepts (a cap on the work per depth; the memory a call needs is estimated separately,
@@ -97,13 +99,75 @@ fn check_size(cam: &Camera) -> Result<()> {
     Ok(())
 }
 
-/// Per-half, per-axis constants: lens centres c_j and lit pixel indices.
+/// The chief-sample generator of one line (a camera half or a design channel along one
+/// axis): its lens centres and lit pixels, and the constants of p' = (v_ref/L)(c + w g),
+/// g = (L − z')/z' (docs/model.md §5).
+#[derive(Debug, Clone)]
+struct LineSamples {
+    l: f64,
+    /// v_ref / L.
+    scale: f64,
+    /// v_ref / v · μ: the step of p' between neighbouring ideal pixels is this times −g.
+    pixel_scale: f64,
+    /// Step between neighbouring lenses in p', (v_ref/L) d.
+    lens_step: f64,
+    /// c_j, j = 0..K.
+    centers: Vec<f64>,
+    pixels: LitPixels,
+}
+
+/// The lit pixels of a line.
+#[derive(Debug, Clone)]
+enum LitPixels {
+    /// Ideal layout: the chief heights w_q of the lit pixels, the same under every lens,
+    /// in order of increasing q.
+    Same(Vec<f64>),
+    /// Sensor layout: (c_j, w) of every lit pixel, in sensor order.
+    Each(Vec<(f64, f64)>),
+}
+
+impl LineSamples {
+    fn new(line: &Line) -> LineSamples {
+        let centers = (0..line.k).map(|j| line.lens_center(j)).collect();
+        let pixels = match line.q() {
+            Some(q) => LitPixels::Same(
+                (0..q)
+                    .map(|i| line.chief_w(line.ideal_offset(i, q)))
+                    .filter(|&w| line.passes(w))
+                    .collect(),
+            ),
+            None => LitPixels::Each(
+                (0..line.pixel_count() as u32)
+                    .map(|i| line.pixel(i))
+                    .filter(|p| p.lit)
+                    .map(|p| (line.lens_center(p.j), line.chief_w(p.theta)))
+                    .collect(),
+            ),
+        };
+        LineSamples {
+            l: line.l,
+            scale: line.v_ref / line.l,
+            pixel_scale: (line.v_ref / line.v) * line.mu,
+            lens_step: line.v_ref / line.l * line.d,
+            centers,
+            pixels,
+        }
+    }
+
+    /// Lit pixels along the line (K Q_lit for the ideal layout).
+    fn lit(&self) -> usize {
+        match &self.pixels {
+            LitPixels::Same(w) => self.centers.len() * w.len(),
+            LitPixels::Each(p) => p.len(),
+        }
+    }
+}
+
+/// Per-half, per-axis generators of the camera, and its lit pixel indices.
 #[derive(Debug, Clone)]
 struct Layout {
-    /// c_j, j = 0..K (x axis).
-    cx: Vec<f64>,
-    /// c_j, j = 0..K (y axis).
-    cy: Vec<f64>,
+    /// [half][axis: 0 x, 1 y].
+    lines: [[LineSamples; 2]; 2],
     /// Lit pixel indices of half 1 and half 2.
     lit: [Vec<u32>; 2],
     /// The y lens centres are x lens centres, bit for bit (K_y ≤ K_x, K_x − K_y even:
@@ -114,19 +178,19 @@ struct Layout {
 
 impl Layout {
     fn new(cam: &Camera) -> Layout {
+        let of = |h: Half| [Axis::X, Axis::Y].map(|a| LineSamples::new(&Line::of_half(cam, h, a)));
         Layout {
-            cx: (0..cam.kx).map(|j| cam.lens_center(j, cam.kx)).collect(),
-            cy: (0..cam.ky).map(|j| cam.lens_center(j, cam.ky)).collect(),
+            lines: [of(Half::One), of(Half::Two)],
             lit: Half::BOTH.map(|h| lit_indices(cam, h)),
             y_within_x: cam.ky <= cam.kx && (cam.kx - cam.ky) % 2 == 0,
         }
     }
 
-    fn centers(&self, axis: Axis) -> &[f64] {
-        match axis {
-            Axis::X => &self.cx,
-            Axis::Y => &self.cy,
-        }
+    fn line(&self, half: Half, axis: Axis) -> &LineSamples {
+        &self.lines[half.index()][match axis {
+            Axis::X => 0,
+            Axis::Y => 1,
+        }]
     }
 }
 
@@ -280,10 +344,9 @@ fn insertion_fixup(x: &mut [f64]) {
 }
 
 /// Sorted chief samples p' (docs/model.md §5) of every lit pixel of `half` along `axis` on the plane
-/// with conjugate `zc`. Values are bit-identical to [`Camera::chief_projection`]:
-/// p' = (v'/L)·(c_j + t_q) with t_q = w_q (L − z')/z' evaluated in the same order.
+/// with conjugate `zc` ([`line_samples`] of the half's line).
 fn half_samples(
-    cam: &Camera,
+    _cam: &Camera,
     layout: &Layout,
     half: Half,
     axis: Axis,
@@ -291,23 +354,40 @@ fn half_samples(
     out: &mut Vec<f64>,
     work: &mut Work,
 ) {
-    let l = cam.array_plane(half);
-    let c = layout.centers(axis);
-    let lit = &layout.lit[half.index()];
-    let scale = cam.v1 / l;
+    line_samples(layout.line(half, axis), zc, out, work);
+}
+
+/// Sorted chief samples p' of every lit pixel of a line on the plane with conjugate `zc`.
+/// Values are bit-identical to [`Line::chief_projection`] (and so to
+/// [`Camera::chief_projection`]): p' = (v_ref/L)·(c_j + t) with t = w (L − z')/z'
+/// evaluated in the same order.
+fn line_samples(ls: &LineSamples, zc: f64, out: &mut Vec<f64>, work: &mut Work) {
+    let l = ls.l;
+    let scale = ls.scale;
+    let ws = match &ls.pixels {
+        LitPixels::Same(w) => w,
+        LitPixels::Each(p) => {
+            // Every lens has its own offsets: no common lattice, a plain sort.
+            out.clear();
+            out.extend(p.iter().map(|&(c, w)| scale * (c + w * (l - zc) / zc)));
+            out.sort_unstable_by(f64::total_cmp);
+            return;
+        }
+    };
+    let c = &ls.centers;
     // Step between neighbouring lenses (a) and neighbouring lit pixels (|Δ|), in p'.
-    let a = scale * cam.d;
+    let a = ls.lens_step;
     let g = (l - zc) / zc;
-    let dq = -(cam.v1 / cam.v) * cam.mu * g; // p'(q + 1) − p'(q)
+    let dq = -ls.pixel_scale * g; // p'(q + 1) − p'(q)
     let b = dq.abs();
     // Pixel terms in order of increasing p' (q ascending when Δ ≥ 0, else descending).
     let mut t = std::mem::take(&mut work.t);
     t.clear();
-    let term = |&q: &u32| cam.chief_w(half, q) * (l - zc) / zc;
+    let term = |&w: &f64| w * (l - zc) / zc;
     if dq >= 0.0 {
-        t.extend(lit.iter().map(term));
+        t.extend(ws.iter().map(term));
     } else {
-        t.extend(lit.iter().rev().map(term));
+        t.extend(ws.iter().rev().map(term));
     }
     let (k, nl) = (c.len(), t.len());
     // Orientation: windows over lenses (inner = pixels) or over pixels (inner = lenses),
@@ -828,16 +908,85 @@ pub fn coincidence_planes(
     max_t: Option<i64>,
     n_threads: Option<usize>,
 ) -> Result<Vec<CoincidencePlane>> {
-    let (max_n, max_t) = check_pairs(cam, max_n, max_t)?;
+    let (max_n, max_t) = check_pairs(cam.q, max_n, max_t)?;
     check_size(cam)?;
-    let mut planes = enumerate_planes(cam, half, max_n, max_t)?;
-    check_coincidence_work(cam, half, planes.len(), max_n, max_t)?;
-    count_planes(cam, half, &mut planes, n_threads)?;
+    let pl = PlaneLines {
+        x: LineSamples::new(&Line::of_half(cam, half, Axis::X)),
+        y: LineSamples::new(&Line::of_half(cam, half, Axis::Y)),
+        kx: cam.kx,
+        ky: cam.ky,
+        q: cam.q,
+        eps: merge_eps(cam, COINCIDENCE_TOL),
+        optics: LensOptics::of_half(cam, half),
+    };
+    planes_of(&pl, max_n, max_t, n_threads)
+}
+
+/// [`coincidence_planes`] of channel `channel` (from 1) of a design: a rect grid, the
+/// ideal layout and a square aperture, where docs/model.md §6 holds (anything else is
+/// refused with the parameter named). The merge tolerance is [`COINCIDENCE_TOL`] δ(z),
+/// δ(z) = μ_1 z / L_1 (docs/model.md §9). Chief samples do not depend on the lens types.
+pub fn design_coincidence_planes(
+    design: &Design,
+    channel: i64,
+    max_n: i64,
+    max_t: Option<i64>,
+    n_threads: Option<usize>,
+) -> Result<Vec<CoincidencePlane>> {
+    let lx = Line::of_channel(design, channel, Axis::X)?;
+    check_coincidence_channel(design, channel)?;
+    let ly = Line::of_channel(design, channel, Axis::Y)?;
+    let q = lx.q().unwrap_or(1);
+    let (max_n, max_t) = check_pairs(q, max_n, max_t)?;
+    check_line_size(&[&lx, &ly])?;
+    let ch = design.channel(channel)?;
+    let pl = PlaneLines {
+        x: LineSamples::new(&lx),
+        y: LineSamples::new(&ly),
+        kx: ch.kx,
+        ky: ch.ky,
+        q,
+        eps: COINCIDENCE_TOL * design_step(design),
+        optics: LensOptics::of_channel(design, ch, 0),
+    };
+    planes_of(&pl, max_n, max_t, n_threads)
+}
+
+/// What the coincidence planes of one half or channel need: its two lines, K_x, K_y, Q,
+/// the merge tolerance in p' and its closed forms.
+struct PlaneLines {
+    x: LineSamples,
+    y: LineSamples,
+    kx: u32,
+    ky: u32,
+    q: u32,
+    eps: f64,
+    optics: LensOptics,
+}
+
+impl PlaneLines {
+    fn q_lit(&self) -> u64 {
+        match &self.x.pixels {
+            LitPixels::Same(w) => w.len() as u64,
+            LitPixels::Each(_) => 0,
+        }
+    }
+}
+
+fn planes_of(
+    pl: &PlaneLines,
+    max_n: u32,
+    max_t: u32,
+    n_threads: Option<usize>,
+) -> Result<Vec<CoincidencePlane>> {
+    let mut planes = enumerate_planes(pl, max_n, max_t)?;
+    check_coincidence_work(pl, planes.len(), max_n, max_t)?;
+    count_planes(pl, &mut planes, n_threads)?;
     Ok(planes)
 }
 
 /// Validate max_n and max_t (None: Q) and their product against [`MAX_PAIRS`].
-fn check_pairs(cam: &Camera, max_n: i64, max_t: Option<i64>) -> Result<(u32, u32)> {
+fn check_pairs(q: u32, max_n: i64, max_t: Option<i64>) -> Result<(u32, u32)> {
     if !(1..=MAX_PAIRS as i64).contains(&max_n) {
         return Err(Error::param(
             "max_n",
@@ -845,7 +994,7 @@ fn check_pairs(cam: &Camera, max_n: i64, max_t: Option<i64>) -> Result<(u32, u32
             format!("an integer in [1, {MAX_PAIRS}]"),
         ));
     }
-    let max_t = max_t.unwrap_or(cam.q as i64);
+    let max_t = max_t.unwrap_or(q as i64);
     if !(1..=MAX_PAIRS as i64).contains(&max_t) {
         return Err(Error::param(
             "max_t",
@@ -865,14 +1014,10 @@ fn check_pairs(cam: &Camera, max_n: i64, max_t: Option<i64>) -> Result<(u32, u32
 
 /// The planes of docs/model.md §6 with r = N d v / (T μ L_i), z' = L_i / (1 ± r), sorted by
 /// depth, with Eqs. 8–9 (Q_lit for Q) and `counted` still 0.
-fn enumerate_planes(
-    cam: &Camera,
-    half: Half,
-    max_n: u32,
-    max_t: u32,
-) -> Result<Vec<CoincidencePlane>> {
-    let l = cam.array_plane(half);
-    let q_lit = cam.lit_pixels(half) as u64;
+fn enumerate_planes(pl: &PlaneLines, max_n: u32, max_t: u32) -> Result<Vec<CoincidencePlane>> {
+    let o = &pl.optics;
+    let l = o.l;
+    let q_lit = pl.q_lit();
     let mut planes = Vec::new();
     try_reserve(
         &mut planes,
@@ -881,25 +1026,25 @@ fn enumerate_planes(
     )?;
     for n in 1..=max_n {
         for t in (1..=max_t).filter(|&t| gcd(n as u64, t as u64) == 1) {
-            let r = n as f64 * cam.d * cam.v / (t as f64 * cam.mu * l);
+            let r = n as f64 * o.d * o.v / (t as f64 * o.mu * l);
             let sides = [(Side::Far, l / (1.0 + r)), (Side::Near, l / (1.0 - r))];
             for (side, zc) in sides {
                 let valid = match side {
-                    Side::Far => zc > cam.f_main,
-                    Side::Near => 1.0 - r > 0.0 && zc > cam.f_main && zc.is_finite(),
+                    Side::Far => zc > o.f_main,
+                    Side::Near => 1.0 - r > 0.0 && zc > o.f_main && zc.is_finite(),
                 };
                 if !valid {
                     continue;
                 }
-                let nx = closed_form_new_samples(cam.kx as u64, q_lit, n as u64, t as u64);
-                let ny = closed_form_new_samples(cam.ky as u64, q_lit, n as u64, t as u64);
+                let nx = closed_form_new_samples(pl.kx as u64, q_lit, n as u64, t as u64);
+                let ny = closed_form_new_samples(pl.ky as u64, q_lit, n as u64, t as u64);
                 planes.push(CoincidencePlane {
                     n,
                     t,
                     side,
                     conjugate: zc,
-                    z: depth_of_conjugate(cam.f_main, zc),
-                    repetitions: repetitions(cam, main_blur(cam, half, zc)),
+                    z: depth_of_conjugate(o.f_main, zc),
+                    repetitions: o.repetitions(o.main_blur(zc)),
                     new_samples_x: nx,
                     new_samples_y: ny,
                     new_samples: nx * ny,
@@ -913,19 +1058,13 @@ fn enumerate_planes(
 }
 
 /// Sample positions the brute force generates, sorts and scans per plane: (K_x + K_y) Q_lit.
-fn positions_per_plane(cam: &Camera, half: Half) -> u128 {
-    (cam.kx as u128 + cam.ky as u128) * cam.lit_pixels(half) as u128
+fn positions_per_plane(pl: &PlaneLines) -> u128 {
+    (pl.kx as u128 + pl.ky as u128) * pl.q_lit() as u128
 }
 
 /// Refuse a brute-force count above [`MAX_COINCIDENCE_WORK`] before it starts.
-fn check_coincidence_work(
-    cam: &Camera,
-    half: Half,
-    n_planes: usize,
-    max_n: u32,
-    max_t: u32,
-) -> Result<()> {
-    let per_plane = positions_per_plane(cam, half);
+fn check_coincidence_work(pl: &PlaneLines, n_planes: usize, max_n: u32, max_t: u32) -> Result<()> {
+    let per_plane = positions_per_plane(pl);
     let work = n_planes as u128 * per_plane;
     if work > MAX_COINCIDENCE_WORK as u128 {
         return Err(Error::TooMuchWork {
@@ -944,38 +1083,28 @@ fn check_coincidence_work(
 /// The brute-force count of every plane: distinct chief samples along x times along y,
 /// at the plane's own conjugate z' (not re-derived from z), in interruptible chunks.
 fn count_planes(
-    cam: &Camera,
-    half: Half,
+    pl: &PlaneLines,
     planes: &mut [CoincidencePlane],
     n_threads: Option<usize>,
 ) -> Result<()> {
-    let layout = Layout::new(cam);
-    let eps = merge_eps(cam, COINCIDENCE_TOL);
-    let k = cam.kx.max(cam.ky) as usize;
-    let n = k * cam.lit_pixels(half) as usize;
-    let (inner, q) = (k.max(cam.q as usize), cam.q as usize);
+    let eps = pl.eps;
+    let k = pl.kx.max(pl.ky) as usize;
+    let n = k * pl.q_lit() as usize;
+    let (inner, q) = (k.max(pl.q as usize), pl.q as usize);
     memory::check(
         "coincidence_planes",
         memory::bytes_of::<CoincidencePlane>(planes.len() as u128)
             + threads(n_threads) as u128 * Scratch::bytes([n, 0], inner, q),
     )?;
-    let step = chunk_items(n_threads, 4 * positions_per_plane(cam, half));
+    let step = chunk_items(n_threads, 4 * positions_per_plane(pl));
     for_chunks(n_threads, planes.len(), step, |r| {
         planes[r].par_iter_mut().try_for_each_init(
             || Scratch::reserved([n, 0], inner, q),
             |s, p| -> Result<()> {
                 let s = s.as_mut().map_err(|e| e.clone())?;
                 let mut count = 1;
-                for axis in [Axis::X, Axis::Y] {
-                    half_samples(
-                        cam,
-                        &layout,
-                        half,
-                        axis,
-                        p.conjugate,
-                        &mut s.pos[0],
-                        &mut s.work,
-                    );
+                for ls in [&pl.x, &pl.y] {
+                    line_samples(ls, p.conjugate, &mut s.pos[0], &mut s.work);
                     count *= scan(&s.pos[0], eps, f64::INFINITY).0;
                 }
                 p.counted = count;
@@ -983,6 +1112,336 @@ fn count_planes(
             },
         )
     })
+}
+
+// ---- designs (docs/model.md §9): every channel along x, and their union ------------------
+
+/// δ(z) = μ_1 z / L_1 in p' space on plane v_ref = L_1: μ_1 (docs/model.md §9, "Scale and
+/// field"; X = −p' z / L_1).
+pub fn design_step(design: &Design) -> f64 {
+    design.channels[0].mu
+}
+
+/// The 1-D central field |X| ≤ K_x d_1 z / (4 L_1) of channel 1 in p' space: K_x d_1 / 4.
+pub fn design_field(design: &Design) -> f64 {
+    let ch = &design.channels[0];
+    ch.kx as f64 * ch.d / 4.0
+}
+
+/// Refuse a line set whose brute-force count exceeds [`MAX_SAMPLES_PER_AXIS`] per line.
+fn check_line_size(lines: &[&Line]) -> Result<()> {
+    for line in lines {
+        let n = line.pixel_count();
+        if n > MAX_SAMPLES_PER_AXIS as u128 {
+            return Err(Error::TooMuchWork {
+                what: format!(
+                    "the brute-force sample count over the {} pixels of channel {} along one axis",
+                    n,
+                    line.index + 1
+                ),
+                amount: n,
+                limit: MAX_SAMPLES_PER_AXIS as u128,
+                unit: "pixels per axis",
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Genuinely new samples of a design at m depths: row-major (C + 1, m) arrays, rows the
+/// channels in order and then their union.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DesignSamples {
+    pub rows: usize,
+    /// Distinct samples along x.
+    pub distinct: Vec<u64>,
+    /// Largest gap over the central field along x, in δ(z) = μ_1 z / L_1 (+∞ when the
+    /// samples do not cover the field).
+    pub max_gap: Vec<f64>,
+    /// Pixels along x that yield a sample, per channel and in all.
+    pub sampled: Vec<u64>,
+}
+
+/// Output buffers of [`design_new_samples_into`], each row-major (C + 1, m).
+pub struct DesignSamplesOut<'a> {
+    pub distinct: &'a mut [u64],
+    pub max_gap: &'a mut [f64],
+}
+
+/// The sample sources of each channel: the chief generator, or the centroids (u, w) of the
+/// pixels that collect light.
+enum Sources {
+    Chief(Vec<LineSamples>),
+    Centroid(Vec<Vec<[f64; 2]>>),
+}
+
+impl Sources {
+    fn new(lines: &[Line], mode: Sample) -> Result<Sources> {
+        Ok(match mode {
+            Sample::Chief => Sources::Chief(lines.iter().map(LineSamples::new).collect()),
+            Sample::Centroid => {
+                let mut all = Vec::new();
+                for line in lines {
+                    let tr = trace_line(line)?;
+                    all.push(
+                        tr.centroid
+                            .iter()
+                            .zip(&tr.area)
+                            .filter(|(_, &area)| area > 0.0)
+                            .map(|(c, _)| *c)
+                            .collect(),
+                    );
+                }
+                Sources::Centroid(all)
+            }
+        })
+    }
+
+    fn sampled(&self) -> Vec<u64> {
+        match self {
+            Sources::Chief(l) => l.iter().map(|x| x.lit() as u64).collect(),
+            Sources::Centroid(c) => c.iter().map(|x| x.len() as u64).collect(),
+        }
+    }
+}
+
+/// Per-thread buffers of the design counts: one position buffer per channel, two for the
+/// running union.
+#[derive(Default)]
+struct DesignScratch {
+    pos: Vec<Vec<f64>>,
+    union: [Vec<f64>; 2],
+    work: Work,
+}
+
+impl DesignScratch {
+    fn reserved(sizes: &[usize], inner: usize, q: usize) -> Result<DesignScratch> {
+        let what = "new_samples (per-thread buffers)";
+        let mut s = DesignScratch::default();
+        let total: usize = sizes.iter().sum();
+        for &n in sizes {
+            let mut v = Vec::new();
+            try_reserve(&mut v, what, n)?;
+            s.pos.push(v);
+        }
+        try_reserve(&mut s.union[0], what, total)?;
+        try_reserve(&mut s.union[1], what, total)?;
+        try_reserve(&mut s.work.perm, what, inner)?;
+        try_reserve(&mut s.work.inner, what, inner)?;
+        try_reserve(&mut s.work.t, what, q)?;
+        Ok(s)
+    }
+
+    fn bytes(sizes: &[usize], inner: usize, q: usize) -> u128 {
+        let total: u128 = sizes.iter().map(|&n| n as u128).sum();
+        24 * total + 40 * inner as u128 + 8 * q as u128
+    }
+}
+
+/// Distinct counts and gaps (in δ(z)) of every channel and of the union at one depth,
+/// written to `d` and `g` (C + 1 entries each).
+#[allow(clippy::too_many_arguments)]
+fn design_depth(
+    lines: &[Line],
+    src: &Sources,
+    z: f64,
+    eps: f64,
+    step: f64,
+    field: f64,
+    s: &mut DesignScratch,
+    d: &mut [u64],
+    g: &mut [f64],
+) {
+    let zc = conjugate(lines[0].f_main, z);
+    for (c, pos) in s.pos.iter_mut().enumerate() {
+        match src {
+            Sources::Chief(ls) => line_samples(&ls[c], zc, pos, &mut s.work),
+            Sources::Centroid(uw) => {
+                let sigma = lines[c].slope(zc);
+                pos.clear();
+                pos.extend(uw[c].iter().map(|[u, w]| u + sigma * w));
+                pos.sort_unstable_by(f64::total_cmp);
+            }
+        }
+    }
+    // The union: merge the channels one by one (the result is the sorted multiset).
+    let [u0, u1] = &mut s.union;
+    u0.clear();
+    u0.extend_from_slice(&s.pos[0]);
+    for pos in &s.pos[1..] {
+        merge_into(u1, u0, pos);
+        std::mem::swap(u0, u1);
+    }
+    let n = s.pos.len();
+    let (cu, gu) = scan(u0, eps, field);
+    for (c, pos) in s.pos.iter().enumerate() {
+        let (dc, gc) = if cu == u0.len() as u64 {
+            // Every union sample is its own: so is every sample of each channel.
+            (pos.len() as u64, field_gap(pos, field))
+        } else {
+            scan(pos, eps, field)
+        };
+        d[c] = dc;
+        g[c] = gc / step;
+    }
+    d[n] = cu;
+    g[n] = gu / step;
+}
+
+/// Bytes a design new_samples call at `m` depths holds: the outputs (16 bytes per depth
+/// and row), the sources and one set of per-thread buffers per thread.
+fn design_samples_bytes(lines: &[Line], m: usize, mode: Sample, threads: usize) -> u128 {
+    let (m, rows) = (m as u128, lines.len() as u128 + 1);
+    let outputs = 16 * rows * m;
+    let px: u128 = lines.iter().map(|l| l.pixel_count()).sum();
+    let sources = match mode {
+        Sample::Chief => 16 * px + lines.iter().map(|l| 8 * l.k as u128).sum::<u128>(),
+        Sample::Centroid => {
+            16 * px
+                + TRACE_BYTES_PER_PIXEL * lines.iter().map(|l| l.pixel_count()).max().unwrap_or(0)
+        }
+    };
+    let (sizes, inner, q) = design_sizes(lines);
+    let workers = (threads as u128).min(m.div_ceil(CHUNK as u128)).max(1);
+    outputs + sources + workers * DesignScratch::bytes(&sizes, inner, q)
+}
+
+/// Buffer sizes of [`DesignScratch`]: every pixel of each line (an upper bound of its
+/// samples in either mode), the window sort's inner terms and pixel terms.
+fn design_sizes(lines: &[Line]) -> (Vec<usize>, usize, usize) {
+    let sizes = lines.iter().map(|l| l.pixel_count() as usize).collect();
+    let q = lines.iter().filter_map(|l| l.q()).max().unwrap_or(0) as usize;
+    let k = lines.iter().map(|l| l.k).max().unwrap_or(0) as usize;
+    (sizes, k.max(q), q)
+}
+
+/// Validate a design new_samples call before any work: threads, tolerance, depths, rect
+/// grids ([`Line::of_channel`]), the work cap and the memory. Returns the lines along x.
+pub fn check_design_new_samples(
+    design: &Design,
+    z: &[f64],
+    tol: f64,
+    mode: Sample,
+    n_threads: Option<usize>,
+) -> Result<Vec<Line>> {
+    crate::parallel::check_threads(n_threads)?;
+    check_tol(tol)?;
+    check_design_depths(design.f_main, z)?;
+    let lines = Line::of_design(design, Axis::X)?;
+    check_line_size(&lines.iter().collect::<Vec<_>>())?;
+    let bytes = design_samples_bytes(&lines, z.len(), mode, threads(n_threads));
+    memory::check("new_samples", bytes)?;
+    Ok(lines)
+}
+
+/// Distinct samples (chief or centroid) along x and max gaps of every channel of a design
+/// and of their union at every depth (docs/model.md §6 per channel, §9 "Scale and field").
+pub fn design_new_samples(
+    design: &Design,
+    z: &[f64],
+    tol: f64,
+    mode: Sample,
+    n_threads: Option<usize>,
+) -> Result<DesignSamples> {
+    check_design_new_samples(design, z, tol, mode, n_threads)?;
+    let (rows, m) = (design.channels.len() + 1, z.len());
+    let what = "new_samples";
+    let mut distinct = try_vec(what, rows * m, 0)?;
+    let mut max_gap = try_vec(what, rows * m, 0.0)?;
+    let out = DesignSamplesOut {
+        distinct: &mut distinct,
+        max_gap: &mut max_gap,
+    };
+    let sampled = design_new_samples_into(design, z, tol, mode, out, n_threads)?;
+    Ok(DesignSamples {
+        rows,
+        distinct,
+        max_gap,
+        sampled,
+    })
+}
+
+/// [`design_new_samples`] written into caller-provided (C + 1, m) buffers; returns the
+/// pixels that yield a sample per channel and in all.
+pub fn design_new_samples_into(
+    design: &Design,
+    z: &[f64],
+    tol: f64,
+    mode: Sample,
+    out: DesignSamplesOut<'_>,
+    n_threads: Option<usize>,
+) -> Result<Vec<u64>> {
+    let lines = check_design_new_samples(design, z, tol, mode, n_threads)?;
+    let (rows, m) = (lines.len() + 1, z.len());
+    if out.distinct.len() != rows * m || out.max_gap.len() != rows * m {
+        return Err(Error::param(
+            "output length",
+            format!("{:?}", (out.distinct.len(), out.max_gap.len())),
+            format!("{} ({rows} rows × m = {m} depths)", rows * m),
+        ));
+    }
+    let (step, field) = (design_step(design), design_field(design));
+    let eps = tol * step;
+    let src = with_threads(n_threads, || Sources::new(&lines, mode))??;
+    let (sizes, inner, q) = design_sizes(&lines);
+    let cost = 4 * lines.iter().map(|l| l.pixel_count()).sum::<u128>();
+    let chunk = chunk_items(n_threads, cost)
+        .max(CHUNK * threads(n_threads))
+        .min(1 << 20);
+    let what = "new_samples (per-depth results)";
+    let mut dres = try_vec(what, chunk.min(m) * rows, 0u64)?;
+    let mut gres = try_vec(what, chunk.min(m) * rows, 0.0)?;
+    for_chunks(n_threads, m, chunk, |r| {
+        let len = r.len();
+        let (dr, gr) = (&mut dres[..len * rows], &mut gres[..len * rows]);
+        dr.par_chunks_mut(CHUNK * rows)
+            .zip(gr.par_chunks_mut(CHUNK * rows))
+            .zip(z[r.clone()].par_chunks(CHUNK))
+            .try_for_each_init(
+                || DesignScratch::reserved(&sizes, inner, q),
+                |s, ((dc, gc), zs)| -> Result<()> {
+                    let s = s.as_mut().map_err(|e| e.clone())?;
+                    for (i, &zi) in zs.iter().enumerate() {
+                        let span = i * rows..(i + 1) * rows;
+                        design_depth(
+                            &lines,
+                            &src,
+                            zi,
+                            eps,
+                            step,
+                            field,
+                            s,
+                            &mut dc[span.clone()],
+                            &mut gc[span],
+                        );
+                    }
+                    Ok(())
+                },
+            )?;
+        for (o, k) in r.enumerate() {
+            for row in 0..rows {
+                out.distinct[row * m + k] = dr[o * rows + row];
+                out.max_gap[row * m + k] = gr[o * rows + row];
+            }
+        }
+        Ok(())
+    })?;
+    let mut sampled = src.sampled();
+    sampled.push(sampled.iter().sum());
+    Ok(sampled)
+}
+
+/// Distinct chief samples of channel `channel` (from 1) of a design along x at depth z.
+pub fn design_count_distinct(design: &Design, channel: i64, z: f64, tol: f64) -> Result<u64> {
+    let tol = check_tol(tol)?;
+    check_design_depths(design.f_main, &[z])?;
+    let line = Line::of_channel(design, channel, Axis::X)?;
+    check_line_size(&[&line])?;
+    let ls = LineSamples::new(&line);
+    let mut s = Scratch::default();
+    let zc = conjugate(design.f_main, z);
+    line_samples(&ls, zc, &mut s.pos[0], &mut s.work);
+    Ok(scan(&s.pos[0], tol * design_step(design), f64::INFINITY).0)
 }
 
 #[cfg(test)]
@@ -1183,6 +1642,34 @@ mod tests {
                 }
             }
             assert!(taken[0] > 0 && taken[1] > 0, "{taken:?}");
+        }
+    }
+
+    #[test]
+    fn camera_design_counts_equal_the_camera_counts() {
+        // The design path on Camera::design: the same distinct counts, lit pixels and
+        // coincidence planes bit for bit; gaps in μ_1 z/L_1 instead of d z/(Q v').
+        for cam in [Camera::paper(), small(0.8, 14.0, 10, 23, 7)] {
+            let d = Design::from_camera(&cam);
+            let z: Vec<f64> = (0..120)
+                .map(|i| 120.0 * (20_000.0f64 / 120.0).powf(i as f64 / 119.0))
+                .collect();
+            for mode in [Sample::Chief, Sample::Centroid] {
+                let a = new_samples(&cam, &z, 1e-6, mode, Some(2)).unwrap();
+                let b = design_new_samples(&d, &z, 1e-6, mode, Some(2)).unwrap();
+                assert_eq!(a.distinct, b.distinct);
+                assert_eq!(a.lit.to_vec(), b.sampled);
+                let scale = cam.q as f64 * cam.mu / cam.d;
+                for (x, y) in a.max_gap.iter().zip(&b.max_gap) {
+                    assert!(x == y || ((y * scale - x) / x).abs() < 1e-14, "{x} {y}");
+                }
+            }
+            for half in Half::BOTH {
+                let a = coincidence_planes(&cam, half, 3, None, Some(1)).unwrap();
+                let b = design_coincidence_planes(&d, half.index() as i64 + 1, 3, None, Some(1))
+                    .unwrap();
+                assert_eq!(a, b);
+            }
         }
     }
 

@@ -18,6 +18,7 @@ use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
 use pyo3::types::{PyBool, PyDict, PyInt, PyTuple};
 
+use splitlf_core::line::Line;
 use splitlf_core::presets;
 use splitlf_core::rayspace::{self, Sample};
 use splitlf_core::samples;
@@ -662,6 +663,19 @@ fn sharp_fractions(camera: &CameraCore, threshold_px: f64, lo: f64, hi: f64) -> 
     optics::sharp_fractions(&camera.inner, threshold_px, lo, hi).map_err(to_py)
 }
 
+/// Sharp fractions in log depth over [lo, hi] of every row of a design's depth of field:
+/// (per (channel, type) row, per channel, union, per channel's conventional camera).
+#[pyfunction]
+#[pyo3(signature = (design, threshold_px, lo, hi))]
+fn design_sharp_fractions(
+    design: &DesignCore,
+    threshold_px: f64,
+    lo: f64,
+    hi: f64,
+) -> PyResult<optics::DesignFractions> {
+    optics::design_sharp_fractions(&design.inner, threshold_px, lo, hi).map_err(to_py)
+}
+
 /// Closed-form curves of a design at n depths: per-channel arrays (C, n), per-type arrays
 /// (R, n) in `splitlf_core::optics::type_rows` order, the union (n).
 #[pyclass(frozen, get_all, module = "splitlf._native")]
@@ -852,27 +866,48 @@ fn coincidence_planes(
 ) -> PyResult<PlaneColumns> {
     let cam = camera.inner;
     let h = half_arg(half_)?;
-    let (n_given, n_text) = match max_n.filter(|o| !o.is_none()) {
+    let ((n_given, n_text), t_given) = pair_args(max_n, max_t)?;
+    let threads = threads_arg(n_threads)?;
+    let (mn, mt) = (saturate(n_given), t_given.as_ref().map(|t| saturate(t.0)));
+    let t_text = t_given.map(|t| t.1).unwrap_or_default();
+    let p = run(py, || {
+        samples::coincidence_planes(&cam, h, mn, mt, threads)
+            .map_err(|e| pair_error(e, &n_text, &t_text))
+    })?;
+    plane_columns(py, &p)
+}
+
+/// max_n and max_t as given (any size), or their defaults: (value, text) each.
+type PairArgs = ((i128, String), Option<(i128, String)>);
+
+fn pair_args(
+    max_n: Option<&Bound<'_, PyAny>>,
+    max_t: Option<&Bound<'_, PyAny>>,
+) -> PyResult<PairArgs> {
+    let n = match max_n.filter(|o| !o.is_none()) {
         Some(o) => int_arg(o, "max_n")?,
         None => {
             let n = samples::DEFAULT_MAX_N;
             (n as i128, n.to_string())
         }
     };
-    let t_given = match max_t.filter(|o| !o.is_none()) {
+    let t = match max_t.filter(|o| !o.is_none()) {
         Some(o) => Some(int_arg(o, "max_t")?),
         None => None,
     };
-    let threads = threads_arg(n_threads)?;
-    let (mn, mt) = (saturate(n_given), t_given.as_ref().map(|t| saturate(t.0)));
-    let t_text = t_given.map(|t| t.1).unwrap_or_default();
-    let p = run(py, || {
-        samples::coincidence_planes(&cam, h, mn, mt, threads).map_err(|e| match &e {
-            Error::InvalidParameter { name: "max_n", .. } => with_given(e, &n_text),
-            Error::InvalidParameter { name: "max_t", .. } => with_given(e, &t_text),
-            _ => e,
-        })
-    })?;
+    Ok((n, t))
+}
+
+/// A max_n / max_t range error shows the value given.
+fn pair_error(e: Error, n_text: &str, t_text: &str) -> Error {
+    match &e {
+        Error::InvalidParameter { name: "max_n", .. } => with_given(e, n_text),
+        Error::InvalidParameter { name: "max_t", .. } => with_given(e, t_text),
+        _ => e,
+    }
+}
+
+fn plane_columns(py: Python<'_>, p: &[samples::CoincidencePlane]) -> PyResult<PlaneColumns> {
     let n = p.len();
     let what = "coincidence_planes";
     let int = |f: &dyn Fn(&samples::CoincidencePlane) -> u64| {
@@ -892,6 +927,80 @@ fn coincidence_planes(
         new_samples_y: int(&|x| x.new_samples_y)?,
         new_samples: int(&|x| x.new_samples)?,
         counted: int(&|x| x.counted)?,
+    })
+}
+
+/// Coincidence planes of one channel of a design (rect grid, ideal layout, square
+/// aperture; docs/model.md §6, §9), with Eqs. 8–9 and the brute-force count.
+#[pyfunction]
+#[pyo3(signature = (design, channel, max_n=None, max_t=None, n_threads=None))]
+fn design_coincidence_planes(
+    py: Python<'_>,
+    design: &DesignCore,
+    channel: &Bound<'_, PyAny>,
+    max_n: Option<&Bound<'_, PyAny>>,
+    max_t: Option<&Bound<'_, PyAny>>,
+    n_threads: Option<&Bound<'_, PyAny>>,
+) -> PyResult<PlaneColumns> {
+    let d = &design.inner;
+    let ch = channel_arg(d, channel)?;
+    let ((n_given, n_text), t_given) = pair_args(max_n, max_t)?;
+    let threads = threads_arg(n_threads)?;
+    let (mn, mt) = (saturate(n_given), t_given.as_ref().map(|t| saturate(t.0)));
+    let t_text = t_given.map(|t| t.1).unwrap_or_default();
+    let p = run(py, || {
+        samples::design_coincidence_planes(d, ch, mn, mt, threads)
+            .map_err(|e| pair_error(e, &n_text, &t_text))
+    })?;
+    plane_columns(py, &p)
+}
+
+/// Genuinely new samples of a design at m depths: (C + 1, m) arrays, rows the channels and
+/// then their union.
+#[pyclass(frozen, get_all, module = "splitlf._native")]
+struct DesignSamplesArrays {
+    distinct: Py<PyArray2<i64>>,
+    max_gap: Py<PyArray2<f64>>,
+    /// Pixels along x that yield a sample, per channel and in all (C + 1).
+    sampled: Py<PyArray1<i64>>,
+}
+
+/// Distinct samples along x and max gaps of every channel of a design and of their union
+/// at every depth (docs/model.md §6, §9).
+#[pyfunction]
+#[pyo3(signature = (design, z, tol=samples::DEFAULT_TOL, sample="chief", n_threads=None))]
+fn design_new_samples(
+    py: Python<'_>,
+    design: &DesignCore,
+    z: PyReadonlyArray1<'_, f64>,
+    tol: f64,
+    sample: &str,
+    n_threads: Option<&Bound<'_, PyAny>>,
+) -> PyResult<DesignSamplesArrays> {
+    let d = &design.inner;
+    let mode = sample_arg(sample)?;
+    let threads = threads_arg(n_threads)?;
+    let zs = as_slice(&z)?;
+    samples::check_design_new_samples(d, &zs, tol, mode, threads).map_err(to_py)?;
+    let (rows, m) = (d.channels.len() + 1, zs.len());
+    let what = "new_samples";
+    let distinct = empty::<i64, _>(py, &[rows, m], what)?;
+    let max_gap = empty::<f64, _>(py, &[rows, m], what)?;
+    let sampled = {
+        let mut dw = distinct.readwrite();
+        let mut gw = max_gap.readwrite();
+        let out = samples::DesignSamplesOut {
+            distinct: as_u64(dw.as_slice_mut().map_err(internal)?),
+            max_gap: gw.as_slice_mut().map_err(internal)?,
+        };
+        run(py, || {
+            samples::design_new_samples_into(d, &zs, tol, mode, out, threads)
+        })?
+    };
+    Ok(DesignSamplesArrays {
+        distinct: distinct.unbind(),
+        max_gap: max_gap.unbind(),
+        sampled: filled::<i64, _>(py, &[rows], what, sampled.iter().map(|&x| x as i64))?.unbind(),
     })
 }
 
@@ -916,7 +1025,7 @@ fn figures_of_merit(
 
 // ---- ray space ---------------------------------------------------------------------------
 
-/// Integration polygons of n pixels of one half along one axis (microlens-major).
+/// Integration polygons of n pixels of one half (or channel) along one axis.
 #[pyclass(frozen, get_all, module = "splitlf._native")]
 struct TraceArrays {
     vertices: Py<PyArray3<f64>>,
@@ -927,25 +1036,15 @@ struct TraceArrays {
     pixel: Py<PyArray1<i64>>,
     chief: Py<PyArray2<f64>>,
     lit: Py<PyArray1<bool>>,
+    theta: Py<PyArray1<f64>>,
+    #[pyo3(name = "type")]
+    types: Py<PyArray1<i64>>,
 }
 
-/// Integration polygons of every pixel of one half along one axis (docs/model.md §3–4).
-#[pyfunction]
-#[pyo3(signature = (camera, half, axis="x", n_threads=None))]
-fn trace(
-    py: Python<'_>,
-    camera: &CameraCore,
-    half: &Bound<'_, PyAny>,
-    axis: &str,
-    n_threads: Option<&Bound<'_, PyAny>>,
-) -> PyResult<TraceArrays> {
-    let cam = camera.inner;
-    let h = half_arg(half)?;
-    let ax = rayspace::axis_from_name(axis).map_err(to_py)?;
-    let threads = threads_arg(n_threads)?;
-    let n = cam.lenses(ax) as u128 * cam.q as u128;
-    memory::check("trace", rayspace::trace_call_bytes(n)).map_err(to_py)?;
-    let tr = run(py, || rayspace::trace_threads(&cam, h, ax, threads))?;
+/// Trace a line and hand its columns to NumPy.
+fn trace_arrays(py: Python<'_>, line: &Line, threads: Option<usize>) -> PyResult<TraceArrays> {
+    memory::check("trace", rayspace::trace_call_bytes(line.pixel_count())).map_err(to_py)?;
+    let tr = run(py, || rayspace::trace_line_threads(line, threads))?;
     let n = tr.polygons.len();
     let what = "trace";
     let v = MAX_VERTICES;
@@ -964,7 +1063,45 @@ fn trace(
         pixel: filled::<i64, _>(py, &[n], what, tr.pixel.iter().map(|&x| x as i64))?.unbind(),
         chief: filled::<f64, _>(py, &[n, 2], what, tr.chief.iter().flatten().copied())?.unbind(),
         lit: filled::<bool, _>(py, &[n], what, tr.lit.iter().copied())?.unbind(),
+        theta: filled::<f64, _>(py, &[n], what, tr.theta.iter().copied())?.unbind(),
+        types: filled::<i64, _>(py, &[n], what, tr.types.iter().map(|&x| x as i64))?.unbind(),
     })
+}
+
+/// Integration polygons of every pixel of one half along one axis (docs/model.md §3–4).
+#[pyfunction]
+#[pyo3(signature = (camera, half, axis="x", n_threads=None))]
+fn trace(
+    py: Python<'_>,
+    camera: &CameraCore,
+    half: &Bound<'_, PyAny>,
+    axis: &str,
+    n_threads: Option<&Bound<'_, PyAny>>,
+) -> PyResult<TraceArrays> {
+    let cam = camera.inner;
+    let h = half_arg(half)?;
+    let ax = rayspace::axis_from_name(axis).map_err(to_py)?;
+    let threads = threads_arg(n_threads)?;
+    trace_arrays(py, &Line::of_half(&cam, h, ax), threads)
+}
+
+/// Integration polygons of every pixel of one channel of a design along one axis (rect
+/// grids; docs/model.md §3–4, §9).
+#[pyfunction]
+#[pyo3(signature = (design, channel, axis="x", n_threads=None))]
+fn design_trace(
+    py: Python<'_>,
+    design: &DesignCore,
+    channel: &Bound<'_, PyAny>,
+    axis: &str,
+    n_threads: Option<&Bound<'_, PyAny>>,
+) -> PyResult<TraceArrays> {
+    let d = &design.inner;
+    let ch = channel_arg(d, channel)?;
+    let ax = rayspace::axis_from_name(axis).map_err(to_py)?;
+    let threads = threads_arg(n_threads)?;
+    let line = Line::of_channel(d, ch, ax).map_err(to_py)?;
+    trace_arrays(py, &line, threads)
 }
 
 use rayspace::MAX_VERTICES;
@@ -999,9 +1136,45 @@ fn footprints(
     let s = sample_arg(sample)?;
     let threads = threads_arg(n_threads)?;
     let zs = as_slice(&z)?;
-    // Validate everything (memory included), then let NumPy allocate the outputs
-    // (fallibly) and have the core write straight into them without the GIL.
-    let (m, n) = rayspace::check_footprints(&cam, &zs, ax, kernel, threads).map_err(to_py)?;
+    footprint_arrays(py, &Line::of_half(&cam, h, ax), &zs, s, kernel, threads)
+}
+
+/// Footprints of every pixel of one channel of a design along one axis at every depth
+/// (rect grids; docs/model.md §5, §9).
+#[pyfunction]
+#[pyo3(signature = (design, z, channel, axis="x", sample="centroid", kernel=false, n_threads=None))]
+#[allow(clippy::too_many_arguments)]
+fn design_footprints(
+    py: Python<'_>,
+    design: &DesignCore,
+    z: PyReadonlyArray1<'_, f64>,
+    channel: &Bound<'_, PyAny>,
+    axis: &str,
+    sample: &str,
+    kernel: bool,
+    n_threads: Option<&Bound<'_, PyAny>>,
+) -> PyResult<FootprintArrays> {
+    let d = &design.inner;
+    let ch = channel_arg(d, channel)?;
+    let ax = rayspace::axis_from_name(axis).map_err(to_py)?;
+    let s = sample_arg(sample)?;
+    let threads = threads_arg(n_threads)?;
+    let zs = as_slice(&z)?;
+    let line = Line::of_channel(d, ch, ax).map_err(to_py)?;
+    footprint_arrays(py, &line, &zs, s, kernel, threads)
+}
+
+/// Validate, let NumPy allocate the outputs (fallibly) and have the core write the
+/// footprints of a line straight into them without the GIL.
+fn footprint_arrays(
+    py: Python<'_>,
+    line: &Line,
+    zs: &[f64],
+    s: Sample,
+    kernel: bool,
+    threads: Option<usize>,
+) -> PyResult<FootprintArrays> {
+    let (m, n) = rayspace::check_footprints_line(line, zs, kernel, threads).map_err(to_py)?;
     let what = "footprints";
     let position = empty::<f64, _>(py, &[m, n], what)?;
     let lo = empty::<f64, _>(py, &[m, n], what)?;
@@ -1034,7 +1207,7 @@ fn footprints(
             kernel: ks,
         };
         run(py, || {
-            rayspace::footprints_into(&cam, &zs, h, ax, s, out, threads)
+            rayspace::footprints_line_into(line, zs, s, out, threads)
         })?;
     }
     let (kb, kv) = match k {
@@ -1085,6 +1258,41 @@ fn sample_grid(
         let ys = yw.as_slice_mut().map_err(internal)?;
         run(py, || {
             rayspace::sample_grid_into(&cam, z, h, s, xs, ys, threads)
+        })?;
+    }
+    Ok(SampleGridArrays {
+        x: gx.unbind(),
+        y: gy.unbind(),
+    })
+}
+
+/// Sample positions of every pixel of one channel of a design (rect grid) on the plane at
+/// depth z; NaN where a pixel yields no sample.
+#[pyfunction]
+#[pyo3(signature = (design, z, channel, sample="chief", n_threads=None))]
+fn design_sample_grid(
+    py: Python<'_>,
+    design: &DesignCore,
+    z: f64,
+    channel: &Bound<'_, PyAny>,
+    sample: &str,
+    n_threads: Option<&Bound<'_, PyAny>>,
+) -> PyResult<SampleGridArrays> {
+    let d = &design.inner;
+    let ch = channel_arg(d, channel)?;
+    let s = sample_arg(sample)?;
+    let threads = threads_arg(n_threads)?;
+    let (lx, ly) = rayspace::check_design_sample_grid(d, ch, z, s, threads).map_err(to_py)?;
+    let (rows, cols) = (ly.pixel_count() as usize, lx.pixel_count() as usize);
+    let gx = empty::<f64, _>(py, &[rows, cols], "sample_grid")?;
+    let gy = empty::<f64, _>(py, &[rows, cols], "sample_grid")?;
+    {
+        let mut xw = gx.readwrite();
+        let mut yw = gy.readwrite();
+        let xs = xw.as_slice_mut().map_err(internal)?;
+        let ys = yw.as_slice_mut().map_err(internal)?;
+        run(py, || {
+            rayspace::design_sample_grid_into(d, ch, z, s, xs, ys, threads)
         })?;
     }
     Ok(SampleGridArrays {
@@ -1405,6 +1613,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<DesignCurvesArrays>()?;
     m.add_class::<DesignDepthOfFieldIntervals>()?;
     m.add_class::<NewSamplesArrays>()?;
+    m.add_class::<DesignSamplesArrays>()?;
     m.add_class::<PlaneColumns>()?;
     m.add_class::<TraceArrays>()?;
     m.add_class::<FootprintArrays>()?;
@@ -1432,5 +1641,11 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(chief_samples, m)?)?;
     m.add_function(wrap_pyfunction!(samples_2d, m)?)?;
     m.add_function(wrap_pyfunction!(coverage, m)?)?;
+    m.add_function(wrap_pyfunction!(design_new_samples, m)?)?;
+    m.add_function(wrap_pyfunction!(design_coincidence_planes, m)?)?;
+    m.add_function(wrap_pyfunction!(design_trace, m)?)?;
+    m.add_function(wrap_pyfunction!(design_sharp_fractions, m)?)?;
+    m.add_function(wrap_pyfunction!(design_footprints, m)?)?;
+    m.add_function(wrap_pyfunction!(design_sample_grid, m)?)?;
     Ok(())
 }
