@@ -191,6 +191,44 @@ def test_design_repetitions_one_curve_per_channel():
         np.testing.assert_array_equal(y, splitlf.curves(d, z).repetitions[ch - 1])
 
 
+def test_design_samples_figure_draws_new_samples_rows():
+    d = Design.preset("split3")
+    a_count, a_gap = plot.samples(d, (200.0, 2000.0), ax=(axes(), axes()), n=80)
+    lines = {ln.get_label(): ln for ln in a_count.get_lines()}
+    gaps = {ln.get_label(): ln for ln in a_gap.get_lines()}
+    z = lines["union (10374 pixels)"].get_data()[0]
+    r = splitlf.new_samples(d, z)
+    for row, name in enumerate(r.rows):
+        np.testing.assert_array_equal(lines[f"{name} ({r.sampled[row]} pixels)"].get_data()[1],
+                                      r.distinct[row])
+        np.testing.assert_array_equal(gaps[name].get_data()[1], r.max_gap[row])
+    # coincidence-plane ticks of every channel (all three have the ideal layout)
+    for c in (1, 2, 3):
+        ticks = lines[f"coincidence planes, channel {c} (N <= 2)"].get_data()[0]
+        planes = splitlf.coincidence_planes(d, channel=c, max_n=2).z
+        np.testing.assert_array_equal(ticks, planes[(planes >= z[0]) & (planes <= z[-1])])
+
+
+def test_design_ray_space_draws_every_channel():
+    d = Design.preset("split3")
+    ax = plot.ray_space(d, n_lenses=2, ax=axes())
+    polys = ax.collections
+    assert len(polys) == 3
+    for c, pc in enumerate(polys, start=1):
+        tr = splitlf.trace(d, channel=c)
+        K = int(tr.lens.max()) + 1
+        first = (K - 2) // 2
+        keep = (tr.lens >= first) & (tr.lens < first + 2) & (tr.n_vertices > 0)
+        got = pc.get_paths()
+        assert len(got) == keep.sum()
+        np.testing.assert_array_equal(got[0].vertices[:tr.n_vertices[keep][0]],
+                                      tr.vertices[keep][0, :tr.n_vertices[keep][0]])
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert "scene plane z = 217 mm (out-of-focus plane of channel 3)" in labels
+    with pytest.raises(ValueError, match="grid"):
+        plot.ray_space(small_hex())
+
+
 # -- the CLI -------------------------------------------------------------------------------
 
 
@@ -215,8 +253,9 @@ def test_cli_figures_of_a_design_file(tmp_path, capsys):
     small_hex().to_toml(cfg)
     assert main(["figures", "--config", str(cfg), "--out", str(tmp_path / "f"),
                  "--dpi", "30"]) == 0
+    # a hex channel has no analysis along x: no ray space, no samples figure
     assert sorted(p.name for p in (tmp_path / "f").iterdir()) == \
-        sorted(f"{s}.png" for s in plot.DESIGN_FIGURES)
+        sorted(f"{s}.png" for s in plot.DESIGN_FIGURES if s not in plot.RECT_ONLY)
 
 
 @pytest.mark.parametrize("args,msg", [

@@ -172,12 +172,26 @@ def figure_functions(design: bool = False) -> dict[str, tuple[Any, int | str,
     return {stem: (getattr(plot, fn), panels, size) for stem, (fn, panels, size) in table.items()}
 
 
-def _figure_targets(out: Path, fmt: str, force: bool, design: bool) -> dict[str, Path]:
+def _figures_of(subject: Camera | Design) -> dict[str, tuple[Any, int | str,
+                                                             tuple[float, float]]]:
+    """:func:`figure_functions` for a camera or a design; a design with a hex channel has
+    no figure along x (``plot.RECT_ONLY``: ray space, samples along x)."""
+    from . import plot
+
+    if not isinstance(subject, Design):
+        return figure_functions()
+    rect = all(ch.grid == "rect" for ch in subject.channels)
+    return {stem: f for stem, f in figure_functions(True).items()
+            if rect or stem not in plot.RECT_ONLY}
+
+
+def _figure_targets(out: Path, fmt: str, force: bool,
+                    subject: Camera | Design) -> dict[str, Path]:
     """The file of every figure, checked (folder not a file, no file overwritten without
     --force) before the folder is created or anything is drawn."""
     if out.exists() and not out.is_dir():
         raise CliError(f"--out {out}: exists and is not a folder")
-    targets = {stem: out / f"{stem}.{fmt}" for stem in figure_functions(design)}
+    targets = {stem: out / f"{stem}.{fmt}" for stem in _figures_of(subject)}
     for path in targets.values():
         if out.is_dir():
             check_new(path, force, FORCE_HINT)
@@ -197,9 +211,9 @@ def _cmd_figures(args: argparse.Namespace) -> int:
     if args.z is not None and not args.z > subject.F:
         raise CliError(f"invalid --z {args.z:g}: allowed a depth > F = {subject.F:g} mm")
     out = Path(args.out)
-    targets = _figure_targets(out, args.format, args.force, design)
+    targets = _figure_targets(out, args.format, args.force, subject)
     out.mkdir(parents=True, exist_ok=True)
-    for stem, (fn, panels, (w, h)) in figure_functions(design).items():
+    for stem, (fn, panels, (w, h)) in _figures_of(subject).items():
         # A bare Figure needs no pyplot backend: nothing global is changed.
         if panels == "channels":
             n = len(subject.channels) if design else 2

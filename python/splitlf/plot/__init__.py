@@ -11,6 +11,7 @@ from .samples import samples
 __all__ = [
     "DESIGN_FIGURES",
     "FIGURES",
+    "RECT_ONLY",
     "blur",
     "microlens_images",
     "ray_space",
@@ -32,11 +33,17 @@ FIGURES = {
     "sample_map": ("sample_map", 1, (7.0, 8.4)),
 }
 
+#: The figures of :data:`DESIGN_FIGURES` that analyse along x (docs/model.md §9: 1-D
+#: analysis on rect grids only), left out for a design with a hex channel.
+RECT_ONLY = frozenset({"fig4_ray_space", "samples"})
+
 #: What ``splitlf figures`` writes for a general design (``--preset``, or a ``[design]``
 #: file), as :data:`FIGURES`.
 DESIGN_FIGURES = {
     "fig1_blur": ("blur", 1, (7.5, 4.6)),
+    "fig4_ray_space": ("ray_space", 1, (9.0, 6.0)),
     "fig5_repetitions": ("repetitions", 1, (7.0, 4.2)),
+    "samples": ("samples", 2, (11.5, 7.5)),
     "microlens_images": ("microlens_images", "channels", (4.6, 5.0)),
     "sample_map": ("sample_map", 1, (7.0, 8.4)),
 }

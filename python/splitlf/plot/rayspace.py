@@ -9,6 +9,7 @@ import numpy as np
 
 from .. import _validate, rayspace
 from ..camera import Camera
+from ..design import Design
 from ._mpl import pyplot, trace_threads
 
 __all__ = ["ray_space"]
@@ -16,6 +17,8 @@ __all__ = ["ray_space"]
 #: The paper's colours: half 1 grey, half 2 yellow; scene planes red, green, blue.
 HALF_COLOURS = {1: ("0.62", "0.30"), 2: ("#f5d000", "#9a7d00")}
 DEPTH_COLOURS = ("#d62728", "#2ca02c", "#1f5fd6")
+#: Channels 3, 4, ... of a design (none of them red, green or blue, the planes' colours).
+MORE_CHANNEL_COLOURS = ("#b07cc6", "#c49c94", "#e377c2", "#bcbd22", "#17becf")
 
 
 def _polygons(tr, keep):
@@ -105,7 +108,10 @@ def ray_space(
     blue), one line through each drawn microlens centre at w = 0 (of the half
     whose out-of-focus plane it is, else of half 1).
 
-    - ``camera``: the :class:`~splitlf.Camera`
+    - ``camera``: the :class:`~splitlf.Camera`, or a :class:`~splitlf.Design` with rect
+      channels: u is then on channel 1's array plane, each channel is drawn (channels 1
+      and 2 in the paper's grey and yellow), and the default depths are the channels'
+      out-of-focus planes (the first three; with one channel, its plane and 2.5 times it)
     - ``depths``: 1 to 3 scene depths [mm], finite and > F; default the out-of-focus
       planes of half 1 (vertical lines) and half 2 (lines parallel to half 2's microlens
       columns) and a far plane at 2.5 z_1
@@ -117,7 +123,9 @@ def ray_space(
     Returns the Axes. Raises ``TypeError`` (camera, types) and ``ValueError`` (depths,
     n_lenses, axis out of range); ``ImportError`` without matplotlib.
     """
-    cam = _validate.camera(camera)
+    cam = _validate.camera_or_design(camera)
+    if isinstance(cam, Design):
+        return _design_ray_space(cam, depths, n_lenses, axis, ax, n_threads)
     zs = _check(cam, depths, n_lenses)
     plt = pyplot()
     if ax is None:
@@ -153,3 +161,77 @@ def _depth_label(cam: Camera, z: float) -> str:
         if np.isclose(z, cam.out_of_focus_depth(half), rtol=1e-9):
             return f"scene plane z = {z:.0f} mm (out-of-focus plane of half {half})"
     return f"scene plane z = {z:.0f} mm"
+
+
+def _channel_colours(c: int) -> tuple[str, str]:
+    """(face, edge) of channel c: the paper's grey and yellow for 1 and 2, then a palette."""
+    if c in HALF_COLOURS:
+        return HALF_COLOURS[c]
+    colour = MORE_CHANNEL_COLOURS[(c - 3) % len(MORE_CHANNEL_COLOURS)]
+    return colour, colour
+
+
+def _design_ray_space(des: Design, depths: Sequence[float] | None, n_lenses: int, axis: str,
+                      ax: Any, n_threads: int | None) -> Any:
+    """:func:`ray_space` for a Design (rect channels): u on channel 1's array plane L_1."""
+    from matplotlib.collections import PolyCollection
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    n_ch = len(des.channels)
+    oof = [des.out_of_focus_depth(c) for c in range(1, n_ch + 1)]
+    if depths is None:
+        depths = oof[:3] if n_ch > 1 else [oof[0], 2.5 * oof[0]]
+    zs = _validate.depths(depths, "depths")
+    if not 1 <= len(zs) <= len(DEPTH_COLOURS):
+        raise ValueError(f"depths: give 1 to {len(DEPTH_COLOURS)} depths, got {len(zs)}")
+    if not np.all(np.isfinite(zs) & (zs > des.F)):
+        raise ValueError(f"invalid depths = {zs.tolist()}: allowed finite depths > F = "
+                         f"{des.F} mm")
+    if isinstance(n_lenses, bool) or not isinstance(n_lenses, int) or n_lenses < 1:
+        raise ValueError(f"invalid n_lenses = {n_lenses!r}: allowed an integer >= 1")
+    if ax is None:
+        _, ax = pyplot().subplots(figsize=(9.0, 6.0), layout="constrained")
+    L1 = des.channels[0].L
+    handles, drawn, centres = [], [], {}
+    for c, ch in enumerate(des.channels, start=1):
+        tr = rayspace.trace(des, channel=c, axis=axis, **trace_threads(n_threads))
+        K = int(tr.lens.max()) + 1
+        first = max(0, (K - n_lenses) // 2)
+        keep = (tr.lens >= first) & (tr.lens < first + n_lenses) & (tr.n_vertices > 0)
+        face, edge = _channel_colours(c)
+        alpha = 0.75 if c == 1 else 0.6
+        ax.add_collection(PolyCollection(_polygons(tr, keep), facecolors=face,
+                                         edgecolors=edge, linewidths=0.7, alpha=alpha,
+                                         zorder=1 + c))
+        j = np.arange(first, min(first + n_lenses, K))
+        centres[c] = L1 / ch.L * (j - (K - 1) / 2) * ch.d  # u at w = 0 of the lens centres
+        drawn.append(tr.vertices[keep])
+        handles.append(Patch(facecolor=face, edgecolor=edge, alpha=alpha,
+                             label=f"channel {c}: {int(keep.sum())} pixels under "
+                                   f"{len(j)} microlenses"))
+    w = np.array([-des.D / 2, des.D / 2])
+    for z, colour in zip(zs, DEPTH_COLOURS, strict=False):
+        zc = des.F * z / (z - des.F)
+        sigma = (L1 - zc) / zc  # a point of the plane is the line u + sigma w = p'
+        own = [c for c in range(1, n_ch + 1) if np.isclose(z, oof[c - 1], rtol=1e-9)]
+        for p in centres[own[0] if own else 1]:
+            ax.plot(p - sigma * w, w, color=colour, lw=1.5, zorder=5 + n_ch)
+        label = f"scene plane z = {z:.0f} mm" + \
+            (f" (out-of-focus plane of channel {own[0]})" if own else "")
+        handles.append(Line2D([], [], color=colour, lw=1.5, label=label))
+    allv = np.concatenate(drawn)
+    u_lo, u_hi = np.nanmin(allv[..., 0]), np.nanmax(allv[..., 0])
+    pad = 0.03 * (u_hi - u_lo)
+    half_d = des.D / 2
+    ax.set_xlim(u_lo - pad, u_hi + pad)
+    ax.set_ylim(-1.08 * half_d, 1.08 * half_d)
+    for y in (-half_d, half_d):
+        ax.axhline(y, color="0.15", lw=0.9, ls="--", zorder=6 + n_ch)
+    ax.text(u_hi, half_d, "aperture edge  ", ha="right", va="bottom", fontsize=8, color="0.15")
+    ax.set_xlabel("u: ray height on the plane of microlens array 1 [mm]")
+    ax.set_ylabel("w: ray height on the main lens [mm]")
+    ax.set_title("Ray space: pixel integration regions and constant-intensity lines")
+    ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.11), ncol=2,
+              fontsize=8.5)
+    return ax
