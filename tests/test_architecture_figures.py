@@ -272,3 +272,28 @@ def test_cli_figures_bad_options_write_nothing(tmp_path, capsys, args, msg):
         code = e.code
     assert code == 2 and msg in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_cli_trace_of_a_design(tmp_path, capsys):
+    import json
+
+    import tomllib
+
+    out = tmp_path / "t.npz"
+    assert main(["trace", "--preset", "split3", "--out", str(out), "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    d = Design.preset("split3")
+    with np.load(out) as f:
+        assert Design.from_dict(tomllib.loads(str(f["design_toml"]))["design"]) == d
+        for c in (1, 2, 3):
+            t = splitlf.trace(d, channel=c)
+            for name in ("vertices", "n_vertices", "area", "lit"):
+                np.testing.assert_array_equal(f[f"channel{c}_{name}"], getattr(t, name))
+            assert summary[f"channel{c}"]["lit"] == int(np.count_nonzero(t.lit))
+        assert not any(k.startswith("half") for k in f.files)
+
+
+def test_cli_trace_refuses_a_hex_design(tmp_path, capsys):
+    out = tmp_path / "t.npz"
+    assert main(["trace", "--preset", "raytrix-r12", "--out", str(out)]) == 2
+    assert "channel 1 has a hex grid" in capsys.readouterr().err and not out.exists()

@@ -252,18 +252,27 @@ def _cmd_trace(args: argparse.Namespace) -> int:
     from . import rayspace
     from .plot._mpl import trace_threads
 
-    camera, source = _load_camera(args.config)
+    camera, source = _load_report_subject(args)
     out = Path(args.out)
     _check_suffix("--out", out, (".npz",))
     check_new(out, args.force, FORCE_HINT)
     threads = trace_threads(args.threads)
-    arrays: dict[str, Any] = {"camera_toml": np.array(camera.to_toml())}
+    if isinstance(camera, Design):
+        hex_ = [i for i, ch in enumerate(camera.channels, start=1) if ch.grid != "rect"]
+        if hex_:
+            raise CliError(f"trace: channel {hex_[0]} has a hex grid; the 1-D trace needs "
+                           "rect grids (docs/architectures.md)")
+        arrays: dict[str, Any] = {"design_toml": np.array(camera.to_toml())}
+        parts = [(f"channel{c}", {"channel": c}) for c in range(1, len(camera.channels) + 1)]
+    else:
+        arrays = {"camera_toml": np.array(camera.to_toml())}
+        parts = [(f"half{h}", {"half": h}) for h in (1, 2)]
     summary: dict[str, Any] = {"path": str(out), "source": source, "axis": args.axis}
-    for h in (1, 2):
-        t = rayspace.trace(camera, h, axis=args.axis, **threads)
+    for prefix, which in parts:
+        t = rayspace.trace(camera, axis=args.axis, **which, **threads)
         for name in TRACE_FIELDS:
-            arrays[f"half{h}_{name}"] = getattr(t, name)
-        summary[f"half{h}"] = _trace_half(t)
+            arrays[f"{prefix}_{name}"] = getattr(t, name)
+        summary[prefix] = _trace_half(t)
     with atomic_output(out, force=args.force, hint=FORCE_HINT) as tmp:
         np.savez_compressed(tmp, **arrays)
     sys.stdout.write(json_text(summary) if args.json else f"{out}\n")
@@ -698,8 +707,14 @@ def _add_trace(sub: Any) -> None:
     p = sub.add_parser("trace", help="write every pixel's ray-space polygon to .npz",
                        description="Trace every pixel of both halves along one axis "
                        "(docs/model.md §3-4) and write the arrays of splitlf.trace, prefixed "
-                       "half1_/half2_, with the camera as TOML, to an .npz file.")
+                       "half1_/half2_, with the camera as TOML, to an .npz file. A general "
+                       "design with rect grids (--preset, or a --config file with a "
+                       "[design] table) is traced channel by channel, prefixed channel1_, "
+                       "channel2_, ..., with the design as TOML (design_toml).")
     _common(p, "threads of the trace")
+    p.add_argument("--preset", choices=PRESETS, default=None, metavar="NAME",
+                   help=f"trace a named design instead: {', '.join(PRESETS)} "
+                   "(docs/architectures.md; rect grids only)")
     p.add_argument("--axis", choices=("x", "y"), default="x",
                    help="the sensor axis traced (default: x)")
     p.add_argument("--out", default="trace.npz", metavar="FILE.npz",
