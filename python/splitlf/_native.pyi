@@ -51,9 +51,12 @@ __all__ = [
     "design_curves",
     "design_depth_of_field",
     "design_footprints",
+    "design_kernel_support",
     "design_new_samples",
+    "design_render",
     "design_sample_grid",
     "design_sharp_fractions",
+    "design_system_matrix",
     "design_trace",
     "figures_of_merit",
     "footprints",
@@ -451,6 +454,31 @@ def system_matrix(
 ) -> SystemMatrixArrays: ...
 def render(
     camera: CameraCore,
+    z: float,
+    source: str,
+    origin: float,
+    step: float,
+    field_lo: float,
+    field_hi: float,
+    textures: _F64,
+    n_threads: int | None = None,
+) -> RenderArrays: ...
+def design_kernel_support(
+    design: DesignCore, z: float, source: str, n_threads: int | None = None
+) -> float: ...
+def design_system_matrix(
+    design: DesignCore,
+    z: float,
+    source: str,
+    origin: float,
+    step: float,
+    n_cells: int,
+    field_lo: float,
+    field_hi: float,
+    n_threads: int | None = None,
+) -> SystemMatrixArrays: ...
+def design_render(
+    design: DesignCore,
     z: float,
     source: str,
     origin: float,

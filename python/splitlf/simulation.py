@@ -28,11 +28,13 @@ import numpy as np
 
 from . import _native, _validate
 from .camera import Camera
+from .design import Design
 from .errors import InvalidParameter
 
 __all__ = [
     "CONFIGS",
     "SOURCES",
+    "design_sources",
     "forward",
     "system_matrix",
     "BarChart",
@@ -87,6 +89,35 @@ def _source(value: Any) -> str:
     return value
 
 
+def design_sources(design: Design) -> tuple[str, ...]:
+    """The pixel sources of a :class:`~splitlf.Design` of C channels: ``"channel1"``, ...,
+    ``"channelC"`` (each channel's light field), then ``"conventional1"``, ...,
+    ``"conventionalC"`` (the conventional camera with a sensor of pitch mu_c on channel c's
+    array plane)."""
+    n = len(design.channels)
+    return (tuple(f"channel{c}" for c in range(1, n + 1))
+            + tuple(f"conventional{c}" for c in range(1, n + 1)))
+
+
+def _native_source(subject: Camera | Design, source: Any) -> tuple[Any, Any, str]:
+    """(native module functions' first argument, the function family, the source name):
+    ``kernel_support``/``system_matrix``/``render`` of a Camera, ``design_*`` of a Design
+    (the source name checked by the core, :class:`InvalidParameter` named ``source``)."""
+    if isinstance(subject, Design):
+        if not isinstance(source, str):
+            raise TypeError(f"source must be a string, got {type(source).__name__}")
+        return subject.core, _DESIGN_NATIVE, source
+    return subject.core, _CAMERA_NATIVE, _source(source)
+
+
+_CAMERA_NATIVE = types.SimpleNamespace(kernel_support=_native.kernel_support,
+                                       system_matrix=_native.system_matrix,
+                                       render=_native.render)
+_DESIGN_NATIVE = types.SimpleNamespace(kernel_support=_native.design_kernel_support,
+                                       system_matrix=_native.design_system_matrix,
+                                       render=_native.design_render)
+
+
 def _field(origin: float, step: float, n: int, field: Any) -> tuple[float, float]:
     if field is None:
         return origin, origin + n * step
@@ -94,7 +125,7 @@ def _field(origin: float, step: float, n: int, field: Any) -> tuple[float, float
     return lo, hi
 
 
-def forward(camera: Camera, z: float, source: str, origin: float, step: float,
+def forward(camera: Camera | Design, z: float, source: str, origin: float, step: float,
             texture: Any, field: tuple[float, float] | None = None,
             n_threads: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Noise-free pixel values (exact, computed in the core) of ``source`` on the plane at
@@ -105,10 +136,14 @@ def forward(camera: Camera, z: float, source: str, origin: float, step: float,
     mu on plane v' seeing the whole aperture under a white texture reads 1; the
     light-field halves include the beam splitter's 1/2.
 
-    ``z`` depth [mm] > F; ``source`` one of :data:`SOURCES`; ``origin``, ``step`` [mm]
-    (step > 0); ``field`` (lo, hi) [mm]; ``n_threads`` threads of the core (None: all).
-    Raises ``TypeError`` (types) and ``ValueError`` (ranges, checked by the core)."""
-    cam = _validate.camera(camera)
+    ``camera`` a :class:`~splitlf.Camera` or a :class:`~splitlf.Design` (rect channels; in
+    a design's units, a pixel of width mu_1 on plane L_1, and each channel's light field
+    includes its ``share``); ``z`` depth [mm] > F; ``source`` one of :data:`SOURCES`
+    (Camera) or of :func:`design_sources` (Design); ``origin``, ``step`` [mm] (step > 0);
+    ``field`` (lo, hi) [mm]; ``n_threads`` threads of the core (None: all). Raises
+    ``TypeError`` (types) and ``ValueError`` (ranges, checked by the core; a hex channel
+    named ``channels[i].grid``)."""
+    core, fn, src = _native_source(_validate.camera_or_design(camera), source)
     t = np.asarray(texture)
     if t.dtype == object or not (np.issubdtype(t.dtype, np.floating)
                                  or np.issubdtype(t.dtype, np.integer)):
@@ -118,12 +153,12 @@ def forward(camera: Camera, z: float, source: str, origin: float, step: float,
     t2 = np.ascontiguousarray(np.atleast_2d(t), dtype=np.float64)
     o, h = _validate.real(origin, "origin"), _validate.real(step, "step")
     lo, hi = _field(o, h, t2.shape[1], field)
-    r = _native.render(cam.core, _validate.real(z, "z"), _source(source), o, h,
-                       lo, hi, t2, _validate.n_threads(n_threads))
+    r = fn.render(core, _validate.real(z, "z"), src, o, h, lo, hi, t2,
+                  _validate.n_threads(n_threads))
     return (r.values[0] if t.ndim == 1 else r.values), r.pixels
 
 
-def system_matrix(camera: Camera, z: float, source: str, origin: float, step: float,
+def system_matrix(camera: Camera | Design, z: float, source: str, origin: float, step: float,
                   n_cells: int, field: tuple[float, float] | None = None,
                   n_threads: int | None = None):
     """The sparse system matrix (``scipy.sparse.csr_matrix``, pixels x cells) of ``source``
@@ -134,13 +169,12 @@ def system_matrix(camera: Camera, z: float, source: str, origin: float, step: fl
     ``n_cells`` an integer >= 1; the other arguments as in :func:`forward`. Raises
     ``TypeError``, ``ValueError`` and ``ImportError`` without SciPy."""
     sp = _scipy()[0]
-    cam = _validate.camera(camera)
+    core, fn, src = _native_source(_validate.camera_or_design(camera), source)
     o, h = _validate.real(origin, "origin"), _validate.real(step, "step")
     n = _int(n_cells, "n_cells", 1)
     lo, hi = _field(o, h, n, field)
-    a = _native.system_matrix(
-        cam.core, _validate.real(z, "z"), _source(source), o, h, n, lo, hi,
-        _validate.n_threads(n_threads))
+    a = fn.system_matrix(
+        core, _validate.real(z, "z"), src, o, h, n, lo, hi, _validate.n_threads(n_threads))
     return sp.csr_matrix((a.data, a.indices, a.indptr), shape=a.shape), a.pixels
 
 
@@ -389,27 +423,33 @@ def _add_noise(y: np.ndarray, noise: dict[str, float] | None,
 class Simulation:
     """One simulated plane at depth ``z`` [mm] (docs/simulate.md).
 
-    - ``delta``: grid spacing delta(z) = d z / (Q v') [mm]; ``x`` (W,) cell centres of the
-      central window of W cells [mm]
-    - ``truth`` (W,): the texture's average over each cell; ``half1``, ``half2``,
-      ``split``, ``conventional`` (W,): the reconstructions on the same cells
+    - ``configs``: the names of the rows, in order: :data:`CONFIGS` for a Camera;
+      ``"channel 1"``, ..., ``"channel C"``, ``"union"``, ``"conventional c"`` for a Design
+    - ``delta``: grid spacing delta(z) = d z / (Q v') [mm] (a Design: mu_1 z / L_1);
+      ``x`` (W,) cell centres of the central window of W cells [mm]
+    - ``truth`` (W,): the texture's average over each cell; ``reconstructions``
+      {config: (W,)} the reconstructions on the same cells (also :meth:`reconstruction`);
+      for a Camera also the attributes ``half1``, ``half2``, ``split``, ``conventional``
+      (None for a Design)
     - ``rmse``, ``psnr`` [dB, peak albedo 1], ``mtf50`` [cycles/mm on the object]: one
-      value per configuration in :data:`CONFIGS` (``mtf50`` empty with ``mtf=False``)
+      value per configuration in ``configs`` (``mtf50`` empty with ``mtf=False``)
     - ``frequencies`` (F,) [cycles/mm] and ``contrast`` {config: (F,)}: the MTF search
     - ``nyquist`` = 1 / (2 delta) and ``microlens_frequency`` = v' / (d z) = 1 / (Q delta),
-      one cycle per microlens pitch on the object [cycles/mm]
+      one cycle per microlens pitch on the object [cycles/mm] (a Design: L_1 / (d_1 z),
+      channel 1's pitch)
     - ``regularization`` {config: weight lambda of the first-difference penalty}
-    - ``pixels`` {config: pixels used}, ``noise``, ``seed``, ``conventional_half``
+    - ``pixels`` {config: pixels used}, ``noise``, ``seed``, ``conventional_half`` (the
+      half or, for a Design, the channel whose array plane holds the conventional sensor)
     """
 
     z: float
     delta: float
     x: np.ndarray
     truth: np.ndarray
-    half1: np.ndarray
-    half2: np.ndarray
-    split: np.ndarray
-    conventional: np.ndarray
+    half1: np.ndarray | None
+    half2: np.ndarray | None
+    split: np.ndarray | None
+    conventional: np.ndarray | None
     rmse: Mapping[str, float]
     psnr: Mapping[str, float]
     mtf50: Mapping[str, float]
@@ -422,13 +462,16 @@ class Simulation:
     noise: Mapping[str, float] | None
     seed: int | None
     conventional_half: int
+    configs: tuple[str, ...] = CONFIGS
+    reconstructions: Mapping[str, np.ndarray] = dataclasses.field(
+        default_factory=lambda: types.MappingProxyType({}))
 
     def reconstruction(self, config: str) -> np.ndarray:
-        """The reconstruction (W,) of ``config``, one of :data:`CONFIGS`; else
+        """The reconstruction (W,) of ``config``, one of ``configs``; else
         :class:`~splitlf.errors.InvalidParameter`."""
-        if config not in CONFIGS:
-            raise InvalidParameter.of("config", config, ", ".join(CONFIGS))
-        return getattr(self, config)
+        if config not in self.configs:
+            raise InvalidParameter.of("config", config, ", ".join(self.configs))
+        return self.reconstructions[config]
 
     def summary(self) -> dict[str, Any]:
         """JSON-ready figures of merit: a dict of numbers, strings, dicts and None. A value
@@ -509,16 +552,29 @@ def _seed(value: Any) -> int | None:
     return int(value)
 
 
+def _conventional(subject: Camera | Design, half: Any, channel: Any) -> int:
+    """The half (Camera) or channel (Design) of the conventional camera's sensor: give
+    ``conventional_half`` or ``conventional_channel``, not both; default 1."""
+    if half is not None and channel is not None:
+        raise TypeError("give conventional_half or conventional_channel, not both")
+    name = "conventional_half" if channel is None else "conventional_channel"
+    value = 1 if half is None and channel is None else (half if channel is None else channel)
+    ch = _int(value, name, 1)
+    n = len(subject.channels) if isinstance(subject, Design) else 2
+    if ch > n:
+        raise InvalidParameter.of(name, ch, "1 or 2" if n == 2 and not isinstance(
+            subject, Design) else f"an integer in [1, {n}]")
+    return ch
+
+
 def _options(z: Any, texture: Any, noise: Any, seed: Any, window: Any, oversample: Any,
-             mtf: Any, n_frequencies: Any, regularization: Any, conventional_half: Any,
+             mtf: Any, n_frequencies: Any, regularization: Any, conventional: int,
              n_threads: Any) -> _Options:
     """Check every argument of :func:`simulate` before any work."""
     win = _int(window, "window", 8)
     if not isinstance(mtf, bool):
         raise TypeError(f"mtf must be a bool, got {mtf!r}")
-    ch = _int(conventional_half, "conventional_half", 1)
-    if ch not in (1, 2):
-        raise InvalidParameter.of("conventional_half", ch, "1 or 2")
+    ch = conventional
     return _Options(
         z=_validate.real(z, "z"), texture=_texture(texture), noise=_noise(noise),
         seed=_seed(seed), window=win + win % 2, oversample=_int(oversample, "oversample", 1),
@@ -545,12 +601,12 @@ class _Grid:
     w0: int
 
 
-def _grid(core: Any, z: float, sources: Mapping[str, str], delta: float, win: int,
-          threads: int | None) -> _Grid:
-    support = {k: _native.kernel_support(core, z, s, threads) for k, s in sources.items()}
-    margin_lf = math.ceil(max(support["half1"], support["half2"]) / delta) + 1
-    margin = {"half1": margin_lf, "half2": margin_lf,
-              "conventional": math.ceil(support["conventional"] / delta) + 1}
+def _grid(core: Any, fn: Any, z: float, sources: Mapping[str, str], lf: tuple[str, ...],
+          conv: str, delta: float, win: int, threads: int | None) -> _Grid:
+    support = {k: fn.kernel_support(core, z, s, threads) for k, s in sources.items()}
+    margin_lf = math.ceil(max(support[k] for k in lf) / delta) + 1
+    margin = {k: margin_lf for k in lf}
+    margin[conv] = math.ceil(support[conv] / delta) + 1
     big = max(margin.values())
     n_big = win + 2 * big + 2
     return _Grid(delta=delta, win=win, margin=margin, big=big, n_big=n_big,
@@ -570,13 +626,15 @@ def _textures(tex: Any, grid: _Grid, oversample: int, freqs: np.ndarray, mtf: bo
     return np.ascontiguousarray(np.vstack(rows))
 
 
-def _image_systems(core: Any, z: float, sources: Mapping[str, str], grid: _Grid,
-                   fine: np.ndarray, oversample: int, noise: dict[str, float] | None,
+def _image_systems(core: Any, fn: Any, z: float, sources: Mapping[str, str],
+                   lf: tuple[str, ...], union: str, grid: _Grid, fine: np.ndarray,
+                   oversample: int, noise: dict[str, float] | None,
                    rng: np.random.Generator, threads: int | None
                    ) -> tuple[dict[str, np.ndarray], dict[str, Any], dict[str, slice]]:
-    """Render each source (noise added in the fixed order half1, half2, conventional) and
-    assemble its system matrix; add the split sensor (both halves stacked). Returns
-    (images, matrices, the cells of the big grid each system covers)."""
+    """Render each source (noise added in the fixed order of ``sources``: half1, half2,
+    conventional; channel 1, ..., channel C, conventional) and assemble its system matrix;
+    add the ``union`` of the light-field sources ``lf`` (their rows stacked: the split
+    sensor). Returns (images, matrices, the cells of the big grid each system covers)."""
     sp = _scipy()[0]
     images: dict[str, np.ndarray] = {}
     mats: dict[str, Any] = {}
@@ -589,16 +647,16 @@ def _image_systems(core: Any, z: float, sources: Mapping[str, str], grid: _Grid,
         cells[key] = slice(first, first + n)
         origin = grid.origin + first * delta
         field = (origin + delta, origin + (n - 1) * delta)
-        y = _native.render(core, z, src, origin, delta / oversample, *field,
+        y = fn.render(core, z, src, origin, delta / oversample, *field,
                            np.ascontiguousarray(
                                fine[:, first * oversample:(first + n) * oversample]),
                            threads).values
         images[key] = _add_noise(y, noise, rng)
-        a = _native.system_matrix(core, z, src, origin, delta, n, *field, threads)
+        a = fn.system_matrix(core, z, src, origin, delta, n, *field, threads)
         mats[key] = sp.csr_matrix((a.data, a.indices, a.indptr), shape=a.shape)
-    images["split"] = np.hstack([images["half1"], images["half2"]])
-    mats["split"] = sp.vstack([mats["half1"], mats["half2"]]).tocsr()
-    cells["split"] = cells["half1"]
+    images[union] = np.hstack([images[k] for k in lf])
+    mats[union] = sp.vstack([mats[k] for k in lf]).tocsr()
+    cells[union] = cells[lf[0]]
     return images, mats, cells
 
 
@@ -654,8 +712,25 @@ def _mtf_contrast(rec: np.ndarray, x: np.ndarray, freqs: np.ndarray) -> np.ndarr
     return c
 
 
+def _check_rect(design: Design) -> None:
+    """Every channel of ``design`` on a rect grid (the simulation is the 1-D engine along
+    x, docs/model.md §9), else :class:`InvalidParameter` named ``channels[i].grid``."""
+    for i, ch in enumerate(design.channels, 1):
+        if ch.grid != "rect":
+            allowed = ('"rect": the simulation runs the 1-D analysis along x (docs/model.md '
+                       '§3-§6, §9), which needs rect grids')
+            raise InvalidParameter(f'invalid channels[{i}].grid = "hex": allowed {allowed}',
+                                   name=f"channels[{i}].grid", value="hex", allowed=allowed)
+
+
+def _resolution_step(subject: Camera | Design, z: float) -> float:
+    """delta(z) of the camera (d z / (Q v'), docs/model.md §6) or the design (mu_1 z / L_1,
+    §9): the two differ in the last bits for ``camera.design`` (0.135 / 15 != 0.009)."""
+    return subject.core.resolution_step(z)
+
+
 def simulate(
-    camera: Camera,
+    camera: Camera | Design,
     z: float,
     texture: Texture = "random",
     noise: Mapping[str, float] | None = None,
@@ -666,13 +741,18 @@ def simulate(
     mtf: bool = True,
     n_frequencies: int = 48,
     regularization: float | None = None,
-    conventional_half: int = 1,
+    conventional_half: int | None = None,
     n_threads: int | None = None,
+    conventional_channel: int | None = None,
 ) -> Simulation:
     """Simulate the plane at depth ``z`` [mm] carrying ``texture`` and reconstruct it with
-    known depth from half 1, half 2, the split sensor and the conventional camera.
+    known depth from half 1, half 2, the split sensor and the conventional camera (a
+    Design: from each channel alone, the union of all channels, and the conventional
+    camera on one channel's array plane).
 
-    - ``camera``: the :class:`~splitlf.Camera`; ``z``: the plane's depth [mm], > F
+    - ``camera``: the :class:`~splitlf.Camera`, or a :class:`~splitlf.Design` whose
+      channels all have rect grids (docs/simulate.md, "Designs"); ``z``: the plane's depth
+      [mm], > F
     - ``texture``: ``"random"`` (:class:`RandomAlbedo` on delta(z) cells), a
       :class:`Sinusoid`, :class:`BarChart`, :class:`RandomAlbedo`, :class:`Image`, or a
       callable albedo(X [mm]) (sampled at the centres of the fine cells)
@@ -691,37 +771,52 @@ def simulate(
       the Nyquist frequency 1/(2 delta), two phases each; ``n_frequencies`` >= 2)
     - ``regularization``: the weight lambda of the first-difference penalty (finite >= 0);
       None for the default rule (docs/simulate.md)
-    - ``conventional_half``: the conventional camera has its sensor on array plane 1 or 2
+    - ``conventional_half`` (or ``conventional_channel``; give one, default 1): the
+      conventional camera has its sensor on array plane 1 or 2 (a Design: on channel c's
+      array plane, pixel pitch mu_c, as many pixels as the channel's row)
     - ``n_threads``: threads of the core (None: all cores)
 
     Returns a :class:`Simulation`. Raises ``TypeError`` for arguments of the wrong type,
     :class:`~splitlf.errors.InvalidParameter` (a ``ValueError``) for values out of range
     (all checked before any work, except a texture callable's output and the Poisson mean,
-    checked when computed), ``ImportError`` without SciPy.
+    checked when computed; a Design's hex channel i is named ``channels[i].grid``),
+    ``ImportError`` without SciPy.
     """
     _scipy()
-    cam = _validate.camera(camera)
+    subject = _validate.camera_or_design(camera)
+    conv_number = _conventional(subject, conventional_half, conventional_channel)
     o = _options(z, texture, noise, seed, window, oversample, mtf, n_frequencies,
-                 regularization, conventional_half, n_threads)
-    core = cam.core
-    delta = core.resolution_step(o.z)  # validates z
+                 regularization, conv_number, n_threads)
+    core = subject.core
+    if isinstance(subject, Design):
+        fn = _DESIGN_NATIVE
+        n_ch = len(subject.channels)
+        lf = tuple(f"channel {c}" for c in range(1, n_ch + 1))
+        union, conv = "union", f"conventional {o.conventional_half}"
+        sources = {k: f"channel{c}" for c, k in enumerate(lf, 1)}
+        _check_rect(subject)
+    else:
+        fn = _CAMERA_NATIVE
+        lf, union, conv = ("half1", "half2"), "split", "conventional"
+        sources = {"half1": "half1", "half2": "half2"}
+    sources[conv] = f"conventional{o.conventional_half}"
+    configs = (*lf, union, conv)
+    delta = _resolution_step(subject, o.z)  # validates z
     rng = np.random.default_rng(o.seed)
-    sources = {"half1": "half1", "half2": "half2",
-               "conventional": f"conventional{o.conventional_half}"}
-    grid = _grid(core, o.z, sources, delta, o.window, o.n_threads)
+    grid = _grid(core, fn, o.z, sources, lf, conv, delta, o.window, o.n_threads)
     win = o.window
     freqs = np.arange(1, o.n_frequencies) / o.n_frequencies * (0.5 / delta)
     fine = _textures(o.texture, grid, o.oversample, freqs, o.mtf, rng)
     coarse = fine.reshape(fine.shape[0], grid.n_big, o.oversample).mean(axis=2)
     truth = coarse[0, grid.w0:grid.w0 + win]
     x = grid.origin + (np.arange(grid.w0, grid.w0 + win) + 0.5) * delta
-    images, mats, cells = _image_systems(core, o.z, sources, grid, fine, o.oversample,
-                                         o.noise, rng, o.n_threads)
+    images, mats, cells = _image_systems(core, fn, o.z, sources, lf, union, grid, fine,
+                                         o.oversample, o.noise, rng, o.n_threads)
 
     recs: dict[str, np.ndarray] = {}
     lams: dict[str, float] = {}
     contrast: dict[str, np.ndarray] = {}
-    for key in CONFIGS:
+    for key in configs:
         sol, lams[key] = _solve(mats[key], images[key], o.regularization, o.noise)
         first = grid.w0 - cells[key].start
         rec = sol[:, first:first + win]
@@ -729,18 +824,26 @@ def simulate(
         if o.mtf:
             contrast[key] = _mtf_contrast(rec, x, freqs)
 
-    rmse = {k: float(np.sqrt(np.mean((recs[k] - truth) ** 2))) for k in CONFIGS}
+    rmse = {k: float(np.sqrt(np.mean((recs[k] - truth) ** 2))) for k in configs}
     psnr = {k: (float("inf") if v == 0 else float(-20 * np.log10(v))) for k, v in rmse.items()}
-    mtf50 = {k: _mtf50(freqs, contrast[k]) for k in CONFIGS} if o.mtf else {}
+    mtf50 = {k: _mtf50(freqs, contrast[k]) for k in configs} if o.mtf else {}
     ro = types.MappingProxyType
+    if isinstance(subject, Design):
+        ch1 = subject.channels[0]
+        microlens = ch1.L / (ch1.d * o.z)  # one cycle per channel-1 lens pitch
+        named: dict[str, np.ndarray | None] = dict.fromkeys(CONFIGS)
+    else:
+        microlens = 1.0 / (subject.Q * delta)
+        named = {k: recs[k] for k in CONFIGS}
     return Simulation(
         z=o.z, delta=delta, x=x, truth=truth,
-        half1=recs["half1"], half2=recs["half2"], split=recs["split"],
-        conventional=recs["conventional"],
+        half1=named["half1"], half2=named["half2"], split=named["split"],
+        conventional=named["conventional"],
         rmse=ro(rmse), psnr=ro(psnr), mtf50=ro(mtf50),
         frequencies=freqs if o.mtf else np.empty(0), contrast=ro(contrast),
-        nyquist=0.5 / delta, microlens_frequency=1.0 / (cam.Q * delta),
-        regularization=ro(lams), pixels=ro({k: int(mats[k].shape[0]) for k in CONFIGS}),
+        nyquist=0.5 / delta, microlens_frequency=microlens,
+        regularization=ro(lams), pixels=ro({k: int(mats[k].shape[0]) for k in configs}),
         noise=None if o.noise is None else ro(o.noise), seed=o.seed,
-        conventional_half=o.conventional_half,
+        conventional_half=o.conventional_half, configs=configs,
+        reconstructions=ro({k: recs[k] for k in configs}),
     )

@@ -20,11 +20,13 @@
 use rayon::prelude::*;
 
 use crate::camera::{Axis, Camera, Half};
+use crate::design::Design;
 use crate::error::{Error, Result};
+use crate::line::Line;
 use crate::memory::{self, try_vec, try_with_capacity};
-use crate::optics::{check_depths, conjugate, main_blur};
+use crate::optics::{check_design_depths, conjugate, LensOptics};
 use crate::parallel::{check_threads, chunk_items, for_chunks, with_threads};
-use crate::rayspace::{slope, trace, weight_profile, MAX_VERTICES, TRACE_BYTES_PER_PIXEL};
+use crate::rayspace::{trace_line, weight_profile, MAX_VERTICES, TRACE_BYTES_PER_PIXEL};
 
 /// Fraction of the light each light-field half receives from the beam splitters.
 pub const BEAM_SPLITTER: f64 = 0.5;
@@ -59,6 +61,96 @@ impl Source {
         match self {
             Source::Half(_) => BEAM_SPLITTER,
             Source::Conventional(_) => 1.0,
+        }
+    }
+}
+
+/// Which pixels of a design (docs/simulate.md, "Designs"): channel c's light field, or the
+/// conventional camera with a sensor of pitch μ_c on channel c's array plane (c from 1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum DesignSource {
+    Channel(i64),
+    Conventional(i64),
+}
+
+impl DesignSource {
+    /// Source from its name: "channel1", …, "channelC", "conventional1", …,
+    /// "conventionalC" (C channels of `design`).
+    pub fn from_name(design: &Design, name: &str) -> Result<DesignSource> {
+        let n = design.channels.len();
+        let number = |rest: &str| -> Option<i64> {
+            let c: i64 = rest.parse().ok()?;
+            (rest == c.to_string() && c >= 1 && c as u64 <= n as u64).then_some(c)
+        };
+        let parsed = if let Some(rest) = name.strip_prefix("channel") {
+            number(rest).map(DesignSource::Channel)
+        } else if let Some(rest) = name.strip_prefix("conventional") {
+            number(rest).map(DesignSource::Conventional)
+        } else {
+            None
+        };
+        parsed.ok_or_else(|| {
+            Error::param(
+                "source",
+                format!("{name:?}"),
+                format!("\"channel<c>\" or \"conventional<c>\" with c in [1, {n}]"),
+            )
+        })
+    }
+}
+
+/// The pixels of one source along x, as the forward model sees them: the 1-D line of a
+/// camera half or a design channel ([`Line`]), whether they are that line's light field or
+/// the conventional camera on its array plane, and the pixel pitch of the unit pixel.
+///
+/// Values are normalised by D μ_ref, μ_ref the camera's μ or the design's μ_1 (channel 1,
+/// as δ(z) is), so that every source of one camera or design shares one unit; the light
+/// field is multiplied by the line's `share` (½ for a camera half, [`BEAM_SPLITTER`]), the
+/// conventional camera by 1.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Pixels {
+    /// The line along x (ray space referred to v' or L_1).
+    pub line: Line,
+    /// The conventional camera on the line's array plane instead of its light field.
+    pub conventional: bool,
+    /// μ of the unit pixel.
+    pub mu_ref: f64,
+}
+
+impl Pixels {
+    /// A source of the camera: exactly the camera's pixels (`Line::of_half` has share ½).
+    pub fn of_camera(cam: &Camera, source: Source) -> Pixels {
+        let (half, conventional) = match source {
+            Source::Half(h) => (h, false),
+            Source::Conventional(h) => (h, true),
+        };
+        Pixels {
+            line: Line::of_half(cam, half, Axis::X),
+            conventional,
+            mu_ref: cam.mu,
+        }
+    }
+
+    /// A source of the design (its channel must have a rect grid: the refusal names
+    /// `channels[i].grid`).
+    pub fn of_design(design: &Design, source: DesignSource) -> Result<Pixels> {
+        let (c, conventional) = match source {
+            DesignSource::Channel(c) => (c, false),
+            DesignSource::Conventional(c) => (c, true),
+        };
+        Ok(Pixels {
+            line: Line::of_channel(design, c, Axis::X)?,
+            conventional,
+            mu_ref: design.channels[0].mu,
+        })
+    }
+
+    /// Transmission of the light path: the channel's share (light field), 1 (conventional).
+    pub fn transmission(&self) -> f64 {
+        if self.conventional {
+            1.0
+        } else {
+            self.line.share
         }
     }
 }
@@ -182,21 +274,28 @@ impl Kernel {
 }
 
 /// Conjugate and validated depth, thread count and source checks shared by every entry.
-fn check_plane(cam: &Camera, z: f64, n_threads: Option<usize>) -> Result<()> {
+fn check_plane(px: &Pixels, z: f64, n_threads: Option<usize>) -> Result<()> {
     check_threads(n_threads)?;
-    check_depths(cam, &[z])
+    check_design_depths(px.line.f_main, &[z])
 }
 
 /// Kernels of every pixel of `source` along x on the plane at depth z that collects light
 /// (pixels with an empty integration polygon are left out), in pixel order.
 pub fn kernels(cam: &Camera, z: f64, source: Source) -> Result<Vec<Kernel>> {
-    check_depths(cam, &[z])?;
-    let zc = conjugate(cam.f_main, z);
-    let scale = -z / cam.v1; // X = −p' z / v'
-    let norm = source.transmission() * (cam.v1 / z) / (cam.aperture * cam.mu);
-    match source {
-        Source::Half(half) => light_field_kernels(cam, half, zc, scale, norm),
-        Source::Conventional(half) => conventional_kernels(cam, half, zc, scale, norm),
+    kernels_of(&Pixels::of_camera(cam, source), z)
+}
+
+/// [`kernels`] of any source (a camera's or a design's, [`Pixels`]).
+pub fn kernels_of(px: &Pixels, z: f64) -> Result<Vec<Kernel>> {
+    let line = &px.line;
+    check_design_depths(line.f_main, &[z])?;
+    let zc = conjugate(line.f_main, z);
+    let scale = -z / line.v_ref; // X = −p' z / v'
+    let norm = px.transmission() * (line.v_ref / z) / (line.aperture * px.mu_ref);
+    if px.conventional {
+        conventional_kernels(line, zc, scale, norm)
+    } else {
+        light_field_kernels(line, zc, scale, norm)
     }
 }
 
@@ -217,19 +316,13 @@ fn kernel_from(pixel: u32, br: &[f64], va: &[f64], scale: f64, norm: f64) -> Ker
     k
 }
 
-/// A light field half: the weight profile of every pixel's integration polygon.
-fn light_field_kernels(
-    cam: &Camera,
-    half: Half,
-    zc: f64,
-    scale: f64,
-    norm: f64,
-) -> Result<Vec<Kernel>> {
-    let n_px = cam.kx as u128 * cam.q as u128;
+/// A light field line: the weight profile of every pixel's integration polygon.
+fn light_field_kernels(line: &Line, zc: f64, scale: f64, norm: f64) -> Result<Vec<Kernel>> {
+    let n_px = line.pixel_count();
     let per = TRACE_BYTES_PER_PIXEL + memory::bytes_of::<Kernel>(1);
     memory::check("kernels (trace and kernels)", n_px * per)?;
-    let tr = trace(cam, half, Axis::X)?;
-    let sigma = slope(cam, zc);
+    let tr = trace_line(line)?;
+    let sigma = line.slope(zc);
     Ok(tr
         .polygons
         .par_iter()
@@ -242,37 +335,43 @@ fn light_field_kernels(
         .collect())
 }
 
-/// The camera without microlenses, sensor on plane L_i: a trapezoid per pixel (pixel box
-/// convolved with the main-lens blur).
-fn conventional_kernels(
-    cam: &Camera,
-    half: Half,
-    zc: f64,
-    scale: f64,
-    norm: f64,
-) -> Result<Vec<Kernel>> {
-    let l = cam.array_plane(half);
-    let a = l / cam.v1;
-    let n_px = cam.kx as u64 * cam.q as u64;
+/// The camera without microlenses, sensor of the line's pitch μ and pixel count on the
+/// line's array plane L: a trapezoid per pixel (pixel box convolved with the main-lens
+/// blur).
+fn conventional_kernels(line: &Line, zc: f64, scale: f64, norm: f64) -> Result<Vec<Kernel>> {
+    let l = line.l;
+    let a = l / line.v_ref;
+    let n_px = line.pixel_count() as u64;
     memory::check(
         "conventional kernels",
         memory::bytes_of::<Kernel>(n_px as u128),
     )?;
-    // Pixel box half-width A = μ/(2a) and blur half-width B = H_i v'/L_i, in p'.
-    let half_px = cam.mu / (2.0 * a);
-    let blur = main_blur(cam, half, zc) * cam.v1 / l;
+    // Pixel box half-width A = μ/(2a) and blur half-width B = H v_ref/L, in p'
+    // (H of Eqs. 2–3 does not depend on the microlenses: f is not read).
+    let optics = LensOptics {
+        f_main: line.f_main,
+        aperture: line.aperture,
+        l,
+        d: line.d,
+        v: line.v,
+        mu: line.mu,
+        f: line.focal[0],
+    };
+    let half_px = line.mu / (2.0 * a);
+    let blur = optics.main_blur(zc) * line.v_ref / l;
     // Weight on the plateau: the aperture length min(2A, 2B)/|g| with
     // |g| = 2B/D the shear of w into p'; D when in focus (B ≤ A).
     let plateau = if blur <= half_px {
-        cam.aperture
+        line.aperture
     } else {
-        cam.aperture * half_px / blur
+        line.aperture * half_px / blur
     };
     let (outer, inner) = (half_px + blur, (half_px - blur).abs());
+    let mu = line.mu;
     Ok((0..n_px)
         .into_par_iter()
         .map(|k| {
-            let s = (k as f64 - (n_px as f64 - 1.0) / 2.0) * cam.mu;
+            let s = (k as f64 - (n_px as f64 - 1.0) / 2.0) * mu;
             let c = s / a;
             // Ascending in p' (`kernel_from` reverses them into ascending X).
             let br = [c - outer, c - inner, c + inner, c + outer];
@@ -289,9 +388,14 @@ pub fn kernel_support(
     source: Source,
     n_threads: Option<usize>,
 ) -> Result<f64> {
-    check_plane(cam, z, n_threads)?;
+    kernel_support_of(&Pixels::of_camera(cam, source), z, n_threads)
+}
+
+/// [`kernel_support`] of any source.
+pub fn kernel_support_of(px: &Pixels, z: f64, n_threads: Option<usize>) -> Result<f64> {
+    check_plane(px, z, n_threads)?;
     with_threads(n_threads, || {
-        kernels(cam, z, source).map(|ks| ks.iter().map(|k| k.hi() - k.lo()).fold(0.0, f64::max))
+        kernels_of(px, z).map(|ks| ks.iter().map(|k| k.hi() - k.lo()).fold(0.0, f64::max))
     })?
 }
 
@@ -338,20 +442,25 @@ pub fn system_matrix(
     field: (f64, f64),
     n_threads: Option<usize>,
 ) -> Result<System> {
-    check_plane(cam, z, n_threads)?;
-    check_field(field)?;
-    let grid = Grid::new(grid.origin, grid.step, grid.n)?;
-    with_threads(n_threads, || system_unchecked(cam, z, source, grid, field))?
+    system_matrix_of(&Pixels::of_camera(cam, source), z, grid, field, n_threads)
 }
 
-fn system_unchecked(
-    cam: &Camera,
+/// [`system_matrix`] of any source.
+pub fn system_matrix_of(
+    px: &Pixels,
     z: f64,
-    source: Source,
     grid: Grid,
     field: (f64, f64),
+    n_threads: Option<usize>,
 ) -> Result<System> {
-    let ks: Vec<Kernel> = kernels(cam, z, source)?
+    check_plane(px, z, n_threads)?;
+    check_field(field)?;
+    let grid = Grid::new(grid.origin, grid.step, grid.n)?;
+    with_threads(n_threads, || system_unchecked(px, z, grid, field))?
+}
+
+fn system_unchecked(px: &Pixels, z: f64, grid: Grid, field: (f64, f64)) -> Result<System> {
+    let ks: Vec<Kernel> = kernels_of(px, z)?
         .into_iter()
         .filter(|k| k.lo() >= field.0 && k.hi() <= field.1)
         .collect();
@@ -410,7 +519,26 @@ pub fn render(
     textures: &[f64],
     n_threads: Option<usize>,
 ) -> Result<(Vec<f64>, Vec<u32>)> {
-    check_plane(cam, z, n_threads)?;
+    render_of(
+        &Pixels::of_camera(cam, source),
+        z,
+        grid,
+        field,
+        textures,
+        n_threads,
+    )
+}
+
+/// [`render`] of any source.
+pub fn render_of(
+    px: &Pixels,
+    z: f64,
+    grid: Grid,
+    field: (f64, f64),
+    textures: &[f64],
+    n_threads: Option<usize>,
+) -> Result<(Vec<f64>, Vec<u32>)> {
+    check_plane(px, z, n_threads)?;
     check_field(field)?;
     let grid = Grid::new(grid.origin, grid.step, grid.n)?;
     if textures.is_empty() || textures.len() % grid.n != 0 {
@@ -428,7 +556,7 @@ pub fn render(
         ));
     }
     let n_tex = textures.len() / grid.n;
-    let sys = with_threads(n_threads, || system_unchecked(cam, z, source, grid, field))??;
+    let sys = with_threads(n_threads, || system_unchecked(px, z, grid, field))??;
     let m = &sys.matrix;
     check_rendered(n_tex, m.rows)?;
     // (n_pix, n_tex) in parallel over pixels, in chunks of pixels with an interrupt
@@ -473,7 +601,7 @@ fn check_rendered(n_tex: usize, n_pix: usize) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rayspace::{HalfRays, Polygon};
+    use crate::rayspace::{slope, trace, HalfRays, Polygon};
 
     fn close(a: f64, b: f64, tol: f64) -> bool {
         (a - b).abs() <= tol * a.abs().max(b.abs()).max(1e-300)
@@ -602,6 +730,156 @@ mod tests {
                 assert!(close(got, want, 1e-10), "{src:?} {r}: {got} {want}");
             }
         }
+    }
+
+    /// Three rect channels: f-number matched ideal, a sensor layout with three lens types,
+    /// an ideal layout with two (the Python tests' `MIX`); shares sum to 1.
+    fn mix() -> Design {
+        use crate::design::{Aperture, ChannelSpec, Grid as Lattice};
+        let ch = |l, d, v, mu, kx, f: Option<Vec<f64>>, layout: &str, q, share| ChannelSpec {
+            l,
+            d,
+            v,
+            mu,
+            kx,
+            ky: 3,
+            grid: Lattice::Rect,
+            f,
+            layout: layout.into(),
+            q,
+            mx: None,
+            my: None,
+            share,
+        };
+        let specs = [
+            ch(60.0, 0.1, 0.6, 0.01, 21, None, "ideal", Some(9), 0.3),
+            ch(
+                66.0,
+                0.12,
+                0.5,
+                0.008,
+                17,
+                Some(vec![0.45, 0.5, 0.55]),
+                "sensor",
+                None,
+                0.3,
+            ),
+            ch(
+                75.0,
+                0.1,
+                0.6,
+                0.01,
+                15,
+                Some(vec![0.5, 0.62]),
+                "ideal",
+                Some(8),
+                0.4,
+            ),
+        ];
+        Design::new(50.0, 10.0, Aperture::Circle, &specs).unwrap()
+    }
+
+    #[test]
+    fn camera_design_sources_are_the_camera_sources() {
+        // Pixels::of_design of `Design::from_camera` is Pixels::of_camera (share ½ =
+        // BEAM_SPLITTER, μ_1 = μ), so every result is the camera's bit for bit.
+        let cam = Camera::paper();
+        let d = Design::from_camera(&cam);
+        assert_eq!(Line::of_half(&cam, Half::One, Axis::X).share, BEAM_SPLITTER);
+        for (src, dsrc) in [
+            (Source::Half(Half::One), DesignSource::Channel(1)),
+            (Source::Half(Half::Two), DesignSource::Channel(2)),
+            (
+                Source::Conventional(Half::One),
+                DesignSource::Conventional(1),
+            ),
+            (
+                Source::Conventional(Half::Two),
+                DesignSource::Conventional(2),
+            ),
+        ] {
+            let (a, b) = (
+                Pixels::of_camera(&cam, src),
+                Pixels::of_design(&d, dsrc).unwrap(),
+            );
+            assert_eq!(a, b);
+            assert_eq!(a.transmission(), src.transmission());
+            let z = 400.0;
+            let g = grid_around(&cam, z, 300, 2);
+            let f = (g.edge(0), g.edge(g.n));
+            let (ka, kb) = (kernels(&cam, z, src).unwrap(), kernels_of(&b, z).unwrap());
+            assert_eq!(ka.len(), kb.len());
+            for (x, y) in ka.iter().zip(&kb) {
+                assert_eq!(x.pixel, y.pixel);
+                assert_eq!(x.x.map(f64::to_bits), y.x.map(f64::to_bits));
+                assert_eq!(x.w.map(f64::to_bits), y.w.map(f64::to_bits));
+            }
+            assert_eq!(
+                system_matrix(&cam, z, src, g, f, None).unwrap(),
+                system_matrix_of(&b, z, g, f, None).unwrap()
+            );
+        }
+    }
+
+    #[test]
+    fn design_rows_integrate_to_the_channel_light() {
+        // Σ_k A[p, k] = share · area / (D μ_1) for a channel's light field pixel (area in
+        // ray space referred to L_1); D μ_c L_1/L_c / (D μ_1) for its conventional camera.
+        let d = mix();
+        let mu1 = d.channels[0].mu;
+        for z in [150.0, 300.0, 420.0, 1000.0] {
+            for c in 1..=3i64 {
+                for src in [DesignSource::Channel(c), DesignSource::Conventional(c)] {
+                    let px = Pixels::of_design(&d, src).unwrap();
+                    let line = &px.line;
+                    let step = d.resolution_step(z) / 2.0;
+                    let g = Grid::new(-1500.0 * step, step, 3000).unwrap();
+                    let f = (g.edge(0), g.edge(g.n));
+                    let sys = system_matrix_of(&px, z, g, f, Some(2)).unwrap();
+                    assert!(sys.matrix.rows > 20, "{src:?} {z}");
+                    let area = trace_line(line).unwrap().area;
+                    let m = &sys.matrix;
+                    for (r, &p) in sys.pixels.iter().enumerate() {
+                        let s: f64 = m.data[m.indptr[r] as usize..m.indptr[r + 1] as usize]
+                            .iter()
+                            .sum();
+                        let want = if px.conventional {
+                            d.aperture * line.mu * line.v_ref / line.l / (d.aperture * mu1)
+                        } else {
+                            line.share * area[p as usize] / (d.aperture * mu1)
+                        };
+                        assert!(close(s, want, 1e-9), "{src:?} z={z} px={p}: {s} vs {want}");
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn design_sources_are_named_and_hex_is_refused() {
+        let d = mix();
+        assert_eq!(
+            DesignSource::from_name(&d, "channel3").unwrap(),
+            DesignSource::Channel(3)
+        );
+        assert_eq!(
+            DesignSource::from_name(&d, "conventional2").unwrap(),
+            DesignSource::Conventional(2)
+        );
+        for bad in [
+            "channel0",
+            "channel4",
+            "channel01",
+            "half1",
+            "conventional",
+            "channel+1",
+        ] {
+            let e = DesignSource::from_name(&d, bad).unwrap_err();
+            assert_eq!(e.parameter_name().as_deref(), Some("source"));
+        }
+        let hex = crate::presets::preset("raytrix-r12").unwrap();
+        let e = Pixels::of_design(&hex, DesignSource::Channel(1)).unwrap_err();
+        assert_eq!(e.parameter_name().as_deref(), Some("channels[1].grid"));
     }
 
     #[test]

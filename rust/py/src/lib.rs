@@ -23,7 +23,7 @@ use splitlf_core::presets;
 use splitlf_core::rayspace::{self, Sample};
 use splitlf_core::samples;
 use splitlf_core::samples2d;
-use splitlf_core::simulate::{self, Grid, Source};
+use splitlf_core::simulate::{self, DesignSource, Grid, Pixels, Source};
 use splitlf_core::{camera, design, memory, merit, optics, parallel, Camera, Design, Error, Half};
 
 // ---- errors ------------------------------------------------------------------------------
@@ -1480,6 +1480,27 @@ fn kernel_support(
     run(py, || simulate::kernel_support(&cam, z, src, threads))
 }
 
+/// A design's source from its name ("channel<c>", "conventional<c>").
+fn design_source(design: &Design, source: &str) -> PyResult<Pixels> {
+    let src = DesignSource::from_name(design, source).map_err(to_py)?;
+    Pixels::of_design(design, src).map_err(to_py)
+}
+
+/// Widest pixel kernel (hi − lo, mm in object-space X) of a design's source at depth z.
+#[pyfunction]
+#[pyo3(signature = (design, z, source, n_threads=None))]
+fn design_kernel_support(
+    py: Python<'_>,
+    design: &DesignCore,
+    z: f64,
+    source: &str,
+    n_threads: Option<&Bound<'_, PyAny>>,
+) -> PyResult<f64> {
+    let px = design_source(&design.inner, source)?;
+    let threads = threads_arg(n_threads)?;
+    run(py, || simulate::kernel_support_of(&px, z, threads))
+}
+
 /// A system matrix in CSR form (SciPy's `csr_matrix((data, indices, indptr), shape)`) and
 /// the pixel each row stands for.
 #[pyclass(frozen, get_all, module = "splitlf._native")]
@@ -1508,12 +1529,57 @@ fn system_matrix(
     field_hi: f64,
     n_threads: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<SystemMatrixArrays> {
-    let cam = camera.inner;
-    let src = Source::from_name(source).map_err(to_py)?;
+    let px = Pixels::of_camera(&camera.inner, Source::from_name(source).map_err(to_py)?);
+    system_arrays(
+        py,
+        &px,
+        z,
+        (origin, step, n_cells),
+        (field_lo, field_hi),
+        n_threads,
+    )
+}
+
+/// System matrix of a design's source ("channel<c>", "conventional<c>") at depth z on the
+/// grid (origin, step, n_cells), rows the pixels whose kernels lie in [field_lo, field_hi].
+#[pyfunction]
+#[pyo3(signature = (design, z, source, origin, step, n_cells, field_lo, field_hi, n_threads=None))]
+#[allow(clippy::too_many_arguments)]
+fn design_system_matrix(
+    py: Python<'_>,
+    design: &DesignCore,
+    z: f64,
+    source: &str,
+    origin: f64,
+    step: f64,
+    n_cells: usize,
+    field_lo: f64,
+    field_hi: f64,
+    n_threads: Option<&Bound<'_, PyAny>>,
+) -> PyResult<SystemMatrixArrays> {
+    let px = design_source(&design.inner, source)?;
+    system_arrays(
+        py,
+        &px,
+        z,
+        (origin, step, n_cells),
+        (field_lo, field_hi),
+        n_threads,
+    )
+}
+
+fn system_arrays(
+    py: Python<'_>,
+    px: &Pixels,
+    z: f64,
+    (origin, step, n_cells): (f64, f64, usize),
+    field: (f64, f64),
+    n_threads: Option<&Bound<'_, PyAny>>,
+) -> PyResult<SystemMatrixArrays> {
     let grid = Grid::new(origin, step, n_cells).map_err(to_py)?;
     let threads = threads_arg(n_threads)?;
     let sys = run(py, || {
-        simulate::system_matrix(&cam, z, src, grid, (field_lo, field_hi), threads)
+        simulate::system_matrix_of(px, z, grid, field, threads)
     })?;
     let m = sys.matrix;
     let px = sys.pixels.iter().map(|&p| p as i64);
@@ -1550,8 +1616,56 @@ fn render(
     textures: PyReadonlyArray2<'_, f64>,
     n_threads: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<RenderArrays> {
-    let cam = camera.inner;
-    let src = Source::from_name(source).map_err(to_py)?;
+    let px = Pixels::of_camera(&camera.inner, Source::from_name(source).map_err(to_py)?);
+    render_arrays(
+        py,
+        &px,
+        z,
+        (origin, step),
+        (field_lo, field_hi),
+        textures,
+        n_threads,
+    )
+}
+
+/// Noise-free pixel values of a design's source ("channel<c>", "conventional<c>") at depth
+/// z for textures (n_tex, n_cells) constant on each cell of the grid.
+#[pyfunction]
+#[pyo3(signature = (design, z, source, origin, step, field_lo, field_hi, textures, n_threads=None))]
+#[allow(clippy::too_many_arguments)]
+fn design_render(
+    py: Python<'_>,
+    design: &DesignCore,
+    z: f64,
+    source: &str,
+    origin: f64,
+    step: f64,
+    field_lo: f64,
+    field_hi: f64,
+    textures: PyReadonlyArray2<'_, f64>,
+    n_threads: Option<&Bound<'_, PyAny>>,
+) -> PyResult<RenderArrays> {
+    let px = design_source(&design.inner, source)?;
+    render_arrays(
+        py,
+        &px,
+        z,
+        (origin, step),
+        (field_lo, field_hi),
+        textures,
+        n_threads,
+    )
+}
+
+fn render_arrays(
+    py: Python<'_>,
+    px: &Pixels,
+    z: f64,
+    (origin, step): (f64, f64),
+    field: (f64, f64),
+    textures: PyReadonlyArray2<'_, f64>,
+    n_threads: Option<&Bound<'_, PyAny>>,
+) -> PyResult<RenderArrays> {
     let (n_tex, n_cells) = textures.as_array().dim();
     let grid = Grid::new(origin, step, n_cells).map_err(to_py)?;
     let threads = threads_arg(n_threads)?;
@@ -1566,7 +1680,7 @@ fn render(
         }
     };
     let (values, pixels) = run(py, || {
-        simulate::render(&cam, z, src, grid, (field_lo, field_hi), &flat, threads)
+        simulate::render_of(px, z, grid, field, &flat, threads)
     })?;
     let n_pix = pixels.len();
     let values = numpy::ndarray::Array2::from_shape_vec((n_tex, n_pix), values)
@@ -1637,6 +1751,9 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(kernel_support, m)?)?;
     m.add_function(wrap_pyfunction!(system_matrix, m)?)?;
     m.add_function(wrap_pyfunction!(render, m)?)?;
+    m.add_function(wrap_pyfunction!(design_kernel_support, m)?)?;
+    m.add_function(wrap_pyfunction!(design_system_matrix, m)?)?;
+    m.add_function(wrap_pyfunction!(design_render, m)?)?;
     m.add_function(wrap_pyfunction!(available_memory, m)?)?;
     m.add_function(wrap_pyfunction!(chief_samples, m)?)?;
     m.add_function(wrap_pyfunction!(samples_2d, m)?)?;
