@@ -50,7 +50,9 @@ __all__ = [
     "design_coincidence_planes",
     "design_curves",
     "design_depth_of_field",
+    "design_figures_of_merit",
     "design_footprints",
+    "design_metrics",
     "design_new_samples",
     "design_sample_grid",
     "design_sharp_fractions",
@@ -383,6 +385,14 @@ def design_coincidence_planes(
 def design_sharp_fractions(
     design: DesignCore, threshold_px: float, lo: float, hi: float
 ) -> tuple[list[float], list[float], float, list[float]]: ...
+def design_figures_of_merit(
+    design: DesignCore,
+    z: _F64,
+    threshold_px: float = ...,
+    tol: float = ...,
+    n_threads: int | None = None,
+) -> list[float]: ...
+def design_metrics(design: DesignCore) -> list[str]: ...
 def figures_of_merit(
     camera: CameraCore,
     z: _F64,
