@@ -186,3 +186,14 @@ def test_design_merits_do_not_depend_on_threads_and_check_input():
     assert e.value.name == "tol"
     with pytest.raises(TypeError):
         design_metrics(Camera.paper())
+
+
+def test_design_sweep_on_a_process_pool_is_identical(design_sweep):
+    # only plain dicts and numbers cross to the workers (pickled by a process pool)
+    import multiprocessing
+
+    xr = pytest.importorskip("xarray")
+    ctx = multiprocessing.get_context("spawn")
+    with cf.ProcessPoolExecutor(1, mp_context=ctx) as ex:
+        ds = sweep(Design.preset("split3"), GRID, DEPTHS, executor=ex, progress=False)
+    xr.testing.assert_identical(ds, design_sweep)
