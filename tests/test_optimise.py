@@ -13,6 +13,7 @@ import pytest
 import splitlf
 from splitlf import Camera, _native
 from splitlf.cli import main
+from splitlf.errors import InvalidParameter
 from splitlf.optimisation import MERITS, optimise
 
 pytest.importorskip("scipy")
@@ -205,8 +206,9 @@ def test_bad_arguments_are_named(kwargs, exc, match):
                  **{k: v for k, v in args.items() if k != "depths"})
 
 
-def test_design_base_is_not_supported_yet():
-    with pytest.raises(NotImplementedError, match="Camera base"):
+def test_design_base_names_its_own_merits():
+    # a Design base is supported (tests/test_design_sweep.py); its merits are per channel
+    with pytest.raises(InvalidParameter, match="sharp_fraction_union"):
         optimise(splitlf.Design.preset("seed"), {"D": (8.0, 40.0)}, "sharp_fraction_split")
     with pytest.raises(TypeError, match="Camera"):
         optimise({"D": 20.0}, {"D": (8.0, 40.0)}, "sharp_fraction_split")

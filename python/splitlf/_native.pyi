@@ -50,8 +50,10 @@ __all__ = [
     "design_coincidence_planes",
     "design_curves",
     "design_depth_of_field",
+    "design_figures_of_merit",
     "design_footprints",
     "design_kernel_support",
+    "design_metrics",
     "design_new_samples",
     "design_render",
     "design_sample_grid",
@@ -386,6 +388,14 @@ def design_coincidence_planes(
 def design_sharp_fractions(
     design: DesignCore, threshold_px: float, lo: float, hi: float
 ) -> tuple[list[float], list[float], float, list[float]]: ...
+def design_figures_of_merit(
+    design: DesignCore,
+    z: _F64,
+    threshold_px: float = ...,
+    tol: float = ...,
+    n_threads: int | None = None,
+) -> list[float]: ...
+def design_metrics(design: DesignCore) -> list[str]: ...
 def figures_of_merit(
     camera: CameraCore,
     z: _F64,

@@ -37,12 +37,16 @@ from .sweep import (
     DEFAULT_TOL,
     MAX_DEPTHS,
     METRICS,
+    _design_path,
     _evaluate_batch,
+    _evaluate_design_batch,
     _threshold,
     _tol,
+    _with_changes,
+    design_metrics,
 )
 
-__all__ = ["DERIVED", "MERITS", "OptimiseResult", "optimise"]
+__all__ = ["DERIVED", "MERITS", "OptimiseResult", "design_merits", "optimise"]
 
 #: Closed-form quantities of a design added to the core's figures of merit (each from the
 #: core's derived values of the :class:`~splitlf.Camera`).
@@ -72,6 +76,23 @@ MERIT_DOCS = {
     "microlens_f_number_half1": "microlens f-number of half 1, f_1 / d",
     "microlens_f_number_half2": "microlens f-number of half 2, f_2 / d",
 }
+
+def design_merits(design: Design) -> tuple[str, ...]:
+    """Every merit an objective or a constraint on a Design base may name: the core's
+    figures of merit (:func:`splitlf.sweep.design_metrics`: per channel and union), then
+    ``f_number`` and ``out_of_focus_depth_channel1``, ... (F L_i / (L_i - F) [mm])."""
+    return design_metrics(design) + ("f_number",) + tuple(
+        f"out_of_focus_depth_channel{i}" for i in range(1, len(design.channels) + 1))
+
+
+def _design_sense(merit: str) -> str | None:
+    """The natural direction of a Design merit (None: none)."""
+    if merit.startswith(("sharp_fraction_", "lit_fraction_", "light_per_pixel_")):
+        return "max"
+    if merit.startswith("max_gap_"):
+        return "min"
+    return None
+
 
 #: The direction in which a merit is better, used when ``sense`` is not given.
 NATURAL_SENSE = {
@@ -116,8 +137,10 @@ class Free:
 class OptimiseResult:
     """What :func:`optimise` found.
 
-    - ``design``: the best :class:`~splitlf.Camera` (feasible when ``feasible``)
-    - ``merits``: its figures of merit {name in :data:`MERITS`: value}
+    - ``design``: the best :class:`~splitlf.Camera` (a :class:`~splitlf.Design` for a
+      Design base; feasible when ``feasible``)
+    - ``merits``: its figures of merit {name in :data:`MERITS` (:func:`design_merits` for
+      a Design base): value}
     - ``objective``: the objective's value there (as defined, not negated)
     - ``free``: the free fields' values {name: value}
     - ``feasible``: the design satisfies every constraint (else it is the valid design of
@@ -138,7 +161,7 @@ class OptimiseResult:
       "evaluations" (designs that reached the core)}
     """
 
-    design: Camera
+    design: Camera | Design
     merits: dict[str, float]
     objective: float
     free: dict[str, float | int]
@@ -154,14 +177,10 @@ class OptimiseResult:
 
 # -- argument checks ---------------------------------------------------------------------
 
-def _base(base: Any) -> Camera:
-    if isinstance(base, Design):
-        raise NotImplementedError(
-            "splitlf.optimise supports a Camera base for now (free fields: "
-            f"{', '.join(FIELDS)}); a Design base, with free fields named like 'D' and "
-            "'channels[2].L', is planned (docs/optimise.md)")
-    if not isinstance(base, Camera):
-        raise TypeError(f"base must be a splitlf.Camera, got {type(base).__name__}")
+def _base(base: Any) -> Camera | Design:
+    if not isinstance(base, Camera | Design):
+        raise TypeError(f"base must be a splitlf.Camera or a splitlf.Design, got "
+                        f"{type(base).__name__}")
     return base
 
 
@@ -174,18 +193,24 @@ def _real(value: Any, where: str) -> float:
         return math.inf if value > 0 else -math.inf
 
 
-def _free(free: Any) -> list[Free]:
+def _free(free: Any, design: Design | None = None) -> list[Free]:
+    """The free fields: camera fields, or a Design base's free-field names
+    (:func:`splitlf.sweep.design_fields`)."""
     if not isinstance(free, Mapping) or not free:
-        raise TypeError("free must be a non-empty mapping {camera field: (low, high)}")
+        raise TypeError("free must be a non-empty mapping {field: (low, high)}")
     out = []
     for name, bounds in free.items():
-        if name not in FIELDS:
+        if design is not None:
+            is_count = _design_path(design, name, "free")[1]
+        elif name not in FIELDS:
             raise InvalidParameter.of("free", name, f"camera field names: {', '.join(FIELDS)}")
+        else:
+            is_count = name in COUNT_FIELDS
         if isinstance(bounds, str | bytes) or not isinstance(bounds, Sequence) \
                 or len(bounds) != 2:
             raise TypeError(f"free[{name!r}] must be a pair (low, high), got {bounds!r}")
         lo, hi = (_real(b, f"free[{name!r}] bound") for b in bounds)
-        integer = name in COUNT_FIELDS
+        integer = is_count
         if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
             raise InvalidParameter.of(f"free[{name!r}]", (lo, hi),
                                       "finite bounds with low < high")
@@ -196,13 +221,14 @@ def _free(free: Any) -> list[Free]:
     return out
 
 
-def _objective(objective: Any, sense: Any) -> tuple[Callable[[dict[str, float]], Any], str,
-                                                   str]:
+def _objective(objective: Any, sense: Any, merits: Sequence[str] = MERITS,
+               natural: Callable[[str], str | None] = NATURAL_SENSE.get
+               ) -> tuple[Callable[[dict[str, float]], Any], str, str]:
     """(function of the merit dict, its name, "max" | "min")."""
     if isinstance(objective, str):
-        if objective not in MERITS:
+        if objective not in merits:
             raise InvalidParameter.of("objective", objective,
-                                      f"a merit name ({', '.join(MERITS)}) or a callable")
+                                      f"a merit name ({', '.join(merits)}) or a callable")
         name = objective
 
         def fn(m: dict[str, float]) -> float:
@@ -213,8 +239,8 @@ def _objective(objective: Any, sense: Any) -> tuple[Callable[[dict[str, float]],
         raise TypeError("objective must be a merit name or a callable on the merit dict, "
                         f"got {type(objective).__name__}")
     if sense is None:
-        if isinstance(objective, str) and objective in NATURAL_SENSE:
-            return fn, name, NATURAL_SENSE[objective]
+        if isinstance(objective, str) and natural(objective) is not None:
+            return fn, name, natural(objective)  # type: ignore[return-value]
         raise InvalidParameter.of("sense", None, "'max' or 'min' (needed: the objective "
                                   "has no natural direction)")
     if sense not in ("max", "min"):
@@ -222,15 +248,16 @@ def _objective(objective: Any, sense: Any) -> tuple[Callable[[dict[str, float]],
     return fn, name, sense
 
 
-def _constraints(constraints: Any) -> list[tuple[str, str, float]]:
+def _constraints(constraints: Any, merits: Sequence[str] = MERITS
+                 ) -> list[tuple[str, str, float]]:
     if constraints is None:
         return []
     if not isinstance(constraints, Mapping):
         raise TypeError("constraints must be a mapping {merit: ('<=' | '>=', value)}")
     out = []
     for merit, spec in constraints.items():
-        if merit not in MERITS:
-            raise InvalidParameter.of("constraints", merit, f"merit names: {', '.join(MERITS)}")
+        if merit not in merits:
+            raise InvalidParameter.of("constraints", merit, f"merit names: {', '.join(merits)}")
         if isinstance(spec, str | bytes) or not isinstance(spec, Sequence) or len(spec) != 2:
             raise TypeError(f"constraints[{merit!r}] must be a pair (op, value), "
                             f"got {spec!r}")
@@ -289,7 +316,9 @@ class _Problem:
                  min_f_number: float | None, core_args: tuple[float, float],
                  executor: cf.Executor | None, n_threads: int | None, threads_per_task: int,
                  batch_size: int | None) -> None:
-        self.base = base.as_dict(resolved=False)
+        self.base = self.base_dict(base)
+        self.core_names: Sequence[str] = METRICS
+        self.merit_names: Sequence[str] = MERITS
         self.free = free
         self.z = z
         self.objective = objective
@@ -310,6 +339,13 @@ class _Problem:
         self.error: BaseException | None = None
 
     # candidates
+    def base_dict(self, base: Any) -> dict[str, Any]:
+        return base.as_dict(resolved=False)
+
+    def build(self, changes: dict[str, Any]) -> Any:
+        """The design of a candidate already checked valid."""
+        return Camera(**{**self.base, **changes})
+
     def changes(self, x: Sequence[float]) -> dict[str, float | int]:
         return {f.name: f.value(v) for f, v in zip(self.free, x, strict=True)}
 
@@ -417,10 +453,11 @@ class _Problem:
                                    **changes}
             if cam is None:
                 row.update(valid=False, feasible=False, objective=math.nan,
-                           **{m: math.nan for m in MERITS}, violated=rule, reason=reason)
+                           **{m: math.nan for m in self.merit_names}, violated=rule,
+                           reason=reason)
                 energies.append(2.0 * PENALTY)
             else:
-                merits = dict(zip(METRICS, next(merits_core), strict=True))
+                merits = dict(zip(self.core_names, next(merits_core), strict=True))
                 merits.update(self.derived(cam))
                 value, violation, why, names = self.score(merits)
                 row.update(valid=True, feasible=violation == 0.0, objective=value, **merits,
@@ -440,6 +477,91 @@ class _Problem:
 
     def one(self, x: Sequence[float]) -> float:
         return self.evaluate([x])[0]
+
+
+def _read_path(design: Design, name: str) -> Any:
+    """The value of free field ``name`` (``"F"``, ``"channels[2].L"``,
+    ``"channels[1].f[0]"``) of ``design``."""
+    if name in ("F", "D"):
+        return getattr(design, name)
+    head, _, field = name.partition("].")
+    ch = design.channels[int(head[len("channels["):]) - 1]
+    if field.startswith("f["):
+        return ch.f[int(field[2:-1])]  # type: ignore[index]
+    return getattr(ch, field)
+
+
+class _DesignProblem(_Problem):
+    """The problem of a Design base: candidates are free-field changes of the base's
+    plain dict (:meth:`Design.as_dict`), built and validated by the Design constructor
+    (ranges, shares, lens-type rules, overlapping images: docs/model.md §9)."""
+
+    def __init__(self, base: Design, *args: Any) -> None:
+        super().__init__(base, *args)
+        self.core_names = design_metrics(base)
+        self.merit_names = design_merits(base)
+
+    def base_dict(self, base: Any) -> dict[str, Any]:
+        return base.as_dict()
+
+    def build(self, changes: dict[str, Any]) -> Design:
+        return _with_changes(self.base, changes)
+
+    def check(self, changes: dict[str, Any]) -> tuple[Any, str, str]:  # type: ignore[override]
+        """(the design, "", "") if valid, else (None, why, the rule's name): the Design
+        constructor accepts it, every depth lies beyond F, every lens type's f_t / d
+        reaches the floor."""
+        try:
+            design = self.build(changes)
+        except InvalidParameter as e:
+            return None, str(e), e.name
+        except (ValueError, TypeError) as e:
+            return None, str(e), "design"
+        if not self.z.min() > design.F:
+            return None, (f"invalid F = {design.F!r}: allowed F < the nearest depth "
+                          f"{float(self.z.min())!r} mm"), "F"
+        if self.min_f_number is not None:
+            for i, ch in enumerate(design.resolved(), 1):
+                for t, f in enumerate(ch["f"]):
+                    n = f / ch["d"]
+                    if not n >= self.min_f_number:
+                        return None, (f"invalid microlens f-number of channel {i} type {t} "
+                                      f"f/d = {n!r}: allowed >= min_microlens_f_number = "
+                                      f"{self.min_f_number!r}"), "min_microlens_f_number"
+        return design, "", ""
+
+    def derived(self, design: Design) -> dict[str, float]:  # type: ignore[override]
+        out = {"f_number": design.f_number}
+        for i in range(1, len(design.channels) + 1):
+            out[f"out_of_focus_depth_channel{i}"] = design.out_of_focus_depth(i)
+        return out
+
+    def core_merits(self, designs: list[Design]) -> list[list[float]]:  # type: ignore[override]
+        if not designs:
+            return []
+        if self.executor is None:
+            out = []
+            for d in designs:
+                t = time.perf_counter()
+                out.append(list(_native.design_figures_of_merit(
+                    d.core, self.z, self.threshold_px, self.tol, self.n_threads)))
+                self.core_s += time.perf_counter() - t
+            return out
+        size = self.batch_size or max(1, math.ceil(len(designs) / 16))
+        # plain dicts to the workers: the base and each design's free-field values (the
+        # worker rebuilds the same design with the Design constructor)
+        changes = [{f.name: _read_path(d, f.name) for f in self.free} for d in designs]
+        futures = [self.executor.submit(_evaluate_design_batch, self.base,
+                                        changes[i:i + size], self.z, self.threshold_px,
+                                        self.tol, self.threads_per_task)
+                   for i in range(0, len(changes), size)]
+        out = []
+        for fut in futures:
+            for values, reason in fut.result():
+                if values is None:
+                    raise RuntimeError(f"optimise: the core refused a checked design: {reason}")
+                out.append(values)
+        return out
 
 
 # -- the search --------------------------------------------------------------------------
@@ -546,11 +668,12 @@ def optimise(base: Camera, free: Mapping[str, tuple[float, float]], objective: s
              ) -> OptimiseResult:
     """The design around ``base`` that optimises ``objective`` subject to ``constraints``.
 
-    - ``base``: a :class:`~splitlf.Camera` (a ``Design`` base raises
-      ``NotImplementedError`` for now); every field not free keeps its value (focal lengths
-      left to Ng's setting keep tracking the geometry)
-    - ``free``: {camera field: (low, high)}; the counts Q, Kx, Ky are searched as integers
-      (integer bounds); the others are continuous
+    - ``base``: a :class:`~splitlf.Camera` or a :class:`~splitlf.Design`; every field not
+      free keeps its value (focal lengths left to Ng's setting keep tracking the geometry)
+    - ``free``: {field: (low, high)}: camera fields, or for a Design its free-field names
+      (:func:`splitlf.sweep.design_fields`: ``"F"``, ``"D"``, ``"channels[2].L"``,
+      ``"channels[1].f[0]"``; channels from 1, lens types from 0); the counts are searched
+      as integers (integer bounds); the others are continuous
     - ``objective``: a merit name (:data:`MERITS`) or a callable on the merit dict returning
       a real number; ``sense``: "max" or "min" (default: the merit's natural direction —
       max for sharp and lit fractions, min for max gaps — and required otherwise)
@@ -581,9 +704,17 @@ def optimise(base: Camera, free: Mapping[str, tuple[float, float]], objective: s
     by a callable objective propagates.
     """
     cam = _base(base)
-    fields = _free(free)
-    fn, _, sense_ = _objective(objective, sense)
-    cons = _constraints(constraints)
+    is_design = isinstance(cam, Design)
+    if is_design:
+        names = design_merits(cam)
+        fields = _free(free, cam)
+        fn, _, sense_ = _objective(objective, sense, names, _design_sense)
+        cons = _constraints(constraints, names)
+    else:
+        names = MERITS
+        fields = _free(free)
+        fn, _, sense_ = _objective(objective, sense)
+        cons = _constraints(constraints)
     z = _depths(depths)
     seed_ = _validate.integer(seed, "seed", "an integer >= 0")
     if seed_ < 0:
@@ -613,8 +744,9 @@ def optimise(base: Camera, free: Mapping[str, tuple[float, float]], objective: s
         raise ImportError('splitlf.optimise needs SciPy and pandas: '
                           'pip install "splitlf[sweep]"') from e
 
-    problem = _Problem(cam, fields, z, fn, sense_, cons, min_f, core_args, executor,
-                       n_threads, tpt or 1, batch_size)
+    kind = _DesignProblem if is_design else _Problem
+    problem = kind(cam, fields, z, fn, sense_, cons, min_f, core_args, executor, n_threads,
+                   tpt or 1, batch_size)
     bar = _progress_bar(maxiter_, progress)
 
     def callback(xk: Any, convergence: float = 0.0) -> None:
@@ -650,8 +782,8 @@ def optimise(base: Camera, free: Mapping[str, tuple[float, float]], objective: s
     generations = max(problem.map_calls - 1, 0)
     active = _active(problem, best) if feasible else ()
     total_s = time.perf_counter() - t0
-    design = Camera(**{**problem.base, **{f.name: best[f.name] for f in fields}})
-    merits = {m: float(best[m]) for m in MERITS}
+    design = problem.build({f.name: best[f.name] for f in fields})
+    merits = {m: float(best[m]) for m in names}
     slack = {f"{m} {op} {limit!r}": (limit - merits[m]) if op == "<=" else (merits[m] - limit)
              for m, op, limit in cons}
     history = pd.DataFrame(problem.rows)

@@ -1,12 +1,17 @@
 //! Figures of merit of one design over a set of depths (the quantities a design sweep
 //! compares): sharp fractions from the closed-form depth of field, and the worst and
-//! median resolution (max gap, docs/model.md §6) of each half and of the split sensor.
+//! median resolution (max gap, docs/model.md §6) of each half and of the split sensor;
+//! for a general design (docs/model.md §9) the same per channel and for the union, plus
+//! each channel's lit fraction and light per lit pixel.
 
-use crate::camera::{Camera, Half};
+use crate::camera::{Axis, Camera, Half};
+use crate::design::{Design, Grid};
 use crate::error::Result;
-use crate::optics::{check_depths, sharp_fractions};
-use crate::rayspace::Sample;
-use crate::samples::new_samples;
+use crate::line::Line;
+use crate::optics::{check_depths, check_design_depths, design_sharp_fractions, sharp_fractions};
+use crate::parallel::check_threads;
+use crate::rayspace::{trace_line_threads, Sample};
+use crate::samples::{check_tol, design_new_samples, new_samples};
 
 /// Number of figures of merit, in the order of [`figures_of_merit`].
 pub const N_MERITS: usize = 9;
@@ -51,6 +56,98 @@ pub fn figures_of_merit(
     Ok(out)
 }
 
+/// Names of the figures of merit of a design with `channels` channels, in the order of
+/// [`design_figures_of_merit`]: `sharp_fraction_channel1`, …, `sharp_fraction_union`,
+/// `max_gap_worst_channel1`, …, `_union`, `max_gap_median_channel1`, …, `_union`,
+/// `lit_fraction_channel1`, …, `light_per_pixel_channel1`, … (5 C + 3 names).
+pub fn design_metrics(channels: usize) -> Vec<String> {
+    let mut out = Vec::with_capacity(5 * channels + 3);
+    for (prefix, union) in [
+        ("sharp_fraction", true),
+        ("max_gap_worst", true),
+        ("max_gap_median", true),
+        ("lit_fraction", false),
+        ("light_per_pixel", false),
+    ] {
+        out.extend((1..=channels).map(|c| format!("{prefix}_channel{c}")));
+        if union {
+            out.push(format!("{prefix}_union"));
+        }
+    }
+    out
+}
+
+/// Figures of merit of `design` over the depths `z` (at least one, each > F), named by
+/// [`design_metrics`] (docs/optimise.md, "A Design base"):
+/// - sharp fraction of each channel and of the union: the share of [min z, max z] (log
+///   depth) where the channel (any channel) is sharp, closed form (§2, §9);
+/// - worst and median max gap over the depths of each channel and of the union (§6 with
+///   §9's δ(z) = μ_1 z/L_1, chief samples along x). The 1-D analysis needs rect grids:
+///   when any channel is hex every max-gap merit is NaN (the union needs all channels);
+/// - lit fraction of each channel: lit pixels over pixels of the channel's line along x
+///   (K_x Q for the ideal layout, M_x for the sensor layout);
+/// - light per lit pixel of each channel: share × the mean integration-polygon area of its
+///   lit pixels along x divided by L_1, the area being in ray space referred to channel 1's
+///   array plane (§9): the 1-D étendue of a pixel [mm·rad] (μ d / v for a fully lit pixel
+///   in Ng's setting), 0 when no pixel is lit.
+///
+/// The lit fraction and light per pixel of a hex channel are NaN.
+pub fn design_figures_of_merit(
+    design: &Design,
+    z: &[f64],
+    threshold_px: f64,
+    tol: f64,
+    n_threads: Option<usize>,
+) -> Result<Vec<f64>> {
+    check_threads(n_threads)?;
+    check_tol(tol)?;
+    check_design_depths(design.f_main, z)?;
+    let lo = z.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = z.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let (_, channels, union, _) = design_sharp_fractions(design, threshold_px, lo, hi)?;
+    let (c, m) = (design.channels.len(), z.len());
+    let mut out = Vec::with_capacity(5 * c + 3);
+    out.extend(channels);
+    out.push(union);
+    if design.channels.iter().all(|ch| ch.grid == Grid::Rect) {
+        let ns = design_new_samples(design, z, tol, Sample::Chief, n_threads)?;
+        let rows: Vec<&[f64]> = ns.max_gap.chunks(m).collect();
+        out.extend(
+            rows.iter()
+                .map(|g| g.iter().copied().fold(f64::NEG_INFINITY, f64::max)),
+        );
+        out.extend(rows.iter().map(|g| median(&mut g.to_vec())));
+    } else {
+        out.resize(out.len() + 2 * (c + 1), f64::NAN);
+    }
+    let mut lit_fraction = Vec::with_capacity(c);
+    let mut light = Vec::with_capacity(c);
+    for (i, ch) in design.channels.iter().enumerate() {
+        if ch.grid != Grid::Rect {
+            lit_fraction.push(f64::NAN);
+            light.push(f64::NAN);
+            continue;
+        }
+        let line = Line::of_channel(design, i as i64 + 1, Axis::X)?;
+        let tr = trace_line_threads(&line, n_threads)?;
+        let (lit, area) = tr
+            .lit
+            .iter()
+            .zip(&tr.area)
+            .filter(|(&l, _)| l)
+            .fold((0usize, 0.0), |(n, s), (_, &a)| (n + 1, s + a));
+        lit_fraction.push(lit as f64 / tr.lit.len() as f64);
+        light.push(if lit == 0 {
+            0.0
+        } else {
+            line.share * (area / lit as f64) / line.v_ref
+        });
+    }
+    out.extend(lit_fraction);
+    out.extend(light);
+    Ok(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -74,5 +171,31 @@ mod tests {
         assert!(f[4] <= f[2] && f[4] <= f[3]); // the union resolves at least as well
         assert_eq!(f[8], 11.0 / 15.0);
         assert!(figures_of_merit(&cam, &[50.0], 0.5, 1e-6, None).is_err());
+    }
+
+    #[test]
+    fn camera_design_merits_agree() {
+        let cam = Camera::paper();
+        let design = Design::from_camera(&cam);
+        let z: Vec<f64> = (0..40)
+            .map(|i| 150.0 * (10_000.0f64 / 150.0).powf(i as f64 / 39.0))
+            .collect();
+        let f = figures_of_merit(&cam, &z, 0.5, 1e-6, Some(1)).unwrap();
+        let g = design_figures_of_merit(&design, &z, 0.5, 1e-6, Some(1)).unwrap();
+        let names = design_metrics(2);
+        assert_eq!(names.len(), g.len());
+        let at = |n: &str| g[names.iter().position(|x| x == n).unwrap()];
+        assert_eq!(at("sharp_fraction_channel1"), f[0]);
+        assert_eq!(at("sharp_fraction_union"), f[1]);
+        for (k, row) in ["channel1", "channel2", "union"].iter().enumerate() {
+            let close = |a: f64, b: f64| (a - b).abs() <= 1e-14 * b.abs();
+            assert!(close(at(&format!("max_gap_worst_{row}")), f[2 + k]));
+            assert!(close(at(&format!("max_gap_median_{row}")), f[5 + k]));
+        }
+        assert_eq!(at("lit_fraction_channel2"), f[8]);
+        assert_eq!(at("lit_fraction_channel1"), 1.0);
+        // a fully lit pixel of half 1 (Ng's setting): share × μ d / v
+        let light = 0.5 * cam.mu * cam.d / cam.v;
+        assert!((at("light_per_pixel_channel1") - light).abs() <= 1e-12 * light);
     }
 }

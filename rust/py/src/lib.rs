@@ -1023,6 +1023,32 @@ fn figures_of_merit(
     })
 }
 
+/// Names of a design's figures of merit, in the order of `design_figures_of_merit`.
+#[pyfunction]
+fn design_metrics(design: &DesignCore) -> Vec<String> {
+    merit::design_metrics(design.inner.channels.len())
+}
+
+/// Figures of merit of a design over depths, per channel and union (see
+/// `splitlf.sweep.design_metrics`).
+#[pyfunction]
+#[pyo3(signature = (design, z, threshold_px=optics::DEFAULT_THRESHOLD_PX, tol=samples::DEFAULT_TOL, n_threads=None))]
+fn design_figures_of_merit(
+    py: Python<'_>,
+    design: &DesignCore,
+    z: PyReadonlyArray1<'_, f64>,
+    threshold_px: f64,
+    tol: f64,
+    n_threads: Option<&Bound<'_, PyAny>>,
+) -> PyResult<Vec<f64>> {
+    let d = &design.inner;
+    let threads = threads_arg(n_threads)?;
+    let zs = as_slice(&z)?;
+    run_as(py, "depths", || {
+        merit::design_figures_of_merit(d, &zs, threshold_px, tol, threads)
+    })
+}
+
 // ---- ray space ---------------------------------------------------------------------------
 
 /// Integration polygons of n pixels of one half (or channel) along one axis.
@@ -1745,6 +1771,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(new_samples, m)?)?;
     m.add_function(wrap_pyfunction!(coincidence_planes, m)?)?;
     m.add_function(wrap_pyfunction!(figures_of_merit, m)?)?;
+    m.add_function(wrap_pyfunction!(design_figures_of_merit, m)?)?;
+    m.add_function(wrap_pyfunction!(design_metrics, m)?)?;
     m.add_function(wrap_pyfunction!(trace, m)?)?;
     m.add_function(wrap_pyfunction!(footprints, m)?)?;
     m.add_function(wrap_pyfunction!(sample_grid, m)?)?;
