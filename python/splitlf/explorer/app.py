@@ -1,0 +1,362 @@
+"""The design explorer as a Panel (Bokeh server) app: one :class:`Explorer` per browser
+session. Every number comes from :mod:`splitlf.explorer.model` (the public API); this
+module only lays out controls and moves numbers into Bokeh figures.
+
+Threads: the closed-form views (blur, repetitions, depth of field, report; about a
+millisecond) are computed in the control's callback; the samples view (2-D coverage, tens
+of ms a depth) runs on one worker thread per session, coalescing: while it computes,
+further changes only replace the design it will compute next, so a burst of changes costs
+one extra computation, never a queue. Results reach the page through the document's next
+tick (the only place Bokeh models are changed).
+"""
+
+from __future__ import annotations
+
+import html
+import io
+import threading
+from functools import partial
+from typing import Any
+
+import numpy as np
+import panel as pn
+from bokeh.models import ColumnDataSource, FactorRange, Range1d, Span
+from bokeh.palettes import Category10_10
+from bokeh.plotting import figure
+
+from ..design import PRESETS, Design
+from ..errors import SplitlfError
+from . import model
+from .model import CHANNEL_CONTROLS, DESIGN_CONTROLS, Field, FieldError
+
+__all__ = ["Explorer"]
+
+ERROR_STYLE = "color:#b00020;font-size:12px;"
+#: The threshold control's key (a field of the views, not of the design).
+THRESHOLD = "threshold_px"
+
+
+def _esc(text: Any) -> str:
+    return html.escape(str(text), quote=True)
+
+
+def _lines(z: np.ndarray, rows: tuple[str, ...], values: np.ndarray,
+           offset: int = 0) -> dict[str, list]:
+    """The columns of a multi_line source: one line per row (non-finite values as NaN)."""
+    ys = [np.where(np.isfinite(v), v, np.nan) for v in np.asarray(values, dtype=float)]
+    return {"xs": [z] * len(rows), "ys": ys, "label": list(rows),
+            "color": [Category10_10[(i + offset) % 10] for i in range(len(rows))]}
+
+
+class Explorer:
+    """One session of the explorer for ``design`` (a :class:`~splitlf.Design`).
+
+    ``self.design`` is the last valid design: the figures always show it. ``layout`` is
+    the Panel object served (or displayed)."""
+
+    def __init__(self, design: Design) -> None:
+        self.design = design
+        self.generation = 0  # counts valid designs shown
+        self.samples_generation = 0
+        self._suspend = False
+        self._doc = pn.state.curdoc
+        self._lock = threading.Lock()
+        self._pending: tuple[int, Design, int, float] | None = None
+        self._worker_busy = False
+        self._widgets: dict[str, Any] = {}
+        self._errors: dict[str, pn.pane.HTML] = {}
+        self._n_channels = len(design.channels)
+        self._build_figures()
+        self._build_controls()
+        self._refresh(design)
+
+    # -- layout --------------------------------------------------------------------------
+    def _build_controls(self) -> None:
+        self.banner = pn.pane.HTML("", sizing_mode="stretch_width")
+        self.status = pn.pane.HTML("")
+        options = ["custom", *PRESETS]
+        self.preset = pn.widgets.Select(name="preset", options=options, value=self._preset_of(
+            self.design), width=150)
+        self.preset.param.watch(self._on_preset, "value")
+        self.load = pn.widgets.FileInput(accept=".toml", multiple=False, width=220)
+        self.load.param.watch(self._on_load, "value")
+        self.save = pn.widgets.FileDownload(callback=self._toml_file, filename="design.toml",
+                                            label="save TOML", button_type="primary",
+                                            embed=False, width=120)
+        self.threshold = self._text_widget(
+            Field(THRESHOLD, "real", "threshold [px]", "sharpness threshold on the blur "
+                  "radius [px], > 0"), THRESHOLD, "0.5")
+        self.n_depths = pn.widgets.IntSlider(name="samples: depths", start=3, end=40,
+                                             value=model.SAMPLES_DEPTHS, width=180)
+        self.window = pn.widgets.FloatSlider(name="samples: field [lens pitches]", start=1,
+                                             end=16, step=1, value=model.SAMPLES_WINDOW,
+                                             width=180)
+        for w in (self.n_depths, self.window):
+            w.param.watch(lambda e: self._request_samples(self.design), "value_throttled")
+        self.design_box = pn.FlexBox(sizing_mode="stretch_width")
+        self.channel_tabs = pn.Tabs(sizing_mode="stretch_width")
+        self._populate(self.design)
+        top = pn.Row(self.preset, pn.Column(pn.pane.HTML("<b>load TOML</b>"), self.load),
+                     pn.Column(pn.Spacer(height=18), self.save), sizing_mode="stretch_width")
+        controls = pn.Column(
+            "## splitlf design explorer", top, self.banner, "### Main lens and views",
+            self.design_box, "### Channels", self.channel_tabs,
+            pn.Row(self.n_depths, self.window), self.status, width=560)
+        views = pn.Column(
+            pn.pane.Bokeh(self.blur_fig, sizing_mode="stretch_width"),
+            pn.pane.Bokeh(self.dof_fig, sizing_mode="stretch_width"),
+            pn.Row(pn.pane.Bokeh(self.reps_fig, sizing_mode="stretch_width"),
+                   sizing_mode="stretch_width"),
+            pn.Row(pn.pane.Bokeh(self.distinct_fig, sizing_mode="stretch_width"),
+                   pn.pane.Bokeh(self.cover_fig, sizing_mode="stretch_width"),
+                   sizing_mode="stretch_width"),
+            "### Report", self.report, sizing_mode="stretch_width")
+        self.layout = pn.Row(controls, views, sizing_mode="stretch_width")
+
+    def _text_widget(self, field: Field, key: str, value: str) -> pn.Column:
+        if field.kind == "choice":
+            w = pn.widgets.Select(name=field.label, options=list(field.choices), value=value,
+                                  description=field.help, width=120)
+        else:
+            # The placeholder (the key) names the input for people and for the tests.
+            w = pn.widgets.TextInput(name=field.label, value=value, placeholder=key,
+                                     description=field.help, width=120)
+        w.param.watch(partial(self._on_field, key), "value")
+        err = pn.pane.HTML("", width=120, margin=(0, 5))
+        self._widgets[key] = w
+        self._errors[key] = err
+        return pn.Column(w, err, width=130)
+
+    def _populate(self, design: Design) -> None:
+        """(Re)build the controls of ``design``'s fields."""
+        texts = model.design_texts(design)
+        self._widgets = {k: v for k, v in self._widgets.items() if k == THRESHOLD}
+        self._errors = {k: v for k, v in self._errors.items() if k == THRESHOLD}
+        boxes = [self._text_widget(f, f.name, texts[f.name]) for f in DESIGN_CONTROLS]
+        self.design_box.objects = [*boxes, self.threshold]
+        tabs = []
+        for i in range(1, len(design.channels) + 1):
+            items = [self._text_widget(f, f"channels[{i}].{f.name}",
+                                       texts[f"channels[{i}].{f.name}"])
+                     for f in CHANNEL_CONTROLS]
+            tabs.append((f"channel {i}", pn.FlexBox(*items, sizing_mode="stretch_width")))
+        self.channel_tabs.objects = [pn.Column(t, name=n) for n, t in tabs]
+        self._n_channels = len(design.channels)
+
+    def _build_figures(self) -> None:
+        tools = "pan,wheel_zoom,box_zoom,reset,save,hover"
+        self.blur_src = ColumnDataSource(_lines(np.zeros(1), (), np.zeros((0, 1))), name="blur")
+        self.conv_src = ColumnDataSource(_lines(np.zeros(1), (), np.zeros((0, 1))),
+                                         name="conventional")
+        self.reps_src = ColumnDataSource(_lines(np.zeros(1), (), np.zeros((0, 1))),
+                                         name="repetitions")
+        self.dof_src = ColumnDataSource({"row": [], "left": [], "right": [], "color": []},
+                                        name="dof")
+        self.distinct_src = ColumnDataSource(_lines(np.zeros(1), (), np.zeros((0, 1))),
+                                             name="distinct")
+        self.cover_src = ColumnDataSource(_lines(np.zeros(1), (), np.zeros((0, 1))),
+                                          name="covering_radius")
+        f = figure(title="Blur against depth (Fig. 1); dashed: conventional cameras",
+                   x_axis_type="log", height=300, sizing_mode="stretch_width", tools=tools,
+                   x_axis_label="depth z [mm]", y_axis_label="blur radius [px]",
+                   y_range=Range1d(0, 10))
+        f.multi_line("xs", "ys", color="color", legend_field="label", line_width=2,
+                     source=self.blur_src)
+        f.multi_line("xs", "ys", color="color", line_dash="dashed", source=self.conv_src)
+        self.threshold_span = Span(location=0.5, dimension="width", line_color="gray",
+                                   line_dash="dotted")
+        f.add_layout(self.threshold_span)
+        f.legend.location = "top_right"
+        self.blur_fig = f
+        d = figure(title="Depth of field: sharp intervals (blur < threshold)",
+                   x_axis_type="log", height=170, sizing_mode="stretch_width",
+                   x_range=f.x_range, y_range=FactorRange(), tools="xpan,xwheel_zoom,reset",
+                   x_axis_label="depth z [mm]")
+        d.hbar(y="row", left="left", right="right", height=0.6, color="color",
+               source=self.dof_src)
+        self.dof_fig = d
+        r = figure(title="Repetitions 2H/d (Fig. 5)", x_axis_type="log", height=230,
+                   sizing_mode="stretch_width", tools=tools, x_range=f.x_range,
+                   x_axis_label="depth z [mm]", y_axis_label="repetitions")
+        r.multi_line("xs", "ys", color="color", legend_field="label", line_width=2,
+                     source=self.reps_src)
+        self.reps_fig = r
+        s = figure(title="Distinct 2-D samples in the central field", x_axis_type="log",
+                   y_axis_type="log", height=250, sizing_mode="stretch_width", tools=tools,
+                   x_axis_label="depth z [mm]", y_axis_label="distinct samples")
+        s.multi_line("xs", "ys", color="color", legend_field="label", line_width=2,
+                     source=self.distinct_src)
+        s.legend.location = "bottom_right"
+        self.distinct_fig = s
+        c = figure(title="Covering radius [δ(z)]", x_axis_type="log", height=250,
+                   sizing_mode="stretch_width", tools=tools, x_range=s.x_range,
+                   x_axis_label="depth z [mm]", y_axis_label="covering radius [δ]")
+        c.multi_line("xs", "ys", color="color", legend_field="label", line_width=2,
+                     source=self.cover_src)
+        self.cover_fig = c
+        self.report = pn.pane.HTML("", sizing_mode="stretch_width")
+
+    # -- events --------------------------------------------------------------------------
+    @staticmethod
+    def _preset_of(design: Design) -> str:
+        for name in PRESETS:
+            if Design.preset(name) == design:
+                return name
+        return "custom"
+
+    def _on_preset(self, event: Any) -> None:
+        if self._suspend or event.new == "custom":
+            return
+        self.set_design(Design.preset(event.new))
+
+    def _on_load(self, event: Any) -> None:
+        if not event.new:
+            return
+        try:
+            design = model.load_toml_bytes(event.new, self.load.filename or "uploaded.toml")
+        except (SplitlfError, ValueError, TypeError, OSError) as e:
+            self._show_errors(None, f"load TOML: {e}")
+            return
+        self.set_design(design)
+
+    def _toml_file(self) -> io.StringIO:
+        return io.StringIO(self.design.to_toml())
+
+    def _on_field(self, key: str, event: Any) -> None:
+        if not self._suspend:
+            self.apply_controls()
+
+    def set_design(self, design: Design) -> None:
+        """Show ``design``: its values in the controls, its figures."""
+        self._suspend = True
+        try:
+            if len(design.channels) != self._n_channels:
+                self._populate(design)
+            else:
+                for key, text in model.design_texts(design).items():
+                    self._widgets[key].value = text
+            self.preset.value = self._preset_of(design)
+        finally:
+            self._suspend = False
+        self._refresh(design)
+
+    def texts(self) -> dict[str, str]:
+        """The text of every control."""
+        return {k: str(w.value) for k, w in self._widgets.items()}
+
+    def apply_controls(self) -> None:
+        """Validate what the controls say with the API; show its figures, or the API's
+        message next to the control it names (the figures keep the last valid design)."""
+        texts = self.texts()
+        try:
+            design = model.design_from_texts(texts, self._n_channels)
+            threshold = model.parse(Field(THRESHOLD, "real", "", ""), texts[THRESHOLD],
+                                    THRESHOLD)
+        except FieldError as e:
+            self._show_errors(e.key, e.message)
+            return
+        self._refresh(design, threshold)
+
+    def _show_errors(self, key: str | None, message: str) -> None:
+        for k, pane in self._errors.items():
+            pane.object = (f'<span class="field-error" data-key="{_esc(k)}" '
+                           f'style="{ERROR_STYLE}">{_esc(message)}</span>') if k == key else ""
+        self.banner.object = (f'<div class="explorer-error" style="{ERROR_STYLE}">'
+                              f"Invalid: {_esc(message)} (the figures show the last valid "
+                              "design)</div>") if message else ""
+
+    # -- views ---------------------------------------------------------------------------
+    def _refresh(self, design: Design, threshold: float | None = None) -> None:
+        if threshold is None:
+            w = self._widgets.get(THRESHOLD)
+            threshold = 0.5 if w is None else float(w.value)
+        try:
+            blur = model.blur_view(design, threshold)
+            report = model.report_rows(design, threshold)
+        except (SplitlfError, ValueError, TypeError) as e:
+            self._show_errors(getattr(e, "name", None), str(e))
+            return
+        self.design = design
+        self.generation += 1
+        gen = self.generation
+        self._show_errors(None, "")
+        self._push(partial(self._apply_blur, blur, report, gen))
+        self._request_samples(design)
+
+    def _push(self, fn: Any) -> None:
+        """Run ``fn`` where Bokeh models may change: the session's next tick (or now,
+        before the app is attached to a session)."""
+        if self._doc is not None and self._doc.session_context is not None:
+            self._doc.add_next_tick_callback(fn)
+        else:
+            fn()
+
+    def _apply_blur(self, blur: dict[str, Any], report: list[tuple[str, str]],
+                    gen: int) -> None:
+        z = blur["z"]
+        self.blur_src.data = _lines(z, blur["rows"], blur["blur_px"])
+        self.conv_src.data = _lines(z, tuple(f"{c} conventional" for c in blur["channels"]),
+                                    blur["conventional_px"])
+        self.reps_src.data = _lines(z, blur["channels"], blur["repetitions"])
+        bp = np.asarray(blur["blur_px"], dtype=float)
+        top = float(np.nanmax(np.where(np.isfinite(bp), bp, np.nan))) if bp.size else 1.0
+        self.blur_fig.y_range.start = 0.0
+        self.blur_fig.y_range.end = max(1.3 * top, 1.5 * blur["threshold_px"])
+        self.threshold_span.location = blur["threshold_px"]
+        rows = list(blur["dof_rows"])
+        zmax = float(z[-1])
+        colors = {r: Category10_10[i % 10] for i, r in enumerate(rows)}
+        self.dof_fig.y_range.factors = rows[::-1]
+        self.dof_src.data = {
+            "row": [r for r, _, _ in blur["dof"]],
+            "left": [max(a, float(z[0])) for _, a, _ in blur["dof"]],
+            "right": [min(b, zmax) for _, _, b in blur["dof"]],
+            "color": [colors[r] for r, _, _ in blur["dof"]],
+        }
+        body = "".join(f'<tr><td>{_esc(k)}</td><td data-label="{_esc(k)}">{_esc(v)}</td></tr>'
+                       for k, v in report)
+        self.report.object = (f'<table class="report" style="font-size:13px">{body}</table>')
+        self._status(blur=gen)
+
+    def _status(self, blur: int | None = None, samples: int | None = None) -> None:
+        if blur is not None:
+            self._shown_blur = blur
+        if samples is not None:
+            self._shown_samples = samples
+        b = getattr(self, "_shown_blur", 0)
+        s = getattr(self, "_shown_samples", 0)
+        state = "up to date" if s == b else "computing samples…"
+        self.status.object = (f'<span class="explorer-status" data-blur="{b}" '
+                              f'data-samples="{s}">design #{b}: samples {state}</span>')
+
+    def _request_samples(self, design: Design) -> None:
+        with self._lock:
+            self._pending = (self.generation, design, int(self.n_depths.value),
+                             float(self.window.value))
+            if self._worker_busy:
+                return
+            self._worker_busy = True
+        threading.Thread(target=self._samples_worker, daemon=True).start()
+
+    def _samples_worker(self) -> None:
+        while True:
+            with self._lock:
+                job, self._pending = self._pending, None
+                if job is None:
+                    self._worker_busy = False
+                    return
+            gen, design, n, window = job
+            try:
+                data = model.samples_view(design, n, window)
+            except (SplitlfError, ValueError, MemoryError) as e:
+                message = f"samples view: {e}"
+                self._push(partial(self._show_errors, None, message))
+                continue
+            self._push(partial(self._apply_samples, data, gen))
+
+    def _apply_samples(self, data: dict[str, Any], gen: int) -> None:
+        if gen < getattr(self, "_shown_samples", 0):
+            return
+        self.distinct_src.data = _lines(data["z"], data["rows"], data["distinct"])
+        self.cover_src.data = _lines(data["z"], data["rows"], data["covering_radius"])
+        self._status(samples=gen)
