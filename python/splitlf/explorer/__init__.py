@@ -10,11 +10,13 @@ neither connect nor embed it.
 
 from __future__ import annotations
 
+import asyncio
 import ipaddress
 import socket
+import threading
 from typing import Any
 
-__all__ = ["serve", "allowed_origins", "free_port"]
+__all__ = ["Running", "serve", "allowed_origins", "free_port"]
 
 LOOPBACK = "127.0.0.1"
 
@@ -35,12 +37,46 @@ def allowed_origins(address: str, port: int) -> list[str]:
     return out
 
 
+class Running:
+    """A server running on its own thread: ``url``, ``server`` (Panel's) and :meth:`stop`."""
+
+    def __init__(self, url: str, server: Any, thread: threading.Thread) -> None:
+        self.url, self.server, self.thread = url, server, thread
+
+    def stop(self) -> None:
+        """Stop the server and wait for its thread."""
+        loop = self.server.io_loop
+
+        def halt() -> None:
+            self.server.stop()
+            loop.stop()
+
+        loop.add_callback(halt)
+        self.thread.join(timeout=10)
+
+
+def _refuse_other_hosts(server: Any, address: str) -> None:
+    """Answer 403 to every request whose Host is not the bound address (or localhost for
+    the loopback): Bokeh checks the websocket's Origin, this also covers the page itself
+    (a DNS-rebinding page never gets a session)."""
+    import re
+
+    from tornado.web import RequestHandler
+
+    class Forbidden(RequestHandler):
+        def prepare(self) -> None:
+            self.send_error(403)
+
+    names = [re.escape(address)] + (["localhost"] if address == LOOPBACK else [])
+    server._tornado.add_handlers(rf"^(?!(?:{'|'.join(names)})$).*$", [(r".*", Forbidden)])
+
+
 def serve(design: Any = None, *, port: int = 0, address: str = LOOPBACK,
-          threaded: bool = False, show: bool = False) -> Any:
+          threaded: bool = False) -> Any:
     """Start the explorer's server for ``design`` (a :class:`~splitlf.Design` or a
     :class:`~splitlf.Camera`; default the seed preset) on ``address:port`` (``port=0``:
-    a free port). Prints the URL. ``threaded=True`` returns the running server (a thread;
-    ``.stop()`` ends it) at once; otherwise blocks until interrupted. Each browser session
+    a free port) and print its URL. ``threaded=True`` returns a :class:`Running` server at
+    once (``.url``, ``.stop()``); otherwise blocks until interrupted. Each browser session
     gets its own copy of the design."""
     import panel as pn
 
@@ -63,10 +99,40 @@ def serve(design: Any = None, *, port: int = 0, address: str = LOOPBACK,
         return Explorer(design).layout
 
     url = f"http://{address}:{port}/"
+
+    def make() -> Any:
+        server = pn.serve({"/": session}, port=port, address=address, show=False,
+                          allow_websocket_origin=allowed_origins(address, port),
+                          title="splitlf explorer", start=False, verbose=False)
+        _refuse_other_hosts(server, address)
+        return server
+
     print(f"splitlf explorer: {url}", flush=True)
-    server = pn.serve({"/": session}, port=port, address=address, show=show,
-                      allow_websocket_origin=allowed_origins(address, port),
-                      threaded=threaded, title="splitlf explorer", start=True,
-                      print_url=False)
-    server.url = url  # type: ignore[attr-defined]
-    return server
+    if not threaded:
+        server = make()
+        server.start()
+        server.io_loop.start()
+        return server
+    holder: list[Any] = []
+    errors: list[BaseException] = []
+    ready = threading.Event()
+
+    def run() -> None:
+        asyncio.set_event_loop(asyncio.new_event_loop())
+        try:
+            server = make()
+            server.start()
+        except BaseException as e:  # reported to the caller below
+            errors.append(e)
+            ready.set()
+            return
+        holder.append(server)
+        ready.set()
+        server.io_loop.start()
+
+    thread = threading.Thread(target=run, name="splitlf-explorer", daemon=True)
+    thread.start()
+    ready.wait(60)
+    if errors:
+        raise errors[0]
+    return Running(url, holder[0], thread)

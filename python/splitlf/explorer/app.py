@@ -75,20 +75,20 @@ class Explorer:
         self.banner = pn.pane.HTML("", sizing_mode="stretch_width")
         self.status = pn.pane.HTML("")
         options = ["custom", *PRESETS]
-        self.preset = pn.widgets.Select(name="preset", options=options, value=self._preset_of(
+        self.preset = pn.widgets.Select(label="preset", options=options, value=self._preset_of(
             self.design), width=150)
         self.preset.param.watch(self._on_preset, "value")
         self.load = pn.widgets.FileInput(accept=".toml", multiple=False, width=220)
         self.load.param.watch(self._on_load, "value")
         self.save = pn.widgets.FileDownload(callback=self._toml_file, filename="design.toml",
-                                            label="save TOML", button_type="primary",
+                                            label="save TOML", color="primary",
                                             embed=False, width=120)
         self.threshold = self._text_widget(
             Field(THRESHOLD, "real", "threshold [px]", "sharpness threshold on the blur "
                   "radius [px], > 0"), THRESHOLD, "0.5")
-        self.n_depths = pn.widgets.IntSlider(name="samples: depths", start=3, end=40,
+        self.n_depths = pn.widgets.IntSlider(label="samples: depths", start=3, end=40,
                                              value=model.SAMPLES_DEPTHS, width=180)
-        self.window = pn.widgets.FloatSlider(name="samples: field [lens pitches]", start=1,
+        self.window = pn.widgets.FloatSlider(label="samples: field [lens pitches]", start=1,
                                              end=16, step=1, value=model.SAMPLES_WINDOW,
                                              width=180)
         for w in (self.n_depths, self.window):
@@ -115,11 +115,11 @@ class Explorer:
 
     def _text_widget(self, field: Field, key: str, value: str) -> pn.Column:
         if field.kind == "choice":
-            w = pn.widgets.Select(name=field.label, options=list(field.choices), value=value,
+            w = pn.widgets.Select(label=field.label, options=list(field.choices), value=value,
                                   description=field.help, width=120)
         else:
             # The placeholder (the key) names the input for people and for the tests.
-            w = pn.widgets.TextInput(name=field.label, value=value, placeholder=key,
+            w = pn.widgets.TextInput(label=field.label, value=value, placeholder=key,
                                      description=field.help, width=120)
         w.param.watch(partial(self._on_field, key), "value")
         err = pn.pane.HTML("", width=120, margin=(0, 5))
@@ -274,7 +274,7 @@ class Explorer:
             blur = model.blur_view(design, threshold)
             report = model.report_rows(design, threshold)
         except (SplitlfError, ValueError, TypeError) as e:
-            self._show_errors(getattr(e, "name", None), str(e))
+            self._show_errors(model.control_key(getattr(e, "name", None)), str(e))
             return
         self.design = design
         self.generation += 1

@@ -28,6 +28,7 @@ __all__ = [
     "Field",
     "FieldError",
     "blur_view",
+    "control_key",
     "design_from_texts",
     "design_texts",
     "load_toml_bytes",
@@ -83,6 +84,22 @@ CHANNEL_CONTROLS = (
 )
 
 
+def control_key(name: str | None) -> str | None:
+    """The control an error of the API names: ``F``, ``channels[2].L``; a main-lens field
+    named within a channel (``channels[1].D``: the aperture's image overlaps in channel 1)
+    is the main-lens control ``D``; ``None`` when no control matches."""
+    if name is None:
+        return None
+    if name in {f.name for f in DESIGN_CONTROLS}:
+        return name
+    head, _, field = name.rpartition(".")
+    if head.startswith("channels[") and field in {f.name for f in CHANNEL_CONTROLS}:
+        return name
+    if field in {f.name for f in DESIGN_CONTROLS}:
+        return field
+    return None
+
+
 class FieldError(ValueError):
     """Text of a control that is not a value of its kind (or a design the API refuses):
     ``key`` names the control (``F``, ``channels[2].L``; ``None``: the design as a whole),
@@ -90,7 +107,7 @@ class FieldError(ValueError):
 
     def __init__(self, key: str | None, message: str) -> None:
         super().__init__(message)
-        self.key = key
+        self.key = control_key(key)
         self.message = message
 
 
