@@ -383,3 +383,29 @@ def test_save_then_load_reproduces_the_design(page, tmp_path):
     z = page.source("blur")["xs"][0]
     np.testing.assert_allclose(_plotted_blur(page), _api_blur(design, z), rtol=1e-12)
     assert page.find('input[placeholder="channels[1].L"]').get_attribute("value") == "95.5"
+
+
+@needs_browser
+def test_reference_design_on_the_same_axes(page):
+    page.open()
+    assert page.source("reference_blur")["label"] == []
+    before = page.status()
+    page.js("deep(document, 'button').find(b => b.textContent.includes('pin as reference'))"
+            ".click();")
+    page.after_change(before)
+    seed = splitlf.Design.preset("seed")
+    before = page.status()
+    page.type("D", "16")
+    page.after_change(before)
+    ref = page.source("reference_blur")
+    assert ref["label"] == ["reference channel 1", "reference channel 2"]
+    np.testing.assert_allclose(np.array(ref["ys"], dtype=float),
+                               _api_blur(seed, ref["xs"][0]), rtol=1e-12)
+    np.testing.assert_allclose(_plotted_blur(page),
+                               _api_blur(seed.replace(D=16.0), ref["xs"][0]), rtol=1e-12)
+    cov = page.source("reference_covering_radius")
+    api = splitlf.coverage(seed, np.asarray(cov["xs"][0]), window=2.0)
+    np.testing.assert_allclose(np.array(cov["ys"], dtype=float), api.covering_radius,
+                               rtol=1e-12)
+    assert "reference" in page.source("dof")["row"]
+    page.screenshot("explore_reference.png")

@@ -29,9 +29,10 @@ from .simulation import BarChart, Image, RandomAlbedo, Simulation, Sinusoid, sim
 
 
 def explore(design: Camera | Design | None = None, *, port: int = 0,
-            address: str = "127.0.0.1") -> object:
+            address: str = "127.0.0.1", reference: Camera | Design | None = None) -> object:
     """The interactive design explorer (docs/explore.md) for ``design`` (default: the seed
-    preset). In Jupyter, returns the app served in the background, shown inline (an
+    preset), with ``reference`` (e.g. the seed beside an optimised design) drawn on the
+    same axes. In Jupyter, returns the app served in the background, shown inline (an
     IFrame); elsewhere starts the server, prints its URL and blocks until Ctrl-C. Binds
     127.0.0.1 by default. Needs the ``explore`` extra (Panel), imported on first call."""
     from .explorer import serve
@@ -43,10 +44,10 @@ def explore(design: Camera | Design | None = None, *, port: int = 0,
     except ImportError:
         in_kernel = False
     if not in_kernel:
-        return serve(design, port=port, address=address)
+        return serve(design, port=port, address=address, reference=reference)
     from IPython.display import IFrame
 
-    server = serve(design, port=port, address=address, threaded=True)
+    server = serve(design, port=port, address=address, threaded=True, reference=reference)
     return IFrame(server.url, width="100%", height=900)
 
 __all__ = [

@@ -627,7 +627,15 @@ def _cmd_explore(args: argparse.Namespace) -> int:
     from .explorer import serve
 
     subject, _ = _load_report_subject(args)
-    serve(subject, port=args.port, address=args.address)
+    reference = None
+    if args.compare is not None:
+        if args.compare in PRESETS:
+            reference = Design.preset(args.compare)
+        elif "design" in read_toml(args.compare):
+            reference = Design.from_toml(args.compare)
+        else:
+            reference = Camera.from_toml(args.compare)
+    serve(subject, port=args.port, address=args.address, reference=reference)
     return 0
 
 
@@ -807,6 +815,9 @@ def _add_explore(sub: Any) -> None:
                    help=f"start from a named design: {', '.join(PRESETS)}")
     p.add_argument("--port", type=_integer_type("port", 0, 65535), default=5006,
                    help="TCP port, an integer in [0, 65535]; 0 picks a free one (default 5006)")
+    p.add_argument("--compare", default=None, metavar="NAME|FILE.toml",
+                   help="a second design drawn on the same axes: a preset name or a "
+                   "[design] or [camera] TOML file (e.g. an optimise result)")
     p.add_argument("--address", default="127.0.0.1", metavar="IP",
                    help="address to bind (default 127.0.0.1: this machine only)")
     p.set_defaults(func=_cmd_explore)

@@ -72,31 +72,35 @@ def _refuse_other_hosts(server: Any, address: str) -> None:
 
 
 def serve(design: Any = None, *, port: int = 0, address: str = LOOPBACK,
-          threaded: bool = False) -> Any:
+          threaded: bool = False, reference: Any = None) -> Any:
     """Start the explorer's server for ``design`` (a :class:`~splitlf.Design` or a
     :class:`~splitlf.Camera`; default the seed preset) on ``address:port`` (``port=0``:
     a free port) and print its URL. ``threaded=True`` returns a :class:`Running` server at
     once (``.url``, ``.stop()``); otherwise blocks until interrupted. Each browser session
-    gets its own copy of the design."""
+    gets its own copy of the design. ``reference`` (a Design or Camera) is drawn beside
+    it on the same axes (the page can also pin its current design as the reference)."""
     import panel as pn
 
     from ..camera import Camera
     from ..design import Design
     from .app import Explorer
 
-    if design is None:
-        design = Design.preset("seed")
-    if isinstance(design, Camera):
-        design = design.design
-    if not isinstance(design, Design):
-        raise TypeError(f"design must be a splitlf.Design or a splitlf.Camera, got "
-                        f"{type(design).__name__}")
+    def as_design(value: Any, what: str) -> Design:
+        if isinstance(value, Camera):
+            return value.design
+        if not isinstance(value, Design):
+            raise TypeError(f"{what} must be a splitlf.Design or a splitlf.Camera, got "
+                            f"{type(value).__name__}")
+        return value
+
+    design = as_design(Design.preset("seed") if design is None else design, "design")
+    ref = None if reference is None else as_design(reference, "reference")
     ipaddress.ip_address(address)  # a literal address: ValueError otherwise
     if port == 0:
         port = free_port(address)
 
     def session() -> Any:
-        return Explorer(design).layout
+        return Explorer(design, ref).layout
 
     url = f"http://{address}:{port}/"
 

@@ -54,14 +54,18 @@ class Explorer:
     ``self.design`` is the last valid design: the figures always show it. ``layout`` is
     the Panel object served (or displayed)."""
 
-    def __init__(self, design: Design) -> None:
+    def __init__(self, design: Design, reference: Design | None = None) -> None:
         self.design = design
+        #: A second design drawn on the same axes (grey), e.g. the seed beside an
+        #: optimised one: given, or pinned from the page.
+        self.reference = reference
+        self._ref_samples: dict[tuple[Design, int, float], dict[str, Any]] = {}
         self.generation = 0  # counts valid designs shown
         self.samples_generation = 0
         self._suspend = False
         self._doc = pn.state.curdoc
         self._lock = threading.Lock()
-        self._pending: tuple[int, Design, int, float] | None = None
+        self._pending: tuple[int, Design, Design | None, int, float] | None = None
         self._worker_busy = False
         self._widgets: dict[str, Any] = {}
         self._errors: dict[str, pn.pane.HTML] = {}
@@ -93,13 +97,18 @@ class Explorer:
                                              width=180)
         for w in (self.n_depths, self.window):
             w.param.watch(lambda e: self._request_samples(self.design), "value_throttled")
+        self.pin = pn.widgets.Button(label="pin as reference", width=140)
+        self.pin.on_click(lambda e: self.set_reference(self.design))
+        self.unpin = pn.widgets.Button(label="clear reference", width=130)
+        self.unpin.on_click(lambda e: self.set_reference(None))
         self.design_box = pn.FlexBox(sizing_mode="stretch_width")
         self.channel_tabs = pn.Tabs(sizing_mode="stretch_width")
         self._populate(self.design)
         top = pn.Row(self.preset, pn.Column(pn.pane.HTML("<b>load TOML</b>"), self.load),
                      pn.Column(pn.Spacer(height=18), self.save), sizing_mode="stretch_width")
         controls = pn.Column(
-            "## splitlf design explorer", top, self.banner, "### Main lens and views",
+            "## splitlf design explorer", top, pn.Row(self.pin, self.unpin), self.banner,
+            "### Main lens and views",
             self.design_box, "### Channels", self.channel_tabs,
             pn.Row(self.n_depths, self.window), self.status, width=560)
         views = pn.Column(
@@ -195,6 +204,15 @@ class Explorer:
                      source=self.cover_src)
         self.cover_fig = c
         self.report = pn.pane.HTML("", sizing_mode="stretch_width")
+        # The reference design, grey and dashed on the same axes.
+        empty = _lines(np.zeros(1), (), np.zeros((0, 1)))
+        self.ref_blur_src = ColumnDataSource(dict(empty), name="reference_blur")
+        self.ref_distinct_src = ColumnDataSource(dict(empty), name="reference_distinct")
+        self.ref_cover_src = ColumnDataSource(dict(empty), name="reference_covering_radius")
+        for fig, src in ((f, self.ref_blur_src), (s, self.ref_distinct_src),
+                         (c, self.ref_cover_src)):
+            fig.multi_line("xs", "ys", color="#888888", line_dash="dashed", line_width=1.5,
+                           legend_field="label", source=src)
 
     # -- events --------------------------------------------------------------------------
     @staticmethod
@@ -221,6 +239,11 @@ class Explorer:
 
     def _toml_file(self) -> io.StringIO:
         return io.StringIO(self.design.to_toml())
+
+    def set_reference(self, design: Design | None) -> None:
+        """Draw ``design`` (None: nothing) beside the current one on the same axes."""
+        self.reference = design
+        self._refresh(self.design)
 
     def _on_field(self, key: str, event: Any) -> None:
         if not self._suspend:
@@ -258,12 +281,17 @@ class Explorer:
         self._refresh(design, threshold)
 
     def _show_errors(self, key: str | None, message: str) -> None:
+        """The message beside control ``key`` (and in the banner), every other cleared;
+        only panes whose text changes are touched (each change is a message to the page)."""
         for k, pane in self._errors.items():
-            pane.object = (f'<span class="field-error" data-key="{_esc(k)}" '
-                           f'style="{ERROR_STYLE}">{_esc(message)}</span>') if k == key else ""
-        self.banner.object = (f'<div class="explorer-error" style="{ERROR_STYLE}">'
-                              f"Invalid: {_esc(message)} (the figures show the last valid "
-                              "design)</div>") if message else ""
+            text = (f'<span class="field-error" data-key="{_esc(k)}" '
+                    f'style="{ERROR_STYLE}">{_esc(message)}</span>') if k == key else ""
+            if pane.object != text:
+                pane.object = text
+        text = (f'<div class="explorer-error" style="{ERROR_STYLE}">Invalid: {_esc(message)} '
+                "(the figures show the last valid design)</div>") if message else ""
+        if self.banner.object != text:
+            self.banner.object = text
 
     # -- views ---------------------------------------------------------------------------
     def _refresh(self, design: Design, threshold: float | None = None) -> None:
@@ -273,6 +301,8 @@ class Explorer:
         try:
             blur = model.blur_view(design, threshold)
             report = model.report_rows(design, threshold)
+            ref = None if self.reference is None else model.blur_view(self.reference,
+                                                                      threshold)
         except (SplitlfError, ValueError, TypeError) as e:
             self._show_errors(model.control_key(getattr(e, "name", None)), str(e))
             return
@@ -280,7 +310,7 @@ class Explorer:
         self.generation += 1
         gen = self.generation
         self._show_errors(None, "")
-        self._push(partial(self._apply_blur, blur, report, gen))
+        self._push(partial(self._apply_blur, blur, ref, report, gen))
         self._request_samples(design)
 
     def _push(self, fn: Any) -> None:
@@ -291,9 +321,18 @@ class Explorer:
         else:
             fn()
 
-    def _apply_blur(self, blur: dict[str, Any], report: list[tuple[str, str]],
-                    gen: int) -> None:
+    def _apply_blur(self, blur: dict[str, Any], ref: dict[str, Any] | None,
+                    report: list[tuple[str, str]], gen: int) -> None:
         z = blur["z"]
+        if ref is None:
+            self.ref_blur_src.data = _lines(np.zeros(1), (), np.zeros((0, 1)))
+        else:
+            self.ref_blur_src.data = _lines(ref["z"], tuple(f"reference {r}" for r in
+                                                            ref["rows"]), ref["blur_px"])
+            union = ref["dof_rows"][-1]
+            blur = dict(blur, dof_rows=(*blur["dof_rows"], "reference"),
+                        dof=[*blur["dof"], *(("reference", a, b) for r, a, b in ref["dof"]
+                                             if r == union)])
         self.blur_src.data = _lines(z, blur["rows"], blur["blur_px"])
         self.conv_src.data = _lines(z, tuple(f"{c} conventional" for c in blur["channels"]),
                                     blur["conventional_px"])
@@ -306,6 +345,7 @@ class Explorer:
         rows = list(blur["dof_rows"])
         zmax = float(z[-1])
         colors = {r: Category10_10[i % 10] for i, r in enumerate(rows)}
+        colors["reference"] = "#888888"
         self.dof_fig.y_range.factors = rows[::-1]
         self.dof_src.data = {
             "row": [r for r, _, _ in blur["dof"]],
@@ -331,8 +371,8 @@ class Explorer:
 
     def _request_samples(self, design: Design) -> None:
         with self._lock:
-            self._pending = (self.generation, design, int(self.n_depths.value),
-                             float(self.window.value))
+            self._pending = (self.generation, design, self.reference,
+                             int(self.n_depths.value), float(self.window.value))
             if self._worker_busy:
                 return
             self._worker_busy = True
@@ -345,18 +385,32 @@ class Explorer:
                 if job is None:
                     self._worker_busy = False
                     return
-            gen, design, n, window = job
+            gen, design, reference, n, window = job
             try:
                 data = model.samples_view(design, n, window)
+                ref = None
+                if reference is not None:
+                    key = (reference, n, window)
+                    if key not in self._ref_samples:  # computed once per pinned design
+                        self._ref_samples = {key: model.samples_view(reference, n, window)}
+                    ref = self._ref_samples[key]
             except (SplitlfError, ValueError, MemoryError) as e:
                 message = f"samples view: {e}"
                 self._push(partial(self._show_errors, None, message))
                 continue
-            self._push(partial(self._apply_samples, data, gen))
+            self._push(partial(self._apply_samples, data, ref, gen))
 
-    def _apply_samples(self, data: dict[str, Any], gen: int) -> None:
+    def _apply_samples(self, data: dict[str, Any], ref: dict[str, Any] | None,
+                       gen: int) -> None:
         if gen < getattr(self, "_shown_samples", 0):
             return
+        if ref is None:
+            self.ref_distinct_src.data = _lines(np.zeros(1), (), np.zeros((0, 1)))
+            self.ref_cover_src.data = _lines(np.zeros(1), (), np.zeros((0, 1)))
+        else:
+            labels = tuple(f"reference {r}" for r in ref["rows"])
+            self.ref_distinct_src.data = _lines(ref["z"], labels, ref["distinct"])
+            self.ref_cover_src.data = _lines(ref["z"], labels, ref["covering_radius"])
         self.distinct_src.data = _lines(data["z"], data["rows"], data["distinct"])
         self.cover_src.data = _lines(data["z"], data["rows"], data["covering_radius"])
         self._status(samples=gen)
