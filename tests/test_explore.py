@@ -409,3 +409,35 @@ def test_reference_design_on_the_same_axes(page):
                                rtol=1e-12)
     assert "reference" in page.source("dof")["row"]
     page.screenshot("explore_reference.png")
+
+
+@needs_browser
+def test_sample_map_and_microlens_images_at_a_picked_depth(page):
+    from selenium.webdriver.common.action_chains import ActionChains
+
+    page.open()
+    seed = splitlf.Design.preset("seed")
+    page.wait(lambda: len(page.source("sample_map")["x"]) > 0)
+    image = page.source("microlens_image")
+    assert len(image["image"]) == 1
+    page.type("map_z", "300")
+
+    def shown():
+        got = page.source("sample_map")
+        r = splitlf.samples_2d(seed, 300.0, window=2.0)
+        delta = seed.resolution_step(300.0)
+        want = np.concatenate([r.samples[k] for k in range(2)]) / delta
+        if len(got["x"]) != len(want):
+            return False
+        np.testing.assert_allclose(np.c_[got["x"], got["y"]], want, rtol=1e-12)
+        return True
+
+    page.wait(shown)
+    # A click on the blur figure picks the depth under the pointer.
+    canvas = page.js("return deep(document, '.bk-Canvas, canvas').filter("
+                     "e => e.getBoundingClientRect().width > 600)[0];")
+    before = page.find('input[placeholder="map_z"]').get_attribute("value")
+    ActionChains(page.d).move_to_element(canvas).click().perform()
+    picked = page.wait(lambda: (v := page.find('input[placeholder="map_z"]')
+                                .get_attribute("value")) != before and v)
+    assert 1.25 * seed.F <= float(picked) <= 125 * seed.F

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 import panel as pn
+from bokeh.events import Tap
 from bokeh.models import ColumnDataSource, FactorRange, Range1d, Span
 from bokeh.palettes import Category10_10
 from bokeh.plotting import figure
@@ -34,6 +35,8 @@ __all__ = ["Explorer"]
 ERROR_STYLE = "color:#b00020;font-size:12px;"
 #: The threshold control's key (a field of the views, not of the design).
 THRESHOLD = "threshold_px"
+#: The sample map's depth control's key.
+MAP_Z = "map_z"
 
 
 def _esc(text: Any) -> str:
@@ -65,7 +68,7 @@ class Explorer:
         self._suspend = False
         self._doc = pn.state.curdoc
         self._lock = threading.Lock()
-        self._pending: tuple[int, Design, Design | None, int, float] | None = None
+        self._pending: dict[str, tuple] = {}
         self._worker_busy = False
         self._widgets: dict[str, Any] = {}
         self._errors: dict[str, pn.pane.HTML] = {}
@@ -101,8 +104,15 @@ class Explorer:
         self.pin.on_click(lambda e: self.set_reference(self.design))
         self.unpin = pn.widgets.Button(label="clear reference", width=130)
         self.unpin.on_click(lambda e: self.set_reference(None))
+        self.map_z = pn.widgets.TextInput(label="sample map depth z [mm] (or click a plot)",
+                                          value=f"{model.default_map_depth(self.design):.6g}",
+                                          placeholder=MAP_Z, width=260)
+        self.map_z.param.watch(lambda e: self._request_map(), "value")
+        self._errors[MAP_Z] = pn.pane.HTML("", width=260)
         self.design_box = pn.FlexBox(sizing_mode="stretch_width")
         self.channel_tabs = pn.Tabs(sizing_mode="stretch_width")
+        self.channel_tabs.param.watch(
+            lambda e: self._request("sensor", (self.design, self._sensor_channel())), "active")
         self._populate(self.design)
         top = pn.Row(self.preset, pn.Column(pn.pane.HTML("<b>load TOML</b>"), self.load),
                      pn.Column(pn.Spacer(height=18), self.save), sizing_mode="stretch_width")
@@ -110,7 +120,10 @@ class Explorer:
             "## splitlf design explorer", top, pn.Row(self.pin, self.unpin), self.banner,
             "### Main lens and views",
             self.design_box, "### Channels", self.channel_tabs,
-            pn.Row(self.n_depths, self.window), self.status, width=560)
+            pn.Row(self.n_depths, self.window), self.status,
+            pn.Column(self.map_z, self._errors[MAP_Z]),
+            pn.pane.Bokeh(self.map_fig), self.map_info, pn.pane.Bokeh(self.sensor_fig),
+            width=560)
         views = pn.Column(
             pn.pane.Bokeh(self.blur_fig, sizing_mode="stretch_width"),
             pn.pane.Bokeh(self.dof_fig, sizing_mode="stretch_width"),
@@ -140,7 +153,7 @@ class Explorer:
         """(Re)build the controls of ``design``'s fields."""
         texts = model.design_texts(design)
         self._widgets = {k: v for k, v in self._widgets.items() if k == THRESHOLD}
-        self._errors = {k: v for k, v in self._errors.items() if k == THRESHOLD}
+        self._errors = {k: v for k, v in self._errors.items() if k in (THRESHOLD, MAP_Z)}
         boxes = [self._text_widget(f, f.name, texts[f.name]) for f in DESIGN_CONTROLS]
         self.design_box.objects = [*boxes, self.threshold]
         tabs = []
@@ -204,15 +217,37 @@ class Explorer:
                      source=self.cover_src)
         self.cover_fig = c
         self.report = pn.pane.HTML("", sizing_mode="stretch_width")
+        # The 2-D sample map at a picked depth and the microlens images on the sensor.
+        self.map_src = ColumnDataSource({"x": [], "y": [], "color": [], "label": []},
+                                        name="sample_map")
+        m = figure(title="2-D samples", width=520, height=420, match_aspect=True,
+                   tools="pan,wheel_zoom,box_zoom,reset,save", x_axis_label="X / δ(z)",
+                   y_axis_label="Y / δ(z)")
+        m.scatter("x", "y", color="color", legend_field="label", size=4, alpha=0.7,
+                  source=self.map_src)
+        self.map_fig = m
+        self.map_info = pn.pane.HTML("", width=520)
+        self.sensor_src = ColumnDataSource({"image": [], "x": [], "y": [], "dw": [], "dh": []},
+                                           name="microlens_image")
+        g = figure(title="Microlens images", width=520, height=420, match_aspect=True,
+                   tools="pan,wheel_zoom,box_zoom,reset,save", x_axis_label="sensor column",
+                   y_axis_label="sensor row")
+        g.image_rgba(image="image", x="x", y="y", dw="dw", dh="dh", source=self.sensor_src)
+        self.sensor_fig = g
+        for fig in (f, d, r, s, c):  # a click on a depth axis picks the sample map's depth
+            fig.on_event(Tap, self._on_tap)
         # The reference design, grey and dashed on the same axes.
         empty = _lines(np.zeros(1), (), np.zeros((0, 1)))
         self.ref_blur_src = ColumnDataSource(dict(empty), name="reference_blur")
         self.ref_distinct_src = ColumnDataSource(dict(empty), name="reference_distinct")
         self.ref_cover_src = ColumnDataSource(dict(empty), name="reference_covering_radius")
+        self._ref_items = []
         for fig, src in ((f, self.ref_blur_src), (s, self.ref_distinct_src),
                          (c, self.ref_cover_src)):
             fig.multi_line("xs", "ys", color="#888888", line_dash="dashed", line_width=1.5,
-                           legend_field="label", source=src)
+                           legend_label="reference", source=src)
+            self._ref_items.append(fig.legend.items[-1])
+            self._ref_items[-1].visible = self.reference is not None
 
     # -- events --------------------------------------------------------------------------
     @staticmethod
@@ -240,6 +275,10 @@ class Explorer:
     def _toml_file(self) -> io.StringIO:
         return io.StringIO(self.design.to_toml())
 
+    def _on_tap(self, event: Any) -> None:
+        if event.x is not None and np.isfinite(event.x) and event.x > 0:
+            self.map_z.value = f"{event.x:.6g}"
+
     def set_reference(self, design: Design | None) -> None:
         """Draw ``design`` (None: nothing) beside the current one on the same axes."""
         self.reference = design
@@ -259,6 +298,7 @@ class Explorer:
                 for key, text in model.design_texts(design).items():
                     self._widgets[key].value = text
             self.preset.value = self._preset_of(design)
+            self.map_z.value = f"{model.default_map_depth(design):.6g}"
         finally:
             self._suspend = False
         self._refresh(design)
@@ -324,6 +364,8 @@ class Explorer:
     def _apply_blur(self, blur: dict[str, Any], ref: dict[str, Any] | None,
                     report: list[tuple[str, str]], gen: int) -> None:
         z = blur["z"]
+        for item in self._ref_items:
+            item.visible = ref is not None
         if ref is None:
             self.ref_blur_src.data = _lines(np.zeros(1), (), np.zeros((0, 1)))
         else:
@@ -370,35 +412,92 @@ class Explorer:
                               f'data-samples="{s}">design #{b}: samples {state}</span>')
 
     def _request_samples(self, design: Design) -> None:
+        """Queue the heavy views of ``design``: samples over depth, then the sample map
+        at the picked depth and the microlens images."""
+        self._request("samples", (self.generation, design, self.reference,
+                                  int(self.n_depths.value), float(self.window.value)))
+        self._request_map()
+        self._request("sensor", (design, self._sensor_channel()))
+
+    def _request_map(self) -> None:
+        try:
+            z = model.parse(Field(MAP_Z, "real", "", ""), str(self.map_z.value), MAP_Z)
+        except FieldError as e:
+            self._show_errors(e.key, e.message)
+            return
+        self._request("map", (self.design, z, float(self.window.value)))
+
+    def _sensor_channel(self) -> int:
+        return min(int(self.channel_tabs.active) + 1, len(self.design.channels))
+
+    def _request(self, kind: str, job: tuple) -> None:
+        """Give the worker thread a job of ``kind``, replacing one of that kind not yet
+        started (coalescing), and start the worker if it is idle."""
         with self._lock:
-            self._pending = (self.generation, design, self.reference,
-                             int(self.n_depths.value), float(self.window.value))
+            self._pending[kind] = job
             if self._worker_busy:
                 return
             self._worker_busy = True
-        threading.Thread(target=self._samples_worker, daemon=True).start()
+        threading.Thread(target=self._worker, daemon=True).start()
 
-    def _samples_worker(self) -> None:
+    def _worker(self) -> None:
         while True:
             with self._lock:
-                job, self._pending = self._pending, None
-                if job is None:
+                kind = next((k for k in ("samples", "map", "sensor") if k in self._pending),
+                            None)
+                if kind is None:
                     self._worker_busy = False
                     return
-            gen, design, reference, n, window = job
+                job = self._pending.pop(kind)
             try:
-                data = model.samples_view(design, n, window)
-                ref = None
-                if reference is not None:
-                    key = (reference, n, window)
-                    if key not in self._ref_samples:  # computed once per pinned design
-                        self._ref_samples = {key: model.samples_view(reference, n, window)}
-                    ref = self._ref_samples[key]
+                apply = getattr(self, f"_compute_{kind}")(*job)
             except (SplitlfError, ValueError, MemoryError) as e:
-                message = f"samples view: {e}"
-                self._push(partial(self._show_errors, None, message))
+                key = MAP_Z if kind == "map" and getattr(e, "name", "") == "z" else None
+                self._push(partial(self._show_errors, key, f"{kind} view: {e}"))
                 continue
-            self._push(partial(self._apply_samples, data, ref, gen))
+            self._push(apply)
+
+    def _compute_samples(self, gen: int, design: Design, reference: Design | None, n: int,
+                         window: float) -> Any:
+        data = model.samples_view(design, n, window)
+        ref = None
+        if reference is not None:
+            key = (reference, n, window)
+            if key not in self._ref_samples:  # computed once per pinned design
+                self._ref_samples = {key: model.samples_view(reference, n, window)}
+            ref = self._ref_samples[key]
+        return partial(self._apply_samples, data, ref, gen)
+
+    def _compute_map(self, design: Design, z: float, window: float) -> Any:
+        return partial(self._apply_map, model.sample_map(design, z, window))
+
+    def _compute_sensor(self, design: Design, channel: int) -> Any:
+        return partial(self._apply_sensor, channel, model.microlens_image(design, channel))
+
+    def _apply_map(self, m: dict[str, Any]) -> None:
+        xs, ys, color, label = [], [], [], []
+        for k, (x, y) in enumerate(zip(m["x"], m["y"], strict=True)):
+            xs.append(x)
+            ys.append(y)
+            color += [Category10_10[k % 10]] * len(x)
+            label += [m["rows"][k]] * len(x)
+        self.map_src.data = {"x": np.concatenate(xs) if xs else [],
+                             "y": np.concatenate(ys) if ys else [],
+                             "color": color, "label": label}
+        counts = ", ".join(f"{r}: {n} distinct, ρ = {c:.3g} δ" for r, n, c in
+                           zip(m["rows"], m["distinct"], m["covering_radius"], strict=True))
+        self.map_fig.title.text = (f"2-D samples at z = {m['z']:.5g} mm "
+                                   f"(δ = {m['delta_mm'] * 1e3:.3g} µm)")
+        self.map_info.object = (f'<span class="map-info" style="font-size:12px">'
+                                f"{_esc(counts)}</span>")
+
+    def _apply_sensor(self, channel: int, im: dict[str, Any]) -> None:
+        rgba = im["rgba"]
+        ny, nx = rgba.shape
+        self.sensor_src.data = {"image": [rgba], "x": [im["x0"] - 0.5], "y": [im["y0"] - 0.5],
+                                "dw": [nx], "dh": [ny]}
+        self.sensor_fig.title.text = (f"Microlens images, channel {channel}: {im['lit']} of "
+                                      f"{im['pixels']} pixels shown are lit")
 
     def _apply_samples(self, data: dict[str, Any], ref: dict[str, Any] | None,
                        gen: int) -> None:

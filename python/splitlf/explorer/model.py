@@ -277,3 +277,55 @@ def _intervals(iv: list) -> str:
     if not iv:
         return "none"
     return ", ".join(f"{a:.1f} – {'inf' if b is None else f'{b:.1f}'}" for a, b in iv)
+
+
+def default_map_depth(design: Design) -> float:
+    """The sample map's first depth: channel 1's out-of-focus plane with several channels
+    (where channel 1 alone resolves least), twice it with one (as ``splitlf figures``)."""
+    return design.out_of_focus_depth(1) * (1.0 if len(design.channels) > 1 else 2.0)
+
+
+def sample_map(design: Design, z: float, window: float = SAMPLES_WINDOW) -> dict[str, Any]:
+    """The 2-D chief samples at depth ``z`` (:func:`splitlf.samples_2d` over a central
+    field ``window`` lens pitches wide), per channel, in units of delta(z): ``x``, ``y``
+    (lists of arrays), ``rows`` (channels, then the union), ``distinct`` and
+    ``covering_radius`` of every row, ``delta_mm``."""
+    from ..coverage import samples_2d
+
+    r = samples_2d(design, z, window=window)
+    delta = design.resolution_step(r.z)
+    n = len(design.channels)
+    return {"z": r.z, "rows": r.rows, "delta_mm": delta,
+            "x": [r.samples[k][:, 0] / delta for k in range(n)],
+            "y": [r.samples[k][:, 1] / delta for k in range(n)],
+            "distinct": r.distinct, "covering_radius": r.covering_radius}
+
+
+#: Colours (RGBA, uint8) of lens types 1, 2, 3, ... of the microlens images, and unlit.
+TYPE_RGBA = ((31, 119, 180), (255, 127, 14), (44, 160, 44), (214, 39, 40), (148, 103, 189))
+UNLIT_RGBA = (220, 220, 220)
+
+
+def microlens_image(design: Design, channel: int, lenses: int = 4) -> dict[str, Any]:
+    """The centre of channel ``channel``'s sensor, ``lenses`` image pitches wide: each lit
+    pixel coloured by its lens's type, unlit pixels grey (from :func:`splitlf.chief_samples`
+    over the crop's rows only; which pixels are lit does not depend on the depth).
+    ``rgba`` (rows, cols) uint32 for Bokeh's ``image_rgba``, ``x0``, ``y0`` (the crop's
+    first column and row), ``lit`` and ``pixels`` (counts in the crop)."""
+    from ..coverage import chief_samples
+
+    ch = design.channels[channel - 1]
+    info = design.resolved()[channel - 1]
+    rows, cols = ((info["My"], info["Mx"]) if info["layout"] == "sensor"
+                  else (ch.Ky * info["Q"], ch.Kx * info["Q"]))
+    half = int(np.ceil(lenses * ch.d * (1.0 + ch.v / ch.L) / ch.mu / 2.0))
+    r0, r1 = max(rows // 2 - half, 0), min(rows // 2 + half + 1, rows)
+    c0, c1 = max(cols // 2 - half, 0), min(cols // 2 + half + 1, cols)
+    s = chief_samples(design, channel, 100.0 * design.F, rows=(r0, r1))
+    lit, kind = s.lit[:, c0:c1], s.type[:, c0:c1]
+    palette = np.array([TYPE_RGBA[t % len(TYPE_RGBA)] for t in range(len(info["f"]))],
+                       dtype=np.uint32)
+    rgb = np.where(lit[..., None], palette[kind], np.array(UNLIT_RGBA, dtype=np.uint32))
+    rgba = (rgb[..., 0] | (rgb[..., 1] << 8) | (rgb[..., 2] << 16) | (255 << 24))
+    return {"rgba": rgba.astype(np.uint32), "x0": c0, "y0": r0,
+            "lit": int(np.count_nonzero(lit)), "pixels": int(lit.size)}
