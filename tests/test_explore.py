@@ -441,3 +441,15 @@ def test_sample_map_and_microlens_images_at_a_picked_depth(page):
     picked = page.wait(lambda: (v := page.find('input[placeholder="map_z"]')
                                 .get_attribute("value")) != before and v)
     assert 1.25 * seed.F <= float(picked) <= 125 * seed.F
+
+
+def test_serve_checks_its_arguments():
+    pytest.importorskip("panel")
+    from splitlf.explorer import serve
+
+    with pytest.raises(TypeError, match="design must be"):
+        serve("seed", threaded=True)
+    with pytest.raises(TypeError, match="reference must be"):
+        serve(None, reference=3, threaded=True)
+    with pytest.raises(ValueError):
+        serve(None, address="not an address", threaded=True)
