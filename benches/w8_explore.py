@@ -2,7 +2,9 @@
 
 Starts the explorer on the seed design (127.0.0.1, a free port), opens it in Debian's
 headless chromium (/usr/bin/chromium through /usr/bin/chromedriver, Selenium; nothing is
-downloaded), and makes N changes of the main-lens aperture D (valid values, alternating).
+downloaded), and makes N changes of the main-lens aperture D, each to a value not shown
+before (15.0, 15.1, ... mm: nothing can come from a cache), 0.3 s apart (a person's pause;
+the sample map and microlens images of the previous change finish in it).
 For each, the time from the Enter key (the commit of the control, a keydown listener in
 the page, on the page's clock) to the moment both the blur figure and the samples figure
 show the new design (the page's status element, updated in the same document patch as
@@ -95,12 +97,13 @@ def main() -> None:
             time.sleep(0.1)
         time.sleep(1.0)
         field = d.execute_script(DEEP + "return deep(document, 'input[placeholder=\"D\"]')[0];")
-        values = ["16", "18"]
+        values = [f"{15.0 + 0.1 * i:.1f}" for i in range(n)]
         ms = []
         for i in range(n):
+            time.sleep(0.3)
             before = d.execute_script(DEEP + "return +deep(document, '.explorer-status')[0]"
                                       ".dataset.blur;")
-            field.send_keys(Keys.END + Keys.BACKSPACE * 10 + values[i % 2])
+            field.send_keys(Keys.END + Keys.BACKSPACE * 10 + values[i])
             d.execute_script(ARM)
             field.send_keys(Keys.ENTER)
             ms.append(float(d.execute_async_script(WAIT, before)))
