@@ -41,7 +41,7 @@ __all__ = [
 #: Depths of the closed-form views: from 1.25 F to 125 F, log-spaced (seed: 100 mm - 10 m).
 BLUR_DEPTHS = 600
 #: Default depths of the samples view (2-D coverage: about 10-60 ms a depth for the seed).
-SAMPLES_DEPTHS = 10
+SAMPLES_DEPTHS = 8
 #: Default width of the samples view's central field, in lens pitches of channel 1.
 SAMPLES_WINDOW = 2.0
 
