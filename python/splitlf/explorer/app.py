@@ -64,7 +64,6 @@ class Explorer:
         self.reference = reference
         self._ref_samples: dict[tuple[Design, int, float], dict[str, Any]] = {}
         self.generation = 0  # counts valid designs shown
-        self.samples_generation = 0
         self._suspend = False
         self._doc = pn.state.curdoc
         self._lock = threading.Lock()
@@ -337,7 +336,12 @@ class Explorer:
     def _refresh(self, design: Design, threshold: float | None = None) -> None:
         if threshold is None:
             w = self._widgets.get(THRESHOLD)
-            threshold = 0.5 if w is None else float(w.value)
+            try:
+                threshold = 0.5 if w is None else model.parse(
+                    Field(THRESHOLD, "real", "", ""), str(w.value), THRESHOLD)
+            except FieldError as e:
+                self._show_errors(e.key, e.message)
+                return
         try:
             blur = model.blur_view(design, threshold)
             report = model.report_rows(design, threshold)
