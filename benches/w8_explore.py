@@ -7,8 +7,8 @@ before (15.0, 15.1, ... mm: nothing can come from a cache), 0.3 s apart (a perso
 the sample map and microlens images of the previous change finish in it).
 For each, the time from the Enter key (the commit of the control, a keydown listener in
 the page, on the page's clock) to the moment both the blur figure and the samples figure
-show the new design (the page's status element, updated in the same document patch as
-the figures' data), polled every animation frame in the page. The issue's target: median
+show the new design (the page's "status" data source, updated in the same document patch
+as the figures' data), polled every animation frame in the page. The issue's target: median
 <= 150 ms, 95th percentile <= 400 ms on the 2-core machine.
 
     python benches/w8_explore.py            # 50 changes
@@ -43,6 +43,9 @@ function deep(root, sel) {
 }
 """
 
+STATUS = ("const doc = window.Bokeh && Bokeh.documents[0];"
+          "const s = doc && doc.get_model_by_name('status');")
+
 #: Arms the timer: the next Enter keydown (anywhere; key events leave shadow roots)
 #: stamps window.__t0.
 ARM = """
@@ -53,12 +56,12 @@ document.addEventListener('keydown', e => { if (e.key === 'Enter' && window.__t0
 
 #: Resolves with ms from the Enter to the first frame where both views show a design
 #: newer than arguments[0].
-WAIT = DEEP + """
+WAIT = """
 const before = arguments[0], done = arguments[arguments.length - 1];
+const status = Bokeh.documents[0].get_model_by_name('status');
 function tick() {
-  const s = deep(document, '.explorer-status')[0];
-  if (s && window.__t0 !== null && +s.dataset.blur > before
-      && +s.dataset.samples === +s.dataset.blur)
+  const s = {blur: status.data.blur[0], samples: status.data.samples[0]};
+  if (window.__t0 !== null && s.blur > before && s.samples === s.blur)
     return done(performance.now() - window.__t0);
   requestAnimationFrame(tick);
 }
@@ -90,8 +93,7 @@ def main() -> None:
         d.get(srv.url)
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline:
-            s = d.execute_script(DEEP + "const s = deep(document, '.explorer-status')[0];"
-                                 "return s ? +s.dataset.samples : 0;")
+            s = d.execute_script(STATUS + "return s ? s.data.samples[0] : 0;")
             if s >= 1:
                 break
             time.sleep(0.1)
@@ -101,8 +103,7 @@ def main() -> None:
         ms = []
         for i in range(n):
             time.sleep(0.3)
-            before = d.execute_script(DEEP + "return +deep(document, '.explorer-status')[0]"
-                                      ".dataset.blur;")
+            before = d.execute_script(STATUS + "return s.data.blur[0];")
             field.send_keys(Keys.END + Keys.BACKSPACE * 10 + values[i])
             d.execute_script(ARM)
             field.send_keys(Keys.ENTER)

@@ -217,8 +217,10 @@ class Page:
 
     def status(self) -> tuple[int, int]:
         """(design shown by the closed-form views, design shown by the samples view)."""
-        got = self.js("const s = deep(document, '.explorer-status')[0];"
-                      "return s ? [+s.dataset.blur, +s.dataset.samples] : [0, 0];")
+        got = self.d.execute_script(
+            "const d = window.Bokeh && Bokeh.documents[0];"
+            "const s = d && d.get_model_by_name('status');"
+            "return s ? [s.data.blur[0], s.data.samples[0]] : [0, 0];")
         return int(got[0]), int(got[1])
 
     def source(self, name: str) -> dict:
@@ -245,9 +247,8 @@ class Page:
         return str(got)
 
     def report(self) -> dict[str, str]:
-        cells = self.js("return deep(document, 'td[data-label]').map("
-                        "e => [e.dataset.label, e.textContent]);")
-        return dict(cells)
+        src = self.source("report")
+        return dict(zip(src["label"], src["value"], strict=True))
 
     def screenshot(self, name: str) -> Path:
         path = self.shots / name

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 import panel as pn
 from bokeh.events import Tap
-from bokeh.models import ColumnDataSource, FactorRange, Range1d, Span
+from bokeh.models import ColumnDataSource, DataTable, FactorRange, Range1d, Span, TableColumn
 from bokeh.palettes import Category10_10
 from bokeh.plotting import figure
 
@@ -35,6 +35,7 @@ __all__ = ["Explorer"]
 ERROR_STYLE = "color:#b00020;font-size:12px;"
 #: The threshold control's key (a field of the views, not of the design).
 THRESHOLD = "threshold_px"
+DISTINCT_TITLE = "Distinct 2-D samples in the central field"
 #: The sample map's depth control's key.
 MAP_Z = "map_z"
 
@@ -79,7 +80,6 @@ class Explorer:
     # -- layout --------------------------------------------------------------------------
     def _build_controls(self) -> None:
         self.banner = pn.pane.HTML("", sizing_mode="stretch_width")
-        self.status = pn.pane.HTML("")
         options = ["custom", *PRESETS]
         self.preset = pn.widgets.Select(label="preset", options=options, value=self._preset_of(
             self.design), width=150)
@@ -119,9 +119,9 @@ class Explorer:
             "## splitlf design explorer", top, pn.Row(self.pin, self.unpin), self.banner,
             "### Main lens and views",
             self.design_box, "### Channels", self.channel_tabs,
-            pn.Row(self.n_depths, self.window), self.status,
+            pn.Row(self.n_depths, self.window),
             pn.Column(self.map_z, self._errors[MAP_Z]),
-            pn.pane.Bokeh(self.map_fig), self.map_info, pn.pane.Bokeh(self.sensor_fig),
+            pn.pane.Bokeh(self.map_fig), pn.pane.Bokeh(self.sensor_fig),
             width=560)
         views = pn.Column(
             pn.pane.Bokeh(self.blur_fig, sizing_mode="stretch_width"),
@@ -131,7 +131,8 @@ class Explorer:
             pn.Row(pn.pane.Bokeh(self.distinct_fig, sizing_mode="stretch_width"),
                    pn.pane.Bokeh(self.cover_fig, sizing_mode="stretch_width"),
                    sizing_mode="stretch_width"),
-            "### Report", self.report, sizing_mode="stretch_width")
+            "### Report", pn.pane.Bokeh(self.report, sizing_mode="stretch_width"),
+            sizing_mode="stretch_width")
         self.layout = pn.Row(controls, views, sizing_mode="stretch_width")
 
     def _text_widget(self, field: Field, key: str, value: str) -> pn.Column:
@@ -202,7 +203,7 @@ class Explorer:
         r.multi_line("xs", "ys", color="color", legend_field="label", line_width=2,
                      source=self.reps_src)
         self.reps_fig = r
-        s = figure(title="Distinct 2-D samples in the central field", x_axis_type="log",
+        s = figure(title=DISTINCT_TITLE, x_axis_type="log",
                    y_axis_type="log", height=250, sizing_mode="stretch_width", tools=tools,
                    x_axis_label="depth z [mm]", y_axis_label="distinct samples")
         s.multi_line("xs", "ys", color="color", legend_field="label", line_width=2,
@@ -215,7 +216,16 @@ class Explorer:
         c.multi_line("xs", "ys", color="color", legend_field="label", line_width=2,
                      source=self.cover_src)
         self.cover_fig = c
-        self.report = pn.pane.HTML("", sizing_mode="stretch_width")
+        # The report as a table of a data source, and the status (which design each view
+        # shows) as a data source: changing either sends data, never re-lays the page out
+        # (an HTML pane whose text changes makes Bokeh measure every element again).
+        self.report_src = ColumnDataSource({"label": [], "value": []}, name="report")
+        self.report = DataTable(source=self.report_src, index_position=None, height=420,
+                                sizing_mode="stretch_width", columns=[
+                                    TableColumn(field="label", title="quantity", width=320),
+                                    TableColumn(field="value", title="value", width=280)])
+        self.status_src = ColumnDataSource({"blur": [0], "samples": [0]}, name="status")
+        self.report.tags = [self.status_src]  # a model must reference it to reach the page
         # The 2-D sample map at a picked depth and the microlens images on the sensor.
         self.map_src = ColumnDataSource({"x": [], "y": [], "color": [], "label": []},
                                         name="sample_map")
@@ -225,7 +235,6 @@ class Explorer:
         m.scatter("x", "y", color="color", legend_field="label", size=4, alpha=0.7,
                   source=self.map_src)
         self.map_fig = m
-        self.map_info = pn.pane.HTML("", width=520)
         self.sensor_src = ColumnDataSource({"image": [], "x": [], "y": [], "dw": [], "dh": []},
                                            name="microlens_image")
         g = figure(title="Microlens images", width=520, height=420, match_aspect=True,
@@ -399,9 +408,7 @@ class Explorer:
             "right": [min(b, zmax) for _, _, b in blur["dof"]],
             "color": [colors[r] for r, _, _ in blur["dof"]],
         }
-        body = "".join(f'<tr><td>{_esc(k)}</td><td data-label="{_esc(k)}">{_esc(v)}</td></tr>'
-                       for k, v in report)
-        self.report.object = (f'<table class="report" style="font-size:13px">{body}</table>')
+        self.report_src.data = {"label": [k for k, _ in report], "value": [v for _, v in report]}
         self._status(blur=gen)
 
     def _status(self, blur: int | None = None, samples: int | None = None) -> None:
@@ -411,9 +418,8 @@ class Explorer:
             self._shown_samples = samples
         b = getattr(self, "_shown_blur", 0)
         s = getattr(self, "_shown_samples", 0)
-        state = "up to date" if s == b else "computing samples…"
-        self.status.object = (f'<span class="explorer-status" data-blur="{b}" '
-                              f'data-samples="{s}">design #{b}: samples {state}</span>')
+        self.status_src.data = {"blur": [b], "samples": [s]}
+        self.distinct_fig.title.text = DISTINCT_TITLE + ("" if s == b else " (computing…)")
 
     def _request_samples(self, design: Design) -> None:
         """Queue the heavy views of ``design``: samples over depth, then the sample map
@@ -484,16 +490,15 @@ class Explorer:
             xs.append(x)
             ys.append(y)
             color += [Category10_10[k % 10]] * len(x)
-            label += [m["rows"][k]] * len(x)
+            label += [f"{m['rows'][k]}: {m['distinct'][k]} distinct, "
+                      f"ρ = {m['covering_radius'][k]:.3g} δ"] * len(x)
         self.map_src.data = {"x": np.concatenate(xs) if xs else [],
                              "y": np.concatenate(ys) if ys else [],
                              "color": color, "label": label}
-        counts = ", ".join(f"{r}: {n} distinct, ρ = {c:.3g} δ" for r, n, c in
-                           zip(m["rows"], m["distinct"], m["covering_radius"], strict=True))
+        union = (f"; {m['rows'][-1]}: {m['distinct'][-1]} distinct, "
+                 f"ρ = {m['covering_radius'][-1]:.3g} δ" if len(m["rows"]) > 2 else "")
         self.map_fig.title.text = (f"2-D samples at z = {m['z']:.5g} mm "
-                                   f"(δ = {m['delta_mm'] * 1e3:.3g} µm)")
-        self.map_info.object = (f'<span class="map-info" style="font-size:12px">'
-                                f"{_esc(counts)}</span>")
+                                   f"(δ = {m['delta_mm'] * 1e3:.3g} µm){union}")
 
     def _apply_sensor(self, channel: int, im: dict[str, Any]) -> None:
         rgba = im["rgba"]
