@@ -418,8 +418,8 @@ class Explorer:
             self._shown_samples = samples
         b = getattr(self, "_shown_blur", 0)
         s = getattr(self, "_shown_samples", 0)
+        # (Not shown in a title: a title that changes makes Bokeh lay the figure out again.)
         self.status_src.data = {"blur": [b], "samples": [s]}
-        self.distinct_fig.title.text = DISTINCT_TITLE + ("" if s == b else " (computing…)")
 
     def _request_samples(self, design: Design) -> None:
         """Queue the heavy views of ``design``: samples over depth, then the sample map
