@@ -70,5 +70,7 @@ python -m venv "$work/user"
     splitlf sweep --grid sweep.toml --out sweep.nc
     splitlf simulate --z 642 --texture sinusoid:2 --json > sim.json
     python -c "import json; [json.load(open(f)) for f in ('report.json', 'trace.json', 'sweep.json', 'sim.json')]"
+    splitlf explore --help >/dev/null
+    python -c "import urllib.request; from splitlf.explorer import serve; s = serve(threaded=True); assert urllib.request.urlopen(s.url, timeout=60).status == 200; s.stop()"
 )
 echo "== wheel: ok"

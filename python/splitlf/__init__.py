@@ -27,6 +27,29 @@ from .rayspace import Footprints, SampleGrid, Trace, footprints, sample_grid, tr
 from .samples import CoincidencePlanes, NewSamples, coincidence_planes, new_samples
 from .simulation import BarChart, Image, RandomAlbedo, Simulation, Sinusoid, simulate
 
+
+def explore(design: Camera | Design | None = None, *, port: int = 0,
+            address: str = "127.0.0.1", reference: Camera | Design | None = None) -> object:
+    """The interactive design explorer (docs/explore.md) for ``design`` (default: the seed
+    preset), with ``reference`` (e.g. the seed beside an optimised design) drawn on the
+    same axes. In Jupyter, returns the app served in the background, shown inline (an
+    IFrame); elsewhere starts the server, prints its URL and blocks until Ctrl-C. Binds
+    127.0.0.1 by default. Needs the ``explore`` extra (Panel), imported on first call."""
+    from .explorer import serve
+
+    try:
+        from IPython import get_ipython
+
+        in_kernel = get_ipython() is not None and hasattr(get_ipython(), "kernel")
+    except ImportError:
+        in_kernel = False
+    if not in_kernel:
+        return serve(design, port=port, address=address, reference=reference)
+    from IPython.display import IFrame
+
+    server = serve(design, port=port, address=address, threaded=True, reference=reference)
+    return IFrame(server.url, width="100%", height=900)
+
 __all__ = [
     "BarChart",
     "Camera",
@@ -58,6 +81,7 @@ __all__ = [
     "coverage",
     "curves",
     "depth_of_field",
+    "explore",
     "footprints",
     "new_samples",
     "optimise",

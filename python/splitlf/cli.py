@@ -640,6 +640,28 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
+# -- explore -----------------------------------------------------------------------------
+
+def _cmd_explore(args: argparse.Namespace) -> int:
+    try:
+        import panel  # noqa: F401
+    except ImportError:
+        raise CliError('explore needs Panel: pip install "splitlf[explore]"') from None
+    from .explorer import serve
+
+    subject, _ = _load_report_subject(args)
+    reference = None
+    if args.compare is not None:
+        if args.compare in PRESETS:
+            reference = Design.preset(args.compare)
+        elif "design" in read_toml(args.compare):
+            reference = Design.from_toml(args.compare)
+        else:
+            reference = Camera.from_toml(args.compare)
+    serve(subject, port=args.port, address=args.address, reference=reference)
+    return 0
+
+
 def _common(p: argparse.ArgumentParser, threads_help: str) -> None:
     p.add_argument("--config", metavar="CAM.toml",
                    help="camera TOML file, a [camera] table (report also reads a [design] "
@@ -810,9 +832,29 @@ def _add_optimise(sub: Any) -> None:
     p.set_defaults(func=_cmd_optimise)
 
 
+def _add_explore(sub: Any) -> None:
+    p = sub.add_parser("explore", help="the interactive design explorer in the browser",
+                       description="Start the design explorer (docs/explore.md), a local "
+                       "web app, for a preset, a [design] or [camera] TOML file, or the seed "
+                       "design, and print its URL. It binds 127.0.0.1 and accepts only pages "
+                       "and websockets addressed to it. Ctrl-C stops it.")
+    p.add_argument("--config", metavar="FILE.toml",
+                   help="a [design] or [camera] TOML file (default: the seed design)")
+    p.add_argument("--preset", choices=PRESETS, default=None, metavar="NAME",
+                   help=f"start from a named design: {', '.join(PRESETS)}")
+    p.add_argument("--port", type=_integer_type("port", 0, 65535), default=5006,
+                   help="TCP port, an integer in [0, 65535]; 0 picks a free one (default 5006)")
+    p.add_argument("--compare", default=None, metavar="NAME|FILE.toml",
+                   help="a second design drawn on the same axes: a preset name or a "
+                   "[design] or [camera] TOML file (e.g. an optimise result)")
+    p.add_argument("--address", default="127.0.0.1", metavar="IP",
+                   help="address to bind (default 127.0.0.1: this machine only)")
+    p.set_defaults(func=_cmd_explore)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of every subcommand (report, figures, trace, sweep, simulate,
-    optimise)."""
+    optimise, explore)."""
     parser = _Parser(
         prog="splitlf",
         description="Design and analysis of split-sensor light field cameras.",
@@ -820,7 +862,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
                                 help="what to do (COMMAND --help for its options)")
     for add in (_add_report, _add_figures, _add_trace, _add_sweep, _add_simulate,
-                _add_optimise):
+                _add_optimise, _add_explore):
         add(sub)
     return parser
 

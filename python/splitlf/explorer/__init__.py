@@ -1,0 +1,142 @@
+"""The interactive design explorer in the browser (``splitlf explore``, :func:`serve`).
+
+Needs the ``explore`` extra (Panel): ``pip install "splitlf[explore]"``. ``import
+splitlf`` does not import this package; :func:`splitlf.explore` does, on first call.
+
+The server binds 127.0.0.1 by default and accepts the page and its websocket only with a
+``Host``/``Origin`` of that address and port (Bokeh's allow-list), so other hosts can
+neither connect nor embed it.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import ipaddress
+import socket
+import threading
+from typing import Any
+
+__all__ = ["Running", "serve", "allowed_origins", "free_port"]
+
+LOOPBACK = "127.0.0.1"
+
+
+def free_port(address: str = LOOPBACK) -> int:
+    """A TCP port free on ``address`` now (the OS picks it)."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind((address, 0))
+        return int(s.getsockname()[1])
+
+
+def allowed_origins(address: str, port: int) -> list[str]:
+    """The ``host:port`` values the server accepts in ``Host`` and ``Origin``: the bound
+    address (and ``localhost`` when it is the loopback)."""
+    out = [f"{address}:{port}"]
+    if address == LOOPBACK:
+        out.append(f"localhost:{port}")
+    return out
+
+
+class Running:
+    """A server running on its own thread: ``url``, ``server`` (Panel's) and :meth:`stop`."""
+
+    def __init__(self, url: str, server: Any, thread: threading.Thread) -> None:
+        self.url, self.server, self.thread = url, server, thread
+
+    def stop(self) -> None:
+        """Stop the server and wait for its thread."""
+        loop = self.server.io_loop
+
+        def halt() -> None:
+            self.server.stop()
+            loop.stop()
+
+        loop.add_callback(halt)
+        self.thread.join(timeout=10)
+
+
+def _refuse_other_hosts(server: Any, address: str) -> None:
+    """Answer 403 to every request whose Host is not the bound address (or localhost for
+    the loopback): Bokeh checks the websocket's Origin, this also covers the page itself
+    (a DNS-rebinding page never gets a session)."""
+    import re
+
+    from tornado.web import RequestHandler
+
+    class Forbidden(RequestHandler):
+        def prepare(self) -> None:
+            self.send_error(403)
+
+    names = [re.escape(address)] + (["localhost"] if address == LOOPBACK else [])
+    server._tornado.add_handlers(rf"^(?!(?:{'|'.join(names)})$).*$", [(r".*", Forbidden)])
+
+
+def serve(design: Any = None, *, port: int = 0, address: str = LOOPBACK,
+          threaded: bool = False, reference: Any = None) -> Any:
+    """Start the explorer's server for ``design`` (a :class:`~splitlf.Design` or a
+    :class:`~splitlf.Camera`; default the seed preset) on ``address:port`` (``port=0``:
+    a free port) and print its URL. ``threaded=True`` returns a :class:`Running` server at
+    once (``.url``, ``.stop()``); otherwise blocks until interrupted. Each browser session
+    gets its own copy of the design. ``reference`` (a Design or Camera) is drawn beside
+    it on the same axes (the page can also pin its current design as the reference)."""
+    import panel as pn
+
+    from ..camera import Camera
+    from ..design import Design
+    from .app import Explorer
+
+    def as_design(value: Any, what: str) -> Design:
+        if isinstance(value, Camera):
+            return value.design
+        if not isinstance(value, Design):
+            raise TypeError(f"{what} must be a splitlf.Design or a splitlf.Camera, got "
+                            f"{type(value).__name__}")
+        return value
+
+    design = as_design(Design.preset("seed") if design is None else design, "design")
+    ref = None if reference is None else as_design(reference, "reference")
+    ipaddress.ip_address(address)  # a literal address: ValueError otherwise
+    if port == 0:
+        port = free_port(address)
+
+    def session() -> Any:
+        return Explorer(design, ref).layout
+
+    url = f"http://{address}:{port}/"
+
+    def make() -> Any:
+        server = pn.serve({"/": session}, port=port, address=address, show=False,
+                          allow_websocket_origin=allowed_origins(address, port),
+                          title="splitlf explorer", start=False, verbose=False)
+        _refuse_other_hosts(server, address)
+        return server
+
+    print(f"splitlf explorer: {url}", flush=True)
+    if not threaded:
+        server = make()
+        server.start()
+        server.io_loop.start()
+        return server
+    holder: list[Any] = []
+    errors: list[BaseException] = []
+    ready = threading.Event()
+
+    def run() -> None:
+        asyncio.set_event_loop(asyncio.new_event_loop())
+        try:
+            server = make()
+            server.start()
+        except BaseException as e:  # reported to the caller below
+            errors.append(e)
+            ready.set()
+            return
+        holder.append(server)
+        ready.set()
+        server.io_loop.start()
+
+    thread = threading.Thread(target=run, name="splitlf-explorer", daemon=True)
+    thread.start()
+    ready.wait(60)
+    if errors:
+        raise errors[0]
+    return Running(url, holder[0], thread)

@@ -1,0 +1,456 @@
+"""The design explorer (docs/explore.md): the view data against the public API, parsing
+that never evaluates page text, the server's host/origin allow-list, and the app in a real
+headless browser (Debian's chromium and chromedriver through Selenium, never a downloaded
+browser).
+
+Browser tests skip, with the reason, only when /usr/bin/chromium or /usr/bin/chromedriver
+is absent (.ci/run installs both). Screenshots go to $SPLITLF_SCREENSHOT_DIR, else to the
+run's temporary folder (the path is printed).
+"""
+
+from __future__ import annotations
+
+import http.client
+import os
+import re
+import shutil
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import splitlf
+from splitlf.design import PRESETS
+
+ROOT = Path(__file__).resolve().parent.parent
+CHROMIUM = "/usr/bin/chromium"
+CHROMEDRIVER = "/usr/bin/chromedriver"
+
+
+# -- without a browser ---------------------------------------------------------------------
+
+def test_import_splitlf_does_not_import_the_explorer():
+    code = ("import sys, splitlf; bad = [m for m in ('panel', 'bokeh', 'splitlf.explorer') "
+            "if m in sys.modules]; print(bad)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout
+    assert out.strip() == "[]"
+
+
+def test_controls_round_trip_every_preset():
+    from splitlf.explorer import model
+
+    for name in PRESETS:
+        d = splitlf.Design.preset(name)
+        assert model.design_from_texts(model.design_texts(d), len(d.channels)) == d
+
+
+def test_page_text_is_never_evaluated(tmp_path):
+    from splitlf.explorer import model
+
+    marker = tmp_path / "pwned"
+    texts = model.design_texts(splitlf.Design.preset("seed"))
+    for key in ("F", "channels[1].Kx", "channels[1].f", "channels[2].Q"):
+        bad = dict(texts, **{key: f"__import__('pathlib').Path({str(marker)!r}).touch()"})
+        with pytest.raises(model.FieldError) as e:
+            model.design_from_texts(bad, 2)
+        assert e.value.key == key
+    assert not marker.exists()
+    # Nor does the package hold a way to: no eval, exec or compile of anything.
+    for path in (ROOT / "python" / "splitlf" / "explorer").glob("*.py"):
+        assert not re.search(r"\b(eval|exec|compile)\s*\(", path.read_text()), path
+
+
+def test_invalid_values_name_their_control():
+    from splitlf.explorer import model
+
+    texts = model.design_texts(splitlf.Design.preset("seed"))
+    cases = {"D": "25", "F": "-1", "channels[2].L": "50", "channels[1].Q": "0"}
+    for key, text in cases.items():
+        with pytest.raises(model.FieldError) as e:
+            model.design_from_texts(dict(texts, **{key: text}), 2)
+        assert e.value.key == key, (key, e.value.message)
+    # Shares summing above 1 concern no one control: the page's banner shows it.
+    with pytest.raises(model.FieldError, match="sum to at most 1") as e:
+        model.design_from_texts(dict(texts, **{"channels[1].share": "0.9"}), 2)
+    assert e.value.key is None
+
+
+def test_views_are_the_api():
+    from splitlf.explorer import model
+
+    d = splitlf.Design.preset("split3")
+    v = model.blur_view(d, 0.5)
+    c = splitlf.curves(d, v["z"])
+    np.testing.assert_array_equal(v["blur_px"], c.blur_px)
+    np.testing.assert_array_equal(v["repetitions"], c.repetitions)
+    dof = splitlf.depth_of_field(d, 0.5)
+    assert [(r, a, b) for r, iv in zip(dof.rows, dof.intervals, strict=True)
+            for a, b in iv] == v["dof"]
+    s = model.samples_view(splitlf.Design.preset("seed"), 4, 2.0)
+    cov = splitlf.coverage(splitlf.Design.preset("seed"), s["z"], window=2.0)
+    np.testing.assert_array_equal(s["distinct"], cov.distinct)
+    np.testing.assert_array_equal(s["covering_radius"], cov.covering_radius)
+    assert 642.0 in np.round(s["z"], 6)  # the out-of-focus planes are sampled
+
+
+def test_load_toml_bytes_reads_design_and_camera_files(tmp_path):
+    from splitlf.explorer import model
+
+    d = splitlf.Design.preset("raytrix-r12")
+    assert model.load_toml_bytes(d.to_toml().encode()) == d
+    cam = splitlf.Camera.paper().replace(D=18.0)
+    assert model.load_toml_bytes(cam.to_toml().encode()) == cam.design
+    with pytest.raises(ValueError, match="not valid TOML"):
+        model.load_toml_bytes(b"F = = 3")
+
+
+# -- the server ------------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def server():
+    pytest.importorskip("panel")
+    from splitlf.explorer import serve
+
+    srv = serve(splitlf.Design.preset("seed"), threaded=True)
+    port = int(srv.url.rsplit(":", 1)[1].strip("/"))
+    deadline = time.monotonic() + 30
+    while time.monotonic() < deadline:
+        try:
+            socket.create_connection(("127.0.0.1", port), timeout=1).close()
+            break
+        except OSError:
+            time.sleep(0.1)
+    yield srv, port
+    srv.stop()
+
+
+def _get(port: int, host: str, path: str = "/", headers: dict | None = None) -> int:
+    conn = http.client.HTTPConnection("127.0.0.1", port, timeout=30)
+    conn.request("GET", path, headers={"Host": host, **(headers or {})})
+    status = conn.getresponse().status
+    conn.close()
+    return status
+
+
+def _non_loopback_ips() -> list[str]:
+    try:
+        out = subprocess.run(["hostname", "-I"], capture_output=True, text=True).stdout
+    except OSError:
+        return []
+    return [ip for ip in out.split() if "." in ip and not ip.startswith("127.")]
+
+
+def test_server_binds_loopback_and_refuses_other_hosts(server):
+    srv, port = server
+    assert _get(port, f"127.0.0.1:{port}") == 200
+    assert _get(port, f"localhost:{port}") == 200
+    # A page or websocket addressed to another host name is refused (DNS rebinding).
+    assert _get(port, f"evil.example:{port}") == 403
+    ws = {"Connection": "Upgrade", "Upgrade": "websocket", "Sec-WebSocket-Version": "13",
+          "Sec-WebSocket-Key": "dGhlIHNhbXBsZSBub25jZQ==", "Origin": "http://evil.example"}
+    assert _get(port, f"127.0.0.1:{port}", "/ws", ws) == 403
+    # Bound to 127.0.0.1 only: the machine's other addresses do not answer.
+    for ip in _non_loopback_ips():
+        with pytest.raises(OSError):
+            socket.create_connection((ip, port), timeout=2).close()
+
+
+def test_cli_explore_is_registered_and_checks_its_input(capsys):
+    from splitlf.cli import main
+
+    with pytest.raises(SystemExit):
+        main(["explore", "--port", "70000"])
+    assert "invalid port" in capsys.readouterr().err
+    assert main(["explore", "--preset", "seed", "--config", "x.toml"]) == 2
+
+
+# -- in a real browser -----------------------------------------------------------------------
+
+needs_browser = pytest.mark.skipif(
+    not (os.path.exists(CHROMIUM) and os.path.exists(CHROMEDRIVER)),
+    reason=f"needs Debian's chromium and chromium-driver ({CHROMIUM}, {CHROMEDRIVER}); "
+    "apt-get install chromium chromium-driver (.ci/run does)")
+
+#: JavaScript: every element matching a selector, through open shadow roots (Panel's
+#: components live in shadow DOM).
+DEEP = """
+function deep(root, sel) {
+  let out = [...root.querySelectorAll(sel)];
+  for (const el of root.querySelectorAll('*'))
+    if (el.shadowRoot) out = out.concat(deep(el.shadowRoot, sel));
+  return out;
+}
+"""
+
+
+class Page:
+    """The explorer's page in headless chromium, with helpers that read what is plotted."""
+
+    def __init__(self, driver, url: str, downloads: Path, shots: Path) -> None:
+        self.d, self.url, self.downloads, self.shots = driver, url, downloads, shots
+
+    def open(self) -> None:
+        self.d.get(self.url)
+        self.wait(lambda: self.status()[0] >= 1 and self.status()[1] >= 1, 60)
+
+    def js(self, script: str, *args):
+        return self.d.execute_script(DEEP + script, *args)
+
+    def find(self, selector: str):
+        found = self.js("return deep(document, arguments[0]);", selector)
+        assert found, selector
+        return found[0]
+
+    def wait(self, cond, timeout: float = 30.0):
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            value = cond()
+            if value:
+                return value
+            time.sleep(0.05)
+        raise AssertionError("timed out waiting for the page")
+
+    def status(self) -> tuple[int, int]:
+        """(design shown by the closed-form views, design shown by the samples view)."""
+        got = self.d.execute_script(
+            "const d = window.Bokeh && Bokeh.documents[0];"
+            "const s = d && d.get_model_by_name('status');"
+            "return s ? [s.data.blur[0], s.data.samples[0]] : [0, 0];")
+        return int(got[0]), int(got[1])
+
+    def source(self, name: str) -> dict:
+        return self.d.execute_script(
+            "const s = Bokeh.documents[0].get_model_by_name(arguments[0]);"
+            "const o = {}; for (const k of Object.keys(s.data))"
+            "  o[k] = Array.from(s.data[k], v => (v && v.length !== undefined"
+            "    && typeof v !== 'string') ? Array.from(v) : v);"
+            "return o;", name)
+
+    def type(self, key: str, text: str) -> None:
+        from selenium.webdriver.common.keys import Keys
+
+        el = self.find(f'input[placeholder="{key}"]')
+        el.send_keys(Keys.END + Keys.BACKSPACE * 40 + text + Keys.ENTER)
+
+    def after_change(self, before: tuple[int, int]) -> None:
+        """Wait until both views show a design newer than ``before``."""
+        self.wait(lambda: (s := self.status())[0] > before[0] and s[1] == s[0], 60)
+
+    def field_error(self, key: str) -> str:
+        got = self.js("const e = deep(document, `.field-error[data-key=\"${arguments[0]}\"]`)"
+                      "[0]; return e ? e.textContent : '';", key)
+        return str(got)
+
+    def report(self) -> dict[str, str]:
+        src = self.source("report")
+        return dict(zip(src["label"], src["value"], strict=True))
+
+    def screenshot(self, name: str) -> Path:
+        path = self.shots / name
+        self.d.save_screenshot(str(path))
+        print(f"screenshot: {path}")
+        return path
+
+
+def _plotted_blur(page: Page) -> np.ndarray:
+    return np.array(page.source("blur")["ys"], dtype=float)
+
+
+def _api_blur(design: splitlf.Design, z) -> np.ndarray:
+    return splitlf.curves(design, np.asarray(z)).blur_px
+
+
+@pytest.fixture(scope="module")
+def page(server, tmp_path_factory):
+    if not (os.path.exists(CHROMIUM) and os.path.exists(CHROMEDRIVER)):
+        pytest.skip(needs_browser.kwargs["reason"])
+    webdriver = pytest.importorskip("selenium.webdriver")
+    from selenium.webdriver.chrome.service import Service
+
+    os.environ.setdefault("SE_OFFLINE", "true")  # never let Selenium Manager fetch anything
+    downloads = tmp_path_factory.mktemp("downloads")
+    shots = Path(os.environ.get("SPLITLF_SCREENSHOT_DIR")
+                 or tmp_path_factory.mktemp("screenshots"))
+    shots.mkdir(parents=True, exist_ok=True)
+    opts = webdriver.ChromeOptions()
+    opts.binary_location = CHROMIUM
+    for arg in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage",
+                "--window-size=1600,1300", "--disable-gpu"):
+        opts.add_argument(arg)
+    opts.add_experimental_option("prefs", {"download.default_directory": str(downloads),
+                                           "download.prompt_for_download": False})
+    driver = webdriver.Chrome(service=Service(CHROMEDRIVER), options=opts)
+    driver.execute_cdp_cmd("Browser.setDownloadBehavior",
+                           {"behavior": "allow", "downloadPath": str(downloads)})
+    srv, _ = server
+    p = Page(driver, srv.url, downloads, shots)
+    yield p
+    driver.quit()
+
+
+@needs_browser
+def test_app_starts_and_figures_render(page):
+    page.open()
+    seed = splitlf.Design.preset("seed")
+    blur = page.source("blur")
+    assert blur["label"] == ["channel 1", "channel 2"]
+    np.testing.assert_allclose(_plotted_blur(page), _api_blur(seed, blur["xs"][0]),
+                               rtol=1e-12)
+    cov = page.source("covering_radius")
+    assert cov["label"] == ["channel 1", "channel 2", "union"]
+    assert len(page.source("dof")["row"]) == sum(
+        len(iv) for iv in splitlf.depth_of_field(seed).intervals)
+    # Every figure drew on its canvas (Bokeh renders each plot into canvas elements).
+    assert page.js("return deep(document, '.bk-Canvas, canvas').length;") >= 5
+    assert page.report()["channel 1: out-of-focus plane [mm]"] == "642.00"
+    page.screenshot("explore_seed.png")
+
+
+@needs_browser
+def test_control_change_plots_what_the_api_returns(page):
+    page.open()
+    before = page.status()
+    page.type("D", "16")
+    page.after_change(before)
+    design = splitlf.Design.preset("seed").replace(D=16.0)
+    z = page.source("blur")["xs"][0]
+    np.testing.assert_allclose(_plotted_blur(page), _api_blur(design, z), rtol=1e-12)
+    reps = np.array(page.source("repetitions")["ys"], dtype=float)
+    np.testing.assert_allclose(reps, splitlf.curves(design, np.asarray(z)).repetitions,
+                               rtol=1e-12)
+    cov = page.source("covering_radius")
+    api = splitlf.coverage(design, np.asarray(cov["xs"][0]), window=2.0)
+    np.testing.assert_allclose(np.array(cov["ys"], dtype=float), api.covering_radius,
+                               rtol=1e-12)
+    from splitlf.explorer.model import report_rows
+
+    assert page.report() == dict(report_rows(design))
+    page.screenshot("explore_D16.png")
+
+
+@needs_browser
+def test_invalid_value_shows_the_error_and_keeps_the_figures(page):
+    page.open()
+    shown = _plotted_blur(page)
+    before = page.status()
+    page.type("D", "25")  # the aperture's image behind a lens would overlap its neighbours
+    message = page.wait(lambda: page.field_error("D"))
+    with pytest.raises(splitlf.InvalidParameter) as e:
+        splitlf.Design.preset("seed").replace(D=25.0)
+    assert " ".join(str(e.value).split()) in " ".join(message.split())
+    assert "overlap" in message
+    time.sleep(0.5)
+    assert page.status() == before
+    np.testing.assert_array_equal(_plotted_blur(page), shown)
+    page.screenshot("explore_invalid.png")
+    page.type("channels[1].Kx", "abc")  # not a number: the parser says so, nothing runs
+    assert "is not an integer" in page.wait(lambda: page.field_error("channels[1].Kx"))
+    assert page.status() == before
+
+
+@needs_browser
+def test_save_then_load_reproduces_the_design(page, tmp_path):
+    from selenium.webdriver.support.ui import Select
+
+    page.open()
+    before = page.status()
+    page.type("channels[1].L", "95.5")
+    page.after_change(before)
+    design = splitlf.Design.preset("seed")
+    design = design.replace(channels=(design.channels[0].replace(L=95.5),
+                                      design.channels[1]))
+    for f in page.downloads.glob("*"):
+        f.unlink()
+    page.find("button").click()  # the first button of the page: save TOML
+    saved = page.wait(lambda: [f for f in page.downloads.glob("*.toml")], 30)[0]
+    time.sleep(0.3)
+    assert splitlf.Design.from_toml(saved) == design
+    out = subprocess.run([shutil.which("splitlf") or "splitlf", "report", "--config",
+                          str(saved), "--json"], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    # Another design, then load the file: the controls and figures are the saved design.
+    before = page.status()
+    Select(page.find("select")).select_by_value("split3")
+    page.after_change(before)
+    assert len(page.source("blur")["label"]) == 3
+    before = page.status()
+    page.find('input[type="file"]').send_keys(str(saved))
+    page.after_change(before)
+    z = page.source("blur")["xs"][0]
+    np.testing.assert_allclose(_plotted_blur(page), _api_blur(design, z), rtol=1e-12)
+    assert page.find('input[placeholder="channels[1].L"]').get_attribute("value") == "95.5"
+
+
+@needs_browser
+def test_reference_design_on_the_same_axes(page):
+    page.open()
+    assert page.source("reference_blur")["label"] == []
+    before = page.status()
+    page.js("deep(document, 'button').find(b => b.textContent.includes('pin as reference'))"
+            ".click();")
+    page.after_change(before)
+    seed = splitlf.Design.preset("seed")
+    before = page.status()
+    page.type("D", "16")
+    page.after_change(before)
+    ref = page.source("reference_blur")
+    assert ref["label"] == ["reference channel 1", "reference channel 2"]
+    np.testing.assert_allclose(np.array(ref["ys"], dtype=float),
+                               _api_blur(seed, ref["xs"][0]), rtol=1e-12)
+    np.testing.assert_allclose(_plotted_blur(page),
+                               _api_blur(seed.replace(D=16.0), ref["xs"][0]), rtol=1e-12)
+    cov = page.source("reference_covering_radius")
+    api = splitlf.coverage(seed, np.asarray(cov["xs"][0]), window=2.0)
+    np.testing.assert_allclose(np.array(cov["ys"], dtype=float), api.covering_radius,
+                               rtol=1e-12)
+    assert "reference" in page.source("dof")["row"]
+    page.screenshot("explore_reference.png")
+
+
+@needs_browser
+def test_sample_map_and_microlens_images_at_a_picked_depth(page):
+    from selenium.webdriver.common.action_chains import ActionChains
+
+    page.open()
+    seed = splitlf.Design.preset("seed")
+    page.wait(lambda: len(page.source("sample_map")["x"]) > 0)
+    image = page.source("microlens_image")
+    assert len(image["image"]) == 1
+    page.type("map_z", "300")
+
+    def shown():
+        got = page.source("sample_map")
+        r = splitlf.samples_2d(seed, 300.0, window=2.0)
+        delta = seed.resolution_step(300.0)
+        want = np.concatenate([r.samples[k] for k in range(2)]) / delta
+        if len(got["x"]) != len(want):
+            return False
+        np.testing.assert_allclose(np.c_[got["x"], got["y"]], want, rtol=1e-12)
+        return True
+
+    page.wait(shown)
+    # A click on the blur figure picks the depth under the pointer.
+    canvas = page.js("return deep(document, '.bk-Canvas, canvas').filter("
+                     "e => e.getBoundingClientRect().width > 600)[0];")
+    before = page.find('input[placeholder="map_z"]').get_attribute("value")
+    ActionChains(page.d).move_to_element(canvas).click().perform()
+    picked = page.wait(lambda: (v := page.find('input[placeholder="map_z"]')
+                                .get_attribute("value")) != before and v)
+    assert 1.25 * seed.F <= float(picked) <= 125 * seed.F
+
+
+def test_serve_checks_its_arguments():
+    pytest.importorskip("panel")
+    from splitlf.explorer import serve
+
+    with pytest.raises(TypeError, match="design must be"):
+        serve("seed", threaded=True)
+    with pytest.raises(TypeError, match="reference must be"):
+        serve(None, reference=3, threaded=True)
+    with pytest.raises(ValueError):
+        serve(None, address="not an address", threaded=True)
