@@ -1300,6 +1300,9 @@ struct Ctx<'a> {
     /// Use the separable computation for channels whose samples are a Cartesian product
     /// (see [`separable_row`]); off only to test it against the general one.
     separable: bool,
+    /// Give a one-channel design's union row the channel row's result instead of
+    /// computing it again on the same samples (see [`rows_from`]); off only to test it.
+    union_is_channel: bool,
 }
 
 /// The geometry of one depth.
@@ -1489,6 +1492,9 @@ fn rows_from(
             done[r] = separable_row(t, g, s, geom, slot)?;
         }
     }
+    // One channel computed by the general path: the union is the same sample set at the
+    // same margin, so its pass is the channel's, result for result (not recomputed).
+    let union_is_channel = ctx.union_is_channel && n_ch == 1 && done[0].is_none();
     let mut m = first;
     let mut pass = 0;
     loop {
@@ -1516,6 +1522,19 @@ fn rows_from(
         let mut next = 0.0f64;
         for r in 0..n_rows {
             if done[r].is_some() {
+                continue;
+            }
+            if r == n_ch && union_is_channel {
+                // Row 0 ran just before on the same points: exact now or widening.
+                if let Some(res) = done[0] {
+                    if let Some(k) = keep.as_deref_mut() {
+                        let (chan, union) = k.split_at_mut(1);
+                        union[0].clear();
+                        try_reserve(&mut union[0], "samples_2d (representatives)", chan[0].len())?;
+                        union[0].extend_from_slice(&chan[0]);
+                    }
+                    done[r] = Some(res);
+                }
                 continue;
             }
             let range = if r < n_ch {
@@ -1677,6 +1696,7 @@ fn context<'a>(design: &'a Design, tol: f64, window: f64) -> Result<Ctx<'a>> {
         tol,
         window,
         separable: true,
+        union_is_channel: true,
     })
 }
 
@@ -2278,6 +2298,33 @@ mod tests {
                     matches!(t.px, PixelTables::Ideal { .. }) && d.shape == Aperture::Square
                 });
                 checked += separable as usize;
+            }
+        }
+        assert!(checked >= 8, "{checked}");
+    }
+
+    #[test]
+    fn one_channel_union_is_the_channel_row_bit_for_bit() {
+        let mut checked = 0;
+        for d in designs().into_iter().filter(|d| d.channels.len() == 1) {
+            let mut ctx = context(&d, 1e-6, 16.0).unwrap();
+            let mut w = Work::default();
+            for separable in [true, false] {
+                ctx.separable = separable;
+                for z in [d.f_main * 1.2, 200.0, 700.0, 5000.0] {
+                    let geom = ctx.geom(z);
+                    let mut keep = vec![Vec::new(); 2];
+                    ctx.union_is_channel = true;
+                    let fast =
+                        rows_from(&ctx, &geom, geom.first, &mut w, Some(&mut keep), false).unwrap();
+                    let fast_keep = keep.clone();
+                    ctx.union_is_channel = false;
+                    let slow =
+                        rows_from(&ctx, &geom, geom.first, &mut w, Some(&mut keep), false).unwrap();
+                    assert_eq!(fast, slow, "z = {z}");
+                    assert_eq!(fast_keep, keep, "z = {z}");
+                    checked += 1;
+                }
             }
         }
         assert!(checked >= 8, "{checked}");
