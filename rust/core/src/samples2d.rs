@@ -93,6 +93,31 @@ struct ColumnX {
     x: [[f64; 2]; 2],
 }
 
+/// Call `$t.$f::<N, HEX, CIRCLE>(args)` with the constants of row candidates `$rc` (N =
+/// `rc.n`) and of the design (hex grid, circular aperture): the per-pixel loops of the
+/// sensor layout, monomorphised so that they carry no branch on these.
+macro_rules! dispatch {
+    ($t:expr, $rc:expr, $f:ident($($arg:expr),*)) => {{
+        let (hex, circle) = ($t.hex, $t.design.shape == Aperture::Circle);
+        macro_rules! go {
+            ($n:literal) => {
+                match (hex, circle) {
+                    (true, true) => $t.$f::<$n, true, true>($($arg),*),
+                    (true, false) => $t.$f::<$n, true, false>($($arg),*),
+                    (false, true) => $t.$f::<$n, false, true>($($arg),*),
+                    (false, false) => $t.$f::<$n, false, false>($($arg),*),
+                }
+            };
+        }
+        match $rc.n {
+            1 => go!(1),
+            2 => go!(2),
+            3 => go!(3),
+            _ => go!(4),
+        }
+    }};
+}
+
 /// A sensor pixel: its lens, chief sample and lit flag.
 #[derive(Debug, Clone, Copy)]
 struct SensorPx {
@@ -376,20 +401,26 @@ impl<'a> Tables<'a> {
     /// exactly [`Channel::nearest_lens`]; θ, w and the sample are read from the tables,
     /// computed by the expressions of [`Design::pixel`] and [`Design::chief_sample`]; lit
     /// is [`Channel::in_cell`] and [`Design::passes`] with their constants hoisted.
+    /// `N` is the row's candidate count `rc.n` (1 to 4), `HEX` the grid and `CIRCLE` the
+    /// aperture's shape: constants, so that the candidate loop unrolls and the per-pixel
+    /// code has no branch on the design (see [`Tables::sensor_row`] and `dispatch!`).
     #[inline(always)]
-    fn sensor_pixel(
+    fn sensor_pixel<const N: usize, const HEX: bool, const CIRCLE: bool>(
         &self,
         sen: &Sensor,
         c: &ColumnCandidates,
         cx: &ColumnX,
         rc: &RowCandidates,
     ) -> SensorPx {
+        debug_assert_eq!(N, rc.n);
+        debug_assert_eq!(HEX, self.hex);
+        debug_assert_eq!(CIRCLE, self.design.shape == Aperture::Circle);
         // (j, k) packed so that integer order is (j, k) order; selects, not branches.
         let mut best = u64::MAX;
         let mut bd = f64::INFINITY;
         let (mut bi, mut bh) = (0, 0);
-        for i in 0..rc.n {
-            let (k, par, dyy) = (rc.k[i], rc.par[i], rc.dyy[i]);
+        for i in 0..N {
+            let (k, par, dyy) = (rc.k[i], rc.par[i] & 1, rc.dyy[i]);
             for h in 0..2 {
                 let j = c.j[par][h];
                 let dd = c.dxx[par][h] + dyy;
@@ -401,18 +432,19 @@ impl<'a> Tables<'a> {
                 bh = if better { h } else { bh };
             }
         }
-        let par = rc.par[bi];
+        let par = rc.par[bi] & 1;
         let (ax, ay) = (cx.theta[par][bh].abs(), rc.theta[bi].abs());
         let half = sen.half_cell;
-        let in_cell = if self.hex {
+        let in_cell = if HEX {
             (ax <= half) & (ax / 2.0 + ay * SQRT3_2 <= half)
         } else {
             (ax <= half) & (ay <= half)
         };
         let (w0, w1, r) = (cx.w[par][bh], rc.w[bi], sen.radius);
-        let passes = match self.design.shape {
-            Aperture::Square => (w0.abs() < r) & (w1.abs() < r),
-            Aperture::Circle => w0 * w0 + w1 * w1 < r * r,
+        let passes = if CIRCLE {
+            w0 * w0 + w1 * w1 < r * r
+        } else {
+            (w0.abs() < r) & (w1.abs() < r)
         };
         SensorPx {
             j: (best >> 32) as u32,
@@ -473,16 +505,42 @@ impl<'a> Tables<'a> {
             }
             PixelTables::Sensor(sen) => {
                 let rc = self.row(sen, sen.sy[b], g, s);
-                for (a, (c, cx)) in sen.cols.iter().zip(colx).enumerate() {
-                    let px = self.sensor_pixel(sen, c, cx, &rc);
-                    x[a] = if px.lit { px.xy[0] } else { f64::NAN };
-                    y[a] = if px.lit { px.xy[1] } else { f64::NAN };
-                    lit[a] = px.lit;
-                    lens[2 * a] = px.j as i64;
-                    lens[2 * a + 1] = px.k as i64;
-                    types[a] = self.lens_type(px.j, px.k) as i64;
-                }
+                let out = RowOut {
+                    x,
+                    y,
+                    lit,
+                    lens,
+                    types,
+                };
+                dispatch!(self, rc, sensor_row(sen, &rc, colx, out));
             }
+        }
+    }
+
+    /// One sensor row of the chief-sample outputs, its `N` = `rc.n` candidate lens rows.
+    #[inline(always)]
+    fn sensor_row<const N: usize, const HEX: bool, const CIRCLE: bool>(
+        &self,
+        sen: &Sensor,
+        rc: &RowCandidates,
+        colx: &[ColumnX],
+        out: RowOut<'_>,
+    ) {
+        let it = sen
+            .cols
+            .iter()
+            .zip(colx)
+            .zip(out.x.iter_mut().zip(out.y.iter_mut()))
+            .zip(out.lit.iter_mut().zip(out.lens.chunks_exact_mut(2)))
+            .zip(out.types.iter_mut());
+        for ((((c, cx), (x, y)), (lit, lens)), t) in it {
+            let px = self.sensor_pixel::<N, HEX, CIRCLE>(sen, c, cx, rc);
+            *x = if px.lit { px.xy[0] } else { f64::NAN };
+            *y = if px.lit { px.xy[1] } else { f64::NAN };
+            *lit = px.lit;
+            lens[0] = px.j as i64;
+            lens[1] = px.k as i64;
+            *t = self.lens_type(px.j, px.k) as i64;
         }
     }
 
@@ -599,6 +657,27 @@ impl<'a> Tables<'a> {
         }
     }
 
+    /// Append the lit samples of columns `cols` of one sensor row (`N` = `rc.n` candidate
+    /// lens rows) that `keep` accepts to `out` (capacity reserved by the caller).
+    #[inline(always)]
+    fn gather_row<const N: usize, const HEX: bool, const CIRCLE: bool>(
+        &self,
+        sen: &Sensor,
+        rc: &RowCandidates,
+        cols: &[u32],
+        colx: &[ColumnX],
+        keep: &impl Fn([f64; 2]) -> bool,
+        out: &mut Vec<[f64; 2]>,
+    ) {
+        for &a in cols {
+            let a = a as usize;
+            let px = self.sensor_pixel::<N, HEX, CIRCLE>(sen, &sen.cols[a], &colx[a], rc);
+            if px.lit && keep(px.xy) {
+                out.push(px.xy);
+            }
+        }
+    }
+
     /// Append the lit samples with |X| ≤ bx and |Y| ≤ by to `out`.
     fn gather(
         &self,
@@ -647,13 +726,7 @@ impl<'a> Tables<'a> {
                 self.columns_x(sen, g, s, &mut colx)?;
                 for &b in rows.iter() {
                     let rc = self.row(sen, sen.sy[b as usize], g, s);
-                    for &a in cols.iter() {
-                        let a = a as usize;
-                        let px = self.sensor_pixel(sen, &sen.cols[a], &colx[a], &rc);
-                        if px.lit && keep(px.xy) {
-                            out.push(px.xy);
-                        }
-                    }
+                    dispatch!(self, rc, gather_row(sen, &rc, cols, &colx, &keep, out));
                 }
             }
         }
