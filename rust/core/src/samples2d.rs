@@ -67,6 +67,13 @@ const FLUSH: f64 = 1e-30;
 struct ColumnCandidates {
     j: [[u32; 2]; 2],
     dxx: [[f64; 2]; 2],
+    /// Per parity, the candidate (lower 0 or upper 1) that wins against the other of the
+    /// same lens row whatever that row's distance² (see [`Sensor::sure`]), when `amb` is
+    /// false: 0 when dxx[0] ≤ dxx[1] (rounding is monotone and a tie goes to the lower j),
+    /// 1 when dxx[1] is below dxx[0] by more than `sure`.
+    sel: [u8; 2],
+    /// Some parity has neither: both candidates are compared pixel by pixel.
+    amb: bool,
 }
 
 /// Nearest-lens candidates of one sensor row: the lattice rows that
@@ -143,6 +150,11 @@ struct Sensor {
     /// ([`crate::design::Aperture::contains`]).
     half_cell: f64,
     radius: f64,
+    /// A margin above which distance² differences survive rounding: 16 ulp of the largest
+    /// candidate distance² B (dxx + dyy ≤ B for every candidate of every pixel). When two
+    /// candidates' dxx (or dyy) differ by more than this, adding the same dyy (dxx) to both
+    /// keeps their rounded sums in the same strict order.
+    sure: f64,
 }
 
 #[derive(Debug)]
@@ -188,6 +200,27 @@ struct Tables<'a> {
 fn clamp_index(x: f64, n: u32) -> u32 {
     // As Channel::nearest_lens's clamp.
     x.clamp(0.0, n as f64 - 1.0) as u32
+}
+
+/// Sensor row s1's candidate lens rows (before [`Tables::row`] drops any): those of
+/// [`Channel::nearest_lens`] (rect: 2, hex: 4, clamped), in non-decreasing k; `p` the image
+/// pitch, `mean` the hex lattice's mean ([`Channel::hex_mean`]).
+fn row_ks(hex: bool, ky: u32, p: f64, mean: (f64, f64), s1: f64) -> ([u32; 4], usize) {
+    if hex {
+        let row = s1 / (p * SQRT3_2) + mean.1 / SQRT3_2;
+        let k0 = clamp_index(row.floor(), ky) as f64;
+        let mut ks = [0; 4];
+        for (i, dk) in (-1..=2).enumerate() {
+            ks[i] = clamp_index(k0 + dk as f64, ky);
+        }
+        (ks, 4)
+    } else {
+        let t = s1 / p + (ky as f64 - 1.0) / 2.0;
+        (
+            [clamp_index(t.floor(), ky), clamp_index(t.ceil(), ky), 0, 0],
+            2,
+        )
+    }
 }
 
 /// Bytes of [`Tables::new`] for channel `ch`.
@@ -284,7 +317,7 @@ impl<'a> Tables<'a> {
                     }
                     cols.push(c);
                 }
-                let px = PixelTables::Sensor(Sensor {
+                let mut sen = Sensor {
                     sx,
                     sy,
                     cols,
@@ -294,7 +327,10 @@ impl<'a> Tables<'a> {
                     mean,
                     half_cell: ch.image_pitch() / 2.0,
                     radius: design.aperture / 2.0,
-                });
+                    sure: 0.0,
+                };
+                Tables::settle_columns(ch, hex, parities, &mut sen);
+                let px = PixelTables::Sensor(sen);
                 (mx as usize, my as usize, px)
             }
         };
@@ -314,6 +350,45 @@ impl<'a> Tables<'a> {
         })
     }
 
+    /// [`Sensor::sure`] and every column's `sel` and `amb` ([`ColumnCandidates`]).
+    fn settle_columns(ch: &Channel, hex: bool, parities: usize, sen: &mut Sensor) {
+        let dxx_max = sen
+            .cols
+            .iter()
+            .flat_map(|c| c.dxx[..parities].iter().flatten())
+            .fold(0.0f64, |a, &b| a.max(b));
+        let mut dyy_max = 0.0f64;
+        for &s1 in &sen.sy {
+            let (ks, n) = row_ks(hex, ch.ky, sen.p, sen.mean, s1);
+            for &k in &ks[..n] {
+                let dy = s1 - sen.cym[k as usize];
+                dyy_max = dyy_max.max(dy * dy);
+            }
+        }
+        // ulp(x) ≤ x 2^-52 for every x ≤ B: 2^-48 B is 16 ulp of the largest sum.
+        let b = (dxx_max + dyy_max) * (1.0 + 1e-12);
+        sen.sure = if b.is_finite() {
+            b * 2f64.powi(-48)
+        } else {
+            f64::INFINITY
+        };
+        let sure = sen.sure;
+        for c in sen.cols.iter_mut() {
+            c.amb = false;
+            for par in 0..parities {
+                let [d0, d1] = c.dxx[par];
+                c.sel[par] = if d1 >= d0 {
+                    0
+                } else if d0 - d1 > sure {
+                    1
+                } else {
+                    c.amb = true;
+                    0
+                };
+            }
+        }
+    }
+
     #[inline]
     fn lens_type(&self, j: u32, k: u32) -> u8 {
         let t = self.jmod[j as usize] + self.kbase[k as usize];
@@ -326,8 +401,7 @@ impl<'a> Tables<'a> {
 
     /// Sensor row b's nearest-lens candidates (the rows of [`Channel::nearest_lens`]).
     fn row(&self, sen: &Sensor, s1: f64, g: f64, s: f64) -> RowCandidates {
-        let (cym, p, mean) = (&sen.cym, sen.p, sen.mean);
-        let ky = self.ch.ky;
+        let cym = &sen.cym;
         let mut rc = RowCandidates {
             k: [0; 4],
             par: [0; 4],
@@ -360,17 +434,28 @@ impl<'a> Tables<'a> {
                 rc.n += 1;
             }
         };
-        if self.hex {
-            let row = s1 / (p * SQRT3_2) + mean.1 / SQRT3_2;
-            let k0 = clamp_index(row.floor(), ky) as f64;
-            for dk in -1..=2 {
-                push(clamp_index(k0 + dk as f64, ky));
-            }
-        } else {
-            let t = s1 / p + (ky as f64 - 1.0) / 2.0;
-            push(clamp_index(t.floor(), ky));
-            push(clamp_index(t.ceil(), ky));
+        let (ks, n) = row_ks(self.hex, self.ch.ky, sen.p, sen.mean, s1);
+        for &k in &ks[..n] {
+            push(k);
         }
+        // Conversely, a row also never wins when a later row of the same parity is nearer
+        // by more than `sure`: for every j its rounded distance² is then strictly larger
+        // (no tie to win). Drop it too.
+        let mut kept = 0;
+        for i in 0..rc.n {
+            let beaten =
+                (i + 1..rc.n).any(|l| rc.par[l] == rc.par[i] && rc.dyy[i] - rc.dyy[l] > sen.sure);
+            if !beaten {
+                rc.k[kept] = rc.k[i];
+                rc.par[kept] = rc.par[i];
+                rc.dyy[kept] = rc.dyy[i];
+                rc.theta[kept] = rc.theta[i];
+                rc.w[kept] = rc.w[i];
+                rc.y[kept] = rc.y[i];
+                kept += 1;
+            }
+        }
+        rc.n = kept;
         rc
     }
 
@@ -419,17 +504,30 @@ impl<'a> Tables<'a> {
         let mut best = u64::MAX;
         let mut bd = f64::INFINITY;
         let (mut bi, mut bh) = (0, 0);
-        for i in 0..N {
-            let (k, par, dyy) = (rc.k[i], rc.par[i] & 1, rc.dyy[i]);
-            for h in 0..2 {
-                let j = c.j[par][h];
-                let dd = c.dxx[par][h] + dyy;
-                let key = ((j as u64) << 32) | k as u64;
-                let better = (dd < bd) | ((dd == bd) & (key < best));
-                best = if better { key } else { best };
-                bd = if better { dd } else { bd };
-                bi = if better { i } else { bi };
-                bh = if better { h } else { bh };
+        let mut consider = |i: usize, k: u32, par: usize, h: usize, dyy: f64| {
+            let j = c.j[par][h];
+            let dd = c.dxx[par][h] + dyy;
+            let key = ((j as u64) << 32) | k as u64;
+            let better = (dd < bd) | ((dd == bd) & (key < best));
+            best = if better { key } else { best };
+            bd = if better { dd } else { bd };
+            bi = if better { i } else { bi };
+            bh = if better { h } else { bh };
+        };
+        if c.amb {
+            for i in 0..N {
+                let (k, par, dyy) = (rc.k[i], rc.par[i] & 1, rc.dyy[i]);
+                for h in 0..2 {
+                    consider(i, k, par, h, dyy);
+                }
+            }
+        } else {
+            // Only the candidate of each lens row that beats (or ties and precedes) the
+            // other of that row whatever the row's distance² (`sel`): the least over the
+            // rest is the least over all.
+            for i in 0..N {
+                let (k, par, dyy) = (rc.k[i], rc.par[i] & 1, rc.dyy[i]);
+                consider(i, k, par, c.sel[par] as usize & 1, dyy);
             }
         }
         let par = rc.par[bi] & 1;
