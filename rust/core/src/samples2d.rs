@@ -2192,6 +2192,28 @@ mod tests {
                 )],
             )
             .unwrap(),
+            // Pixel pitch a tenth of the image pitch (0.1 (1 + 0.3/60) / 10) and odd pixel
+            // counts: pixel centres fall (within rounding) midway between two lens images,
+            // the nearest-lens search's ties.
+            Design::new(
+                50.0,
+                10.0,
+                Aperture::Square,
+                &[spec(
+                    60.0,
+                    0.1,
+                    0.3,
+                    0.01005,
+                    8,
+                    6,
+                    Grid::Rect,
+                    None,
+                    "sensor",
+                    None,
+                    Some((81, 61)),
+                )],
+            )
+            .unwrap(),
             Design::from_camera(&small_camera()),
         ]
     }
@@ -2206,6 +2228,18 @@ mod tests {
 
     #[test]
     fn chief_samples_are_design_pixels_bit_for_bit() {
+        // Both paths of the nearest-lens search run: columns settled once (`sel`) and
+        // columns within rounding of a tie (`amb`, every pixel compares both candidates).
+        let (mut settled, mut ambiguous) = (0, 0);
+        for d in designs() {
+            for ch in &d.channels {
+                if let PixelTables::Sensor(sen) = &Tables::new(&d, ch).unwrap().px {
+                    ambiguous += sen.cols.iter().filter(|c| c.amb).count();
+                    settled += sen.cols.iter().filter(|c| !c.amb).count();
+                }
+            }
+        }
+        assert!(settled > 0 && ambiguous > 0, "{settled} {ambiguous}");
         for d in designs() {
             for (i, ch) in d.channels.iter().enumerate() {
                 for z in [d.f_main * 1.3, 300.0, 2000.0] {
