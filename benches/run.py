@@ -49,6 +49,19 @@ class Workload:
     numpy: Callable[[dict[str, Any]], dict[str, np.ndarray]]
     native: Callable[[dict[str, Any], int | None], dict[str, np.ndarray]]
     out_bytes: Callable[[dict[str, Any]], int] | None = None
+    # The floor's arrays (shape, dtype), when it allocates and fills the outputs' own arrays
+    # rather than one float64 array of their total size.
+    out_arrays: Callable[[dict[str, Any]], list[tuple[tuple[int, ...], Any]]] | None = None
+    # How NumPy and native results must agree (default: check_equal, 1e-12 relative);
+    # returns what it measured of the agreement.
+    check: Callable[[dict[str, np.ndarray], dict[str, np.ndarray], str],
+                    dict[str, Any]] | None = None
+    # At most this many rounds (a reference side that takes minutes per run).
+    max_rounds: int | None = None
+    # Also measure the native side's peak with tracemalloc (NumPy's allocator).
+    traced_memory: bool = False
+    # Measure the NumPy side's peak memory too (a fresh run of it in a subprocess).
+    numpy_memory: bool = True
 
 
 WORKLOADS: dict[str, Workload] = {}
@@ -173,6 +186,114 @@ workload(Workload(
 ))
 
 
+# -- W5: coverage of a multi-focus camera against SciPy (qhull) ------------------------------
+
+W5_TOL, W5_WINDOW = 1e-6, 16.0
+
+
+def _small(design: splitlf.Design, f: int) -> splitlf.Design:
+    """A design's single sensor-layout channel with 1/f of its lenses and pixels per axis
+    (--quick)."""
+    ch, res = design.channels[0], design.resolved()[0]
+    ch = ch.replace(Kx=ch.Kx // f, Ky=ch.Ky // f, Mx=res["Mx"] // f, My=res["My"] // f)
+    return design.replace(channels=(ch,))
+
+
+def _w5_setup(sizes):
+    d = splitlf.Design.preset("raytrix-r12")
+    return {"design": _small(d, 4) if sizes["quick"] else d,
+            "z": np.geomspace(300.0, 10_000.0, sizes["depths"]),
+            "tol": W5_TOL, "window": sizes["window"]}
+
+
+def _w5_native(inp, n_threads):
+    c = splitlf.coverage(inp["design"], inp["z"], inp["tol"], inp["window"],
+                         n_threads=n_threads)
+    return {"distinct": c.distinct, "covering_radius": c.covering_radius,
+            "covering_radius_mm": c.covering_radius_mm}
+
+
+def check_coverage(a: dict[str, np.ndarray], b: dict[str, np.ndarray],
+                   name: str) -> dict[str, Any]:
+    """Distinct counts equal; covering radii (in delta and in mm) to 1e-9 relative."""
+    assert set(a) == set(b), (name, sorted(a), sorted(b))
+    np.testing.assert_array_equal(b["distinct"], a["distinct"], err_msg=f"{name}: distinct")
+    worst = 0.0
+    for key in ("covering_radius", "covering_radius_mm"):
+        np.testing.assert_allclose(b[key], a[key], rtol=1e-9, atol=0,
+                                   err_msg=f"{name}: {key}")
+        worst = max(worst, float(np.max(np.abs(b[key] / a[key] - 1.0))))
+    return {"distinct_equal": True, "covering_radius_max_rel_diff": worst}
+
+
+workload(Workload(
+    name="W5",
+    title="`coverage` of raytrix-r12 (distinct 2-D samples, covering radius) vs SciPy/qhull",
+    sizes=lambda quick: {"design": "raytrix-r12" + (" / 4 per axis" if quick else ""),
+                         "depths": 4 if quick else 100, "z_mm": "300-10,000 geometric",
+                         "window": 4.0 if quick else W5_WINDOW, "quick": quick},
+    setup=_w5_setup,
+    numpy=lambda inp: numpy_impl.coverage(inp["design"], inp["z"], inp["tol"], inp["window"]),
+    native=_w5_native,
+    check=check_coverage,
+    max_rounds=3,
+    numpy_memory=False,  # another 100-depth SciPy run (minutes) for a figure of no interest
+))
+
+
+# -- W6: 2-D chief samples of a whole sensor ---------------------------------------------------
+
+W6_Z = 1000.0
+
+
+def _w6_setup(sizes):
+    d = splitlf.Design.preset("lytro-illum")
+    return {"design": _small(d, 4) if sizes["quick"] else d, "z": W6_Z}
+
+
+def _w6_native(inp, n_threads):
+    c = splitlf.chief_samples(inp["design"], 1, inp["z"], n_threads=n_threads)
+    return {"X": c.X, "Y": c.Y, "lit": c.lit, "lens": c.lens, "type": c.type}
+
+
+def _w6_arrays(inp) -> list[tuple[tuple[int, ...], Any]]:
+    """The arrays `chief_samples` returns: X, Y float64, lit bool, lens (.., 2) and type int64."""
+    res = inp["design"].resolved()[0]
+    shape = (res["My"], res["Mx"])
+    return [(shape, np.float64), (shape, np.float64), (shape, np.bool_),
+            ((*shape, 2), np.int64), (shape, np.int64)]
+
+
+def _nbytes(arrays) -> int:
+    return sum(int(np.prod(shape)) * np.dtype(dt).itemsize for shape, dt in arrays)
+
+
+def check_identical(a: dict[str, np.ndarray], b: dict[str, np.ndarray],
+                    name: str) -> dict[str, Any]:
+    """Bit for bit (NaN where the other has NaN), same dtypes and shapes."""
+    assert set(a) == set(b), (name, sorted(a), sorted(b))
+    for key in a:
+        assert a[key].dtype == b[key].dtype and a[key].shape == b[key].shape, (name, key)
+        np.testing.assert_array_equal(b[key], a[key], err_msg=f"{name}: {key}")
+    return {"bit_for_bit": True}
+
+
+workload(Workload(
+    name="W6",
+    title="`chief_samples` of the whole lytro-illum sensor at one depth",
+    sizes=lambda quick: {"design": "lytro-illum" + (" / 4 per axis" if quick else ""),
+                         "pixels": "1932 x 1342" if quick else "7728 x 5368",
+                         "z_mm": W6_Z, "quick": quick},
+    setup=_w6_setup,
+    numpy=lambda inp: numpy_impl.chief_samples(inp["design"], 1, inp["z"]),
+    native=_w6_native,
+    out_bytes=lambda inp: _nbytes(_w6_arrays(inp)),
+    out_arrays=_w6_arrays,
+    check=check_identical,
+    traced_memory=True,
+))
+
+
 # -- harness -------------------------------------------------------------------------------
 
 def check_equal(a: dict[str, np.ndarray], b: dict[str, np.ndarray], name: str) -> None:
@@ -189,6 +310,24 @@ def floor_run(nbytes: int) -> None:
     del a
 
 
+def floor_arrays_run(arrays: list[tuple[tuple[int, ...], Any]]) -> None:
+    """Alloc-and-fill floor of given outputs: np.empty and fill each (shape, dtype)."""
+    out = []
+    for shape, dtype in arrays:
+        a = np.empty(shape, dtype=dtype)
+        a.fill(1)
+        out.append(a)
+    del out
+
+
+def _floor(w: Workload, inp: dict[str, Any]) -> Callable[[], None]:
+    if w.out_arrays is not None:
+        arrays = w.out_arrays(inp)
+        return lambda: floor_arrays_run(arrays)
+    nbytes = w.out_bytes(inp)
+    return lambda: floor_run(nbytes)
+
+
 def timed(fn: Callable[..., Any], *args: Any) -> float:
     gc.collect()
     t0 = time.perf_counter()
@@ -198,11 +337,15 @@ def timed(fn: Callable[..., Any], *args: Any) -> float:
     return dt
 
 
-def peak_memory(name: str, side: str, quick: bool) -> float:
-    """Peak extra resident memory (MiB) of one run of `side`, in a fresh subprocess."""
+def peak_memory(name: str, side: str, quick: bool, traced: bool = False) -> float:
+    """Peak extra resident memory (MiB) of one run of `side`, in a fresh subprocess; with
+    `traced`, the peak tracemalloc sees instead (allocations through Python's and NumPy's
+    allocators: rust-numpy's arrays, not the core's own Vec buffers)."""
     cmd = [sys.executable, str(Path(__file__).resolve()), "--memory", name, side]
     if quick:
         cmd.append("--quick")
+    if traced:
+        cmd.append("--traced")
     out = subprocess.run(cmd, capture_output=True, text=True, check=True)
     return float(out.stdout.strip().splitlines()[-1])
 
@@ -214,14 +357,20 @@ def _status_kib(field: str) -> int:
     raise KeyError(field)
 
 
-def _memory_child(name: str, side: str, quick: bool) -> None:
+def _memory_child(name: str, side: str, quick: bool, traced: bool = False) -> None:
     """Peak resident memory of one run above the post-setup resident set. ru_maxrss would
     inherit the parent's high-water mark across fork/exec (a child of a harness that has
     already run big workloads would see no rise at all), so the child resets the kernel's
-    per-process high-water mark (VmHWM, `echo 5 > /proc/self/clear_refs`) after setup."""
+    per-process high-water mark (VmHWM, `echo 5 > /proc/self/clear_refs`) after setup.
+    With `traced`: tracemalloc's peak over the run instead."""
+    import tracemalloc
+
     w = WORKLOADS[name]
     inp = w.setup(w.sizes(quick))
+    floor = _floor(w, inp) if w.out_bytes is not None else None
     gc.collect()
+    if traced:
+        tracemalloc.start()
     Path("/proc/self/clear_refs").write_text("5")
     base = _status_kib("VmRSS")
     if side == "numpy":
@@ -229,35 +378,52 @@ def _memory_child(name: str, side: str, quick: bool) -> None:
     elif side == "native":
         r = w.native(inp, None)
     else:
-        floor_run(w.out_bytes(inp))
-        r = None
+        assert floor is not None, name
+        r = floor()
     peak = _status_kib("VmHWM")
+    if traced:
+        peak_b = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+        print(peak_b / 2**20)
+    else:
+        print((peak - base) / 1024.0)
     del r
-    print((peak - base) / 1024.0)
 
 
 def run_workload(w: Workload, quick: bool, rounds: int) -> dict[str, Any]:
     sizes = w.sizes(quick)
     inp = w.setup(sizes)
-    check_equal(w.numpy(inp), w.native(inp, None), w.name)
-    check_equal(w.numpy(inp), w.native(inp, 1), w.name)
+    rounds = min(rounds, w.max_rounds or rounds)
+    check = w.check or check_equal
+    # The NumPy side once, checked against the native side at all threads and at 1 thread.
+    gc.collect()
+    t0 = time.perf_counter()
+    ref = w.numpy(inp)
+    t_ref = time.perf_counter() - t0
+    agreement = check(ref, w.native(inp, None), w.name)
+    check(ref, w.native(inp, 1), w.name)
+    del ref
     n_all = os.cpu_count() or 1
     times: dict[str, list[float]] = {"numpy": [], "native_1": [], "native_all": [], "floor": []}
+    if w.max_rounds is not None:
+        # A reference of minutes: its checked run is its first round.
+        times["numpy"].append(t_ref)
     runs: dict[str, Callable[[], float]] = {
         "numpy": lambda x=inp: timed(w.numpy, x),
         "native_1": lambda x=inp: timed(w.native, x, 1),
         "native_all": lambda x=inp: timed(w.native, x, None),
     }
     if w.out_bytes is not None:
-        nbytes = w.out_bytes(inp)
-        runs["floor"] = lambda: timed(floor_run, nbytes)
+        floor = _floor(w, inp)
+        runs["floor"] = lambda: timed(floor)
     order = list(runs)
     for r in range(rounds):
         # Rotate the order every round: the run right after a big free (of the previous
         # side's outputs) pays more for its page faults here, and no side should always
         # be the one in that position.
         for side in order[r % len(order):] + order[:r % len(order)]:
-            times[side].append(runs[side]())
+            if len(times[side]) < rounds:
+                times[side].append(runs[side]())
     med = {k: statistics.median(v) for k, v in times.items() if v}
     result: dict[str, Any] = {
         "workload": w.name,
@@ -269,16 +435,24 @@ def run_workload(w: Workload, quick: bool, rounds: int) -> dict[str, Any]:
         "ratio_numpy_over_native_1": med["numpy"] / med["native_1"],
         "ratio_numpy_over_native_all": med["numpy"] / med["native_all"],
         "speedup_1_to_all": med["native_1"] / med["native_all"],
+        "times_s": times,
     }
+    if agreement:
+        result["agreement"] = agreement
     if "floor" in med:
         result["output_bytes"] = w.out_bytes(inp)
         result["numpy_over_floor"] = med["numpy"] / med["floor"]
         result["native_all_over_floor"] = med["native_all"] / med["floor"]
+        result["native_1_over_floor"] = med["native_1"] / med["floor"]
     del inp, runs
     gc.collect()
-    result["peak_mib"] = {side: peak_memory(w.name, side, quick) for side in ("numpy", "native")}
+    result["peak_mib"] = {side: peak_memory(w.name, side, quick) if side == "native"
+                          or w.numpy_memory else None for side in ("numpy", "native")}
     if w.out_bytes is not None:
         result["output_mib"] = result["output_bytes"] / 2**20
+        result["native_peak_over_output"] = result["peak_mib"]["native"] / result["output_mib"]
+    if w.traced_memory:
+        result["traced_peak_mib"] = {"native": peak_memory(w.name, "native", quick, True)}
     return result
 
 
@@ -291,7 +465,12 @@ def git_commit() -> str:
 
 
 def _fmt_sizes(s: dict[str, Any]) -> str:
-    return ", ".join(f"{k}={v:,}" if isinstance(v, int) else f"{k}={v}" for k, v in s.items())
+    return ", ".join(f"{k}={v:,}" if isinstance(v, int) else f"{k}={v}" for k, v in s.items()
+                     if k != "quick")
+
+
+def _mib(v: float | None) -> str:
+    return "–" if v is None else f"{v:.0f}"
 
 
 def write_markdown(doc: dict[str, Any], path: Path) -> None:
@@ -320,9 +499,71 @@ def write_markdown(doc: dict[str, Any], path: Path) -> None:
             f"{m['native_1']:.4g} | {m['native_all']:.4g} | "
             f"{r['ratio_numpy_over_native_1']:.1f} | {r['ratio_numpy_over_native_all']:.1f} | "
             f"{r['speedup_1_to_all']:.2f} | {floor} | "
-            f"{r['peak_mib']['numpy']:.0f} / {r['peak_mib']['native']:.0f} / {out_mib} |"
+            f"{_mib(r['peak_mib']['numpy'])} / {r['peak_mib']['native']:.0f} / {out_mib} |"
         )
+    lines += _markdown_targets(doc)
     path.write_text("\n".join(lines) + "\n")
+
+
+def _markdown_targets(doc: dict[str, Any]) -> list[str]:
+    """Agreement, the issue-11 targets of W5 and W6, the machine's load, and the previous
+    committed run."""
+    by = {r["workload"]: r for r in doc["results"]}
+    out = ["", "Load average (1 min) before / after each workload: " + ", ".join(
+        f"{n} {r['load_average']['before'][0]:.2f} / {r['load_average']['after'][0]:.2f}"
+        for n, r in by.items() if "load_average" in r) + "."]
+    if "W5" in by:
+        r = by["W5"]
+        a = r.get("agreement", {})
+        out += ["", "W5 (target: NumPy+SciPy / native all >= 10, native 1 -> all threads >= 1.7): "
+                f"{r['ratio_numpy_over_native_all']:.1f}x at all threads, "
+                f"{r['ratio_numpy_over_native_1']:.1f}x at 1 thread, 1 -> "
+                f"{r['threads_all']} threads {r['speedup_1_to_all']:.2f}x. Agreement on every "
+                "depth and row: distinct counts equal, covering radius within "
+                f"{a.get('covering_radius_max_rel_diff', float('nan')):.1e} relative."]
+    if "W6" in by:
+        r = by["W6"]
+        traced = r.get("traced_peak_mib", {}).get("native")
+        out += ["", "W6 (target: native <= 2x the alloc-and-fill floor, peak <= 1.2x outputs): "
+                f"native all threads {r['native_all_over_floor']:.2f}x floor "
+                f"(1 thread {r['native_1_over_floor']:.2f}x), floor "
+                f"{r['median_s']['floor']:.3g} s; peak {r['peak_mib']['native']:.0f} MiB = "
+                f"{r['native_peak_over_output']:.3f}x the outputs' {r['output_mib']:.0f} MiB"
+                + (f" (tracemalloc peak {traced:.0f} MiB)" if traced is not None else "")
+                + "; NumPy and native arrays identical bit for bit."]
+    prev = doc.get("previous")
+    if prev and prev["workloads"]:
+        out += ["", f"Against the previous committed run (commit `{prev['commit']}`): native time "
+                "now / then, and NumPy/native ratios then -> now (each measured within one run).",
+                "", "| workload | native all now/then | native 1 now/then | NumPy/native all "
+                "| NumPy/native 1 |", "|---|---|---|---|---|"]
+        for n, c in prev["workloads"].items():
+            ra, r1 = c["ratio_numpy_over_native_all"], c["ratio_numpy_over_native_1"]
+            out.append(f"| {n} | {c['native_all_now_over_then']:.2f} | "
+                       f"{c['native_1_now_over_then']:.2f} | {ra[0]:.1f} -> {ra[1]:.1f} | "
+                       f"{r1[0]:.1f} -> {r1[1]:.1f} |")
+    return out
+
+
+def compare(previous: dict[str, Any], results: list[dict[str, Any]]) -> dict[str, Any]:
+    """Each workload of the previous run against this run: native time now / then (> 1:
+    slower now) and the NumPy/native ratios then and now (within one run each, so they
+    cancel most of the machine's state)."""
+    old = {r["workload"]: r for r in previous["results"]}
+    rows = {}
+    for r in results:
+        o = old.get(r["workload"])
+        if o is None:
+            continue
+        rows[r["workload"]] = {
+            "native_all_now_over_then": r["median_s"]["native_all"] / o["median_s"]["native_all"],
+            "native_1_now_over_then": r["median_s"]["native_1"] / o["median_s"]["native_1"],
+            "ratio_numpy_over_native_all": [o["ratio_numpy_over_native_all"],
+                                            r["ratio_numpy_over_native_all"]],
+            "ratio_numpy_over_native_1": [o["ratio_numpy_over_native_1"],
+                                          r["ratio_numpy_over_native_1"]],
+        }
+    return {"commit": previous.get("commit"), "workloads": rows}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -334,16 +575,23 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", type=Path, default=None,
                     help="output folder (default benches/ for full runs, benches/out/ for --quick)")
     ap.add_argument("--memory", nargs=2, metavar=("WORKLOAD", "SIDE"), help=argparse.SUPPRESS)
+    ap.add_argument("--traced", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.memory:
-        _memory_child(args.memory[0], args.memory[1], args.quick)
+        _memory_child(args.memory[0], args.memory[1], args.quick, args.traced)
         return 0
     rounds = args.rounds or (3 if args.quick else 7)
     out_dir = args.out or (HERE / "out" if args.quick else HERE)
     out_dir.mkdir(parents=True, exist_ok=True)
+    # The committed full run, to compare with (read before it is overwritten).
+    prev_path = HERE / "results.json"
+    previous = (json.loads(prev_path.read_text())
+                if not args.quick and prev_path.exists() else None)
     results = []
     for name in args.only or sorted(WORKLOADS):
+        load_before = os.getloadavg()
         r = run_workload(WORKLOADS[name], args.quick, rounds)
+        r["load_average"] = {"before": load_before, "after": os.getloadavg()}
         results.append(r)
         m = r["median_s"]
         print(f"{name}: numpy {m['numpy']:.4g}s, native 1 thr {m['native_1']:.4g}s, all "
@@ -357,6 +605,8 @@ def main(argv: list[str] | None = None) -> int:
                     "python": platform.python_version(), "numpy": np.__version__},
         "results": results,
     }
+    if previous is not None:
+        doc["previous"] = compare(previous, results)
     (out_dir / "results.json").write_text(json.dumps(doc, indent=2) + "\n")
     write_markdown(doc, out_dir / "RESULTS.md")
     print(f"wrote {out_dir / 'results.json'} and {out_dir / 'RESULTS.md'}")

@@ -23,10 +23,18 @@ def test_quick_benchmarks_run(tmp_path):
                     "--out", str(tmp_path)], check=True, capture_output=True, text=True)
     doc = json.loads((tmp_path / "results.json").read_text())
     names = [r["workload"] for r in doc["results"]]
-    assert names == ["W1", "W2", "W3", "W4"] and doc["quick"] is True
+    assert names == ["W1", "W2", "W3", "W4", "W5", "W6"] and doc["quick"] is True
     for r in doc["results"]:
         assert all(t > 0 for t in r["median_s"].values())
         if "output_mib" in r:  # the outputs themselves must show in the measured peak
             assert r["peak_mib"]["native"] >= 0.5 * r["output_mib"]
+    by = {r["workload"]: r for r in doc["results"]}
+    # W5: the SciPy side agrees (checked before timing), both thread counts timed.
+    assert by["W5"]["agreement"]["distinct_equal"] is True
+    assert by["W5"]["agreement"]["covering_radius_max_rel_diff"] <= 1e-9
+    # W6: bit for bit, a floor of the outputs' own arrays, tracemalloc sees the outputs.
+    assert by["W6"]["agreement"]["bit_for_bit"] is True
+    assert by["W6"]["native_all_over_floor"] > 0
+    assert by["W6"]["traced_peak_mib"]["native"] >= 0.99 * by["W6"]["output_mib"]
     table = (tmp_path / "RESULTS.md").read_text()
     assert table.count("\n| W") == len(names)

@@ -67,6 +67,13 @@ const FLUSH: f64 = 1e-30;
 struct ColumnCandidates {
     j: [[u32; 2]; 2],
     dxx: [[f64; 2]; 2],
+    /// Per parity, the candidate (lower 0 or upper 1) that wins against the other of the
+    /// same lens row whatever that row's distance² (see [`Sensor::sure`]), when `amb` is
+    /// false: 0 when dxx[0] ≤ dxx[1] (rounding is monotone and a tie goes to the lower j),
+    /// 1 when dxx[1] is below dxx[0] by more than `sure`.
+    sel: [u8; 2],
+    /// Some parity has neither: both candidates are compared pixel by pixel.
+    amb: bool,
 }
 
 /// Nearest-lens candidates of one sensor row: the lattice rows that
@@ -91,6 +98,31 @@ struct ColumnX {
     theta: [[f64; 2]; 2],
     w: [[f64; 2]; 2],
     x: [[f64; 2]; 2],
+}
+
+/// Call `$t.$f::<N, HEX, CIRCLE>(args)` with the constants of row candidates `$rc` (N =
+/// `rc.n`) and of the design (hex grid, circular aperture): the per-pixel loops of the
+/// sensor layout, monomorphised so that they carry no branch on these.
+macro_rules! dispatch {
+    ($t:expr, $rc:expr, $f:ident($($arg:expr),*)) => {{
+        let (hex, circle) = ($t.hex, $t.design.shape == Aperture::Circle);
+        macro_rules! go {
+            ($n:literal) => {
+                match (hex, circle) {
+                    (true, true) => $t.$f::<$n, true, true>($($arg),*),
+                    (true, false) => $t.$f::<$n, true, false>($($arg),*),
+                    (false, true) => $t.$f::<$n, false, true>($($arg),*),
+                    (false, false) => $t.$f::<$n, false, false>($($arg),*),
+                }
+            };
+        }
+        match $rc.n {
+            1 => go!(1),
+            2 => go!(2),
+            3 => go!(3),
+            _ => go!(4),
+        }
+    }};
 }
 
 /// A sensor pixel: its lens, chief sample and lit flag.
@@ -118,6 +150,11 @@ struct Sensor {
     /// ([`crate::design::Aperture::contains`]).
     half_cell: f64,
     radius: f64,
+    /// A margin above which distance² differences survive rounding: 16 ulp of the largest
+    /// candidate distance² B (dxx + dyy ≤ B for every candidate of every pixel). When two
+    /// candidates' dxx (or dyy) differ by more than this, adding the same dyy (dxx) to both
+    /// keeps their rounded sums in the same strict order.
+    sure: f64,
 }
 
 #[derive(Debug)]
@@ -163,6 +200,27 @@ struct Tables<'a> {
 fn clamp_index(x: f64, n: u32) -> u32 {
     // As Channel::nearest_lens's clamp.
     x.clamp(0.0, n as f64 - 1.0) as u32
+}
+
+/// Sensor row s1's candidate lens rows (before [`Tables::row`] drops any): those of
+/// [`Channel::nearest_lens`] (rect: 2, hex: 4, clamped), in non-decreasing k; `p` the image
+/// pitch, `mean` the hex lattice's mean ([`Channel::hex_mean`]).
+fn row_ks(hex: bool, ky: u32, p: f64, mean: (f64, f64), s1: f64) -> ([u32; 4], usize) {
+    if hex {
+        let row = s1 / (p * SQRT3_2) + mean.1 / SQRT3_2;
+        let k0 = clamp_index(row.floor(), ky) as f64;
+        let mut ks = [0; 4];
+        for (i, dk) in (-1..=2).enumerate() {
+            ks[i] = clamp_index(k0 + dk as f64, ky);
+        }
+        (ks, 4)
+    } else {
+        let t = s1 / p + (ky as f64 - 1.0) / 2.0;
+        (
+            [clamp_index(t.floor(), ky), clamp_index(t.ceil(), ky), 0, 0],
+            2,
+        )
+    }
 }
 
 /// Bytes of [`Tables::new`] for channel `ch`.
@@ -259,7 +317,7 @@ impl<'a> Tables<'a> {
                     }
                     cols.push(c);
                 }
-                let px = PixelTables::Sensor(Sensor {
+                let mut sen = Sensor {
                     sx,
                     sy,
                     cols,
@@ -269,7 +327,10 @@ impl<'a> Tables<'a> {
                     mean,
                     half_cell: ch.image_pitch() / 2.0,
                     radius: design.aperture / 2.0,
-                });
+                    sure: 0.0,
+                };
+                Tables::settle_columns(ch, hex, parities, &mut sen);
+                let px = PixelTables::Sensor(sen);
                 (mx as usize, my as usize, px)
             }
         };
@@ -289,6 +350,45 @@ impl<'a> Tables<'a> {
         })
     }
 
+    /// [`Sensor::sure`] and every column's `sel` and `amb` ([`ColumnCandidates`]).
+    fn settle_columns(ch: &Channel, hex: bool, parities: usize, sen: &mut Sensor) {
+        let dxx_max = sen
+            .cols
+            .iter()
+            .flat_map(|c| c.dxx[..parities].iter().flatten())
+            .fold(0.0f64, |a, &b| a.max(b));
+        let mut dyy_max = 0.0f64;
+        for &s1 in &sen.sy {
+            let (ks, n) = row_ks(hex, ch.ky, sen.p, sen.mean, s1);
+            for &k in &ks[..n] {
+                let dy = s1 - sen.cym[k as usize];
+                dyy_max = dyy_max.max(dy * dy);
+            }
+        }
+        // ulp(x) ≤ x 2^-52 for every x ≤ B: 2^-48 B is 16 ulp of the largest sum.
+        let b = (dxx_max + dyy_max) * (1.0 + 1e-12);
+        sen.sure = if b.is_finite() {
+            b * 2f64.powi(-48)
+        } else {
+            f64::INFINITY
+        };
+        let sure = sen.sure;
+        for c in sen.cols.iter_mut() {
+            c.amb = false;
+            for par in 0..parities {
+                let [d0, d1] = c.dxx[par];
+                c.sel[par] = if d1 >= d0 {
+                    0
+                } else if d0 - d1 > sure {
+                    1
+                } else {
+                    c.amb = true;
+                    0
+                };
+            }
+        }
+    }
+
     #[inline]
     fn lens_type(&self, j: u32, k: u32) -> u8 {
         let t = self.jmod[j as usize] + self.kbase[k as usize];
@@ -301,8 +401,7 @@ impl<'a> Tables<'a> {
 
     /// Sensor row b's nearest-lens candidates (the rows of [`Channel::nearest_lens`]).
     fn row(&self, sen: &Sensor, s1: f64, g: f64, s: f64) -> RowCandidates {
-        let (cym, p, mean) = (&sen.cym, sen.p, sen.mean);
-        let ky = self.ch.ky;
+        let cym = &sen.cym;
         let mut rc = RowCandidates {
             k: [0; 4],
             par: [0; 4],
@@ -335,17 +434,28 @@ impl<'a> Tables<'a> {
                 rc.n += 1;
             }
         };
-        if self.hex {
-            let row = s1 / (p * SQRT3_2) + mean.1 / SQRT3_2;
-            let k0 = clamp_index(row.floor(), ky) as f64;
-            for dk in -1..=2 {
-                push(clamp_index(k0 + dk as f64, ky));
-            }
-        } else {
-            let t = s1 / p + (ky as f64 - 1.0) / 2.0;
-            push(clamp_index(t.floor(), ky));
-            push(clamp_index(t.ceil(), ky));
+        let (ks, n) = row_ks(self.hex, self.ch.ky, sen.p, sen.mean, s1);
+        for &k in &ks[..n] {
+            push(k);
         }
+        // Conversely, a row also never wins when a later row of the same parity is nearer
+        // by more than `sure`: for every j its rounded distance² is then strictly larger
+        // (no tie to win). Drop it too.
+        let mut kept = 0;
+        for i in 0..rc.n {
+            let beaten =
+                (i + 1..rc.n).any(|l| rc.par[l] == rc.par[i] && rc.dyy[i] - rc.dyy[l] > sen.sure);
+            if !beaten {
+                rc.k[kept] = rc.k[i];
+                rc.par[kept] = rc.par[i];
+                rc.dyy[kept] = rc.dyy[i];
+                rc.theta[kept] = rc.theta[i];
+                rc.w[kept] = rc.w[i];
+                rc.y[kept] = rc.y[i];
+                kept += 1;
+            }
+        }
+        rc.n = kept;
         rc
     }
 
@@ -376,43 +486,63 @@ impl<'a> Tables<'a> {
     /// exactly [`Channel::nearest_lens`]; θ, w and the sample are read from the tables,
     /// computed by the expressions of [`Design::pixel`] and [`Design::chief_sample`]; lit
     /// is [`Channel::in_cell`] and [`Design::passes`] with their constants hoisted.
+    /// `N` is the row's candidate count `rc.n` (1 to 4), `HEX` the grid and `CIRCLE` the
+    /// aperture's shape: constants, so that the candidate loop unrolls and the per-pixel
+    /// code has no branch on the design (see [`Tables::sensor_row`] and `dispatch!`).
     #[inline(always)]
-    fn sensor_pixel(
+    fn sensor_pixel<const N: usize, const HEX: bool, const CIRCLE: bool>(
         &self,
         sen: &Sensor,
         c: &ColumnCandidates,
         cx: &ColumnX,
         rc: &RowCandidates,
     ) -> SensorPx {
+        debug_assert_eq!(N, rc.n);
+        debug_assert_eq!(HEX, self.hex);
+        debug_assert_eq!(CIRCLE, self.design.shape == Aperture::Circle);
         // (j, k) packed so that integer order is (j, k) order; selects, not branches.
         let mut best = u64::MAX;
         let mut bd = f64::INFINITY;
         let (mut bi, mut bh) = (0, 0);
-        for i in 0..rc.n {
-            let (k, par, dyy) = (rc.k[i], rc.par[i], rc.dyy[i]);
-            for h in 0..2 {
-                let j = c.j[par][h];
-                let dd = c.dxx[par][h] + dyy;
-                let key = ((j as u64) << 32) | k as u64;
-                let better = (dd < bd) | ((dd == bd) & (key < best));
-                best = if better { key } else { best };
-                bd = if better { dd } else { bd };
-                bi = if better { i } else { bi };
-                bh = if better { h } else { bh };
+        let mut consider = |i: usize, k: u32, par: usize, h: usize, dyy: f64| {
+            let j = c.j[par][h];
+            let dd = c.dxx[par][h] + dyy;
+            let key = ((j as u64) << 32) | k as u64;
+            let better = (dd < bd) | ((dd == bd) & (key < best));
+            best = if better { key } else { best };
+            bd = if better { dd } else { bd };
+            bi = if better { i } else { bi };
+            bh = if better { h } else { bh };
+        };
+        if c.amb {
+            for i in 0..N {
+                let (k, par, dyy) = (rc.k[i], rc.par[i] & 1, rc.dyy[i]);
+                for h in 0..2 {
+                    consider(i, k, par, h, dyy);
+                }
+            }
+        } else {
+            // Only the candidate of each lens row that beats (or ties and precedes) the
+            // other of that row whatever the row's distance² (`sel`): the least over the
+            // rest is the least over all.
+            for i in 0..N {
+                let (k, par, dyy) = (rc.k[i], rc.par[i] & 1, rc.dyy[i]);
+                consider(i, k, par, c.sel[par] as usize & 1, dyy);
             }
         }
-        let par = rc.par[bi];
+        let par = rc.par[bi] & 1;
         let (ax, ay) = (cx.theta[par][bh].abs(), rc.theta[bi].abs());
         let half = sen.half_cell;
-        let in_cell = if self.hex {
+        let in_cell = if HEX {
             (ax <= half) & (ax / 2.0 + ay * SQRT3_2 <= half)
         } else {
             (ax <= half) & (ay <= half)
         };
         let (w0, w1, r) = (cx.w[par][bh], rc.w[bi], sen.radius);
-        let passes = match self.design.shape {
-            Aperture::Square => (w0.abs() < r) & (w1.abs() < r),
-            Aperture::Circle => w0 * w0 + w1 * w1 < r * r,
+        let passes = if CIRCLE {
+            w0 * w0 + w1 * w1 < r * r
+        } else {
+            (w0.abs() < r) & (w1.abs() < r)
         };
         SensorPx {
             j: (best >> 32) as u32,
@@ -473,16 +603,42 @@ impl<'a> Tables<'a> {
             }
             PixelTables::Sensor(sen) => {
                 let rc = self.row(sen, sen.sy[b], g, s);
-                for (a, (c, cx)) in sen.cols.iter().zip(colx).enumerate() {
-                    let px = self.sensor_pixel(sen, c, cx, &rc);
-                    x[a] = if px.lit { px.xy[0] } else { f64::NAN };
-                    y[a] = if px.lit { px.xy[1] } else { f64::NAN };
-                    lit[a] = px.lit;
-                    lens[2 * a] = px.j as i64;
-                    lens[2 * a + 1] = px.k as i64;
-                    types[a] = self.lens_type(px.j, px.k) as i64;
-                }
+                let out = RowOut {
+                    x,
+                    y,
+                    lit,
+                    lens,
+                    types,
+                };
+                dispatch!(self, rc, sensor_row(sen, &rc, colx, out));
             }
+        }
+    }
+
+    /// One sensor row of the chief-sample outputs, its `N` = `rc.n` candidate lens rows.
+    #[inline(always)]
+    fn sensor_row<const N: usize, const HEX: bool, const CIRCLE: bool>(
+        &self,
+        sen: &Sensor,
+        rc: &RowCandidates,
+        colx: &[ColumnX],
+        out: RowOut<'_>,
+    ) {
+        let it = sen
+            .cols
+            .iter()
+            .zip(colx)
+            .zip(out.x.iter_mut().zip(out.y.iter_mut()))
+            .zip(out.lit.iter_mut().zip(out.lens.chunks_exact_mut(2)))
+            .zip(out.types.iter_mut());
+        for ((((c, cx), (x, y)), (lit, lens)), t) in it {
+            let px = self.sensor_pixel::<N, HEX, CIRCLE>(sen, c, cx, rc);
+            *x = if px.lit { px.xy[0] } else { f64::NAN };
+            *y = if px.lit { px.xy[1] } else { f64::NAN };
+            *lit = px.lit;
+            lens[0] = px.j as i64;
+            lens[1] = px.k as i64;
+            *t = self.lens_type(px.j, px.k) as i64;
         }
     }
 
@@ -599,6 +755,27 @@ impl<'a> Tables<'a> {
         }
     }
 
+    /// Append the lit samples of columns `cols` of one sensor row (`N` = `rc.n` candidate
+    /// lens rows) that `keep` accepts to `out` (capacity reserved by the caller).
+    #[inline(always)]
+    fn gather_row<const N: usize, const HEX: bool, const CIRCLE: bool>(
+        &self,
+        sen: &Sensor,
+        rc: &RowCandidates,
+        cols: &[u32],
+        colx: &[ColumnX],
+        keep: &impl Fn([f64; 2]) -> bool,
+        out: &mut Vec<[f64; 2]>,
+    ) {
+        for &a in cols {
+            let a = a as usize;
+            let px = self.sensor_pixel::<N, HEX, CIRCLE>(sen, &sen.cols[a], &colx[a], rc);
+            if px.lit && keep(px.xy) {
+                out.push(px.xy);
+            }
+        }
+    }
+
     /// Append the lit samples with |X| ≤ bx and |Y| ≤ by to `out`.
     fn gather(
         &self,
@@ -647,13 +824,7 @@ impl<'a> Tables<'a> {
                 self.columns_x(sen, g, s, &mut colx)?;
                 for &b in rows.iter() {
                     let rc = self.row(sen, sen.sy[b as usize], g, s);
-                    for &a in cols.iter() {
-                        let a = a as usize;
-                        let px = self.sensor_pixel(sen, &sen.cols[a], &colx[a], &rc);
-                        if px.lit && keep(px.xy) {
-                            out.push(px.xy);
-                        }
-                    }
+                    dispatch!(self, rc, gather_row(sen, &rc, cols, &colx, &keep, out));
                 }
             }
         }
@@ -1350,6 +1521,9 @@ struct Ctx<'a> {
     /// Use the separable computation for channels whose samples are a Cartesian product
     /// (see [`separable_row`]); off only to test it against the general one.
     separable: bool,
+    /// Give a one-channel design's union row the channel row's result instead of
+    /// computing it again on the same samples (see [`rows_from`]); off only to test it.
+    union_is_channel: bool,
 }
 
 /// The geometry of one depth.
@@ -1539,6 +1713,9 @@ fn rows_from(
             done[r] = separable_row(t, g, s, geom, slot)?;
         }
     }
+    // One channel computed by the general path: the union is the same sample set at the
+    // same margin, so its pass is the channel's, result for result (not recomputed).
+    let union_is_channel = ctx.union_is_channel && n_ch == 1 && done[0].is_none();
     let mut m = first;
     let mut pass = 0;
     loop {
@@ -1566,6 +1743,19 @@ fn rows_from(
         let mut next = 0.0f64;
         for r in 0..n_rows {
             if done[r].is_some() {
+                continue;
+            }
+            if r == n_ch && union_is_channel {
+                // Row 0 ran just before on the same points: exact now or widening.
+                if let Some(res) = done[0] {
+                    if let Some(k) = keep.as_deref_mut() {
+                        let (chan, union) = k.split_at_mut(1);
+                        union[0].clear();
+                        try_reserve(&mut union[0], "samples_2d (representatives)", chan[0].len())?;
+                        union[0].extend_from_slice(&chan[0]);
+                    }
+                    done[r] = Some(res);
+                }
                 continue;
             }
             let range = if r < n_ch {
@@ -1727,6 +1917,7 @@ fn context<'a>(design: &'a Design, tol: f64, window: f64) -> Result<Ctx<'a>> {
         tol,
         window,
         separable: true,
+        union_is_channel: true,
     })
 }
 
@@ -2051,6 +2242,28 @@ mod tests {
                 )],
             )
             .unwrap(),
+            // Pixel pitch a tenth of the image pitch (0.1 (1 + 0.3/60) / 10) and odd pixel
+            // counts: pixel centres fall (within rounding) midway between two lens images,
+            // the nearest-lens search's ties.
+            Design::new(
+                50.0,
+                10.0,
+                Aperture::Square,
+                &[spec(
+                    60.0,
+                    0.1,
+                    0.3,
+                    0.01005,
+                    8,
+                    6,
+                    Grid::Rect,
+                    None,
+                    "sensor",
+                    None,
+                    Some((81, 61)),
+                )],
+            )
+            .unwrap(),
             Design::from_camera(&small_camera()),
         ]
     }
@@ -2065,6 +2278,18 @@ mod tests {
 
     #[test]
     fn chief_samples_are_design_pixels_bit_for_bit() {
+        // Both paths of the nearest-lens search run: columns settled once (`sel`) and
+        // columns within rounding of a tie (`amb`, every pixel compares both candidates).
+        let (mut settled, mut ambiguous) = (0, 0);
+        for d in designs() {
+            for ch in &d.channels {
+                if let PixelTables::Sensor(sen) = &Tables::new(&d, ch).unwrap().px {
+                    ambiguous += sen.cols.iter().filter(|c| c.amb).count();
+                    settled += sen.cols.iter().filter(|c| !c.amb).count();
+                }
+            }
+        }
+        assert!(settled > 0 && ambiguous > 0, "{settled} {ambiguous}");
         for d in designs() {
             for (i, ch) in d.channels.iter().enumerate() {
                 for z in [d.f_main * 1.3, 300.0, 2000.0] {
@@ -2328,6 +2553,33 @@ mod tests {
                     matches!(t.px, PixelTables::Ideal { .. }) && d.shape == Aperture::Square
                 });
                 checked += separable as usize;
+            }
+        }
+        assert!(checked >= 8, "{checked}");
+    }
+
+    #[test]
+    fn one_channel_union_is_the_channel_row_bit_for_bit() {
+        let mut checked = 0;
+        for d in designs().into_iter().filter(|d| d.channels.len() == 1) {
+            let mut ctx = context(&d, 1e-6, 16.0).unwrap();
+            let mut w = Work::default();
+            for separable in [true, false] {
+                ctx.separable = separable;
+                for z in [d.f_main * 1.2, 200.0, 700.0, 5000.0] {
+                    let geom = ctx.geom(z);
+                    let mut keep = vec![Vec::new(); 2];
+                    ctx.union_is_channel = true;
+                    let fast =
+                        rows_from(&ctx, &geom, geom.first, &mut w, Some(&mut keep), false).unwrap();
+                    let fast_keep = keep.clone();
+                    ctx.union_is_channel = false;
+                    let slow =
+                        rows_from(&ctx, &geom, geom.first, &mut w, Some(&mut keep), false).unwrap();
+                    assert_eq!(fast, slow, "z = {z}");
+                    assert_eq!(fast_keep, keep, "z = {z}");
+                    checked += 1;
+                }
             }
         }
         assert!(checked >= 8, "{checked}");
