@@ -25,12 +25,10 @@ def _polygons(tr, keep):
     return [tr.vertices[i, : tr.n_vertices[i]] for i in np.flatnonzero(keep)]
 
 
-def _check(camera: Camera, depths: Sequence[float] | None, n_lenses: int) -> np.ndarray:
-    """The depths to draw (default: both out-of-focus planes and 2.5 z_1), validated."""
-    if depths is None:
-        z1, z2 = camera.out_of_focus_depth(1), camera.out_of_focus_depth(2)
-        depths = (z1, z2, 2.5 * z1)
-    zs = _validate.depths(depths, "depths")
+def _check(camera: Camera | Design, depths: Sequence[float] | None, n_lenses: int,
+           default: Sequence[float]) -> np.ndarray:
+    """The depths to draw (``default`` when None), validated with ``n_lenses``."""
+    zs = _validate.depths(default if depths is None else depths, "depths")
     if not 1 <= len(zs) <= len(DEPTH_COLOURS):
         raise ValueError(f"depths: give 1 to {len(DEPTH_COLOURS)} depths, got {len(zs)}")
     if not np.all(np.isfinite(zs) & (zs > camera.F)):
@@ -126,7 +124,8 @@ def ray_space(
     cam = _validate.camera_or_design(camera)
     if isinstance(cam, Design):
         return _design_ray_space(cam, depths, n_lenses, axis, ax, n_threads)
-    zs = _check(cam, depths, n_lenses)
+    z1 = cam.out_of_focus_depth(1)
+    zs = _check(cam, depths, n_lenses, (z1, cam.out_of_focus_depth(2), 2.5 * z1))
     plt = pyplot()
     if ax is None:
         _, ax = plt.subplots(figsize=(9.0, 6.0), layout="constrained")
@@ -180,16 +179,7 @@ def _design_ray_space(des: Design, depths: Sequence[float] | None, n_lenses: int
 
     n_ch = len(des.channels)
     oof = [des.out_of_focus_depth(c) for c in range(1, n_ch + 1)]
-    if depths is None:
-        depths = oof[:3] if n_ch > 1 else [oof[0], 2.5 * oof[0]]
-    zs = _validate.depths(depths, "depths")
-    if not 1 <= len(zs) <= len(DEPTH_COLOURS):
-        raise ValueError(f"depths: give 1 to {len(DEPTH_COLOURS)} depths, got {len(zs)}")
-    if not np.all(np.isfinite(zs) & (zs > des.F)):
-        raise ValueError(f"invalid depths = {zs.tolist()}: allowed finite depths > F = "
-                         f"{des.F} mm")
-    if isinstance(n_lenses, bool) or not isinstance(n_lenses, int) or n_lenses < 1:
-        raise ValueError(f"invalid n_lenses = {n_lenses!r}: allowed an integer >= 1")
+    zs = _check(des, depths, n_lenses, oof[:3] if n_ch > 1 else [oof[0], 2.5 * oof[0]])
     if ax is None:
         _, ax = pyplot().subplots(figsize=(9.0, 6.0), layout="constrained")
     L1 = des.channels[0].L
