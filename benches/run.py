@@ -7,6 +7,11 @@ size) over several rounds, rotating their order every round, and report medians.
 memory of each side is measured in a fresh subprocess (VmHWM above the post-setup
 resident set).
 
+A study (W7, the inverse design) has no NumPy twin: it is checked (deterministic, the
+same at 1 thread and all threads, its merits those of the public API), then run at 1
+thread and all threads in alternation; it reports the time per evaluated design and the
+share of its time spent outside the core, both measured in the same process.
+
     python benches/run.py            # full sizes -> benches/results.json, benches/RESULTS.md
     python benches/run.py --quick    # small sizes (CI smoke test) -> benches/out/
     python benches/run.py --only W1  # one workload
@@ -36,6 +41,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
 import numpy_impl  # noqa: E402
+import w7_optimise  # noqa: E402
 
 import splitlf  # noqa: E402
 
@@ -294,6 +300,111 @@ workload(Workload(
 ))
 
 
+# -- W7: inverse design (a study: no NumPy twin) ---------------------------------------------
+
+@dataclasses.dataclass
+class Study:
+    """A workload of the package's own orchestration around the core, with no NumPy twin:
+    measured as time per unit of work and the share of its time outside the core, both
+    within one process."""
+
+    name: str
+    title: str
+    sizes: Callable[[bool], dict[str, Any]]
+    # Checks the work before any timing (raises on a mismatch); returns what it measured.
+    check: Callable[[dict[str, Any]], dict[str, Any]]
+    # One timed run at n_threads (None: all) -> its figures (w7_optimise.figures).
+    run: Callable[[dict[str, Any], int | None], dict[str, float]]
+    max_rounds: int | None = None
+
+
+STUDIES: dict[str, Study] = {}
+
+
+def _w7_sizes(quick: bool) -> dict[str, Any]:
+    size = w7_optimise.QUICK if quick else w7_optimise.FULL
+    return {**size, "free": "kappa, D, v", "depths": w7_optimise.N_DEPTHS}
+
+
+def _w7_run(sizes: dict[str, Any], n_threads: int | None) -> dict[str, float]:
+    return w7_optimise.figures(w7_optimise.search(sizes["generations"], sizes["popsize"],
+                                                  n_threads))
+
+
+def _w7_check(sizes: dict[str, Any]) -> dict[str, Any]:
+    """The search at all threads and at 1 thread: the same history, row for row; the best
+    design's merits equal `splitlf.sweep.evaluate_design` of it (the public API, not the
+    search's own path) exactly; the core evaluated exactly the valid candidates."""
+    from splitlf.sweep import evaluate_design
+
+    a = w7_optimise.search(sizes["generations"], sizes["popsize"], None)
+    b = w7_optimise.search(sizes["generations"], sizes["popsize"], 1)
+    assert a.history.equals(b.history) and a.free == b.free, "W7: threads changed the search"
+    api = evaluate_design(a.design, w7_optimise.depths())
+    for name, value in api.items():
+        np.testing.assert_array_equal(a.merits[name], value, err_msg=f"W7: merit {name}")
+    valid = int(a.history["valid"].sum())
+    assert valid == int(a.timing["evaluations"]), ("W7: core evaluations", valid, a.timing)
+    assert a.generations == sizes["generations"], ("W7: generations", a.generations)
+    return {"same_history_1_and_all_threads": True, "merits_equal_evaluate_design": True,
+            "candidates": a.nfev, "valid_candidates": valid}
+
+
+STUDIES["W7"] = Study(
+    name="W7",
+    title="`optimise` of the split sensor over (kappa, D, v), 200 depths",
+    sizes=_w7_sizes,
+    check=_w7_check,
+    run=_w7_run,
+    max_rounds=5,
+)
+
+
+#: Per-run figures of a study reported as medians per thread count.
+STUDY_FIGURES = ("ms_per_candidate", "ms_per_evaluated_design", "core_ms_per_evaluated_design",
+                 "share_outside_core")
+
+
+def run_study(s: Study, quick: bool, rounds: int) -> dict[str, Any]:
+    sizes = s.sizes(quick)
+    rounds = min(rounds, s.max_rounds or rounds)
+    agreement = s.check(sizes)
+    runs = {"native_1": lambda: s.run(sizes, 1), "native_all": lambda: s.run(sizes, None)}
+    per: dict[str, list[dict[str, float]]] = {side: [] for side in runs}
+    order = list(runs)
+    for r in range(rounds):
+        for side in order[r % len(order):] + order[:r % len(order)]:
+            gc.collect()
+            per[side].append(runs[side]())
+    counts = {(f["candidates"], f["evaluated_by_core"], f["invalid"])
+              for fs in per.values() for f in fs}
+    assert len(counts) == 1, (s.name, "runs differ in their candidates", counts)
+    candidates, evaluated, invalid = counts.pop()
+
+    def med(side: str, key: str) -> float:
+        return statistics.median(f[key] for f in per[side])
+
+    result: dict[str, Any] = {
+        "workload": s.name,
+        "kind": "study",
+        "title": s.title,
+        "sizes": sizes,
+        "rounds": rounds,
+        "threads_all": os.cpu_count() or 1,
+        "agreement": agreement,
+        "candidates": candidates,
+        "evaluated_by_core": evaluated,
+        "invalid": invalid,
+        "median_s": {side: med(side, "search_s") for side in per},
+        "times_s": {side: [f["search_s"] for f in fs] for side, fs in per.items()},
+        "core_s": {side: [f["core_s"] for f in fs] for side, fs in per.items()},
+        **{key: {side: med(side, key) for side in per} for key in STUDY_FIGURES},
+        "target_share_outside_core": w7_optimise.TARGET_SHARE_OUTSIDE_CORE,
+    }
+    result["speedup_1_to_all"] = result["median_s"]["native_1"] / result["median_s"]["native_all"]
+    return result
+
+
 # -- harness -------------------------------------------------------------------------------
 
 def check_equal(a: dict[str, np.ndarray], b: dict[str, np.ndarray], name: str) -> None:
@@ -483,13 +594,18 @@ def write_markdown(doc: dict[str, Any], path: Path) -> None:
         "time / native time; 'x floor' is a side's time over allocating and filling fresh "
         "arrays of the output's total size. Peak memory: extra resident memory of one run in "
         "a fresh process.",
-        "",
-        "| workload | sizes | NumPy [s] | native 1 thr [s] | native all [s] | NumPy/native 1 "
-        "| NumPy/native all | 1→all speed-up | NumPy x floor | native x floor | "
-        "peak MiB NumPy / native / output |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
+    if any(r.get("kind") != "study" for r in doc["results"]):
+        lines += [
+            "",
+            "| workload | sizes | NumPy [s] | native 1 thr [s] | native all [s] | "
+            "NumPy/native 1 | NumPy/native all | 1→all speed-up | NumPy x floor | "
+            "native x floor | peak MiB NumPy / native / output |",
+            "|---|---|---|---|---|---|---|---|---|---|---|",
+        ]
     for r in doc["results"]:
+        if r.get("kind") == "study":
+            continue
         m = r["median_s"]
         floor = (f"{r['numpy_over_floor']:.2f} | {r['native_all_over_floor']:.2f}"
                  if "numpy_over_floor" in r else "– | –")
@@ -501,8 +617,35 @@ def write_markdown(doc: dict[str, Any], path: Path) -> None:
             f"{r['speedup_1_to_all']:.2f} | {floor} | "
             f"{_mib(r['peak_mib']['numpy'])} / {r['peak_mib']['native']:.0f} / {out_mib} |"
         )
+    lines += _markdown_studies(doc)
     lines += _markdown_targets(doc)
     path.write_text("\n".join(lines) + "\n")
+
+
+def _markdown_studies(doc: dict[str, Any]) -> list[str]:
+    """The studies (no NumPy twin): time per evaluated design and share outside the core."""
+    studies = [r for r in doc["results"] if r.get("kind") == "study"]
+    if not studies:
+        return []
+    out = ["", "Studies without a NumPy twin: the time per evaluated design (the search's whole "
+           "time over the designs the core evaluated) and the share of the search's time "
+           "spent outside the core, at 1 thread and all threads (medians).", "",
+           "| workload | sizes | candidates / evaluated by the core | search [s] 1 thr / all "
+           "| ms per evaluated design 1 thr / all | core ms per design 1 thr / all "
+           "| share outside the core 1 thr / all | target |",
+           "|---|---|---|---|---|---|---|---|"]
+    for r in studies:
+        m, per, core, share = (r["median_s"], r["ms_per_evaluated_design"],
+                               r["core_ms_per_evaluated_design"], r["share_outside_core"])
+        met = max(share.values()) < r["target_share_outside_core"]
+        out.append(
+            f"| {r['workload']}: {r['title']} | {_fmt_sizes(r['sizes'])} | "
+            f"{r['candidates']} / {r['evaluated_by_core']} | {m['native_1']:.3g} / "
+            f"{m['native_all']:.3g} | {per['native_1']:.3g} / {per['native_all']:.3g} | "
+            f"{core['native_1']:.3g} / {core['native_all']:.3g} | "
+            f"{100 * share['native_1']:.1f} % / {100 * share['native_all']:.1f} % | "
+            f"< {100 * r['target_share_outside_core']:.0f} %: {'met' if met else 'NOT met'} |")
+    return out
 
 
 def _markdown_targets(doc: dict[str, Any]) -> list[str]:
@@ -538,10 +681,14 @@ def _markdown_targets(doc: dict[str, Any]) -> list[str]:
                 "", "| workload | native all now/then | native 1 now/then | NumPy/native all "
                 "| NumPy/native 1 |", "|---|---|---|---|---|"]
         for n, c in prev["workloads"].items():
-            ra, r1 = c["ratio_numpy_over_native_all"], c["ratio_numpy_over_native_1"]
+            if "ratio_numpy_over_native_all" in c:
+                ra, r1 = c["ratio_numpy_over_native_all"], c["ratio_numpy_over_native_1"]
+                ratios = f"{ra[0]:.1f} -> {ra[1]:.1f} | {r1[0]:.1f} -> {r1[1]:.1f}"
+            else:  # a study: its share outside the core, then -> now
+                sh = c["share_outside_core_all"]
+                ratios = f"(share outside the core {sh[0]:.3f} -> {sh[1]:.3f}) | –"
             out.append(f"| {n} | {c['native_all_now_over_then']:.2f} | "
-                       f"{c['native_1_now_over_then']:.2f} | {ra[0]:.1f} -> {ra[1]:.1f} | "
-                       f"{r1[0]:.1f} -> {r1[1]:.1f} |")
+                       f"{c['native_1_now_over_then']:.2f} | {ratios} |")
     return out
 
 
@@ -555,21 +702,27 @@ def compare(previous: dict[str, Any], results: list[dict[str, Any]]) -> dict[str
         o = old.get(r["workload"])
         if o is None:
             continue
-        rows[r["workload"]] = {
+        row = {
             "native_all_now_over_then": r["median_s"]["native_all"] / o["median_s"]["native_all"],
             "native_1_now_over_then": r["median_s"]["native_1"] / o["median_s"]["native_1"],
-            "ratio_numpy_over_native_all": [o["ratio_numpy_over_native_all"],
-                                            r["ratio_numpy_over_native_all"]],
-            "ratio_numpy_over_native_1": [o["ratio_numpy_over_native_1"],
-                                          r["ratio_numpy_over_native_1"]],
         }
+        if r.get("kind") == "study":
+            row["share_outside_core_all"] = [o["share_outside_core"]["native_all"],
+                                             r["share_outside_core"]["native_all"]]
+        else:
+            row["ratio_numpy_over_native_all"] = [o["ratio_numpy_over_native_all"],
+                                                  r["ratio_numpy_over_native_all"]]
+            row["ratio_numpy_over_native_1"] = [o["ratio_numpy_over_native_1"],
+                                                r["ratio_numpy_over_native_1"]]
+        rows[r["workload"]] = row
     return {"commit": previous.get("commit"), "workloads": rows}
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="small sizes (CI smoke test)")
-    ap.add_argument("--only", nargs="*", choices=sorted(WORKLOADS), help="workloads to run")
+    ap.add_argument("--only", nargs="*", choices=sorted([*WORKLOADS, *STUDIES]),
+                    help="workloads to run")
     ap.add_argument("--rounds", type=int, default=None,
                     help="alternating rounds (default 7, 3 with --quick)")
     ap.add_argument("--out", type=Path, default=None,
@@ -588,12 +741,21 @@ def main(argv: list[str] | None = None) -> int:
     previous = (json.loads(prev_path.read_text())
                 if not args.quick and prev_path.exists() else None)
     results = []
-    for name in args.only or sorted(WORKLOADS):
+    for name in args.only or sorted([*WORKLOADS, *STUDIES]):
         load_before = os.getloadavg()
-        r = run_workload(WORKLOADS[name], args.quick, rounds)
+        if name in STUDIES:
+            r = run_study(STUDIES[name], args.quick, rounds)
+        else:
+            r = run_workload(WORKLOADS[name], args.quick, rounds)
         r["load_average"] = {"before": load_before, "after": os.getloadavg()}
         results.append(r)
         m = r["median_s"]
+        if name in STUDIES:
+            per, share = r["ms_per_evaluated_design"], r["share_outside_core"]
+            print(f"{name}: {per['native_1']:.3g} / {per['native_all']:.3g} ms per evaluated "
+                  f"design (1 thr / all), share outside the core {share['native_1']:.3f} / "
+                  f"{share['native_all']:.3f}", flush=True)
+            continue
         print(f"{name}: numpy {m['numpy']:.4g}s, native 1 thr {m['native_1']:.4g}s, all "
               f"{m['native_all']:.4g}s -> ratio {r['ratio_numpy_over_native_all']:.1f}x",
               flush=True)

@@ -1,5 +1,6 @@
 """Smoke test of the benchmark harness at --quick sizes (no timing assertions): it must run,
-find NumPy and native results equal, and write its JSON and Markdown reports.
+find NumPy and native results equal (W7: the search the same at 1 and all threads, its
+merits those of the public API), and write its JSON and Markdown reports.
 
 Marked ``bench``, which the default pytest options deselect (it spends several seconds
 timing); run it with ``python -m pytest -m bench tests/test_benches.py``, as CI does."""
@@ -23,7 +24,7 @@ def test_quick_benchmarks_run(tmp_path):
                     "--out", str(tmp_path)], check=True, capture_output=True, text=True)
     doc = json.loads((tmp_path / "results.json").read_text())
     names = [r["workload"] for r in doc["results"]]
-    assert names == ["W1", "W2", "W3", "W4", "W5", "W6"] and doc["quick"] is True
+    assert names == ["W1", "W2", "W3", "W4", "W5", "W6", "W7"] and doc["quick"] is True
     for r in doc["results"]:
         assert all(t > 0 for t in r["median_s"].values())
         if "output_mib" in r:  # the outputs themselves must show in the measured peak
@@ -36,5 +37,15 @@ def test_quick_benchmarks_run(tmp_path):
     assert by["W6"]["agreement"]["bit_for_bit"] is True
     assert by["W6"]["native_all_over_floor"] > 0
     assert by["W6"]["traced_peak_mib"]["native"] >= 0.99 * by["W6"]["output_mib"]
+    # W7: checked before timing, every run the same search, a share of time in [0, 1)
+    w7 = by["W7"]
+    assert w7["agreement"]["same_history_1_and_all_threads"] is True
+    assert w7["agreement"]["merits_equal_evaluate_design"] is True
+    assert w7["candidates"] == w7["evaluated_by_core"] + w7["invalid"]
+    assert w7["evaluated_by_core"] > 0 and w7["sizes"]["depths"] == 200
+    for side in ("native_1", "native_all"):
+        assert 0.0 <= w7["share_outside_core"][side] < 1.0
+        assert w7["ms_per_evaluated_design"][side] >= w7["core_ms_per_evaluated_design"][side]
     table = (tmp_path / "RESULTS.md").read_text()
+    assert "| W7: " in table and "share outside the core" in table
     assert table.count("\n| W") == len(names)

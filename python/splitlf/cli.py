@@ -132,9 +132,9 @@ _f_number = _real_type("f-number", 0.0, "a finite number > 0")
 
 # -- report ------------------------------------------------------------------------------
 
-def _load_report_subject(args: argparse.Namespace) -> tuple[Camera | Design, str]:
-    """What `report` describes: a preset design, a [design] or [camera] TOML file, or the
-    seed camera."""
+def _load_subject(args: argparse.Namespace) -> tuple[Camera | Design, str]:
+    """What a subcommand works on: a preset design (``--preset``), a [design] or [camera]
+    TOML file (``--config``), or the seed camera."""
     if args.preset is not None:
         if args.config is not None:
             raise CliError("--preset and --config: give one of them")
@@ -145,9 +145,10 @@ def _load_report_subject(args: argparse.Namespace) -> tuple[Camera | Design, str
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
-    subject, source = _load_report_subject(args)
+    subject, source = _load_subject(args)
     if isinstance(subject, Design):
-        data = design_report_data(subject, args.threshold)
+        data = design_report_data(subject, args.threshold, n_threads=args.threads,
+                                  samples=True)
         text = format_design_report
     else:
         data = report_data(subject, args.threshold, n_threads=args.threads)
@@ -206,7 +207,7 @@ def _cmd_figures(args: argparse.Namespace) -> int:
     from .plot._mpl import trace_threads
 
     trace_threads(args.threads)  # the ray-space figure traces: refuse what it cannot honour
-    subject, _ = _load_report_subject(args)
+    subject, _ = _load_subject(args)
     design = isinstance(subject, Design)
     if args.z is not None and not args.z > subject.F:
         raise CliError(f"invalid --z {args.z:g}: allowed a depth > F = {subject.F:g} mm")
@@ -252,7 +253,7 @@ def _cmd_trace(args: argparse.Namespace) -> int:
     from . import rayspace
     from .plot._mpl import trace_threads
 
-    camera, source = _load_report_subject(args)
+    camera, source = _load_subject(args)
     out = Path(args.out)
     _check_suffix("--out", out, (".npz",))
     check_new(out, args.force, FORCE_HINT)
@@ -342,12 +343,14 @@ def _sweep_depths(path: str, dep: Any) -> np.ndarray:
 
 
 def load_sweep(path: str) -> dict[str, Any]:
-    """Read and check a sweep TOML file: ``[grid]`` (required; camera field -> list of
-    values or ``{start, stop, num, log}``), ``[depths]`` (``min``, ``max`` in mm, ``num``
-    log-spaced depths), ``[options]`` (``threshold_px``, ``tol``) and an optional
-    ``[camera]`` base design.
+    """Read and check a sweep TOML file: ``[grid]`` (required; field -> list of values or
+    ``{start, stop, num, log}``), ``[depths]`` (``min``, ``max`` in mm, ``num`` log-spaced
+    depths), ``[options]`` (``threshold_px``, ``tol``) and an optional base: a ``[camera]``
+    table, or a ``[design]`` table with its ``[[design.channels]]`` (docs/architectures.md;
+    the grid then names the design's fields by path, ``"channels[2].L"``).
 
-    Returns {"grid", "depths", "options", "camera" (None without [camera])}. Raises
+    Returns {"grid", "depths", "options", "camera" (None without [camera]), "design"
+    (None without [design])}. Raises
     :class:`CliError` / ``ValueError`` naming the file and the key for anything invalid
     (ranges, limits :data:`splitlf.sweep.MAX_DESIGNS` and :data:`~splitlf.sweep.MAX_DEPTHS`),
     ``OSError`` when the file cannot be read.
@@ -355,10 +358,12 @@ def load_sweep(path: str) -> dict[str, Any]:
     from .sweep import _threshold, _tol
 
     doc = read_toml(path)
-    unknown = set(doc) - {"grid", "depths", "options", "camera"}
+    unknown = set(doc) - {"grid", "depths", "options", "camera", "design"}
     if unknown:
         raise CliError(f"{path}: unknown table(s) {sorted(unknown)}; "
-                       "allowed: grid, depths, options, camera")
+                       "allowed: grid, depths, options, camera or design")
+    if "camera" in doc and "design" in doc:
+        raise CliError(f"{path}: a [camera] and a [design] table: give one base")
     if not isinstance(doc.get("grid"), dict) or not doc["grid"]:
         raise CliError(f"{path}: needs a non-empty [grid] table of camera fields")
     grid = {k: _linspace(f"{path}: grid.{k}", v) for k, v in doc["grid"].items()}
@@ -374,18 +379,23 @@ def load_sweep(path: str) -> dict[str, Any]:
         raise CliError(f"{path}: options: {e}") from None
     camera = Camera.from_dict(doc["camera"], source=f"{path} [camera]") if "camera" in doc \
         else None
-    return {"grid": grid, "depths": depths, "options": options, "camera": camera}
+    design = Design.from_dict(doc["design"], source=f"{path} [design]") if "design" in doc \
+        else None
+    return {"grid": grid, "depths": depths, "options": options, "camera": camera,
+            "design": design}
 
 
 SWEEP_SUFFIXES = (".nc", ".parquet", ".json")
 
 
 def _sweep_document(ds: Any) -> dict[str, Any]:
-    """The sweep as JSON: attributes (without the base camera TOML) and one record per
-    design."""
+    """The sweep as JSON: attributes (without the base's TOML) and one record per design,
+    every number exact (Python floats, written by repr; pandas' ``to_json`` would keep 10
+    digits); :func:`json_text` writes NaN as null."""
     df = ds.to_dataframe().reset_index()
-    return {"attrs": {k: v for k, v in ds.attrs.items() if k != "base_camera"},
-            "designs": json.loads(df.to_json(orient="records"))}
+    return {"attrs": {k: v for k, v in ds.attrs.items()
+                      if k not in ("base_camera", "base_design")},
+            "designs": df.to_dict(orient="records")}
 
 
 def _write_sweep(ds: Any, out: Path, force: bool) -> None:
@@ -398,7 +408,7 @@ def _write_sweep(ds: Any, out: Path, force: bool) -> None:
             tmp.write_text(json_text(_sweep_document(ds)), encoding="utf-8")
 
 
-def _run_sweep(camera: Camera, spec: dict[str, Any], scheduler: str | None,
+def _run_sweep(camera: Camera | Design, spec: dict[str, Any], scheduler: str | None,
                n_threads: int | None) -> Any:
     from .sweep import sweep
 
@@ -419,15 +429,22 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         import xarray  # noqa: F401
     except ImportError:
         raise CliError('sweep needs xarray: pip install "splitlf[sweep]"') from None
-    from .sweep import METRICS
+    from .sweep import METRICS, design_metrics
 
     out = None if args.out is None else Path(args.out)
     if out is not None:
         _check_suffix("--out", out, SWEEP_SUFFIXES)
         check_new(out, args.force, FORCE_HINT)
     spec = load_sweep(args.grid)
-    camera = spec["camera"] or _load_camera(args.config)[0]
-    ds = _run_sweep(camera, spec, args.scheduler, args.threads)
+    base = spec["camera"] or spec["design"]
+    if base is None:
+        base = _load_subject(args)[0]
+    elif args.preset is not None or args.config is not None:
+        table = "[camera]" if spec["camera"] is not None else "[design]"
+        option = "--preset" if args.preset is not None else "--config"
+        raise CliError(f"{option}: {args.grid} has a {table} base already; give the base "
+                       "in one place")
+    ds = _run_sweep(base, spec, args.scheduler, args.threads)
     if out is not None:
         _write_sweep(ds, out, args.force)
     if args.json:
@@ -437,10 +454,12 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         print(out)
     else:
         df = ds.to_dataframe().reset_index()
-        cols = list(spec["grid"]) + ["sharp_fraction_split", "max_gap_worst_union", "reason"]
+        sharp = "sharp_fraction_union" if isinstance(base, Design) else "sharp_fraction_split"
+        cols = list(spec["grid"]) + [sharp, "max_gap_worst_union", "reason"]
         cols = [c for c in cols if c in df.columns]
+        metrics = design_metrics(base) if isinstance(base, Design) else METRICS
         sys.stdout.write(df[cols].to_string(index=False) + "\n")
-        sys.stdout.write(f"\n{len(df)} designs; metrics: {', '.join(METRICS)}\n")
+        sys.stdout.write(f"\n{len(df)} designs; metrics: {', '.join(metrics)}\n")
     return 0
 
 
@@ -488,15 +507,17 @@ def _simulate_noise(args: argparse.Namespace) -> dict[str, float] | None:
 
 
 def _simulate_table(rows: list[dict[str, Any]], source: str, args: argparse.Namespace) -> str:
-    from .simulation import CONFIGS
-
+    """One line per depth and row of the simulation (a Camera's configurations, or a
+    Design's rows: each channel, the union, the conventional camera)."""
     noise = "noise-free" if args.photons is None else f"{args.photons:g} photons"
+    width = max(13, *(len(c) + 1 for r in rows for c in r["rmse"]))
     out = [f"splitlf simulate: {source}; texture {args.texture}; {noise}",
-           f"{'z [mm]':>9}  {'config':<13}{'RMSE':>9}{'PSNR [dB]':>11}{'MTF50 [c/mm]':>14}"]
+           f"{'z [mm]':>9}  {'config':<{width}}{'RMSE':>9}{'PSNR [dB]':>11}"
+           f"{'MTF50 [c/mm]':>14}"]
     for r in rows:
-        for c in CONFIGS:
+        for c in r["rmse"]:
             psnr = r["psnr_db"][c]
-            out.append(f"{r['z_mm']:>9.1f}  {c:<13}{r['rmse'][c]:>9.4f}"
+            out.append(f"{r['z_mm']:>9.1f}  {c:<{width}}{r['rmse'][c]:>9.4f}"
                        f"{math.inf if psnr is None else psnr:>11.2f}"
                        f"{r['mtf50_cycles_per_mm'][c]:>14.3f}")
     return "\n".join(out) + "\n"
@@ -511,7 +532,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         check_new(out, args.force, FORCE_HINT)
     depths = _simulate_depths(args)
     noise = _simulate_noise(args)
-    camera, source = _load_camera(args.config)
+    camera, source = _load_subject(args)
     texture = parse_texture(args.texture)
     rows = [simulate(camera, z, texture=texture, noise=noise, seed=args.seed,
                      n_threads=args.threads).summary() for z in depths]
@@ -572,7 +593,8 @@ def _optimise_document(res: Any, source: str, args: argparse.Namespace) -> dict[
     return {"source": source, "objective": args.objective, "objective_value": res.objective,
             "free": res.free, "feasible": res.feasible, "active": list(res.active),
             "slack": res.slack, "merits": res.merits, "nfev": res.nfev,
-            "generations": res.generations, "camera": res.design.as_dict()}
+            "generations": res.generations,
+            ("design" if isinstance(res.design, Design) else "camera"): res.design.as_dict()}
 
 
 def _cmd_optimise(args: argparse.Namespace) -> int:
@@ -589,7 +611,7 @@ def _cmd_optimise(args: argparse.Namespace) -> int:
     free = dict(parse_free(f) for f in args.free)
     constraints = dict(parse_constraint(c) for c in args.constraint or [])
     depths = _optimise_depths(args.depths)
-    camera, source = _load_camera(args.config)
+    camera, source = _load_subject(args)
     kwargs = dict(sense=args.sense, constraints=constraints, depths=depths, seed=args.seed,
                   maxiter=args.maxiter, popsize=args.popsize, polish=not args.no_polish,
                   min_microlens_f_number=args.min_microlens_f_number, n_threads=args.threads)
@@ -649,7 +671,7 @@ def _cmd_explore(args: argparse.Namespace) -> int:
         raise CliError('explore needs Panel: pip install "splitlf[explore]"') from None
     from .explorer import serve
 
-    subject, _ = _load_report_subject(args)
+    subject, _ = _load_subject(args)
     reference = None
     if args.compare is not None:
         if args.compare in PRESETS:
@@ -663,12 +685,18 @@ def _cmd_explore(args: argparse.Namespace) -> int:
 
 
 def _common(p: argparse.ArgumentParser, threads_help: str) -> None:
-    p.add_argument("--config", metavar="CAM.toml",
-                   help="camera TOML file, a [camera] table (report also reads a [design] "
-                   "file); default: the seed design")
+    p.add_argument("--config", metavar="FILE.toml",
+                   help="a TOML file with a [camera] table, or a [design] table and its "
+                   "[[design.channels]] (docs/architectures.md); default: the seed design")
     p.add_argument("--threads", type=_threads, default=None, metavar="N",
                    help=f"{threads_help} (an integer in [{THREADS_RANGE[0]}, "
                    f"{THREADS_RANGE[1]}]; default: all cores)")
+
+
+def _preset(p: argparse.ArgumentParser, what: str) -> None:
+    p.add_argument("--preset", choices=PRESETS, default=None, metavar="NAME",
+                   help=f"{what} a named design instead: {', '.join(PRESETS)} "
+                   "(docs/architectures.md)")
 
 
 def _force(p: argparse.ArgumentParser) -> None:
@@ -685,7 +713,8 @@ def _add_report(sub: Any) -> None:
         "sensor and of the conventional cameras. A general design (--preset, or a --config "
         "file with a [design] table; docs/architectures.md) is reported per channel and per "
         "lens type: array planes, out-of-focus planes, depth of field of each and of their "
-        "union.",
+        "union, the coincidence planes of each channel where docs/model.md §6 holds and the "
+        "worst resolution of each channel and the union (rect grids).",
     )
     _common(p, "threads for the coincidence planes and the resolution figures")
     p.add_argument("--preset", choices=PRESETS, default=None, metavar="NAME",
@@ -751,10 +780,14 @@ def _add_sweep(sub: Any) -> None:
     p = sub.add_parser("sweep", help="figures of merit over a grid of designs",
                        description="Full-factorial design sweep from a TOML file with "
                        "[grid], [depths] (min, max, num; log-spaced), [options] and an "
-                       "optional [camera] base design.")
+                       "optional base: a [camera] table, or a [design] table whose fields "
+                       "the grid names by path (\"channels[2].L\" = [...]; "
+                       "docs/architectures.md). Without a base in the file: --preset, "
+                       "--config, or the seed design.")
     _common(p, "threads of the core for in-process sweeps")
+    _preset(p, "sweep around")
     p.add_argument("--grid", required=True, metavar="SWEEP.toml",
-                   help="the sweep file: [grid], [depths], [options], [camera]")
+                   help="the sweep file: [grid], [depths], [options], [camera] or [design]")
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="Dask scheduler address, e.g. tcp://host:8786")
     p.add_argument("--out", metavar="FILE",
@@ -769,8 +802,12 @@ def _add_simulate(sub: Any) -> None:
     p = sub.add_parser("simulate", help="super-resolution simulation at one or more depths",
                        description="Image a textured plane with half 1, half 2, the split "
                        "sensor and the conventional camera, reconstruct it with known depth "
-                       "and print RMSE, PSNR and MTF50 (docs/simulate.md).")
+                       "and print RMSE, PSNR and MTF50 (docs/simulate.md). A general design "
+                       "with rect grids (--preset, or a --config file with a [design] "
+                       "table) is simulated per channel, for their union and for the "
+                       "conventional camera on channel 1's array plane.")
     _common(p, "threads of the core")
+    _preset(p, "simulate")
     where = p.add_mutually_exclusive_group()
     where.add_argument("--z", type=_depth, default=1000.0, metavar="MM",
                        help="depth of the plane in mm (default 1000)")
@@ -798,13 +835,15 @@ def _add_simulate(sub: Any) -> None:
 def _add_optimise(sub: Any) -> None:
     p = sub.add_parser("optimise", help="the best design for an objective (inverse design)",
                        description="Search the free fields of the camera (the seed design "
-                       "unless --config) with differential evolution, polished locally, for "
-                       "the design that optimises a figure of merit subject to constraints "
-                       "(docs/optimise.md); write it as a camera TOML that report --config "
-                       "reads.")
+                       "unless --config or --preset) with differential evolution, polished "
+                       "locally, for the design that optimises a figure of merit subject to "
+                       "constraints (docs/optimise.md); write it as a TOML that report "
+                       "--config reads (a [design] file for a design base).")
     _common(p, "threads of the core for in-process evaluation")
+    _preset(p, "optimise around")
     p.add_argument("--free", action="append", required=True, metavar="NAME=LOW:HIGH",
-                   help="a free camera field and its bounds (repeat; counts such as Q are "
+                   help="a free field and its bounds (repeat; a camera field such as kappa, "
+                   "or a design's by path such as channels[2].L; counts such as Q are "
                    "searched as integers)")
     p.add_argument("--objective", required=True, metavar="MERIT",
                    help="the merit to optimise (docs/optimise.md lists them)")
@@ -824,7 +863,8 @@ def _add_optimise(sub: Any) -> None:
     p.add_argument("--no-polish", action="store_true", help="skip the local polish")
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="Dask scheduler address, e.g. tcp://host:8786")
-    p.add_argument("--out", metavar="BEST.toml", help="write the best design (camera TOML)")
+    p.add_argument("--out", metavar="BEST.toml",
+                   help="write the best design ([camera] TOML, [design] for a design base)")
     p.add_argument("--history", metavar="FILE",
                    help="write every evaluated candidate to .csv or .parquet")
     p.add_argument("--json", action="store_true", help="print one JSON document")

@@ -656,8 +656,9 @@ def _num(x: float, integer: bool) -> str:
     return str(int(x)) if integer else repr(float(x))
 
 
-def optimise(base: Camera, free: Mapping[str, tuple[float, float]], objective: str | Callable,
-             sense: str | None = None, constraints: Mapping[str, tuple[str, float]] | None = None,
+def optimise(base: Camera | Design, free: Mapping[str, tuple[float, float]],
+             objective: str | Callable, sense: str | None = None,
+             constraints: Mapping[str, tuple[str, float]] | None = None,
              depths: Any = None, seed: int = 0, executor: cf.Executor | None = None,
              progress: bool | None = None, *, maxiter: int = 100, popsize: int = 15,
              polish: bool = True, polish_maxfev: int | None = None,

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from . import _validate
 from .camera import _DESCRIPTIONS, COUNT_FIELDS, FIELDS, Camera
 from .design import Design
 from .optics import depth_of_field
@@ -18,11 +19,13 @@ REPORT_MAX_N = 3
 REPORT_Z_RANGE = (150.0, 10_000.0)
 
 
-def report_data(camera: Camera, threshold_px: float = 0.5,
+def report_data(camera: Camera | Design, threshold_px: float = 0.5,
                 n_threads: int | None = None) -> dict[str, Any]:
     """Camera, derived values, out-of-focus planes and depth of field as a JSON-ready dict.
 
-    - ``camera``: the :class:`~splitlf.Camera`
+    - ``camera``: the :class:`~splitlf.Camera`, or a :class:`~splitlf.Design` (then the
+      result is :func:`design_report_data`'s with ``samples=True``, per channel and lens
+      type, and :func:`format_report` formats it as :func:`format_design_report` does)
     - ``threshold_px``: sharpness threshold on the blur radius [pixels], finite > 0
     - ``n_threads``: threads of the core for the coincidence planes and the worst
       resolution (None: all cores)
@@ -33,6 +36,9 @@ def report_data(camera: Camera, threshold_px: float = 0.5,
     over :data:`REPORT_Z_RANGE`). Raises ``TypeError`` and ``ValueError`` (from the
     functions it calls) for bad arguments.
     """
+    if isinstance(camera, Design):
+        return design_report_data(camera, threshold_px, n_threads=n_threads, samples=True)
+    _validate.camera_or_design(camera)
     halves = {}
     for h in (1, 2):
         halves[f"half{h}"] = {
@@ -73,8 +79,11 @@ def _interval_text(iv: list) -> str:
 
 
 def format_report(data: dict[str, Any], title: str) -> str:
-    """The report as text for people: ``data`` from :func:`report_data`, under ``title``.
-    Returns the text, ending in a newline."""
+    """The report as text for people: ``data`` from :func:`report_data` (a Camera's, or a
+    Design's: then :func:`format_design_report`), under ``title``. Returns the text,
+    ending in a newline."""
+    if "design" in data:
+        return format_design_report(data, title)
     cam, der, dof = data["camera"], data["derived"], data["depth_of_field"]
     h1, h2 = der["half1"], der["half2"]
     out = [title, "", "Camera (lengths in mm)"]
@@ -144,14 +153,27 @@ def _samples_text(data: dict[str, Any]) -> list[str]:
 
 # -- general designs (docs/architectures.md) ------------------------------------------------
 
-def design_report_data(design: Design, threshold_px: float = 0.5) -> dict[str, Any]:
+def design_report_data(design: Design, threshold_px: float = 0.5, *,
+                       n_threads: int | None = None, samples: bool = False) -> dict[str, Any]:
     """A :class:`~splitlf.Design`'s report as a JSON-ready dict: ``design`` (its fields,
     :meth:`Design.as_dict`), ``derived`` (f-number, and per channel its array plane, its
     out-of-focus plane, its microlens image radius and each lens type's focal length and
     the depth it is focused on) and ``depth_of_field`` (:meth:`DesignDepthOfField.as_dict`:
     per lens type, per channel, the union, the conventional cameras; [near, far] in mm,
-    far None when infinite) at ``threshold_px`` (finite > 0, pixels). Raises the errors
-    of :func:`~splitlf.depth_of_field`."""
+    far None when infinite) at ``threshold_px`` (finite > 0, pixels).
+
+    With ``samples`` (what ``splitlf report`` and :func:`report_data` give), also the
+    camera report's sample sections: ``coincidence_planes`` {"channel i": the rows of
+    :func:`~splitlf.coincidence_planes` with N <= :data:`REPORT_MAX_N`, or None where
+    docs/model.md §6 does not hold (a hex grid, a sensor layout, a circular aperture)} and
+    ``resolution`` (:func:`~splitlf.samples.worst_resolution` over :data:`REPORT_Z_RANGE`,
+    per channel and union; None when a channel has a hex grid: the 1-D max gap needs rect
+    grids, :func:`splitlf.coverage` is the 2-D measure), on ``n_threads`` threads of the
+    core (None: all cores). Raises the errors of :func:`~splitlf.depth_of_field` and of
+    those functions."""
+    if not isinstance(design, Design):
+        raise TypeError(f"design must be a splitlf.Design, got {type(design).__name__}")
+    n_threads = _validate.n_threads(n_threads)
     channels = []
     for i, (ch, res) in enumerate(zip(design.channels, design.resolved(), strict=True), 1):
         radius = design.image_radius(i)
@@ -169,11 +191,23 @@ def design_report_data(design: Design, threshold_px: float = 0.5) -> dict[str, A
             else [res["Q"] * ch.Kx, res["Q"] * ch.Ky],
         })
     dof = depth_of_field(design, threshold_px)
-    return {
+    out = {
         "design": design.as_dict(),
         "derived": {"f_number": design.f_number, "channels": channels},
         "depth_of_field": dof.as_dict(),
     }
+    if samples:
+        out["coincidence_planes"] = {
+            f"channel {i}": coincidence_planes(design, channel=i, max_n=REPORT_MAX_N,
+                                               n_threads=n_threads).rows()
+            if ch.grid == "rect" and ch.layout == "ideal" and design.aperture == "square"
+            else None
+            for i, ch in enumerate(design.channels, 1)
+        }
+        rect = all(ch.grid == "rect" for ch in design.channels)
+        out["resolution"] = worst_resolution(design, REPORT_Z_RANGE, max_n=REPORT_MAX_N,
+                                             n_threads=n_threads) if rect else None
+    return out
 
 
 def _channel_text(ch: dict[str, Any], der: dict[str, Any]) -> list[str]:
@@ -215,4 +249,44 @@ def format_design_report(data: dict[str, Any], title: str) -> str:
         out.append(f"  {label:<34} {_interval_text(iv)}")
     for name, iv in dof["conventional"].items():
         out.append(f"  {'conventional, sensor on ' + name:<34} {_interval_text(iv)}")
+    if "coincidence_planes" in data:
+        out += _design_samples_text(data)
     return "\n".join(out) + "\n"
+
+
+def _design_samples_text(data: dict[str, Any]) -> list[str]:
+    """The sample sections of a design's report (:func:`design_report_data` with
+    ``samples``): coincidence planes per channel, worst resolution per channel and union."""
+    out = ["", f"Coincidence planes (N <= {REPORT_MAX_N}, T <= Q), sorted by depth; "
+           "Eq. 8/9 with Q_lit vs brute-force count"]
+    for name, rows in data["coincidence_planes"].items():
+        if rows is None:
+            out.append(f"  {name}: none defined (docs/model.md §6 needs a rect grid, the "
+                       "ideal layout and a square aperture)")
+            continue
+        agree = sum(r["counted"] == r["new_samples"] for r in rows)
+        out.append(f"  {name}: {len(rows)} planes, counted == Eq. 8/9 on {agree}")
+        out.append(f"    {'N':>2} {'T':>3} {'side':<5} {'z [mm]':>10} {'rep':>7} "
+                   f"{'Eq. 8/9':>12} {'counted':>12}")
+        for r in rows:
+            out.append(f"    {r['N']:>2} {r['T']:>3} {r['side']:<5} {r['z']:>10.2f} "
+                       f"{r['repetitions']:>7.3f} {r['new_samples']:>12} {r['counted']:>12}")
+    res = data["resolution"]
+    lo, hi = REPORT_Z_RANGE
+    if res is None:
+        out += ["", f"Worst resolution over {lo:g} - {hi:g} mm: not defined for a hex channel "
+                "(the max gap is 1-D, on rect grids; splitlf.coverage gives the 2-D "
+                "covering radius)"]
+        return out
+    lo, hi = res["z_range_mm"]
+    out += ["", f"Worst resolution over {lo:g} - {hi:g} mm (largest max gap in the central "
+            "field, in delta(z) = mu_1 z / L_1)",
+            f"  depths: {res['depths']} ({res['sampling']})"]
+    for key, r in res.items():
+        if not isinstance(r, dict):
+            continue
+        label = "union" if key == "union" else key
+        out.append(f"  {label:<14} max gap {_gap_text(r['max_gap']):>8} at z = "
+                   f"{r['z_mm']:.1f} mm   (fewest distinct samples along x: "
+                   f"{r['min_distinct']})")
+    return out

@@ -423,8 +423,9 @@ def _add_noise(y: np.ndarray, noise: dict[str, float] | None,
 class Simulation:
     """One simulated plane at depth ``z`` [mm] (docs/simulate.md).
 
-    - ``configs``: the names of the rows, in order: :data:`CONFIGS` for a Camera;
-      ``"channel 1"``, ..., ``"channel C"``, ``"union"``, ``"conventional c"`` for a Design
+    - ``configs`` (also ``rows``): the names of the rows, in order: :data:`CONFIGS` for a
+      Camera; ``"channel 1"``, ..., ``"channel C"``, ``"union"``, ``"conventional c"`` for a
+      Design
     - ``delta``: grid spacing delta(z) = d z / (Q v') [mm] (a Design: mu_1 z / L_1);
       ``x`` (W,) cell centres of the central window of W cells [mm]
     - ``truth`` (W,): the texture's average over each cell; ``reconstructions``
@@ -465,6 +466,12 @@ class Simulation:
     configs: tuple[str, ...] = CONFIGS
     reconstructions: Mapping[str, np.ndarray] = dataclasses.field(
         default_factory=lambda: types.MappingProxyType({}))
+
+    @property
+    def rows(self) -> tuple[str, ...]:
+        """The names of the rows, as every result of a Design names them (``.rows``): the
+        same tuple as ``configs``."""
+        return self.configs
 
     def reconstruction(self, config: str) -> np.ndarray:
         """The reconstruction (W,) of ``config``, one of ``configs``; else

@@ -1,5 +1,5 @@
-"""What the split sensor buys: MTF50 and RMSE of the reconstruction against depth
-(docs/simulate.md)."""
+"""What the split sensor (or any design's channels and their union) buys: MTF50 and RMSE of the
+reconstruction against depth (docs/simulate.md)."""
 
 from __future__ import annotations
 
@@ -10,8 +10,9 @@ import numpy as np
 
 from .. import _validate
 from ..camera import Camera
-from ..simulation import simulate
-from ._mpl import HALF_COLORS, SPLIT_COLOR, axes_pair
+from ..design import Design
+from ..simulation import _check_rect, simulate
+from ._mpl import HALF_COLORS, ROW_COLORS, SPLIT_COLOR, axes_pair
 
 __all__ = ["resolution"]
 
@@ -24,8 +25,26 @@ STYLE = {
 }
 
 
+def _styles(configs: tuple[str, ...]) -> dict[str, dict[str, Any]]:
+    """Line styles of a Design's simulation rows (``Simulation.configs``): one colour per
+    channel, the union thick and black, the conventional camera dashed green."""
+    out: dict[str, dict[str, Any]] = {}
+    for key in configs:
+        kind, _, number = key.partition(" ")
+        if kind == "channel":
+            c = int(number)
+            out[key] = dict(color=ROW_COLORS[(c - 1) % len(ROW_COLORS)], lw=1.4,
+                            label=f"channel {c} alone")
+        elif kind == "union":
+            out[key] = dict(color=SPLIT_COLOR, lw=2.2, label="union (all channels)")
+        else:
+            out[key] = dict(color="tab:green", lw=1.4, ls="--",
+                            label=f"conventional (no microlenses, sensor on plane {number})")
+    return out
+
+
 def resolution(
-    camera: Camera,
+    camera: Camera | Design,
     z_range: tuple[float, float] = (150.0, 10_000.0),
     ax: Any = None,
     *,
@@ -43,48 +62,63 @@ def resolution(
     ``z_range`` plus the two out-of-focus planes; ``noise``, ``seed``, ``window``,
     ``n_frequencies`` are passed to :func:`splitlf.simulate`.
 
-    - ``camera``: the :class:`~splitlf.Camera`; ``z_range``: (near, far) [mm],
-      F < near < far < inf
+    - ``camera``: the :class:`~splitlf.Camera`, or a :class:`~splitlf.Design` whose
+      channels all have rect grids: one curve per row of its simulation
+      (``Simulation.configs``: each channel alone, their union, the conventional camera on
+      channel 1's array plane), every channel's out-of-focus plane marked and added to the
+      depths, the microlens frequency of channel 1's pitch, L_1 / (d_1 z)
+    - ``z_range``: (near, far) [mm], F < near < far < inf
     - ``ax``: None (a new figure with two stacked axes) or a pair of Axes
     - ``n``: log-spaced depths (an integer >= 2); ``n_threads``: threads of the core
 
     Returns the pair of Axes. Raises ``TypeError`` and ``ValueError`` for bad arguments
-    (those of :func:`splitlf.simulate` too), ``ImportError`` without matplotlib or SciPy.
+    (those of :func:`splitlf.simulate` too; a Design's hex channel i is named
+    ``channels[i].grid``, before anything is drawn), ``ImportError`` without matplotlib or
+    SciPy.
     """
-    cam = _validate.camera(camera)
+    cam = _validate.camera_or_design(camera)
+    design = isinstance(cam, Design)
+    if design:
+        _check_rect(cam)
     lo, hi = (_validate.real(v, "z_range") for v in z_range)
     if not (cam.F < lo < hi < np.inf):
         raise ValueError(f"invalid z_range = ({lo}, {hi}): allowed F = {cam.F} < near < far")
     if isinstance(n, bool) or not isinstance(n, int) or n < 2:
         raise ValueError(f"invalid n = {n!r}: allowed an integer >= 2")
+    numbers = range(1, len(cam.channels) + 1) if design else (1, 2)
+    colors = ({c: ROW_COLORS[(c - 1) % len(ROW_COLORS)] for c in numbers} if design
+              else HALF_COLORS)
     axes = axes_pair(ax, (9.0, 7.5), "MTF50, RMSE")
     a_mtf, a_rmse = axes
-    extra = [cam.out_of_focus_depth(h) for h in (1, 2)]
+    extra = [cam.out_of_focus_depth(h) for h in numbers]
     z = np.unique(np.concatenate([np.geomspace(lo, hi, n), [e for e in extra if lo < e < hi]]))
     runs = [simulate(cam, zk, noise=noise, seed=seed, window=window,
                      n_frequencies=n_frequencies, oversample=4, n_threads=n_threads)
             for zk in z]
-    for key, style in STYLE.items():
+    styles = _styles(runs[0].configs) if design else STYLE
+    for key, style in styles.items():
         a_mtf.plot(z, [r.mtf50[key] for r in runs], marker="o", ms=3, **style)
         a_rmse.plot(z, [r.rmse[key] for r in runs], marker="o", ms=3, **style)
     a_mtf.plot(z, [r.nyquist for r in runs], color="0.45", lw=0.9, ls=":",
                label="full sensor resolution: Nyquist of delta(z)")
+    pitch = "channel 1's microlens pitch" if design else "microlens pitch"
     a_mtf.plot(z, [r.microlens_frequency for r in runs], color="0.45", lw=0.9, ls="-.",
-               label="microlens resolution: one cycle per microlens pitch")
-    for h in (1, 2):
+               label=f"microlens resolution: one cycle per {pitch}")
+    for h in numbers:
         zo = cam.out_of_focus_depth(h)
         if lo < zo < hi:
             for a in axes:
-                a.axvline(zo, color=HALF_COLORS[h], lw=0.8, ls=":")
+                a.axvline(zo, color=colors[h], lw=0.8, ls=":")
             a_mtf.annotate(f"out-of-focus\nplane {h}: {zo:.0f} mm", (zo, 0.02),
                            xycoords=("data", "axes fraction"), xytext=(3, 0),
-                           textcoords="offset points", fontsize=8, color=HALF_COLORS[h])
+                           textcoords="offset points", fontsize=8, color=colors[h])
     a_mtf.set_xscale("log")
     a_mtf.set_yscale("log")
     a_mtf.set_ylabel("MTF50 [cycles/mm on the object]")
     kind = "noise-free" if noise is None else (
         f"{noise['photons']:g} photons, read noise {noise.get('read_noise', 0):g} e-")
-    a_mtf.set_title(f"Reconstruction with known depth ({kind}): what the split sensor buys")
+    what = "each channel and their union" if design else "what the split sensor buys"
+    a_mtf.set_title(f"Reconstruction with known depth ({kind}): {what}")
     a_mtf.legend(fontsize=8, loc="upper right")
     a_rmse.set_ylabel("RMSE, random albedo on delta(z) cells")
     a_rmse.set_xlabel("depth z [mm] (log)")
