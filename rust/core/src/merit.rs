@@ -312,7 +312,11 @@ mod tests {
         let cam = Camera::paper();
         assert_eq!(
             camera_metrics_2d()[..3],
-            ["covering_radius_worst_half1", "covering_radius_worst_half2", "covering_radius_worst_union"]
+            [
+                "covering_radius_worst_half1",
+                "covering_radius_worst_half2",
+                "covering_radius_worst_union"
+            ]
         );
         let a = figures_of_merit_2d(&cam, &z, 1e-6, 4.0, None).unwrap();
         let b = design_figures_of_merit_2d(&Design::from_camera(&cam), &z, 1e-6, 4.0, Some(1));
