@@ -151,6 +151,20 @@ def test_optimise_a_hex_design_for_its_covering_radius(monkeypatch):
     assert (feasible["distinct_2d_median_channel1"] >= 10.0).all()
 
 
+def test_optimise_with_2d_merits_on_an_executor_is_identical():
+    pytest.importorskip("scipy")
+    pytest.importorskip("pandas")
+    import concurrent.futures as cf
+
+    kw = {"depths": HEX_Z, "window": 4.0, "maxiter": 2, "popsize": 4, "polish": False}
+    free = {"D": (4.0, 30.0)}
+    res = optimise(small_hex(), free, "distinct_2d_median_union", **kw)
+    with cf.ThreadPoolExecutor(2) as ex:
+        other = optimise(small_hex(), free, "distinct_2d_median_union", executor=ex, **kw)
+    assert other.free == res.free and other.history.equals(res.history)
+    assert "distinct_2d_median_union" in res.history.columns
+
+
 def test_optimise_computes_2d_merits_only_when_named():
     pytest.importorskip("scipy")
     pytest.importorskip("pandas")

@@ -262,9 +262,11 @@ def evaluate_design(camera: Camera | Design, depths, *,
       ``merits_2d`` is off)
     - ``n_threads``: threads of the core (None: all cores)
 
-    Returns a dict {name in :data:`METRICS` (:func:`design_metrics` for a Design): value}.
-    Raises ``TypeError`` for arguments of the wrong type and
-    :class:`~splitlf.errors.InvalidParameter` (a ``ValueError``) for values out of range.
+    Returns a dict {name in :data:`METRICS`, then :data:`METRICS_2D` with ``merits_2d``
+    (:func:`design_metrics` for a Design): value}. Raises ``TypeError`` for arguments of
+    the wrong type and :class:`~splitlf.errors.InvalidParameter` (a ``ValueError``) for
+    values out of range (``window`` named as such; ``tol`` outside (0, 1] with
+    ``merits_2d``).
     """
     cam = _validate.camera_or_design(camera)
     z = _validate.depths(depths, "depths")
