@@ -11,10 +11,10 @@ listener in the page, on the page's clock):
 
 - ``figures``: the blur figure (with its depth-of-field bands, repetitions and report)
   and the samples figures' lines (`new_samples`: distinct samples and max gap against
-  depth) show the new design, painted: the first animation frame in which the page's
-  "status" data source (updated in the same document patch as those figures' data) shows
-  it, plus a task queued from that frame (it runs after the frame's paints, Bokeh's
-  canvases included);
+  depth, the next patch) show the new design, painted: the first animation frame in which
+  the page's "status" data source (updated in the same document patches as those
+  figures' data) shows it for both, plus a task queued from that frame (it runs after the
+  frame's paints, Bokeh's canvases included);
 - ``coverage``: the same for the 2-D coverage dots on the samples figures (computed off
   the server's event loop, a later patch).
 
@@ -63,8 +63,9 @@ document.addEventListener('keydown', e => { if (e.key === 'Enter' && window.__t0
 """
 
 #: Resolves with {figures, coverage}: ms from the Enter to the end of the first frame
-#: where the closed-form and 1-D views (status.blur), then also the 2-D coverage
-#: (status.samples), show a design newer than arguments[0].
+#: where the closed-form and 1-D views (status.blur, status.gap), then also the 2-D
+#: coverage (status.samples), show a design newer than arguments[0]. (A page without
+#: status.gap, the explorer before its 1-D view, counts the closed-form views alone.)
 WAIT = """
 const before = arguments[0], done = arguments[arguments.length - 1];
 const status = Bokeh.documents[0].get_model_by_name('status');
@@ -79,9 +80,10 @@ function stamp(key) {
 }
 function tick() {
   const b = status.data.blur[0], s = status.data.samples[0];
+  const g = status.data.gap === undefined ? b : status.data.gap[0];
   if (window.__t0 !== null && b > before) {
-    if (!seen.figures) { seen.figures = true; stamp('figures'); }
-    if (s === b) { stamp('coverage'); return; }
+    if (!seen.figures && g === b) { seen.figures = true; stamp('figures'); }
+    if (s === b && seen.figures) { stamp('coverage'); return; }
   }
   requestAnimationFrame(tick);
 }
@@ -96,7 +98,7 @@ def unavailable() -> str | None:
         return (f"needs Debian's chromium and chromium-driver ({', '.join(missing)} "
                 "absent; apt-get install chromium chromium-driver)")
     try:
-        import panel  # noqa: F401
+        import bokeh  # noqa: F401
         import selenium  # noqa: F401
     except ImportError as e:
         return f"needs the explore and test extras ({e.name} missing)"

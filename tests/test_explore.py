@@ -295,8 +295,15 @@ class Page:
         el.send_keys(Keys.END + Keys.BACKSPACE * 40 + text + Keys.ENTER)
 
     def after_change(self, before: tuple[int, int]) -> None:
-        """Wait until both views show a design newer than ``before``."""
-        self.wait(lambda: (s := self.status())[0] > before[0] and s[1] == s[0], 60)
+        """Wait until every view shows a design newer than ``before``: the closed-form
+        views, the 1-D samples and the 2-D coverage."""
+        def done() -> bool:
+            s = self.status()
+            gap = self.d.execute_script(
+                "return Bokeh.documents[0].get_model_by_name('status').data.gap[0];")
+            return s[0] > before[0] and s[1] == s[0] and int(gap) == s[0]
+
+        self.wait(done, 60)
 
     def field_error(self, key: str) -> str:
         got = self.js("const e = deep(document, `.field-error[data-key=\"${arguments[0]}\"]`)"

@@ -167,6 +167,7 @@ class Explorer:
         self._worker_busy = False
         self._widgets: dict[str, Any] = {}
         self._errors: dict[str, Div] = {}
+        self._shown = {"blur": 0, "gap": 0, "samples": 0}
         self._n_channels = len(design.channels)
         self._build_figures()
         self._build_controls()
@@ -322,7 +323,8 @@ class Explorer:
                                 sizing_mode="stretch_width", columns=[
                                     TableColumn(field="label", title="quantity", width=320),
                                     TableColumn(field="value", title="value", width=280)])
-        self.status_src = ColumnDataSource({"blur": [0], "samples": [0]}, name="status")
+        self.status_src = ColumnDataSource({"blur": [0], "gap": [0], "samples": [0]},
+                                           name="status")
         self.report.tags = [self.status_src]  # a model must reference it to reach the page
         # The 2-D sample map at a picked depth and the microlens images on the sensor.
         self.map_src = ColumnDataSource({"x": [], "y": [], "color": [], "label": []},
@@ -494,13 +496,8 @@ class Explorer:
         try:
             blur = model.blur_view(design, threshold)
             report = model.report_rows(design, threshold)
-            gap = model.gap_view(design)
-            ref = ref_gap = None
-            if self.reference is not None:
-                ref = model.blur_view(self.reference, threshold)
-                if self._ref_gap is None or self._ref_gap[0] != self.reference:
-                    self._ref_gap = (self.reference, model.gap_view(self.reference))
-                ref_gap = self._ref_gap[1]
+            ref = None if self.reference is None else model.blur_view(self.reference,
+                                                                      threshold)
         except (SplitlfError, ValueError, TypeError) as e:
             self._show_errors(model.control_key(getattr(e, "name", None)), str(e))
             return
@@ -508,10 +505,28 @@ class Explorer:
         self.generation += 1
         gen = self.generation
         self._show_errors(None, "")
-        self._push(partial(self._apply_blur, blur, ref, report, gap, ref_gap, gen))
-        # The heavy views start once that patch is on its way (a tick later), not
-        # competing for the cores with its serialisation.
+        # Three ticks, each sent before the next starts (the session's lock): the
+        # closed-form views, then the 1-D samples (the page draws the first while the
+        # server computes these), then the heavy views start on the worker.
+        self._push(partial(self._apply_blur, blur, ref, report, gen))
+        self._push(partial(self._gap, design, gen))
         self._push(partial(self._request_samples, design))
+
+    def _gap(self, design: Design, gen: int) -> None:
+        """Compute and show the 1-D samples of ``design`` (and of the reference)."""
+        if gen != self.generation:
+            return  # a newer design is on its way
+        try:
+            gap = model.gap_view(design)
+            ref_gap = None
+            if self.reference is not None:
+                if self._ref_gap is None or self._ref_gap[0] != self.reference:
+                    self._ref_gap = (self.reference, model.gap_view(self.reference))
+                ref_gap = self._ref_gap[1]
+        except (SplitlfError, ValueError, MemoryError) as e:
+            self._show_errors(None, f"1-D samples: {e}")
+            return
+        self._apply_gap(gap, ref_gap, gen)
 
     def _push(self, fn: Any) -> None:
         """Run ``fn`` where Bokeh models may change: the session's next tick (or now,
@@ -521,33 +536,39 @@ class Explorer:
         else:
             fn()
 
-    def _apply_blur(self, blur: dict[str, Any], ref: dict[str, Any] | None,
-                    report: list[tuple[str, str]], gap: dict[str, Any],
-                    ref_gap: dict[str, Any] | None, gen: int) -> None:
-        z = blur["z"]
-        for item in self._ref_items:
-            if item.visible != (ref is not None):
-                item.visible = ref is not None
+    def _apply_gap(self, gap: dict[str, Any], ref_gap: dict[str, Any] | None,
+                   gen: int) -> None:
         self.gap_distinct_src.data = _lines(gap["z"], gap["rows"], gap["distinct"])
         title = gap["note"] or DISTINCT_TITLE  # why the 1-D lines are absent, if they are
         if self.distinct_fig.title.text != title:
             self.distinct_fig.title.text = title
         self.gap_src.data = _lines(gap["z"], gap["rows"], gap["max_gap"])
+        if ref_gap is None:
+            if self.ref_gap_src.data["label"]:
+                empty = _lines(np.zeros(1), (), np.zeros((0, 1)))
+                self.ref_gap_distinct_src.data = dict(empty)
+                self.ref_gap_src.data = dict(empty)
+        else:
+            labels = tuple(f"reference {r}" for r in ref_gap["rows"])
+            self.ref_gap_distinct_src.data = _lines(ref_gap["z"], labels,
+                                                    ref_gap["distinct"], grey=True)
+            self.ref_gap_src.data = _lines(ref_gap["z"], labels, ref_gap["max_gap"],
+                                           grey=True)
+        self._status(gap=gen)
+
+    def _apply_blur(self, blur: dict[str, Any], ref: dict[str, Any] | None,
+                    report: list[tuple[str, str]], gen: int) -> None:
+        z = blur["z"]
+        for item in self._ref_items:
+            if item.visible != (ref is not None):
+                item.visible = ref is not None
         if ref is None:
             if self.ref_blur_src.data["label"]:
-                empty = _lines(np.zeros(1), (), np.zeros((0, 1)))
-                for src in (self.ref_blur_src, self.ref_gap_distinct_src, self.ref_gap_src):
-                    src.data = dict(empty)
+                self.ref_blur_src.data = _lines(np.zeros(1), (), np.zeros((0, 1)))
         else:
             self.ref_blur_src.data = _lines(ref["z"], tuple(f"reference {r}" for r in
                                                             ref["rows"]), ref["blur_px"],
                                             grey=True)
-            if ref_gap is not None:
-                labels = tuple(f"reference {r}" for r in ref_gap["rows"])
-                self.ref_gap_distinct_src.data = _lines(ref_gap["z"], labels,
-                                                        ref_gap["distinct"], grey=True)
-                self.ref_gap_src.data = _lines(ref_gap["z"], labels, ref_gap["max_gap"],
-                                               grey=True)
             union = ref["dof_rows"][-1]
             blur = dict(blur, dof_rows=(*blur["dof_rows"], "reference"),
                         dof=[*blur["dof"], *(("reference", a, b) for r, a, b in ref["dof"]
@@ -576,15 +597,13 @@ class Explorer:
         self.report_src.data = {"label": [k for k, _ in report], "value": [v for _, v in report]}
         self._status(blur=gen)
 
-    def _status(self, blur: int | None = None, samples: int | None = None) -> None:
-        if blur is not None:
-            self._shown_blur = blur
-        if samples is not None:
-            self._shown_samples = samples
-        b = getattr(self, "_shown_blur", 0)
-        s = getattr(self, "_shown_samples", 0)
-        # (Not shown in a title: a title that changes makes Bokeh lay the figure out again.)
-        self.status_src.data = {"blur": [b], "samples": [s]}
+    def _status(self, **shown: int) -> None:
+        """Record which design (generation) the closed-form views (``blur``), the 1-D
+        samples (``gap``) and the 2-D coverage (``samples``) show, in the page's "status"
+        source. (Not shown in a title: a title that changes makes Bokeh lay the figure
+        out again.)"""
+        self._shown.update(shown)
+        self.status_src.data = {k: [v] for k, v in self._shown.items()}
 
     def _request_samples(self, design: Design) -> None:
         """Queue the heavy views of ``design``: samples over depth, then the sample map
@@ -693,7 +712,7 @@ class Explorer:
 
     def _apply_samples(self, data: dict[str, Any], ref: dict[str, Any] | None,
                        gen: int) -> None:
-        if gen < getattr(self, "_shown_samples", 0):
+        if gen < self._shown["samples"]:
             return
         if ref is None:
             if len(self.ref_distinct_src.data["x"]):
