@@ -2,19 +2,20 @@
 Every number comes from :mod:`splitlf.explorer.model` (the public API); this module only
 lays out controls and moves numbers into Bokeh figures.
 
-Plain Bokeh models (no Panel): the page is a few dozen light components, so the browser's
-style recalculation after each update (BokehJS reads every visual property through
-``getComputedStyle``) stays cheap. Per change only data sources (and, when they change,
-ranges and titles) are sent; figures are never replaced.
+Plain Bokeh models (no Panel). Per change only data sources (and, when they change,
+ranges and titles) are sent; figures are never replaced. In the page,
+:data:`SKIP_SAME_CSS_JS` keeps BokehJS from rewriting unchanged styles at every paint
+(each rewrite forced a recalculation of the page's styles; docs/explore.md).
 
-Threads: the closed-form views (blur, repetitions, depth of field, report) and the 1-D
-samples (:func:`splitlf.new_samples` at a few hundred depths), a few milliseconds in all,
-are computed in the control's callback and reach the page in one document patch; the
-2-D coverage (tens of ms a depth), the sample map, the microlens images and the ray space
-run on one worker thread per session, coalescing: while it computes, further changes only
-replace what it computes next, so a burst of changes costs one extra computation, never a
-queue. Results reach the page through the document's next tick (the only place Bokeh
-models are changed).
+Threads: a change is answered in three ticks of the server's event loop, each patch sent
+before the next tick starts: the closed-form views (blur, repetitions, depth of field,
+report; a few ms), then the 1-D samples (:func:`splitlf.new_samples` at a couple of
+hundred depths, 6-18 ms; the page draws the first patch meanwhile), then the heavy views
+are queued: the 2-D coverage (tens of ms a depth), the sample map, the microlens images
+and the ray space run on one worker thread per session, coalescing: while it computes,
+further changes only replace what it computes next, so a burst of changes costs one
+extra computation, never a queue. Results reach the page through the document's next
+tick (the only place Bokeh models are changed).
 """
 
 from __future__ import annotations

@@ -254,8 +254,8 @@ def samples_view(design: Design, n: int = SAMPLES_DEPTHS,
     ``distinct`` and ``covering_radius`` (in delta(z)), (rows, n).
 
     This is the heavy view (tens of ms a depth): the app computes it off the UI thread.
-    When :func:`splitlf.new_samples` takes a Design, its 1-D max gap can be added here at
-    many more depths for the price of a few of these."""
+    Its 1-D counterpart, at many more depths for the price of a few of these, is
+    :func:`gap_view`."""
     z = samples_depths(design, n)
     cov = coverage(design, z, window=window, n_threads=THREADS)
     return {"z": z, "rows": cov.rows, "distinct": cov.distinct,
