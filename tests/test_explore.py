@@ -155,6 +155,28 @@ def test_ray_space_view_is_the_trace_of_the_central_lenses():
     assert v["us"] == [] and "grid" in v["note"]
 
 
+def test_blur_axis_end_snaps_to_nice_steps():
+    pytest.importorskip("bokeh")
+    from splitlf.explorer.app import _nice_ceiling
+
+    cases = {9.0: 10.0, 7.5: 10.0, 0.75: 1.0, 2.1: 2.5, 1.9: 2.0, 10.0: 10.0, 0.3: 0.5,
+             46.0: 50.0, 1e-3: 1e-3}
+    for x, want in cases.items():
+        assert _nice_ceiling(x) == pytest.approx(want, rel=1e-12), x
+        assert _nice_ceiling(x) >= x * (1 - 1e-12)
+
+
+def test_w8_skips_cleanly_without_a_browser(monkeypatch, capsys):
+    """benches/run.py --only W8 prints why and records nothing when chromium is absent."""
+    monkeypatch.syspath_prepend(str(ROOT / "benches"))
+    import run
+    import w8_explore
+
+    monkeypatch.setattr(w8_explore, "CHROMIUM", "/nonexistent/chromium")
+    assert run.run_w8(quick=True) is None
+    assert "W8 skipped: needs Debian's chromium" in capsys.readouterr().out
+
+
 def test_load_toml_bytes_reads_design_and_camera_files(tmp_path):
     from splitlf.explorer import model
 
