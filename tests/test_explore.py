@@ -98,6 +98,85 @@ def test_views_are_the_api():
     assert 642.0 in np.round(s["z"], 6)  # the out-of-focus planes are sampled
 
 
+def test_gap_view_is_new_samples_at_the_sweep_depths():
+    from splitlf.explorer import model
+
+    seed = splitlf.Design.preset("seed")
+    v = model.gap_view(seed, 50)
+    # The depths: 50 log-spaced over the samples view's range, plus the out-of-focus
+    # planes and the coincidence planes (N <= 3) of every channel inside it.
+    lo, hi = 1.875 * seed.F, 125.0 * seed.F
+    planes = [seed.out_of_focus_depth(1), seed.out_of_focus_depth(2)]
+    for c in (1, 2):
+        planes += list(splitlf.coincidence_planes(seed, channel=c, max_n=3).z)
+    want = np.concatenate([np.geomspace(lo, hi, 50), planes])
+    np.testing.assert_array_equal(v["z"], np.unique(want[(want >= lo) & (want <= hi)]))
+    r = splitlf.new_samples(seed, v["z"])
+    assert v["rows"] == ("channel 1", "channel 2", "union") and v["note"] == ""
+    np.testing.assert_array_equal(v["distinct"], r.distinct)
+    finite = np.isfinite(r.max_gap)
+    np.testing.assert_array_equal(v["max_gap"][finite], r.max_gap[finite])
+    assert np.isnan(v["max_gap"][~finite]).all()
+    # Where a channel falls to one sample per lens its gap peaks: the out-of-focus plane
+    # of channel 1 is the depth of its largest gap.
+    assert v["z"][np.nanargmax(v["max_gap"][0])] == pytest.approx(planes[0], rel=1e-12)
+    # A hex channel: the 1-D engine refuses it, the view says why and stays empty.
+    hexd = splitlf.Design.preset("raytrix-r12")
+    h = model.gap_view(hexd, 20)
+    assert h["z"].size == 0 and "grid" in h["note"]
+    with pytest.raises(splitlf.InvalidParameter) as e:
+        splitlf.new_samples(hexd, [1000.0])
+    assert str(e.value) in h["note"]
+
+
+def test_ray_space_view_is_the_trace_of_the_central_lenses():
+    from splitlf.explorer import model
+
+    for name in ("seed", "split3"):
+        d = splitlf.Design.preset(name)
+        for c in range(1, len(d.channels) + 1):
+            v = model.ray_space_view(d, c, 3)
+            tr = splitlf.trace(d, channel=c, axis="x")
+            K = d.channels[c - 1].Kx
+            mid = [(K - 3) // 2 + i for i in range(3)]
+            assert sorted(set(v["lens"].tolist())) == mid
+            # every lit-or-vignetted pixel of those lenses that collects light, in order
+            idx = [i for i in range(len(tr.lens)) if tr.lens[i] in mid and tr.n_vertices[i] > 0]
+            assert len(v["us"]) == len(idx) == len(v["ws"])
+            for k, i in enumerate(idx):
+                n = tr.n_vertices[i]
+                np.testing.assert_array_equal(v["us"][k], tr.vertices[i, :n, 0])
+                np.testing.assert_array_equal(v["ws"][k], tr.vertices[i, :n, 1])
+            # the polygons lie within the aperture, |w| <= D/2
+            assert v["half_aperture"] == d.D / 2
+            assert max(np.abs(w).max() for w in v["ws"]) <= d.D / 2 * (1 + 1e-12)
+            np.testing.assert_array_equal(v["type"], tr.type[idx])
+    v = model.ray_space_view(splitlf.Design.preset("raytrix-r12"), 1)
+    assert v["us"] == [] and "grid" in v["note"]
+
+
+def test_blur_axis_end_snaps_to_nice_steps():
+    pytest.importorskip("bokeh")
+    from splitlf.explorer.app import _nice_ceiling
+
+    cases = {9.0: 10.0, 7.5: 10.0, 0.75: 1.0, 2.1: 2.5, 1.9: 2.0, 10.0: 10.0, 0.3: 0.5,
+             46.0: 50.0, 1e-3: 1e-3}
+    for x, want in cases.items():
+        assert _nice_ceiling(x) == pytest.approx(want, rel=1e-12), x
+        assert _nice_ceiling(x) >= x * (1 - 1e-12)
+
+
+def test_w8_skips_cleanly_without_a_browser(monkeypatch, capsys):
+    """benches/run.py --only W8 prints why and records nothing when chromium is absent."""
+    monkeypatch.syspath_prepend(str(ROOT / "benches"))
+    import run
+    import w8_explore
+
+    monkeypatch.setattr(w8_explore, "CHROMIUM", "/nonexistent/chromium")
+    assert run.run_w8(quick=True) is None
+    assert "W8 skipped: needs Debian's chromium" in capsys.readouterr().out
+
+
 def test_load_toml_bytes_reads_design_and_camera_files(tmp_path):
     from splitlf.explorer import model
 
@@ -113,7 +192,7 @@ def test_load_toml_bytes_reads_design_and_camera_files(tmp_path):
 
 @pytest.fixture(scope="module")
 def server():
-    pytest.importorskip("panel")
+    pytest.importorskip("bokeh")
     from splitlf.explorer import serve
 
     srv = serve(splitlf.Design.preset("seed"), threaded=True)
@@ -176,7 +255,7 @@ needs_browser = pytest.mark.skipif(
     reason=f"needs Debian's chromium and chromium-driver ({CHROMIUM}, {CHROMEDRIVER}); "
     "apt-get install chromium chromium-driver (.ci/run does)")
 
-#: JavaScript: every element matching a selector, through open shadow roots (Panel's
+#: JavaScript: every element matching a selector, through open shadow roots (Bokeh's
 #: components live in shadow DOM).
 DEEP = """
 function deep(root, sel) {
@@ -238,8 +317,15 @@ class Page:
         el.send_keys(Keys.END + Keys.BACKSPACE * 40 + text + Keys.ENTER)
 
     def after_change(self, before: tuple[int, int]) -> None:
-        """Wait until both views show a design newer than ``before``."""
-        self.wait(lambda: (s := self.status())[0] > before[0] and s[1] == s[0], 60)
+        """Wait until every view shows a design newer than ``before``: the closed-form
+        views, the 1-D samples and the 2-D coverage."""
+        def done() -> bool:
+            s = self.status()
+            gap = self.d.execute_script(
+                "return Bokeh.documents[0].get_model_by_name('status').data.gap[0];")
+            return s[0] > before[0] and s[1] == s[0] and int(gap) == s[0]
+
+        self.wait(done, 60)
 
     def field_error(self, key: str) -> str:
         got = self.js("const e = deep(document, `.field-error[data-key=\"${arguments[0]}\"]`)"
@@ -263,6 +349,41 @@ def _plotted_blur(page: Page) -> np.ndarray:
 
 def _api_blur(design: splitlf.Design, z) -> np.ndarray:
     return splitlf.curves(design, np.asarray(z)).blur_px
+
+
+def _plotted_lines(page: Page, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """(depths, values (rows, m)) of a multi_line source (NaN for gaps)."""
+    src = page.source(name)
+    return (np.asarray(src["xs"][0], dtype=float),
+            np.array([[np.nan if v is None else v for v in row] for row in src["ys"]],
+                     dtype=float))
+
+
+def _plotted_points(page: Page, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """(depths, values (rows, m)) of a scatter source of every row's points."""
+    src = page.source(name)
+    rows = np.asarray(src["row"], dtype=int)
+    n = int(rows.max()) + 1
+    x = np.asarray(src["x"], dtype=float).reshape(n, -1)
+    y = np.array([np.nan if v is None else v for v in src["y"]], dtype=float).reshape(n, -1)
+    assert (rows.reshape(n, -1) == np.arange(n)[:, None]).all()
+    return x[0], y
+
+
+def _check_samples_figures(page: Page, design: splitlf.Design, prefix: str = "") -> None:
+    """The samples figures of the page hold the API's numbers for ``design``: the 1-D
+    lines (new_samples at the depths shown) and the 2-D dots (coverage)."""
+    z, gap = _plotted_lines(page, prefix + "max_gap")
+    r = splitlf.new_samples(design, z)
+    np.testing.assert_allclose(gap, np.where(np.isfinite(r.max_gap), r.max_gap, np.nan),
+                               rtol=1e-12)
+    _, distinct = _plotted_lines(page, prefix + "distinct_1d")
+    np.testing.assert_array_equal(distinct, r.distinct)
+    z2, cover = _plotted_points(page, prefix + "covering_radius")
+    api = splitlf.coverage(design, z2, window=2.0)
+    np.testing.assert_allclose(cover, api.covering_radius, rtol=1e-12)
+    _, distinct2 = _plotted_points(page, prefix + "distinct")
+    np.testing.assert_array_equal(distinct2, api.distinct)
 
 
 @pytest.fixture(scope="module")
@@ -301,8 +422,8 @@ def test_app_starts_and_figures_render(page):
     assert blur["label"] == ["channel 1", "channel 2"]
     np.testing.assert_allclose(_plotted_blur(page), _api_blur(seed, blur["xs"][0]),
                                rtol=1e-12)
-    cov = page.source("covering_radius")
-    assert cov["label"] == ["channel 1", "channel 2", "union"]
+    assert page.source("max_gap")["label"] == ["channel 1", "channel 2", "union"]
+    _check_samples_figures(page, seed)
     assert len(page.source("dof")["row"]) == sum(
         len(iv) for iv in splitlf.depth_of_field(seed).intervals)
     # Every figure drew on its canvas (Bokeh renders each plot into canvas elements).
@@ -323,10 +444,7 @@ def test_control_change_plots_what_the_api_returns(page):
     reps = np.array(page.source("repetitions")["ys"], dtype=float)
     np.testing.assert_allclose(reps, splitlf.curves(design, np.asarray(z)).repetitions,
                                rtol=1e-12)
-    cov = page.source("covering_radius")
-    api = splitlf.coverage(design, np.asarray(cov["xs"][0]), window=2.0)
-    np.testing.assert_allclose(np.array(cov["ys"], dtype=float), api.covering_radius,
-                               rtol=1e-12)
+    _check_samples_figures(page, design)
     from splitlf.explorer.model import report_rows
 
     assert page.report() == dict(report_rows(design))
@@ -366,7 +484,8 @@ def test_save_then_load_reproduces_the_design(page, tmp_path):
                                       design.channels[1]))
     for f in page.downloads.glob("*"):
         f.unlink()
-    page.find("button").click()  # the first button of the page: save TOML
+    page.js("deep(document, 'button').find(b => b.textContent.includes('save TOML'))"
+            ".click();")
     saved = page.wait(lambda: [f for f in page.downloads.glob("*.toml")], 30)[0]
     time.sleep(0.3)
     assert splitlf.Design.from_toml(saved) == design
@@ -404,10 +523,8 @@ def test_reference_design_on_the_same_axes(page):
                                _api_blur(seed, ref["xs"][0]), rtol=1e-12)
     np.testing.assert_allclose(_plotted_blur(page),
                                _api_blur(seed.replace(D=16.0), ref["xs"][0]), rtol=1e-12)
-    cov = page.source("reference_covering_radius")
-    api = splitlf.coverage(seed, np.asarray(cov["xs"][0]), window=2.0)
-    np.testing.assert_allclose(np.array(cov["ys"], dtype=float), api.covering_radius,
-                               rtol=1e-12)
+    _check_samples_figures(page, seed, "reference_")
+    _check_samples_figures(page, seed.replace(D=16.0))
     assert "reference" in page.source("dof")["row"]
     page.screenshot("explore_reference.png")
 
@@ -444,8 +561,83 @@ def test_sample_map_and_microlens_images_at_a_picked_depth(page):
     assert 1.25 * seed.F <= float(picked) <= 125 * seed.F
 
 
+@needs_browser
+def test_ray_space_of_the_open_channel(page):
+    from splitlf.explorer.model import ray_space_view
+
+    page.open()
+    seed = splitlf.Design.preset("seed")
+
+    def shows(channel: int) -> bool:
+        got = page.source("ray_space")
+        want = ray_space_view(seed, channel)
+        if len(got["us"]) != len(want["us"]) or got["lens"] != want["lens"].tolist():
+            return False
+        for gu, gw, wu, ww in zip(got["us"], got["ws"], want["us"], want["ws"], strict=True):
+            np.testing.assert_allclose(gu, wu, rtol=1e-12)
+            np.testing.assert_allclose(gw, ww, rtol=1e-12)
+        return True
+
+    page.wait(lambda: shows(1))
+    # Open channel 2's tab: the ray space (and microlens images) follow it.
+    page.js("deep(document, '.bk-tab').find(t => t.textContent.trim() === 'channel 2')"
+            ".click();")
+    page.wait(lambda: shows(2))
+    page.js("deep(document, '.bk-tab').find(t => t.textContent.trim() === 'channel 1')"
+            ".click();")
+    page.wait(lambda: shows(1))
+
+
+def test_running_server_shows_inline_in_jupyter(monkeypatch):
+    """In a Jupyter kernel ``splitlf.explore`` returns at once with the server running in
+    the background, and the notebook shows it through ``_repr_html_`` (an IFrame of the
+    page): checked with a stand-in for IPython's kernel, without a notebook server."""
+    pytest.importorskip("bokeh")
+    import types
+
+    class Shell:
+        kernel = object()
+
+    fake = types.ModuleType("IPython")
+    fake.get_ipython = lambda: Shell()  # type: ignore[attr-defined]
+    monkeypatch.setitem(sys.modules, "IPython", fake)
+    running = splitlf.explore(splitlf.Design.preset("split3"))
+    try:
+        html = running._repr_html_()
+        assert re.fullmatch(r'<iframe src="http://127\.0\.0\.1:\d+/" width="100%" '
+                            r'height="900" style="border:0" title="splitlf explorer"></iframe>',
+                            html), html
+        port = int(running.url.rsplit(":", 1)[1].strip("/"))
+        assert _get(port, f"127.0.0.1:{port}") == 200
+    finally:
+        running.stop()
+    # Outside a kernel (IPython imported but no kernel): no background server; serve()
+    # would block, so only the decision is checked.
+    fake.get_ipython = lambda: None  # type: ignore[attr-defined]
+    assert splitlf._in_jupyter_kernel() is False
+    monkeypatch.delitem(sys.modules, "IPython")
+    assert splitlf._in_jupyter_kernel() is False
+
+
+def test_explorer_builds_without_a_session():
+    """An :class:`Explorer` built outside a server (``doc=None``, as for
+    ``bokeh.io.show`` in a notebook) fills its views at once, from the API."""
+    pytest.importorskip("bokeh")
+    from bokeh.models import LayoutDOM
+
+    from splitlf.explorer.app import Explorer
+
+    ex = Explorer(splitlf.Design.preset("seed"))
+    assert isinstance(ex.layout, LayoutDOM)
+    np.testing.assert_array_equal(np.array(ex.blur_src.data["ys"]),
+                                  splitlf.curves(ex.design, ex.blur_src.data["xs"][0]).blur_px)
+    gap = splitlf.new_samples(ex.design, ex.gap_src.data["xs"][0]).max_gap
+    np.testing.assert_array_equal(np.array(ex.gap_src.data["ys"]),
+                                  np.where(np.isfinite(gap), gap, np.nan))
+
+
 def test_serve_checks_its_arguments():
-    pytest.importorskip("panel")
+    pytest.importorskip("bokeh")
     from splitlf.explorer import serve
 
     with pytest.raises(TypeError, match="design must be"):

@@ -32,23 +32,24 @@ def explore(design: Camera | Design | None = None, *, port: int = 0,
             address: str = "127.0.0.1", reference: Camera | Design | None = None) -> object:
     """The interactive design explorer (docs/explore.md) for ``design`` (default: the seed
     preset), with ``reference`` (e.g. the seed beside an optimised design) drawn on the
-    same axes. In Jupyter, returns the app served in the background, shown inline (an
-    IFrame); elsewhere starts the server, prints its URL and blocks until Ctrl-C. Binds
-    127.0.0.1 by default. Needs the ``explore`` extra (Panel), imported on first call."""
+    same axes. In a Jupyter kernel, serves it in the background and returns the running
+    server (``.url``, ``.stop()``), which the notebook shows inline (an IFrame of the
+    page); elsewhere starts the server, prints its URL and blocks until Ctrl-C. Binds
+    127.0.0.1 by default. Needs the ``explore`` extra (Bokeh), imported on first call."""
     from .explorer import serve
 
-    try:
-        from IPython import get_ipython
+    return serve(design, port=port, address=address, reference=reference,
+                 threaded=_in_jupyter_kernel())
 
-        in_kernel = get_ipython() is not None and hasattr(get_ipython(), "kernel")
-    except ImportError:
-        in_kernel = False
-    if not in_kernel:
-        return serve(design, port=port, address=address, reference=reference)
-    from IPython.display import IFrame
 
-    server = serve(design, port=port, address=address, threaded=True, reference=reference)
-    return IFrame(server.url, width="100%", height=900)
+def _in_jupyter_kernel() -> bool:
+    """Whether this runs in a Jupyter (IPython) kernel, without importing IPython."""
+    import sys
+
+    ipython = sys.modules.get("IPython")
+    shell = ipython.get_ipython() if ipython is not None else None
+    return shell is not None and hasattr(shell, "kernel")
+
 
 __all__ = [
     "BarChart",

@@ -681,9 +681,9 @@ class _Parser(argparse.ArgumentParser):
 
 def _cmd_explore(args: argparse.Namespace) -> int:
     try:
-        import panel  # noqa: F401
+        import bokeh  # noqa: F401
     except ImportError:
-        raise CliError('explore needs Panel: pip install "splitlf[explore]"') from None
+        raise CliError('explore needs Bokeh: pip install "splitlf[explore]"') from None
     from .explorer import serve
 
     subject, _ = _load_subject(args)

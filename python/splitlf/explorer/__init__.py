@@ -1,6 +1,6 @@
 """The interactive design explorer in the browser (``splitlf explore``, :func:`serve`).
 
-Needs the ``explore`` extra (Panel): ``pip install "splitlf[explore]"``. ``import
+Needs the ``explore`` extra (Bokeh): ``pip install "splitlf[explore]"``. ``import
 splitlf`` does not import this package; :func:`splitlf.explore` does, on first call.
 
 The server binds 127.0.0.1 by default and accepts the page and its websocket only with a
@@ -38,10 +38,25 @@ def allowed_origins(address: str, port: int) -> list[str]:
 
 
 class Running:
-    """A server running on its own thread: ``url``, ``server`` (Panel's) and :meth:`stop`."""
+    """A server running on its own thread: ``url``, ``server`` (Bokeh's) and :meth:`stop`.
+
+    Jupyter shows it inline: its ``_repr_html_`` is an IFrame of the page (the notebook's
+    browser must reach ``url``: a kernel on this machine)."""
+
+    #: Height of the inline IFrame [px].
+    height = 900
 
     def __init__(self, url: str, server: Any, thread: threading.Thread) -> None:
         self.url, self.server, self.thread = url, server, thread
+
+    def __repr__(self) -> str:
+        return f"<splitlf explorer at {self.url}>"
+
+    def _repr_html_(self) -> str:
+        import html
+
+        return (f'<iframe src="{html.escape(self.url, quote=True)}" width="100%" '
+                f'height="{self.height}" style="border:0" title="splitlf explorer"></iframe>')
 
     def stop(self) -> None:
         """Stop the server and wait for its thread."""
@@ -79,7 +94,9 @@ def serve(design: Any = None, *, port: int = 0, address: str = LOOPBACK,
     once (``.url``, ``.stop()``); otherwise blocks until interrupted. Each browser session
     gets its own copy of the design. ``reference`` (a Design or Camera) is drawn beside
     it on the same axes (the page can also pin its current design as the reference)."""
-    import panel as pn
+    from bokeh.application import Application
+    from bokeh.application.handlers.function import FunctionHandler
+    from bokeh.server.server import Server
 
     from ..camera import Camera
     from ..design import Design
@@ -99,15 +116,20 @@ def serve(design: Any = None, *, port: int = 0, address: str = LOOPBACK,
     if port == 0:
         port = free_port(address)
 
-    def session() -> Any:
-        return Explorer(design, ref).layout
+    def session(doc: Any) -> None:
+        from bokeh.models import CustomJS
+
+        from .app import SKIP_SAME_CSS_JS
+
+        doc.add_root(Explorer(design, ref, doc).layout)
+        doc.title = "splitlf explorer"
+        doc.js_on_event("document_ready", CustomJS(code=SKIP_SAME_CSS_JS))
 
     url = f"http://{address}:{port}/"
 
     def make() -> Any:
-        server = pn.serve({"/": session}, port=port, address=address, show=False,
-                          allow_websocket_origin=allowed_origins(address, port),
-                          title="splitlf explorer", start=False, verbose=False)
+        server = Server({"/": Application(FunctionHandler(session))}, port=port,
+                        address=address, allow_websocket_origin=allowed_origins(address, port))
         _refuse_other_hosts(server, address)
         return server
 

@@ -1,27 +1,53 @@
-"""The design explorer as a Panel (Bokeh server) app: one :class:`Explorer` per browser
-session. Every number comes from :mod:`splitlf.explorer.model` (the public API); this
-module only lays out controls and moves numbers into Bokeh figures.
+"""The design explorer as a Bokeh server app: one :class:`Explorer` per browser session.
+Every number comes from :mod:`splitlf.explorer.model` (the public API); this module only
+lays out controls and moves numbers into Bokeh figures.
 
-Threads: the closed-form views (blur, repetitions, depth of field, report; about a
-millisecond) are computed in the control's callback; the samples view (2-D coverage, tens
-of ms a depth) runs on one worker thread per session, coalescing: while it computes,
-further changes only replace the design it will compute next, so a burst of changes costs
-one extra computation, never a queue. Results reach the page through the document's next
+Plain Bokeh models (no Panel). Per change only data sources (and, when they change,
+ranges and titles) are sent; figures are never replaced. In the page,
+:data:`SKIP_SAME_CSS_JS` keeps BokehJS from rewriting unchanged styles at every paint
+(each rewrite forced a recalculation of the page's styles; docs/explore.md).
+
+Threads: a change is answered in three ticks of the server's event loop, each patch sent
+before the next tick starts: the closed-form views (blur, repetitions, depth of field,
+report; a few ms), then the 1-D samples (:func:`splitlf.new_samples` at a couple of
+hundred depths, 6-18 ms; the page draws the first patch meanwhile), then the heavy views
+are queued: the 2-D coverage (tens of ms a depth), the sample map, the microlens images
+and the ray space run on one worker thread per session, coalescing: while it computes,
+further changes only replace what it computes next, so a burst of changes costs one
+extra computation, never a queue. Results reach the page through the document's next
 tick (the only place Bokeh models are changed).
 """
 
 from __future__ import annotations
 
+import base64
 import html
-import io
 import threading
 from functools import partial
 from typing import Any
 
 import numpy as np
-import panel as pn
+from bokeh.core.property.descriptors import UnsetValueError
+from bokeh.document import Document
 from bokeh.events import Tap
-from bokeh.models import ColumnDataSource, DataTable, FactorRange, Range1d, Span, TableColumn
+from bokeh.layouts import column, row
+from bokeh.models import (
+    Button,
+    ColumnDataSource,
+    CustomJS,
+    DataTable,
+    Div,
+    FactorRange,
+    FileInput,
+    Range1d,
+    Select,
+    Slider,
+    Span,
+    TableColumn,
+    TabPanel,
+    Tabs,
+    TextInput,
+)
 from bokeh.palettes import Category10_10
 from bokeh.plotting import figure
 
@@ -33,11 +59,47 @@ from .model import CHANNEL_CONTROLS, DESIGN_CONTROLS, Field, FieldError
 __all__ = ["Explorer"]
 
 ERROR_STYLE = "color:#b00020;font-size:12px;"
+REFERENCE_COLOR = "#888888"
 #: The threshold control's key (a field of the views, not of the design).
 THRESHOLD = "threshold_px"
-DISTINCT_TITLE = "Distinct 2-D samples in the central field"
+DISTINCT_TITLE = "Distinct samples: along x (lines), 2-D in the central field (dots)"
+GAP_TITLE = "Max gap along x (lines) and 2-D covering radius (dots) [δ(z)]"
 #: The sample map's depth control's key.
 MAP_Z = "map_z"
+#: Controls per row in the control panel.
+PER_ROW = 4
+CONTROL_WIDTH = 125
+
+#: Saves the TOML text the server puts in the "toml" source (on "save TOML") as a file.
+SAVE_JS = """
+const text = source.data.text[0];
+if (!text) return;
+const url = URL.createObjectURL(new Blob([text], {type: "application/toml"}));
+const a = document.createElement("a");
+a.href = url; a.download = "design.toml";
+document.body.appendChild(a); a.click(); a.remove();
+setTimeout(() => URL.revokeObjectURL(url), 1000);
+"""
+
+
+#: Run once in the page: BokehJS (3.9) rewrites the <style> of every renderer of a figure
+#: at every paint (its position), even when the text is the same, and then reads the
+#: renderer's visual properties through getComputedStyle, so each renderer of each
+#: repainted figure forces the browser to recalculate the page's styles (about 13 a
+#: figure). Skipping the rewrite of an unchanged text keeps the styles clean. Nothing
+#: else changes (the same text is in place); without the module it does nothing.
+SKIP_SAME_CSS_JS = """
+const dom = Bokeh.require("core/dom");
+const proto = dom && dom.InlineStyleSheet && dom.InlineStyleSheet.prototype;
+if (proto && proto._update && !proto._splitlf_skips_same) {
+  const update = proto._update;
+  proto._update = function (css) {
+    if (this.el.textContent !== css)
+      update.call(this, css);
+  };
+  proto._splitlf_skips_same = true;
+}
+"""
 
 
 def _esc(text: Any) -> str:
@@ -45,33 +107,68 @@ def _esc(text: Any) -> str:
 
 
 def _lines(z: np.ndarray, rows: tuple[str, ...], values: np.ndarray,
-           offset: int = 0) -> dict[str, list]:
+           grey: bool = False) -> dict[str, list]:
     """The columns of a multi_line source: one line per row (non-finite values as NaN)."""
     ys = [np.where(np.isfinite(v), v, np.nan) for v in np.asarray(values, dtype=float)]
     return {"xs": [z] * len(rows), "ys": ys, "label": list(rows),
-            "color": [Category10_10[(i + offset) % 10] for i in range(len(rows))]}
+            "color": [REFERENCE_COLOR if grey else Category10_10[i % 10]
+                      for i in range(len(rows))]}
+
+
+def model_color(lens_type: int) -> str:
+    """The colour of lens type ``lens_type`` (from 0), as in the microlens images."""
+    r, g, b = model.TYPE_RGBA[int(lens_type) % len(model.TYPE_RGBA)]
+    return f"#{r:02x}{g:02x}{b:02x}"
+
+
+def _points(z: np.ndarray, rows: tuple[str, ...], values: np.ndarray,
+            grey: bool = False) -> dict[str, Any]:
+    """The columns of a scatter source: every (depth, value) of every row, row-major
+    (``row`` its index; non-finite values as NaN)."""
+    n = len(z)
+    v = np.asarray(values, dtype=float).reshape(len(rows), n)
+    return {"x": np.tile(np.asarray(z, dtype=float), len(rows)),
+            "y": np.where(np.isfinite(v), v, np.nan).ravel(),
+            "row": np.repeat(np.arange(len(rows)), n),
+            "color": [REFERENCE_COLOR if grey else Category10_10[i % 10]
+                      for i in range(len(rows)) for _ in range(n)]}
+
+
+def _nice_ceiling(x: float) -> float:
+    """The least of 1, 2, 2.5, 5, 10 times a power of ten that is >= x (x > 0): the blur
+    axis changes its end, and so its ticks and layout, only when the curves outgrow it."""
+    p = 10.0 ** np.floor(np.log10(x))
+    return float(next(m * p for m in (1.0, 2.0, 2.5, 5.0, 10.0) if m * p >= x * (1 - 1e-12)))
+
+
+def _grid(items: list[Any], per_row: int = PER_ROW) -> Any:
+    return column(*[row(*items[i:i + per_row]) for i in range(0, len(items), per_row)])
 
 
 class Explorer:
     """One session of the explorer for ``design`` (a :class:`~splitlf.Design`).
 
     ``self.design`` is the last valid design: the figures always show it. ``layout`` is
-    the Panel object served (or displayed)."""
+    the Bokeh layout served; ``doc`` the session's document (None: models are changed at
+    once, e.g. in tests)."""
 
-    def __init__(self, design: Design, reference: Design | None = None) -> None:
+    def __init__(self, design: Design, reference: Design | None = None,
+                 doc: Document | None = None) -> None:
         self.design = design
         #: A second design drawn on the same axes (grey), e.g. the seed beside an
         #: optimised one: given, or pinned from the page.
         self.reference = reference
         self._ref_samples: dict[tuple[Design, int, float], dict[str, Any]] = {}
+        self._ref_gap: tuple[Design, dict[str, Any]] | None = None
         self.generation = 0  # counts valid designs shown
         self._suspend = False
-        self._doc = pn.state.curdoc
+        self._doc = doc
         self._lock = threading.Lock()
         self._pending: dict[str, tuple] = {}
         self._worker_busy = False
         self._widgets: dict[str, Any] = {}
-        self._errors: dict[str, pn.pane.HTML] = {}
+        self._errors: dict[str, Div] = {}
+        self._shown = {"blur": 0, "gap": 0, "samples": 0}
         self._n_channels = len(design.channels)
         self._build_figures()
         self._build_controls()
@@ -79,75 +176,71 @@ class Explorer:
 
     # -- layout --------------------------------------------------------------------------
     def _build_controls(self) -> None:
-        self.banner = pn.pane.HTML("", sizing_mode="stretch_width")
-        options = ["custom", *PRESETS]
-        self.preset = pn.widgets.Select(label="preset", options=options, value=self._preset_of(
-            self.design), width=150)
-        self.preset.param.watch(self._on_preset, "value")
-        self.load = pn.widgets.FileInput(accept=".toml", multiple=False, width=220)
-        self.load.param.watch(self._on_load, "value")
-        self.save = pn.widgets.FileDownload(callback=self._toml_file, filename="design.toml",
-                                            label="save TOML", color="primary",
-                                            embed=False, width=120)
+        self.banner = Div(text="", visible=False, width=540)
+        self.preset = Select(title="preset", options=["custom", *PRESETS],
+                             value=self._preset_of(self.design), width=150)
+        self.preset.on_change("value", self._on_preset)
+        self.load = FileInput(title="load TOML", accept=".toml", multiple=False, width=230)
+        self.load.on_change("value", self._on_load)
+        self.toml_src = ColumnDataSource({"text": [""], "n": [0]}, name="toml")
+        self.toml_src.js_on_change("data", CustomJS(args={"source": self.toml_src},
+                                                    code=SAVE_JS))
+        self.save = Button(label="save TOML", button_type="primary", width=110,
+                           margin=(24, 5, 5, 5))
+        self.save.on_click(lambda: self._save_toml())
+        self.save.tags = [self.toml_src]  # a model must reference the source to send it
         self.threshold = self._text_widget(
             Field(THRESHOLD, "real", "threshold [px]", "sharpness threshold on the blur "
                   "radius [px], > 0"), THRESHOLD, "0.5")
-        self.n_depths = pn.widgets.IntSlider(label="samples: depths", start=3, end=40,
-                                             value=model.SAMPLES_DEPTHS, width=180)
-        self.window = pn.widgets.FloatSlider(label="samples: field [lens pitches]", start=1,
-                                             end=16, step=1, value=model.SAMPLES_WINDOW,
-                                             width=180)
+        self.n_depths = Slider(title="samples: 2-D depths", start=3, end=40, step=1,
+                               value=model.SAMPLES_DEPTHS, width=250)
+        self.window = Slider(title="samples: field [lens pitches]", start=1, end=16, step=1,
+                             value=model.SAMPLES_WINDOW, width=250)
         for w in (self.n_depths, self.window):
-            w.param.watch(lambda e: self._request_samples(self.design), "value_throttled")
-        self.pin = pn.widgets.Button(label="pin as reference", width=140)
-        self.pin.on_click(lambda e: self.set_reference(self.design))
-        self.unpin = pn.widgets.Button(label="clear reference", width=130)
-        self.unpin.on_click(lambda e: self.set_reference(None))
-        self.map_z = pn.widgets.TextInput(label="sample map depth z [mm] (or click a plot)",
-                                          value=f"{model.default_map_depth(self.design):.6g}",
-                                          placeholder=MAP_Z, width=260)
-        self.map_z.param.watch(lambda e: self._request_map(), "value")
-        self._errors[MAP_Z] = pn.pane.HTML("", width=260)
-        self.design_box = pn.FlexBox(sizing_mode="stretch_width")
-        self.channel_tabs = pn.Tabs(sizing_mode="stretch_width")
-        self.channel_tabs.param.watch(
-            lambda e: self._request("sensor", (self.design, self._sensor_channel())), "active")
+            w.on_change("value_throttled", lambda attr, old, new: self._request_samples(
+                self.design))
+        self.pin = Button(label="pin as reference", width=140)
+        self.pin.on_click(lambda: self.set_reference(self.design))
+        self.unpin = Button(label="clear reference", width=130)
+        self.unpin.on_click(lambda: self.set_reference(None))
+        self.map_z = TextInput(title="sample map depth z [mm] (or click a plot)",
+                               value=f"{model.default_map_depth(self.design):.6g}",
+                               placeholder=MAP_Z, width=260)
+        self.map_z.on_change("value", lambda attr, old, new: self._request_map())
+        self._errors[MAP_Z] = Div(text="", width=260, visible=False)
+        self.design_box = row()
+        self.channel_tabs = Tabs(tabs=[], width=540)
+        self.channel_tabs.on_change("active", lambda attr, old, new: self._request_channel(
+            self.design))
         self._populate(self.design)
-        top = pn.Row(self.preset, pn.Column(pn.pane.HTML("<b>load TOML</b>"), self.load),
-                     pn.Column(pn.Spacer(height=18), self.save), sizing_mode="stretch_width")
-        controls = pn.Column(
-            "## splitlf design explorer", top, pn.Row(self.pin, self.unpin), self.banner,
-            "### Main lens and views",
-            self.design_box, "### Channels", self.channel_tabs,
-            pn.Row(self.n_depths, self.window),
-            pn.Column(self.map_z, self._errors[MAP_Z]),
-            pn.pane.Bokeh(self.map_fig), pn.pane.Bokeh(self.sensor_fig),
-            width=560)
-        views = pn.Column(
-            pn.pane.Bokeh(self.blur_fig, sizing_mode="stretch_width"),
-            pn.pane.Bokeh(self.dof_fig, sizing_mode="stretch_width"),
-            pn.Row(pn.pane.Bokeh(self.reps_fig, sizing_mode="stretch_width"),
-                   sizing_mode="stretch_width"),
-            pn.Row(pn.pane.Bokeh(self.distinct_fig, sizing_mode="stretch_width"),
-                   pn.pane.Bokeh(self.cover_fig, sizing_mode="stretch_width"),
-                   sizing_mode="stretch_width"),
-            "### Report", pn.pane.Bokeh(self.report, sizing_mode="stretch_width"),
-            sizing_mode="stretch_width")
-        self.layout = pn.Row(controls, views, sizing_mode="stretch_width")
+        heading = "<h2 style='margin:4px 0'>splitlf design explorer</h2>"
+        controls = column(
+            Div(text=heading), row(self.preset, self.load, self.save),
+            row(self.pin, self.unpin), self.banner,
+            Div(text="<h3 style='margin:4px 0'>Main lens and views</h3>"), self.design_box,
+            Div(text="<h3 style='margin:4px 0'>Channels</h3>"), self.channel_tabs,
+            row(self.n_depths, self.window), self.map_z, self._errors[MAP_Z],
+            self.map_fig, self.sensor_fig, self.rays_fig, width=560)
+        views = column(self.blur_fig, self.dof_fig, self.reps_fig,
+                       row(self.distinct_fig, self.cover_fig, sizing_mode="stretch_width"),
+                       Div(text="<h3 style='margin:4px 0'>Report</h3>"), self.report,
+                       sizing_mode="stretch_width")
+        self.layout = row(controls, views, sizing_mode="stretch_width")
 
-    def _text_widget(self, field: Field, key: str, value: str) -> pn.Column:
+    def _text_widget(self, field: Field, key: str, value: str) -> Any:
         if field.kind == "choice":
-            w = pn.widgets.Select(label=field.label, options=list(field.choices), value=value,
-                                  description=field.help, width=120)
+            w = Select(title=field.label, options=list(field.choices), value=value,
+                       description=field.help, width=CONTROL_WIDTH - 5)
         else:
             # The placeholder (the key) names the input for people and for the tests.
-            w = pn.widgets.TextInput(label=field.label, value=value, placeholder=key,
-                                     description=field.help, width=120)
-        w.param.watch(partial(self._on_field, key), "value")
-        err = pn.pane.HTML("", width=120, margin=(0, 5))
+            w = TextInput(title=field.label, value=value, placeholder=key,
+                          description=field.help, width=CONTROL_WIDTH - 5)
+        w.on_change("value", partial(self._on_field, key))
+        # Hidden until it has a message (a hidden element costs the page nothing).
+        err = Div(text="", width=CONTROL_WIDTH - 5, visible=False, margin=(0, 5, 0, 5))
         self._widgets[key] = w
         self._errors[key] = err
-        return pn.Column(w, err, width=130)
+        return column(w, err, width=CONTROL_WIDTH)
 
     def _populate(self, design: Design) -> None:
         """(Re)build the controls of ``design``'s fields."""
@@ -155,33 +248,37 @@ class Explorer:
         self._widgets = {k: v for k, v in self._widgets.items() if k == THRESHOLD}
         self._errors = {k: v for k, v in self._errors.items() if k in (THRESHOLD, MAP_Z)}
         boxes = [self._text_widget(f, f.name, texts[f.name]) for f in DESIGN_CONTROLS]
-        self.design_box.objects = [*boxes, self.threshold]
+        self.design_box.children = [*boxes, self.threshold]
         tabs = []
         for i in range(1, len(design.channels) + 1):
             items = [self._text_widget(f, f"channels[{i}].{f.name}",
                                        texts[f"channels[{i}].{f.name}"])
                      for f in CHANNEL_CONTROLS]
-            tabs.append((f"channel {i}", pn.FlexBox(*items, sizing_mode="stretch_width")))
-        self.channel_tabs.objects = [pn.Column(t, name=n) for n, t in tabs]
+            tabs.append(TabPanel(title=f"channel {i}", child=_grid(items)))
+        self.channel_tabs.active = 0
+        self.channel_tabs.tabs = tabs
         self._n_channels = len(design.channels)
 
     def _build_figures(self) -> None:
-        tools = "pan,wheel_zoom,box_zoom,reset,save,hover"
-        self.blur_src = ColumnDataSource(_lines(np.zeros(1), (), np.zeros((0, 1))), name="blur")
-        self.conv_src = ColumnDataSource(_lines(np.zeros(1), (), np.zeros((0, 1))),
-                                         name="conventional")
-        self.reps_src = ColumnDataSource(_lines(np.zeros(1), (), np.zeros((0, 1))),
-                                         name="repetitions")
+        tools = "pan,wheel_zoom,box_zoom,reset,save"
+        empty = _lines(np.zeros(1), (), np.zeros((0, 1)))
+        nothing = _points(np.zeros(0), (), np.zeros((0, 0)))
+        self.blur_src = ColumnDataSource(dict(empty), name="blur")
+        self.conv_src = ColumnDataSource(dict(empty), name="conventional")
+        self.reps_src = ColumnDataSource(dict(empty), name="repetitions")
         self.dof_src = ColumnDataSource({"row": [], "left": [], "right": [], "color": []},
                                         name="dof")
-        self.distinct_src = ColumnDataSource(_lines(np.zeros(1), (), np.zeros((0, 1))),
-                                             name="distinct")
-        self.cover_src = ColumnDataSource(_lines(np.zeros(1), (), np.zeros((0, 1))),
-                                          name="covering_radius")
+        # The 1-D samples (new_samples, hundreds of depths: lines) and the 2-D coverage
+        # (a few depths: dots) on the same two figures.
+        self.gap_distinct_src = ColumnDataSource(dict(empty), name="distinct_1d")
+        self.gap_src = ColumnDataSource(dict(empty), name="max_gap")
+        self.distinct_src = ColumnDataSource(dict(nothing), name="distinct")
+        self.cover_src = ColumnDataSource(dict(nothing), name="covering_radius")
+        # Fixed left borders: the figures keep their layout when their tick labels change.
         f = figure(title="Blur against depth (Fig. 1); dashed: conventional cameras",
                    x_axis_type="log", height=300, sizing_mode="stretch_width", tools=tools,
                    x_axis_label="depth z [mm]", y_axis_label="blur radius [px]",
-                   y_range=Range1d(0, 10))
+                   y_range=Range1d(0, 10), min_border_left=70)
         f.multi_line("xs", "ys", color="color", legend_field="label", line_width=2,
                      source=self.blur_src)
         f.multi_line("xs", "ys", color="color", line_dash="dashed", source=self.conv_src)
@@ -193,43 +290,47 @@ class Explorer:
         d = figure(title="Depth of field: sharp intervals (blur < threshold)",
                    x_axis_type="log", height=170, sizing_mode="stretch_width",
                    x_range=f.x_range, y_range=FactorRange(), tools="xpan,xwheel_zoom,reset",
-                   x_axis_label="depth z [mm]")
+                   x_axis_label="depth z [mm]", min_border_left=70)
         d.hbar(y="row", left="left", right="right", height=0.6, color="color",
                source=self.dof_src)
         self.dof_fig = d
         r = figure(title="Repetitions 2H/d (Fig. 5)", x_axis_type="log", height=230,
                    sizing_mode="stretch_width", tools=tools, x_range=f.x_range,
-                   x_axis_label="depth z [mm]", y_axis_label="repetitions")
+                   x_axis_label="depth z [mm]", y_axis_label="repetitions",
+                   min_border_left=70)
         r.multi_line("xs", "ys", color="color", legend_field="label", line_width=2,
                      source=self.reps_src)
         self.reps_fig = r
-        s = figure(title=DISTINCT_TITLE, x_axis_type="log",
-                   y_axis_type="log", height=250, sizing_mode="stretch_width", tools=tools,
-                   x_axis_label="depth z [mm]", y_axis_label="distinct samples")
-        s.multi_line("xs", "ys", color="color", legend_field="label", line_width=2,
-                     source=self.distinct_src)
-        s.legend.location = "bottom_right"
+        s = figure(title=DISTINCT_TITLE, x_axis_type="log", y_axis_type="log", height=270,
+                   sizing_mode="stretch_width", tools=tools, x_axis_label="depth z [mm]",
+                   y_axis_label="distinct samples", min_border_left=70)
+        s.multi_line("xs", "ys", color="color", legend_field="label", line_width=1.5,
+                     source=self.gap_distinct_src)
+        s.scatter("x", "y", color="color", size=6, source=self.distinct_src)
+        s.title.text_font_size = "11px"
         self.distinct_fig = s
-        c = figure(title="Covering radius [δ(z)]", x_axis_type="log", height=250,
+        c = figure(title=GAP_TITLE, x_axis_type="log", height=270,
                    sizing_mode="stretch_width", tools=tools, x_range=s.x_range,
-                   x_axis_label="depth z [mm]", y_axis_label="covering radius [δ]")
-        c.multi_line("xs", "ys", color="color", legend_field="label", line_width=2,
-                     source=self.cover_src)
+                   x_axis_label="depth z [mm]", y_axis_label="[δ(z)]", min_border_left=50)
+        c.multi_line("xs", "ys", color="color", legend_field="label", line_width=1.5,
+                     source=self.gap_src)
+        c.scatter("x", "y", color="color", size=6, source=self.cover_src)
+        c.title.text_font_size = "11px"
         self.cover_fig = c
         # The report as a table of a data source, and the status (which design each view
-        # shows) as a data source: changing either sends data, never re-lays the page out
-        # (an HTML pane whose text changes makes Bokeh measure every element again).
+        # shows) as a data source: changing either sends data, never re-lays the page out.
         self.report_src = ColumnDataSource({"label": [], "value": []}, name="report")
         self.report = DataTable(source=self.report_src, index_position=None, height=420,
                                 sizing_mode="stretch_width", columns=[
                                     TableColumn(field="label", title="quantity", width=320),
                                     TableColumn(field="value", title="value", width=280)])
-        self.status_src = ColumnDataSource({"blur": [0], "samples": [0]}, name="status")
+        self.status_src = ColumnDataSource({"blur": [0], "gap": [0], "samples": [0]},
+                                           name="status")
         self.report.tags = [self.status_src]  # a model must reference it to reach the page
         # The 2-D sample map at a picked depth and the microlens images on the sensor.
         self.map_src = ColumnDataSource({"x": [], "y": [], "color": [], "label": []},
                                         name="sample_map")
-        m = figure(title="2-D samples", width=520, height=420, match_aspect=True,
+        m = figure(title="2-D samples", width=540, height=420, match_aspect=True,
                    tools="pan,wheel_zoom,box_zoom,reset,save", x_axis_label="X / δ(z)",
                    y_axis_label="Y / δ(z)")
         m.scatter("x", "y", color="color", legend_field="label", size=4, alpha=0.7,
@@ -237,25 +338,51 @@ class Explorer:
         self.map_fig = m
         self.sensor_src = ColumnDataSource({"image": [], "x": [], "y": [], "dw": [], "dh": []},
                                            name="microlens_image")
-        g = figure(title="Microlens images", width=520, height=420, match_aspect=True,
+        g = figure(title="Microlens images", width=540, height=420, match_aspect=True,
                    tools="pan,wheel_zoom,box_zoom,reset,save", x_axis_label="sensor column",
                    y_axis_label="sensor row")
         g.image_rgba(image="image", x="x", y="y", dw="dw", dh="dh", source=self.sensor_src)
         self.sensor_fig = g
+        # The ray space of the open channel: each pixel's integration polygon in (u, w).
+        self.rays_src = ColumnDataSource({"us": [], "ws": [], "lens": [], "type": [],
+                                          "color": []}, name="ray_space")
+        a = figure(title="Ray space (Fig. 4)", width=540, height=360,
+                   tools="pan,wheel_zoom,box_zoom,reset,save,hover",
+                   tooltips=[("lens", "@lens"), ("type", "@type")],
+                   x_axis_label="u: height on channel 1's array plane [mm]",
+                   y_axis_label="w: height on the main lens [mm]")
+        a.patches("us", "ws", fill_color="color", line_color="#333333", line_width=0.5,
+                  fill_alpha=0.55, source=self.rays_src)
+        self.aperture_spans = [Span(location=v, dimension="width", line_color="black",
+                                    line_dash="dashed") for v in (-1.0, 1.0)]
+        for sp in self.aperture_spans:
+            a.add_layout(sp)
+        self.rays_fig = a
         for fig in (f, d, r, s, c):  # a click on a depth axis picks the sample map's depth
             fig.on_event(Tap, self._on_tap)
         # The reference design, grey and dashed on the same axes.
-        empty = _lines(np.zeros(1), (), np.zeros((0, 1)))
         self.ref_blur_src = ColumnDataSource(dict(empty), name="reference_blur")
-        self.ref_distinct_src = ColumnDataSource(dict(empty), name="reference_distinct")
-        self.ref_cover_src = ColumnDataSource(dict(empty), name="reference_covering_radius")
+        self.ref_gap_distinct_src = ColumnDataSource(dict(empty), name="reference_distinct_1d")
+        self.ref_gap_src = ColumnDataSource(dict(empty), name="reference_max_gap")
+        self.ref_distinct_src = ColumnDataSource(dict(nothing), name="reference_distinct")
+        self.ref_cover_src = ColumnDataSource(dict(nothing), name="reference_covering_radius")
         self._ref_items = []
-        for fig, src in ((f, self.ref_blur_src), (s, self.ref_distinct_src),
-                         (c, self.ref_cover_src)):
-            fig.multi_line("xs", "ys", color="#888888", line_dash="dashed", line_width=1.5,
-                           legend_label="reference", source=src)
+        for fig, src in ((f, self.ref_blur_src), (s, self.ref_gap_distinct_src),
+                         (c, self.ref_gap_src)):
+            fig.multi_line("xs", "ys", color=REFERENCE_COLOR, line_dash="dashed",
+                           line_width=1.5, legend_label="reference", source=src)
             self._ref_items.append(fig.legend.items[-1])
             self._ref_items[-1].visible = self.reference is not None
+        for fig, src in ((s, self.ref_distinct_src), (c, self.ref_cover_src)):
+            fig.scatter("x", "y", color=REFERENCE_COLOR, size=6, marker="diamond",
+                        source=src)
+        for fig in (s, c):  # small legends, in the corner the curves leave freest
+            fig.legend.location = "bottom_right" if fig is s else "top_right"
+            fig.legend.label_text_font_size = "10px"
+            fig.legend.background_fill_alpha = 0.6
+            fig.legend.padding = 4
+            fig.legend.spacing = 0
+            fig.legend.click_policy = "hide"
 
     # -- events --------------------------------------------------------------------------
     @staticmethod
@@ -265,23 +392,33 @@ class Explorer:
                 return name
         return "custom"
 
-    def _on_preset(self, event: Any) -> None:
-        if self._suspend or event.new == "custom":
+    def _on_preset(self, attr: str, old: Any, new: Any) -> None:
+        if self._suspend or new == "custom":
             return
-        self.set_design(Design.preset(event.new))
+        self.set_design(Design.preset(new))
 
-    def _on_load(self, event: Any) -> None:
-        if not event.new:
+    def _on_load(self, attr: str, old: Any, new: Any) -> None:
+        if not new:
             return
         try:
-            design = model.load_toml_bytes(event.new, self.load.filename or "uploaded.toml")
+            data = base64.b64decode(new, validate=True)
+            design = model.load_toml_bytes(data, self._load_name())
         except (SplitlfError, ValueError, TypeError, OSError) as e:
             self._show_errors(None, f"load TOML: {e}")
             return
         self.set_design(design)
 
-    def _toml_file(self) -> io.StringIO:
-        return io.StringIO(self.design.to_toml())
+    def _load_name(self) -> str:
+        """The loaded file's name (the page may send it after the content: unset then)."""
+        try:
+            return str(self.load.filename) or "uploaded.toml"
+        except UnsetValueError:
+            return "uploaded.toml"
+
+    def _save_toml(self) -> None:
+        """Send the current design's TOML to the page, which saves it as design.toml."""
+        n = self.toml_src.data.get("n", [0])[0] + 1  # a new value even for the same text
+        self.toml_src.data = {"text": [self.design.to_toml()], "n": [n]}
 
     def _on_tap(self, event: Any) -> None:
         if event.x is not None and np.isfinite(event.x) and event.x > 0:
@@ -292,7 +429,7 @@ class Explorer:
         self.reference = design
         self._refresh(self.design)
 
-    def _on_field(self, key: str, event: Any) -> None:
+    def _on_field(self, key: str, attr: str, old: Any, new: Any) -> None:
         if not self._suspend:
             self.apply_controls()
 
@@ -331,15 +468,21 @@ class Explorer:
     def _show_errors(self, key: str | None, message: str) -> None:
         """The message beside control ``key`` (and in the banner), every other cleared;
         only panes whose text changes are touched (each change is a message to the page)."""
-        for k, pane in self._errors.items():
+        for k, div in self._errors.items():
             text = (f'<span class="field-error" data-key="{_esc(k)}" '
                     f'style="{ERROR_STYLE}">{_esc(message)}</span>') if k == key else ""
-            if pane.object != text:
-                pane.object = text
+            self._set_div(div, text)
         text = (f'<div class="explorer-error" style="{ERROR_STYLE}">Invalid: {_esc(message)} '
                 "(the figures show the last valid design)</div>") if message else ""
-        if self.banner.object != text:
-            self.banner.object = text
+        self._set_div(self.banner, text)
+
+    @staticmethod
+    def _set_div(div: Div, text: str) -> None:
+        """Show ``text`` in ``div``, hidden when empty; untouched when unchanged."""
+        if div.text != text:
+            div.text = text
+        if div.visible != bool(text):
+            div.visible = bool(text)
 
     # -- views ---------------------------------------------------------------------------
     def _refresh(self, design: Design, threshold: float | None = None) -> None:
@@ -363,8 +506,28 @@ class Explorer:
         self.generation += 1
         gen = self.generation
         self._show_errors(None, "")
+        # Three ticks, each sent before the next starts (the session's lock): the
+        # closed-form views, then the 1-D samples (the page draws the first while the
+        # server computes these), then the heavy views start on the worker.
         self._push(partial(self._apply_blur, blur, ref, report, gen))
-        self._request_samples(design)
+        self._push(partial(self._gap, design, gen))
+        self._push(partial(self._request_samples, design))
+
+    def _gap(self, design: Design, gen: int) -> None:
+        """Compute and show the 1-D samples of ``design`` (and of the reference)."""
+        if gen != self.generation:
+            return  # a newer design is on its way
+        try:
+            gap = model.gap_view(design)
+            ref_gap = None
+            if self.reference is not None:
+                if self._ref_gap is None or self._ref_gap[0] != self.reference:
+                    self._ref_gap = (self.reference, model.gap_view(self.reference))
+                ref_gap = self._ref_gap[1]
+        except (SplitlfError, ValueError, MemoryError) as e:
+            self._show_errors(None, f"1-D samples: {e}")
+            return
+        self._apply_gap(gap, ref_gap, gen)
 
     def _push(self, fn: Any) -> None:
         """Run ``fn`` where Bokeh models may change: the session's next tick (or now,
@@ -374,16 +537,39 @@ class Explorer:
         else:
             fn()
 
+    def _apply_gap(self, gap: dict[str, Any], ref_gap: dict[str, Any] | None,
+                   gen: int) -> None:
+        self.gap_distinct_src.data = _lines(gap["z"], gap["rows"], gap["distinct"])
+        title = gap["note"] or DISTINCT_TITLE  # why the 1-D lines are absent, if they are
+        if self.distinct_fig.title.text != title:
+            self.distinct_fig.title.text = title
+        self.gap_src.data = _lines(gap["z"], gap["rows"], gap["max_gap"])
+        if ref_gap is None:
+            if self.ref_gap_src.data["label"]:
+                empty = _lines(np.zeros(1), (), np.zeros((0, 1)))
+                self.ref_gap_distinct_src.data = dict(empty)
+                self.ref_gap_src.data = dict(empty)
+        else:
+            labels = tuple(f"reference {r}" for r in ref_gap["rows"])
+            self.ref_gap_distinct_src.data = _lines(ref_gap["z"], labels,
+                                                    ref_gap["distinct"], grey=True)
+            self.ref_gap_src.data = _lines(ref_gap["z"], labels, ref_gap["max_gap"],
+                                           grey=True)
+        self._status(gap=gen)
+
     def _apply_blur(self, blur: dict[str, Any], ref: dict[str, Any] | None,
                     report: list[tuple[str, str]], gen: int) -> None:
         z = blur["z"]
         for item in self._ref_items:
-            item.visible = ref is not None
+            if item.visible != (ref is not None):
+                item.visible = ref is not None
         if ref is None:
-            self.ref_blur_src.data = _lines(np.zeros(1), (), np.zeros((0, 1)))
+            if self.ref_blur_src.data["label"]:
+                self.ref_blur_src.data = _lines(np.zeros(1), (), np.zeros((0, 1)))
         else:
             self.ref_blur_src.data = _lines(ref["z"], tuple(f"reference {r}" for r in
-                                                            ref["rows"]), ref["blur_px"])
+                                                            ref["rows"]), ref["blur_px"],
+                                            grey=True)
             union = ref["dof_rows"][-1]
             blur = dict(blur, dof_rows=(*blur["dof_rows"], "reference"),
                         dof=[*blur["dof"], *(("reference", a, b) for r, a, b in ref["dof"]
@@ -394,13 +580,14 @@ class Explorer:
         self.reps_src.data = _lines(z, blur["channels"], blur["repetitions"])
         bp = np.asarray(blur["blur_px"], dtype=float)
         top = float(np.nanmax(np.where(np.isfinite(bp), bp, np.nan))) if bp.size else 1.0
-        self.blur_fig.y_range.start = 0.0
-        self.blur_fig.y_range.end = max(1.3 * top, 1.5 * blur["threshold_px"])
+        end = _nice_ceiling(max(1.2 * top, 1.5 * blur["threshold_px"]))
+        if self.blur_fig.y_range.end != end:
+            self.blur_fig.y_range.end = end
         self.threshold_span.location = blur["threshold_px"]
         rows = list(blur["dof_rows"])
         zmax = float(z[-1])
         colors = {r: Category10_10[i % 10] for i, r in enumerate(rows)}
-        colors["reference"] = "#888888"
+        colors["reference"] = REFERENCE_COLOR
         self.dof_fig.y_range.factors = rows[::-1]
         self.dof_src.data = {
             "row": [r for r, _, _ in blur["dof"]],
@@ -411,15 +598,13 @@ class Explorer:
         self.report_src.data = {"label": [k for k, _ in report], "value": [v for _, v in report]}
         self._status(blur=gen)
 
-    def _status(self, blur: int | None = None, samples: int | None = None) -> None:
-        if blur is not None:
-            self._shown_blur = blur
-        if samples is not None:
-            self._shown_samples = samples
-        b = getattr(self, "_shown_blur", 0)
-        s = getattr(self, "_shown_samples", 0)
-        # (Not shown in a title: a title that changes makes Bokeh lay the figure out again.)
-        self.status_src.data = {"blur": [b], "samples": [s]}
+    def _status(self, **shown: int) -> None:
+        """Record which design (generation) the closed-form views (``blur``), the 1-D
+        samples (``gap``) and the 2-D coverage (``samples``) show, in the page's "status"
+        source. (Not shown in a title: a title that changes makes Bokeh lay the figure
+        out again.)"""
+        self._shown.update(shown)
+        self.status_src.data = {k: [v] for k, v in self._shown.items()}
 
     def _request_samples(self, design: Design) -> None:
         """Queue the heavy views of ``design``: samples over depth, then the sample map
@@ -427,7 +612,12 @@ class Explorer:
         self._request("samples", (self.generation, design, self.reference,
                                   int(self.n_depths.value), float(self.window.value)))
         self._request_map()
+        self._request_channel(design)
+
+    def _request_channel(self, design: Design) -> None:
+        """Queue the views of the channel whose tab is open: microlens images, ray space."""
         self._request("sensor", (design, self._sensor_channel()))
+        self._request("rays", (design, self._sensor_channel()))
 
     def _request_map(self) -> None:
         try:
@@ -453,7 +643,7 @@ class Explorer:
     def _worker(self) -> None:
         while True:
             with self._lock:
-                kind = next((k for k in ("samples", "map", "sensor") if k in self._pending),
+                kind = next((k for k in ("samples", "map", "sensor", "rays") if k in self._pending),
                             None)
                 if kind is None:
                     self._worker_busy = False
@@ -500,6 +690,19 @@ class Explorer:
         self.map_fig.title.text = (f"2-D samples at z = {m['z']:.5g} mm "
                                    f"(δ = {m['delta_mm'] * 1e3:.3g} µm){union}")
 
+    def _compute_rays(self, design: Design, channel: int) -> Any:
+        return partial(self._apply_rays, channel, model.ray_space_view(design, channel))
+
+    def _apply_rays(self, channel: int, r: dict[str, Any]) -> None:
+        self.rays_src.data = {
+            "us": r["us"], "ws": r["ws"], "lens": r["lens"], "type": r["type"],
+            "color": [model_color(t) for t in r["type"]]}
+        h = r["half_aperture"]
+        self.aperture_spans[0].location, self.aperture_spans[1].location = -h, h
+        self.rays_fig.title.text = r["note"] or (
+            f"Ray space of channel {channel} (Fig. 4): pixels under the {model.RAY_LENSES} "
+            "central microlenses")
+
     def _apply_sensor(self, channel: int, im: dict[str, Any]) -> None:
         rgba = im["rgba"]
         ny, nx = rgba.shape
@@ -510,15 +713,17 @@ class Explorer:
 
     def _apply_samples(self, data: dict[str, Any], ref: dict[str, Any] | None,
                        gen: int) -> None:
-        if gen < getattr(self, "_shown_samples", 0):
+        if gen < self._shown["samples"]:
             return
         if ref is None:
-            self.ref_distinct_src.data = _lines(np.zeros(1), (), np.zeros((0, 1)))
-            self.ref_cover_src.data = _lines(np.zeros(1), (), np.zeros((0, 1)))
+            if len(self.ref_distinct_src.data["x"]):
+                nothing = _points(np.zeros(0), (), np.zeros((0, 0)))
+                self.ref_distinct_src.data = dict(nothing)
+                self.ref_cover_src.data = dict(nothing)
         else:
-            labels = tuple(f"reference {r}" for r in ref["rows"])
-            self.ref_distinct_src.data = _lines(ref["z"], labels, ref["distinct"])
-            self.ref_cover_src.data = _lines(ref["z"], labels, ref["covering_radius"])
-        self.distinct_src.data = _lines(data["z"], data["rows"], data["distinct"])
-        self.cover_src.data = _lines(data["z"], data["rows"], data["covering_radius"])
+            self.ref_distinct_src.data = _points(ref["z"], ref["rows"], ref["distinct"], True)
+            self.ref_cover_src.data = _points(ref["z"], ref["rows"], ref["covering_radius"],
+                                              True)
+        self.distinct_src.data = _points(data["z"], data["rows"], data["distinct"])
+        self.cover_src.data = _points(data["z"], data["rows"], data["covering_radius"])
         self._status(samples=gen)

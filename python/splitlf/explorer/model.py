@@ -18,9 +18,11 @@ import numpy as np
 from ..camera import Camera, read_toml
 from ..coverage import coverage
 from ..design import _CHANNEL_DESCRIPTIONS, _DESIGN_DESCRIPTIONS, Channel, Design
-from ..errors import InvalidParameter
+from ..errors import InvalidParameter, TooLargeError
 from ..optics import curves, depth_of_field
+from ..rayspace import trace
 from ..report import design_report_data
+from ..samples import new_samples, sweep_depths
 
 __all__ = [
     "CHANNEL_CONTROLS",
@@ -31,8 +33,10 @@ __all__ = [
     "control_key",
     "design_from_texts",
     "design_texts",
+    "gap_view",
     "load_toml_bytes",
     "parse",
+    "ray_space_view",
     "report_rows",
     "samples_depths",
     "samples_view",
@@ -44,6 +48,17 @@ BLUR_DEPTHS = 600
 SAMPLES_DEPTHS = 8
 #: Default width of the samples view's central field, in lens pitches of channel 1.
 SAMPLES_WINDOW = 2.0
+#: Log-spaced depths of the 1-D samples view, to which the out-of-focus and coincidence
+#: planes are added (seed: 191 depths, new_samples 6-10 ms).
+GAP_DEPTHS = 60
+#: Microlenses drawn in the ray-space view.
+RAY_LENSES = 3
+#: Threads of the core for the explorer's heavy views (2-D coverage, ray space), which run
+#: beside the page: all cores but one, which stays free for the browser drawing the
+#: previous results and the server answering the next change. A pool of its own (the
+#: core keeps one per thread count): the closed-form and 1-D views, computed while the
+#: page waits, use all cores and never queue behind a heavy view.
+THREADS = max(1, (os.cpu_count() or 1) - 1)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -239,12 +254,60 @@ def samples_view(design: Design, n: int = SAMPLES_DEPTHS,
     ``distinct`` and ``covering_radius`` (in delta(z)), (rows, n).
 
     This is the heavy view (tens of ms a depth): the app computes it off the UI thread.
-    When :func:`splitlf.new_samples` takes a Design, its 1-D max gap can be added here at
-    many more depths for the price of a few of these."""
+    Its 1-D counterpart, at many more depths for the price of a few of these, is
+    :func:`gap_view`."""
     z = samples_depths(design, n)
-    cov = coverage(design, z, window=window)
+    cov = coverage(design, z, window=window, n_threads=THREADS)
     return {"z": z, "rows": cov.rows, "distinct": cov.distinct,
             "covering_radius": cov.covering_radius, "window": window}
+
+
+def gap_view(design: Design, n: int = GAP_DEPTHS) -> dict[str, Any]:
+    """Distinct samples along x and the largest gap between them (in delta(z)) against
+    depth, from :func:`splitlf.new_samples` at :func:`splitlf.sweep_depths` over the
+    samples view's range (n log-spaced depths plus the out-of-focus and coincidence
+    planes, where the counts dip and the gaps peak): ``z``, ``rows`` (channels, then the
+    union), ``distinct`` and ``max_gap`` (rows, m; an infinite gap, samples not covering
+    the field, is NaN), ``note`` (empty, or why the view is empty, the API's message: the
+    1-D engine takes rect channels only, and refuses sensors too large for it)."""
+    lo, hi = 1.875 * design.F, 125.0 * design.F
+    rows = (*(f"channel {i}" for i in range(1, len(design.channels) + 1)), "union")
+    try:
+        z = sweep_depths(design, (lo, hi), n=n)
+        r = new_samples(design, z)
+    except (InvalidParameter, TooLargeError) as e:
+        if isinstance(e, InvalidParameter) and not str(getattr(e, "name", "")).endswith(".grid"):
+            raise
+        empty = np.zeros((len(rows), 0))
+        return {"z": np.zeros(0), "rows": rows, "distinct": empty, "max_gap": empty,
+                "note": f"1-D samples: {e}"}
+    gap = np.where(np.isfinite(r.max_gap), r.max_gap, np.nan)
+    return {"z": z, "rows": r.rows, "distinct": r.distinct, "max_gap": gap, "note": ""}
+
+
+def ray_space_view(design: Design, channel: int, lenses: int = RAY_LENSES) -> dict[str, Any]:
+    """The ray space of one channel along x (Fig. 4): the integration polygon in (u, w)
+    [mm] of every pixel under the ``lenses`` central microlenses of channel ``channel``
+    that collects light, from :func:`splitlf.trace` (u on channel 1's array plane, w on
+    the main lens): ``us``, ``ws`` (lists of vertex arrays), ``lens`` and ``type`` of
+    each polygon, ``half_aperture`` (D/2), ``note`` (empty, or why the view is empty: the
+    1-D engine takes rect channels only)."""
+    try:
+        tr = trace(design, channel=channel, axis="x", n_threads=THREADS)
+    except (InvalidParameter, TooLargeError) as e:
+        if isinstance(e, InvalidParameter) and not str(getattr(e, "name", "")).endswith(".grid"):
+            raise
+        return {"us": [], "ws": [], "lens": np.zeros(0, dtype=np.int64),
+                "type": np.zeros(0, dtype=np.int64), "half_aperture": design.D / 2.0,
+                "note": f"ray space: {e}"}
+    K = int(tr.lens.max()) + 1
+    first = max(0, (K - lenses) // 2)
+    keep = np.flatnonzero((tr.lens >= first) & (tr.lens < first + lenses) & (tr.n_vertices > 0))
+    us = [tr.vertices[i, : tr.n_vertices[i], 0] for i in keep]
+    ws = [tr.vertices[i, : tr.n_vertices[i], 1] for i in keep]
+    kind = tr.type[keep] if tr.type is not None else np.zeros(len(keep), dtype=np.int64)
+    return {"us": us, "ws": ws, "lens": tr.lens[keep], "type": kind,
+            "half_aperture": design.D / 2.0, "note": ""}
 
 
 def report_rows(design: Design, threshold_px: float = 0.5) -> list[tuple[str, str]]:
