@@ -42,6 +42,7 @@ __all__ = [
     "TraceArrays",
     "__version__",
     "available_memory",
+    "camera_metrics_2d",
     "chief_samples",
     "coincidence_planes",
     "coverage",
@@ -394,14 +395,17 @@ def design_figures_of_merit(
     threshold_px: float = ...,
     tol: float = ...,
     n_threads: int | None = None,
+    window: float | None = None,
 ) -> list[float]: ...
-def design_metrics(design: DesignCore) -> list[str]: ...
+def design_metrics(design: DesignCore, merits_2d: bool = False) -> list[str]: ...
+def camera_metrics_2d() -> list[str]: ...
 def figures_of_merit(
     camera: CameraCore,
     z: _F64,
     threshold_px: float = ...,
     tol: float = ...,
     n_threads: int | None = None,
+    window: float | None = None,
 ) -> list[float]: ...
 def trace(
     camera: CameraCore, half: int, axis: str = "x", n_threads: int | None = None

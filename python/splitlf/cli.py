@@ -128,6 +128,8 @@ _read_noise = _real_type("read noise", 0.0, "a finite number >= 0 (electrons rms
                          lo_open=False)
 _threshold = _real_type("threshold", 0.0, "a finite number > 0 (pixels)")
 _f_number = _real_type("f-number", 0.0, "a finite number > 0")
+_window = _real_type("window", 0.0, "a finite number > 0 (the 2-D central field's width in "
+                     "lens pitches of channel 1)")
 
 
 # -- report ------------------------------------------------------------------------------
@@ -344,15 +346,15 @@ def _sweep_depths(path: str, dep: Any) -> np.ndarray:
 def load_sweep(path: str) -> dict[str, Any]:
     """Read and check a sweep TOML file: ``[grid]`` (required; camera field -> list of
     values or ``{start, stop, num, log}``), ``[depths]`` (``min``, ``max`` in mm, ``num``
-    log-spaced depths), ``[options]`` (``threshold_px``, ``tol``) and an optional
-    ``[camera]`` base design.
+    log-spaced depths), ``[options]`` (``threshold_px``, ``tol``, ``merits_2d``,
+    ``window``) and an optional ``[camera]`` base design.
 
     Returns {"grid", "depths", "options", "camera" (None without [camera])}. Raises
     :class:`CliError` / ``ValueError`` naming the file and the key for anything invalid
     (ranges, limits :data:`splitlf.sweep.MAX_DESIGNS` and :data:`~splitlf.sweep.MAX_DEPTHS`),
     ``OSError`` when the file cannot be read.
     """
-    from .sweep import _threshold, _tol
+    from .sweep import _merits_2d, _threshold, _tol, _window
 
     doc = read_toml(path)
     unknown = set(doc) - {"grid", "depths", "options", "camera"}
@@ -364,12 +366,14 @@ def load_sweep(path: str) -> dict[str, Any]:
     grid = {k: _linspace(f"{path}: grid.{k}", v) for k, v in doc["grid"].items()}
     depths = _sweep_depths(path, doc.get("depths", {}))
     opts = doc.get("options", {})
-    bad = set(opts) - {"threshold_px", "tol"} if isinstance(opts, dict) else {"(not a table)"}
+    checks = {"threshold_px": _threshold, "tol": _tol, "merits_2d": _merits_2d,
+              "window": _window}
+    bad = set(opts) - set(checks) if isinstance(opts, dict) else {"(not a table)"}
     if bad:
         raise CliError(f"{path}: unknown [options] key(s) {sorted(bad)}; "
-                       "allowed: threshold_px, tol")
+                       f"allowed: {', '.join(checks)}")
     try:
-        options = {k: (_threshold if k == "threshold_px" else _tol)(v) for k, v in opts.items()}
+        options = {k: checks[k](v) for k, v in opts.items()}
     except (ValueError, TypeError) as e:
         raise CliError(f"{path}: options: {e}") from None
     camera = Camera.from_dict(doc["camera"], source=f"{path} [camera]") if "camera" in doc \
@@ -419,13 +423,17 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         import xarray  # noqa: F401
     except ImportError:
         raise CliError('sweep needs xarray: pip install "splitlf[sweep]"') from None
-    from .sweep import METRICS
+    from .sweep import METRICS, METRICS_2D
 
     out = None if args.out is None else Path(args.out)
     if out is not None:
         _check_suffix("--out", out, SWEEP_SUFFIXES)
         check_new(out, args.force, FORCE_HINT)
     spec = load_sweep(args.grid)
+    if args.merits_2d:
+        spec["options"]["merits_2d"] = True
+    if args.window is not None:
+        spec["options"]["window"] = args.window
     camera = spec["camera"] or _load_camera(args.config)[0]
     ds = _run_sweep(camera, spec, args.scheduler, args.threads)
     if out is not None:
@@ -437,10 +445,12 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         print(out)
     else:
         df = ds.to_dataframe().reset_index()
-        cols = list(spec["grid"]) + ["sharp_fraction_split", "max_gap_worst_union", "reason"]
+        cols = list(spec["grid"]) + ["sharp_fraction_split", "max_gap_worst_union",
+                                     "covering_radius_worst_union", "reason"]
         cols = [c for c in cols if c in df.columns]
         sys.stdout.write(df[cols].to_string(index=False) + "\n")
-        sys.stdout.write(f"\n{len(df)} designs; metrics: {', '.join(METRICS)}\n")
+        names = METRICS + (METRICS_2D if spec["options"].get("merits_2d") else ())
+        sys.stdout.write(f"\n{len(df)} designs; metrics: {', '.join(names)}\n")
     return 0
 
 
@@ -592,7 +602,10 @@ def _cmd_optimise(args: argparse.Namespace) -> int:
     camera, source = _load_camera(args.config)
     kwargs = dict(sense=args.sense, constraints=constraints, depths=depths, seed=args.seed,
                   maxiter=args.maxiter, popsize=args.popsize, polish=not args.no_polish,
-                  min_microlens_f_number=args.min_microlens_f_number, n_threads=args.threads)
+                  min_microlens_f_number=args.min_microlens_f_number, n_threads=args.threads,
+                  merits_2d=True if args.merits_2d else None)
+    if args.window is not None:
+        kwargs["window"] = args.window
     if args.scheduler is None:
         res = optimise(camera, free, args.objective, **kwargs)
     else:
@@ -800,6 +813,13 @@ def _force(p: argparse.ArgumentParser) -> None:
                    help="overwrite existing output files (default: refuse)")
 
 
+def _merits_2d_options(p: argparse.ArgumentParser, what: str, default: str) -> None:
+    p.add_argument("--merits-2d", action="store_true", help=what)
+    p.add_argument("--window", type=_window, default=None, metavar="W",
+                   help="width of the 2-D merits' central field in lens pitches of channel 1 "
+                   f"({default}; docs/optimise.md, '2-D merits')")
+
+
 def _add_report(sub: Any) -> None:
     p = sub.add_parser(
         "report",
@@ -885,6 +905,9 @@ def _add_sweep(sub: Any) -> None:
                    help="write the sweep to .nc (NetCDF), .parquet or .json")
     p.add_argument("--json", action="store_true",
                    help="print the designs as JSON records (with --out: as well)")
+    _merits_2d_options(p, "also compute the 2-D merits (covering radius, distinct 2-D "
+                       "samples; a 2-D analysis per depth: slower); also [options] "
+                       "merits_2d = true", "default 16, or [options] window")
     _force(p)
     p.set_defaults(func=_cmd_sweep)
 
@@ -952,6 +975,9 @@ def _add_optimise(sub: Any) -> None:
     p.add_argument("--history", metavar="FILE",
                    help="write every evaluated candidate to .csv or .parquet")
     p.add_argument("--json", action="store_true", help="print one JSON document")
+    _merits_2d_options(p, "compute and report the 2-D merits even when neither the "
+                       "objective nor a constraint names one (they are computed when one "
+                       "does)", "default 16")
     _force(p)
     p.set_defaults(func=_cmd_optimise)
 

@@ -35,18 +35,21 @@ from .errors import InvalidParameter, TooLargeError
 from .sweep import (
     DEFAULT_THRESHOLD_PX,
     DEFAULT_TOL,
+    DEFAULT_WINDOW,
     MAX_DEPTHS,
     METRICS,
+    METRICS_2D,
     _design_path,
     _evaluate_batch,
     _evaluate_design_batch,
+    _options_2d,
     _threshold,
     _tol,
     _with_changes,
     design_metrics,
 )
 
-__all__ = ["DERIVED", "MERITS", "OptimiseResult", "design_merits", "optimise"]
+__all__ = ["DERIVED", "MERITS", "MERITS_2D", "OptimiseResult", "design_merits", "optimise"]
 
 #: Closed-form quantities of a design added to the core's figures of merit (each from the
 #: core's derived values of the :class:`~splitlf.Camera`).
@@ -64,6 +67,11 @@ DERIVED = (
 #: Every merit an objective or a constraint may name: the core's figures of merit over the
 #: depths (:data:`splitlf.sweep.METRICS`), then :data:`DERIVED`.
 MERITS = METRICS + DERIVED
+#: The 2-D merits an objective or a constraint may name too (:data:`splitlf.sweep.METRICS_2D`:
+#: worst and median covering radius, median distinct 2-D samples, of each half and the
+#: union, via ``Camera.design``). They are computed only when named, or with
+#: ``merits_2d=True`` (a callable objective that reads them).
+MERITS_2D = METRICS_2D
 
 MERIT_DOCS = {
     "f_number": "main-lens f-number F / D",
@@ -77,19 +85,22 @@ MERIT_DOCS = {
     "microlens_f_number_half2": "microlens f-number of half 2, f_2 / d",
 }
 
-def design_merits(design: Design) -> tuple[str, ...]:
+def design_merits(design: Design, merits_2d: bool = False) -> tuple[str, ...]:
     """Every merit an objective or a constraint on a Design base may name: the core's
-    figures of merit (:func:`splitlf.sweep.design_metrics`: per channel and union), then
-    ``f_number`` and ``out_of_focus_depth_channel1``, ... (F L_i / (L_i - F) [mm])."""
-    return design_metrics(design) + ("f_number",) + tuple(
+    figures of merit (:func:`splitlf.sweep.design_metrics`: per channel and union; with
+    ``merits_2d`` followed by the 2-D merits ``covering_radius_worst_*``,
+    ``covering_radius_median_*``, ``distinct_2d_median_*``), then ``f_number`` and
+    ``out_of_focus_depth_channel1``, ... (F L_i / (L_i - F) [mm])."""
+    return design_metrics(design, merits_2d) + ("f_number",) + tuple(
         f"out_of_focus_depth_channel{i}" for i in range(1, len(design.channels) + 1))
 
 
 def _design_sense(merit: str) -> str | None:
     """The natural direction of a Design merit (None: none)."""
-    if merit.startswith(("sharp_fraction_", "lit_fraction_", "light_per_pixel_")):
+    if merit.startswith(("sharp_fraction_", "lit_fraction_", "light_per_pixel_",
+                         "distinct_2d_")):
         return "max"
-    if merit.startswith("max_gap_"):
+    if merit.startswith(("max_gap_", "covering_radius_")):
         return "min"
     return None
 
@@ -101,6 +112,7 @@ NATURAL_SENSE = {
     **{m: "min" for m in METRICS if m.startswith("max_gap_")},
     "lit_fraction_half2": "max",
     "lit_fraction_half1": "max",
+    **{m: "min" if m.startswith("covering_radius_") else "max" for m in METRICS_2D},
 }
 
 #: Energy offsets of the penalty: a valid design that violates a constraint scores
@@ -140,7 +152,7 @@ class OptimiseResult:
     - ``design``: the best :class:`~splitlf.Camera` (a :class:`~splitlf.Design` for a
       Design base; feasible when ``feasible``)
     - ``merits``: its figures of merit {name in :data:`MERITS` (:func:`design_merits` for
-      a Design base): value}
+      a Design base), and :data:`MERITS_2D` when the 2-D merits were computed: value}
     - ``objective``: the objective's value there (as defined, not negated)
     - ``free``: the free fields' values {name: value}
     - ``feasible``: the design satisfies every constraint (else it is the valid design of
@@ -315,10 +327,13 @@ class _Problem:
                  sense: str, constraints: list[tuple[str, str, float]],
                  min_f_number: float | None, core_args: tuple[float, float],
                  executor: cf.Executor | None, n_threads: int | None, threads_per_task: int,
-                 batch_size: int | None) -> None:
+                 batch_size: int | None, window: float | None = None) -> None:
         self.base = self.base_dict(base)
-        self.core_names: Sequence[str] = METRICS
-        self.merit_names: Sequence[str] = MERITS
+        #: the window of the 2-D merits, None when they are not computed
+        self.window = window
+        extra = METRICS_2D if window is not None else ()
+        self.core_names: Sequence[str] = METRICS + extra
+        self.merit_names: Sequence[str] = METRICS + extra + DERIVED
         self.free = free
         self.z = z
         self.objective = objective
@@ -395,13 +410,15 @@ class _Problem:
             for cam in cams:
                 t = time.perf_counter()
                 out.append(list(_native.figures_of_merit(cam.core, self.z, self.threshold_px,
-                                                         self.tol, self.n_threads)))
+                                                         self.tol, self.n_threads,
+                                                         self.window)))
                 self.core_s += time.perf_counter() - t
             return out
         size = self.batch_size or max(1, math.ceil(len(cams) / 16))
         dicts = [c.as_dict(resolved=False) for c in cams]
         futures = [self.executor.submit(_evaluate_batch, {}, dicts[i:i + size], self.z,
-                                        self.threshold_px, self.tol, self.threads_per_task)
+                                        self.threshold_px, self.tol, self.window,
+                                        self.threads_per_task)
                    for i in range(0, len(dicts), size)]
         out = []
         for fut in futures:
@@ -496,10 +513,10 @@ class _DesignProblem(_Problem):
     plain dict (:meth:`Design.as_dict`), built and validated by the Design constructor
     (ranges, shares, lens-type rules, overlapping images: docs/model.md §9)."""
 
-    def __init__(self, base: Design, *args: Any) -> None:
-        super().__init__(base, *args)
-        self.core_names = design_metrics(base)
-        self.merit_names = design_merits(base)
+    def __init__(self, base: Design, *args: Any, **kwargs: Any) -> None:
+        super().__init__(base, *args, **kwargs)
+        self.core_names = design_metrics(base, self.window is not None)
+        self.merit_names = design_merits(base, self.window is not None)
 
     def base_dict(self, base: Any) -> dict[str, Any]:
         return base.as_dict()
@@ -544,7 +561,8 @@ class _DesignProblem(_Problem):
             for d in designs:
                 t = time.perf_counter()
                 out.append(list(_native.design_figures_of_merit(
-                    d.core, self.z, self.threshold_px, self.tol, self.n_threads)))
+                    d.core, self.z, self.threshold_px, self.tol, self.n_threads,
+                    self.window)))
                 self.core_s += time.perf_counter() - t
             return out
         size = self.batch_size or max(1, math.ceil(len(designs) / 16))
@@ -553,7 +571,7 @@ class _DesignProblem(_Problem):
         changes = [{f.name: _read_path(d, f.name) for f in self.free} for d in designs]
         futures = [self.executor.submit(_evaluate_design_batch, self.base,
                                         changes[i:i + size], self.z, self.threshold_px,
-                                        self.tol, self.threads_per_task)
+                                        self.tol, self.window, self.threads_per_task)
                    for i in range(0, len(changes), size)]
         out = []
         for fut in futures:
@@ -663,6 +681,7 @@ def optimise(base: Camera, free: Mapping[str, tuple[float, float]], objective: s
              polish: bool = True, polish_maxfev: int | None = None,
              min_microlens_f_number: float | None = None,
              threshold_px: float = DEFAULT_THRESHOLD_PX, tol: float = DEFAULT_TOL,
+             merits_2d: bool | None = None, window: float = DEFAULT_WINDOW,
              n_threads: int | None = None, threads_per_task: int = 1,
              batch_size: int | None = None, de_options: Mapping[str, Any] | None = None
              ) -> OptimiseResult:
@@ -674,9 +693,10 @@ def optimise(base: Camera, free: Mapping[str, tuple[float, float]], objective: s
       (:func:`splitlf.sweep.design_fields`: ``"F"``, ``"D"``, ``"channels[2].L"``,
       ``"channels[1].f[0]"``; channels from 1, lens types from 0); the counts are searched
       as integers (integer bounds); the others are continuous
-    - ``objective``: a merit name (:data:`MERITS`) or a callable on the merit dict returning
-      a real number; ``sense``: "max" or "min" (default: the merit's natural direction —
-      max for sharp and lit fractions, min for max gaps — and required otherwise)
+    - ``objective``: a merit name (:data:`MERITS`, :data:`MERITS_2D`) or a callable on the
+      merit dict returning a real number; ``sense``: "max" or "min" (default: the merit's
+      natural direction — max for sharp and lit fractions and distinct 2-D samples, min for
+      max gaps and covering radii — and required otherwise)
     - ``constraints``: {merit: ("<=" | ">=", value)}
     - ``depths``: scene depths [mm] of the core's merits (default 200 log-spaced over
       150-10 000 mm); a design with F >= the nearest depth is invalid
@@ -695,6 +715,13 @@ def optimise(base: Camera, free: Mapping[str, tuple[float, float]], objective: s
       below it is invalid (never evaluated)
     - ``threshold_px``, ``tol``: sharpness threshold [px] and merge tolerance [delta(z)] of
       the core's merits, as in :func:`splitlf.sweep.sweep`
+    - ``merits_2d``: whether to compute the 2-D merits (:data:`MERITS_2D`; for a Design
+      ``design_merits(design, merits_2d=True)``), which cost a 2-D analysis per depth:
+      None (default) computes them iff the objective or a constraint names one; True
+      always (a callable objective that reads them needs it); False never (naming one is
+      then an error). Not computed, they are absent from ``merits`` and the history
+    - ``window``: width of their central field in lens pitches of channel 1, finite > 0
+      (default 16, as :func:`splitlf.coverage`)
 
     Returns an :class:`OptimiseResult`. Every argument is checked before any work:
     ``TypeError`` for wrong types, :class:`~splitlf.errors.InvalidParameter` for values out
@@ -706,15 +733,27 @@ def optimise(base: Camera, free: Mapping[str, tuple[float, float]], objective: s
     cam = _base(base)
     is_design = isinstance(cam, Design)
     if is_design:
-        names = design_merits(cam)
+        names = design_merits(cam, True)
         fields = _free(free, cam)
         fn, _, sense_ = _objective(objective, sense, names, _design_sense)
         cons = _constraints(constraints, names)
+        names_2d = frozenset(names) - frozenset(design_merits(cam))
     else:
-        names = MERITS
+        names = MERITS + MERITS_2D
         fields = _free(free)
-        fn, _, sense_ = _objective(objective, sense)
-        cons = _constraints(constraints)
+        fn, _, sense_ = _objective(objective, sense, names)
+        cons = _constraints(constraints, names)
+        names_2d = frozenset(MERITS_2D)
+    named = sorted({m for m, _, _ in cons if m in names_2d}
+                   | ({objective} if isinstance(objective, str) and objective in names_2d
+                      else set()))
+    if merits_2d is not None and not isinstance(merits_2d, bool):
+        raise TypeError(f"merits_2d must be None, True or False, got "
+                        f"{type(merits_2d).__name__} {merits_2d!r}")
+    if merits_2d is False and named:
+        raise InvalidParameter.of("merits_2d", False, "None or True: the objective or a "
+                                  f"constraint names the 2-D merit {named[0]}")
+    on_2d = bool(named) if merits_2d is None else merits_2d
     z = _depths(depths)
     seed_ = _validate.integer(seed, "seed", "an integer >= 0")
     if seed_ < 0:
@@ -729,6 +768,7 @@ def optimise(base: Camera, free: Mapping[str, tuple[float, float]], objective: s
         if not (math.isfinite(min_f) and min_f > 0):
             raise InvalidParameter.of("min_microlens_f_number", min_f, "a finite number > 0")
     core_args = (_threshold(threshold_px), _tol(tol))
+    window_2d = _options_2d(on_2d, window, core_args[1])
     n_threads = _validate.n_threads(n_threads)
     tpt = _validate.n_threads(threads_per_task)
     if batch_size is not None:
@@ -746,7 +786,7 @@ def optimise(base: Camera, free: Mapping[str, tuple[float, float]], objective: s
 
     kind = _DesignProblem if is_design else _Problem
     problem = kind(cam, fields, z, fn, sense_, cons, min_f, core_args, executor, n_threads,
-                   tpt or 1, batch_size)
+                   tpt or 1, batch_size, window=window_2d)
     bar = _progress_bar(maxiter_, progress)
 
     def callback(xk: Any, convergence: float = 0.0) -> None:
@@ -783,7 +823,7 @@ def optimise(base: Camera, free: Mapping[str, tuple[float, float]], objective: s
     active = _active(problem, best) if feasible else ()
     total_s = time.perf_counter() - t0
     design = problem.build({f.name: best[f.name] for f in fields})
-    merits = {m: float(best[m]) for m in names}
+    merits = {m: float(best[m]) for m in problem.merit_names}
     slack = {f"{m} {op} {limit!r}": (limit - merits[m]) if op == "<=" else (merits[m] - limit)
              for m, op, limit in cons}
     history = pd.DataFrame(problem.rows)

@@ -24,8 +24,9 @@ from .camera import COUNT_FIELDS, FIELDS, Camera
 from .design import Channel, Design
 from .errors import InvalidParameter, TooLargeError
 
-__all__ = ["DEFAULT_THRESHOLD_PX", "DEFAULT_TOL", "MAX_DEPTHS", "MAX_DESIGNS", "METRICS",
-           "design_fields", "design_metrics", "evaluate_design", "sweep"]
+__all__ = ["DEFAULT_THRESHOLD_PX", "DEFAULT_TOL", "DEFAULT_WINDOW", "MAX_DEPTHS", "MAX_DESIGNS",
+           "METRICS", "METRICS_2D", "design_fields", "design_metrics", "evaluate_design",
+           "sweep"]
 
 #: Most designs one sweep evaluates (the product of the grid's sizes); a larger grid is
 #: refused before any work. At ~1-10 ms per design this is hours of work already.
@@ -35,6 +36,9 @@ MAX_DEPTHS = 100_000
 #: Default sharpness threshold on the blur radius [px] and merge tolerance [delta(z)].
 DEFAULT_THRESHOLD_PX = _native.DEFAULT_THRESHOLD_PX
 DEFAULT_TOL = _native.DEFAULT_TOL
+#: Default width of the central field of the 2-D merits, in lens pitches of channel 1 (as
+#: :func:`splitlf.coverage`'s).
+DEFAULT_WINDOW = _native.DEFAULT_WINDOW
 
 #: Figures of merit of one design, in the order the core returns them.
 METRICS = (
@@ -61,6 +65,13 @@ _DOCS = {
     "lit_fraction_half2": "lit pixels per microlens of half 2 over Q",
 }
 
+#: The 2-D merits of a Camera (its two-channel ``Camera.design``), in the order the core
+#: appends them to :data:`METRICS` when asked (``merits_2d=True``): the worst and median
+#: covering radius of the central field over the depths [delta(z)] and the median number
+#: of distinct 2-D samples inside it, for half 1, half 2 and the union
+#: (docs/model.md §9, :func:`splitlf.coverage`).
+METRICS_2D: tuple[str, ...] = tuple(_native.camera_metrics_2d())
+
 
 _DESIGN_DOCS = {
     "sharp_fraction": "share of [min, max] depth (log) where {row} is sharp",
@@ -71,6 +82,12 @@ _DESIGN_DOCS = {
     "lit_fraction": "lit pixels over pixels of {row} along x (NaN for a hex channel)",
     "light_per_pixel": "share x mean polygon area of the lit pixels of {row} along x / L_1: "
                        "1-D etendue per lit pixel [mm rad] (NaN for a hex channel)",
+    "covering_radius_worst": "largest covering radius of the central field by {row} over the "
+                             "depths [delta(z)] (2-D, splitlf.coverage)",
+    "covering_radius_median": "median covering radius of the central field by {row} over the "
+                              "depths [delta(z)] (2-D, splitlf.coverage)",
+    "distinct_2d_median": "median number of distinct 2-D samples of {row} in the central "
+                          "field over the depths (splitlf.coverage)",
 }
 
 #: Numeric channel fields a design's grid or free fields may name (``channels[i].NAME``),
@@ -80,15 +97,18 @@ DESIGN_COUNT_FIELDS = ("Kx", "Ky", "Q", "Mx", "My")
 _PATH = re.compile(r"channels\[(\d+)\]\.([A-Za-z]+)(?:\[(\d+)\])?")
 
 
-def design_metrics(design: Design) -> tuple[str, ...]:
+def design_metrics(design: Design, merits_2d: bool = False) -> tuple[str, ...]:
     """Names of the figures of merit of ``design`` (from the core), in the order
     :func:`evaluate_design` returns them: per channel (from 1) and union,
     ``sharp_fraction_channel1``, ..., ``sharp_fraction_union``, ``max_gap_worst_*``,
     ``max_gap_median_*``, then per channel ``lit_fraction_channel*`` and
-    ``light_per_pixel_channel*`` (5 C + 3 names for C channels)."""
+    ``light_per_pixel_channel*`` (5 C + 3 names for C channels); with ``merits_2d``,
+    followed by the 2-D merits per channel and union: ``covering_radius_worst_channel1``,
+    ..., ``covering_radius_worst_union``, ``covering_radius_median_*``,
+    ``distinct_2d_median_*`` (3 (C + 1) names more)."""
     if not isinstance(design, Design):
         raise TypeError(f"design must be a splitlf.Design, got {type(design).__name__}")
-    return tuple(_native.design_metrics(design.core))
+    return tuple(_native.design_metrics(design.core, _merits_2d(merits_2d)))
 
 
 def _design_doc(name: str) -> str:
@@ -96,6 +116,39 @@ def _design_doc(name: str) -> str:
     row = "the union of all channels" if row == "union" else row.replace("channel",
                                                                          "channel ")
     return _DESIGN_DOCS[prefix].format(row=row)
+
+
+def _camera_doc(name: str) -> str:
+    if name in _DOCS:
+        return _DOCS[name]
+    prefix, _, row = name.rpartition("_")
+    row = "both halves together" if row == "union" else row.replace("half", "half ")
+    return _DESIGN_DOCS[prefix].format(row=row)
+
+
+def _merits_2d(value: Any) -> bool:
+    if not isinstance(value, bool):
+        raise TypeError(f"merits_2d must be True or False, got {type(value).__name__} "
+                        f"{value!r}")
+    return value
+
+
+def _window(value: Any) -> float:
+    return _real_option(value, "window", "a finite number > 0 (the central field's width "
+                        "in lens pitches of channel 1)", lambda x: math.isfinite(x) and x > 0)
+
+
+def _options_2d(merits_2d: Any, window: Any, tol: float) -> float | None:
+    """The core's ``window`` argument: the checked window when the 2-D merits are asked
+    for, else None (they are not computed). ``window`` is checked either way; with the 2-D
+    merits, ``tol`` must also suit the 2-D distinct samples, (0, MAX_TOL_2D]."""
+    on, w = _merits_2d(merits_2d), _window(window)
+    if not on:
+        return None
+    if not 0.0 < tol <= _native.MAX_TOL_2D:
+        raise InvalidParameter.of("tol", tol, f"a number in (0, {_native.MAX_TOL_2D:g}] with "
+                                  "the 2-D merits (a multiple of delta(z))")
+    return w
 
 
 def design_fields(design: Design) -> tuple[str, ...]:
@@ -188,6 +241,7 @@ def _tol(value: Any) -> float:
 
 def evaluate_design(camera: Camera | Design, depths, *,
                     threshold_px: float = DEFAULT_THRESHOLD_PX, tol: float = DEFAULT_TOL,
+                    merits_2d: bool = False, window: float = DEFAULT_WINDOW,
                     n_threads: int | None = None) -> dict[str, float]:
     """Figures of merit of one design over ``depths``, computed by the core.
 
@@ -197,6 +251,15 @@ def evaluate_design(camera: Camera | Design, depths, *,
       them is the depth range of the sharp fractions
     - ``threshold_px``: sharpness threshold on the blur radius [pixels], finite > 0
     - ``tol``: merge tolerance of the sample positions [multiples of delta(z)], finite >= 0
+      (in (0, 1] with ``merits_2d``: the 2-D distinct samples use it too)
+    - ``merits_2d``: also compute the 2-D merits (:data:`METRICS_2D`;
+      ``design_metrics(design, merits_2d=True)``): the worst and median covering radius
+      and the median distinct 2-D samples of :func:`splitlf.coverage` over the depths.
+      They cost far more than the others (a 2-D analysis per depth), so they are off by
+      default and then absent from the result
+    - ``window``: width of their central field in lens pitches of channel 1, finite > 0
+      (default :data:`DEFAULT_WINDOW` = 16, as :func:`splitlf.coverage`; checked even when
+      ``merits_2d`` is off)
     - ``n_threads``: threads of the core (None: all cores)
 
     Returns a dict {name in :data:`METRICS` (:func:`design_metrics` for a Design): value}.
@@ -205,24 +268,28 @@ def evaluate_design(camera: Camera | Design, depths, *,
     """
     cam = _validate.camera_or_design(camera)
     z = _validate.depths(depths, "depths")
+    thr, t = _threshold(threshold_px), _tol(tol)
+    w = _options_2d(merits_2d, window, t)
+    threads = _validate.n_threads(n_threads)
     if isinstance(cam, Design):
-        values = _native.design_figures_of_merit(cam.core, z, _threshold(threshold_px),
-                                                 _tol(tol), _validate.n_threads(n_threads))
-        return dict(zip(design_metrics(cam), values, strict=True))
-    values = _native.figures_of_merit(cam.core, z, _threshold(threshold_px), _tol(tol),
-                                      _validate.n_threads(n_threads))
-    return dict(zip(METRICS, values, strict=True))
+        values = _native.design_figures_of_merit(cam.core, z, thr, t, threads, w)
+        return dict(zip(design_metrics(cam, w is not None), values, strict=True))
+    values = _native.figures_of_merit(cam.core, z, thr, t, threads, w)
+    names = METRICS + (METRICS_2D if w is not None else ())
+    return dict(zip(names, values, strict=True))
 
 
 def _evaluate_batch(base: dict[str, Any], batch: list[dict[str, Any]], depths: np.ndarray,
-                    threshold_px: float, tol: float,
+                    threshold_px: float, tol: float, window: float | None,
                     n_threads: int | None) -> list[tuple[list[float] | None, str]]:
-    """Worker task: plain dicts in, plain lists out (picklable both ways)."""
+    """Worker task: plain dicts in, plain lists out (picklable both ways). ``window``:
+    that of the 2-D merits, None without them."""
     out: list[tuple[list[float] | None, str]] = []
     for changes in batch:
         try:
             cam = Camera(**{**base, **changes})
-            values = _native.figures_of_merit(cam.core, depths, threshold_px, tol, n_threads)
+            values = _native.figures_of_merit(cam.core, depths, threshold_px, tol, n_threads,
+                                              window)
         except (ValueError, TypeError) as e:
             out.append((None, str(e)))
             continue
@@ -232,6 +299,7 @@ def _evaluate_batch(base: dict[str, Any], batch: list[dict[str, Any]], depths: n
 
 def _evaluate_design_batch(base: dict[str, Any], batch: list[dict[str, Any]],
                            depths: np.ndarray, threshold_px: float, tol: float,
+                           window: float | None,
                            n_threads: int | None) -> list[tuple[list[float] | None, str]]:
     """Worker task of a Design base: plain dicts in (``base`` is :meth:`Design.as_dict`,
     each change maps a free-field name to a value), plain lists out."""
@@ -240,7 +308,7 @@ def _evaluate_design_batch(base: dict[str, Any], batch: list[dict[str, Any]],
         try:
             design = _with_changes(base, changes)
             values = _native.design_figures_of_merit(design.core, depths, threshold_px, tol,
-                                                     n_threads)
+                                                     n_threads, window)
         except (ValueError, TypeError) as e:
             out.append((None, str(e)))
             continue
@@ -365,12 +433,13 @@ def _run(tasks: Iterator[list[dict[str, Any]]], args: tuple[Any, ...],
          results: list[Result | None], bar: Any, worker: Callable = _evaluate_batch) -> None:
     """Evaluate every task into ``results`` (in order): in-process on the core's pool of
     ``n_threads``, or on ``executor`` with ``threads_per_task`` each. ``args`` = (base
-    fields, depths, threshold_px, tol); ``worker`` the batch function (Camera or Design)."""
-    base, z, threshold_px, tol = args
+    fields, depths, threshold_px, tol, window of the 2-D merits or None); ``worker`` the
+    batch function (Camera or Design)."""
+    base, z, threshold_px, tol, window = args
     if executor is None:
         start = 0
         for task in tasks:
-            part = worker(base, task, z, threshold_px, tol, n_threads)
+            part = worker(base, task, z, threshold_px, tol, window, n_threads)
             results[start:start + len(part)] = part
             start += len(part)
             if bar is not None:
@@ -379,7 +448,7 @@ def _run(tasks: Iterator[list[dict[str, Any]]], args: tuple[Any, ...],
     futures = {}
     start = 0
     for task in tasks:
-        fut = executor.submit(worker, base, task, z, threshold_px, tol,
+        fut = executor.submit(worker, base, task, z, threshold_px, tol, window,
                               threads_per_task)
         futures[fut] = start
         start += len(task)
@@ -418,6 +487,7 @@ def _dataset(xr, axes: Mapping[str, np.ndarray], results: list[Result | None],
 def sweep(camera: Camera | Design, grid: Mapping[str, Sequence[Any]], depths,
           executor: cf.Executor | None = None, progress: bool | None = None, *,
           threshold_px: float = DEFAULT_THRESHOLD_PX, tol: float = DEFAULT_TOL,
+          merits_2d: bool = False, window: float = DEFAULT_WINDOW,
           n_threads: int | None = None, batch_size: int | None = None,
           threads_per_task: int = 1):
     """Figures of merit for every design of a full-factorial grid around ``camera``.
@@ -437,7 +507,11 @@ def sweep(camera: Camera | Design, grid: Mapping[str, Sequence[Any]], depths,
       ``client.get_executor()``); None runs in-process on the core's pool of ``n_threads``
     - ``progress``: a tqdm bar; None = only when stderr is a terminal
     - ``threshold_px``: sharpness threshold [pixels], finite > 0; ``tol``: merge tolerance
-      [delta(z)], finite >= 0
+      [delta(z)], finite >= 0 (in (0, 1] with ``merits_2d``)
+    - ``merits_2d``, ``window``: also compute the 2-D merits (:data:`METRICS_2D`;
+      ``design_metrics(design, merits_2d=True)``) with a central field ``window`` lens
+      pitches of channel 1 wide, as :func:`evaluate_design`; off by default (they cost a
+      2-D analysis per depth), and then absent from the dataset
     - ``batch_size``: designs per executor task (default: at most 64 tasks);
       ``threads_per_task``: core threads of each executor task
 
@@ -446,8 +520,8 @@ def sweep(camera: Camera | Design, grid: Mapping[str, Sequence[Any]], depths,
     ``reason`` (why a design is invalid;
     its metrics are NaN). An invalid design is a row, not an error; what concerns the whole
     sweep is one error before any work: ``TypeError`` (wrong types),
-    :class:`~splitlf.errors.InvalidParameter` (threshold_px, tol, depths, grid, batch_size,
-    n_threads out of range), :class:`~splitlf.errors.TooLargeError` (too many designs or
+    :class:`~splitlf.errors.InvalidParameter` (threshold_px, tol, window, depths, grid,
+    batch_size, n_threads out of range), :class:`~splitlf.errors.TooLargeError` (too many designs or
     depths), ``ImportError`` without xarray.
     """
     try:
@@ -459,17 +533,20 @@ def sweep(camera: Camera | Design, grid: Mapping[str, Sequence[Any]], depths,
     axes, counts = _grid(grid, cam if is_design else None)
     z = _depths(depths, cam, axes)
     threshold_px, tol = _threshold(threshold_px), _tol(tol)
+    window_2d = _options_2d(merits_2d, window, tol)
     n_threads = _validate.n_threads(n_threads)
     threads_per_task = _validate.n_threads(threads_per_task)
     n_designs = math.prod(a.size for a in axes.values())
     batch = _batch_size(batch_size, n_designs, executor)
+    on_2d = window_2d is not None
     if is_design:
-        args = (cam.as_dict(), z, threshold_px, tol)
+        args = (cam.as_dict(), z, threshold_px, tol, window_2d)
         worker: Callable = _evaluate_design_batch
-        metrics, docs = design_metrics(cam), _design_doc
+        metrics, docs = design_metrics(cam, on_2d), _design_doc
     else:
-        args = (cam.as_dict(resolved=False), z, threshold_px, tol)
-        worker, metrics, docs = _evaluate_batch, METRICS, _DOCS.__getitem__
+        args = (cam.as_dict(resolved=False), z, threshold_px, tol, window_2d)
+        worker, metrics, docs = _evaluate_batch, METRICS + (METRICS_2D if on_2d else ()), \
+            _camera_doc
     results: list[Result | None] = [None] * n_designs
     bar = _progress_bar(n_designs, progress)
     try:
@@ -484,6 +561,9 @@ def sweep(camera: Camera | Design, grid: Mapping[str, Sequence[Any]], depths,
         "n_depths": int(z.size),
         "threshold_px": threshold_px,
         "tol": tol,
+        "merits_2d": int(on_2d),
     }
+    if on_2d:
+        attrs["window"] = window_2d
     attrs["base_design" if is_design else "base_camera"] = cam.to_toml()
     return _dataset(xr, axes, results, attrs, metrics, docs)

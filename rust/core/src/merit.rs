@@ -12,6 +12,7 @@ use crate::optics::{check_depths, check_design_depths, design_sharp_fractions, s
 use crate::parallel::check_threads;
 use crate::rayspace::{trace_line_threads, Sample};
 use crate::samples::{check_tol, design_new_samples, new_samples};
+use crate::samples2d::{check_tol_2d, check_window, coverage};
 
 /// Number of figures of merit, in the order of [`figures_of_merit`].
 pub const N_MERITS: usize = 9;
@@ -148,6 +149,92 @@ pub fn design_figures_of_merit(
     Ok(out)
 }
 
+/// Prefixes of the 2-D merits, in the order of [`design_figures_of_merit_2d`]: each is
+/// followed by one name per row (channel, then the union).
+pub const PREFIXES_2D: [&str; 3] = [
+    "covering_radius_worst",
+    "covering_radius_median",
+    "distinct_2d_median",
+];
+
+/// The 2-D merit names for the rows `rows` (e.g. `channel1`, …, `union`): each prefix of
+/// [`PREFIXES_2D`] followed by every row, prefix by prefix.
+fn names_2d(rows: &[String]) -> Vec<String> {
+    PREFIXES_2D
+        .iter()
+        .flat_map(|p| rows.iter().map(move |r| format!("{p}_{r}")))
+        .collect()
+}
+
+/// Names of the 2-D merits of a design with `channels` channels, in the order of
+/// [`design_figures_of_merit_2d`]: `covering_radius_worst_channel1`, …, `_union`,
+/// `covering_radius_median_channel1`, …, `_union`, `distinct_2d_median_channel1`, …,
+/// `_union` (3 (C + 1) names).
+pub fn design_metrics_2d(channels: usize) -> Vec<String> {
+    let mut rows: Vec<String> = (1..=channels).map(|c| format!("channel{c}")).collect();
+    rows.push("union".into());
+    names_2d(&rows)
+}
+
+/// Names of the 2-D merits of a [`Camera`] (its two-channel design, [`Design::from_camera`]),
+/// in the order of [`figures_of_merit_2d`]: as [`design_metrics_2d`] with the rows `half1`,
+/// `half2`, `union`.
+pub fn camera_metrics_2d() -> Vec<String> {
+    names_2d(&["half1".into(), "half2".into(), "union".into()])
+}
+
+/// Check the arguments only the 2-D merits have, before any work: `tol` as the 2-D
+/// distinct samples take it ((0, [`crate::samples2d::MAX_TOL_2D`]]) and `window` (finite,
+/// > 0).
+pub fn check_merits_2d(tol: f64, window: f64) -> Result<()> {
+    check_tol_2d(tol)?;
+    check_window(window)?;
+    Ok(())
+}
+
+/// The 2-D merits of `design` over the depths `z`, named by [`design_metrics_2d`]: per row
+/// (channel 1, …, channel C, union) of [`coverage`] at (`tol`, `window`), the worst
+/// (largest) covering radius over the depths, its median (as NumPy's), both in δ(z) = μ_1
+/// z/L_1 (+∞ when a depth's field holds no sample), and the median number of distinct 2-D
+/// samples inside the central field.
+pub fn design_figures_of_merit_2d(
+    design: &Design,
+    z: &[f64],
+    tol: f64,
+    window: f64,
+    n_threads: Option<usize>,
+) -> Result<Vec<f64>> {
+    let cov = coverage(design, z, tol, window, n_threads)?;
+    let m = z.len();
+    let rows = cov.rows;
+    let mut out = Vec::with_capacity(3 * rows);
+    let radii: Vec<&[f64]> = cov.covering_radius.chunks(m).collect();
+    out.extend(
+        radii
+            .iter()
+            .map(|r| r.iter().copied().fold(f64::NEG_INFINITY, f64::max)),
+    );
+    out.extend(radii.iter().map(|r| median(&mut r.to_vec())));
+    out.extend(
+        cov.distinct
+            .chunks(m)
+            .map(|d| median(&mut d.iter().map(|&n| n as f64).collect::<Vec<_>>())),
+    );
+    Ok(out)
+}
+
+/// The 2-D merits of `cam` (of its design [`Design::from_camera`], halves as channels 1
+/// and 2), named by [`camera_metrics_2d`].
+pub fn figures_of_merit_2d(
+    cam: &Camera,
+    z: &[f64],
+    tol: f64,
+    window: f64,
+    n_threads: Option<usize>,
+) -> Result<Vec<f64>> {
+    design_figures_of_merit_2d(&Design::from_camera(cam), z, tol, window, n_threads)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -197,5 +284,46 @@ mod tests {
         // a fully lit pixel of half 1 (Ng's setting): share × μ d / v
         let light = 0.5 * cam.mu * cam.d / cam.v;
         assert!((at("light_per_pixel_channel1") - light).abs() <= 1e-12 * light);
+    }
+
+    #[test]
+    fn merits_2d_are_coverage_rows() {
+        let design = crate::presets::preset("split3").unwrap();
+        let z: Vec<f64> = (0..6)
+            .map(|i| 150.0 * (10_000.0f64 / 150.0).powf(i as f64 / 5.0))
+            .collect();
+        let names = design_metrics_2d(3);
+        assert_eq!(names.len(), 12);
+        assert_eq!(names[0], "covering_radius_worst_channel1");
+        assert_eq!(names[7], "covering_radius_median_union");
+        assert_eq!(names[11], "distinct_2d_median_union");
+        let f = design_figures_of_merit_2d(&design, &z, 1e-6, 4.0, Some(1)).unwrap();
+        let cov = coverage(&design, &z, 1e-6, 4.0, Some(1)).unwrap();
+        for row in 0..4 {
+            let r = &cov.covering_radius[row * 6..(row + 1) * 6];
+            let mut s = r.to_vec();
+            s.sort_by(f64::total_cmp);
+            assert_eq!(f[row], s[5]);
+            assert_eq!(f[4 + row], (s[2] + s[3]) / 2.0);
+            let mut d: Vec<u64> = cov.distinct[row * 6..(row + 1) * 6].to_vec();
+            d.sort();
+            assert_eq!(f[8 + row], (d[2] as f64 + d[3] as f64) / 2.0);
+        }
+        let cam = Camera::paper();
+        assert_eq!(
+            camera_metrics_2d()[..3],
+            ["covering_radius_worst_half1", "covering_radius_worst_half2", "covering_radius_worst_union"]
+        );
+        let a = figures_of_merit_2d(&cam, &z, 1e-6, 4.0, None).unwrap();
+        let b = design_figures_of_merit_2d(&Design::from_camera(&cam), &z, 1e-6, 4.0, Some(1));
+        assert_eq!(a, b.unwrap());
+        for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            let e = design_figures_of_merit_2d(&design, &z, 1e-6, bad, None).unwrap_err();
+            assert_eq!(e.parameter_name().as_deref(), Some("window"));
+            let e = check_merits_2d(1e-6, bad).unwrap_err();
+            assert_eq!(e.parameter_name().as_deref(), Some("window"));
+        }
+        let e = check_merits_2d(0.0, 4.0).unwrap_err();
+        assert_eq!(e.parameter_name().as_deref(), Some("tol"));
     }
 }

@@ -463,22 +463,45 @@ impl<'a> Tables<'a> {
     fn columns_x(&self, sen: &Sensor, g: f64, s: f64, out: &mut Vec<ColumnX>) -> Result<()> {
         out.clear();
         try_reserve(out, "chief samples (column tables)", sen.cols.len())?;
-        let parities = if self.cx[1].is_empty() { 1 } else { 2 };
-        for (c, &s0) in sen.cols.iter().zip(&sen.sx) {
-            let mut v = ColumnX::default();
-            for par in 0..parities {
-                for h in 0..2 {
-                    let j = c.j[par][h] as usize;
-                    let theta = s0 - sen.cxm[par][j];
-                    let w = -self.lv * theta;
-                    v.theta[par][h] = theta;
-                    v.w[par][h] = w;
-                    v.x[par][h] = -g * (self.cx[par][j] + w * s);
-                }
-            }
-            out.push(v);
-        }
+        out.extend((0..sen.cols.len()).map(|a| self.column_x(sen, a, g, s)));
         Ok(())
+    }
+
+    /// Column a's [`ColumnX`] on the plane (g = z/L, s = (L − z')/z').
+    #[inline]
+    fn column_x(&self, sen: &Sensor, a: usize, g: f64, s: f64) -> ColumnX {
+        let (c, s0) = (&sen.cols[a], sen.sx[a]);
+        let parities = if self.cx[1].is_empty() { 1 } else { 2 };
+        let mut v = ColumnX::default();
+        for par in 0..parities {
+            for h in 0..2 {
+                let j = c.j[par][h] as usize;
+                let theta = s0 - sen.cxm[par][j];
+                let w = -self.lv * theta;
+                v.theta[par][h] = theta;
+                v.w[par][h] = w;
+                v.x[par][h] = -g * (self.cx[par][j] + w * s);
+            }
+        }
+        v
+    }
+
+    /// The sensor pixel centres (`centres`, ascending) that can hold a lit sample with
+    /// |X| ≤ b (or |Y| ≤ b): a range of indices. A candidate lens counts only with
+    /// |w| < D/2, so its centre c satisfies |c| < b/g + (D/2)|s| (the sample is
+    /// −g (c + w s)), and the pixel lies within |θ| = |w| v/L < (D/2)/(L/v) of the lens's
+    /// image centre c m: |centre| < (b/g + (D/2)|s|) m + (D/2)/(L/v). Padded well beyond
+    /// rounding and by a pixel, so the range holds every pixel the per-pixel tests accept.
+    fn sensor_range(&self, centres: &[f64], g: f64, s: f64, b: f64) -> std::ops::Range<usize> {
+        let r = self.design.aperture / 2.0;
+        let m = self.ch.magnification();
+        let reach = ((b / g + r * s.abs()) * m + r / self.lv) * (1.0 + 1e-9) + self.ch.mu;
+        if !reach.is_finite() {
+            return 0..centres.len();
+        }
+        let lo = centres.partition_point(|&x| x < -reach);
+        let hi = centres.partition_point(|&x| x <= reach);
+        lo..hi.max(lo)
     }
 
     /// Sensor pixel of column candidates `c` (with their values `cx` on the plane) in a row
@@ -690,9 +713,19 @@ impl<'a> Tables<'a> {
     }
 
     /// Columns whose samples can satisfy |X| ≤ bx: for each column, X of every candidate
-    /// lens (the pixel's lens is one of them; ideal: X depends on the column only).
-    fn candidate_columns(&self, g: f64, s: f64, bx: f64, out: &mut Vec<u32>) {
+    /// lens (the pixel's lens is one of them; ideal: X depends on the column only). The
+    /// sensor layout looks only at the columns of [`Tables::sensor_range`] and writes each
+    /// accepted column's [`ColumnX`] to `colx` (as [`Tables::columns_x`] computes it).
+    fn candidate_columns(
+        &self,
+        g: f64,
+        s: f64,
+        bx: f64,
+        out: &mut Vec<u32>,
+        colx: &mut Vec<ColumnX>,
+    ) -> Result<()> {
         out.clear();
+        colx.clear();
         match &self.px {
             PixelTables::Ideal { q, w } => {
                 let mut a = 0u32;
@@ -709,21 +742,23 @@ impl<'a> Tables<'a> {
             PixelTables::Sensor(sen) => {
                 let parities = if self.cx[1].is_empty() { 1 } else { 2 };
                 let r = self.design.aperture / 2.0;
-                for (a, (c, &s0)) in sen.cols.iter().zip(&sen.sx).enumerate() {
+                let range = self.sensor_range(&sen.sx, g, s, bx);
+                let what = "coverage (column tables)";
+                try_reserve(out, what, range.len())?;
+                try_reserve(colx, what, range.len())?;
+                for a in range {
                     // A candidate that can be lit has |w_x| < D/2 (both aperture shapes).
-                    let hit = (0..parities).any(|par| {
-                        c.j[par].iter().any(|&j| {
-                            let j = j as usize;
-                            let w0 = -self.lv * (s0 - sen.cxm[par][j]);
-                            w0.abs() < r && (-g * (self.cx[par][j] + w0 * s)).abs() <= bx
-                        })
-                    });
+                    let v = self.column_x(sen, a, g, s);
+                    let hit = (0..parities)
+                        .any(|par| (0..2).any(|h| v.w[par][h].abs() < r && v.x[par][h].abs() <= bx));
                     if hit {
                         out.push(a as u32);
+                        colx.push(v);
                     }
                 }
             }
         }
+        Ok(())
     }
 
     /// Rows whose samples can satisfy |Y| ≤ by (as [`Tables::candidate_columns`]).
@@ -743,9 +778,9 @@ impl<'a> Tables<'a> {
             }
             PixelTables::Sensor(sen) => {
                 let r = self.design.aperture / 2.0;
-                for (b, &s1) in sen.sy.iter().enumerate() {
+                for b in self.sensor_range(&sen.sy, g, s, by) {
                     // The rows dropped by Tables::row never hold the pixel's lens.
-                    let rc = self.row(sen, s1, g, s);
+                    let rc = self.row(sen, sen.sy[b], g, s);
                     let hit = (0..rc.n).any(|i| rc.w[i].abs() < r && rc.y[i].abs() <= by);
                     if hit {
                         out.push(b as u32);
@@ -755,8 +790,9 @@ impl<'a> Tables<'a> {
         }
     }
 
-    /// Append the lit samples of columns `cols` of one sensor row (`N` = `rc.n` candidate
-    /// lens rows) that `keep` accepts to `out` (capacity reserved by the caller).
+    /// Append the lit samples of columns `cols` (their [`ColumnX`] in `colx`, in the same
+    /// order) of one sensor row (`N` = `rc.n` candidate lens rows) that `keep` accepts to
+    /// `out` (capacity reserved by the caller).
     #[inline(always)]
     fn gather_row<const N: usize, const HEX: bool, const CIRCLE: bool>(
         &self,
@@ -767,9 +803,8 @@ impl<'a> Tables<'a> {
         keep: &impl Fn([f64; 2]) -> bool,
         out: &mut Vec<[f64; 2]>,
     ) {
-        for &a in cols {
-            let a = a as usize;
-            let px = self.sensor_pixel::<N, HEX, CIRCLE>(sen, &sen.cols[a], &colx[a], rc);
+        for (&a, cx) in cols.iter().zip(colx) {
+            let px = self.sensor_pixel::<N, HEX, CIRCLE>(sen, &sen.cols[a as usize], cx, rc);
             if px.lit && keep(px.xy) {
                 out.push(px.xy);
             }
@@ -782,12 +817,12 @@ impl<'a> Tables<'a> {
         g: f64,
         s: f64,
         bounds: [f64; 2],
-        idx: &mut (Vec<u32>, Vec<u32>),
+        idx: &mut (Vec<u32>, Vec<u32>, Vec<ColumnX>),
         out: &mut Vec<[f64; 2]>,
     ) -> Result<()> {
         let [bx, by] = bounds;
-        let (cols, rows) = idx;
-        self.candidate_columns(g, s, bx, cols);
+        let (cols, rows, colx) = idx;
+        self.candidate_columns(g, s, bx, cols, colx)?;
         self.candidate_rows(g, s, by, rows);
         try_reserve(
             out,
@@ -820,11 +855,9 @@ impl<'a> Tables<'a> {
                 }
             }
             PixelTables::Sensor(sen) => {
-                let mut colx = Vec::new();
-                self.columns_x(sen, g, s, &mut colx)?;
                 for &b in rows.iter() {
                     let rc = self.row(sen, sen.sy[b as usize], g, s);
-                    dispatch!(self, rc, gather_row(sen, &rc, cols, &colx, &keep, out));
+                    dispatch!(self, rc, gather_row(sen, &rc, cols, colx, &keep, out));
                 }
             }
         }
@@ -1581,7 +1614,7 @@ struct Work {
     pts: Vec<[f64; 2]>,
     /// Start of each channel's samples in `pts` (and the end of the last).
     offsets: Vec<usize>,
-    idx: (Vec<u32>, Vec<u32>),
+    idx: (Vec<u32>, Vec<u32>, Vec<ColumnX>),
     comp: CompWork,
     reps: Vec<(u32, bool)>,
     band: Vec<[f64; 2]>,

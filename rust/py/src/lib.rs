@@ -1004,9 +1004,10 @@ fn design_new_samples(
     })
 }
 
-/// Figures of merit of one design over depths (see `splitlf.sweep.METRICS`).
+/// Figures of merit of one design over depths (see `splitlf.sweep.METRICS`), followed by
+/// its 2-D merits (`camera_metrics_2d`) when `window` is given.
 #[pyfunction]
-#[pyo3(signature = (camera, z, threshold_px=optics::DEFAULT_THRESHOLD_PX, tol=samples::DEFAULT_TOL, n_threads=None))]
+#[pyo3(signature = (camera, z, threshold_px=optics::DEFAULT_THRESHOLD_PX, tol=samples::DEFAULT_TOL, n_threads=None, window=None))]
 fn figures_of_merit(
     py: Python<'_>,
     camera: &CameraCore,
@@ -1014,25 +1015,46 @@ fn figures_of_merit(
     threshold_px: f64,
     tol: f64,
     n_threads: Option<&Bound<'_, PyAny>>,
-) -> PyResult<[f64; merit::N_MERITS]> {
+    window: Option<f64>,
+) -> PyResult<Vec<f64>> {
     let cam = camera.inner;
     let threads = threads_arg(n_threads)?;
     let zs = as_slice(&z)?;
     run_as(py, "depths", || {
-        merit::figures_of_merit(&cam, &zs, threshold_px, tol, threads)
+        if let Some(w) = window {
+            merit::check_merits_2d(tol, w)?;
+        }
+        let mut out = merit::figures_of_merit(&cam, &zs, threshold_px, tol, threads)?.to_vec();
+        if let Some(w) = window {
+            out.extend(merit::figures_of_merit_2d(&cam, &zs, tol, w, threads)?);
+        }
+        Ok(out)
     })
 }
 
-/// Names of a design's figures of merit, in the order of `design_figures_of_merit`.
+/// Names of the 2-D merits of a camera, in the order `figures_of_merit` appends them.
 #[pyfunction]
-fn design_metrics(design: &DesignCore) -> Vec<String> {
-    merit::design_metrics(design.inner.channels.len())
+fn camera_metrics_2d() -> Vec<String> {
+    merit::camera_metrics_2d()
+}
+
+/// Names of a design's figures of merit, in the order of `design_figures_of_merit`; with
+/// `merits_2d`, followed by the names of its 2-D merits.
+#[pyfunction]
+#[pyo3(signature = (design, merits_2d=false))]
+fn design_metrics(design: &DesignCore, merits_2d: bool) -> Vec<String> {
+    let c = design.inner.channels.len();
+    let mut out = merit::design_metrics(c);
+    if merits_2d {
+        out.extend(merit::design_metrics_2d(c));
+    }
+    out
 }
 
 /// Figures of merit of a design over depths, per channel and union (see
-/// `splitlf.sweep.design_metrics`).
+/// `splitlf.sweep.design_metrics`), followed by its 2-D merits when `window` is given.
 #[pyfunction]
-#[pyo3(signature = (design, z, threshold_px=optics::DEFAULT_THRESHOLD_PX, tol=samples::DEFAULT_TOL, n_threads=None))]
+#[pyo3(signature = (design, z, threshold_px=optics::DEFAULT_THRESHOLD_PX, tol=samples::DEFAULT_TOL, n_threads=None, window=None))]
 fn design_figures_of_merit(
     py: Python<'_>,
     design: &DesignCore,
@@ -1040,12 +1062,20 @@ fn design_figures_of_merit(
     threshold_px: f64,
     tol: f64,
     n_threads: Option<&Bound<'_, PyAny>>,
+    window: Option<f64>,
 ) -> PyResult<Vec<f64>> {
     let d = &design.inner;
     let threads = threads_arg(n_threads)?;
     let zs = as_slice(&z)?;
     run_as(py, "depths", || {
-        merit::design_figures_of_merit(d, &zs, threshold_px, tol, threads)
+        if let Some(w) = window {
+            merit::check_merits_2d(tol, w)?;
+        }
+        let mut out = merit::design_figures_of_merit(d, &zs, threshold_px, tol, threads)?;
+        if let Some(w) = window {
+            out.extend(merit::design_figures_of_merit_2d(d, &zs, tol, w, threads)?);
+        }
+        Ok(out)
     })
 }
 
@@ -1773,6 +1803,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(figures_of_merit, m)?)?;
     m.add_function(wrap_pyfunction!(design_figures_of_merit, m)?)?;
     m.add_function(wrap_pyfunction!(design_metrics, m)?)?;
+    m.add_function(wrap_pyfunction!(camera_metrics_2d, m)?)?;
     m.add_function(wrap_pyfunction!(trace, m)?)?;
     m.add_function(wrap_pyfunction!(footprints, m)?)?;
     m.add_function(wrap_pyfunction!(sample_grid, m)?)?;
