@@ -80,6 +80,33 @@ def test_seed_numbers_equal_report_coverage_and_trace():
     assert row["out_of_focus_mm"] == "642.0 217.0"
 
 
+def test_table_equals_the_2d_merits_of_the_optimiser():
+    # the evaluation's worst and median covering radius and median distinct samples are the
+    # core's 2-D merits (what optimise constrains) over the same depths and field
+    from splitlf.sweep import evaluate_design
+
+    d = Design.preset("split3")
+    table, _ = evaluate({"split3": d}, Z, window=2.5)
+    m = evaluate_design(d, Z, merits_2d=True, window=2.5)
+    row = table.loc["split3"]
+    assert row["covering_radius_worst"] == m["covering_radius_worst_union"]
+    assert row["covering_radius_median"] == m["covering_radius_median_union"]
+    assert row["distinct_2d_median"] == m["distinct_2d_median_union"]
+
+
+def test_a_2d_constraint_is_computed_over_the_search_window():
+    res = compare("seed", "sharp_fraction_union", "max",
+                  {"covering_radius_median_union": ("<=", 1.5)}, which=["split"],
+                  optimise_window=2.0, **TINY)
+    r = res.optimisations["split"]
+    assert "covering_radius_median_union" in r.merits
+    from splitlf.sweep import evaluate_design
+
+    m = evaluate_design(r.design, TINY["optimise_depths"], merits_2d=True, window=2.0)
+    assert r.merits["covering_radius_median_union"] == m["covering_radius_median_union"]
+    assert r.feasible == (m["covering_radius_median_union"] <= 1.5)
+
+
 def test_conventional_camera_against_closed_forms():
     arch = architectures("seed")["conventional"]
     d = arch.base
@@ -268,24 +295,29 @@ def test_plot_draws_the_api_numbers():
 
     res = compare("seed", "sharp_fraction_union", which=["split", "conventional"], **TINY)
     fig = Figure()
-    a_plot, a_table = splitlf.plot.compare(res, ax=fig.subplots(2, 1))
-    lines = {ln.get_label(): ln for ln in a_plot.get_lines()}
-    for name in res.designs:
-        c = res.curve(name)
-        label = res.architectures[name].label
-        ln = lines[label]
-        np.testing.assert_array_equal(ln.get_xdata(), c["z_mm"])
-        np.testing.assert_array_equal(ln.get_ydata(), c["covering_radius_mm"])
-        bad = lines[f"_{label}: not sharp"]
-        np.testing.assert_array_equal(bad.get_xdata(), c["z_mm"][~c["sharp"]])
-        np.testing.assert_array_equal(bad.get_ydata(), c["covering_radius_mm"][~c["sharp"]])
-    assert a_plot.get_xscale() == "log" and a_plot.get_yscale() == "log"
+    a_mm, a_delta, a_table = splitlf.plot.compare(res, ax=fig.subplots(3, 1))
+    for a, column in ((a_mm, "covering_radius_mm"), (a_delta, "covering_radius")):
+        lines = {ln.get_label(): ln for ln in a.get_lines()}
+        for name in res.designs:
+            c = res.curve(name)
+            label = res.architectures[name].label
+            ln = lines[label]
+            np.testing.assert_array_equal(ln.get_xdata(), c["z_mm"])
+            np.testing.assert_array_equal(ln.get_ydata(), c[column])
+            bad = lines[f"_{label}: not sharp"]
+            np.testing.assert_array_equal(bad.get_xdata(), c["z_mm"][~c["sharp"]])
+            np.testing.assert_array_equal(bad.get_ydata(), c[column][~c["sharp"]])
+        assert a.get_xscale() == "log" and a.get_yscale() == "log"
     # the table's cells are the table's numbers
     cells = a_table.tables[0].get_celld()
-    heads = [cells[0, j].get_text().get_text() for j in range(6)]
+    ncols = max(j for _, j in cells) + 1
+    heads = [cells[0, j].get_text().get_text() for j in range(ncols)]
     j = heads.index("median rho\n[delta]")
     for i, name in enumerate(res.designs, 1):
         assert cells[i, j].get_text().get_text() == \
             f"{res.table.loc[name, 'covering_radius_median']:.3f}"
+    assert splitlf.plot.compare(res, ax=Figure().subplots()).get_xscale() == "log"
+    with pytest.raises(ValueError):
+        splitlf.plot.compare(res, ax=list(Figure().subplots(4, 1)))
     with pytest.raises(TypeError):
         splitlf.plot.compare("not a comparison")

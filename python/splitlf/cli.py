@@ -745,8 +745,8 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 
         from .plot import compare as plot_compare
 
-        fig = Figure(figsize=(9.5, 8.6), layout="constrained")
-        plot_compare(res, ax=fig.subplots(2, 1, height_ratios=[3, 1.25]))
+        fig = Figure(figsize=(9.5, 12.0), layout="constrained")
+        plot_compare(res, ax=fig.subplots(3, 1, height_ratios=[3, 2, 1.3]))
         with atomic_output(fig_path, force=args.force, hint=FORCE_HINT) as tmp:
             fig.savefig(tmp, dpi=150, format=fig_path.suffix[1:])
         written.append(fig_path)

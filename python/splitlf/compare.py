@@ -359,7 +359,10 @@ def evaluate(designs: Mapping[str, Design], depths: Any = None, *,
       ``shares`` (text), ``sharp_fraction`` (the union's share of [min, max] depth, log,
       where it is sharp), ``covering_radius_worst`` and ``covering_radius_median`` (the
       union's largest and median covering radius over the depths, delta(z) units),
-      ``distinct_2d_median`` (union), ``light_per_pixel`` (mm rad: the core's
+      ``distinct_2d_median`` (union), ``field_at_1m_mm`` (the width of the scene channel 1's
+      pixel row sees at 1 m: delta(1 m) x its pixels along x; designs with the array
+      farther back see a narrower field, which delta(z) units normalise),
+      ``light_per_pixel`` (mm rad: the core's
       ``light_per_pixel_channel{i}`` — share x mean integration-polygon area of the lit
       pixels along x / L_1 — averaged over the channels' lit pixels; a hex channel's from
       its rect twin, ``light_from_rect_twin``), ``light_relative`` (over the conventional
@@ -417,6 +420,7 @@ def evaluate(designs: Mapping[str, Design], depths: Any = None, *,
             "covering_radius_worst": float(np.max(rho)),
             "covering_radius_median": float(np.median(rho)),
             "distinct_2d_median": float(np.median(cov.distinct[-1])),
+            "field_at_1m_mm": d.resolution_step(1000.0) * _row_pixels(d, 1),
             "light_per_pixel": light,
             "light_from_rect_twin": twin,
             "out_of_focus_mm": " ".join(f"{d.out_of_focus_depth(i):.1f}"
