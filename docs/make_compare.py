@@ -38,6 +38,7 @@ def sharp_then_fine(m: dict[str, float]) -> float:
 
 #: The budget (docs/compare.md, "Budget").
 BUDGET = {"maxiter": 20, "popsize": 8, "polish": False, "seed": 0,
+          "de_options": {"tol": 0.0},
           "optimise_depths": np.geomspace(150.0, 10_000.0, 8), "optimise_window": 3.0,
           "depths": np.geomspace(150.0, 10_000.0, 40), "window": 12.0}
 #: Depth bands of the "who wins where" table [mm].
@@ -64,7 +65,7 @@ def markdown(res) -> str:
             if v is None or (isinstance(v, float) and not math.isfinite(v)):
                 cells.append("–")
             else:
-                cells.append(f.format(v))
+                cells.append(f.format(v + 0.0 if isinstance(v, float) else v))
         out.append(f"| {res.architectures[name].label} | " + " | ".join(cells) + " |")
     return "\n".join(out)
 

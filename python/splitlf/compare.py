@@ -25,7 +25,7 @@ import dataclasses
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -483,6 +483,7 @@ def compare(preset: str, objective: str | Callable[[dict[str, float]], float],
             optimise_window: float = 4.0, maxiter: int = 8, popsize: int = 5,
             polish: bool = False, seed: int = 0, executor: cf.Executor | None = None,
             progress: bool | None = None, merits_2d: bool | None = None,
+            de_options: Mapping[str, Any] | None = None,
             simulate_depths: Sequence[float] = (),
             threshold_px: float = 0.5, tol: float = DEFAULT_TOL,
             n_threads: int | None = None) -> Comparison:
@@ -500,7 +501,7 @@ def compare(preset: str, objective: str | Callable[[dict[str, float]], float],
       log-spaced over 150-10 000 mm); ``depths``, ``window``: the evaluation afterwards
       (default 60 depths, 16 pitches)
     - ``maxiter``, ``popsize``, ``polish``, ``seed``, ``executor``, ``progress``,
-      ``merits_2d``, ``threshold_px``, ``tol``, ``n_threads``: passed to
+      ``merits_2d``, ``de_options``, ``threshold_px``, ``tol``, ``n_threads``: passed to
       :func:`splitlf.optimise` (deterministic for a seed, on any executor; ``merits_2d``
       True for a callable objective that reads the 2-D merits)
     - ``simulate_depths``: depths of the MTF50 columns (:func:`evaluate`)
@@ -543,11 +544,12 @@ def compare(preset: str, objective: str | Callable[[dict[str, float]], float],
             designs[n], frac = _focus(a, z_opt, threshold_px)
             status[n] = (None, math.nan)
             continue
-        res = optimise(a.base, dict(a.free), objective, sense, constraints, depths=z_opt,
+        res = optimise(a.base, dict(a.free), objective, sense,  # type: ignore[arg-type]
+                       constraints, depths=z_opt,
                        seed=seed, executor=executor, progress=progress, maxiter=maxiter,
                        popsize=popsize, polish=polish, threshold_px=threshold_px, tol=tol,
-                       n_threads=n_threads, **extra)
-        designs[n], results[n] = res.design, res
+                       n_threads=n_threads, de_options=de_options, **extra)
+        designs[n], results[n] = cast(Design, res.design), res  # a Design base's result
         status[n] = (res.feasible, res.objective)
     t1 = time.perf_counter()
     table, crv = evaluate(designs, z_eval, conventional=[n for n in names
@@ -564,7 +566,8 @@ def compare(preset: str, objective: str | Callable[[dict[str, float]], float],
         "sense": sense, "constraints": dict(constraints or {}),
         "optimise_depths": z_opt.tolist(), "depths": z_eval.tolist(),
         "window": window, "optimise_window": optimise_window, "maxiter": maxiter,
-        "popsize": popsize, "polish": polish, "seed": seed, "threshold_px": threshold_px,
+        "popsize": popsize, "polish": polish, "seed": seed,
+        "de_options": dict(de_options or {}), "threshold_px": threshold_px,
         "tol": tol, "simulate_depths": [float(s) for s in simulate_depths],
     }
     return Comparison(preset=preset, architectures={n: archs[n] for n in names},
