@@ -153,6 +153,9 @@ def test_architectures_share_the_sensor_and_main_lens(preset):
         assert sum(ch.share for ch in a.base.channels) == pytest.approx(1.0, rel=1e-12)
         for name, (lo, hi) in a.free.items():
             assert lo < hi, name
+            if name.endswith(".L"):  # planes whose out-of-focus depths are 50 m and 120 mm
+                assert lo == pytest.approx(ref.F * 50_000.0 / (50_000.0 - ref.F), rel=1e-13)
+                assert hi == pytest.approx(ref.F * 120.0 / (120.0 - ref.F), rel=1e-13)
     counts = {n: len(a.base.channels) for n, a in archs.items()}
     assert counts == {"plain": 1, "split": 2, "split3": 3, "multifocus": 1,
                       "conventional": 1}

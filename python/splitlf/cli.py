@@ -983,7 +983,8 @@ def _add_optimise(sub: Any) -> None:
 
 
 def _add_compare(sub: Any) -> None:
-    from .compare import ARCHITECTURES, PRESETS as SENSORS
+    from .compare import ARCHITECTURES
+    from .compare import PRESETS as SENSORS
 
     p = sub.add_parser("compare", help="optimise every architecture on one sensor and "
                        "compare them", description="Build the plain light field camera, the "

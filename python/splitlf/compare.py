@@ -137,15 +137,16 @@ class Comparison:
 
 # -- the architectures on a sensor ---------------------------------------------------------
 
-def _l_bounds(F: float) -> tuple[float, float]:
-    """Array planes whose out-of-focus planes lie between :data:`OUT_OF_FOCUS_MM`."""
-    far, near = OUT_OF_FOCUS_MM
-    return F * far / (far - F), F * near / (near - F)
+def _l_bounds(design: Design) -> tuple[float, float]:
+    """Array planes whose out-of-focus planes lie between :data:`OUT_OF_FOCUS_MM`: the
+    conjugates of those depths (the core's :func:`splitlf.curves`)."""
+    lo, hi = curves(design, np.array(OUT_OF_FOCUS_MM)).conjugate
+    return float(lo), float(hi)
 
 
-def _channel_free(i: int, ch: Channel, F: float, focal: bool = False
+def _channel_free(i: int, ch: Channel, bounds: tuple[float, float], focal: bool = False
                   ) -> dict[str, tuple[float, float]]:
-    free = {f"channels[{i}].L": _l_bounds(F),
+    free = {f"channels[{i}].L": bounds,
             f"channels[{i}].v": (V_BOUNDS[0] * ch.v, V_BOUNDS[1] * ch.v)}
     if focal and ch.f is not None:
         for t in range(len(ch.f)):
@@ -154,7 +155,7 @@ def _channel_free(i: int, ch: Channel, F: float, focal: bool = False
 
 
 def _conventional(F: float, D: float, aperture: str, mu: float, mx: int, my: int,
-                  L: float) -> Architecture:
+                  L: float, bounds: tuple[float, float]) -> Architecture:
     """The conventional camera: a sensor of mx x my pixels of pitch mu on the plane L, the
     main lens focused there. Built as a one-channel design with one pixel per lens (rect
     grid, ideal layout, Q = 1, lens pitch d = mu), so that the core's chief samples of its
@@ -163,7 +164,7 @@ def _conventional(F: float, D: float, aperture: str, mu: float, mx: int, my: int
     pixel's etendue D mu / L (v = d L_lo / D: the light behind each lens falls on its one
     pixel at every L of the search). Its sharpness is the core's conventional blur of that
     channel (the "conventional channel 1" row), never its light field rows."""
-    lo, hi = _l_bounds(F)
+    lo, hi = bounds
     ch = Channel(L=L, d=mu, v=mu * lo / D, mu=mu, Kx=mx, Ky=my, Q=1)
     return Architecture("conventional", LABELS["conventional"],
                         Design(F=F, D=D, aperture=aperture, channels=(ch,)),
@@ -187,9 +188,10 @@ def _seed_architectures() -> dict[str, Architecture]:
                        ("multifocus", multi)):
         free: dict[str, tuple[float, float]] = {}
         for i, c in enumerate(base.channels, 1):
-            free.update(_channel_free(i, c, F, focal=name == "multifocus"))
+            free.update(_channel_free(i, c, _l_bounds(seed), focal=name == "multifocus"))
         out[name] = Architecture(name, LABELS[name], base, free)
-    out["conventional"] = _conventional(F, D, seed.aperture, ch.mu, mx, my, ch.L)
+    out["conventional"] = _conventional(F, D, seed.aperture, ch.mu, mx, my, ch.L,
+                                        _l_bounds(seed))
     return out
 
 
@@ -219,9 +221,10 @@ def _r12_architectures() -> dict[str, Architecture]:
                        ("multifocus", r12)):
         free: dict[str, tuple[float, float]] = {}
         for i, c in enumerate(base.channels, 1):
-            free.update(_channel_free(i, c, F, focal=name == "multifocus"))
+            free.update(_channel_free(i, c, _l_bounds(r12), focal=name == "multifocus"))
         out[name] = Architecture(name, LABELS[name], base, free)
-    out["conventional"] = _conventional(F, D, r12.aperture, ch.mu, mx, my, ch.L)
+    out["conventional"] = _conventional(F, D, r12.aperture, ch.mu, mx, my, ch.L,
+                                        _l_bounds(r12))
     return out
 
 
