@@ -93,10 +93,10 @@ __all__ = [
     "trace",
 ]
 
-#: Submodules whose optional dependencies (matplotlib, xarray, pandas, dask) are imported
+#: Submodules whose optional dependencies (matplotlib, xarray, pandas, scipy, dask) are imported
 #: only on first use: ``splitlf.plot.blur(...)`` and ``splitlf.sweep.sweep(...)`` work
 #: after a plain ``import splitlf``, which itself imports neither.
-_LAZY_SUBMODULES = ("cli", "plot", "report", "sweep")
+_LAZY_SUBMODULES = ("cli", "compare", "plot", "report", "sweep")
 
 
 def __getattr__(name: str) -> ModuleType:

@@ -588,16 +588,16 @@ def parse_constraint(spec: str) -> tuple[str, tuple[str, float]]:
     raise CliError(f"--constraint {spec}: expected MERIT<=VALUE or MERIT>=VALUE")
 
 
-def _optimise_depths(spec: str) -> np.ndarray:
+def _optimise_depths(spec: str, option: str = "--depths") -> np.ndarray:
     parts = spec.split(":")
     try:
         lo, hi, num = float(parts[0]), float(parts[1]), int(parts[2])
         if len(parts) != 3:
             raise ValueError
     except (ValueError, IndexError):
-        raise CliError(f"--depths {spec}: expected MIN:MAX:NUM (mm, log-spaced)") from None
+        raise CliError(f"{option} {spec}: expected MIN:MAX:NUM (mm, log-spaced)") from None
     if not (0 < lo < hi and math.isfinite(hi) and 2 <= num <= 100_000):
-        raise CliError(f"--depths {spec}: needs 0 < MIN < MAX (mm) and NUM in [2, 100000]")
+        raise CliError(f"{option} {spec}: needs 0 < MIN < MAX (mm) and NUM in [2, 100000]")
     return np.geomspace(lo, hi, num)
 
 
@@ -664,6 +664,130 @@ def _cmd_optimise(args: argparse.Namespace) -> int:
                            "optimum)")]
     if out is not None:
         lines.append(str(out))
+    sys.stdout.write("\n".join(lines) + "\n")
+    return 0
+
+
+# -- compare -----------------------------------------------------------------------------
+
+COMPARE_FILES = ("table.csv", "curves.csv")
+
+
+def _compare_targets(args: argparse.Namespace, names: list[str]) -> tuple[Path | None,
+                                                                          Path | None]:
+    """The folder and the figure of `compare`, checked (no file overwritten without
+    --force, a folder not a file) before any work."""
+    out = None if args.out is None else Path(args.out)
+    if out is not None:
+        if out.exists() and not out.is_dir():
+            raise CliError(f"--out {out}: exists and is not a folder")
+        for name in [*COMPARE_FILES, *(f"{n}.toml" for n in names)]:
+            if out.is_dir():
+                check_new(out / name, args.force, FORCE_HINT)
+    fig = None if args.figure is None else Path(args.figure)
+    if fig is not None:
+        _check_suffix("--figure", fig, (".png", ".svg"))
+        check_new(fig, args.force, FORCE_HINT)
+        try:
+            import matplotlib  # noqa: F401
+        except ImportError:
+            raise CliError('--figure needs matplotlib: pip install "splitlf[plot]"') from None
+    return out, fig
+
+
+def _compare_names(spec: str | None) -> list[str]:
+    from .compare import ARCHITECTURES
+
+    if spec is None:
+        return list(ARCHITECTURES)
+    names = [n.strip() for n in spec.split(",") if n.strip()]
+    bad = [n for n in names if n not in ARCHITECTURES]
+    if not names or bad or len(set(names)) < len(names):
+        raise CliError(f"--architectures {spec}: allowed distinct names among "
+                       f"{', '.join(ARCHITECTURES)}, comma-separated")
+    return [n for n in ARCHITECTURES if n in names]
+
+
+def _compare_document(res: Any) -> dict[str, Any]:
+    table = res.table.reset_index()
+    return {
+        "preset": res.preset, "settings": dict(res.settings), "timing": dict(res.timing),
+        "table": json.loads(table.to_json(orient="records", double_precision=15)),
+        "designs": {n: d.as_dict() for n, d in res.designs.items()},
+        "curves": json.loads(res.curves.to_json(orient="records", double_precision=15)),
+    }
+
+
+def _cmd_compare(args: argparse.Namespace) -> int:
+    try:
+        import pandas  # noqa: F401
+        import scipy  # noqa: F401
+    except ImportError:
+        raise CliError('compare needs SciPy and pandas: pip install "splitlf[sweep]"') from None
+    from .compare import compare
+
+    names = _compare_names(args.architectures)
+    out, fig_path = _compare_targets(args, names)
+    constraints = dict(parse_constraint(c) for c in args.constraint or [])
+    depths = _optimise_depths(args.depths, "--depths")
+    opt_depths = _optimise_depths(args.optimise_depths, "--optimise-depths")
+    sim = []
+    for text in (args.simulate_depths or "").split(","):
+        if text.strip():
+            try:
+                sim.append(_depth(text.strip()))
+            except argparse.ArgumentTypeError as e:
+                raise CliError(f"--simulate-depths: {e}") from None
+    kwargs = dict(which=names, depths=depths, optimise_depths=opt_depths,
+                  window=args.window, optimise_window=args.optimise_window,
+                  maxiter=args.maxiter, popsize=args.popsize, polish=args.polish,
+                  seed=args.seed, simulate_depths=sim, threshold_px=args.threshold,
+                  n_threads=args.threads)
+    if args.scheduler is None:
+        res = compare(args.preset, args.objective, args.sense, constraints, **kwargs)
+    else:
+        try:
+            from distributed import Client
+        except ImportError:
+            raise CliError('--scheduler needs Dask: pip install "splitlf[dask]"') from None
+        with Client(args.scheduler) as client:
+            res = compare(args.preset, args.objective, args.sense, constraints,
+                          executor=client.get_executor(), **kwargs)
+    written = []
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+        with atomic_output(out / "table.csv", force=args.force, hint=FORCE_HINT) as tmp:
+            res.table.to_csv(tmp)
+        with atomic_output(out / "curves.csv", force=args.force, hint=FORCE_HINT) as tmp:
+            res.curves.to_csv(tmp, index=False)
+        written += [out / "table.csv", out / "curves.csv"]
+        for n, d in res.designs.items():
+            d.to_toml(out / f"{n}.toml")
+            written.append(out / f"{n}.toml")
+    if fig_path is not None:
+        from matplotlib.figure import Figure
+
+        from .plot import compare as plot_compare
+
+        fig = Figure(figsize=(9.5, 12.0), layout="constrained")
+        plot_compare(res, ax=fig.subplots(3, 1, height_ratios=[3, 2, 1.3]))
+        with atomic_output(fig_path, force=args.force, hint=FORCE_HINT) as tmp:
+            fig.savefig(tmp, dpi=150, format=fig_path.suffix[1:])
+        written.append(fig_path)
+    if args.json:
+        doc = _compare_document(res)
+        doc["written"] = [str(p) for p in written]
+        sys.stdout.write(json_text(doc))
+        return 0
+    cons = ", ".join(f"{m} {op} {v:g}" for m, (op, v) in constraints.items())
+    lines = [f"splitlf compare: preset {res.preset}; {args.objective}"
+             f"{' (' + args.sense + ')' if args.sense else ''}"
+             f"{'; subject to ' + cons if cons else ''}",
+             res.table.drop(columns=["light_from_rect_twin"]).to_string(
+                 float_format=lambda x: f"{x:.4g}"),
+             f"optimised in {res.timing['optimise_s']:.1f} s, evaluated in "
+             f"{res.timing['evaluate_s']:.1f} s",
+             *(str(p) for p in written)]
     sys.stdout.write("\n".join(lines) + "\n")
     return 0
 
@@ -900,6 +1024,70 @@ def _add_optimise(sub: Any) -> None:
     p.set_defaults(func=_cmd_optimise)
 
 
+def _add_compare(sub: Any) -> None:
+    from .compare import ARCHITECTURES
+    from .compare import PRESETS as SENSORS
+
+    p = sub.add_parser("compare", help="optimise every architecture on one sensor and "
+                       "compare them", description="Build the plain light field camera, the "
+                       "split sensor, a three-way split, a multi-focus hex camera and a "
+                       "conventional camera on the sensor and main lens of a preset, optimise "
+                       "each light field architecture for one objective (differential "
+                       "evolution, small budgets), set the conventional camera's focus, and "
+                       "compare the optimised designs over the depths: sharp fraction, "
+                       "covering radius, light per pixel, MTF50 (docs/compare.md).")
+    p.add_argument("--preset", choices=SENSORS, default="seed",
+                   help="whose sensor and main lens: seed (36 x 24 mm, 9 um, F 80 mm) or "
+                   "raytrix-r12 (4080 x 3068 px of 5.5 um, F 49.9 mm) (default seed)")
+    p.add_argument("--objective", required=True, metavar="MERIT",
+                   help="the merit every architecture optimises, e.g. sharp_fraction_union "
+                   "(docs/optimise.md lists them)")
+    p.add_argument("--sense", choices=("max", "min"), default=None,
+                   help="maximise or minimise (default: the merit's natural direction)")
+    p.add_argument("--constraint", action="append", metavar="MERIT<=VALUE",
+                   help="a constraint MERIT<=VALUE or MERIT>=VALUE (repeat), e.g. "
+                   "covering_radius_median_union<=1.5")
+    p.add_argument("--architectures", default=None, metavar="A,B,...",
+                   help=f"a comma-separated subset of {','.join(ARCHITECTURES)} "
+                   "(default: all)")
+    p.add_argument("--depths", default="150:10000:60", metavar="MIN:MAX:NUM",
+                   help="log-spaced depths of the evaluation [mm] (default 150:10000:60)")
+    p.add_argument("--optimise-depths", default="150:10000:12", metavar="MIN:MAX:NUM",
+                   help="log-spaced depths of the merits inside the search [mm] "
+                   "(default 150:10000:12)")
+    p.add_argument("--window", type=_real_type("window", 0.0, "a finite number > 0"),
+                   default=16.0, metavar="PITCHES",
+                   help="central field of the evaluation's covering radius, in lens "
+                   "pitches (default 16)")
+    p.add_argument("--optimise-window", type=_real_type("window", 0.0, "a finite number > 0"),
+                   default=4.0, metavar="PITCHES",
+                   help="central field of the 2-D merits inside the search (default 4)")
+    p.add_argument("--maxiter", type=_integer_type("generation count", 1, 100_000),
+                   default=8, help="generations of differential evolution (default 8)")
+    p.add_argument("--popsize", type=_integer_type("population multiplier", 1, 10_000),
+                   default=5, help="population per free field (default 5)")
+    p.add_argument("--polish", action="store_true",
+                   help="polish each optimum locally (Nelder-Mead; default off)")
+    p.add_argument("--seed", type=_seed, default=0, help="seed of the search (default 0)")
+    p.add_argument("--simulate-depths", default=None, metavar="Z1,Z2,...",
+                   help="depths [mm] of the super-resolution MTF50 columns (default none)")
+    p.add_argument("--threshold", type=_threshold, default=0.5, metavar="PX",
+                   help="sharpness threshold on the blur radius in pixels (default 0.5)")
+    p.add_argument("--threads", type=_threads, default=None, metavar="N",
+                   help=f"threads of the core (an integer in [{THREADS_RANGE[0]}, "
+                   f"{THREADS_RANGE[1]}]; default: all cores)")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="Dask scheduler address, e.g. tcp://host:8786")
+    p.add_argument("--out", metavar="DIR",
+                   help="write table.csv, curves.csv and one NAME.toml per optimised design "
+                   "into this folder (created if missing)")
+    p.add_argument("--figure", metavar="FILE.png",
+                   help="write the comparison figure (splitlf.plot.compare), .png or .svg")
+    p.add_argument("--json", action="store_true", help="print one JSON document")
+    _force(p)
+    p.set_defaults(func=_cmd_compare)
+
+
 def _add_explore(sub: Any) -> None:
     p = sub.add_parser("explore", help="the interactive design explorer in the browser",
                        description="Start the design explorer (docs/explore.md), a local "
@@ -922,7 +1110,7 @@ def _add_explore(sub: Any) -> None:
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of every subcommand (report, figures, trace, sweep, simulate,
-    optimise, explore)."""
+    optimise, compare, explore)."""
     parser = _Parser(
         prog="splitlf",
         description="Design and analysis of split-sensor light field cameras.",
@@ -930,7 +1118,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
                                 help="what to do (COMMAND --help for its options)")
     for add in (_add_report, _add_figures, _add_trace, _add_sweep, _add_simulate,
-                _add_optimise, _add_explore):
+                _add_optimise, _add_compare, _add_explore):
         add(sub)
     return parser
 

@@ -3,6 +3,7 @@ only when a figure is drawn; every function takes ``ax=None`` and returns the Ax
 on; this package never selects a backend."""
 
 from .architecture import microlens_images, sample_map
+from .compare import compare
 from .curves import blur, repetitions
 from .rayspace import ray_space
 from .resolution import resolution
@@ -13,6 +14,7 @@ __all__ = [
     "FIGURES",
     "RECT_ONLY",
     "blur",
+    "compare",
     "microlens_images",
     "ray_space",
     "repetitions",
