@@ -547,7 +547,7 @@ def compare(preset: str, objective: str | Callable[[dict[str, float]], float],
             designs[n], frac = _focus(a, z_opt, threshold_px)
             status[n] = (None, math.nan)
             continue
-        res = optimise(a.base, dict(a.free), objective, sense,  # type: ignore[arg-type]
+        res = optimise(a.base, dict(a.free), objective, sense,
                        constraints, depths=z_opt,
                        seed=seed, executor=executor, progress=progress, maxiter=maxiter,
                        popsize=popsize, polish=polish, threshold_px=threshold_px, tol=tol,
