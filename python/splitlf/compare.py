@@ -183,15 +183,24 @@ def _seed_architectures() -> dict[str, Architecture]:
     multi = Design(F=F, D=D, aperture=seed.aperture, channels=(Channel(
         L=ch.L, d=ch.d, v=v, mu=ch.mu, Kx=ch.Kx, Ky=hex_rows,
         f=tuple(r * v for r in R12_F_OVER_V), grid="hex", layout="sensor", Mx=mx, My=my),))
-    out = {}
-    for name, base in (("plain", plain), ("split", seed), ("split3", split3),
-                       ("multifocus", multi)):
-        free: dict[str, tuple[float, float]] = {}
-        for i, c in enumerate(base.channels, 1):
-            free.update(_channel_free(i, c, _l_bounds(seed), focal=name == "multifocus"))
-        out[name] = Architecture(name, LABELS[name], base, free)
+    out = _light_field_architectures(
+        {"plain": plain, "split": seed, "split3": split3, "multifocus": multi},
+        _l_bounds(seed))
     out["conventional"] = _conventional(F, D, seed.aperture, ch.mu, mx, my, ch.L,
                                         _l_bounds(seed))
+    return out
+
+
+def _light_field_architectures(bases: dict[str, Design], l_bounds: tuple[float, float]
+                               ) -> dict[str, Architecture]:
+    """The light field architectures from their base designs: every channel's L (within
+    ``l_bounds``) and v free, and the lens types' focal lengths of the multi-focus one."""
+    out = {}
+    for name, base in bases.items():
+        free: dict[str, tuple[float, float]] = {}
+        for i, c in enumerate(base.channels, 1):
+            free.update(_channel_free(i, c, l_bounds, focal=name == "multifocus"))
+        out[name] = Architecture(name, LABELS[name], base, free)
     return out
 
 
@@ -216,13 +225,9 @@ def _r12_architectures() -> dict[str, Architecture]:
             for k in range(n))
         return Design(F=F, D=D, aperture=r12.aperture, channels=channels)
 
-    out = {}
-    for name, base in (("plain", rect(1)), ("split", rect(2)), ("split3", rect(3)),
-                       ("multifocus", r12)):
-        free: dict[str, tuple[float, float]] = {}
-        for i, c in enumerate(base.channels, 1):
-            free.update(_channel_free(i, c, _l_bounds(r12), focal=name == "multifocus"))
-        out[name] = Architecture(name, LABELS[name], base, free)
+    out = _light_field_architectures(
+        {"plain": rect(1), "split": rect(2), "split3": rect(3), "multifocus": r12},
+        _l_bounds(r12))
     out["conventional"] = _conventional(F, D, r12.aperture, ch.mu, mx, my, ch.L,
                                         _l_bounds(r12))
     return out
