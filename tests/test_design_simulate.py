@@ -110,6 +110,37 @@ def test_camera_design_simulation_is_the_camera_simulation(z, noise, monkeypatch
     assert _bits_equal(a2.conventional, c2.reconstructions["conventional 2"])
 
 
+# -- without the conventional reference ------------------------------------------------------
+
+@pytest.mark.parametrize("subject,z,noise", [
+    (SEED, 400.0, {"photons": 1e4, "read_noise": 3}), (SEED.design, 150.0, None),
+    (MIX, 300.0, {"photons": 5e3, "read_noise": 1})])
+def test_without_the_conventional_row_every_other_row_is_unchanged(subject, z, noise):
+    kw = dict(noise=noise, seed=3, window=32, n_frequencies=5, oversample=2)
+    full = simulate(subject, z, **kw)
+    part = simulate(subject, z, conventional=False, **kw)
+    conv = full.configs[-1]
+    assert conv.startswith("conventional") and part.configs == full.configs[:-1]
+    assert set(part.rmse) == set(part.mtf50) == set(part.pixels) == set(part.configs)
+    assert conv not in part.reconstructions and conv not in part.contrast
+    if isinstance(subject, Camera):
+        assert part.conventional is None and full.conventional is not None
+    same = _bits_equal
+    assert same(part.x, full.x) and same(part.truth, full.truth)
+    assert same(part.frequencies, full.frequencies) and part.delta == full.delta
+    for k in part.configs:  # noise draws, grids and solves all the same
+        assert same(part.reconstruction(k), full.reconstruction(k)), k
+        assert same(part.contrast[k], full.contrast[k]), k
+        for m in ("rmse", "psnr", "mtf50", "regularization", "pixels"):
+            assert getattr(part, m)[k] == getattr(full, m)[k], (m, k)
+
+
+@pytest.mark.parametrize("bad", [0, 1, "no", None])
+def test_conventional_flag_must_be_a_bool(bad):
+    with pytest.raises(TypeError, match="conventional"):
+        simulate(SEED, 642.0, conventional=bad, mtf=False, window=16)
+
+
 # -- a three-channel design ------------------------------------------------------------------
 
 @pytest.mark.parametrize("z", [180.0, 300.0, 600.0])

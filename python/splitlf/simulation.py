@@ -425,13 +425,13 @@ class Simulation:
 
     - ``configs`` (also ``rows``): the names of the rows, in order: :data:`CONFIGS` for a
       Camera; ``"channel 1"``, ..., ``"channel C"``, ``"union"``, ``"conventional c"`` for a
-      Design
+      Design (the conventional row absent with ``simulate(..., conventional=False)``)
     - ``delta``: grid spacing delta(z) = d z / (Q v') [mm] (a Design: mu_1 z / L_1);
       ``x`` (W,) cell centres of the central window of W cells [mm]
     - ``truth`` (W,): the texture's average over each cell; ``reconstructions``
       {config: (W,)} the reconstructions on the same cells (also :meth:`reconstruction`);
       for a Camera also the attributes ``half1``, ``half2``, ``split``, ``conventional``
-      (None for a Design)
+      (None for a Design; ``conventional`` None without the conventional row)
     - ``rmse``, ``psnr`` [dB, peak albedo 1], ``mtf50`` [cycles/mm on the object]: one
       value per configuration in ``configs`` (``mtf50`` empty with ``mtf=False``)
     - ``frequencies`` (F,) [cycles/mm] and ``contrast`` {config: (F,)}: the MTF search
@@ -751,6 +751,7 @@ def simulate(
     conventional_half: int | None = None,
     n_threads: int | None = None,
     conventional_channel: int | None = None,
+    conventional: bool = True,
 ) -> Simulation:
     """Simulate the plane at depth ``z`` [mm] carrying ``texture`` and reconstruct it with
     known depth from half 1, half 2, the split sensor and the conventional camera (a
@@ -782,6 +783,10 @@ def simulate(
       conventional camera has its sensor on array plane 1 or 2 (a Design: on channel c's
       array plane, pixel pitch mu_c, as many pixels as the channel's row)
     - ``n_threads``: threads of the core (None: all cores)
+    - ``conventional``: also reconstruct the conventional camera (default True); False
+      leaves its row out of the result (its render, system matrix and solve are skipped:
+      for a design far out of focus it is by far the largest solve) and changes nothing
+      else: the grid is still sized for it, so every other row is the same bit for bit
 
     Returns a :class:`Simulation`. Raises ``TypeError`` for arguments of the wrong type,
     :class:`~splitlf.errors.InvalidParameter` (a ``ValueError``) for values out of range
@@ -791,6 +796,8 @@ def simulate(
     """
     _scipy()
     subject = _validate.camera_or_design(camera)
+    if not isinstance(conventional, bool):
+        raise TypeError(f"conventional must be a bool, got {conventional!r}")
     conv_number = _conventional(subject, conventional_half, conventional_channel)
     o = _options(z, texture, noise, seed, window, oversample, mtf, n_frequencies,
                  regularization, conv_number, n_threads)
@@ -807,10 +814,14 @@ def simulate(
         lf, union, conv = ("half1", "half2"), "split", "conventional"
         sources = {"half1": "half1", "half2": "half2"}
     sources[conv] = f"conventional{o.conventional_half}"
-    configs = (*lf, union, conv)
+    configs = (*lf, union, conv) if conventional else (*lf, union)
     delta = _resolution_step(subject, o.z)  # validates z
     rng = np.random.default_rng(o.seed)
+    # The grid is sized for the conventional camera too, with or without its row, so that
+    # the textures, noise draws and windows of the other rows do not depend on it.
     grid = _grid(core, fn, o.z, sources, lf, conv, delta, o.window, o.n_threads)
+    if not conventional:
+        del sources[conv]  # rendered last: the noise draws of the others are unchanged
     win = o.window
     freqs = np.arange(1, o.n_frequencies) / o.n_frequencies * (0.5 / delta)
     fine = _textures(o.texture, grid, o.oversample, freqs, o.mtf, rng)
@@ -841,7 +852,7 @@ def simulate(
         named: dict[str, np.ndarray | None] = dict.fromkeys(CONFIGS)
     else:
         microlens = 1.0 / (subject.Q * delta)
-        named = {k: recs[k] for k in CONFIGS}
+        named = {k: recs.get(k) for k in CONFIGS}
     return Simulation(
         z=o.z, delta=delta, x=x, truth=truth,
         half1=named["half1"], half2=named["half2"], split=named["split"],
