@@ -19,6 +19,7 @@ from splitlf.compare import (
     architectures,
     compare,
     evaluate,
+    mtf50,
 )
 from splitlf.errors import InvalidParameter
 from splitlf.report import design_report_data
@@ -229,14 +230,48 @@ def test_bad_arguments_are_named():
         evaluate({"x": "seed"}, Z)
 
 
+def _first_crossing(freqs, contrast):
+    """MTF50 by hand: the first frequency where the contrast drops below 0.5, linearly
+    interpolated from (0, 1) or the previous tested frequency."""
+    f, c = np.concatenate([[0.0], freqs]), np.concatenate([[1.0], contrast])
+    k = next((i for i in range(1, c.size) if c[i] < 0.5), None)
+    if k is None:
+        return f[-1]
+    return f[k - 1] + (f[k] - f[k - 1]) * (c[k - 1] - 0.5) / (c[k - 1] - c[k])
+
+
 def test_mtf50_where_the_simulation_applies():
-    seed = Design.preset("seed")
+    seed, plain = Design.preset("seed"), Design.preset("seed-plain")
     r12 = Design.preset("raytrix-r12")
-    table, _ = evaluate({"split": seed, "multifocus": r12}, Z, window=2.0,
-                        simulate_depths=[642.0])
-    sim = splitlf.simulate(seed, 642.0, seed=0, window=128, n_frequencies=16, oversample=4)
-    assert table.loc["split", "mtf50_642mm"] == sim.mtf50["union"]
-    assert math.isnan(table.loc["multifocus", "mtf50_642mm"])  # hex: no 1-D simulation
+    conv = architectures("seed")["conventional"].base
+    designs = {"plain": plain, "split": seed, "multifocus": r12, "conventional": conv}
+    depths = [300.0, 642.0]
+    table, _ = evaluate(designs, Z, window=2.0, conventional=["conventional"],
+                        simulate_depths=depths)
+    opts = {"seed": 0, "window": 128, "n_frequencies": 16, "oversample": 4}
+    for z in depths:
+        col = f"mtf50_{z:g}mm"
+        for name in ("plain", "split"):
+            # the union of the light field design, simulated without the reference camera
+            sim = splitlf.simulate(designs[name], z, conventional=False, **opts)
+            assert "conventional 1" not in sim.mtf50
+            assert table.loc[name, col] == sim.mtf50["union"]
+            assert sim.mtf50["union"] == pytest.approx(
+                _first_crossing(sim.frequencies, sim.contrast["union"]), rel=1e-12)
+            # and the same number as with the reference camera
+            assert splitlf.simulate(designs[name], z, **opts).mtf50["union"] == \
+                sim.mtf50["union"]
+        # the conventional camera: its own sensor, the simulation's conventional row
+        sim = splitlf.simulate(conv, z, **opts)
+        assert table.loc["conventional", col] == sim.mtf50["conventional 1"]
+        assert sim.mtf50["conventional 1"] == pytest.approx(
+            _first_crossing(sim.frequencies, sim.contrast["conventional 1"]), rel=1e-12)
+        assert math.isnan(table.loc["multifocus", col])  # hex: no 1-D simulation
+    # the columns alone, without the rest of the evaluation
+    alone = mtf50(designs, depths, conventional=["conventional"])
+    pd.testing.assert_frame_equal(alone, table[alone.columns])
+    with pytest.raises(TypeError, match="simulate_depths"):
+        mtf50(designs, ["far"])
 
 
 # -- CLI and figure ------------------------------------------------------------------------

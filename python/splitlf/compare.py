@@ -44,6 +44,7 @@ __all__ = [
     "architectures",
     "compare",
     "evaluate",
+    "mtf50",
 ]
 
 #: The architectures, in the order of every table and figure.
@@ -315,13 +316,47 @@ def _light(design: Design, merits: Mapping[str, float], depths: np.ndarray,
 
 def _mtf50(design: Design, z: float, conventional: bool, n_threads: int | None,
            seed: int) -> float:
+    """The super-resolution MTF50 [cycles/mm] at depth ``z`` of the union of a light field
+    design, without the conventional reference camera of :func:`splitlf.simulate` (far out
+    of focus on the array plane of an optimised design it is by far the largest solve);
+    of a conventional design (one pixel per lens), its own sensor's: the simulation's
+    ``"conventional 1"`` row, on its own plane. NaN for a design with a hex channel."""
     from .simulation import simulate
 
     if any(ch.grid != "rect" for ch in design.channels):
         return math.nan  # the simulation is 1-D along x on rect lattices (docs/simulate.md)
     r = simulate(design, z, seed=seed, n_threads=n_threads, conventional_channel=1,
-                 **SIMULATE_OPTIONS)
+                 conventional=conventional, **SIMULATE_OPTIONS)
     return float(r.mtf50["conventional 1" if conventional else "union"])
+
+
+def mtf50(designs: Mapping[str, Design], simulate_depths: Sequence[float], *,
+          conventional: Sequence[str] = (), seed: int = 0,
+          n_threads: int | None = None) -> Any:
+    """The MTF50 columns of :func:`evaluate` alone: a ``pandas.DataFrame``, one row per
+    design (index ``architecture``), one column ``mtf50_<z>mm`` [cycles/mm on the object]
+    per depth of ``simulate_depths``: :func:`splitlf.simulate` (noise-free, random albedo,
+    ``seed``, :data:`SIMULATE_OPTIONS`) of the union of channels, computed without the
+    simulation's conventional reference (``conventional=False``); for a name in
+    ``conventional`` (a conventional camera as :func:`architectures` builds it) its own
+    sensor's MTF50; NaN for a design with a hex channel (the simulation is 1-D on rect
+    lattices). Raises ``TypeError`` (not designs, a depth not a real number) and what
+    :func:`splitlf.simulate` raises for a depth out of range."""
+    import pandas as pd
+
+    if not isinstance(designs, Mapping) or not designs:
+        raise TypeError("designs must be a non-empty mapping {name: Design}")
+    for name, d in designs.items():
+        if not isinstance(d, Design):
+            raise TypeError(f"designs[{name!r}] must be a splitlf.Design, got "
+                            f"{type(d).__name__}")
+    conv = set(conventional)
+    sim_z = [_validate.real(s, "simulate_depths") for s in simulate_depths]
+    columns = [f"mtf50_{zs:g}mm" for zs in sim_z]
+    values = [[_mtf50(d, zs, name in conv, n_threads, seed) for zs in sim_z]
+              for name, d in designs.items()]
+    return pd.DataFrame(values, columns=columns, dtype=float,
+                        index=pd.Index(list(designs), name="architecture"))
 
 
 def _depths(depths: Any, name: str) -> np.ndarray:
@@ -359,7 +394,7 @@ def evaluate(designs: Mapping[str, Design], depths: Any = None, *,
     - ``threshold_px``, ``tol``: sharpness threshold [px] and merge tolerance [delta(z)]
     - ``simulate_depths``: depths [mm] at which :func:`splitlf.simulate` (noise-free,
       random albedo, ``seed``) gives the MTF50 of the union (of the conventional camera
-      for a conventional design); NaN for a design with a hex channel
+      for a conventional design); NaN for a design with a hex channel (:func:`mtf50`)
 
     Returns ``(table, curves)``, two ``pandas.DataFrame``:
 
@@ -434,14 +469,15 @@ def evaluate(designs: Mapping[str, Design], depths: Any = None, *,
             "out_of_focus_mm": " ".join(f"{d.out_of_focus_depth(i):.1f}"
                                         for i in range(1, len(d.channels) + 1)),
         }
-        for zs in sim_z:
-            row[f"mtf50_{zs:g}mm"] = _mtf50(d, zs, is_conv, n_threads, seed)
         rows.append(row)
         frames.append(pd.DataFrame({
             "architecture": name, "z_mm": z, "covering_radius": rho,
             "covering_radius_mm": cov.covering_radius_mm[-1],
             "distinct_2d": cov.distinct[-1], "blur_px": blur, "sharp": blur < threshold_px}))
     table = pd.DataFrame(rows).set_index("architecture")
+    if sim_z:
+        table = table.join(mtf50(designs, sim_z, conventional=sorted(conv), seed=seed,
+                                 n_threads=n_threads))
     conv_rows = [n for n in designs if n in conv]
     if conv_rows:
         ref = table.loc[conv_rows[0], "light_per_pixel"]
