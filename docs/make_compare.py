@@ -2,11 +2,14 @@
 sensor and on the Raytrix R12's, for one objective, then evaluated over 150 mm - 10 m.
 
     python docs/make_compare.py            # about 10-15 minutes on 2 loaded cores
+    python docs/make_compare.py --mtf-only # about a minute: the MTF50 columns alone
 
 Writes docs/compare/<preset>.png (splitlf.plot.compare), docs/compare/<preset>_table.csv,
 docs/compare/<preset>_curves.csv and one docs/compare/<preset>/<architecture>.toml per
 optimised design, and prints each table as Markdown (the tables of docs/compare.md) with
-the run's timing.
+the run's timing. ``--mtf-only`` re-optimises nothing: it loads the saved designs
+(docs/compare/<preset>/*.toml), computes their super-resolution MTF50 at SIMULATE_DEPTHS
+(splitlf.compare.mtf50) and replaces the MTF50 columns of docs/compare/<preset>_table.csv.
 """
 
 from __future__ import annotations
@@ -19,7 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
-from splitlf.compare import PRESETS, compare
+import splitlf
+from splitlf.compare import ARCHITECTURES, LABELS, PRESETS, SIMULATE_OPTIONS, compare, mtf50
 
 HERE = Path(__file__).resolve().parent / "compare"
 #: The study's objective, the same for every light field architecture: the largest share
@@ -41,6 +45,8 @@ BUDGET = {"maxiter": 20, "popsize": 8, "polish": False, "seed": 0,
           "de_options": {"tol": 0.0},
           "optimise_depths": np.geomspace(150.0, 10_000.0, 8), "optimise_window": 3.0,
           "depths": np.geomspace(150.0, 10_000.0, 40), "window": 12.0}
+#: Depths of the super-resolution MTF50 columns [mm] (splitlf.compare.mtf50).
+SIMULATE_DEPTHS = (150.0, 300.0, 1000.0, 3000.0, 10_000.0)
 #: Depth bands of the "who wins where" table [mm].
 BANDS = ((150.0, 400.0), (400.0, 1500.0), (1500.0, 10_000.0))
 COLUMNS = (("feasible", "feasible", "{}"), ("sharp_fraction", "sharp fraction", "{:.3f}"),
@@ -54,8 +60,7 @@ COLUMNS = (("feasible", "feasible", "{}"), ("sharp_fraction", "sharp fraction", 
 
 def markdown(res) -> str:
     t = res.table
-    cols = list(COLUMNS) + [(c, f"MTF50 {c[6:-2]} mm [c/mm]", "{:.2f}")
-                            for c in t.columns if c.startswith("mtf50_")]
+    cols = list(COLUMNS)
     out = ["| architecture | " + " | ".join(h for _, h, _ in cols) + " |",
            "| --- |" + " --- |" * len(cols)]
     for name in t.index:
@@ -68,6 +73,65 @@ def markdown(res) -> str:
                 cells.append(f.format(v + 0.0 if isinstance(v, float) else v))
         out.append(f"| {res.architectures[name].label} | " + " | ".join(cells) + " |")
     return "\n".join(out)
+
+
+def mtf_markdown(table, labels, designs) -> str:
+    """The MTF50 columns of ``table`` as Markdown: per depth the MTF50 [cycles/mm on the
+    object] and, in brackets, those cycles over the width channel 1's pixel row sees at
+    that depth (MTF50 x field_at_1m_mm x z / 1 m: delta(z) is linear in z); "≥" where the
+    contrast never fell below 0.5 (the MTF50 is then the highest tested frequency,
+    (n - 1)/n of the design's Nyquist 1/(2 delta(z))); "–" for a design the 1-D simulation
+    cannot run (hex)."""
+    n = SIMULATE_OPTIONS["n_frequencies"]
+    cols = [c for c in table.columns if c.startswith("mtf50_")]
+    zs = [float(c[6:-2]) for c in cols]
+    out = ["| architecture | " + " | ".join(f"{z:g} mm" for z in zs) + " |",
+           "| --- |" + " --- |" * len(cols)]
+    for name in table.index:
+        cells = []
+        for c, z in zip(cols, zs, strict=True):
+            v = float(table.loc[name, c])
+            field = float(table.loc[name, "field_at_1m_mm"]) * z / 1000.0
+            if not math.isfinite(v):
+                cells.append("– (hex)")
+                continue
+            top = (n - 1) / n * (0.5 / designs[name].resolution_step(z))
+            floor = "≥ " if v == top else ""
+            cells.append(f"{floor}{v:.2f} ({v * field:,.0f})")
+        out.append(f"| {labels[name]} | " + " | ".join(cells) + " |")
+    return "\n".join(out)
+
+
+def mtf_only() -> int:
+    """Fill the MTF50 columns of the saved study from its saved designs."""
+    t_all = time.perf_counter()
+    for preset in PRESETS:
+        designs = {n: splitlf.Design.from_toml(HERE / preset / f"{n}.toml")
+                   for n in ARCHITECTURES if (HERE / preset / f"{n}.toml").exists()}
+        t0 = time.perf_counter()
+        cols = mtf50(designs, SIMULATE_DEPTHS,
+                     conventional=[n for n in designs if n == "conventional"],
+                     seed=BUDGET["seed"])
+        dt = time.perf_counter() - t0
+        path = HERE / f"{preset}_table.csv"
+        table = pd_read(path)
+        table = table.drop(columns=[c for c in table.columns if c.startswith("mtf50_")])
+        table = table.join(cols)
+        table.to_csv(path)
+        print(f"## {preset}: MTF50 [cycles/mm] (cycles over the field)\n")
+        print(mtf_markdown(table, LABELS, designs))
+        print(f"\nMTF50 {dt:.1f} s\n")
+        sys.stdout.flush()
+    print(f"total {time.perf_counter() - t_all:.1f} s, load average "
+          f"{' '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    return 0
+
+
+def pd_read(path):
+    """A saved table (pandas reads its floats back exactly: the file rewritten unchanged)."""
+    import pandas as pd
+
+    return pd.read_csv(path, index_col="architecture")
 
 
 def bands(res) -> str:
@@ -97,7 +161,8 @@ def main() -> int:
     HERE.mkdir(exist_ok=True)
     t_all = time.perf_counter()
     for preset in PRESETS:
-        res = compare(preset, sharp_then_fine, "max", CONSTRAINTS, progress=False, **BUDGET)
+        res = compare(preset, sharp_then_fine, "max", CONSTRAINTS, progress=False,
+                      simulate_depths=SIMULATE_DEPTHS, **BUDGET)
         fig = Figure(figsize=(9.5, 12.0), layout="constrained")
         plot_compare(res, ax=fig.subplots(3, 1, height_ratios=[3, 2, 1.3]))
         fig.savefig(HERE / f"{preset}.png", dpi=110)
@@ -116,6 +181,8 @@ def main() -> int:
                   + f"; active: {'; '.join(r.active) or 'none'}")
         print()
         print(bands(res))
+        print()
+        print(mtf_markdown(res.table, LABELS, res.designs))
         print(f"\noptimise {res.timing['optimise_s']:.1f} s, evaluate "
               f"{res.timing['evaluate_s']:.1f} s\n")
         sys.stdout.flush()
@@ -125,4 +192,4 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(mtf_only() if sys.argv[1:] == ["--mtf-only"] else main())
