@@ -49,3 +49,31 @@ def test_sigint_raises_keyboard_interrupt(call):
         child.kill()
         child.wait()
     assert out.split() == ["interrupted"], (out, err)
+
+
+@pytest.mark.parametrize("delay", [0.001, 0.003, 0.01])
+def test_daemon_thread_inside_the_core_at_exit(delay):
+    """A daemon thread still inside a long core call when the interpreter shuts down: the
+    core's between-chunk check cannot attach to a finalizing interpreter and stops the call
+    instead of panicking (PyO3's "interpreter is not initialized" assertion, a segfault in
+    the wheel smoke test of the explorer before the fix). The delay lets the first check
+    fall inside the finalization (the imports make it long enough)."""
+    code = textwrap.dedent(f"""
+        import threading, time
+        import numpy as np
+        import pandas, scipy.sparse, matplotlib.pyplot  # a longer finalization
+        import splitlf
+        d = splitlf.Design.preset("seed")
+        go = threading.Event()
+        def work():
+            go.wait()
+            splitlf.coverage(d, np.geomspace(300, 10000, 2000), window=2.0, n_threads=1)
+        threading.Thread(target=work, daemon=True).start()
+        go.set()
+        time.sleep({delay})
+        print("exiting", flush=True)
+    """)
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                       timeout=HANG_TIMEOUT)
+    assert r.returncode == 0 and r.stdout.split() == ["exiting"], (r.returncode, r.stderr)
+    assert "panicked" not in r.stderr, r.stderr

@@ -638,7 +638,9 @@ class Explorer:
             if self._worker_busy:
                 return
             self._worker_busy = True
-        threading.Thread(target=self._worker, daemon=True).start()
+        # Not a daemon: at interpreter exit Python waits for the job in hand (the core call
+        # must not outlive the interpreter), and the worker ends when no job is left.
+        threading.Thread(target=self._worker, name="splitlf-explorer-worker").start()
 
     def _worker(self) -> None:
         while True:

@@ -144,7 +144,9 @@ fn internal(e: impl std::fmt::Display) -> PyErr {
 
 /// Run a core call without the GIL, checking for signals (Ctrl-C) between the core's
 /// chunks: the check re-attaches briefly on this (the calling) thread, and the Python
-/// exception a signal handler raised is returned as is.
+/// exception a signal handler raised is returned as is. When the interpreter is shutting
+/// down (a daemon thread still inside the core at exit) the check cannot attach and stops
+/// the call instead of panicking.
 fn run_as<R: Send>(
     py: Python<'_>,
     depth: &'static str,
@@ -154,13 +156,14 @@ fn run_as<R: Send>(
     let slot = Arc::clone(&caught);
     let result = py.detach(move || {
         let stop = move || {
-            Python::attach(|py| match py.check_signals() {
+            Python::try_attach(|py| match py.check_signals() {
                 Ok(()) => false,
                 Err(e) => {
                     *slot.lock().unwrap_or_else(|p| p.into_inner()) = Some(e);
                     true
                 }
             })
+            .unwrap_or(true)
         };
         parallel::interruptible(stop, f)
     });
