@@ -330,6 +330,16 @@ def _mtf50(design: Design, z: float, conventional: bool, n_threads: int | None,
     return float(r.mtf50["conventional 1" if conventional else "union"])
 
 
+def _check_designs(designs: Any) -> None:
+    """``designs`` is a non-empty mapping {name: Design}, else ``TypeError``."""
+    if not isinstance(designs, Mapping) or not designs:
+        raise TypeError("designs must be a non-empty mapping {name: Design}")
+    for name, d in designs.items():
+        if not isinstance(d, Design):
+            raise TypeError(f"designs[{name!r}] must be a splitlf.Design, got "
+                            f"{type(d).__name__}")
+
+
 def mtf50(designs: Mapping[str, Design], simulate_depths: Sequence[float], *,
           conventional: Sequence[str] = (), seed: int = 0,
           n_threads: int | None = None) -> Any:
@@ -344,12 +354,7 @@ def mtf50(designs: Mapping[str, Design], simulate_depths: Sequence[float], *,
     :func:`splitlf.simulate` raises for a depth out of range."""
     import pandas as pd
 
-    if not isinstance(designs, Mapping) or not designs:
-        raise TypeError("designs must be a non-empty mapping {name: Design}")
-    for name, d in designs.items():
-        if not isinstance(d, Design):
-            raise TypeError(f"designs[{name!r}] must be a splitlf.Design, got "
-                            f"{type(d).__name__}")
+    _check_designs(designs)
     conv = set(conventional)
     sim_z = [_validate.real(s, "simulate_depths") for s in simulate_depths]
     columns = [f"mtf50_{zs:g}mm" for zs in sim_z]
@@ -420,12 +425,7 @@ def evaluate(designs: Mapping[str, Design], depths: Any = None, *,
 
     from .sweep import evaluate_design
 
-    if not isinstance(designs, Mapping) or not designs:
-        raise TypeError("designs must be a non-empty mapping {name: Design}")
-    for name, d in designs.items():
-        if not isinstance(d, Design):
-            raise TypeError(f"designs[{name!r}] must be a splitlf.Design, got "
-                            f"{type(d).__name__}")
+    _check_designs(designs)
     conv = set(conventional)
     unknown = conv - set(designs)
     if unknown:
