@@ -638,9 +638,12 @@ class Explorer:
             if self._worker_busy:
                 return
             self._worker_busy = True
-        # Not a daemon: at interpreter exit Python waits for the job in hand (the core call
-        # must not outlive the interpreter), and the worker ends when no job is left.
-        threading.Thread(target=self._worker, name="splitlf-explorer-worker").start()
+        # Not a daemon (said explicitly: a thread started from the server's daemon thread
+        # would inherit daemon=True): at interpreter exit Python waits for the job in hand.
+        # A daemon thread inside the core at exit is ended by CPython with a forced unwind
+        # through the extension's frames, which crashed the wheel (segfault at exit).
+        threading.Thread(target=self._worker, name="splitlf-explorer-worker",
+                         daemon=False).start()
 
     def _worker(self) -> None:
         while True:
