@@ -123,6 +123,17 @@ fn raytrix_r12() -> Result<Design> {
 /// confusion one lens, d), whose conjugate is L = F H / (H − F) = F + N d; v = d L / D
 /// (f-number matched: microlens images of diameter d); Ng's setting 1/f = 1/L + 1/v.
 fn lytro_illum() -> Result<Design> {
+    lytro_illum_reduced(1)
+}
+
+/// The `lytro-illum` preset with 1/`per_axis` of its lenses and pixels per axis (integer
+/// division; the criterion benches' modest size is `per_axis` = 4: 135 × 108 lenses on
+/// 1932 × 1342 pixels); 1 gives the preset itself. `per_axis` must be ≥ 1.
+pub fn lytro_illum_reduced(per_axis: u32) -> Result<Design> {
+    if per_axis == 0 {
+        return Err(Error::param("per_axis", per_axis, "an integer >= 1"));
+    }
+    let k = i64::from(per_axis);
     let (f_main, n, d) = (9.9845, 2.0, 0.020);
     let aperture = f_main / n;
     let l = f_main + n * d;
@@ -131,14 +142,14 @@ fn lytro_illum() -> Result<Design> {
         d,
         v: d * l / aperture,
         mu: 0.0014,
-        kx: 541,
-        ky: 434,
+        kx: 541 / k,
+        ky: 434 / k,
         grid: Grid::Hex,
         f: None,
         layout: "sensor".into(),
         q: None,
-        mx: Some(7728),
-        my: Some(5368),
+        mx: Some(7728 / k),
+        my: Some(5368 / k),
         share: 1.0,
     };
     Design::new(f_main, aperture, Aperture::Circle, &[ch])
@@ -158,6 +169,18 @@ mod tests {
         }
         let e = preset("nope").unwrap_err();
         assert_eq!(e.parameter_name().as_deref(), Some("preset"));
+    }
+
+    #[test]
+    fn lytro_illum_reduced_divides_the_counts() {
+        let full = preset("lytro-illum").unwrap();
+        let quarter = lytro_illum_reduced(4).unwrap();
+        let (a, b) = (&full.channels[0], &quarter.channels[0]);
+        assert_eq!((b.kx, b.ky), (a.kx / 4, a.ky / 4));
+        assert_eq!((b.kx, b.ky), (135, 108));
+        assert_eq!((b.l, b.d, b.v, b.mu), (a.l, a.d, a.v, a.mu));
+        let e = lytro_illum_reduced(0).unwrap_err();
+        assert_eq!(e.parameter_name().as_deref(), Some("per_axis"));
     }
 
     #[test]

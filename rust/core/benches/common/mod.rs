@@ -26,24 +26,5 @@ pub fn label(n: Option<usize>) -> String {
 /// The `lytro-illum` preset with 1/4 of its lenses and pixels per axis: 135 x 108 lenses
 /// on 1,932 x 1,342 pixels (W6's modest size).
 pub fn lytro_quarter() -> splitlf_core::Design {
-    use splitlf_core::{Aperture, ChannelSpec, Design, Grid};
-    let (f_main, n, d) = (9.9845, 2.0, 0.020);
-    let aperture = f_main / n;
-    let l = f_main + n * d;
-    let ch = ChannelSpec {
-        l,
-        d,
-        v: d * l / aperture,
-        mu: 0.0014,
-        kx: 541 / 4,
-        ky: 434 / 4,
-        grid: Grid::Hex,
-        f: None,
-        layout: "sensor".into(),
-        q: None,
-        mx: Some(7728 / 4),
-        my: Some(5368 / 4),
-        share: 1.0,
-    };
-    Design::new(f_main, aperture, Aperture::Circle, &[ch]).unwrap()
+    splitlf_core::presets::lytro_illum_reduced(4).unwrap()
 }
