@@ -13,23 +13,15 @@ from .camera import Camera
 from .coverage import ChiefSamples, Coverage, Samples2D, chief_samples, coverage, samples_2d
 from .design import Channel, Design
 from .errors import InvalidParameter, SplitlfError, TooLargeError
-from .optics import (
-    Curves,
-    DepthOfField,
-    DesignCurves,
-    DesignDepthOfField,
-    curves,
-    depth_of_field,
-    sharp_fractions,
-)
+from .optics import Curves, DepthOfField, curves, depth_of_field, sharp_fractions
 from .optimisation import OptimiseResult, optimise
 from .rayspace import Footprints, SampleGrid, Trace, footprints, sample_grid, trace
 from .samples import CoincidencePlanes, NewSamples, coincidence_planes, new_samples
 from .simulation import BarChart, Image, RandomAlbedo, Simulation, Sinusoid, simulate
 
 
-def explore(design: Camera | Design | None = None, *, port: int = 0,
-            address: str = "127.0.0.1", reference: Camera | Design | None = None) -> object:
+def explore(design: Design | None = None, *, port: int = 0,
+            address: str = "127.0.0.1", reference: Design | None = None) -> object:
     """The interactive design explorer (docs/explore.md) for ``design`` (default: the seed
     preset), with ``reference`` (e.g. the seed beside an optimised design) drawn on the
     same axes. In a Jupyter kernel, serves it in the background and returns the running
@@ -61,8 +53,6 @@ __all__ = [
     "Curves",
     "DepthOfField",
     "Design",
-    "DesignCurves",
-    "DesignDepthOfField",
     "Footprints",
     "Image",
     "InvalidParameter",

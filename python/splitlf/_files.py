@@ -11,11 +11,22 @@ from __future__ import annotations
 
 import contextlib
 import os
+import stat
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
-__all__ = ["atomic_output", "check_new"]
+try:  # Python >= 3.11
+    import tomllib
+except ModuleNotFoundError:  # pragma: no cover - Python 3.10 (the tomli backport)
+    import tomli as tomllib
+
+__all__ = ["MAX_TOML_BYTES", "atomic_output", "check_new", "read_toml"]
+
+#: Largest TOML file read (a design or sweep file is a few kB; this refuses a runaway input
+#: such as /dev/zero or a mistaken data file before reading it).
+MAX_TOML_BYTES = 16 * 2**20
 
 
 def check_new(path: str | os.PathLike[str], force: bool, hint: str = "") -> Path:
@@ -87,3 +98,27 @@ def atomic_output(path: str | os.PathLike[str], *, force: bool = False,
     finally:
         with contextlib.suppress(FileNotFoundError):
             tmp.unlink()
+
+
+def read_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """Parse a TOML file. Every error names the file: ``ValueError`` for a path that is
+    not a regular file (a device such as /dev/zero, a pipe), a file over
+    :data:`MAX_TOML_BYTES`, invalid TOML or text that is not UTF-8 (e.g. a binary file);
+    ``OSError`` when it cannot be read (``FileNotFoundError`` when missing)."""
+    name = os.fspath(path)
+    with open(path, "rb") as fh:
+        info = os.fstat(fh.fileno())
+        if not stat.S_ISREG(info.st_mode):
+            raise ValueError(f"{name}: not a regular file (a TOML file is expected)")
+        if info.st_size > MAX_TOML_BYTES:
+            raise ValueError(f"{name}: {info.st_size} bytes, over the {MAX_TOML_BYTES} bytes "
+                             "a TOML file may have here")
+        data = fh.read(MAX_TOML_BYTES + 1)
+    if len(data) > MAX_TOML_BYTES:
+        raise ValueError(f"{name}: over the {MAX_TOML_BYTES} bytes a TOML file may have here")
+    try:
+        return tomllib.loads(data.decode("utf-8"))
+    except UnicodeDecodeError as e:
+        raise ValueError(f"{name}: not a TOML text file (not UTF-8 at byte {e.start})") from None
+    except tomllib.TOMLDecodeError as e:
+        raise ValueError(f"{name}: not valid TOML: {e}") from None

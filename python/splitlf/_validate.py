@@ -13,7 +13,6 @@ from typing import Any
 import numpy as np
 
 from . import _native
-from .camera import Camera
 from .design import Design
 from .errors import InvalidParameter
 
@@ -21,17 +20,12 @@ from .errors import InvalidParameter
 MAX_THREADS: int = _native.MAX_THREADS
 
 
-def camera(value: Any) -> Camera:
-    if not isinstance(value, Camera):
-        raise TypeError(f"camera must be a splitlf.Camera, got {type(value).__name__}")
-    return value
-
-
-def camera_or_design(value: Any) -> Camera | Design:
-    """A :class:`Camera` or a :class:`~splitlf.design.Design`, else ``TypeError``."""
-    if not isinstance(value, Camera | Design):
-        raise TypeError("camera must be a splitlf.Camera or a splitlf.Design, got "
-                        f"{type(value).__name__}")
+def design(value: Any, name: str = "design") -> Design:
+    """A :class:`~splitlf.design.Design` (a :class:`~splitlf.Camera` is one), else
+    ``TypeError``."""
+    if not isinstance(value, Design):
+        raise TypeError(f"{name} must be a splitlf.Design (or a splitlf.Camera, which is one), "
+                        f"got {type(value).__name__}")
     return value
 
 
@@ -72,6 +66,9 @@ def choice(value: Any, name: str, allowed: tuple[str, ...]) -> str:
 
 def depths(value: Any, name: str = "z") -> np.ndarray:
     """Any array-like of depths -> 1-D float64 array (no copy when already float64)."""
+    if isinstance(value, np.ma.MaskedArray) and np.ma.is_masked(value):
+        raise InvalidParameter.of(name, "a masked array with masked elements",
+                                  "an array of depths with none masked (fill or compress it)")
     arr = np.asarray(value)
     if arr.dtype == object or not (
         np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)

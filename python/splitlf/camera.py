@@ -7,23 +7,15 @@ reads and writes TOML.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import numbers
 import os
-from typing import TYPE_CHECKING, Any
-
-try:  # Python >= 3.11
-    import tomllib
-except ModuleNotFoundError:  # pragma: no cover - Python 3.10 (the tomli backport)
-    import tomli as tomllib
+from typing import Any
 
 from . import _native
-from ._files import atomic_output
+from ._files import atomic_output, read_toml
+from .design import Design
 from .errors import InvalidParameter
-
-if TYPE_CHECKING:
-    from .design import Design
 
 __all__ = ["Camera", "LENGTH_FIELDS", "COUNT_FIELDS", "FIELDS"]
 
@@ -93,27 +85,18 @@ def _half(value: Any) -> int:
     return int(value)
 
 
-def read_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
-    """Parse a TOML file. Every parse error names the file: ``ValueError`` for invalid
-    TOML or text that is not UTF-8 (e.g. a binary file); ``OSError`` when unreadable."""
-    name = os.fspath(path)
-    with open(path, "rb") as fh:
-        data = fh.read()
-    try:
-        return tomllib.loads(data.decode("utf-8"))
-    except UnicodeDecodeError as e:
-        raise ValueError(f"{name}: not a TOML text file (not UTF-8 at byte {e.start})") from None
-    except tomllib.TOMLDecodeError as e:
-        raise ValueError(f"{name}: not valid TOML: {e}") from None
+class Camera(Design):
+    """A split-sensor light field camera in the paper's parametrisation (docs/model.md §1):
+    a :class:`~splitlf.Design` with two channels, built from the paper's symbols. Lengths
+    in mm.
 
-
-@dataclasses.dataclass(frozen=True)
-class Camera:
-    """A split-sensor light field camera (docs/model.md §1). Lengths in mm.
-
-    Half 1 is the conventional light field camera (array at ``v1``); half 2 has its array
-    at ``v1 * (1 + kappa)``. ``f1``/``f2`` default to Ng's setting, 1/f_i = 1/L_i + 1/v,
-    and keep tracking it through :meth:`replace` unless given explicitly.
+    Half i is channel i of the design: half 1 is the conventional light field camera
+    (array at ``v1``); half 2 has its array at ``v1 * (1 + kappa)``; both have rect grids
+    of ``Kx`` x ``Ky`` lenses with ``Q`` x ``Q`` pixels each (the ideal layout), a share of
+    1/2 of the light and a square aperture. ``f1``/``f2`` default to Ng's setting,
+    1/f_i = 1/L_i + 1/v, and keep tracking it through :meth:`replace` unless given
+    explicitly. A Camera *is* a Design: every function of splitlf takes it as one, and it
+    equals the Design it builds (``Camera.paper() == Design.preset("seed")``).
 
     Fields: ``F`` main lens focal length, ``D`` aperture width (square), ``v1`` main lens
     to array 1 (> F), ``kappa`` extra optical path of half 2 over v1 (>= 0, no unit),
@@ -122,55 +105,66 @@ class Camera:
     ``Ky`` microlenses per half along x, y (integers in [1, 10**7]); ``f1``, ``f2``
     microlens focal lengths [mm] or None for Ng's setting.
 
-    Raises ``TypeError`` for a field of the wrong type (a count must be an integer, never
-    a bool or a float) and :class:`~splitlf.errors.InvalidParameter` (a ``ValueError``)
-    for a value, given or derived, out of range. Per-half methods take ``half``, the
-    integer 1 or 2 (``TypeError`` for anything else, :class:`InvalidParameter` for other
-    integers). Instances are immutable, hashable, picklable.
+    Validated exactly as the Design it builds (docs/model.md §9), with errors naming the
+    camera's own fields: ``TypeError`` for a field of the wrong type (a count must be an
+    integer, never a bool or a float) and :class:`~splitlf.errors.InvalidParameter` (a
+    ``ValueError``) for a value, given or derived, out of range — microlens images that
+    overlap (the aperture's image behind a lens, D v / L, wider than the pitch) included.
+    Per-half methods take ``half``, the integer 1 or 2 (``TypeError`` for anything else,
+    :class:`InvalidParameter` for other integers). Immutable, hashable, picklable.
     """
 
-    F: float
-    D: float
     v1: float
     kappa: float
     d: float
     v: float
     mu: float
-    Q: int
+    Q: int  # type: ignore[assignment]
     Kx: int
     Ky: int
-    f1: float | None = None
-    f2: float | None = None
+    f1: float
+    f2: float
 
-    def __post_init__(self) -> None:
-        values = {}
+    def __init__(self, F: float, D: float, v1: float, kappa: float, d: float, v: float,
+                 mu: float, Q: int, Kx: int, Ky: int, f1: float | None = None,
+                 f2: float | None = None) -> None:
+        given = dict(zip(FIELDS, (F, D, v1, kappa, d, v, mu, Q, Kx, Ky, f1, f2), strict=True))
+        values: dict[str, Any] = {}
         for name in LENGTH_FIELDS:
-            values[name] = _real(name, getattr(self, name))
+            values[name] = _real(name, given[name])
         for name in COUNT_FIELDS:
-            values[name] = _count(name, getattr(self, name))
+            values[name] = _count(name, given[name])
         explicit = {}
         for name in ("f1", "f2"):
-            raw = getattr(self, name)
-            explicit[name] = raw is not None
-            values[name] = None if raw is None else _real(name, raw)
+            explicit[name] = given[name] is not None
+            values[name] = None if given[name] is None else _real(name, given[name])
         core = _native.CameraCore(*(values[n] for n in FIELDS))
-        resolved = dict(zip(FIELDS, core.fields(), strict=True))
-        for name in FIELDS:
-            object.__setattr__(self, name, resolved[name])
-        object.__setattr__(self, "_core", core)
-        object.__setattr__(self, "_explicit", explicit)
+        design = Design._from_core(_native.DesignCore.from_camera(core))
+        Design.__init__(self, design.F, design.D, design.channels, design.aperture)
+        set_ = object.__setattr__
+        for name, value in zip(FIELDS, core.fields(), strict=True):
+            if name not in ("F", "D"):
+                set_(self, name, value)
+        set_(self, "_camera_core", core)
+        set_(self, "_explicit", explicit)
+
+    def __repr__(self) -> str:
+        return f"Camera({', '.join(f'{n}={getattr(self, n)!r}' for n in FIELDS)})"
 
     # -- construction -------------------------------------------------------------------
     @classmethod
     def paper(cls) -> Camera:
         """The seed design (docs/model.md §7): a reconstruction from the paper's out-of-focus
-        planes, 642 mm (array 1) and 217 mm (array 2), in Ng's setting."""
+        planes, 642 mm (array 1) and 217 mm (array 2), in Ng's setting. Equal to
+        ``Design.preset("seed")``."""
         f = _native.CameraCore.paper().fields()
         return cls(*f[:10])
 
     def replace(self, **changes: Any) -> Camera:
-        """A copy with some fields changed, validated again. Microlens focal lengths that
-        were not given explicitly stay in Ng's setting for the new geometry."""
+        """A copy with some of the camera's fields (:data:`FIELDS`) changed, validated
+        again. Microlens focal lengths that were not given explicitly stay in Ng's setting
+        for the new geometry. (``cam.design.replace(...)`` changes the general design's
+        fields instead.)"""
         unknown = set(changes) - set(FIELDS)
         if unknown:
             raise TypeError(
@@ -181,7 +175,9 @@ class Camera:
         return Camera(**args)
 
     def as_dict(self, resolved: bool = True) -> dict[str, Any]:
-        """Fields as a dict; with ``resolved=False`` Ng-default focal lengths are None."""
+        """The camera's fields as a dict (:meth:`from_dict` inverts it); with
+        ``resolved=False`` Ng-default focal lengths are None. ``cam.design.as_dict()`` is
+        the general design's form."""
         out = {n: getattr(self, n) for n in FIELDS}
         if not resolved:
             for n in ("f1", "f2"):
@@ -189,8 +185,8 @@ class Camera:
                     out[n] = None
         return out
 
-    def __reduce__(self):
-        # Pickle the fields, never the native handle (it is rebuilt on load).
+    def __reduce__(self) -> tuple[Any, ...]:
+        # Pickle the fields, never the native handles (they are rebuilt on load).
         return (_from_dict, (self.as_dict(resolved=False),))
 
     # -- TOML ---------------------------------------------------------------------------
@@ -251,56 +247,36 @@ class Camera:
                 tmp.write_text(body, encoding="utf-8")
         return body
 
-    # -- derived values (computed by the core) -------------------------------------------
+    # -- per-half values (computed by the core) ------------------------------------------
     @property
     def rho(self) -> float:
         """rho = kappa v', the extra optical path of half 2 (one prism side) [mm]."""
-        return self._core.rho()
-
-    @property
-    def f_number(self) -> float:
-        """Main-lens f-number F / D."""
-        return self._core.f_number()
+        return float(self._camera_core.rho())
 
     def L(self, half: int) -> float:
         """Array plane of half 1 or 2: L_1 = v', L_2 = v'(1 + kappa) [mm]."""
-        return self._core.array_plane(_half(half))
+        return float(self._camera_core.array_plane(_half(half)))
 
     def out_of_focus_depth(self, half: int) -> float:
         """Depth whose conjugate lies on array ``half``: z_i = F L_i / (L_i - F) [mm]."""
-        return self._core.out_of_focus_depth(_half(half))
+        return float(self._camera_core.out_of_focus_depth(_half(half)))
 
     def lit_pixels(self, half: int) -> int:
         """Pixels per microlens (one axis) whose chief ray passes the aperture (docs/model.md
         §6)."""
-        return self._core.lit_pixels(_half(half))
+        return int(self._camera_core.lit_pixels(_half(half)))
 
     def image_radius(self, half: int) -> float:
         """R_i = D v / (2 L_i): radius of one microlens image on the sensor [mm]."""
-        return self._core.image_radius(_half(half))
+        return float(self._camera_core.image_radius(_half(half)))
 
     def ng_focal_length(self, half: int) -> float:
         """Microlens focal length of Ng's setting for this geometry, 1/(1/L_i + 1/v) [mm]."""
-        return self._core.ng_focal_length(_half(half))
+        return float(self._camera_core.ng_focal_length(_half(half)))
 
     def is_ng(self, half: int) -> bool:
         """True when half's microlens focal length was left to Ng's setting."""
         return not self._explicit[f"f{_half(half)}"]
-
-    @property
-    def design(self) -> Design:
-        """The camera as a general two-channel :class:`~splitlf.design.Design`
-        (docs/model.md §9): channel i is half i (L_1 = v', L_2 = v'(1 + kappa)), rect
-        grids, the ideal layout with Q, shares 1/2 each, a square aperture, and each half's
-        microlens focal length (None where it is Ng's setting)."""
-        from .design import Design
-
-        return Design._from_core(_native.DesignCore.from_camera(self._core))
-
-    @property
-    def core(self) -> _native.CameraCore:
-        """The native handle (for the functions of this package)."""
-        return self._core
 
 
 def _from_dict(data: dict[str, Any]) -> Camera:

@@ -3,11 +3,10 @@
 docs/model.md §9 ("Chief samples in 2-D", "Scale and field", "Distinct samples in 2-D",
 "Covering radius") and its "§9 implementation" subsection. Thin wrappers: everything is
 computed by the Rust core (``splitlf._native``) with the GIL released; this module checks
-Python types, converts a :class:`~splitlf.Camera` to its two-channel design and names the
-results.
+Python types and names the results.
 
-Every function accepts a :class:`~splitlf.Design` or a :class:`~splitlf.Camera` (then
-``camera.design``, its two halves as channels 1 and 2).
+Every function takes a :class:`~splitlf.Design` (the split-sensor :class:`~splitlf.Camera`
+is one: its halves are channels 1 and 2).
 """
 
 from __future__ import annotations
@@ -18,7 +17,6 @@ from typing import Any
 import numpy as np
 
 from . import _native, _validate
-from .camera import Camera
 from .design import Design
 from .errors import InvalidParameter
 
@@ -42,12 +40,7 @@ DEFAULT_TOL: float = _native.DEFAULT_TOL
 
 
 def _design(value: Any) -> Design:
-    if isinstance(value, Camera):
-        return value.design
-    if isinstance(value, Design):
-        return value
-    raise TypeError("design must be a splitlf.Design or a splitlf.Camera, got "
-                    f"{type(value).__name__}")
+    return _validate.design(value)
 
 
 def _rows(design: Design) -> tuple[str, ...]:
@@ -129,7 +122,7 @@ class Coverage:
 
 
 def chief_samples(
-    design: Design | Camera,
+    design: Design,
     channel: int,
     z: float,
     n_threads: int | None = None,
@@ -181,7 +174,7 @@ def chief_samples(
 
 
 def samples_2d(
-    design: Design | Camera,
+    design: Design,
     z: float,
     tol: float = DEFAULT_TOL,
     window: float = DEFAULT_WINDOW,
@@ -228,7 +221,7 @@ def samples_2d(
 
 
 def coverage(
-    design: Design | Camera,
+    design: Design,
     z: Any,
     tol: float = DEFAULT_TOL,
     window: float = DEFAULT_WINDOW,

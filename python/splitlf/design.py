@@ -20,7 +20,7 @@ import os
 from typing import Any
 
 from . import _native
-from ._files import atomic_output
+from ._files import atomic_output, read_toml
 from .errors import InvalidParameter
 
 __all__ = ["Channel", "Design", "CHANNEL_FIELDS", "DESIGN_FIELDS", "PRESETS"]
@@ -166,7 +166,7 @@ class Channel:
         return out
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True, eq=False)
 class Design:
     """A plenoptic camera design (docs/model.md §9): a thin main lens of focal length ``F``
     and aperture width ``D`` [mm] (``aperture="square"``: |w_x|, |w_y| < D/2, the paper's;
@@ -209,14 +209,36 @@ class Design:
                                   [ch.as_dict() for ch in channels])
         set_(self, "_core", core)
 
-    @classmethod
-    def _from_core(cls, core: _native.DesignCore) -> Design:
+    @staticmethod
+    def _from_core(core: _native.DesignCore) -> Design:
         F, D, aperture = core.main_lens()
         channels = []
         for c in core.channels():
             f = None if c.pop("ng") else tuple(c["f"])
             channels.append(Channel(**{**c, "f": f}))
-        return cls(F, D, tuple(channels), aperture)
+        return Design(F, D, tuple(channels), aperture)
+
+    def _key(self) -> tuple[Any, ...]:
+        return (self.F, self.D, self.channels, self.aperture)
+
+    def __eq__(self, other: object) -> bool:
+        """Two designs are equal when their main lens and channels are: a
+        :class:`~splitlf.Camera` equals the Design it builds."""
+        if not isinstance(other, Design):
+            return NotImplemented
+        return self._key() == other._key()
+
+    def __hash__(self) -> int:
+        return hash(self._key())
+
+    @property
+    def design(self) -> Design:
+        """The general form of this design: a plain :class:`Design` equal to it (itself for
+        a Design; for a :class:`~splitlf.Camera`, the two-channel design it builds, whose
+        fields :meth:`replace`, :meth:`as_dict` and :meth:`to_toml` use)."""
+        if type(self) is Design:
+            return self
+        return Design(self.F, self.D, self.channels, self.aperture)
 
     def replace(self, **changes: Any) -> Design:
         """A copy with some fields changed, validated again."""
@@ -241,7 +263,7 @@ class Design:
         if not isinstance(name, str):
             raise TypeError(f"preset must be one of {PRESETS}, got {type(name).__name__} "
                             f"{name!r}")
-        return cls._from_core(_native.DesignCore.preset(name))
+        return Design._from_core(_native.DesignCore.preset(name))
 
     # -- dict and TOML ------------------------------------------------------------------
     def as_dict(self) -> dict[str, Any]:
@@ -290,8 +312,6 @@ class Design:
         Raises ``OSError`` when the file cannot be read, ``ValueError`` naming the file for
         invalid TOML, a non-text file, a missing ``[design]`` table or other top-level
         keys, and the errors of :meth:`from_dict` (naming the file and the key)."""
-        from .camera import read_toml
-
         name = os.fspath(path)
         doc = read_toml(path)
         if not isinstance(doc.get("design"), dict):

@@ -1,6 +1,6 @@
-"""Closed-form optics over depth (docs/model.md §2, Eqs. 1-7) and the depth of field, of
-the split-sensor :class:`~splitlf.Camera` and of any :class:`~splitlf.Design` (docs/model.md
-§9; result shapes in docs/architectures.md).
+"""Closed-form optics over depth (docs/model.md §2, Eqs. 1-7) and the depth of field of any
+:class:`~splitlf.Design` (docs/model.md §9; the split-sensor :class:`~splitlf.Camera` is
+one; result shapes in docs/architectures.md).
 
 Thin wrappers: the arithmetic runs in the Rust core, vectorised and parallel over depth.
 """
@@ -9,16 +9,14 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Any, overload
+from typing import Any
 
 import numpy as np
 
 from . import _native, _validate
-from .camera import Camera
 from .design import Design
 
-__all__ = ["Curves", "DepthOfField", "DesignCurves", "DesignDepthOfField", "curves",
-           "depth_of_field", "sharp_fractions"]
+__all__ = ["Curves", "DepthOfField", "curves", "depth_of_field", "sharp_fractions"]
 
 #: Default sharpness threshold on the blur radius, in pixels (from the core).
 DEFAULT_THRESHOLD_PX: float = _native.DEFAULT_THRESHOLD_PX
@@ -26,29 +24,8 @@ DEFAULT_THRESHOLD_PX: float = _native.DEFAULT_THRESHOLD_PX
 
 @dataclasses.dataclass(frozen=True)
 class Curves:
-    """Closed forms at n depths. Two-row arrays: row 0 half 1, row 1 half 2.
-
-    - ``z`` (n,) depths [mm]; ``conjugate`` (n,) z' = F z / (z - F) [mm] (Eq. 1)
-    - ``main_blur`` (2, n) H_i, main-lens blur radius on array plane i [mm]
-    - ``repetitions`` (2, n) 2 H_i / d (Eqs. 4-5)
-    - ``microlens_blur`` (2, n) b_i, unbounded microlens blur radius on the sensor [mm]
-      (Eqs. 6-7; infinite on the out-of-focus plane)
-    - ``blur_px`` (2, n) min(b_i, R_i) / mu, the bounded LF blur of Fig. 1 [px]
-    - ``conventional_px`` (2, n) H_i / mu, the camera without microlenses [px]
-    """
-
-    z: np.ndarray
-    conjugate: np.ndarray
-    main_blur: np.ndarray
-    repetitions: np.ndarray
-    microlens_blur: np.ndarray
-    blur_px: np.ndarray
-    conventional_px: np.ndarray
-
-
-@dataclasses.dataclass(frozen=True)
-class DesignCurves:
     """Closed forms of a :class:`~splitlf.Design` at n depths (docs/architectures.md).
+    For the split sensor (:class:`~splitlf.Camera`), row 0 is half 1, row 1 half 2.
 
     Rows are named: ``channels`` names the rows of the per-channel arrays
     (``"channel 1"``, ...), ``rows`` those of the per-lens-type arrays, one per (channel,
@@ -92,81 +69,40 @@ def _type_names(rows: list[tuple[int, int]]) -> tuple[str, ...]:
                  for c, t in rows)
 
 
-@overload
-def curves(camera: Camera, z: Any, n_threads: int | None = None) -> Curves: ...
-@overload
-def curves(camera: Design, z: Any, n_threads: int | None = None) -> DesignCurves: ...
-def curves(camera: Camera | Design, z: Any,
-           n_threads: int | None = None) -> Curves | DesignCurves:
+def curves(design: Design, z: Any, n_threads: int | None = None) -> Curves:
     """Evaluate every closed form (Eqs. 1-7) at the depths ``z``.
 
     Parameters:
-        camera: a :class:`splitlf.Camera` or a :class:`splitlf.Design`.
+        design: a :class:`splitlf.Design` (a :class:`splitlf.Camera` is one).
         z: depths in mm: a number or any 1-D array-like of real numbers (n,), each finite
             and > F. Integers are converted to float64; a float64 array is not copied.
         n_threads: threads of the core (an integer in [1, ``_native.MAX_THREADS``]);
             ``None`` (default) uses all cores.
 
     Returns:
-        For a Camera, :class:`Curves` with ``z`` (n,) and the arrays listed there; for a
-        Design, :class:`DesignCurves` (named rows per channel and per lens type, and their
-        union). Float64 throughout. ``Camera.design`` gives, row for row, the camera's
-        numbers bit for bit.
+        :class:`Curves`: ``z`` (n,), per-channel arrays (C, n), per-lens-type arrays
+        (R, n) with named rows, and their union (n,). Float64 throughout.
 
     Raises:
-        TypeError: ``camera`` is neither a Camera nor a Design, ``z`` is not real,
-            ``n_threads`` is not an integer.
+        TypeError: ``design`` is not a Design, ``z`` is not real, ``n_threads`` is not an
+            integer.
         InvalidParameter: (a ``ValueError``) ``z`` is not 1-D, or an element is not finite
             or not > F (``.name == "z"``, ``.index`` the element), or ``n_threads`` is out
             of range.
-        TooLargeError: (a ``MemoryError``) the outputs (88 bytes per depth for a Camera,
-            8 (2 + 4 C + 2 R) for a Design) do not fit in the memory available.
+        TooLargeError: (a ``MemoryError``) the outputs (8 (2 + 4 C + 2 R) bytes per depth)
+            do not fit in the memory available.
         KeyboardInterrupt: on Ctrl-C (checked between chunks of about a million depths).
     """
-    subject = _validate.camera_or_design(camera)
+    subject = _validate.design(design)
     zs = _validate.depths(z)
     threads = _validate.n_threads(n_threads)
-    if isinstance(subject, Design):
-        d = _native.design_curves(subject.core, zs, threads)
-        return DesignCurves(zs, d.conjugate, _channel_names(len(subject.channels)),
-                            _type_names(d.rows), d.main_blur, d.repetitions,
-                            d.conventional_px, d.channel_blur_px, d.microlens_blur,
-                            d.blur_px, d.union_blur_px)
-    r = _native.curves(subject.core, zs, threads)
-    return Curves(zs, r.conjugate, r.main_blur, r.repetitions, r.microlens_blur, r.blur_px,
-                  r.conventional_px)
+    d = _native.design_curves(subject.core, zs, threads)
+    return Curves(zs, d.conjugate, _channel_names(len(subject.channels)),
+                  _type_names(d.rows), d.main_blur, d.repetitions, d.conventional_px,
+                  d.channel_blur_px, d.microlens_blur, d.blur_px, d.union_blur_px)
 
 
 Intervals = list[tuple[float, float]]
-
-
-@dataclasses.dataclass(frozen=True)
-class DepthOfField:
-    """Sharp depth intervals (near, far) in mm, open, sorted; ``far`` may be ``inf``.
-
-    A depth is sharp when its blur is below ``threshold_px``: for ``half1``/``half2`` the
-    bounded LF blur, for ``split`` either half's, for ``conventional1``/``conventional2``
-    the main-lens blur with the sensor on array plane 1 or 2.
-    """
-
-    threshold_px: float
-    half1: Intervals
-    half2: Intervals
-    split: Intervals
-    conventional1: Intervals
-    conventional2: Intervals
-
-    def as_dict(self) -> dict:
-        """JSON-ready dict; an infinite ``far`` becomes ``None``."""
-
-        def fmt(iv: Intervals) -> list[list[float | None]]:
-            return [[a, None if math.isinf(b) else b] for a, b in iv]
-
-        return {
-            "threshold_px": self.threshold_px,
-            **{k: fmt(getattr(self, k)) for k in
-               ("half1", "half2", "split", "conventional1", "conventional2")},
-        }
 
 
 def _json_intervals(iv: Intervals) -> list[list[float | None]]:
@@ -174,7 +110,7 @@ def _json_intervals(iv: Intervals) -> list[list[float | None]]:
 
 
 @dataclasses.dataclass(frozen=True)
-class DesignDepthOfField:
+class DepthOfField:
     """Sharp depth intervals (near, far) of a :class:`~splitlf.Design`, in mm, open,
     sorted; ``far`` may be ``inf`` (docs/architectures.md).
 
@@ -204,6 +140,35 @@ class DesignDepthOfField:
         """Where the design is sharp: the last row (the union, or the only channel)."""
         return self.intervals[-1]
 
+    # The split sensor's words (docs/model.md §1): half i is channel i.
+    @property
+    def half1(self) -> Intervals:
+        """Channel 1's intervals (half 1 of the split sensor)."""
+        return self["channel 1"]
+
+    @property
+    def half2(self) -> Intervals:
+        """Channel 2's intervals (half 2 of the split sensor); ``KeyError`` for a design
+        with one channel."""
+        return self["channel 2"]
+
+    @property
+    def split(self) -> Intervals:
+        """Where the design is sharp (:attr:`union`): for the split sensor, where either
+        half is."""
+        return self.union
+
+    @property
+    def conventional1(self) -> Intervals:
+        """The conventional camera with its sensor on channel 1's array plane."""
+        return self.conventional[0]
+
+    @property
+    def conventional2(self) -> Intervals:
+        """The conventional camera with its sensor on channel 2's array plane;
+        ``IndexError`` for a design with one channel."""
+        return self.conventional[1]
+
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready dict: ``threshold_px``, ``light_field`` and ``conventional`` (row
         name -> list of [near, far], an infinite ``far`` as ``None``)."""
@@ -216,7 +181,7 @@ class DesignDepthOfField:
         }
 
 
-def _design_dof(design: Design, t: float) -> DesignDepthOfField:
+def _dof(design: Design, t: float) -> DepthOfField:
     r = _native.design_depth_of_field(design.core, t)
     type_names = _type_names(r.rows)
     rows: list[str] = []
@@ -231,81 +196,67 @@ def _design_dof(design: Design, t: float) -> DesignDepthOfField:
     if len(design.channels) > 1:
         rows.append("union")
         intervals.append(r.union)
-    return DesignDepthOfField(t, tuple(rows), tuple(intervals),
+    return DepthOfField(t, tuple(rows), tuple(intervals),
                               _channel_names(len(design.channels)), tuple(r.conventional))
 
 
-@overload
-def depth_of_field(camera: Camera, threshold_px: float = ...) -> DepthOfField: ...
-@overload
-def depth_of_field(camera: Design, threshold_px: float = ...) -> DesignDepthOfField: ...
-def depth_of_field(camera: Camera | Design, threshold_px: float = DEFAULT_THRESHOLD_PX
-                   ) -> DepthOfField | DesignDepthOfField:
+def depth_of_field(design: Design, threshold_px: float = DEFAULT_THRESHOLD_PX
+                   ) -> DepthOfField:
     """Sharp depth intervals of each configuration, every boundary solved in closed form
     (the blur equations inverted; no sampling).
 
     Parameters:
-        camera: a :class:`splitlf.Camera` or a :class:`splitlf.Design`.
+        design: a :class:`splitlf.Design` (a :class:`splitlf.Camera` is one).
         threshold_px: a depth is sharp where the blur radius is below this many pixels
             (a finite number > 0; default ``DEFAULT_THRESHOLD_PX`` = 0.5).
 
     Returns:
-        For a Camera, :class:`DepthOfField`; for a Design, :class:`DesignDepthOfField`
-        (per lens type, per channel, their union, and the conventional cameras). Each
-        configuration is a sorted list of disjoint open intervals (near, far) in mm with
-        near < far; ``far`` may be ``inf``.
+        :class:`DepthOfField`: per lens type, per channel, their union, and the
+        conventional cameras (``.half1``, ``.half2``, ``.split`` name the split sensor's).
+        Each configuration is a sorted list of disjoint open intervals (near, far) in mm
+        with near < far; ``far`` may be ``inf``.
 
     Raises:
-        TypeError: ``camera`` is neither a Camera nor a Design, or ``threshold_px`` is not
-            a real number.
+        TypeError: ``design`` is not a Design, or ``threshold_px`` is not a real number.
         InvalidParameter: ``threshold_px`` is not finite or not > 0.
     """
-    subject = _validate.camera_or_design(camera)
+    subject = _validate.design(design)
     t = _validate.real(threshold_px, "threshold_px")
-    if isinstance(subject, Design):
-        return _design_dof(subject, t)
-    r = _native.depth_of_field(subject.core, t)
-    return DepthOfField(t, r.half1, r.half2, r.split, r.conventional1, r.conventional2)
+    return _dof(subject, t)
 
 
-def sharp_fractions(camera: Camera | Design, z_range: tuple[float, float],
+def sharp_fractions(design: Design, z_range: tuple[float, float],
                     threshold_px: float = DEFAULT_THRESHOLD_PX) -> dict[str, float]:
     """Fraction of the depth range that is sharp, measured in log depth, for each
     configuration of :func:`depth_of_field`.
 
     Parameters:
-        camera: a :class:`splitlf.Camera` or a :class:`splitlf.Design`.
+        design: a :class:`splitlf.Design` (a :class:`splitlf.Camera` is one).
         z_range: (near, far) in mm, finite, 0 < near < far.
         threshold_px: as in :func:`depth_of_field` (default 0.5 px).
 
     Returns:
-        ``{"half1", "half2", "split", "conventional1", "conventional2"}`` -> fraction in
-        [0, 1]: the summed log length of the sharp intervals inside the range over
-        log(far / near). For a Design the keys are the rows of
-        :func:`depth_of_field` (``DesignDepthOfField.rows``: lens types where a channel
-        has several, each channel, ``"union"`` when there are several channels), then
-        ``"conventional channel 1"``, ... (one per channel); ``Camera.design`` gives the
-        camera's values bit for bit (``"channel 1"`` is ``"half1"``, ``"union"`` is
-        ``"split"``).
+        Row name -> fraction in [0, 1]: the summed log length of the sharp intervals inside
+        the range over log(far / near). The keys are the rows of :func:`depth_of_field`
+        (``DepthOfField.rows``: lens types where a channel has several, each channel,
+        ``"union"`` when there are several channels), then ``"conventional channel 1"``,
+        ... (one per channel). For the split sensor ``"channel 1"`` is half 1 and
+        ``"union"`` the split sensor.
 
     Raises:
-        TypeError: ``camera`` is neither a Camera nor a Design, a bound or
-            ``threshold_px`` is not a real number.
+        TypeError: ``design`` is not a Design, a bound or ``threshold_px`` is not a real
+            number.
         InvalidParameter: the range is not 0 < near < far (finite), or ``threshold_px``
             is not finite and > 0.
     """
-    cam = _validate.camera_or_design(camera)
+    subject = _validate.design(design)
     lo, hi = (_validate.real(v, "z_range") for v in z_range)
     t = _validate.real(threshold_px, "threshold_px")
-    if isinstance(cam, Design):
-        return _design_fractions(cam, t, lo, hi)
-    values = _native.sharp_fractions(cam.core, t, lo, hi)
-    return dict(zip(("half1", "half2", "split", "conventional1", "conventional2"), values,
-                    strict=True))
+    return _fractions(subject, t, lo, hi)
 
 
-def _design_fractions(design: Design, t: float, lo: float, hi: float) -> dict[str, float]:
-    """:func:`sharp_fractions` of a Design, in the row order of :func:`_design_dof`."""
+def _fractions(design: Design, t: float, lo: float, hi: float) -> dict[str, float]:
+    """:func:`sharp_fractions` in the row order of :func:`_dof`."""
     types, channels, union, conventional = _native.design_sharp_fractions(design.core, t, lo, hi)
     rows = _native.design_depth_of_field(design.core, t).rows
     type_names = _type_names(rows)

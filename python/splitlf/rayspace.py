@@ -19,7 +19,6 @@ from typing import Any
 import numpy as np
 
 from . import _native, _validate
-from .camera import Camera
 from .design import Design
 
 __all__ = ["Footprints", "SampleGrid", "Trace", "footprints", "sample_grid", "trace"]
@@ -61,33 +60,26 @@ class Trace:
     channel: int | None = None
 
 
-def _subject(camera: Any) -> Camera | Design:
-    if not isinstance(camera, Camera | Design):
-        raise TypeError("camera must be a splitlf.Camera or a splitlf.Design, got "
-                        f"{type(camera).__name__}")
-    return camera
-
-
 def _number(half: Any, channel: Any) -> int:
-    """The half or channel number: exactly one of ``half`` and ``channel`` (the same
-    number for a Camera, whose half i is its design's channel i)."""
+    """The channel number: exactly one of ``half`` and ``channel`` (two names of one
+    number: the split sensor's half i is its channel i)."""
     if half is not None and channel is not None:
-        raise TypeError("give half or channel, not both (a Camera's half i is its design's "
+        raise TypeError("give half or channel, not both (half i of the split sensor is its "
                         "channel i)")
     if half is None and channel is None:
-        raise TypeError("missing the half (Camera) or channel (Design) number")
+        raise TypeError("missing the channel number (half= or channel=)")
     if channel is not None:
         return _validate.integer(channel, "channel", "an integer >= 1")
     return _validate.half(half)
 
 
-def trace(camera: Camera | Design, half: int | None = None, axis: str = "x",
+def trace(camera: Design, half: int | None = None, axis: str = "x",
           n_threads: int | None = None, *, channel: int | None = None) -> Trace:
     """Integration polygon of every pixel of one half along one axis (docs/model.md §3-4).
 
     Parameters:
-        camera: a :class:`splitlf.Camera` or a :class:`splitlf.Design` (rect channels).
-        half: 1 or 2 (Camera); for a Design the channel number (or pass ``channel``).
+        camera: a :class:`splitlf.Design` (a :class:`splitlf.Camera` is one) (rect channels).
+        half: the channel number from 1 (half 1 or 2 of the split sensor); or pass ``channel``.
         axis: ``"x"`` (Kx microlenses, default) or ``"y"`` (Ky microlenses; for a Design
             the lens types along y are k mod T).
         n_threads: threads of the core, an integer in [1, ``_native.MAX_THREADS``];
@@ -100,7 +92,7 @@ def trace(camera: Camera | Design, half: int | None = None, axis: str = "x",
         shapes listed there.
 
     Raises:
-        TypeError: ``camera`` is neither a Camera nor a Design; ``half``/``channel`` or
+        TypeError: ``camera`` is not a Design; ``half``/``channel`` or
             ``n_threads`` is not an integer (bools are refused); both or neither of
             ``half`` and ``channel`` given; ``axis`` is not a string.
         InvalidParameter: (a ``ValueError`` with ``.name``, ``.value``, ``.allowed``)
@@ -111,14 +103,11 @@ def trace(camera: Camera | Design, half: int | None = None, axis: str = "x",
             pixel) do not fit in the memory available.
         KeyboardInterrupt: on Ctrl-C (checked between chunks of pixels).
     """
-    subject = _subject(camera)
+    subject = _validate.design(camera)
     h = _number(half, channel)
     ax = _validate.choice(axis, "axis", ("x", "y"))
     threads = _validate.n_threads(n_threads)
-    if isinstance(subject, Design):
-        r = _native.design_trace(subject.core, h, ax, threads)
-    else:
-        r = _native.trace(subject.core, h, ax, threads)
+    r = _native.design_trace(subject.core, h, ax, threads)
     return Trace(h, ax, r.vertices, r.n_vertices, r.area, r.centroid, r.lens, r.pixel,
                  r.chief, r.lit, r.theta, r.type, h)
 
@@ -150,7 +139,7 @@ class Footprints:
 
 
 def footprints(
-    camera: Camera | Design,
+    camera: Design,
     z,
     half: int | None = None,
     axis: str = "x",
@@ -164,9 +153,9 @@ def footprints(
     (docs/model.md §5).
 
     Parameters:
-        camera: a :class:`splitlf.Camera` or a :class:`splitlf.Design` (rect channels).
+        camera: a :class:`splitlf.Design` (a :class:`splitlf.Camera` is one) (rect channels).
         z: depths in mm: a number or any 1-D array-like (m,), each finite and > F.
-        half: 1 or 2 (Camera); for a Design the channel number (or pass ``channel``).
+        half: the channel number from 1 (half 1 or 2 of the split sensor); or pass ``channel``.
         axis: ``"x"`` (default) or ``"y"``.
         sample: ``"centroid"`` (default: projection of the integration polygon's centroid)
             or ``"chief"`` (projection of the chief ray, the paper's convention).
@@ -179,7 +168,7 @@ def footprints(
         X = -p' z / L_1: ray space is referred to channel 1's array plane.
 
     Raises:
-        TypeError: ``camera`` is neither a Camera nor a Design; ``z`` is not real;
+        TypeError: ``camera`` is not a Design; ``z`` is not real;
             ``half``/``channel`` or ``n_threads`` is not an integer (bools refused); both
             or neither of ``half`` and ``channel``; ``axis``/``sample`` is not a string;
             ``kernel`` is not a bool.
@@ -192,7 +181,7 @@ def footprints(
             in the memory available.
         KeyboardInterrupt: on Ctrl-C (checked between chunks of depths).
     """
-    subject = _subject(camera)
+    subject = _validate.design(camera)
     zs = _validate.depths(z)
     h = _number(half, channel)
     ax = _validate.choice(axis, "axis", ("x", "y"))
@@ -200,10 +189,7 @@ def footprints(
     if not isinstance(kernel, bool | np.bool_):
         raise TypeError(f"kernel must be a bool, got {type(kernel).__name__} {kernel!r}")
     threads = _validate.n_threads(n_threads)
-    if isinstance(subject, Design):
-        r = _native.design_footprints(subject.core, zs, h, ax, s, bool(kernel), threads)
-    else:
-        r = _native.footprints(subject.core, zs, h, ax, s, bool(kernel), threads)
+    r = _native.design_footprints(subject.core, zs, h, ax, s, bool(kernel), threads)
     return Footprints(zs, h, ax, s, r.position, r.lo, r.hi, r.kernel_breaks, r.kernel_values,
                       h)
 
@@ -229,16 +215,16 @@ class SampleGrid:
 
 
 def sample_grid(
-    camera: Camera | Design, z, half: int | None = None, sample: str = "chief",
+    camera: Design, z, half: int | None = None, sample: str = "chief",
     n_threads: int | None = None, *, channel: int | None = None,
 ) -> SampleGrid:
     """Sample position of every pixel of the full 2D sensor of one half on one plane.
 
     Parameters:
-        camera: a :class:`splitlf.Camera` or a :class:`splitlf.Design` (rect channel).
+        camera: a :class:`splitlf.Design` (a :class:`splitlf.Camera` is one) (rect channel).
         z: the plane's depth in mm, finite and > F: one depth only, given as a number, a
             0-d array or an array-like of exactly one element.
-        half: 1 or 2 (Camera); for a Design the channel number (or pass ``channel``).
+        half: the channel number from 1 (half 1 or 2 of the split sensor); or pass ``channel``.
         sample: ``"chief"`` (default, the paper's convention) or ``"centroid"`` (a
             Design's: square aperture only).
         n_threads: threads of the core, ``None`` (default) for all cores.
@@ -251,7 +237,7 @@ def sample_grid(
         §5), the same values as :func:`splitlf.chief_samples` up to rounding.
 
     Raises:
-        TypeError: ``camera`` is neither a Camera nor a Design; ``z`` is not real;
+        TypeError: ``camera`` is not a Design; ``z`` is not real;
             ``half``/``channel`` or ``n_threads`` is not an integer (bools refused); both
             or neither of ``half`` and ``channel``; ``sample`` is not a string.
         InvalidParameter: (a ``ValueError``) ``z`` holds more than one depth, is not
@@ -262,13 +248,10 @@ def sample_grid(
             2D half-sensor) do not fit in the memory available.
         KeyboardInterrupt: on Ctrl-C (checked between chunks of rows).
     """
-    subject = _subject(camera)
+    subject = _validate.design(camera)
     zf = _validate.depth(z)
     h = _number(half, channel)
     s = _validate.choice(sample, "sample", ("centroid", "chief"))
     threads = _validate.n_threads(n_threads)
-    if isinstance(subject, Design):
-        r = _native.design_sample_grid(subject.core, zf, h, s, threads)
-    else:
-        r = _native.sample_grid(subject.core, zf, h, s, threads)
+    r = _native.design_sample_grid(subject.core, zf, h, s, threads)
     return SampleGrid(zf, h, s, r.X, r.Y, h)

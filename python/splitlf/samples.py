@@ -12,19 +12,17 @@ design's channel i.
 from __future__ import annotations
 
 import dataclasses
-from typing import Any, overload
+from typing import Any
 
 import numpy as np
 
 from . import _native, _validate
-from .camera import Camera
 from .design import Design
 from .errors import InvalidParameter
-from .rayspace import _number, _subject
+from .rayspace import _number
 
 __all__ = [
     "CoincidencePlanes",
-    "DesignNewSamples",
     "NewSamples",
     "coincidence_planes",
     "new_samples",
@@ -98,7 +96,7 @@ class CoincidencePlanes:
 
 
 def coincidence_planes(
-    camera: Camera | Design,
+    camera: Design,
     half: int | None = None,
     max_n: int = DEFAULT_MAX_N,
     max_t: int | None = None,
@@ -111,10 +109,10 @@ def coincidence_planes(
     with Eq. 8/9 and the brute-force count of distinct chief samples.
 
     Parameters:
-        camera: a :class:`splitlf.Camera` or a :class:`splitlf.Design`. For a Design the
+        camera: a :class:`splitlf.Design` (a :class:`splitlf.Camera` is one). For a Design the
             channel must have a rect grid and the ideal layout, and the aperture must be
             square (where docs/model.md §6 holds); anything else is refused.
-        half: 1 or 2 (Camera); for a Design the channel number (or pass ``channel``).
+        half: the channel number from 1 (half 1 or 2 of the split sensor); or pass ``channel``.
         max_n: largest N, an integer in [1, ``_native.MAX_PAIRS``] (default 4).
         max_t: largest T, an integer in [1, ``_native.MAX_PAIRS``]; ``None`` (default)
             for Q. At most ``_native.MAX_PAIRS`` (N, T) pairs in all.
@@ -126,7 +124,7 @@ def coincidence_planes(
         brute-force count merges within 1e-6 delta(z), delta(z) = mu_1 z / L_1.
 
     Raises:
-        TypeError: ``camera`` is neither a Camera nor a Design; ``half``/``channel``,
+        TypeError: ``camera`` is not a Design; ``half``/``channel``,
             ``max_n``, ``max_t`` or ``n_threads`` is not an integer (bools refused; any
             size accepted); both or neither of ``half`` and ``channel``.
         InvalidParameter: (a ``ValueError`` with ``.name``) a parameter out of range, or
@@ -139,15 +137,12 @@ def coincidence_planes(
             or ``max_t``); or the buffers do not fit in the memory available.
         KeyboardInterrupt: on Ctrl-C (checked between chunks of planes).
     """
-    subject = _subject(camera)
+    subject = _validate.design(camera)
     h = _number(half, channel)
     n = _validate.integer(max_n, "max_n", "an integer >= 1")
     t = None if max_t is None else _validate.integer(max_t, "max_t", "an integer >= 1 or None")
     threads = _validate.n_threads(n_threads)
-    if isinstance(subject, Design):
-        r = _native.design_coincidence_planes(subject.core, h, n, t, threads)
-    else:
-        r = _native.coincidence_planes(subject.core, h, n, t, threads)
+    r = _native.design_coincidence_planes(subject.core, h, n, t, threads)
     return CoincidencePlanes(
         h, r.N, r.T, np.array(r.side, dtype="<U4"), r.conjugate, r.z, r.repetitions,
         r.new_samples_x, r.new_samples_y, r.new_samples, r.counted, h,
@@ -156,40 +151,6 @@ def coincidence_planes(
 
 @dataclasses.dataclass(frozen=True)
 class NewSamples:
-    """Distinct samples and resolution at m depths. Rows: 0 half 1, 1 half 2, 2 the split
-    sensor (union of both halves).
-
-    - ``z`` (m,) depths [mm]; ``tol`` merge tolerance in units of delta(z); ``sample`` mode
-    - ``distinct`` (3, m) int64: distinct samples along x (positions closer than
-      ``tol * delta(z)`` merge; see docs/samples.md for the exact rule)
-    - ``distinct_2d`` (3, m) int64: over the whole 2D half-sensors (separable count)
-    - ``max_gap`` (3, m): largest gap between consecutive samples along x over the central
-      field |X| <= K_x d z / (4 v'), in units of delta(z) = d z / (Q v'); about 1 is full
-      sensor resolution, Q the microlens resolution; ``inf`` when the samples do not cover
-      the field
-    - ``sampled`` (3,) int64: pixels along x that yield a sample, of half 1, of half 2 and
-      their sum. ``chief``: the pixels lit by the chief-ray rule (K_x Q_lit, docs/model.md
-      §6); ``centroid``: the pixels whose integration polygon collects light (area at least
-      1e-9 of the half's largest, docs/model.md §9 "Lit by area"), which include partially
-      vignetted pixels the chief rule leaves out
-    """
-
-    z: np.ndarray
-    tol: float
-    sample: str
-    distinct: np.ndarray
-    distinct_2d: np.ndarray
-    max_gap: np.ndarray
-    sampled: np.ndarray
-
-    @property
-    def rows(self) -> tuple[str, ...]:
-        """The names of the rows: ``("half 1", "half 2", "union")``."""
-        return ("half 1", "half 2", "union")
-
-
-@dataclasses.dataclass(frozen=True)
-class DesignNewSamples:
     """Distinct samples along x and resolution of a :class:`~splitlf.Design` at m depths.
     Rows (``rows``): ``"channel 1"``, ..., ``"channel C"``, then ``"union"`` of all
     channels (also for a single channel, as in :func:`splitlf.coverage`).
@@ -229,24 +190,18 @@ def _rows(design: Design) -> tuple[str, ...]:
     return (*(f"channel {i}" for i in range(1, len(design.channels) + 1)), "union")
 
 
-@overload
-def new_samples(camera: Camera, z: Any, tol: float = ..., sample: str = ...,
-                n_threads: int | None = ...) -> NewSamples: ...
-@overload
-def new_samples(camera: Design, z: Any, tol: float = ..., sample: str = ...,
-                n_threads: int | None = ...) -> DesignNewSamples: ...
 def new_samples(
-    camera: Camera | Design,
+    camera: Design,
     z: Any,
     tol: float = DEFAULT_TOL,
     sample: str = "chief",
     n_threads: int | None = None,
-) -> NewSamples | DesignNewSamples:
+) -> NewSamples:
     """Count the distinct sample positions of each half and of the split sensor at every
     depth, and the worst gap between them (docs/model.md §6).
 
     Parameters:
-        camera: a :class:`splitlf.Camera` or a :class:`splitlf.Design` (every channel on
+        camera: a :class:`splitlf.Design` (a :class:`splitlf.Camera` is one) (every channel on
             a rect grid; ideal or sensor layout).
         z: depths in mm: a number or any 1-D array-like (m,), each finite and > F.
         tol: merge tolerance in units of delta(z) = d z / (Q v') (Design: mu_1 z / L_1),
@@ -266,7 +221,7 @@ def new_samples(
         there, d z / (Q v') for the camera: equal when d = Q mu).
 
     Raises:
-        TypeError: ``camera`` is neither a Camera nor a Design; ``z`` or ``tol`` is not
+        TypeError: ``camera`` is not a Design; ``z`` or ``tol`` is not
             real; ``sample`` is not a string; ``n_threads`` is not an integer.
         InvalidParameter: (a ``ValueError``) ``z`` is not 1-D or an element is not finite
             or not > F (``.name == "z"``, ``.index``); ``tol`` is negative or not finite;
@@ -279,20 +234,17 @@ def new_samples(
             pixel) do not fit in the memory available.
         KeyboardInterrupt: on Ctrl-C (checked between chunks of depths).
     """
-    subject = _subject(camera)
+    subject = _validate.design(camera)
     zs = _validate.depths(z)
     t = _validate.real(tol, "tol")
     s = _validate.choice(sample, "sample", ("chief", "centroid"))
     threads = _validate.n_threads(n_threads)
-    if isinstance(subject, Design):
-        d = _native.design_new_samples(subject.core, zs, t, s, threads)
-        return DesignNewSamples(zs, t, s, _rows(subject), d.distinct, d.max_gap, d.sampled)
-    r = _native.new_samples(subject.core, zs, t, s, threads)
-    return NewSamples(zs, t, s, r.distinct, r.distinct_2d, r.max_gap, r.sampled)
+    d = _native.design_new_samples(subject.core, zs, t, s, threads)
+    return NewSamples(zs, t, s, _rows(subject), d.distinct, d.max_gap, d.sampled)
 
 
 def sweep_depths(
-    camera: Camera | Design, z_range: tuple[float, float], n: int = 600, max_n: int = 3
+    camera: Design, z_range: tuple[float, float], n: int = 600, max_n: int = 3
 ) -> np.ndarray:
     """Depths for a resolution sweep: ``n`` log-spaced depths over ``z_range`` plus, inside
     it, both out-of-focus planes and every coincidence plane (N <= ``max_n``, T <= Q) of
@@ -300,7 +252,7 @@ def sweep_depths(
     sampled exactly.
 
     Parameters:
-        camera: a :class:`splitlf.Camera` or a :class:`splitlf.Design`. For a Design the
+        camera: a :class:`splitlf.Design` (a :class:`splitlf.Camera` is one). For a Design the
             out-of-focus planes of every channel are added, and the coincidence planes of
             every channel where they are defined (rect grid, ideal layout, square
             aperture); other channels contribute their out-of-focus plane only.
@@ -316,30 +268,25 @@ def sweep_depths(
         InvalidParameter: ``z_range`` is not F < near < far < inf, ``n`` < 2, or ``max_n``
             is out of range (see :func:`coincidence_planes`).
     """
-    cam = _subject(camera)
+    cam = _validate.design(camera)
     lo, hi = (_validate.real(v, "z_range") for v in z_range)
     if not (cam.F < lo < hi < np.inf):
         raise InvalidParameter.of("z_range", (lo, hi), f"F = {cam.F} mm < near < far < inf")
     n = _validate.integer(n, "n", "an integer >= 2")
     if n < 2:
         raise InvalidParameter.of("n", n, "an integer >= 2")
-    if isinstance(cam, Design):
-        numbers = range(1, len(cam.channels) + 1)
-        extra = [cam.out_of_focus_depth(c) for c in numbers]
-        for c in numbers:
-            ch = cam.channels[c - 1]
-            if ch.grid == "rect" and ch.layout == "ideal" and cam.aperture == "square":
-                extra.extend(coincidence_planes(cam, channel=c, max_n=max_n).z)
-    else:
-        extra = [cam.out_of_focus_depth(1), cam.out_of_focus_depth(2)]
-        for h in (1, 2):
-            extra.extend(coincidence_planes(cam, h, max_n=max_n).z)
+    numbers = range(1, len(cam.channels) + 1)
+    extra = [cam.design.out_of_focus_depth(c) for c in numbers]
+    for c in numbers:
+        ch = cam.channels[c - 1]
+        if ch.grid == "rect" and ch.layout == "ideal" and cam.aperture == "square":
+            extra.extend(coincidence_planes(cam, channel=c, max_n=max_n).z)
     z = np.concatenate([np.geomspace(lo, hi, n), extra])
     return np.unique(z[(z >= lo) & (z <= hi)])
 
 
 def worst_resolution(
-    camera: Camera | Design,
+    camera: Design,
     z_range: tuple[float, float] = (150.0, 10_000.0),
     n: int = 2000,
     max_n: int = 3,
@@ -351,7 +298,7 @@ def worst_resolution(
     out-of-focus and coincidence planes, N <= ``max_n``).
 
     Parameters:
-        camera: a :class:`splitlf.Camera` or a :class:`splitlf.Design` (rect channels).
+        camera: a :class:`splitlf.Design` (a :class:`splitlf.Camera` is one) (rect channels).
         z_range: (near, far) in mm, F < near < far < inf (default 150 to 10,000 mm).
         n, max_n: as in :func:`sweep_depths` (defaults 2000 and 3).
         tol: merge tolerance in delta(z), as in :func:`new_samples` (default 1e-6).
@@ -372,12 +319,9 @@ def worst_resolution(
         "z_range_mm": [float(z_range[0]), float(z_range[1])],
         "depths": int(z.size),
         "sampling": f"{n} log-spaced depths plus the out-of-focus planes and the "
-                    f"coincidence planes (N <= {max_n}) of both halves inside the range",
+                    f"coincidence planes (N <= {max_n}) of all channels inside the range",
     }
-    keys = r.rows if isinstance(r, DesignNewSamples) else ("half1", "half2", "split")
-    if isinstance(r, DesignNewSamples):
-        out["sampling"] = out["sampling"].replace("both halves", "all channels")
-    for row, key in enumerate(keys):
+    for row, key in enumerate(r.rows):
         k = int(np.argmax(r.max_gap[row]))
         g = float(r.max_gap[row, k])
         out[key] = {
