@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 
 import reference as ref
 from designs import non_ng, seed
+import splitlf
 from splitlf import Camera, InvalidParameter
 
 LENGTHS = ("F", "D", "d", "v", "mu", "f1", "f2")
@@ -95,13 +96,24 @@ def test_immutable():
 
 def test_replace_keeps_ng_setting_unless_given():
     cam = Camera.paper()
-    moved = cam.replace(v=0.7)
+    moved = cam.replace(v=0.6)
     L1, L2 = ref.array_planes(moved)
-    assert moved.f1 == pytest.approx(ref.ng_focal(L1, 0.7), rel=1e-15)
-    assert moved.f2 == pytest.approx(ref.ng_focal(L2, 0.7), rel=1e-15)
+    assert moved.f1 == pytest.approx(ref.ng_focal(L1, 0.6), rel=1e-15)
+    assert moved.f2 == pytest.approx(ref.ng_focal(L2, 0.6), rel=1e-15)
     fixed = cam.replace(f1=0.5)
     assert fixed.f1 == 0.5 and not fixed.is_ng(1) and fixed.is_ng(2)
-    assert fixed.replace(v=0.7).f1 == 0.5
+    assert fixed.replace(v=0.6).f1 == 0.5
+
+
+@pytest.mark.parametrize("changes", [{"v": 0.7}, {"D": 40.0}])
+def test_overlapping_microlens_images_are_refused_naming_the_camera_field(changes):
+    # Validated exactly as the Design it builds (docs/model.md §9): half 1's aperture image
+    # D v / v' wider than its lens's image cell d (1 + v / v') overlaps its neighbours'.
+    cam = Camera.paper()
+    with pytest.raises(splitlf.InvalidParameter) as e:
+        cam.replace(**changes)
+    assert e.value.name == "D", str(e.value)
+    assert "overlap" in str(e.value) and "channels[" not in str(e.value)
 
 
 def test_half_argument():
@@ -122,11 +134,15 @@ def test_toml_round_trip(tmp_path):
 
 @settings(max_examples=60, deadline=None)
 @given(
-    D=st.floats(0.5, 100.0), v1=st.floats(80.0001, 500.0), kappa=st.floats(0.0, 3.0),
+    share=st.floats(0.01, 0.999), v1=st.floats(80.0001, 500.0), kappa=st.floats(0.0, 3.0),
     mu=st.floats(1e-4, 0.1), Q=st.integers(1, 60), f1=st.one_of(st.none(), st.floats(0.01, 10)),
 )
-def test_toml_round_trip_property(tmp_path_factory, D, v1, kappa, mu, Q, f1):
-    cam = Camera.paper().replace(D=D, v1=v1, kappa=kappa, mu=mu, Q=Q, f1=f1)
+def test_toml_round_trip_property(tmp_path_factory, share, v1, kappa, mu, Q, f1):
+    # D a share of the widest aperture whose microlens images do not overlap (half 1's
+    # image D v / v' fits in its cell d (1 + v / v')).
+    paper = Camera.paper()
+    D = share * paper.d * (v1 + paper.v) / paper.v
+    cam = paper.replace(D=D, v1=v1, kappa=kappa, mu=mu, Q=Q, f1=f1)
     path = tmp_path_factory.mktemp("t") / "c.toml"
     cam.to_toml(path)
     assert Camera.from_toml(path) == cam

@@ -121,7 +121,7 @@ def test_curves_input_errors():
         splitlf.curves(d, [100.0, 80.0])
     with pytest.raises(ValueError, match="n_threads"):
         splitlf.curves(d, [100.0], n_threads=0)
-    with pytest.raises(TypeError, match="camera must be a splitlf.Camera or a splitlf.Design"):
+    with pytest.raises(TypeError, match="design must be a splitlf.Design"):
         splitlf.curves(d.as_dict(), [100.0])
     empty = splitlf.curves(d, [])
     assert empty.blur_px.shape == (3, 0) and empty.union_blur_px.shape == (0,)

@@ -84,18 +84,22 @@ def test_coincidence_work_is_refused_up_front():
 def test_huge_integers_are_named_errors(kwargs, name):
     args = {"half": 1, **kwargs}
     for call in (lambda: splitlf.coincidence_planes(P, **args),
-                 lambda: _native.coincidence_planes(P.core, args.pop("half"), **args)):
+                 lambda: _native.design_coincidence_planes(P.core, args.pop("half"), **args)):
         with pytest.raises(InvalidParameter) as e:
             call()
-        assert e.value.name == name and e.value.value == kwargs[name], str(e.value)
+        # the native call names its own parameter: the channel number
+        native = "channel" if name == "half" else name
+        assert e.value.name in (name, native) and e.value.value == kwargs[name], str(e.value)
 
 
 @pytest.mark.parametrize("call, name", [
-    (lambda: _native.trace(P.core, True), "half"),
-    (lambda: _native.trace(P.core, 1, n_threads=True), "n_threads"),
-    (lambda: _native.coincidence_planes(P.core, 1, max_n=False), "max_n"),
-    (lambda: _native.sample_grid(P.core, 500.0, np.True_), "half"),
-    (lambda: _native.trace(P.core, 1.0), "half"),
+    (lambda: _native.design_trace(P.core, True), "channel"),
+    (lambda: _native.design_trace(P.core, 1, n_threads=True), "n_threads"),
+    (lambda: _native.design_coincidence_planes(P.core, 1, max_n=False), "max_n"),
+    (lambda: _native.design_sample_grid(P.core, 500.0, np.True_), "channel"),
+    (lambda: _native.design_trace(P.core, 1.0), "channel"),
+    (lambda: splitlf.trace(P, True), "half"),
+    (lambda: splitlf.trace(P, 1.0), "half"),
     (lambda: splitlf.trace(P, 1, n_threads=True), "n_threads"),
     (lambda: P.L(True), "half"),
     (lambda: P.is_ng(True), "half"),
@@ -106,11 +110,13 @@ def test_bools_and_floats_are_not_integers(call, name):
 
 
 def test_native_integers_accept_numpy_and_huge_python_ints():
-    a = _native.trace(P.core, np.int64(2), n_threads=np.uint8(2))
-    b = _native.trace(P.core, 2)
+    a = _native.design_trace(P.core, np.int64(2), n_threads=np.uint8(2))
+    b = _native.design_trace(P.core, 2)
     assert np.array_equal(a.area, b.area)
+    with pytest.raises(InvalidParameter, match=r"channel = 3\b"):
+        _native.design_trace(P.core, np.int32(3))
     with pytest.raises(InvalidParameter, match=r"half = 3\b"):
-        _native.trace(P.core, np.int32(3))
+        splitlf.trace(P, np.int32(3))
 
 
 def test_python_side_range_errors_are_invalid_parameter():
@@ -124,20 +130,20 @@ def test_python_side_range_errors_are_invalid_parameter():
 
 def test_named_native_results():
     z = np.array([300.0, 500.0])
-    c = _native.curves(P.core, z)
+    c = _native.design_curves(P.core, z)
     assert not isinstance(c, tuple) and c.blur_px.shape == (2, 2)
-    assert _native.new_samples(P.core, z).distinct.shape == (3, 2)
-    planes = _native.coincidence_planes(P.core, 1)
+    assert _native.design_new_samples(P.core, z).distinct.shape == (3, 2)
+    planes = _native.design_coincidence_planes(P.core, 1)
     assert len(planes.side) == len(planes.N) == len(planes.counted) > 0
-    t = _native.trace(P.core, 1)
+    t = _native.design_trace(P.core, 1)
     assert t.vertices.shape == (P.Kx * P.Q, 6, 2) and t.lit.dtype == np.bool_
-    f = _native.footprints(P.core, z, 1, kernel=True)
+    f = _native.design_footprints(P.core, z, 1, kernel=True)
     assert f.kernel_breaks.shape == (2, P.Kx * P.Q, 6)
-    assert _native.footprints(P.core, z, 1).kernel_values is None
-    g = _native.sample_grid(P.core, 500.0, 1)
+    assert _native.design_footprints(P.core, z, 1).kernel_values is None
+    g = _native.design_sample_grid(P.core, 500.0, 1)
     assert g.X.shape == g.Y.shape == (P.Ky * P.Q, P.Kx * P.Q)
-    dof = _native.depth_of_field(P.core)
-    assert dof.split == splitlf.depth_of_field(P).split
+    dof = _native.design_depth_of_field(P.core)
+    assert dof.union == splitlf.depth_of_field(P).split
     with pytest.raises(AttributeError):
         c.blur_px = None  # frozen
 

@@ -20,6 +20,7 @@ import numpy as np
 
 from . import _native, _validate
 from .design import Design
+from .errors import InvalidParameter
 
 __all__ = ["Footprints", "SampleGrid", "Trace", "footprints", "sample_grid", "trace"]
 
@@ -60,17 +61,22 @@ class Trace:
     channel: int | None = None
 
 
-def _number(half: Any, channel: Any) -> int:
+def _number(design: Design, half: Any, channel: Any) -> int:
     """The channel number: exactly one of ``half`` and ``channel`` (two names of one
-    number: the split sensor's half i is its channel i)."""
+    number: the split sensor's half i is its channel i), in [1, C]; errors name the
+    argument given."""
     if half is not None and channel is not None:
         raise TypeError("give half or channel, not both (half i of the split sensor is its "
                         "channel i)")
     if half is None and channel is None:
         raise TypeError("missing the channel number (half= or channel=)")
-    if channel is not None:
-        return _validate.integer(channel, "channel", "an integer >= 1")
-    return _validate.half(half)
+    name, value = ("half", half) if channel is None else ("channel", channel)
+    n = _validate.integer(value, name, "an integer >= 1")
+    count = len(design.channels)
+    if not 1 <= n <= count:
+        raise InvalidParameter.of(name, n, "1 or 2" if count == 2 and name == "half"
+                                  else f"an integer in [1, {count}] (a channel number)")
+    return n
 
 
 def trace(camera: Design, half: int | None = None, axis: str = "x",
@@ -104,7 +110,7 @@ def trace(camera: Design, half: int | None = None, axis: str = "x",
         KeyboardInterrupt: on Ctrl-C (checked between chunks of pixels).
     """
     subject = _validate.design(camera)
-    h = _number(half, channel)
+    h = _number(subject, half, channel)
     ax = _validate.choice(axis, "axis", ("x", "y"))
     threads = _validate.n_threads(n_threads)
     r = _native.design_trace(subject.core, h, ax, threads)
@@ -183,7 +189,7 @@ def footprints(
     """
     subject = _validate.design(camera)
     zs = _validate.depths(z)
-    h = _number(half, channel)
+    h = _number(subject, half, channel)
     ax = _validate.choice(axis, "axis", ("x", "y"))
     s = _validate.choice(sample, "sample", ("centroid", "chief"))
     if not isinstance(kernel, bool | np.bool_):
@@ -250,7 +256,7 @@ def sample_grid(
     """
     subject = _validate.design(camera)
     zf = _validate.depth(z)
-    h = _number(half, channel)
+    h = _number(subject, half, channel)
     s = _validate.choice(sample, "sample", ("centroid", "chief"))
     threads = _validate.n_threads(n_threads)
     r = _native.design_sample_grid(subject.core, zf, h, s, threads)
