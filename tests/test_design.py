@@ -534,3 +534,35 @@ def test_report_design_config(tmp_path, capsys):
     code, out, err = run(["report", "--config", str(p)], capsys)
     assert code == 2 and out == "" and err.count("\n") == 1
     assert f"{p}: invalid channels[3].L = 40" in err
+
+
+def test_fields_of_the_wrong_type_are_named_before_missing_ones():
+    # issue 20's fuzz: a file with a wrongly typed field that also lacks others was
+    # reported only as missing.
+    with pytest.raises(TypeError, match=r"camera: Camera\.Q must be an integer"):
+        splitlf.Camera.from_dict({"F": 80.0, "Q": 1.5})
+    with pytest.raises(TypeError, match=r"channels\[1\]: Channel\.Kx must be an integer"):
+        splitlf.Design.from_dict({"F": 80.0, "D": 10.0, "channels": [{"L": 90.0, "Kx": "a"}]})
+    with pytest.raises(ValueError, match=r"missing channel field\(s\) \['d', 'v'"):
+        splitlf.Design.from_dict({"F": 80.0, "D": 10.0, "channels": [{"L": 90.0, "Kx": 3}]})
+
+
+@pytest.mark.parametrize("f", [{1.0: 2}, {0.5, 0.6}, frozenset([0.5])])
+def test_unordered_focal_lengths_are_refused(f):
+    # A dict's keys (or a set) would be taken as the lens types in no defined order.
+    with pytest.raises(TypeError, match="Channel.f must be"):
+        splitlf.Channel(90.0, 0.1, 0.5, 0.01, 3, 3, f=f)
+
+
+def test_masked_depths_are_refused_not_silently_unmasked():
+    z = np.ma.masked_array([500.0, 600.0], [0, 1])
+    with pytest.raises(splitlf.InvalidParameter, match="masked"):
+        splitlf.curves(splitlf.Camera.paper(), z)
+    full = np.ma.masked_array([500.0, 600.0], [0, 0])
+    assert splitlf.curves(splitlf.Camera.paper(), full).z.tolist() == [500.0, 600.0]
+
+
+def test_one_depth_message_counts_what_was_given():
+    with pytest.raises(splitlf.InvalidParameter) as e:
+        splitlf.sample_grid(splitlf.Camera.paper(), [500.0, 600.0], 1)
+    assert e.value.value == 2 and "2 depths given, allowed one depth" in str(e.value)

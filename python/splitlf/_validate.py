@@ -89,8 +89,9 @@ def depth(value: Any, name: str = "z") -> float:
         return float(value)
     arr = depths(value, name)
     if arr.size != 1:
-        raise InvalidParameter.of(name, f"{arr.size} depths",
-                                  "one depth: a number or an array-like of one element")
+        allowed = "one depth: a number or an array-like of one element"
+        raise InvalidParameter(f"invalid {name}: {arr.size} depths given, allowed {allowed}",
+                               name=name, value=arr.size, allowed=allowed)
     return float(arr[0])
 
 

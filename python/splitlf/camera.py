@@ -7,7 +7,6 @@ reads and writes TOML.
 
 from __future__ import annotations
 
-import math
 import numbers
 import os
 from typing import Any
@@ -15,6 +14,8 @@ from typing import Any
 from . import _native
 from ._files import atomic_output, read_toml
 from .design import Design
+from .design import _count as _count_field
+from .design import _real as _real_field
 from .errors import InvalidParameter
 
 __all__ = ["Camera", "LENGTH_FIELDS", "COUNT_FIELDS", "FIELDS"]
@@ -47,33 +48,11 @@ _COUNT_LIMITS = {"Q": _native.MAX_Q, "Kx": _native.MAX_K, "Ky": _native.MAX_K}
 
 
 def _real(name: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise TypeError(
-            f"Camera.{name} must be a real number ({_DESCRIPTIONS[name]}), "
-            f"got {type(value).__name__} {value!r}"
-        )
-    try:
-        x = float(value)
-    except OverflowError:  # an integer beyond the float range (e.g. a 400-digit TOML integer)
-        x = math.inf if value > 0 else -math.inf
-    if math.isnan(x) or math.isinf(x):
-        shown = x if isinstance(value, float) else f"{str(value)[:12]}... ({x})"
-        raise InvalidParameter.of(name, shown, f"a finite value ({_DESCRIPTIONS[name]})")
-    return x
+    return _real_field("Camera", name, value, _DESCRIPTIONS[name])
 
 
 def _count(name: str, value: Any) -> int:
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-        raise TypeError(
-            f"Camera.{name} must be an integer ({_DESCRIPTIONS[name]}), "
-            f"got {type(value).__name__} {value!r}"
-        )
-    n = int(value)
-    if not -(2**62) < n < 2**62:  # the core checks the range; this keeps n within an i64
-        shown = n if abs(n) < 10**15 else f"{str(n)[:12]}... ({len(str(abs(n)))} digits)"
-        raise InvalidParameter.of(name, shown,
-                                  f"an integer in [1, {_COUNT_LIMITS[name]}]")
-    return n
+    return _count_field("Camera", name, value, _DESCRIPTIONS[name], _COUNT_LIMITS[name])
 
 
 def _half(value: Any) -> int:
@@ -205,6 +184,14 @@ class Camera(Design):
             raise ValueError(
                 f"{source}: unknown camera field(s) {unknown}; allowed fields: {', '.join(FIELDS)}"
             )
+        try:  # a field of the wrong type is named even when others are missing too
+            for k, value in data.items():
+                if k in COUNT_FIELDS:
+                    _count(k, value)
+                elif value is not None or k not in ("f1", "f2"):
+                    _real(k, value)
+        except TypeError as e:
+            raise TypeError(f"{source}: {e}") from None
         missing = [k for k in FIELDS[:10] if k not in data]
         if missing:
             raise ValueError(f"{source}: missing camera field(s) {missing}")

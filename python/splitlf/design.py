@@ -17,6 +17,8 @@ import dataclasses
 import math
 import numbers
 import os
+from collections.abc import Mapping
+from collections.abc import Set as AbstractSet
 from typing import Any
 
 from . import _native
@@ -62,26 +64,31 @@ _COUNT_LIMITS = {"Kx": _native.MAX_K, "Ky": _native.MAX_K, "Q": _native.MAX_Q,
 
 
 def _real(owner: str, name: str, value: Any, what: str) -> float:
+    """A finite real field of ``owner`` (a class name), else ``TypeError`` /
+    :class:`InvalidParameter` naming it; ``what`` describes the field."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise TypeError(f"{owner}.{name} must be a real number ({what}), "
                         f"got {type(value).__name__} {value!r}")
     try:
         x = float(value)
-    except OverflowError:
+    except OverflowError:  # an integer beyond the float range (e.g. a 400-digit TOML integer)
         x = math.inf if value > 0 else -math.inf
     if not math.isfinite(x):
-        raise InvalidParameter.of(name, x, f"a finite value ({what})")
+        shown = x if isinstance(value, float) else f"{str(value)[:12]}... ({x})"
+        raise InvalidParameter.of(name, shown, f"a finite value ({what})")
     return x
 
 
-def _count(name: str, value: Any) -> int:
+def _count(owner: str, name: str, value: Any, what: str, limit: int) -> int:
+    """An integer field (never a bool or a float), else ``TypeError``; one beyond any i64
+    is :class:`InvalidParameter` here (the core checks the range ``[1, limit]``)."""
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-        raise TypeError(f"Channel.{name} must be an integer ({_CHANNEL_DESCRIPTIONS[name]}), "
+        raise TypeError(f"{owner}.{name} must be an integer ({what}), "
                         f"got {type(value).__name__} {value!r}")
     n = int(value)
     if not -(2**62) < n < 2**62:
         shown = n if abs(n) < 10**15 else f"{str(n)[:12]}... ({len(str(abs(n)))} digits)"
-        raise InvalidParameter.of(name, shown, f"an integer in [1, {_COUNT_LIMITS[name]}]")
+        raise InvalidParameter.of(name, shown, f"an integer in [1, {limit}]")
     return n
 
 
@@ -94,12 +101,18 @@ def _choice(owner: str, name: str, value: Any, allowed: tuple[str, ...]) -> str:
     return value
 
 
+def _channel_count(name: str, value: Any) -> int:
+    return _count("Channel", name, value, _CHANNEL_DESCRIPTIONS[name], _COUNT_LIMITS[name])
+
+
 def _focal_lengths(value: Any) -> tuple[float, ...] | None:
     if value is None:
         return None
     if isinstance(value, numbers.Real) and not isinstance(value, bool):
         value = (value,)
-    if isinstance(value, str | bytes) or not hasattr(value, "__iter__"):
+    # A mapping or a set has no order of lens types (a dict's keys would be taken silently).
+    if (isinstance(value, str | bytes | Mapping | AbstractSet)
+            or not hasattr(value, "__iter__")):
         raise TypeError("Channel.f must be None (Ng's setting), a focal length or a sequence "
                         f"of focal lengths [mm], got {type(value).__name__} {value!r}")
     return tuple(_real("Channel", "f", x, _CHANNEL_DESCRIPTIONS["f"]) for x in value)
@@ -143,10 +156,10 @@ class Channel:
             set_(self, name, _real("Channel", name, getattr(self, name),
                                    _CHANNEL_DESCRIPTIONS[name]))
         for name in ("Kx", "Ky"):
-            set_(self, name, _count(name, getattr(self, name)))
+            set_(self, name, _channel_count(name, getattr(self, name)))
         for name in ("Q", "Mx", "My"):
             value = getattr(self, name)
-            set_(self, name, None if value is None else _count(name, value))
+            set_(self, name, None if value is None else _channel_count(name, value))
         set_(self, "f", _focal_lengths(self.f))
         set_(self, "grid", _choice("Channel", "grid", self.grid, ("rect", "hex")))
         set_(self, "layout", _choice("Channel", "layout", self.layout, ("ideal", "sensor")))
@@ -439,6 +452,11 @@ def _channel_from_dict(table: Any, where: str, number: int) -> Channel:
                          f"{', '.join(CHANNEL_FIELDS)}")
     missing = [k for k in _REQUIRED_CHANNEL_FIELDS if k not in table]
     if missing:
+        # A field of the wrong type is named even when others are missing too: the
+        # Channel's own checks run on the given fields, with stand-ins for the missing.
+        stand_in = {"L": 1.0, "d": 1.0, "v": 1.0, "mu": 1.0, "Kx": 1, "Ky": 1}
+        with _in_source(where, number):
+            Channel(**{**{k: stand_in[k] for k in missing}, **table})
         raise ValueError(f"{where}: missing channel field(s) {missing}")
     with _in_source(where, number):
         return Channel(**table)
