@@ -11,8 +11,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import reference as ref
-from designs import non_ng, seed
 import splitlf
+from designs import non_ng, seed
 from splitlf import Camera, InvalidParameter
 
 LENGTHS = ("F", "D", "d", "v", "mu", "f1", "f2")
