@@ -13,6 +13,8 @@ echo "== cargo clippy -D warnings"
 cargo clippy --workspace --all-targets --quiet -- -D warnings
 echo "== ruff"
 python -m ruff check python tests benches docs
+echo "== mypy (every definition typed: [tool.mypy] in pyproject.toml)"
+python -m mypy python/splitlf
 echo "== stubtest (the .pyi stub matches the native module)"
 python -m mypy.stubtest splitlf._native
 echo "== cargo test (core)"

@@ -12,14 +12,15 @@ from __future__ import annotations
 import contextlib
 import os
 import stat
+import sys
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-try:  # Python >= 3.11
+if sys.version_info >= (3, 11):
     import tomllib
-except ModuleNotFoundError:  # pragma: no cover - Python 3.10 (the tomli backport)
+else:  # pragma: no cover - Python 3.10 (the tomli backport)
     import tomli as tomllib
 
 __all__ = ["MAX_TOML_BYTES", "atomic_output", "check_new", "read_toml"]

@@ -98,11 +98,13 @@ class Camera(Design):
     d: float
     v: float
     mu: float
-    Q: int  # type: ignore[assignment]
+    Q: int
     Kx: int
     Ky: int
     f1: float
     f2: float
+    _camera_core: _native.CameraCore
+    _explicit: dict[str, bool]
 
     def __init__(self, F: float, D: float, v1: float, kappa: float, d: float, v: float,
                  mu: float, Q: int, Kx: int, Ky: int, f1: float | None = None,

@@ -19,7 +19,7 @@ import numbers
 import os
 from collections.abc import Mapping
 from collections.abc import Set as AbstractSet
-from typing import Any
+from typing import TYPE_CHECKING, Any, Literal, cast
 
 from . import _native
 from ._files import atomic_output, read_toml
@@ -72,7 +72,7 @@ def _real(owner: str, name: str, value: Any, what: str) -> float:
     try:
         x = float(value)
     except OverflowError:  # an integer beyond the float range (e.g. a 400-digit TOML integer)
-        x = math.inf if value > 0 else -math.inf
+        x = math.inf if cast(int, value) > 0 else -math.inf
     if not math.isfinite(x):
         shown = x if isinstance(value, float) else f"{str(value)[:12]}... ({x})"
         raise InvalidParameter.of(name, shown, f"a finite value ({what})")
@@ -200,6 +200,10 @@ class Design:
     channels: tuple[Channel, ...]
     aperture: str = "square"
 
+    if TYPE_CHECKING:  # set in __post_init__ (not a dataclass field)
+        @property
+        def _core(self) -> _native.DesignCore: ...
+
     def __post_init__(self) -> None:
         set_ = object.__setattr__
         set_(self, "F", _real("Design", "F", self.F, "main lens focal length [mm]"))
@@ -261,7 +265,7 @@ class Design:
                             "allowed fields: F, D, channels, aperture")
         return dataclasses.replace(self, **changes)
 
-    def __reduce__(self):
+    def __reduce__(self) -> tuple[Any, ...]:
         return (Design, (self.F, self.D, self.channels, self.aperture))
 
     # -- presets ------------------------------------------------------------------------
@@ -431,7 +435,7 @@ class _in_source:
     def __enter__(self) -> None:
         return None
 
-    def __exit__(self, kind: Any, e: Any, tb: Any) -> bool:
+    def __exit__(self, kind: Any, e: Any, tb: Any) -> Literal[False]:
         if isinstance(e, InvalidParameter):
             name = e.name if self.channel is None else f"channels[{self.channel}].{e.name}"
             raise InvalidParameter(f"{self.source}: {e}", name=name, value=e.value,

@@ -146,7 +146,7 @@ class Footprints:
 
 def footprints(
     camera: Design,
-    z,
+    z: Any,
     half: int | None = None,
     axis: str = "x",
     sample: str = "centroid",
@@ -221,7 +221,7 @@ class SampleGrid:
 
 
 def sample_grid(
-    camera: Design, z, half: int | None = None, sample: str = "chief",
+    camera: Design, z: Any, half: int | None = None, sample: str = "chief",
     n_threads: int | None = None, *, channel: int | None = None,
 ) -> SampleGrid:
     """Sample position of every pixel of the full 2D sensor of one half on one plane.

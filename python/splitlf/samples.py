@@ -84,7 +84,7 @@ class CoincidencePlanes:
         cols = self.columns()
         return [{c: v[i].item() for c, v in cols.items()} for i in range(len(self))]
 
-    def to_pandas(self):
+    def to_pandas(self) -> Any:
         """The table as a ``pandas.DataFrame`` (needs pandas)."""
         try:
             import pandas as pd
