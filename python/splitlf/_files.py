@@ -23,7 +23,7 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover - Python 3.10 (the tomli backport)
     import tomli as tomllib
 
-__all__ = ["MAX_TOML_BYTES", "atomic_output", "check_new", "read_toml"]
+__all__ = ["MAX_TOML_BYTES", "atomic_output", "check_new", "read_toml", "text_file"]
 
 #: Largest TOML file read (a design or sweep file is a few kB; this refuses a runaway input
 #: such as /dev/zero or a mistaken data file before reading it).
@@ -123,3 +123,13 @@ def read_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
         raise ValueError(f"{name}: not a TOML text file (not UTF-8 at byte {e.start})") from None
     except tomllib.TOMLDecodeError as e:
         raise ValueError(f"{name}: not valid TOML: {e}") from None
+
+
+def text_file(lines: list[str], path: str | os.PathLike[str] | None) -> str:
+    """``lines`` as one text (each line ending in a newline), also written atomically to
+    ``path`` when given (replacing a file there whole or not at all)."""
+    body = "\n".join(lines) + "\n"
+    if path is not None:
+        with atomic_output(path, force=True) as tmp:
+            tmp.write_text(body, encoding="utf-8")
+    return body

@@ -12,8 +12,8 @@ import os
 from typing import Any
 
 from . import _native
-from ._files import atomic_output, read_toml
-from .design import Design
+from ._files import read_toml, text_file
+from .design import Design, missing_fields
 from .design import _count as _count_field
 from .design import _real as _real_field
 from .errors import InvalidParameter
@@ -177,15 +177,7 @@ class Camera(Design):
 
         Raises ``TypeError`` when ``data`` is not a dict, ``ValueError`` naming ``source``
         for unknown or missing fields, and the errors of the constructor."""
-        if not isinstance(data, dict):
-            raise TypeError(
-                f"{source}: expected a table of camera fields, got {type(data).__name__}"
-            )
-        unknown = [k for k in data if k not in FIELDS]
-        if unknown:
-            raise ValueError(
-                f"{source}: unknown camera field(s) {unknown}; allowed fields: {', '.join(FIELDS)}"
-            )
+        missing = missing_fields(data, source, "camera", FIELDS, FIELDS[:10])
         try:  # a field of the wrong type is named even when others are missing too
             for k, value in data.items():
                 if k in COUNT_FIELDS:
@@ -194,7 +186,6 @@ class Camera(Design):
                     _real(k, value)
         except TypeError as e:
             raise TypeError(f"{source}: {e}") from None
-        missing = [k for k in FIELDS[:10] if k not in data]
         if missing:
             raise ValueError(f"{source}: missing camera field(s) {missing}")
         return cls(**data)
@@ -230,11 +221,7 @@ class Camera(Design):
             if not text.startswith("#"):
                 text = f"{text:<40} # {_DESCRIPTIONS[name]}"
             lines.append(text)
-        body = "\n".join(lines) + "\n"
-        if path is not None:
-            with atomic_output(path, force=True) as tmp:
-                tmp.write_text(body, encoding="utf-8")
-        return body
+        return text_file(lines, path)
 
     # -- per-half values (computed by the core) ------------------------------------------
     @property

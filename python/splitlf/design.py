@@ -22,7 +22,7 @@ from collections.abc import Set as AbstractSet
 from typing import TYPE_CHECKING, Any, Literal, cast
 
 from . import _native
-from ._files import atomic_output, read_toml
+from ._files import read_toml, text_file
 from .errors import InvalidParameter
 
 __all__ = ["Channel", "Design", "CHANNEL_FIELDS", "DESIGN_FIELDS", "PRESETS"]
@@ -300,14 +300,7 @@ class Design:
         for unknown or missing fields, and :class:`InvalidParameter` for values out of
         range (``.name`` as the constructor names it, e.g. ``channels[2].L``); every
         message starts with ``source``."""
-        if not isinstance(data, dict):
-            raise TypeError(f"{source}: expected a table of design fields "
-                            f"({', '.join(DESIGN_FIELDS)}), got {type(data).__name__}")
-        unknown = [k for k in data if k not in DESIGN_FIELDS]
-        if unknown:
-            raise ValueError(f"{source}: unknown design field(s) {unknown}; allowed fields: "
-                             f"{', '.join(DESIGN_FIELDS)}")
-        missing = [k for k in ("F", "D", "channels") if k not in data]
+        missing = missing_fields(data, source, "design", DESIGN_FIELDS, ("F", "D", "channels"))
         if missing:
             raise ValueError(f"{source}: missing design field(s) {missing}")
         tables = data["channels"]
@@ -361,11 +354,7 @@ class Design:
                     lines.append(f"{text:<40} # {_CHANNEL_DESCRIPTIONS[name]}")
                 elif name == "f":
                     lines.append("# f omitted: Ng's setting 1/f = 1/L + 1/v")
-        body = "\n".join(lines) + "\n"
-        if path is not None:
-            with atomic_output(path, force=True) as tmp:
-                tmp.write_text(body, encoding="utf-8")
-        return body
+        return text_file(lines, path)
 
     # -- derived values (computed by the core) -------------------------------------------
     @property
@@ -445,16 +434,24 @@ class _in_source:
         return False
 
 
+def missing_fields(table: Any, where: str, what: str, allowed: tuple[str, ...],
+                   required: tuple[str, ...]) -> list[str]:
+    """The ``required`` keys that ``table`` (a mapping of ``what`` fields read from
+    ``where``) lacks; ``TypeError`` when it is not a dict, ``ValueError`` for keys not in
+    ``allowed``."""
+    if not isinstance(table, dict):
+        raise TypeError(f"{where}: expected a table of {what} fields, got "
+                        f"{type(table).__name__}")
+    unknown = [k for k in table if k not in allowed]
+    if unknown:
+        raise ValueError(f"{where}: unknown {what} field(s) {unknown}; allowed fields: "
+                         f"{', '.join(allowed)}")
+    return [k for k in required if k not in table]
+
+
 def _channel_from_dict(table: Any, where: str, number: int) -> Channel:
     """Channel ``number`` (from 1) of a design's mapping, its errors prefixed by ``where``."""
-    if not isinstance(table, dict):
-        raise TypeError(f"{where}: expected a table of channel fields, got "
-                        f"{type(table).__name__}")
-    unknown = [k for k in table if k not in CHANNEL_FIELDS]
-    if unknown:
-        raise ValueError(f"{where}: unknown channel field(s) {unknown}; allowed fields: "
-                         f"{', '.join(CHANNEL_FIELDS)}")
-    missing = [k for k in _REQUIRED_CHANNEL_FIELDS if k not in table]
+    missing = missing_fields(table, where, "channel", CHANNEL_FIELDS, _REQUIRED_CHANNEL_FIELDS)
     if missing:
         # A field of the wrong type is named even when others are missing too: the
         # Channel's own checks run on the given fields, with stand-ins for the missing.
