@@ -92,7 +92,9 @@ def ray_space(
     if ax is None:
         _, ax = pyplot().subplots(figsize=(9.0, 6.0), layout="constrained")
     L1 = des.channels[0].L
-    handles, drawn, centres = [], [], {}
+    handles: list[Any] = []
+    drawn: list[np.ndarray] = []
+    centres: dict[int, np.ndarray] = {}
     for c, ch in enumerate(des.channels, start=1):
         tr = rayspace.trace(des, channel=c, axis=axis, **trace_threads(n_threads))
         K = int(tr.lens.max()) + 1
