@@ -122,7 +122,7 @@ def test_microlens_images_errors():
         plot.microlens_images(d, lenses=2.5)
     with pytest.raises(ValueError, match="one per channel"):
         plot.microlens_images(Design.preset("split3"), ax=[axes(), axes()])
-    with pytest.raises(TypeError, match="Design or Camera"):
+    with pytest.raises(TypeError, match="must be a splitlf.Design"):
         plot.microlens_images("seed")
 
 
@@ -174,7 +174,7 @@ def test_design_blur_draws_every_lens_type_and_channel():
     lines = {ln.get_label(): ln for ln in ax.get_lines()}
     c = None
     for t in range(3):
-        z, y = lines[f"light field, channel 1 type {t + 1}"].get_data()
+        z, y = lines[f"light field, array 1 type {t + 1}"].get_data()
         c = splitlf.curves(d, z)
         np.testing.assert_array_equal(y, c.blur_px[t])
     z, y = lines["conventional, sensor on plane 1"].get_data()

@@ -1,5 +1,5 @@
 """splitlf.simulate and its forward model on a Design (docs/simulate.md, "Designs"):
-Camera.design gives the camera's results bit for bit, each channel's rows integrate to its
+the camera is the seed design bit for bit, each channel's rows integrate to its
 collected light, render = matrix x texture, the union beats a channel on its out-of-focus
 plane, and bad sources, channels and hex grids are refused by name."""
 
@@ -34,13 +34,15 @@ def _bits_equal(a, b):
     return a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
 
 
-# -- Camera.design is the camera, bit for bit ------------------------------------------------
+# -- the camera is the seed design, bit for bit ----------------------------------------------
 
 @pytest.mark.parametrize("z", [217.0, 642.0, 2000.0])
 @pytest.mark.parametrize("cam_src,des_src", PAIRS)
-def test_camera_design_forward_and_matrix_are_bit_identical(z, cam_src, des_src):
-    d = SEED.design
-    step = SEED.core.resolution_step(z) / 2
+def test_camera_half_sources_are_the_seed_design_channels_bit_for_bit(z, cam_src, des_src):
+    # The camera's source names (half i) are a two-channel design's channel i; the camera
+    # and the seed preset give the same kernels, matrices and values.
+    d = splitlf.Design.preset("seed")
+    step = SEED.resolution_step(z) / 2
     n = 4000
     origin = -n * step / 2
     tex = np.random.default_rng(3).uniform(0, 1, (2, n))
@@ -52,7 +54,7 @@ def test_camera_design_forward_and_matrix_are_bit_identical(z, cam_src, des_src)
     assert _bits_equal(qa, qb) and ma.shape == mb.shape
     for attr in ("data", "indices", "indptr"):
         assert _bits_equal(getattr(ma, attr), getattr(mb, attr))
-    ks = (splitlf._native.kernel_support(SEED.core, z, cam_src),
+    ks = (splitlf._native.design_kernel_support(SEED.core, z, des_src),
           splitlf._native.design_kernel_support(d.core, z, des_src))
     assert ks[0] == ks[1]
 
@@ -62,58 +64,48 @@ CAMERA_ROWS = {"half1": "channel 1", "half2": "channel 2", "split": "union",
 
 
 def _assert_same(a, b):
-    """Every output of Simulation a (Camera) equals b's (Camera.design) bit for bit, row
-    names mapped."""
+    """Every output of Simulation a equals b's bit for bit."""
     same = _bits_equal
+    assert a.configs == b.configs
     assert same(a.x, b.x) and same(a.truth, b.truth) and same(a.frequencies, b.frequencies)
     assert same(a.delta, b.delta) and same(a.nyquist, b.nyquist)
-    for ka, kb in CAMERA_ROWS.items():
-        assert same(a.reconstruction(ka), b.reconstruction(kb)), ka
-        assert same(getattr(a, ka), b.reconstructions[kb])
+    assert same(a.microlens_frequency, b.microlens_frequency)
+    for k in a.configs:
+        assert same(a.reconstruction(k), b.reconstruction(k)), k
         for m in ("rmse", "psnr", "mtf50", "regularization"):
-            assert same(getattr(a, m)[ka], getattr(b, m)[kb]), (m, ka)
-        assert same(a.contrast[ka], b.contrast[kb])
-        assert a.pixels[ka] == b.pixels[kb]
+            assert same(getattr(a, m)[k], getattr(b, m)[k]), (m, k)
+        assert same(a.contrast[k], b.contrast[k])
+        assert a.pixels[k] == b.pixels[k]
 
 
 @pytest.mark.parametrize("z,noise", [(642.0, None), (400.0, {"photons": 1e4, "read_noise": 3}),
                                      (150.0, None)])
-def test_camera_design_simulation_is_the_camera_simulation(z, noise, monkeypatch):
+def test_camera_simulation_is_the_seed_design_simulation(z, noise):
     kw = dict(noise=noise, seed=5, window=64, n_frequencies=6, oversample=2)
     a = simulate(SEED, z, **kw)
-    b = simulate(SEED.design, z, **kw)
-    assert b.configs == ("channel 1", "channel 2", "union", "conventional 1")
-    assert a.configs == simulation.CONFIGS and b.half1 is None
-    # delta(z) is docs/model.md's d z/(Q v') for the camera, mu_1 z/L_1 for a design: equal
-    # in exact arithmetic, not always in floating point (0.135/15 != 0.009): equal at 642
-    # and 400 mm (every output is then the camera's bit for bit), one ulp apart at 150 mm,
-    # where a pixel on the field's edge may enter or leave the system ...
-    assert b.delta == pytest.approx(a.delta, rel=1e-15)
-    assert b.microlens_frequency == pytest.approx(a.microlens_frequency, rel=1e-14)
-    if z == 150.0:
-        assert a.delta != b.delta
-        for ka, kb in CAMERA_ROWS.items():
-            assert b.rmse[kb] == pytest.approx(a.rmse[ka], rel=1e-2)
-            assert b.mtf50[kb] == pytest.approx(a.mtf50[ka], rel=1e-3)
-    else:
-        _assert_same(a, b)
-    # ... and delta is the only difference: with the camera's delta every output is the
-    # camera's bit for bit (noise draws included).
-    monkeypatch.setattr(simulation, "_resolution_step",
-                        lambda subject, zz: SEED.core.resolution_step(zz))
-    c = simulate(SEED.design, z, **kw)
-    _assert_same(a, c)
-    # Conventional on array plane 2, by channel.
+    b = simulate(splitlf.Design.preset("seed"), z, **kw)
+    assert type(a) is type(b) is simulation.Simulation
+    assert a.configs == ("channel 1", "channel 2", "union", "conventional 1")
+    # delta(z) is docs/model.md §9's mu_1 z/L_1 for every design, the camera too (at 150 mm
+    # one ulp from §6's d z/(Q v') of the paper's symbols: 0.135/15 != 0.009).
+    assert a.delta == SEED.resolution_step(z)
+    assert a.delta == pytest.approx(SEED.d * z / (SEED.Q * SEED.v1), rel=1e-15)
+    _assert_same(a, b)
+    # The split sensor's words are the rows.
+    for name, row in CAMERA_ROWS.items():
+        assert _bits_equal(getattr(a, name), a.reconstructions[row]), name
+    # Conventional on array plane 2, by half or by channel.
     a2 = simulate(SEED, z, conventional_half=2, **kw)
-    c2 = simulate(SEED.design, z, conventional_channel=2, **kw)
+    c2 = simulate(SEED, z, conventional_channel=2, **kw)
     assert c2.configs[-1] == "conventional 2" and c2.conventional_half == 2
     assert _bits_equal(a2.conventional, c2.reconstructions["conventional 2"])
+    _assert_same(a2, c2)
 
 
 # -- without the conventional reference ------------------------------------------------------
 
 @pytest.mark.parametrize("subject,z,noise", [
-    (SEED, 400.0, {"photons": 1e4, "read_noise": 3}), (SEED.design, 150.0, None),
+    (SEED, 400.0, {"photons": 1e4, "read_noise": 3}), (SEED, 150.0, None),
     (MIX, 300.0, {"photons": 5e3, "read_noise": 1})])
 def test_without_the_conventional_row_every_other_row_is_unchanged(subject, z, noise):
     kw = dict(noise=noise, seed=3, window=32, n_frequencies=5, oversample=2)
@@ -123,8 +115,8 @@ def test_without_the_conventional_row_every_other_row_is_unchanged(subject, z, n
     assert conv.startswith("conventional") and part.configs == full.configs[:-1]
     assert set(part.rmse) == set(part.mtf50) == set(part.pixels) == set(part.configs)
     assert conv not in part.reconstructions and conv not in part.contrast
-    if isinstance(subject, Camera):
-        assert part.conventional is None and full.conventional is not None
+    assert part.conventional is None and full.conventional is not None
+    assert part.conventional_half is None and full.conventional_half == 1
     same = _bits_equal
     assert same(part.x, full.x) and same(part.truth, full.truth)
     assert same(part.frequencies, full.frequencies) and part.delta == full.delta
@@ -197,8 +189,9 @@ def test_bad_sources_channels_and_hex_are_refused_by_name():
         assert e.value.name == "source"
     with pytest.raises(TypeError):
         forward(MIX, z, 1, 0.0, step, np.ones(n))
-    with pytest.raises(ValueError):  # a camera's sources stay the camera's
-        forward(SEED, 642.0, "channel1", 0.0, step, np.ones(n))
+    with pytest.raises(InvalidParameter) as e:  # a half only in a two-channel design
+        forward(SEED, 642.0, "half3", 0.0, step, np.ones(n))
+    assert e.value.name == "source"
     with pytest.raises(InvalidParameter) as e:
         simulate(MIX, z, conventional_channel=4)
     assert e.value.name == "conventional_channel"

@@ -55,9 +55,9 @@ def test_threads_reach_the_core(monkeypatch):
     np.testing.assert_array_equal(y, splitlf.curves(cam, z).blur_px[0])
     real, seen = rs.trace, []
 
-    def trace(camera, half, axis="x", n_threads=None):
+    def trace(camera, half=None, axis="x", n_threads=None, *, channel=None):
         seen.append(n_threads)
-        return real(camera, half, axis)
+        return real(camera, half, axis, channel=channel)
 
     monkeypatch.setattr(rs, "trace", trace)
     plot.ray_space(cam, ax=Figure().add_subplot(), n_threads=2)

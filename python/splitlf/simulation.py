@@ -1,16 +1,18 @@
 """Super-resolution simulation: what the split sensor buys (``docs/simulate.md``).
 
-A textured Lambertian plane at a known depth z is imaged by half 1 alone (the original
-light field camera), half 2 alone, both halves together (the split sensor) and the
-conventional camera of the same sensor; each image is inverted by regularised least
-squares on a grid of spacing delta(z) (full sensor resolution, docs/model.md §6), and the
-reconstructions are scored (RMSE, PSNR, MTF50).
+A textured Lambertian plane at a known depth z is imaged by each channel of a design alone
+(for the split sensor, the seed camera: half 1, the original light field camera, and
+half 2), by the union of its channels (the split sensor) and by the conventional camera of
+one channel's sensor; each image is inverted by regularised least squares on a grid of
+spacing delta(z) (full sensor resolution, docs/model.md §6, §9), and the reconstructions
+are scored (RMSE, PSNR, MTF50).
 
 The optics run in the Rust core: every pixel value is the exact integral of a
-piecewise-constant texture against the pixel's footprint kernel (``_native.render``), and
-the system matrix holds the exact integral of each kernel over each grid cell
-(``_native.system_matrix``). This module holds the orchestration: textures on the fine
-grid, noise (NumPy's seeded Generator), the sparse solve (SciPy) and the metrics.
+piecewise-constant texture against the pixel's footprint kernel
+(``_native.design_render``), and the system matrix holds the exact integral of each
+kernel over each grid cell (``_native.design_system_matrix``). This module holds the
+orchestration: textures on the fine grid, noise (NumPy's seeded Generator), the sparse
+solve (SciPy) and the metrics.
 
 The simulation is 1D, along x: one row of the texture, pixels of one sensor row.
 """
@@ -27,13 +29,11 @@ from typing import Any
 import numpy as np
 
 from . import _native, _validate
-from .camera import Camera
 from .design import Design
 from .errors import InvalidParameter
 
 __all__ = [
-    "CONFIGS",
-    "SOURCES",
+    "HALF_SOURCES",
     "design_sources",
     "forward",
     "system_matrix",
@@ -44,9 +44,6 @@ __all__ = [
     "Sinusoid",
     "simulate",
 ]
-
-#: The four cameras compared, in order.
-CONFIGS = ("half1", "half2", "split", "conventional")
 
 #: Prior standard deviation of the albedo difference between neighbouring delta(z) cells,
 #: used to set the regularisation weight with noise (docs/simulate.md): that of the
@@ -78,44 +75,32 @@ def _scipy():
     return sp, spla, sla
 
 
-#: Pixel sources of the core: the two light-field halves, the conventional camera with its
-#: sensor on array plane 1 or 2.
-SOURCES = ("half1", "half2", "conventional1", "conventional2")
-
-
-def _source(value: Any) -> str:
-    if not isinstance(value, str) or value not in SOURCES:
-        raise ValueError(f"invalid source = {value!r}: allowed {', '.join(SOURCES)}")
-    return value
+#: The split sensor's source names, accepted for a design of two channels (the seed
+#: camera's words, docs/model.md §1): half i is channel i's light field.
+HALF_SOURCES = {"half1": "channel1", "half2": "channel2"}
 
 
 def design_sources(design: Design) -> tuple[str, ...]:
     """The pixel sources of a :class:`~splitlf.Design` of C channels: ``"channel1"``, ...,
     ``"channelC"`` (each channel's light field), then ``"conventional1"``, ...,
     ``"conventionalC"`` (the conventional camera with a sensor of pitch mu_c on channel c's
-    array plane)."""
+    array plane). A design of two channels (the split sensor, e.g. ``Camera.paper()``) also
+    accepts ``"half1"`` and ``"half2"`` for ``"channel1"`` and ``"channel2"``
+    (:data:`HALF_SOURCES`)."""
     n = len(design.channels)
     return (tuple(f"channel{c}" for c in range(1, n + 1))
             + tuple(f"conventional{c}" for c in range(1, n + 1)))
 
 
-def _native_source(subject: Camera | Design, source: Any) -> tuple[Any, Any, str]:
-    """(native module functions' first argument, the function family, the source name):
-    ``kernel_support``/``system_matrix``/``render`` of a Camera, ``design_*`` of a Design
-    (the source name checked by the core, :class:`InvalidParameter` named ``source``)."""
-    if isinstance(subject, Design):
-        if not isinstance(source, str):
-            raise TypeError(f"source must be a string, got {type(source).__name__}")
-        return subject.core, _DESIGN_NATIVE, source
-    return subject.core, _CAMERA_NATIVE, _source(source)
-
-
-_CAMERA_NATIVE = types.SimpleNamespace(kernel_support=_native.kernel_support,
-                                       system_matrix=_native.system_matrix,
-                                       render=_native.render)
-_DESIGN_NATIVE = types.SimpleNamespace(kernel_support=_native.design_kernel_support,
-                                       system_matrix=_native.design_system_matrix,
-                                       render=_native.design_render)
+def _source(design: Design, source: Any) -> str:
+    """The core's name of ``source`` (checked by the core: :class:`InvalidParameter`
+    named ``source``); ``"half1"``/``"half2"`` mean channel 1/2 of a two-channel
+    design."""
+    if not isinstance(source, str):
+        raise TypeError(f"source must be a string, got {type(source).__name__}")
+    if len(design.channels) == 2:
+        return HALF_SOURCES.get(source, source)
+    return source
 
 
 def _field(origin: float, step: float, n: int, field: Any) -> tuple[float, float]:
@@ -125,7 +110,7 @@ def _field(origin: float, step: float, n: int, field: Any) -> tuple[float, float
     return lo, hi
 
 
-def forward(camera: Camera | Design, z: float, source: str, origin: float, step: float,
+def forward(design: Design, z: float, source: str, origin: float, step: float,
             texture: Any, field: tuple[float, float] | None = None,
             n_threads: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Noise-free pixel values (exact, computed in the core) of ``source`` on the plane at
@@ -133,17 +118,18 @@ def forward(camera: Camera | Design, z: float, source: str, origin: float, step:
     ``texture`` (n_cells,) or (n_textures, n_cells), finite and >= 0. Only pixels whose
     kernel lies inside ``field`` (default: the grid) are rendered. Returns (values
     (n_textures, n_pixels) or (n_pixels,), pixel indices along x). Units: a pixel of width
-    mu on plane v' seeing the whole aperture under a white texture reads 1; the
-    light-field halves include the beam splitter's 1/2.
+    mu_1 on plane L_1 seeing the whole aperture under a white texture reads 1, and each
+    channel's light field includes its ``share`` (the seed camera: the beam splitter's 1/2).
 
-    ``camera`` a :class:`~splitlf.Camera` or a :class:`~splitlf.Design` (rect channels; in
-    a design's units, a pixel of width mu_1 on plane L_1, and each channel's light field
-    includes its ``share``); ``z`` depth [mm] > F; ``source`` one of :data:`SOURCES`
-    (Camera) or of :func:`design_sources` (Design); ``origin``, ``step`` [mm] (step > 0);
+    ``design`` a :class:`~splitlf.Design` (a :class:`~splitlf.Camera` is one; the source's
+    channel on a rect grid); ``z`` depth [mm] > F; ``source`` one of
+    :func:`design_sources` (``"half1"``, ``"half2"`` too for two channels); ``origin``,
+    ``step`` [mm] (step > 0);
     ``field`` (lo, hi) [mm]; ``n_threads`` threads of the core (None: all). Raises
     ``TypeError`` (types) and ``ValueError`` (ranges, checked by the core; a hex channel
     named ``channels[i].grid``)."""
-    core, fn, src = _native_source(_validate.camera_or_design(camera), source)
+    subject = _validate.design(design)
+    src = _source(subject, source)
     t = np.asarray(texture)
     if t.dtype == object or not (np.issubdtype(t.dtype, np.floating)
                                  or np.issubdtype(t.dtype, np.integer)):
@@ -153,12 +139,12 @@ def forward(camera: Camera | Design, z: float, source: str, origin: float, step:
     t2 = np.ascontiguousarray(np.atleast_2d(t), dtype=np.float64)
     o, h = _validate.real(origin, "origin"), _validate.real(step, "step")
     lo, hi = _field(o, h, t2.shape[1], field)
-    r = fn.render(core, _validate.real(z, "z"), src, o, h, lo, hi, t2,
-                  _validate.n_threads(n_threads))
+    r = _native.design_render(subject.core, _validate.real(z, "z"), src, o, h, lo, hi, t2,
+                              _validate.n_threads(n_threads))
     return (r.values[0] if t.ndim == 1 else r.values), r.pixels
 
 
-def system_matrix(camera: Camera | Design, z: float, source: str, origin: float, step: float,
+def system_matrix(design: Design, z: float, source: str, origin: float, step: float,
                   n_cells: int, field: tuple[float, float] | None = None,
                   n_threads: int | None = None):
     """The sparse system matrix (``scipy.sparse.csr_matrix``, pixels x cells) of ``source``
@@ -169,12 +155,13 @@ def system_matrix(camera: Camera | Design, z: float, source: str, origin: float,
     ``n_cells`` an integer >= 1; the other arguments as in :func:`forward`. Raises
     ``TypeError``, ``ValueError`` and ``ImportError`` without SciPy."""
     sp = _scipy()[0]
-    core, fn, src = _native_source(_validate.camera_or_design(camera), source)
+    subject = _validate.design(design)
+    src = _source(subject, source)
     o, h = _validate.real(origin, "origin"), _validate.real(step, "step")
     n = _int(n_cells, "n_cells", 1)
     lo, hi = _field(o, h, n, field)
-    a = fn.system_matrix(
-        core, _validate.real(z, "z"), src, o, h, n, lo, hi, _validate.n_threads(n_threads))
+    a = _native.design_system_matrix(subject.core, _validate.real(z, "z"), src, o, h, n, lo,
+                                     hi, _validate.n_threads(n_threads))
     return sp.csr_matrix((a.data, a.indices, a.indptr), shape=a.shape), a.pixels
 
 
@@ -421,36 +408,33 @@ def _add_noise(y: np.ndarray, noise: dict[str, float] | None,
 
 @dataclasses.dataclass(frozen=True)
 class Simulation:
-    """One simulated plane at depth ``z`` [mm] (docs/simulate.md).
+    """One simulated plane at depth ``z`` [mm] of a design of C channels (docs/simulate.md).
 
-    - ``configs`` (also ``rows``): the names of the rows, in order: :data:`CONFIGS` for a
-      Camera; ``"channel 1"``, ..., ``"channel C"``, ``"union"``, ``"conventional c"`` for a
-      Design (the conventional row absent with ``simulate(..., conventional=False)``)
-    - ``delta``: grid spacing delta(z) = d z / (Q v') [mm] (a Design: mu_1 z / L_1);
-      ``x`` (W,) cell centres of the central window of W cells [mm]
+    - ``configs`` (also ``rows``): the names of the rows, in order: ``"channel 1"``, ...,
+      ``"channel C"``, ``"union"`` (every channel's pixels together: the split sensor),
+      ``"conventional c"`` (absent with ``simulate(..., conventional=False)``)
+    - ``delta``: grid spacing delta(z) = mu_1 z / L_1 [mm] (the seed camera: d z / (Q v'),
+      docs/model.md §6, §9); ``x`` (W,) cell centres of the central window of W cells [mm]
     - ``truth`` (W,): the texture's average over each cell; ``reconstructions``
       {config: (W,)} the reconstructions on the same cells (also :meth:`reconstruction`);
-      for a Camera also the attributes ``half1``, ``half2``, ``split``, ``conventional``
-      (None for a Design; ``conventional`` None without the conventional row)
+      the split sensor's names as properties: :attr:`half1` (channel 1), :attr:`half2`
+      (channel 2), :attr:`split` (the union), :attr:`conventional` (the conventional row,
+      None without it)
     - ``rmse``, ``psnr`` [dB, peak albedo 1], ``mtf50`` [cycles/mm on the object]: one
       value per configuration in ``configs`` (``mtf50`` empty with ``mtf=False``)
     - ``frequencies`` (F,) [cycles/mm] and ``contrast`` {config: (F,)}: the MTF search
-    - ``nyquist`` = 1 / (2 delta) and ``microlens_frequency`` = v' / (d z) = 1 / (Q delta),
-      one cycle per microlens pitch on the object [cycles/mm] (a Design: L_1 / (d_1 z),
-      channel 1's pitch)
+    - ``nyquist`` = 1 / (2 delta) and ``microlens_frequency`` = L_1 / (d_1 z), one cycle
+      per channel-1 microlens pitch on the object [cycles/mm] (the seed: v' / (d z))
     - ``regularization`` {config: weight lambda of the first-difference penalty}
     - ``pixels`` {config: pixels used}, ``noise``, ``seed``, ``conventional_half`` (the
-      half or, for a Design, the channel whose array plane holds the conventional sensor)
+      channel whose array plane holds the conventional sensor, also
+      :attr:`conventional_channel`; None without the conventional row)
     """
 
     z: float
     delta: float
     x: np.ndarray
     truth: np.ndarray
-    half1: np.ndarray | None
-    half2: np.ndarray | None
-    split: np.ndarray | None
-    conventional: np.ndarray | None
     rmse: Mapping[str, float]
     psnr: Mapping[str, float]
     mtf50: Mapping[str, float]
@@ -462,10 +446,9 @@ class Simulation:
     pixels: Mapping[str, int]
     noise: Mapping[str, float] | None
     seed: int | None
-    conventional_half: int
-    configs: tuple[str, ...] = CONFIGS
-    reconstructions: Mapping[str, np.ndarray] = dataclasses.field(
-        default_factory=lambda: types.MappingProxyType({}))
+    conventional_half: int | None
+    configs: tuple[str, ...]
+    reconstructions: Mapping[str, np.ndarray]
 
     @property
     def rows(self) -> tuple[str, ...]:
@@ -479,6 +462,38 @@ class Simulation:
         if config not in self.configs:
             raise InvalidParameter.of("config", config, ", ".join(self.configs))
         return self.reconstructions[config]
+
+    # The split sensor's words (docs/model.md §1): half i is channel i, the split sensor
+    # the union of the channels.
+    @property
+    def half1(self) -> np.ndarray:
+        """Channel 1's reconstruction (half 1 of the split sensor)."""
+        return self.reconstruction("channel 1")
+
+    @property
+    def half2(self) -> np.ndarray:
+        """Channel 2's reconstruction (half 2 of the split sensor);
+        :class:`~splitlf.errors.InvalidParameter` for a design of one channel."""
+        return self.reconstruction("channel 2")
+
+    @property
+    def split(self) -> np.ndarray:
+        """The union's reconstruction (the split sensor: both halves' pixels)."""
+        return self.reconstruction("union")
+
+    @property
+    def conventional(self) -> np.ndarray | None:
+        """The conventional camera's reconstruction, None without its row
+        (``simulate(..., conventional=False)``)."""
+        if self.conventional_half is None:
+            return None
+        return self.reconstruction(f"conventional {self.conventional_half}")
+
+    @property
+    def conventional_channel(self) -> int | None:
+        """The channel whose array plane holds the conventional sensor (the same as
+        ``conventional_half``), None without the conventional row."""
+        return self.conventional_half
 
     def summary(self) -> dict[str, Any]:
         """JSON-ready figures of merit: a dict of numbers, strings, dicts and None. A value
@@ -559,18 +574,17 @@ def _seed(value: Any) -> int | None:
     return int(value)
 
 
-def _conventional(subject: Camera | Design, half: Any, channel: Any) -> int:
-    """The half (Camera) or channel (Design) of the conventional camera's sensor: give
+def _conventional(subject: Design, half: Any, channel: Any) -> int:
+    """The channel (half, for the split sensor) of the conventional camera's sensor: give
     ``conventional_half`` or ``conventional_channel``, not both; default 1."""
     if half is not None and channel is not None:
         raise TypeError("give conventional_half or conventional_channel, not both")
     name = "conventional_half" if channel is None else "conventional_channel"
     value = 1 if half is None and channel is None else (half if channel is None else channel)
     ch = _int(value, name, 1)
-    n = len(subject.channels) if isinstance(subject, Design) else 2
+    n = len(subject.channels)
     if ch > n:
-        raise InvalidParameter.of(name, ch, "1 or 2" if n == 2 and not isinstance(
-            subject, Design) else f"an integer in [1, {n}]")
+        raise InvalidParameter.of(name, ch, "1 or 2" if n == 2 else f"an integer in [1, {n}]")
     return ch
 
 
@@ -608,9 +622,10 @@ class _Grid:
     w0: int
 
 
-def _grid(core: Any, fn: Any, z: float, sources: Mapping[str, str], lf: tuple[str, ...],
+def _grid(core: Any, z: float, sources: Mapping[str, str], lf: tuple[str, ...],
           conv: str, delta: float, win: int, threads: int | None) -> _Grid:
-    support = {k: fn.kernel_support(core, z, s, threads) for k, s in sources.items()}
+    support = {k: _native.design_kernel_support(core, z, s, threads)
+               for k, s in sources.items()}
     margin_lf = math.ceil(max(support[k] for k in lf) / delta) + 1
     margin = {k: margin_lf for k in lf}
     margin[conv] = math.ceil(support[conv] / delta) + 1
@@ -633,15 +648,15 @@ def _textures(tex: Any, grid: _Grid, oversample: int, freqs: np.ndarray, mtf: bo
     return np.ascontiguousarray(np.vstack(rows))
 
 
-def _image_systems(core: Any, fn: Any, z: float, sources: Mapping[str, str],
+def _image_systems(core: Any, z: float, sources: Mapping[str, str],
                    lf: tuple[str, ...], union: str, grid: _Grid, fine: np.ndarray,
                    oversample: int, noise: dict[str, float] | None,
                    rng: np.random.Generator, threads: int | None
                    ) -> tuple[dict[str, np.ndarray], dict[str, Any], dict[str, slice]]:
-    """Render each source (noise added in the fixed order of ``sources``: half1, half2,
-    conventional; channel 1, ..., channel C, conventional) and assemble its system matrix;
-    add the ``union`` of the light-field sources ``lf`` (their rows stacked: the split
-    sensor). Returns (images, matrices, the cells of the big grid each system covers)."""
+    """Render each source (noise added in the fixed order of ``sources``: channel 1, ...,
+    channel C, conventional) and assemble its system matrix; add the ``union`` of the
+    light-field sources ``lf`` (their rows stacked: the split sensor). Returns (images,
+    matrices, the cells of the big grid each system covers)."""
     sp = _scipy()[0]
     images: dict[str, np.ndarray] = {}
     mats: dict[str, Any] = {}
@@ -654,12 +669,12 @@ def _image_systems(core: Any, fn: Any, z: float, sources: Mapping[str, str],
         cells[key] = slice(first, first + n)
         origin = grid.origin + first * delta
         field = (origin + delta, origin + (n - 1) * delta)
-        y = fn.render(core, z, src, origin, delta / oversample, *field,
-                           np.ascontiguousarray(
-                               fine[:, first * oversample:(first + n) * oversample]),
-                           threads).values
+        y = _native.design_render(
+            core, z, src, origin, delta / oversample, *field,
+            np.ascontiguousarray(fine[:, first * oversample:(first + n) * oversample]),
+            threads).values
         images[key] = _add_noise(y, noise, rng)
-        a = fn.system_matrix(core, z, src, origin, delta, n, *field, threads)
+        a = _native.design_system_matrix(core, z, src, origin, delta, n, *field, threads)
         mats[key] = sp.csr_matrix((a.data, a.indices, a.indptr), shape=a.shape)
     images[union] = np.hstack([images[k] for k in lf])
     mats[union] = sp.vstack([mats[k] for k in lf]).tocsr()
@@ -730,14 +745,8 @@ def _check_rect(design: Design) -> None:
                                    name=f"channels[{i}].grid", value="hex", allowed=allowed)
 
 
-def _resolution_step(subject: Camera | Design, z: float) -> float:
-    """delta(z) of the camera (d z / (Q v'), docs/model.md §6) or the design (mu_1 z / L_1,
-    §9): the two differ in the last bits for ``camera.design`` (0.135 / 15 != 0.009)."""
-    return subject.core.resolution_step(z)
-
-
 def simulate(
-    camera: Camera | Design,
+    design: Design,
     z: float,
     texture: Texture = "random",
     noise: Mapping[str, float] | None = None,
@@ -754,21 +763,22 @@ def simulate(
     conventional: bool = True,
 ) -> Simulation:
     """Simulate the plane at depth ``z`` [mm] carrying ``texture`` and reconstruct it with
-    known depth from half 1, half 2, the split sensor and the conventional camera (a
-    Design: from each channel alone, the union of all channels, and the conventional
-    camera on one channel's array plane).
+    known depth from each channel alone, the union of all channels and the conventional
+    camera on one channel's array plane (the seed camera: half 1, half 2, the split sensor
+    and the conventional camera).
 
-    - ``camera``: the :class:`~splitlf.Camera`, or a :class:`~splitlf.Design` whose
-      channels all have rect grids (docs/simulate.md, "Designs"); ``z``: the plane's depth
-      [mm], > F
+    - ``design``: a :class:`~splitlf.Design` whose channels all have rect grids (a
+      :class:`~splitlf.Camera` is one; docs/simulate.md, "Designs"); ``z``: the plane's
+      depth [mm], > F
     - ``texture``: ``"random"`` (:class:`RandomAlbedo` on delta(z) cells), a
       :class:`Sinusoid`, :class:`BarChart`, :class:`RandomAlbedo`, :class:`Image`, or a
       callable albedo(X [mm]) (sampled at the centres of the fine cells)
     - ``noise``: None (noise-free) or ``{"photons": N, "read_noise": r}``: N is the mean
-      photo-electron count of a pixel that collects the full aperture x pixel etendue
-      (D mu in ray space) from a white (albedo 1) texture with no beam splitter; each half
-      gets half of that; N finite in (0, :data:`MAX_PHOTONS`]; r (>= 0, finite) is the
-      read noise in electrons rms
+      photo-electron count of a pixel of width mu_1 on plane L_1 that collects the full
+      aperture (D mu_1 in ray space) from a white (albedo 1) texture with no beam
+      splitter; each channel gets its ``share`` of that (a half of the seed camera: half);
+      N finite in (0, :data:`MAX_PHOTONS`]; r (>= 0, finite) is the read noise in
+      electrons rms
     - ``seed``: seed of NumPy's Generator (random texture, noise), an integer >= 0 or None
       (fresh entropy); same seed, same result
     - ``window``: cells of delta(z) in the central field that are scored (an integer >= 8,
@@ -779,47 +789,41 @@ def simulate(
       the Nyquist frequency 1/(2 delta), two phases each; ``n_frequencies`` >= 2)
     - ``regularization``: the weight lambda of the first-difference penalty (finite >= 0);
       None for the default rule (docs/simulate.md)
-    - ``conventional_half`` (or ``conventional_channel``; give one, default 1): the
-      conventional camera has its sensor on array plane 1 or 2 (a Design: on channel c's
-      array plane, pixel pitch mu_c, as many pixels as the channel's row)
+    - ``conventional_half`` or ``conventional_channel`` (give one, default 1): the
+      conventional camera has its sensor on channel c's array plane, pixel pitch mu_c, as
+      many pixels as the channel's row
     - ``n_threads``: threads of the core (None: all cores)
     - ``conventional``: also reconstruct the conventional camera (default True); False
       leaves its row out of the result (its render, system matrix and solve are skipped:
-      for a design far out of focus it is by far the largest solve) and changes nothing
-      else: the grid is still sized for it, so every other row is the same bit for bit
+      for a design far out of focus it is by far the largest solve; ``conventional_half``
+      is then None) and changes nothing else: the grid is still sized for it, so every
+      other row is the same bit for bit
 
     Returns a :class:`Simulation`. Raises ``TypeError`` for arguments of the wrong type,
     :class:`~splitlf.errors.InvalidParameter` (a ``ValueError``) for values out of range
     (all checked before any work, except a texture callable's output and the Poisson mean,
-    checked when computed; a Design's hex channel i is named ``channels[i].grid``),
-    ``ImportError`` without SciPy.
+    checked when computed; a hex channel i is named ``channels[i].grid``), ``ImportError``
+    without SciPy.
     """
     _scipy()
-    subject = _validate.camera_or_design(camera)
+    subject = _validate.design(design)
     if not isinstance(conventional, bool):
         raise TypeError(f"conventional must be a bool, got {conventional!r}")
     conv_number = _conventional(subject, conventional_half, conventional_channel)
     o = _options(z, texture, noise, seed, window, oversample, mtf, n_frequencies,
                  regularization, conv_number, n_threads)
     core = subject.core
-    if isinstance(subject, Design):
-        fn = _DESIGN_NATIVE
-        n_ch = len(subject.channels)
-        lf = tuple(f"channel {c}" for c in range(1, n_ch + 1))
-        union, conv = "union", f"conventional {o.conventional_half}"
-        sources = {k: f"channel{c}" for c, k in enumerate(lf, 1)}
-        _check_rect(subject)
-    else:
-        fn = _CAMERA_NATIVE
-        lf, union, conv = ("half1", "half2"), "split", "conventional"
-        sources = {"half1": "half1", "half2": "half2"}
+    lf = tuple(f"channel {c}" for c in range(1, len(subject.channels) + 1))
+    union, conv = "union", f"conventional {o.conventional_half}"
+    sources = {k: f"channel{c}" for c, k in enumerate(lf, 1)}
     sources[conv] = f"conventional{o.conventional_half}"
+    _check_rect(subject)
     configs = (*lf, union, conv) if conventional else (*lf, union)
-    delta = _resolution_step(subject, o.z)  # validates z
+    delta = subject.resolution_step(o.z)  # mu_1 z / L_1 (docs/model.md §9); validates z
     rng = np.random.default_rng(o.seed)
     # The grid is sized for the conventional camera too, with or without its row, so that
     # the textures, noise draws and windows of the other rows do not depend on it.
-    grid = _grid(core, fn, o.z, sources, lf, conv, delta, o.window, o.n_threads)
+    grid = _grid(core, o.z, sources, lf, conv, delta, o.window, o.n_threads)
     if not conventional:
         del sources[conv]  # rendered last: the noise draws of the others are unchanged
     win = o.window
@@ -828,7 +832,7 @@ def simulate(
     coarse = fine.reshape(fine.shape[0], grid.n_big, o.oversample).mean(axis=2)
     truth = coarse[0, grid.w0:grid.w0 + win]
     x = grid.origin + (np.arange(grid.w0, grid.w0 + win) + 0.5) * delta
-    images, mats, cells = _image_systems(core, fn, o.z, sources, lf, union, grid, fine,
+    images, mats, cells = _image_systems(core, o.z, sources, lf, union, grid, fine,
                                          o.oversample, o.noise, rng, o.n_threads)
 
     recs: dict[str, np.ndarray] = {}
@@ -846,22 +850,15 @@ def simulate(
     psnr = {k: (float("inf") if v == 0 else float(-20 * np.log10(v))) for k, v in rmse.items()}
     mtf50 = {k: _mtf50(freqs, contrast[k]) for k in configs} if o.mtf else {}
     ro = types.MappingProxyType
-    if isinstance(subject, Design):
-        ch1 = subject.channels[0]
-        microlens = ch1.L / (ch1.d * o.z)  # one cycle per channel-1 lens pitch
-        named: dict[str, np.ndarray | None] = dict.fromkeys(CONFIGS)
-    else:
-        microlens = 1.0 / (subject.Q * delta)
-        named = {k: recs.get(k) for k in CONFIGS}
+    ch1 = subject.channels[0]
     return Simulation(
         z=o.z, delta=delta, x=x, truth=truth,
-        half1=named["half1"], half2=named["half2"], split=named["split"],
-        conventional=named["conventional"],
         rmse=ro(rmse), psnr=ro(psnr), mtf50=ro(mtf50),
         frequencies=freqs if o.mtf else np.empty(0), contrast=ro(contrast),
-        nyquist=0.5 / delta, microlens_frequency=microlens,
+        nyquist=0.5 / delta,
+        microlens_frequency=ch1.L / (ch1.d * o.z),  # one cycle per channel-1 lens pitch
         regularization=ro(lams), pixels=ro({k: int(mats[k].shape[0]) for k in configs}),
         noise=None if o.noise is None else ro(o.noise), seed=o.seed,
-        conventional_half=o.conventional_half, configs=configs,
+        conventional_half=o.conventional_half if conventional else None, configs=configs,
         reconstructions=ro({k: recs[k] for k in configs}),
     )

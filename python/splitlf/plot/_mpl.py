@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from typing import Any
 
-HALF_COLORS = {1: "tab:blue", 2: "tab:orange"}
 #: Most depths a curve figure draws (far beyond what a figure can show).
 MAX_POINTS = 1_000_000
 SPLIT_COLOR = "black"
@@ -45,31 +44,53 @@ ROW_COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "t
               "tab:pink", "tab:olive", "tab:cyan", "tab:gray")
 
 
-def channels(camera: Any) -> range:
-    """The channel numbers of a Design (1..C), or a Camera's halves (1, 2)."""
-    n = len(camera.channels) if hasattr(camera, "channels") else 2
-    return range(1, n + 1)
+def channels(design: Any) -> range:
+    """The channel numbers of a design, 1..C."""
+    return range(1, len(design.channels) + 1)
 
 
-def mark_channels_out_of_focus(ax: Any, design: Any, colors: dict[int, str]) -> None:
-    """Dotted vertical lines at every channel's out-of-focus plane [mm], labelled."""
+def is_split(design: Any) -> bool:
+    """Whether the figures speak the split sensor's words (docs/model.md §1): a design of
+    two channels, whose channel i is half i and whose union is the split sensor."""
+    return len(design.channels) == 2
+
+
+def channel_name(design: Any, c: int) -> str:
+    """Channel c's name in a figure: ``"half c"`` for a two-channel design (the split
+    sensor, e.g. the seed), else ``"channel c"``."""
+    return f"half {c}" if is_split(design) else f"channel {c}"
+
+
+def row_name(design: Any, row: str) -> str:
+    """A result row's name (``"channel c"``, ``"channel c type t"``, ``"union"``) in a
+    figure's words: :func:`channel_name`, and ``"split sensor"`` for the union of a
+    two-channel design."""
+    if row == "union":
+        return "split sensor" if is_split(design) else "union"
+    words = row.split()
+    if len(words) >= 2 and words[0] == "channel":
+        return " ".join([channel_name(design, int(words[1])), *words[2:]])
+    return row
+
+
+def channel_colors(design: Any) -> dict[int, str]:
+    """Each channel's colour (channels 1 and 2: the halves' blue and orange)."""
+    return {c: ROW_COLORS[(c - 1) % len(ROW_COLORS)] for c in channels(design)}
+
+
+def mark_channels_out_of_focus(ax: Any, design: Any, colors: dict[int, str],
+                               label: bool = True) -> None:
+    """Dotted vertical lines at every channel's out-of-focus plane [mm] on ``ax``
+    (labelled when ``label``)."""
     for c in channels(design):
         z = design.out_of_focus_depth(c)
         ax.axvline(z, color=colors[c], lw=0.8, ls=":",
-                   label=f"out-of-focus plane {c} ({z:.0f} mm)")
-
-
-def mark_out_of_focus(ax: Any, camera: Any, label: bool = True) -> None:
-    """Dotted vertical lines at both out-of-focus planes [mm] on ``ax`` (labelled when
-    ``label``)."""
-    for h in (1, 2):
-        z = camera.out_of_focus_depth(h)
-        ax.axvline(z, color=HALF_COLORS[h], lw=0.8, ls=":",
-                   label=f"out-of-focus plane {h} ({z:.0f} mm)" if label else None)
+                   label=f"out-of-focus plane {c} ({z:.0f} mm)" if label else None)
 
 
 def depth_grid(camera: Any, z_range: tuple[float, float], n: int) -> Any:
-    """Log-spaced depths over z_range plus both out-of-focus planes (so peaks are drawn)."""
+    """Log-spaced depths over z_range plus every channel's out-of-focus plane (so peaks
+    are drawn)."""
     import numpy as np
 
     lo, hi = (float(z_range[0]), float(z_range[1]))

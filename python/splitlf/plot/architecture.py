@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import _validate
 from ..errors import InvalidParameter
 from ._mpl import axes
 
@@ -20,14 +21,8 @@ BOUNDARY = (0.25, 0.25, 0.25)
 
 
 def _design(design: Any) -> Any:
-    from ..camera import Camera
-    from ..design import Design
-
-    if isinstance(design, Camera):
-        return design.design
-    if not isinstance(design, Design):
-        raise TypeError(f"design must be a splitlf.Design or Camera, got {type(design).__name__}")
-    return design
+    """The design (a :class:`~splitlf.Camera` is one), else ``TypeError``."""
+    return _validate.design(design)
 
 
 def _positive_int(name: str, value: Any, hi: int) -> int:
@@ -52,7 +47,7 @@ def microlens_images(design: Any, channel: int | None = None, lenses: int = 6, a
     type of the lens it belongs to (docs/model.md §9, lens types), unlit pixels grey,
     and a dark line between neighbouring pixels of different lenses (the image cells).
 
-    - ``design``: a :class:`~splitlf.Design` (or a :class:`~splitlf.Camera`, as its design)
+    - ``design``: a :class:`~splitlf.Design` (the :class:`~splitlf.Camera` is one)
     - ``channel``: the channel, from 1; None (default): every channel, side by side
     - ``lenses``: how many image pitches of the channel the crop spans per axis (1 to 200)
     - ``ax``: a matplotlib Axes (a sequence of one Axes per channel when ``channel`` is
@@ -157,7 +152,7 @@ def sample_map(design: Any, z: float | None = None, ax: Any = None, *, tol: floa
     distinct count and covering radius of each channel and of the union over the whole
     central field in the legend.
 
-    - ``design``: a :class:`~splitlf.Design` (or a :class:`~splitlf.Camera`)
+    - ``design``: a :class:`~splitlf.Design` (the :class:`~splitlf.Camera` is one)
     - ``z``: depth [mm], finite and > F; None (default): with several channels, channel
       1's out-of-focus plane (where channel 1 alone resolves least and the others must
       make up for it); with one channel, twice that depth (where its lenses' samples have

@@ -9,34 +9,31 @@ from typing import Any
 import numpy as np
 
 from .. import _validate
-from ..camera import Camera
 from ..design import Design
 from ..simulation import _check_rect, simulate
-from ._mpl import HALF_COLORS, ROW_COLORS, SPLIT_COLOR, axes_pair
+from ._mpl import SPLIT_COLOR, axes_pair, channel_colors, is_split
 
 __all__ = ["resolution"]
 
-STYLE = {
-    "half1": dict(color=HALF_COLORS[1], lw=1.4, label="half 1 alone (original LF camera)"),
-    "half2": dict(color=HALF_COLORS[2], lw=1.4, label="half 2 alone"),
-    "split": dict(color=SPLIT_COLOR, lw=2.2, label="split sensor (both halves)"),
-    "conventional": dict(color="tab:green", lw=1.4, ls="--",
-                         label="conventional (no microlenses, sensor on plane 1)"),
-}
 
-
-def _styles(configs: tuple[str, ...]) -> dict[str, dict[str, Any]]:
-    """Line styles of a Design's simulation rows (``Simulation.configs``): one colour per
-    channel, the union thick and black, the conventional camera dashed green."""
+def _styles(design: Design, configs: tuple[str, ...]) -> dict[str, dict[str, Any]]:
+    """Line styles of the simulation's rows (``Simulation.configs``): one colour per
+    channel, the union thick and black, the conventional camera dashed green; a
+    two-channel design in the split sensor's words (half 1 alone, the original light
+    field camera; half 2 alone; the split sensor)."""
+    colors = channel_colors(design)
+    split = is_split(design)
     out: dict[str, dict[str, Any]] = {}
     for key in configs:
         kind, _, number = key.partition(" ")
         if kind == "channel":
             c = int(number)
-            out[key] = dict(color=ROW_COLORS[(c - 1) % len(ROW_COLORS)], lw=1.4,
-                            label=f"channel {c} alone")
+            label = (f"half {c} alone" + (" (original LF camera)" if c == 1 else "")
+                     if split else f"channel {c} alone")
+            out[key] = dict(color=colors[c], lw=1.4, label=label)
         elif kind == "union":
-            out[key] = dict(color=SPLIT_COLOR, lw=2.2, label="union (all channels)")
+            out[key] = dict(color=SPLIT_COLOR, lw=2.2, label="split sensor (both halves)"
+                            if split else "union (all channels)")
         else:
             out[key] = dict(color="tab:green", lw=1.4, ls="--",
                             label=f"conventional (no microlenses, sensor on plane {number})")
@@ -44,7 +41,7 @@ def _styles(configs: tuple[str, ...]) -> dict[str, dict[str, Any]]:
 
 
 def resolution(
-    camera: Camera | Design,
+    camera: Design,
     z_range: tuple[float, float] = (150.0, 10_000.0),
     ax: Any = None,
     *,
@@ -56,38 +53,34 @@ def resolution(
     n_threads: int | None = None,
 ):
     """MTF50 (top, cycles/mm on the object, log-log) and RMSE of a random albedo (bottom)
-    against depth for half 1 alone, half 2 alone, the split sensor and the conventional
-    camera, with the delta(z) Nyquist frequency and the microlens frequency v'/(d z) for
-    reference and both out-of-focus planes marked. ``n`` log-spaced depths over
-    ``z_range`` plus the two out-of-focus planes; ``noise``, ``seed``, ``window``,
-    ``n_frequencies`` are passed to :func:`splitlf.simulate`.
+    against depth for each channel alone (the seed: half 1, half 2), their union (the
+    split sensor) and the conventional camera on channel 1's array plane, with the delta(z)
+    Nyquist frequency and the microlens frequency of channel 1's pitch, L_1 / (d_1 z)
+    (the seed: v'/(d z)), for reference, and every channel's out-of-focus plane marked.
+    ``n`` log-spaced depths over ``z_range`` plus the out-of-focus planes; ``noise``,
+    ``seed``, ``window``, ``n_frequencies`` are passed to :func:`splitlf.simulate`.
 
-    - ``camera``: the :class:`~splitlf.Camera`, or a :class:`~splitlf.Design` whose
-      channels all have rect grids: one curve per row of its simulation
-      (``Simulation.configs``: each channel alone, their union, the conventional camera on
-      channel 1's array plane), every channel's out-of-focus plane marked and added to the
-      depths, the microlens frequency of channel 1's pitch, L_1 / (d_1 z)
+    - ``camera``: a :class:`~splitlf.Design` whose channels all have rect grids (the
+      :class:`~splitlf.Camera` is one): one curve per row of its simulation
+      (``Simulation.configs``)
     - ``z_range``: (near, far) [mm], F < near < far < inf
     - ``ax``: None (a new figure with two stacked axes) or a pair of Axes
     - ``n``: log-spaced depths (an integer >= 2); ``n_threads``: threads of the core
 
     Returns the pair of Axes. Raises ``TypeError`` and ``ValueError`` for bad arguments
-    (those of :func:`splitlf.simulate` too; a Design's hex channel i is named
+    (those of :func:`splitlf.simulate` too; a hex channel i is named
     ``channels[i].grid``, before anything is drawn), ``ImportError`` without matplotlib or
     SciPy.
     """
-    cam = _validate.camera_or_design(camera)
-    design = isinstance(cam, Design)
-    if design:
-        _check_rect(cam)
+    cam = _validate.design(camera, "camera")
+    _check_rect(cam)
     lo, hi = (_validate.real(v, "z_range") for v in z_range)
     if not (cam.F < lo < hi < np.inf):
         raise ValueError(f"invalid z_range = ({lo}, {hi}): allowed F = {cam.F} < near < far")
     if isinstance(n, bool) or not isinstance(n, int) or n < 2:
         raise ValueError(f"invalid n = {n!r}: allowed an integer >= 2")
-    numbers = range(1, len(cam.channels) + 1) if design else (1, 2)
-    colors = ({c: ROW_COLORS[(c - 1) % len(ROW_COLORS)] for c in numbers} if design
-              else HALF_COLORS)
+    colors = channel_colors(cam)
+    numbers = tuple(colors)
     axes = axes_pair(ax, (9.0, 7.5), "MTF50, RMSE")
     a_mtf, a_rmse = axes
     extra = [cam.out_of_focus_depth(h) for h in numbers]
@@ -95,13 +88,13 @@ def resolution(
     runs = [simulate(cam, zk, noise=noise, seed=seed, window=window,
                      n_frequencies=n_frequencies, oversample=4, n_threads=n_threads)
             for zk in z]
-    styles = _styles(runs[0].configs) if design else STYLE
+    styles = _styles(cam, runs[0].configs)
     for key, style in styles.items():
         a_mtf.plot(z, [r.mtf50[key] for r in runs], marker="o", ms=3, **style)
         a_rmse.plot(z, [r.rmse[key] for r in runs], marker="o", ms=3, **style)
     a_mtf.plot(z, [r.nyquist for r in runs], color="0.45", lw=0.9, ls=":",
                label="full sensor resolution: Nyquist of delta(z)")
-    pitch = "channel 1's microlens pitch" if design else "microlens pitch"
+    pitch = "microlens pitch" if is_split(cam) else "channel 1's microlens pitch"
     a_mtf.plot(z, [r.microlens_frequency for r in runs], color="0.45", lw=0.9, ls="-.",
                label=f"microlens resolution: one cycle per {pitch}")
     for h in numbers:
@@ -117,7 +110,7 @@ def resolution(
     a_mtf.set_ylabel("MTF50 [cycles/mm on the object]")
     kind = "noise-free" if noise is None else (
         f"{noise['photons']:g} photons, read noise {noise.get('read_noise', 0):g} e-")
-    what = "each channel and their union" if design else "what the split sensor buys"
+    what = "what the split sensor buys" if is_split(cam) else "each channel and their union"
     a_mtf.set_title(f"Reconstruction with known depth ({kind}): {what}")
     a_mtf.legend(fontsize=8, loc="upper right")
     a_rmse.set_ylabel("RMSE, random albedo on delta(z) cells")
