@@ -5,8 +5,9 @@ equal to serial, bad input refused with a named error.
 Designs are small (K_x, K_y <= 40, Q <= 16) so that about 1,800 cases (1,560 valid
 designs, 400 invalid fields) run in well under a minute. Ranges are log-uniform over
 plausible optics: any f-number from f/0.7 to f/32, the array from 1.001 F to 4 F, f-number
-mismatch (vignetting or an under-filled microlens image) up to a factor 5 either way, Ng's
-setting or explicit microlens focal lengths.
+mismatch (vignetting) up to a factor 5 (a v above the matched one makes neighbouring
+microlens images overlap, which a design refuses), Ng's setting or explicit microlens
+focal lengths.
 """
 
 from __future__ import annotations
@@ -43,9 +44,9 @@ def design_fields(draw) -> dict:
     d = draw(log_floats(0.005, 1.0))
     v1 = F * (1.0 + draw(log_floats(1e-3, 3.0)))
     D = F / draw(log_floats(0.7, 32.0))
-    # v around f-number matching on half 1 (D v / v1 = d; often exact, as in the seed):
-    # vignetted below, under-filled above.
-    v = d * v1 / D * draw(st.one_of(st.just(1.0), log_floats(0.2, 5.0)))
+    # v up to f-number matching on half 1 (D v / v1 = d; often exact, as in the seed),
+    # vignetted below; above it the microlens images overlap (refused).
+    v = d * v1 / D * draw(st.one_of(st.just(1.0), log_floats(0.2, 1.0)))
     focal = st.one_of(st.none(), log_floats(0.2, 5.0).map(lambda k: v * k))
     return {
         "F": F, "D": D, "v1": v1,

@@ -224,7 +224,7 @@ def test_dof_json_ready():
 
 @settings(max_examples=40, deadline=None)
 @given(
-    D=st.floats(2.0, 60.0),
+    D=st.floats(2.0, 20.0),  # above ~20.1 the seed's microlens images overlap
     kappa=st.floats(0.0, 1.5),
     f1=st.one_of(st.none(), st.floats(0.3, 1.2)),
     f2=st.one_of(st.none(), st.floats(0.3, 1.2)),

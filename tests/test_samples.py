@@ -221,13 +221,15 @@ def test_2d_count_equals_brute_force(name):
 @st.composite
 def small_cameras(draw):
     Q = draw(st.integers(1, 8))
+    v1, v = draw(st.floats(52.0, 80.0)), draw(st.floats(0.2, 1.0))
     return Camera(
         F=50.0,
-        D=draw(st.floats(5.0, 30.0)),
-        v1=draw(st.floats(52.0, 80.0)),
+        # At most d (v1 + v) / v: a larger D makes the microlens images overlap.
+        D=min(draw(st.floats(5.0, 30.0)), 0.999 * 0.1 * (v1 + v) / v),
+        v1=v1,
         kappa=draw(st.floats(0.0, 0.9)),
         d=0.1,
-        v=draw(st.floats(0.2, 1.0)),
+        v=v,
         mu=0.1 / Q * draw(st.floats(0.5, 1.0)),
         Q=Q,
         Kx=draw(st.integers(1, 12)),

@@ -1,7 +1,9 @@
 //! splitlf-core: the optics and ray-space engine of split-sensor light field cameras.
 //!
-//! Pure Rust (no Python): [`camera`] holds the validated design (docs/model.md §1, §3, §7),
-//! [`design`] the general architectures (channels, lattices, lens types, layouts; §9),
+//! Pure Rust (no Python): [`lens`] the thin-lens relations and validation rules every model
+//! shares, [`design`] the validated architectures (channels, lattices, lens types, layouts;
+//! §9), [`camera`] the paper's split-sensor parametrisation, which builds a two-channel
+//! design (§1, §3, §7),
 //! [`presets`] named designs (the seed, its variants, a Raytrix R12, a Lytro Illum),
 //! [`optics`] the closed forms over depth (Eqs. 1–7) and the depth of field,
 //! [`rayspace`] every pixel's integration polygon in (u, w) and its footprints (§3–5),
@@ -15,6 +17,7 @@
 pub mod camera;
 pub mod design;
 pub mod error;
+pub mod lens;
 pub mod line;
 pub mod memory;
 pub mod merit;

@@ -312,7 +312,7 @@ mod tests {
     #[test]
     fn camera_design_lines_equal_camera_lines() {
         let cam = Camera::paper();
-        let d = Design::from_camera(&cam);
+        let d = cam.design();
         for h in Half::BOTH {
             for axis in [Axis::X, Axis::Y] {
                 let a = Line::of_half(&cam, h, axis);

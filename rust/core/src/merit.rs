@@ -176,7 +176,7 @@ pub fn design_metrics_2d(channels: usize) -> Vec<String> {
     names_2d(&rows)
 }
 
-/// Names of the 2-D merits of a [`Camera`] (its two-channel design, [`Design::from_camera`]),
+/// Names of the 2-D merits of a [`Camera`] (its two-channel design, [`Camera::design`]),
 /// in the order of [`figures_of_merit_2d`]: as [`design_metrics_2d`] with the rows `half1`,
 /// `half2`, `union`.
 pub fn camera_metrics_2d() -> Vec<String> {
@@ -223,7 +223,7 @@ pub fn design_figures_of_merit_2d(
     Ok(out)
 }
 
-/// The 2-D merits of `cam` (of its design [`Design::from_camera`], halves as channels 1
+/// The 2-D merits of `cam` (of its design [`Camera::design`], halves as channels 1
 /// and 2), named by [`camera_metrics_2d`].
 pub fn figures_of_merit_2d(
     cam: &Camera,
@@ -232,7 +232,7 @@ pub fn figures_of_merit_2d(
     window: f64,
     n_threads: Option<usize>,
 ) -> Result<Vec<f64>> {
-    design_figures_of_merit_2d(&Design::from_camera(cam), z, tol, window, n_threads)
+    design_figures_of_merit_2d(&cam.design(), z, tol, window, n_threads)
 }
 
 #[cfg(test)]
@@ -263,7 +263,7 @@ mod tests {
     #[test]
     fn camera_design_merits_agree() {
         let cam = Camera::paper();
-        let design = Design::from_camera(&cam);
+        let design = cam.design();
         let z: Vec<f64> = (0..40)
             .map(|i| 150.0 * (10_000.0f64 / 150.0).powf(i as f64 / 39.0))
             .collect();
@@ -319,7 +319,7 @@ mod tests {
             ]
         );
         let a = figures_of_merit_2d(&cam, &z, 1e-6, 4.0, None).unwrap();
-        let b = design_figures_of_merit_2d(&Design::from_camera(&cam), &z, 1e-6, 4.0, Some(1));
+        let b = design_figures_of_merit_2d(&cam.design(), &z, 1e-6, 4.0, Some(1));
         assert_eq!(a, b.unwrap());
         for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
             let e = design_figures_of_merit_2d(&design, &z, 1e-6, bad, None).unwrap_err();

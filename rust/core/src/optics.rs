@@ -8,6 +8,7 @@ use rayon::prelude::*;
 use crate::camera::{Camera, Half};
 use crate::design::{Channel, Design};
 use crate::error::{Error, Result};
+use crate::lens::{conjugate, depth_of_conjugate};
 use crate::memory;
 use crate::parallel::for_chunks;
 
@@ -40,31 +41,6 @@ pub fn check_design_depths(f_main: f64, z: &[f64]) -> Result<()> {
         }
     }
     Ok(())
-}
-
-/// Eq. 1: z' = F z / (z − F), the conjugate of depth z (z > F).
-///
-/// For depths so large that F z overflows (z > f64::MAX / F) the algebraically equal
-/// F / (1 − F/z) is used: it cannot overflow for z > F, while everywhere else the product
-/// form is kept so that results equal a plain transcription of Eq. 1 bit for bit.
-#[inline]
-pub fn conjugate(f_main: f64, z: f64) -> f64 {
-    let num = f_main * z;
-    if num.is_finite() {
-        num / (z - f_main)
-    } else {
-        f_main / (1.0 - f_main / z)
-    }
-}
-
-/// Inverse of Eq. 1: the depth whose conjugate is z' (z' > F; z' = ∞ gives F).
-#[inline]
-pub fn depth_of_conjugate(f_main: f64, zc: f64) -> f64 {
-    if zc.is_infinite() {
-        f_main
-    } else {
-        f_main * zc / (zc - f_main)
-    }
 }
 
 /// One light field array as the closed forms of docs/model.md §2 see it: the main lens
@@ -629,7 +605,7 @@ fn fill_min(out: &mut [f64], rows: &[&[f64]]) {
 /// [`design_curves`] written straight into caller-provided buffers (e.g. NumPy arrays).
 /// Each row is computed by the same [`LensOptics`] formulas as the camera's
 /// [`curves_into`], in the same order of operations, so a camera's two-channel design
-/// ([`Design::from_camera`]) gives the camera's curves bit for bit. Depths are validated
+/// ([`Camera::design`]) gives the camera's curves bit for bit. Depths are validated
 /// and lengths checked before any write.
 pub fn design_curves_into(
     design: &Design,
@@ -870,7 +846,7 @@ mod tests {
             )
             .unwrap(),
         ] {
-            let design = Design::from_camera(&cam);
+            let design = cam.design();
             let z: Vec<f64> = (0..30_000)
                 .map(|i| cam.f_main * (1.0 + 1e-6 * 1.0009f64.powi(i)))
                 .collect();

@@ -15,9 +15,10 @@ use rayon::prelude::*;
 use crate::camera::{Axis, Camera, Half};
 use crate::design::{Aperture, Design};
 use crate::error::{Error, Result};
+use crate::lens::conjugate;
 use crate::line::Line;
 use crate::memory::{self, try_vec, try_with_capacity};
-use crate::optics::{check_depths, check_design_depths, conjugate};
+use crate::optics::{check_depths, check_design_depths};
 use crate::parallel::{check_threads, chunk_items, for_chunks, with_threads};
 
 /// Most vertices of an integration polygon (a parallelogram clipped by one strip).
@@ -1272,7 +1273,7 @@ mod tests {
             ));
         }
         let huge = Camera::new(
-            80.0, 20.0, 90.0, 0.3, 0.1, 1.0, 0.01, 65_535, 10_000_000, 10_000_000, None, None,
+            80.0, 20.0, 90.0, 0.3, 0.1, 0.3, 0.01, 65_535, 10_000_000, 10_000_000, None, None,
         )
         .unwrap();
         assert!(matches!(

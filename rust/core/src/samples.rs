@@ -20,9 +20,10 @@ use rayon::prelude::*;
 use crate::camera::{Axis, Camera, Half};
 use crate::design::Design;
 use crate::error::{Error, Result};
+use crate::lens::{conjugate, depth_of_conjugate};
 use crate::line::{check_coincidence_channel, Line};
 use crate::memory::{self, try_reserve, try_vec};
-use crate::optics::{check_depths, check_design_depths, conjugate, depth_of_conjugate, LensOptics};
+use crate::optics::{check_depths, check_design_depths, LensOptics};
 use crate::parallel::{chunk_items, for_chunks, threads, with_threads};
 use crate::rayspace::{slope, trace, trace_line, Sample, TRACE_BYTES_PER_PIXEL};
 
@@ -1474,7 +1475,7 @@ mod tests {
         for cam in [
             Camera::paper(),
             small(0.8, 20.0, 10, 37, 5),
-            small(0.2, 30.0, 4, 3, 2),
+            small(0.2, 20.0, 4, 3, 2),
         ] {
             let layout = Layout::new(&cam);
             let mut s = Scratch::default();
@@ -1650,7 +1651,7 @@ mod tests {
         // The design path on Camera::design: the same distinct counts, lit pixels and
         // coincidence planes bit for bit; gaps in μ_1 z/L_1 instead of d z/(Q v').
         for cam in [Camera::paper(), small(0.8, 14.0, 10, 23, 7)] {
-            let d = Design::from_camera(&cam);
+            let d = cam.design();
             let z: Vec<f64> = (0..120)
                 .map(|i| 120.0 * (20_000.0f64 / 120.0).powf(i as f64 / 119.0))
                 .collect();

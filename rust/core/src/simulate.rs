@@ -22,9 +22,10 @@ use rayon::prelude::*;
 use crate::camera::{Axis, Camera, Half};
 use crate::design::Design;
 use crate::error::{Error, Result};
+use crate::lens::conjugate;
 use crate::line::Line;
 use crate::memory::{self, try_vec, try_with_capacity};
-use crate::optics::{check_design_depths, conjugate, LensOptics};
+use crate::optics::{check_design_depths, LensOptics};
 use crate::parallel::{check_threads, chunk_items, for_chunks, with_threads};
 use crate::rayspace::{trace_line, weight_profile, MAX_VERTICES, TRACE_BYTES_PER_PIXEL};
 
@@ -781,10 +782,10 @@ mod tests {
 
     #[test]
     fn camera_design_sources_are_the_camera_sources() {
-        // Pixels::of_design of `Design::from_camera` is Pixels::of_camera (share ½ =
+        // Pixels::of_design of `Camera::design` is Pixels::of_camera (share ½ =
         // BEAM_SPLITTER, μ_1 = μ), so every result is the camera's bit for bit.
         let cam = Camera::paper();
-        let d = Design::from_camera(&cam);
+        let d = cam.design();
         assert_eq!(Line::of_half(&cam, Half::One, Axis::X).share, BEAM_SPLITTER);
         for (src, dsrc) in [
             (Source::Half(Half::One), DesignSource::Channel(1)),

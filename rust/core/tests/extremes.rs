@@ -2,7 +2,8 @@
 //! and consistent, or the input is refused with a named error.
 
 use splitlf_core::camera::Camera;
-use splitlf_core::optics::{self, conjugate, curves};
+use splitlf_core::lens::conjugate;
+use splitlf_core::optics::{self, curves};
 use splitlf_core::rayspace::{self, Sample, LIT_AREA_RTOL};
 use splitlf_core::samples::new_samples;
 use splitlf_core::{Axis, Error, Half};
@@ -113,8 +114,10 @@ fn derived_lengths_are_validated_like_given_ones() {
 fn depth_of_field_never_returns_empty_intervals() {
     let cams = [
         seed_with(|x| x[2] = 1e300).unwrap(),
+        // D = 0.1: with D = 20 the microlens images of this F overlap (refused).
         seed_with(|x| {
             x[0] = 1e-300;
+            x[1] = 0.1;
             x[2] = 1.0;
         })
         .unwrap(),

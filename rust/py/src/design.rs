@@ -5,12 +5,16 @@ use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use splitlf_core::{camera, design, optics, presets, Camera, Design};
+use splitlf_core::line::Line;
+use splitlf_core::optics::LensOptics;
+use splitlf_core::{design, lens, optics, presets, Axis, Camera, Design};
 
 use crate::args::{half_arg, int_arg, saturate, with_given};
 use crate::errors::to_py;
 
-/// A validated camera held by the core (wrapped by `splitlf.Camera`).
+/// A validated camera held by the core (wrapped by `splitlf.Camera`): the paper's
+/// parametrisation and the two-channel design it builds (channel i is half i), validated
+/// as that design is.
 #[pyclass(
     frozen,
     skip_from_py_object,
@@ -19,6 +23,22 @@ use crate::errors::to_py;
 )]
 pub(crate) struct CameraCore {
     pub(crate) inner: Camera,
+    design: Design,
+}
+
+impl CameraCore {
+    fn of(inner: Camera) -> Self {
+        CameraCore {
+            design: inner.design(),
+            inner,
+        }
+    }
+
+    /// The design's channel of half `half_` (1 or 2).
+    fn half(&self, half_: &Bound<'_, PyAny>) -> PyResult<LensOptics> {
+        let ch = &self.design.channels[half_arg(half_)?.index()];
+        Ok(LensOptics::of_channel(&self.design, ch, 0))
+    }
 }
 
 #[pymethods]
@@ -42,15 +62,13 @@ impl CameraCore {
     ) -> PyResult<Self> {
         let inner =
             Camera::new(f_main, aperture, v1, kappa, d, v, mu, q, kx, ky, f1, f2).map_err(to_py)?;
-        Ok(CameraCore { inner })
+        Ok(CameraCore::of(inner))
     }
 
     /// The seed design of docs/model.md §7.
     #[staticmethod]
     fn paper() -> Self {
-        CameraCore {
-            inner: Camera::paper(),
-        }
+        CameraCore::of(Camera::paper())
     }
 
     /// (F, D, v1, kappa, d, v, mu, Q, Kx, Ky, f1, f2), with f1/f2 resolved.
@@ -61,28 +79,30 @@ impl CameraCore {
         )
     }
 
+    /// L_i, channel i's array plane.
     fn array_plane(&self, half_: &Bound<'_, PyAny>) -> PyResult<f64> {
-        Ok(self.inner.array_plane(half_arg(half_)?))
+        Ok(self.half(half_)?.l)
     }
 
     fn out_of_focus_depth(&self, half_: &Bound<'_, PyAny>) -> PyResult<f64> {
-        Ok(self.inner.out_of_focus_depth(half_arg(half_)?))
+        Ok(self.half(half_)?.out_of_focus_depth())
     }
 
     fn image_radius(&self, half_: &Bound<'_, PyAny>) -> PyResult<f64> {
-        Ok(self.inner.image_radius(half_arg(half_)?))
+        Ok(self.half(half_)?.image_radius())
     }
 
+    /// Lit pixels per lens along x of channel i (its first lens's Q pixels).
     fn lit_pixels(&self, half_: &Bound<'_, PyAny>) -> PyResult<u32> {
-        Ok(self.inner.lit_pixels(half_arg(half_)?))
+        let number = half_arg(half_)?.index() as i64 + 1;
+        let line = Line::of_channel(&self.design, number, Axis::X).map_err(to_py)?;
+        let q = line.q().unwrap_or_default();
+        Ok((0..q).filter(|&i| line.pixel(i).lit).count() as u32)
     }
 
     fn ng_focal_length(&self, half_: &Bound<'_, PyAny>) -> PyResult<f64> {
-        let h = half_arg(half_)?;
-        Ok(camera::ng_focal_length(
-            self.inner.array_plane(h),
-            self.inner.v,
-        ))
+        let o = self.half(half_)?;
+        Ok(lens::ng_focal_length(o.l, o.v))
     }
 
     fn rho(&self) -> f64 {
@@ -95,7 +115,7 @@ impl CameraCore {
 
     /// δ(z) = d z / (Q v') (docs/model.md §6); z must be a valid depth.
     fn resolution_step(&self, z: f64) -> PyResult<f64> {
-        optics::check_depths(&self.inner, &[z]).map_err(to_py)?;
+        optics::check_design_depths(self.design.f_main, &[z]).map_err(to_py)?;
         Ok(self.inner.resolution_step(z))
     }
 }
@@ -182,7 +202,7 @@ impl DesignCore {
     #[staticmethod]
     fn from_camera(camera: &CameraCore) -> Self {
         DesignCore {
-            inner: Design::from_camera(&camera.inner),
+            inner: camera.design.clone(),
         }
     }
 

@@ -19,7 +19,7 @@ mod simulate;
 
 use pyo3::prelude::*;
 
-use splitlf_core::{camera, design as core_design, optics as core_optics, parallel};
+use splitlf_core::{design as core_design, lens, optics as core_optics, parallel};
 use splitlf_core::{samples as core_samples, samples2d, simulate as core_simulate};
 
 /// Limits and defaults: the single source for the Python layer and the CLI.
@@ -27,8 +27,8 @@ fn constants(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("MAX_THREADS", parallel::MAX_THREADS)?;
     m.add("MAX_POOLS", parallel::MAX_POOLS)?;
-    m.add("MAX_Q", camera::MAX_Q)?;
-    m.add("MAX_K", camera::MAX_K)?;
+    m.add("MAX_Q", lens::MAX_Q)?;
+    m.add("MAX_K", lens::MAX_K)?;
     m.add("DEFAULT_TOL", core_samples::DEFAULT_TOL)?;
     m.add("DEFAULT_THRESHOLD_PX", core_optics::DEFAULT_THRESHOLD_PX)?;
     m.add("DEFAULT_MAX_N", core_samples::DEFAULT_MAX_N)?;
