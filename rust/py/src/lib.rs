@@ -52,24 +52,14 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<design::CameraCore>()?;
     m.add_class::<design::DesignCore>()?;
     // Closed forms.
-    m.add_class::<optics::CurvesArrays>()?;
-    m.add_class::<optics::DepthOfFieldIntervals>()?;
     m.add_class::<optics::DesignCurvesArrays>()?;
     m.add_class::<optics::DesignDepthOfFieldIntervals>()?;
-    m.add_function(wrap_pyfunction!(optics::curves, m)?)?;
-    m.add_function(wrap_pyfunction!(optics::depth_of_field, m)?)?;
-    m.add_function(wrap_pyfunction!(optics::sharp_fractions, m)?)?;
     m.add_function(wrap_pyfunction!(optics::design_curves, m)?)?;
     m.add_function(wrap_pyfunction!(optics::design_depth_of_field, m)?)?;
     m.add_function(wrap_pyfunction!(optics::design_sharp_fractions, m)?)?;
     // Samples along one axis and figures of merit.
-    m.add_class::<samples::NewSamplesArrays>()?;
     m.add_class::<samples::DesignSamplesArrays>()?;
     m.add_class::<samples::PlaneColumns>()?;
-    m.add_function(wrap_pyfunction!(samples::new_samples, m)?)?;
-    m.add_function(wrap_pyfunction!(samples::coincidence_planes, m)?)?;
-    m.add_function(wrap_pyfunction!(samples::figures_of_merit, m)?)?;
-    m.add_function(wrap_pyfunction!(samples::camera_metrics_2d, m)?)?;
     m.add_function(wrap_pyfunction!(samples::design_new_samples, m)?)?;
     m.add_function(wrap_pyfunction!(samples::design_coincidence_planes, m)?)?;
     m.add_function(wrap_pyfunction!(samples::design_figures_of_merit, m)?)?;
@@ -78,9 +68,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<rayspace::TraceArrays>()?;
     m.add_class::<rayspace::FootprintArrays>()?;
     m.add_class::<rayspace::SampleGridArrays>()?;
-    m.add_function(wrap_pyfunction!(rayspace::trace, m)?)?;
-    m.add_function(wrap_pyfunction!(rayspace::footprints, m)?)?;
-    m.add_function(wrap_pyfunction!(rayspace::sample_grid, m)?)?;
     m.add_function(wrap_pyfunction!(rayspace::design_trace, m)?)?;
     m.add_function(wrap_pyfunction!(rayspace::design_footprints, m)?)?;
     m.add_function(wrap_pyfunction!(rayspace::design_sample_grid, m)?)?;
@@ -94,9 +81,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     // The simulation's forward model.
     m.add_class::<simulate::SystemMatrixArrays>()?;
     m.add_class::<simulate::RenderArrays>()?;
-    m.add_function(wrap_pyfunction!(simulate::kernel_support, m)?)?;
-    m.add_function(wrap_pyfunction!(simulate::system_matrix, m)?)?;
-    m.add_function(wrap_pyfunction!(simulate::render, m)?)?;
     m.add_function(wrap_pyfunction!(simulate::design_kernel_support, m)?)?;
     m.add_function(wrap_pyfunction!(simulate::design_system_matrix, m)?)?;
     m.add_function(wrap_pyfunction!(simulate::design_render, m)?)?;

@@ -7,108 +7,11 @@ use splitlf_core::{memory, optics};
 
 use crate::args::{as_slice, threads_arg};
 use crate::arrays::empty;
-use crate::design::{CameraCore, DesignCore};
+use crate::design::DesignCore;
 use crate::errors::{internal, to_py};
 use crate::interrupt::run;
 
-/// Closed-form curves (Eqs. 1–7) at n depths; two-row arrays (2, n), row 0 half 1.
-#[pyclass(frozen, get_all, module = "splitlf._native")]
-pub(crate) struct CurvesArrays {
-    conjugate: Py<PyArray1<f64>>,
-    main_blur: Py<PyArray2<f64>>,
-    repetitions: Py<PyArray2<f64>>,
-    microlens_blur: Py<PyArray2<f64>>,
-    blur_px: Py<PyArray2<f64>>,
-    conventional_px: Py<PyArray2<f64>>,
-}
-
-/// Closed-form curves (Eqs. 1–7) at every depth.
-#[pyfunction]
-#[pyo3(signature = (camera, z, n_threads=None))]
-pub(crate) fn curves(
-    py: Python<'_>,
-    camera: &CameraCore,
-    z: PyReadonlyArray1<'_, f64>,
-    n_threads: Option<&Bound<'_, PyAny>>,
-) -> PyResult<CurvesArrays> {
-    let cam = camera.inner;
-    let threads = threads_arg(n_threads)?;
-    let zs = as_slice(&z)?;
-    // Validate and check the memory, then let NumPy allocate the outputs (fallibly) and
-    // have the core write each element exactly once, in place, without the GIL.
-    optics::check_depths(&cam, &zs).map_err(to_py)?;
-    let n = zs.len();
-    memory::check("curves", optics::curves_bytes(n)).map_err(to_py)?;
-    let conjugate = empty::<f64, _>(py, &[n], "curves")?;
-    let two = || empty::<f64, _>(py, &[2, n], "curves");
-    let arrays = [two()?, two()?, two()?, two()?, two()?];
-    {
-        let mut zw = conjugate.readwrite();
-        let mut w = arrays.each_ref().map(|a| a.readwrite());
-        let [h, r, b, p, c] = w.each_mut().map(|a| a.as_slice_mut());
-        let out = optics::CurvesOut {
-            conjugate: zw.as_slice_mut().map_err(internal)?,
-            main_blur: h.map_err(internal)?,
-            repetitions: r.map_err(internal)?,
-            microlens_blur: b.map_err(internal)?,
-            blur_px: p.map_err(internal)?,
-            conventional_px: c.map_err(internal)?,
-        };
-        run(py, || optics::curves_into(&cam, &zs, out, threads))?;
-    }
-    let [h, r, b, p, c] = arrays.map(Bound::unbind);
-    Ok(CurvesArrays {
-        conjugate: conjugate.unbind(),
-        main_blur: h,
-        repetitions: r,
-        microlens_blur: b,
-        blur_px: p,
-        conventional_px: c,
-    })
-}
-
 pub(crate) type Intervals = Vec<(f64, f64)>;
-
-/// Sharp depth intervals (near, far) in mm of every configuration.
-#[pyclass(frozen, get_all, module = "splitlf._native")]
-pub(crate) struct DepthOfFieldIntervals {
-    half1: Intervals,
-    half2: Intervals,
-    split: Intervals,
-    conventional1: Intervals,
-    conventional2: Intervals,
-}
-
-/// Sharp depth intervals of each half, the split sensor and the conventional cameras.
-#[pyfunction]
-#[pyo3(signature = (camera, threshold_px=optics::DEFAULT_THRESHOLD_PX))]
-pub(crate) fn depth_of_field(
-    camera: &CameraCore,
-    threshold_px: f64,
-) -> PyResult<DepthOfFieldIntervals> {
-    let dof = optics::depth_of_field(&camera.inner, threshold_px).map_err(to_py)?;
-    let [half1, half2] = dof.half;
-    let [conventional1, conventional2] = dof.conventional;
-    Ok(DepthOfFieldIntervals {
-        half1,
-        half2,
-        split: dof.split,
-        conventional1,
-        conventional2,
-    })
-}
-
-/// Sharp fraction in log depth over [lo, hi]: (half1, half2, split, conventional1, conventional2).
-#[pyfunction]
-#[pyo3(signature = (camera, threshold_px, lo, hi))]
-pub(crate) fn sharp_fractions(
-    camera: &CameraCore,
-    threshold_px: f64,
-    lo: f64,
-    hi: f64,
-) -> PyResult<[f64; 5]> {
-    optics::sharp_fractions(&camera.inner, threshold_px, lo, hi).map_err(to_py)
-}
 
 /// Sharp fractions in log depth over [lo, hi] of every row of a design's depth of field:
 /// (per (channel, type) row, per channel, union, per channel's conventional camera).

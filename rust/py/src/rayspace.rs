@@ -8,9 +8,9 @@ use splitlf_core::line::Line;
 use splitlf_core::rayspace::{self, MAX_VERTICES};
 use splitlf_core::{memory, Axis, Result};
 
-use crate::args::{as_slice, channel_arg, half_arg, sample_arg, threads_arg};
+use crate::args::{as_slice, channel_arg, sample_arg, threads_arg};
 use crate::arrays::{empty, filled};
-use crate::design::{CameraCore, DesignCore};
+use crate::design::DesignCore;
 use crate::errors::{internal, to_py};
 use crate::interrupt::run;
 
@@ -65,21 +65,6 @@ fn trace_arrays(
     })
 }
 
-/// Integration polygons of every pixel of one half along one axis (docs/model.md §3–4).
-#[pyfunction]
-#[pyo3(signature = (camera, half, axis="x", n_threads=None))]
-pub(crate) fn trace(
-    py: Python<'_>,
-    camera: &CameraCore,
-    half: &Bound<'_, PyAny>,
-    axis: &str,
-    n_threads: Option<&Bound<'_, PyAny>>,
-) -> PyResult<TraceArrays> {
-    let cam = camera.inner;
-    let h = half_arg(half)?;
-    trace_arrays(py, axis, n_threads, |ax| Ok(Line::of_half(&cam, h, ax)))
-}
-
 /// Integration polygons of every pixel of one channel of a design along one axis (rect
 /// grids; docs/model.md §3–4, §9).
 #[pyfunction]
@@ -104,27 +89,6 @@ pub(crate) struct FootprintArrays {
     hi: Py<PyArray2<f64>>,
     kernel_breaks: Option<Py<PyArray3<f64>>>,
     kernel_values: Option<Py<PyArray3<f64>>>,
-}
-
-/// Footprints of every pixel of one half along one axis at every depth (docs/model.md §5).
-#[pyfunction]
-#[pyo3(signature = (camera, z, half, axis="x", sample="centroid", kernel=false, n_threads=None))]
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn footprints(
-    py: Python<'_>,
-    camera: &CameraCore,
-    z: PyReadonlyArray1<'_, f64>,
-    half: &Bound<'_, PyAny>,
-    axis: &str,
-    sample: &str,
-    kernel: bool,
-    n_threads: Option<&Bound<'_, PyAny>>,
-) -> PyResult<FootprintArrays> {
-    let cam = camera.inner;
-    let h = half_arg(half)?;
-    footprint_arrays(py, &z, (axis, sample, kernel), n_threads, |ax| {
-        Ok(Line::of_half(&cam, h, ax))
-    })
 }
 
 /// Footprints of every pixel of one channel of a design along one axis at every depth
@@ -220,28 +184,6 @@ pub(crate) struct SampleGridArrays {
     x: Py<PyArray2<f64>>,
     #[pyo3(name = "Y")]
     y: Py<PyArray2<f64>>,
-}
-
-/// Sample positions of every pixel of one half on the plane at depth z; NaN where a pixel
-/// yields no sample.
-#[pyfunction]
-#[pyo3(signature = (camera, z, half, sample="chief", n_threads=None))]
-pub(crate) fn sample_grid(
-    py: Python<'_>,
-    camera: &CameraCore,
-    z: f64,
-    half: &Bound<'_, PyAny>,
-    sample: &str,
-    n_threads: Option<&Bound<'_, PyAny>>,
-) -> PyResult<SampleGridArrays> {
-    let cam = camera.inner;
-    let h = half_arg(half)?;
-    let s = sample_arg(sample)?;
-    let threads = threads_arg(n_threads)?;
-    let (rows, cols) = rayspace::check_sample_grid(&cam, z, threads).map_err(to_py)?;
-    grid_arrays(py, (rows, cols), |xs, ys| {
-        rayspace::sample_grid_into(&cam, z, h, s, xs, ys, threads)
-    })
 }
 
 /// Sample positions of every pixel of one channel of a design (rect grid) on the plane at

@@ -1,70 +1,16 @@
 //! Samples along one axis (docs/model.md §6, §9): genuinely new samples, coincidence
 //! planes, and the figures of merit sweeps compare.
 
-use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1};
+use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1};
 use pyo3::prelude::*;
 
 use splitlf_core::{merit, optics, samples, Error, Result};
 
-use crate::args::{
-    as_slice, channel_arg, half_arg, int_arg, sample_arg, saturate, threads_arg, with_given,
-};
+use crate::args::{as_slice, channel_arg, int_arg, sample_arg, saturate, threads_arg, with_given};
 use crate::arrays::{as_u64, empty, filled};
-use crate::design::{CameraCore, DesignCore};
+use crate::design::DesignCore;
 use crate::errors::{internal, to_py};
 use crate::interrupt::{run, run_as};
-
-/// Genuinely new samples at m depths, rows (half 1, half 2, union).
-#[pyclass(frozen, get_all, module = "splitlf._native")]
-pub(crate) struct NewSamplesArrays {
-    distinct: Py<PyArray2<i64>>,
-    distinct_2d: Py<PyArray2<i64>>,
-    max_gap: Py<PyArray2<f64>>,
-    /// Pixels along x that yield a sample (half 1, half 2, their sum).
-    sampled: Py<PyArray1<i64>>,
-}
-
-/// Genuinely new samples at every depth (docs/model.md §6).
-#[pyfunction]
-#[pyo3(signature = (camera, z, tol=samples::DEFAULT_TOL, sample="chief", n_threads=None))]
-pub(crate) fn new_samples(
-    py: Python<'_>,
-    camera: &CameraCore,
-    z: PyReadonlyArray1<'_, f64>,
-    tol: f64,
-    sample: &str,
-    n_threads: Option<&Bound<'_, PyAny>>,
-) -> PyResult<NewSamplesArrays> {
-    let cam = camera.inner;
-    let mode = sample_arg(sample)?;
-    let threads = threads_arg(n_threads)?;
-    let zs = as_slice(&z)?;
-    samples::check_new_samples(&cam, &zs, tol, mode, threads).map_err(to_py)?;
-    let m = zs.len();
-    let what = "new_samples";
-    let distinct = empty::<i64, _>(py, &[3, m], what)?;
-    let distinct_2d = empty::<i64, _>(py, &[3, m], what)?;
-    let max_gap = empty::<f64, _>(py, &[3, m], what)?;
-    let lit = {
-        let mut d = distinct.readwrite();
-        let mut d2 = distinct_2d.readwrite();
-        let mut g = max_gap.readwrite();
-        let out = samples::NewSamplesOut {
-            distinct: as_u64(d.as_slice_mut().map_err(internal)?),
-            distinct_2d: as_u64(d2.as_slice_mut().map_err(internal)?),
-            max_gap: g.as_slice_mut().map_err(internal)?,
-        };
-        run(py, || {
-            samples::new_samples_into(&cam, &zs, tol, mode, out, threads)
-        })?
-    };
-    Ok(NewSamplesArrays {
-        distinct: distinct.unbind(),
-        distinct_2d: distinct_2d.unbind(),
-        max_gap: max_gap.unbind(),
-        sampled: lit.map(|x| x as i64).to_vec().into_pyarray(py).unbind(),
-    })
-}
 
 /// Coincidence planes of one half sorted by depth, one column per field.
 #[pyclass(frozen, get_all, module = "splitlf._native")]
@@ -81,24 +27,6 @@ pub(crate) struct PlaneColumns {
     new_samples_y: Py<PyArray1<i64>>,
     new_samples: Py<PyArray1<i64>>,
     counted: Py<PyArray1<i64>>,
-}
-
-/// Coincidence planes of one half (docs/model.md §6), with Eqs. 8–9 and the brute-force count.
-#[pyfunction]
-#[pyo3(signature = (camera, half_, max_n=None, max_t=None, n_threads=None))]
-pub(crate) fn coincidence_planes(
-    py: Python<'_>,
-    camera: &CameraCore,
-    half_: &Bound<'_, PyAny>,
-    max_n: Option<&Bound<'_, PyAny>>,
-    max_t: Option<&Bound<'_, PyAny>>,
-    n_threads: Option<&Bound<'_, PyAny>>,
-) -> PyResult<PlaneColumns> {
-    let cam = camera.inner;
-    let h = half_arg(half_)?;
-    planes(py, max_n, max_t, n_threads, |mn, mt, threads| {
-        samples::coincidence_planes(&cam, h, mn, mt, threads)
-    })
 }
 
 /// The arguments shared by both coincidence-plane calls (max_n, max_t of any size, the
@@ -244,30 +172,6 @@ pub(crate) fn design_new_samples(
     })
 }
 
-/// Figures of merit of one design over depths (see `splitlf.sweep.METRICS`), followed by
-/// its 2-D merits (`camera_metrics_2d`) when `window` is given.
-#[pyfunction]
-#[pyo3(signature = (camera, z, threshold_px=optics::DEFAULT_THRESHOLD_PX, tol=samples::DEFAULT_TOL, n_threads=None, window=None))]
-pub(crate) fn figures_of_merit(
-    py: Python<'_>,
-    camera: &CameraCore,
-    z: PyReadonlyArray1<'_, f64>,
-    threshold_px: f64,
-    tol: f64,
-    n_threads: Option<&Bound<'_, PyAny>>,
-    window: Option<f64>,
-) -> PyResult<Vec<f64>> {
-    let cam = camera.inner;
-    merits(
-        py,
-        &z,
-        n_threads,
-        (tol, window),
-        |zs, threads| Ok(merit::figures_of_merit(&cam, zs, threshold_px, tol, threads)?.to_vec()),
-        |zs, w, threads| merit::figures_of_merit_2d(&cam, zs, tol, w, threads),
-    )
-}
-
 /// The merits calls' shared part: the depths and thread count, the 2-D arguments checked
 /// before any work, the 1-D merits and, when `window` is given, the 2-D ones after them.
 fn merits(
@@ -290,12 +194,6 @@ fn merits(
         }
         Ok(out)
     })
-}
-
-/// Names of the 2-D merits of a camera, in the order `figures_of_merit` appends them.
-#[pyfunction]
-pub(crate) fn camera_metrics_2d() -> Vec<String> {
-    merit::camera_metrics_2d()
 }
 
 /// Names of a design's figures of merit, in the order of `design_figures_of_merit`; with

@@ -4,30 +4,14 @@
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray2};
 use pyo3::prelude::*;
 
-use splitlf_core::simulate::{self, DesignSource, Grid, Pixels, Source};
+use splitlf_core::simulate::{self, DesignSource, Grid, Pixels};
 use splitlf_core::Design;
 
 use crate::args::{as_flat, threads_arg};
 use crate::arrays::filled;
-use crate::design::{CameraCore, DesignCore};
+use crate::design::DesignCore;
 use crate::errors::{internal, to_py};
 use crate::interrupt::run;
-
-/// Widest pixel kernel (hi − lo, mm in object-space X) of a source at depth z.
-#[pyfunction]
-#[pyo3(signature = (camera, z, source, n_threads=None))]
-pub(crate) fn kernel_support(
-    py: Python<'_>,
-    camera: &CameraCore,
-    z: f64,
-    source: &str,
-    n_threads: Option<&Bound<'_, PyAny>>,
-) -> PyResult<f64> {
-    let cam = camera.inner;
-    let src = Source::from_name(source).map_err(to_py)?;
-    let threads = threads_arg(n_threads)?;
-    run(py, || simulate::kernel_support(&cam, z, src, threads))
-}
 
 /// A design's source from its name ("channel<c>", "conventional<c>").
 pub(crate) fn design_source(design: &Design, source: &str) -> PyResult<Pixels> {
@@ -59,34 +43,6 @@ pub(crate) struct SystemMatrixArrays {
     data: Py<PyArray1<f64>>,
     pixels: Py<PyArray1<i64>>,
     shape: (usize, usize),
-}
-
-/// System matrix of a source at depth z on the grid (origin, step, n_cells), rows the
-/// pixels whose kernels lie in [field_lo, field_hi].
-#[pyfunction]
-#[pyo3(signature = (camera, z, source, origin, step, n_cells, field_lo, field_hi, n_threads=None))]
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn system_matrix(
-    py: Python<'_>,
-    camera: &CameraCore,
-    z: f64,
-    source: &str,
-    origin: f64,
-    step: f64,
-    n_cells: usize,
-    field_lo: f64,
-    field_hi: f64,
-    n_threads: Option<&Bound<'_, PyAny>>,
-) -> PyResult<SystemMatrixArrays> {
-    let px = Pixels::of_camera(&camera.inner, Source::from_name(source).map_err(to_py)?);
-    system_arrays(
-        py,
-        &px,
-        z,
-        (origin, step, n_cells),
-        (field_lo, field_hi),
-        n_threads,
-    )
 }
 
 /// System matrix of a design's source ("channel<c>", "conventional<c>") at depth z on the
@@ -146,35 +102,6 @@ pub(crate) fn system_arrays(
 pub(crate) struct RenderArrays {
     values: Py<PyArray2<f64>>,
     pixels: Py<PyArray1<i64>>,
-}
-
-/// Noise-free pixel values of a source at depth z for textures (n_tex, n_cells) constant on
-/// each cell of the grid.
-#[pyfunction]
-#[pyo3(signature = (camera, z, source, origin, step, field_lo, field_hi, textures, n_threads=None))]
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn render(
-    py: Python<'_>,
-    camera: &CameraCore,
-    z: f64,
-    source: &str,
-    origin: f64,
-    step: f64,
-    field_lo: f64,
-    field_hi: f64,
-    textures: PyReadonlyArray2<'_, f64>,
-    n_threads: Option<&Bound<'_, PyAny>>,
-) -> PyResult<RenderArrays> {
-    let px = Pixels::of_camera(&camera.inner, Source::from_name(source).map_err(to_py)?);
-    render_arrays(
-        py,
-        &px,
-        z,
-        (origin, step),
-        (field_lo, field_hi),
-        textures,
-        n_threads,
-    )
 }
 
 /// Noise-free pixel values of a design's source ("channel<c>", "conventional<c>") at depth
