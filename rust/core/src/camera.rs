@@ -36,13 +36,6 @@ impl Half {
     }
 }
 
-/// One lateral axis of the sensor (the microlens grid is separable).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Axis {
-    X,
-    Y,
-}
-
 /// A validated camera. Construct with [`Camera::new`]; fields are the docs/model.md symbols.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Camera {
@@ -256,76 +249,6 @@ impl Camera {
         self.f_main / self.aperture
     }
 
-    /// Out-of-focus plane of half i: the depth whose conjugate lies on array i,
-    /// z_i = F L_i / (L_i − F) (Eq. 1 inverted).
-    pub fn out_of_focus_depth(&self, half: Half) -> f64 {
-        let l = self.array_plane(half);
-        self.f_main * l / (l - self.f_main)
-    }
-
-    /// R_i = D v / (2 L_i): radius of one microlens image on the sensor (bound of the LF blur).
-    pub fn image_radius(&self, half: Half) -> f64 {
-        self.aperture * self.v / (2.0 * self.array_plane(half))
-    }
-
-    /// K along an axis.
-    pub fn lenses(&self, axis: Axis) -> u32 {
-        match axis {
-            Axis::X => self.kx,
-            Axis::Y => self.ky,
-        }
-    }
-
-    /// c_j = (j − (K−1)/2) d, centre of microlens j of K (docs/model.md §3).
-    pub fn lens_center(&self, j: u32, k: u32) -> f64 {
-        (j as f64 - (k as f64 - 1.0) / 2.0) * self.d
-    }
-
-    /// θ_q = μ (q − (Q−1)/2), angular offset of pixel q from its microlens image centre.
-    pub fn pixel_offset(&self, q: u32) -> f64 {
-        self.mu * (q as f64 - (self.q as f64 - 1.0) / 2.0)
-    }
-
-    /// Sensor position of pixel q under microlens centre c: s = c (1 + v/L_i) + θ_q.
-    pub fn pixel_center(&self, half: Half, c: f64, q: u32) -> f64 {
-        c * (1.0 + self.v / self.array_plane(half)) + self.pixel_offset(q)
-    }
-
-    /// w_q = −(L_i / v) θ_q: main-lens height of the chief ray of pixel q (independent of f).
-    pub fn chief_w(&self, half: Half, q: u32) -> f64 {
-        -(self.array_plane(half) / self.v) * self.pixel_offset(q)
-    }
-
-    /// A pixel is lit when its chief ray passes the main-lens aperture, |w_q| < D/2 (docs/model.md §6).
-    pub fn is_lit(&self, half: Half, q: u32) -> bool {
-        self.chief_w(half, q).abs() < self.aperture / 2.0
-    }
-
-    /// Q_lit: lit pixels per microlens along one axis for half i.
-    pub fn lit_pixels(&self, half: Half) -> u32 {
-        (0..self.q).filter(|&q| self.is_lit(half, q)).count() as u32
-    }
-
-    /// Chief sample of pixel q under microlens centre c on the plane with conjugate z'
-    /// (docs/model.md §5): p' = (v'/L_i) [c + w_q (L_i − z')/z'], its projection through the
-    /// main-lens centre onto plane v'.
-    pub fn chief_projection(&self, half: Half, c: f64, q: u32, zc: f64) -> f64 {
-        let l = self.array_plane(half);
-        (self.v1 / l) * (c + self.chief_w(half, q) * (l - zc) / zc)
-    }
-
-    /// Object-space lateral position on the plane at depth z of a point projecting to p'
-    /// on plane v': X = −p' z / v' (docs/model.md §5).
-    pub fn object_position(&self, p: f64, z: f64) -> f64 {
-        let x = -p * z;
-        if x.is_finite() {
-            x / self.v1
-        } else {
-            // p' z overflows only for astronomically far planes; the quotient does not.
-            -p * (z / self.v1)
-        }
-    }
-
     /// δ(z) = d z / (Q v'): object-space size of one sensor-resolution step (docs/model.md §6).
     pub fn resolution_step(&self, z: f64) -> f64 {
         let dz = self.d * z;
@@ -340,12 +263,24 @@ impl Camera {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::lens::depth_of_conjugate;
+    use crate::line::{Axis, Line};
+
+    /// Lit pixels of channel `number` along x under one lens.
+    fn lit_pixels(d: &Design, number: i64) -> usize {
+        let line = Line::of_channel(d, number, Axis::X).unwrap();
+        (0..line.q().unwrap())
+            .filter(|&i| line.pixel(i).lit)
+            .count()
+    }
 
     #[test]
     fn paper_out_of_focus_planes() {
         let cam = Camera::paper();
-        assert!((cam.out_of_focus_depth(Half::One) - 642.0).abs() < 1e-9);
-        assert!((cam.out_of_focus_depth(Half::Two) - 217.0).abs() < 1e-9);
+        let d = cam.design();
+        for (ch, z) in d.channels.iter().zip([642.0, 217.0]) {
+            assert!((depth_of_conjugate(cam.f_main, ch.l) - z).abs() < 1e-9);
+        }
         assert!((cam.kappa - 0.3866).abs() < 1e-4);
         assert!((cam.rho() - 35.3).abs() < 0.05);
     }
@@ -353,9 +288,9 @@ mod tests {
     #[test]
     fn paper_lit_pixels() {
         // Half 1 is f-number matched: all 15 lit. Half 2: |q − 7| < 7.5 / (1 + κ) = 5.41.
-        let cam = Camera::paper();
-        assert_eq!(cam.lit_pixels(Half::One), 15);
-        assert_eq!(cam.lit_pixels(Half::Two), 11);
+        let d = Camera::paper().design();
+        assert_eq!(lit_pixels(&d, 1), 15);
+        assert_eq!(lit_pixels(&d, 2), 11);
     }
 
     #[test]
@@ -449,11 +384,11 @@ mod tests {
         assert_eq!(d.channels.len(), 2);
         assert_eq!(d.channels[1].l, cam.array_plane(Half::Two));
         assert!(d.channels.iter().all(|c| c.ng));
-        // Lit pixels along x of half 2 equal the 1-D rule's Q_lit.
+        // Lit pixels along x of half 2 (2-D pixels of the centre row) equal the 1-D rule's.
         let ch = &d.channels[1];
         let lit = (0..cam.q)
             .filter(|&a| d.pixel(ch, a, cam.q / 2).lit)
             .count();
-        assert_eq!(lit as u32, cam.lit_pixels(Half::Two));
+        assert_eq!(lit, lit_pixels(&d, 2));
     }
 }

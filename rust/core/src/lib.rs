@@ -7,7 +7,7 @@
 //! [`presets`] named designs (the seed, its variants, a Raytrix R12, a Lytro Illum),
 //! [`optics`] the closed forms over depth (Eqs. 1–7) and the depth of field,
 //! [`rayspace`] every pixel's integration polygon in (u, w) and its footprints (§3–5),
-//! [`line`] one channel (or camera half) along one axis, the view the 1-D engine runs on,
+//! [`line`] one channel along one axis, the view the 1-D engine runs on,
 //! [`samples`] the coincidence planes and genuinely new samples (Eqs. 8–9, docs/model.md §6),
 //! [`samples2d`] the 2-D chief samples, distinct samples and covering radius of a design (§9),
 //! [`merit`] the figures of merit of one design that sweeps compare,
@@ -29,6 +29,7 @@ pub mod samples;
 pub mod samples2d;
 pub mod simulate;
 
-pub use camera::{Axis, Camera, Half};
+pub use camera::{Camera, Half};
 pub use design::{Aperture, Channel, ChannelSpec, Design, Grid, Layout};
 pub use error::{Error, Result};
+pub use line::Axis;

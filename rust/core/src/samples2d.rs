@@ -2760,8 +2760,7 @@ mod tests {
             );
         }
         // Channel 1 on its out-of-focus plane: one sample per lens.
-        let cam = Camera::paper();
-        let z1 = cam.out_of_focus_depth(crate::Half::One);
+        let z1 = crate::lens::depth_of_conjugate(d.f_main, d.channels[0].l);
         let s = samples_2d(&d, z1, 1e-6, 16.0).unwrap();
         assert_eq!(s.distinct[0], 16 * 16);
         assert_eq!(s.samples[0].len(), 256);
