@@ -15,12 +15,7 @@ use crate::errors::to_py;
 /// A validated camera held by the core (wrapped by `splitlf.Camera`): the paper's
 /// parametrisation and the two-channel design it builds (channel i is half i), validated
 /// as that design is.
-#[pyclass(
-    frozen,
-    skip_from_py_object,
-    name = "CameraCore",
-    module = "splitlf._native"
-)]
+#[pyclass(frozen, skip_from_py_object, module = "splitlf._native")]
 pub(crate) struct CameraCore {
     pub(crate) inner: Camera,
     design: Design,
@@ -156,12 +151,7 @@ pub(crate) fn channel_spec(d: &Bound<'_, PyDict>) -> PyResult<design::ChannelSpe
 }
 
 /// A validated design (docs/model.md §9): main lens and channels.
-#[pyclass(
-    frozen,
-    skip_from_py_object,
-    name = "DesignCore",
-    module = "splitlf._native"
-)]
+#[pyclass(frozen, skip_from_py_object, module = "splitlf._native")]
 pub(crate) struct DesignCore {
     pub(crate) inner: Design,
 }

@@ -87,31 +87,31 @@ pub(crate) fn core_error(py: Python<'_>, e: Error, depth: &'static str) -> PyErr
                 PyValueError::new_err,
             )
         }
-        Error::TooLarge { what, bytes, limit } => raise(
-            py,
-            "TooLargeError",
-            message,
-            |kw| {
-                kw.set_item("what", what)?;
-                kw.set_item("nbytes", bytes)?;
-                kw.set_item("limit", limit)
-            },
-            PyMemoryError::new_err,
-        ),
+        Error::TooLarge { what, bytes, limit } => too_large(py, message, what, Some(bytes), limit),
         Error::TooMuchWork {
             what, limit, unit, ..
-        } => raise(
-            py,
-            "TooLargeError",
-            message,
-            |kw| {
-                kw.set_item("what", format!("{what} ({unit})"))?;
-                kw.set_item("limit", limit)
-            },
-            PyMemoryError::new_err,
-        ),
+        } => too_large(py, message, format!("{what} ({unit})"), None, limit),
         Error::Interrupted => PyKeyboardInterrupt::new_err(()),
     }
+}
+
+/// `TooLargeError` (a `MemoryError`): what was refused, the bytes it needed (a size) or
+/// None (a work limit), and the limit.
+fn too_large(
+    py: Python<'_>,
+    message: String,
+    what: String,
+    nbytes: Option<u128>,
+    limit: u128,
+) -> PyErr {
+    let kwargs = |kw: &Bound<'_, PyDict>| {
+        kw.set_item("what", what)?;
+        if let Some(n) = nbytes {
+            kw.set_item("nbytes", n)?;
+        }
+        kw.set_item("limit", limit)
+    };
+    raise(py, "TooLargeError", message, kwargs, PyMemoryError::new_err)
 }
 
 pub(crate) fn to_py(e: Error) -> PyErr {

@@ -45,46 +45,55 @@ fn constants(m: &Bound<'_, PyModule>) -> PyResult<()> {
     Ok(())
 }
 
+/// Register classes and functions: `classes!(m, path::A, path::B)` and
+/// `functions!(m, path::f, path::g)`.
+macro_rules! classes {
+    ($m:expr, $($c:path),+ $(,)?) => { $($m.add_class::<$c>()?;)+ };
+}
+macro_rules! functions {
+    ($m:expr, $($f:path),+ $(,)?) => { $($m.add_function(wrap_pyfunction!($f, $m)?)?;)+ };
+}
+
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     constants(m)?;
-    // The models.
-    m.add_class::<design::CameraCore>()?;
-    m.add_class::<design::DesignCore>()?;
-    // Closed forms.
-    m.add_class::<optics::DesignCurvesArrays>()?;
-    m.add_class::<optics::DesignDepthOfFieldIntervals>()?;
-    m.add_function(wrap_pyfunction!(optics::design_curves, m)?)?;
-    m.add_function(wrap_pyfunction!(optics::design_depth_of_field, m)?)?;
-    m.add_function(wrap_pyfunction!(optics::design_sharp_fractions, m)?)?;
-    // Samples along one axis and figures of merit.
-    m.add_class::<samples::DesignSamplesArrays>()?;
-    m.add_class::<samples::PlaneColumns>()?;
-    m.add_function(wrap_pyfunction!(samples::design_new_samples, m)?)?;
-    m.add_function(wrap_pyfunction!(samples::design_coincidence_planes, m)?)?;
-    m.add_function(wrap_pyfunction!(samples::design_figures_of_merit, m)?)?;
-    m.add_function(wrap_pyfunction!(samples::design_metrics, m)?)?;
-    // Ray space.
-    m.add_class::<rayspace::TraceArrays>()?;
-    m.add_class::<rayspace::FootprintArrays>()?;
-    m.add_class::<rayspace::SampleGridArrays>()?;
-    m.add_function(wrap_pyfunction!(rayspace::design_trace, m)?)?;
-    m.add_function(wrap_pyfunction!(rayspace::design_footprints, m)?)?;
-    m.add_function(wrap_pyfunction!(rayspace::design_sample_grid, m)?)?;
-    // 2-D samples.
-    m.add_class::<coverage::ChiefSampleArrays>()?;
-    m.add_class::<coverage::Samples2dArrays>()?;
-    m.add_class::<coverage::CoverageArrays>()?;
-    m.add_function(wrap_pyfunction!(coverage::chief_samples, m)?)?;
-    m.add_function(wrap_pyfunction!(coverage::samples_2d, m)?)?;
-    m.add_function(wrap_pyfunction!(coverage::coverage, m)?)?;
-    // The simulation's forward model.
-    m.add_class::<simulate::SystemMatrixArrays>()?;
-    m.add_class::<simulate::RenderArrays>()?;
-    m.add_function(wrap_pyfunction!(simulate::design_kernel_support, m)?)?;
-    m.add_function(wrap_pyfunction!(simulate::design_system_matrix, m)?)?;
-    m.add_function(wrap_pyfunction!(simulate::design_render, m)?)?;
-    // The memory guard.
-    m.add_function(wrap_pyfunction!(arrays::available_memory, m)?)?;
+    classes!(m, design::CameraCore, design::DesignCore);
+    classes!(
+        m,
+        optics::DesignCurvesArrays,
+        optics::DesignDepthOfFieldIntervals,
+        samples::DesignSamplesArrays,
+        samples::PlaneColumns,
+        rayspace::TraceArrays,
+        rayspace::FootprintArrays,
+        rayspace::SampleGridArrays,
+        coverage::ChiefSampleArrays,
+        coverage::Samples2dArrays,
+        coverage::CoverageArrays,
+        simulate::SystemMatrixArrays,
+        simulate::RenderArrays,
+    );
+    // Closed forms; samples along one axis and figures of merit; ray space; 2-D samples;
+    // the simulation's forward model; the memory guard.
+    functions!(
+        m,
+        optics::design_curves,
+        optics::design_depth_of_field,
+        optics::design_sharp_fractions,
+        samples::design_new_samples,
+        samples::design_coincidence_planes,
+        samples::design_figures_of_merit,
+        samples::design_metrics,
+        rayspace::design_trace,
+        rayspace::design_footprints,
+        rayspace::design_sample_grid,
+        coverage::chief_samples,
+        coverage::samples_2d,
+        coverage::coverage,
+        simulate::design_kernel_support,
+        simulate::design_system_matrix,
+        simulate::design_render,
+        arrays::available_memory,
+    );
     Ok(())
 }

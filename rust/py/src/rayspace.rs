@@ -5,8 +5,8 @@ use numpy::{PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray1};
 use pyo3::prelude::*;
 
 use splitlf_core::line::Line;
+use splitlf_core::memory;
 use splitlf_core::rayspace::{self, MAX_VERTICES};
-use splitlf_core::{memory, Axis, Result};
 
 use crate::args::{as_slice, channel_arg, sample_arg, threads_arg};
 use crate::arrays::{empty, filled};
@@ -30,16 +30,22 @@ pub(crate) struct TraceArrays {
     types: Py<PyArray1<i64>>,
 }
 
-/// Trace the line `line_of(axis)` and hand its columns to NumPy.
-fn trace_arrays(
+/// Integration polygons of every pixel of one channel of a design along one axis (rect
+/// grids; docs/model.md §3–4, §9).
+#[pyfunction]
+#[pyo3(signature = (design, channel, axis="x", n_threads=None))]
+pub(crate) fn design_trace(
     py: Python<'_>,
+    design: &DesignCore,
+    channel: &Bound<'_, PyAny>,
     axis: &str,
     n_threads: Option<&Bound<'_, PyAny>>,
-    line_of: impl FnOnce(Axis) -> Result<Line>,
 ) -> PyResult<TraceArrays> {
+    let d = &design.inner;
+    let ch = channel_arg(d, channel)?;
     let ax = rayspace::axis_from_name(axis).map_err(to_py)?;
     let threads = threads_arg(n_threads)?;
-    let line = &line_of(ax).map_err(to_py)?;
+    let line = &Line::of_channel(d, ch, ax).map_err(to_py)?;
     memory::check("trace", rayspace::trace_call_bytes(line.pixel_count())).map_err(to_py)?;
     let tr = run(py, || rayspace::trace_line_threads(line, threads))?;
     let n = tr.polygons.len();
@@ -63,22 +69,6 @@ fn trace_arrays(
         theta: filled::<f64, _>(py, &[n], what, tr.theta.iter().copied())?.unbind(),
         types: filled::<i64, _>(py, &[n], what, tr.types.iter().map(|&x| x as i64))?.unbind(),
     })
-}
-
-/// Integration polygons of every pixel of one channel of a design along one axis (rect
-/// grids; docs/model.md §3–4, §9).
-#[pyfunction]
-#[pyo3(signature = (design, channel, axis="x", n_threads=None))]
-pub(crate) fn design_trace(
-    py: Python<'_>,
-    design: &DesignCore,
-    channel: &Bound<'_, PyAny>,
-    axis: &str,
-    n_threads: Option<&Bound<'_, PyAny>>,
-) -> PyResult<TraceArrays> {
-    let d = &design.inner;
-    let ch = channel_arg(d, channel)?;
-    trace_arrays(py, axis, n_threads, |ax| Line::of_channel(d, ch, ax))
 }
 
 /// Footprints of n pixels at m depths: (m, n) arrays; the kernel (m, n, 6) when asked.
@@ -108,26 +98,11 @@ pub(crate) fn design_footprints(
 ) -> PyResult<FootprintArrays> {
     let d = &design.inner;
     let ch = channel_arg(d, channel)?;
-    footprint_arrays(py, &z, (axis, sample, kernel), n_threads, |ax| {
-        Line::of_channel(d, ch, ax)
-    })
-}
-
-/// Convert the arguments both footprint calls share, validate, let NumPy allocate the
-/// outputs (fallibly) and have the core write the footprints of the line `line_of(axis)`
-/// straight into them without the GIL.
-fn footprint_arrays(
-    py: Python<'_>,
-    z: &PyReadonlyArray1<'_, f64>,
-    (axis, sample, kernel): (&str, &str, bool),
-    n_threads: Option<&Bound<'_, PyAny>>,
-    line_of: impl FnOnce(Axis) -> Result<Line>,
-) -> PyResult<FootprintArrays> {
     let ax = rayspace::axis_from_name(axis).map_err(to_py)?;
     let s = sample_arg(sample)?;
     let threads = threads_arg(n_threads)?;
-    let zs = &*as_slice(z)?;
-    let line = &line_of(ax).map_err(to_py)?;
+    let zs = &*as_slice(&z)?;
+    let line = &Line::of_channel(d, ch, ax).map_err(to_py)?;
     let (m, n) = rayspace::check_footprints_line(line, zs, kernel, threads).map_err(to_py)?;
     let what = "footprints";
     let position = empty::<f64, _>(py, &[m, n], what)?;
@@ -204,18 +179,6 @@ pub(crate) fn design_sample_grid(
     let threads = threads_arg(n_threads)?;
     let (lx, ly) = rayspace::check_design_sample_grid(d, ch, z, s, threads).map_err(to_py)?;
     let (rows, cols) = (ly.pixel_count() as usize, lx.pixel_count() as usize);
-    grid_arrays(py, (rows, cols), |xs, ys| {
-        rayspace::design_sample_grid_into(d, ch, z, s, xs, ys, threads)
-    })
-}
-
-/// Let NumPy allocate the two (rows, cols) grids (fallibly) and have `fill(X, Y)` write
-/// them without the GIL.
-fn grid_arrays(
-    py: Python<'_>,
-    (rows, cols): (usize, usize),
-    fill: impl FnOnce(&mut [f64], &mut [f64]) -> Result<()> + Send,
-) -> PyResult<SampleGridArrays> {
     let gx = empty::<f64, _>(py, &[rows, cols], "sample_grid")?;
     let gy = empty::<f64, _>(py, &[rows, cols], "sample_grid")?;
     {
@@ -223,7 +186,9 @@ fn grid_arrays(
         let mut yw = gy.readwrite();
         let xs = xw.as_slice_mut().map_err(internal)?;
         let ys = yw.as_slice_mut().map_err(internal)?;
-        run(py, || fill(xs, ys))?;
+        run(py, || {
+            rayspace::design_sample_grid_into(d, ch, z, s, xs, ys, threads)
+        })?;
     }
     Ok(SampleGridArrays {
         x: gx.unbind(),

@@ -4,7 +4,7 @@
 use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1};
 use pyo3::prelude::*;
 
-use splitlf_core::{merit, optics, samples, Error, Result};
+use splitlf_core::{merit, optics, samples, Error};
 
 use crate::args::{as_slice, channel_arg, int_arg, sample_arg, saturate, threads_arg, with_given};
 use crate::arrays::{as_u64, empty, filled};
@@ -27,25 +27,6 @@ pub(crate) struct PlaneColumns {
     new_samples_y: Py<PyArray1<i64>>,
     new_samples: Py<PyArray1<i64>>,
     counted: Py<PyArray1<i64>>,
-}
-
-/// The arguments shared by both coincidence-plane calls (max_n, max_t of any size, the
-/// thread count), the call `f(max_n, max_t, threads)` without the GIL, and its columns.
-fn planes(
-    py: Python<'_>,
-    max_n: Option<&Bound<'_, PyAny>>,
-    max_t: Option<&Bound<'_, PyAny>>,
-    n_threads: Option<&Bound<'_, PyAny>>,
-    f: impl FnOnce(i64, Option<i64>, Option<usize>) -> Result<Vec<samples::CoincidencePlane>> + Send,
-) -> PyResult<PlaneColumns> {
-    let ((n_given, n_text), t_given) = pair_args(max_n, max_t)?;
-    let threads = threads_arg(n_threads)?;
-    let (mn, mt) = (saturate(n_given), t_given.as_ref().map(|t| saturate(t.0)));
-    let t_text = t_given.map(|t| t.1).unwrap_or_default();
-    let p = run(py, || {
-        f(mn, mt, threads).map_err(|e| pair_error(e, &n_text, &t_text))
-    })?;
-    plane_columns(py, &p)
 }
 
 /// max_n and max_t as given (any size), or their defaults: (value, text) each.
@@ -118,9 +99,15 @@ pub(crate) fn design_coincidence_planes(
 ) -> PyResult<PlaneColumns> {
     let d = &design.inner;
     let ch = channel_arg(d, channel)?;
-    planes(py, max_n, max_t, n_threads, |mn, mt, threads| {
+    let ((n_given, n_text), t_given) = pair_args(max_n, max_t)?;
+    let threads = threads_arg(n_threads)?;
+    let (mn, mt) = (saturate(n_given), t_given.as_ref().map(|t| saturate(t.0)));
+    let t_text = t_given.map(|t| t.1).unwrap_or_default();
+    let p = run(py, || {
         samples::design_coincidence_planes(d, ch, mn, mt, threads)
-    })
+            .map_err(|e| pair_error(e, &n_text, &t_text))
+    })?;
+    plane_columns(py, &p)
 }
 
 /// Genuinely new samples of a design at m depths: (C + 1, m) arrays, rows the channels and
@@ -172,30 +159,6 @@ pub(crate) fn design_new_samples(
     })
 }
 
-/// The merits calls' shared part: the depths and thread count, the 2-D arguments checked
-/// before any work, the 1-D merits and, when `window` is given, the 2-D ones after them.
-fn merits(
-    py: Python<'_>,
-    z: &PyReadonlyArray1<'_, f64>,
-    n_threads: Option<&Bound<'_, PyAny>>,
-    (tol, window): (f64, Option<f64>),
-    one_d: impl FnOnce(&[f64], Option<usize>) -> Result<Vec<f64>> + Send,
-    two_d: impl FnOnce(&[f64], f64, Option<usize>) -> Result<Vec<f64>> + Send,
-) -> PyResult<Vec<f64>> {
-    let threads = threads_arg(n_threads)?;
-    let zs = as_slice(z)?;
-    run_as(py, "depths", || {
-        if let Some(w) = window {
-            merit::check_merits_2d(tol, w)?;
-        }
-        let mut out = one_d(&zs, threads)?;
-        if let Some(w) = window {
-            out.extend(two_d(&zs, w, threads)?);
-        }
-        Ok(out)
-    })
-}
-
 /// Names of a design's figures of merit, in the order of `design_figures_of_merit`; with
 /// `merits_2d`, followed by the names of its 2-D merits.
 #[pyfunction]
@@ -223,12 +186,16 @@ pub(crate) fn design_figures_of_merit(
     window: Option<f64>,
 ) -> PyResult<Vec<f64>> {
     let d = &design.inner;
-    merits(
-        py,
-        &z,
-        n_threads,
-        (tol, window),
-        |zs, threads| merit::design_figures_of_merit(d, zs, threshold_px, tol, threads),
-        |zs, w, threads| merit::design_figures_of_merit_2d(d, zs, tol, w, threads),
-    )
+    let threads = threads_arg(n_threads)?;
+    let zs = as_slice(&z)?;
+    run_as(py, "depths", || {
+        if let Some(w) = window {
+            merit::check_merits_2d(tol, w)?;
+        }
+        let mut out = merit::design_figures_of_merit(d, &zs, threshold_px, tol, threads)?;
+        if let Some(w) = window {
+            out.extend(merit::design_figures_of_merit_2d(d, &zs, tol, w, threads)?);
+        }
+        Ok(out)
+    })
 }

@@ -63,28 +63,11 @@ pub(crate) fn design_system_matrix(
     n_threads: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<SystemMatrixArrays> {
     let px = design_source(&design.inner, source)?;
-    system_arrays(
-        py,
-        &px,
-        z,
-        (origin, step, n_cells),
-        (field_lo, field_hi),
-        n_threads,
-    )
-}
-
-pub(crate) fn system_arrays(
-    py: Python<'_>,
-    px: &Pixels,
-    z: f64,
-    (origin, step, n_cells): (f64, f64, usize),
-    field: (f64, f64),
-    n_threads: Option<&Bound<'_, PyAny>>,
-) -> PyResult<SystemMatrixArrays> {
     let grid = Grid::new(origin, step, n_cells).map_err(to_py)?;
     let threads = threads_arg(n_threads)?;
+    let field = (field_lo, field_hi);
     let sys = run(py, || {
-        simulate::system_matrix_of(px, z, grid, field, threads)
+        simulate::system_matrix_of(&px, z, grid, field, threads)
     })?;
     let m = sys.matrix;
     let px = sys.pixels.iter().map(|&p| p as i64);
@@ -122,32 +105,13 @@ pub(crate) fn design_render(
     n_threads: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<RenderArrays> {
     let px = design_source(&design.inner, source)?;
-    render_arrays(
-        py,
-        &px,
-        z,
-        (origin, step),
-        (field_lo, field_hi),
-        textures,
-        n_threads,
-    )
-}
-
-pub(crate) fn render_arrays(
-    py: Python<'_>,
-    px: &Pixels,
-    z: f64,
-    (origin, step): (f64, f64),
-    field: (f64, f64),
-    textures: PyReadonlyArray2<'_, f64>,
-    n_threads: Option<&Bound<'_, PyAny>>,
-) -> PyResult<RenderArrays> {
     let (n_tex, n_cells) = textures.as_array().dim();
     let grid = Grid::new(origin, step, n_cells).map_err(to_py)?;
     let threads = threads_arg(n_threads)?;
     let flat = as_flat(&textures, "textures")?;
+    let field = (field_lo, field_hi);
     let (values, pixels) = run(py, || {
-        simulate::render_of(px, z, grid, field, &flat, threads)
+        simulate::render_of(&px, z, grid, field, &flat, threads)
     })?;
     let n_pix = pixels.len();
     let values = numpy::ndarray::Array2::from_shape_vec((n_tex, n_pix), values)
