@@ -5,8 +5,9 @@ equal to serial, bad input refused with a named error.
 Designs are small (K_x, K_y <= 40, Q <= 16) so that about 1,800 cases (1,560 valid
 designs, 400 invalid fields) run in well under a minute. Ranges are log-uniform over
 plausible optics: any f-number from f/0.7 to f/32, the array from 1.001 F to 4 F, f-number
-mismatch (vignetting or an under-filled microlens image) up to a factor 5 either way, Ng's
-setting or explicit microlens focal lengths.
+mismatch (vignetting) up to a factor 5 (a v above the matched one makes neighbouring
+microlens images overlap, which a design refuses), Ng's setting or explicit microlens
+focal lengths.
 """
 
 from __future__ import annotations

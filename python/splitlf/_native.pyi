@@ -26,14 +26,11 @@ __all__ = [
     "CameraCore",
     "ChiefSampleArrays",
     "CoverageArrays",
-    "CurvesArrays",
-    "DepthOfFieldIntervals",
     "DesignCore",
     "DesignCurvesArrays",
     "DesignDepthOfFieldIntervals",
     "DesignSamplesArrays",
     "FootprintArrays",
-    "NewSamplesArrays",
     "PlaneColumns",
     "RenderArrays",
     "SampleGridArrays",
@@ -42,12 +39,8 @@ __all__ = [
     "TraceArrays",
     "__version__",
     "available_memory",
-    "camera_metrics_2d",
     "chief_samples",
-    "coincidence_planes",
     "coverage",
-    "curves",
-    "depth_of_field",
     "design_coincidence_planes",
     "design_curves",
     "design_depth_of_field",
@@ -61,16 +54,7 @@ __all__ = [
     "design_sharp_fractions",
     "design_system_matrix",
     "design_trace",
-    "figures_of_merit",
-    "footprints",
-    "kernel_support",
-    "new_samples",
-    "render",
-    "sample_grid",
     "samples_2d",
-    "sharp_fractions",
-    "system_matrix",
-    "trace",
 ]
 
 __version__: str
@@ -147,21 +131,6 @@ class DesignCore:
     def resolution_step(self, z: float) -> float: ...
 
 @final
-class CurvesArrays:
-    @property
-    def conjugate(self) -> _F64: ...
-    @property
-    def main_blur(self) -> _F64: ...
-    @property
-    def repetitions(self) -> _F64: ...
-    @property
-    def microlens_blur(self) -> _F64: ...
-    @property
-    def blur_px(self) -> _F64: ...
-    @property
-    def conventional_px(self) -> _F64: ...
-
-@final
 class DesignCurvesArrays:
     @property
     def conjugate(self) -> _F64: ...
@@ -194,30 +163,6 @@ class DesignDepthOfFieldIntervals:
     def conventional(self) -> list[_Intervals]: ...
     @property
     def rows(self) -> list[tuple[int, int]]: ...
-
-@final
-class DepthOfFieldIntervals:
-    @property
-    def half1(self) -> _Intervals: ...
-    @property
-    def half2(self) -> _Intervals: ...
-    @property
-    def split(self) -> _Intervals: ...
-    @property
-    def conventional1(self) -> _Intervals: ...
-    @property
-    def conventional2(self) -> _Intervals: ...
-
-@final
-class NewSamplesArrays:
-    @property
-    def distinct(self) -> _I64: ...
-    @property
-    def distinct_2d(self) -> _I64: ...
-    @property
-    def max_gap(self) -> _F64: ...
-    @property
-    def sampled(self) -> _I64: ...
 
 @final
 class DesignSamplesArrays:
@@ -347,31 +292,12 @@ class RenderArrays:
     @property
     def pixels(self) -> _I64: ...
 
-def curves(camera: CameraCore, z: _F64, n_threads: int | None = None) -> CurvesArrays: ...
-def depth_of_field(camera: CameraCore, threshold_px: float = ...) -> DepthOfFieldIntervals: ...
-def sharp_fractions(
-    camera: CameraCore, threshold_px: float, lo: float, hi: float
-) -> list[float]: ...
 def design_curves(
     design: DesignCore, z: _F64, n_threads: int | None = None
 ) -> DesignCurvesArrays: ...
 def design_depth_of_field(
     design: DesignCore, threshold_px: float = ...
 ) -> DesignDepthOfFieldIntervals: ...
-def new_samples(
-    camera: CameraCore,
-    z: _F64,
-    tol: float = ...,
-    sample: str = "chief",
-    n_threads: int | None = None,
-) -> NewSamplesArrays: ...
-def coincidence_planes(
-    camera: CameraCore,
-    half_: int,
-    max_n: int | None = None,
-    max_t: int | None = None,
-    n_threads: int | None = None,
-) -> PlaneColumns: ...
 def design_new_samples(
     design: DesignCore,
     z: _F64,
@@ -398,27 +324,6 @@ def design_figures_of_merit(
     window: float | None = None,
 ) -> list[float]: ...
 def design_metrics(design: DesignCore, merits_2d: bool = False) -> list[str]: ...
-def camera_metrics_2d() -> list[str]: ...
-def figures_of_merit(
-    camera: CameraCore,
-    z: _F64,
-    threshold_px: float = ...,
-    tol: float = ...,
-    n_threads: int | None = None,
-    window: float | None = None,
-) -> list[float]: ...
-def trace(
-    camera: CameraCore, half: int, axis: str = "x", n_threads: int | None = None
-) -> TraceArrays: ...
-def footprints(
-    camera: CameraCore,
-    z: _F64,
-    half: int,
-    axis: str = "x",
-    sample: str = "centroid",
-    kernel: bool = False,
-    n_threads: int | None = None,
-) -> FootprintArrays: ...
 def design_trace(
     design: DesignCore, channel: int, axis: str = "x", n_threads: int | None = None
 ) -> TraceArrays: ...
@@ -433,9 +338,6 @@ def design_footprints(
 ) -> FootprintArrays: ...
 def design_sample_grid(
     design: DesignCore, z: float, channel: int, sample: str = "chief", n_threads: int | None = None
-) -> SampleGridArrays: ...
-def sample_grid(
-    camera: CameraCore, z: float, half: int, sample: str = "chief", n_threads: int | None = None
 ) -> SampleGridArrays: ...
 def chief_samples(
     design: DesignCore,
@@ -452,31 +354,6 @@ def coverage(
     window: float,
     n_threads: int | None = None,
 ) -> CoverageArrays: ...
-def kernel_support(
-    camera: CameraCore, z: float, source: str, n_threads: int | None = None
-) -> float: ...
-def system_matrix(
-    camera: CameraCore,
-    z: float,
-    source: str,
-    origin: float,
-    step: float,
-    n_cells: int,
-    field_lo: float,
-    field_hi: float,
-    n_threads: int | None = None,
-) -> SystemMatrixArrays: ...
-def render(
-    camera: CameraCore,
-    z: float,
-    source: str,
-    origin: float,
-    step: float,
-    field_lo: float,
-    field_hi: float,
-    textures: _F64,
-    n_threads: int | None = None,
-) -> RenderArrays: ...
 def design_kernel_support(
     design: DesignCore, z: float, source: str, n_threads: int | None = None
 ) -> float: ...

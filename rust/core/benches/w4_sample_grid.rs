@@ -1,9 +1,9 @@
-//! W4 at a modest size: `sample_grid` of one half of a 1/16-size version of the 40-MP
+//! W4 at a modest size: `design_sample_grid_into` of one half (channel 1) of a 1/16-size version of the 40-MP
 //! sensor of `benches/run.py` (Kx = 129, Ky = 43: 1,935 x 645 pixels), at one depth.
 
-use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use splitlf_core::rayspace::{sample_grid_into, Sample};
-use splitlf_core::{Camera, Half};
+use criterion::{criterion_group, criterion_main, Criterion};
+use splitlf_core::rayspace::{design_sample_grid_into, Sample};
+use splitlf_core::Camera;
 
 mod common;
 
@@ -27,18 +27,11 @@ fn bench(c: &mut Criterion) {
     )
     .unwrap();
     let n = (cam.kx * cam.q) as usize * (cam.ky * cam.q) as usize;
+    let d = cam.design();
     let (mut gx, mut gy) = (vec![0.0; n], vec![0.0; n]);
-    let mut g = c.benchmark_group("w4_sample_grid");
-    g.throughput(Throughput::Elements(n as u64));
-    for t in common::thread_counts() {
-        g.bench_function(common::label(t), |b| {
-            b.iter(|| {
-                sample_grid_into(&cam, 500.0, Half::One, Sample::Chief, &mut gx, &mut gy, t)
-                    .unwrap()
-            })
-        });
-    }
-    g.finish();
+    common::per_thread_count(c, "w4_sample_grid", n as u64, None, |t| {
+        design_sample_grid_into(&d, 1, 500.0, Sample::Chief, &mut gx, &mut gy, t).unwrap();
+    });
 }
 
 criterion_group!(benches, bench);

@@ -3,7 +3,7 @@
 //! allocated once (the compute alone; `benches/run.py` measures the whole sensor against
 //! the alloc-and-fill floor of fresh outputs).
 
-use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use criterion::{criterion_group, criterion_main, Criterion};
 use splitlf_core::samples2d::{chief_samples_into, ChiefSamplesOut};
 
 mod common;
@@ -13,23 +13,16 @@ fn bench(c: &mut Criterion) {
     let n = 1932 * 1342;
     let (mut x, mut y, mut lit) = (vec![0.0; n], vec![0.0; n], vec![false; n]);
     let (mut lens, mut types) = (vec![0i64; 2 * n], vec![0i64; n]);
-    let mut g = c.benchmark_group("w6_chief_samples");
-    g.throughput(Throughput::Elements(n as u64));
-    for t in common::thread_counts() {
-        g.bench_function(common::label(t), |b| {
-            b.iter(|| {
-                let out = ChiefSamplesOut {
-                    x: &mut x,
-                    y: &mut y,
-                    lit: &mut lit,
-                    lens: &mut lens,
-                    types: &mut types,
-                };
-                chief_samples_into(&d, 1, 1000.0, out, t).unwrap()
-            })
-        });
-    }
-    g.finish();
+    common::per_thread_count(c, "w6_chief_samples", n as u64, None, |t| {
+        let out = ChiefSamplesOut {
+            x: &mut x,
+            y: &mut y,
+            lit: &mut lit,
+            lens: &mut lens,
+            types: &mut types,
+        };
+        chief_samples_into(&d, 1, 1000.0, out, t).unwrap();
+    });
 }
 
 criterion_group!(benches, bench);

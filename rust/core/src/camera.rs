@@ -4,7 +4,9 @@
 //! lens; half i has its microlens array at `L_i` (L_1 = v', L_2 = v'(1+κ)) with microlens
 //! focal length `f_i`, and its sensor a distance `v` behind the array. All lengths in mm.
 
+use crate::design::{Aperture, Channel, ChannelSpec, Design, Grid, Layout};
 use crate::error::{Error, Result};
+use crate::lens::ng_focal_length;
 
 /// Which half of the split sensor: half 1 is the conventional ("original") LF camera.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -33,18 +35,6 @@ impl Half {
         }
     }
 }
-
-/// One lateral axis of the sensor (the microlens grid is separable).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Axis {
-    X,
-    Y,
-}
-
-/// Largest pixel count per microlens along one axis the core accepts.
-pub const MAX_Q: u64 = 65_535;
-/// Largest microlens count per half along one axis the core accepts.
-pub const MAX_K: u64 = 10_000_000;
 
 /// A validated camera. Construct with [`Camera::new`]; fields are the docs/model.md symbols.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -75,59 +65,14 @@ pub struct Camera {
     pub f2: f64,
 }
 
-/// Lengths must be normal floats (not subnormal): the formulas divide by them, and the
-/// reciprocal of a subnormal length overflows.
-pub(crate) fn positive(name: &'static str, x: f64) -> Result<f64> {
-    if x.is_normal() && x > 0.0 {
-        Ok(x)
-    } else {
-        Err(Error::param(
-            name,
-            x,
-            "a finite length > 0 mm (a normal float, >= 2.2250738585072014e-308)",
-        ))
-    }
-}
-
-/// A value derived from the given fields must pass the same rule as a given one: a
-/// positive, finite, normal float whose reciprocal is finite.
-pub(crate) fn derived(name: &'static str, x: f64, from: &str) -> Result<()> {
-    if x.is_normal() && x > 0.0 && (1.0 / x).is_finite() {
-        Ok(())
-    } else {
-        Err(Error::param(
-            name,
-            x,
-            format!("a finite length > 0 mm (a normal float); it is derived from {from}, so choose them so that it is"),
-        ))
-    }
-}
-
-pub(crate) fn count(name: &'static str, n: i64, max: u64) -> Result<u32> {
-    if n >= 1 && (n as u64) <= max {
-        Ok(n as u32)
-    } else {
-        Err(Error::param(name, n, format!("an integer in [1, {max}]")))
-    }
-}
-
-/// The array planes: v' behind the focal plane, κ ≥ 0 and L_2 = v'(1 + κ) finite.
-/// Returns L_2.
-fn check_planes(f_main: f64, v1: f64, kappa: f64) -> Result<f64> {
-    if !(v1.is_finite() && v1 > f_main) {
-        return Err(Error::param(
-            "v1",
-            v1,
-            format!(
-                "a finite length > F = {f_main} mm (the array must lie behind the focal plane)"
-            ),
-        ));
-    }
+/// The paper's rule for the second half: it lies behind the first, κ ≥ 0, and
+/// L_2 = v'(1 + κ) is finite. Returns L_2. (Every other rule is the design's.)
+fn check_kappa(v1: f64, kappa: f64) -> Result<f64> {
     if !(kappa.is_finite() && kappa >= 0.0) {
         return Err(Error::param("kappa", kappa, "a finite number >= 0"));
     }
     let l2 = v1 * (1.0 + kappa);
-    if !l2.is_finite() {
+    if v1.is_finite() && !l2.is_finite() {
         return Err(Error::param(
             "kappa",
             kappa,
@@ -137,13 +82,40 @@ fn check_planes(f_main: f64, v1: f64, kappa: f64) -> Result<f64> {
     Ok(l2)
 }
 
-/// Ng's setting: microlenses focused on the main lens, 1/f = 1/L + 1/v.
-pub fn ng_focal_length(l: f64, v: f64) -> f64 {
-    1.0 / (1.0 / l + 1.0 / v)
+/// A design's error said of the camera's own fields: channel i's L is v1 (i = 1) or
+/// kappa (i = 2), its f is f1 or f2, every other field (D, d, v, mu, Q, Kx, Ky and the
+/// derived lengths) keeps its name; the value and the rule are the design's.
+fn camera_error(e: Error) -> Error {
+    match e {
+        Error::InvalidParameter {
+            name,
+            value,
+            allowed,
+            channel,
+        } => {
+            let name = match (channel, name) {
+                (Some(1), "L") => "v1",
+                (Some(2), "L") => "kappa",
+                (Some(1), "f") => "f1",
+                (Some(2), "f") => "f2",
+                (_, other) => other,
+            };
+            Error::InvalidParameter {
+                name,
+                value,
+                allowed,
+                channel: None,
+            }
+        }
+        other => other,
+    }
 }
 
 impl Camera {
-    /// Validate every field; `f1`/`f2` default to Ng's setting when `None`.
+    /// Validate every field; `f1`/`f2` default to Ng's setting when `None`. The camera is
+    /// the two-channel design of [`Camera::design`] and is valid exactly when that design
+    /// is ([`Design::new`]: overlapping microlens images are refused too), with κ ≥ 0 as
+    /// the parametrisation's own rule; an error names the camera's field.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         f_main: f64,
@@ -159,69 +131,70 @@ impl Camera {
         f1: Option<f64>,
         f2: Option<f64>,
     ) -> Result<Camera> {
-        let f_main = positive("F", f_main)?;
-        let aperture = positive("D", aperture)?;
-        let l2 = check_planes(f_main, v1, kappa)?;
-        let d = positive("d", d)?;
-        let v = positive("v", v)?;
-        let mu = positive("mu", mu)?;
-        let q = count("Q", q, MAX_Q)?;
-        let kx = count("Kx", kx, MAX_K)?;
-        let ky = count("Ky", ky, MAX_K)?;
-        let f1 = match f1 {
-            Some(f) => positive("f1", f)?,
-            None => ng_focal_length(v1, v),
-        };
-        let f2 = match f2 {
-            Some(f) => positive("f2", f)?,
-            None => ng_focal_length(l2, v),
-        };
-        let cam = Camera {
-            f_main,
-            aperture,
-            v1,
-            kappa,
+        let l2 = check_kappa(v1, kappa)?;
+        let channel = |l: f64, f: Option<f64>| ChannelSpec {
+            l,
             d,
             v,
             mu,
-            q,
             kx,
             ky,
-            f1,
-            f2,
+            grid: Grid::Rect,
+            f: f.map(|f| vec![f]),
+            layout: "ideal".into(),
+            q: Some(q),
+            mx: None,
+            my: None,
+            share: 0.5,
         };
-        cam.check_derived()?;
-        Ok(cam)
+        let specs = [channel(v1, f1), channel(l2, f2)];
+        let design =
+            Design::new(f_main, aperture, Aperture::Square, &specs).map_err(camera_error)?;
+        let [c1, c2] = [&design.channels[0], &design.channels[1]];
+        Ok(Camera {
+            f_main: design.f_main,
+            aperture: design.aperture,
+            v1: c1.l,
+            kappa,
+            d: c1.d,
+            v: c1.v,
+            mu: c1.mu,
+            // Q passed the design's check: an integer in [1, MAX_Q].
+            q: q as u32,
+            kx: c1.kx,
+            ky: c1.ky,
+            f1: c1.f[0],
+            f2: c2.f[0],
+        })
     }
 
-    /// Every derived quantity the formulas use must be as valid as a given field: the
-    /// microlens focal lengths (Ng's setting 1/f = 1/L + 1/v when not given), the image
-    /// radius R_i = D v / (2 L_i), the blur scale d v / 2, the aperture image D L_i / 2
-    /// and the chief-ray height of the outermost pixel (L_i / v) μ (Q − 1)/2.
-    fn check_derived(&self) -> Result<()> {
-        let ng = "Ng's setting 1/f = 1/L + 1/v (L = v1 or v1 (1 + kappa))";
-        derived("f1", self.f1, ng)?;
-        derived("f2", self.f2, ng)?;
-        derived("d v / 2", self.d * self.v / 2.0, "d and v")?;
-        for h in Half::BOTH {
-            let l = self.array_plane(h);
-            derived(
-                "R (microlens image radius D v / (2 L))",
-                self.image_radius(h),
-                "D, v, v1 and kappa",
-            )?;
-            derived("D L / 2", self.aperture * l / 2.0, "D, v1 and kappa")?;
-            derived("L / v", l / self.v, "v1, kappa and v")?;
-            let edge = self.chief_w(h, 0).abs();
-            if !edge.is_finite() {
-                return Err(Error::param(
-                    "mu",
-                    self.mu,
-                    "small enough that the outermost pixel's chief ray height (L / v) mu (Q - 1) / 2 is finite",
-                ));
+    /// The camera as its two-channel design: channel i is half i (L_1 = v', L_2 = v'(1 + κ)),
+    /// rect grids, the ideal layout with Q, shares ½, a square aperture, f_i as the camera
+    /// has them (Ng's setting when they equal it).
+    pub fn design(&self) -> Design {
+        let channel = |half: Half| {
+            let l = self.array_plane(half);
+            let f = self.microlens_focal(half);
+            Channel {
+                l,
+                d: self.d,
+                v: self.v,
+                mu: self.mu,
+                kx: self.kx,
+                ky: self.ky,
+                grid: Grid::Rect,
+                f: vec![f],
+                ng: f == ng_focal_length(l, self.v),
+                layout: Layout::Ideal { q: self.q },
+                share: 0.5,
             }
+        };
+        Design {
+            f_main: self.f_main,
+            aperture: self.aperture,
+            shape: Aperture::Square,
+            channels: vec![channel(Half::One), channel(Half::Two)],
         }
-        Ok(())
     }
 
     /// The seed design (docs/model.md §7), a reconstruction from the paper's two out-of-focus
@@ -276,76 +249,6 @@ impl Camera {
         self.f_main / self.aperture
     }
 
-    /// Out-of-focus plane of half i: the depth whose conjugate lies on array i,
-    /// z_i = F L_i / (L_i − F) (Eq. 1 inverted).
-    pub fn out_of_focus_depth(&self, half: Half) -> f64 {
-        let l = self.array_plane(half);
-        self.f_main * l / (l - self.f_main)
-    }
-
-    /// R_i = D v / (2 L_i): radius of one microlens image on the sensor (bound of the LF blur).
-    pub fn image_radius(&self, half: Half) -> f64 {
-        self.aperture * self.v / (2.0 * self.array_plane(half))
-    }
-
-    /// K along an axis.
-    pub fn lenses(&self, axis: Axis) -> u32 {
-        match axis {
-            Axis::X => self.kx,
-            Axis::Y => self.ky,
-        }
-    }
-
-    /// c_j = (j − (K−1)/2) d, centre of microlens j of K (docs/model.md §3).
-    pub fn lens_center(&self, j: u32, k: u32) -> f64 {
-        (j as f64 - (k as f64 - 1.0) / 2.0) * self.d
-    }
-
-    /// θ_q = μ (q − (Q−1)/2), angular offset of pixel q from its microlens image centre.
-    pub fn pixel_offset(&self, q: u32) -> f64 {
-        self.mu * (q as f64 - (self.q as f64 - 1.0) / 2.0)
-    }
-
-    /// Sensor position of pixel q under microlens centre c: s = c (1 + v/L_i) + θ_q.
-    pub fn pixel_center(&self, half: Half, c: f64, q: u32) -> f64 {
-        c * (1.0 + self.v / self.array_plane(half)) + self.pixel_offset(q)
-    }
-
-    /// w_q = −(L_i / v) θ_q: main-lens height of the chief ray of pixel q (independent of f).
-    pub fn chief_w(&self, half: Half, q: u32) -> f64 {
-        -(self.array_plane(half) / self.v) * self.pixel_offset(q)
-    }
-
-    /// A pixel is lit when its chief ray passes the main-lens aperture, |w_q| < D/2 (docs/model.md §6).
-    pub fn is_lit(&self, half: Half, q: u32) -> bool {
-        self.chief_w(half, q).abs() < self.aperture / 2.0
-    }
-
-    /// Q_lit: lit pixels per microlens along one axis for half i.
-    pub fn lit_pixels(&self, half: Half) -> u32 {
-        (0..self.q).filter(|&q| self.is_lit(half, q)).count() as u32
-    }
-
-    /// Chief sample of pixel q under microlens centre c on the plane with conjugate z'
-    /// (docs/model.md §5): p' = (v'/L_i) [c + w_q (L_i − z')/z'], its projection through the
-    /// main-lens centre onto plane v'.
-    pub fn chief_projection(&self, half: Half, c: f64, q: u32, zc: f64) -> f64 {
-        let l = self.array_plane(half);
-        (self.v1 / l) * (c + self.chief_w(half, q) * (l - zc) / zc)
-    }
-
-    /// Object-space lateral position on the plane at depth z of a point projecting to p'
-    /// on plane v': X = −p' z / v' (docs/model.md §5).
-    pub fn object_position(&self, p: f64, z: f64) -> f64 {
-        let x = -p * z;
-        if x.is_finite() {
-            x / self.v1
-        } else {
-            // p' z overflows only for astronomically far planes; the quotient does not.
-            -p * (z / self.v1)
-        }
-    }
-
     /// δ(z) = d z / (Q v'): object-space size of one sensor-resolution step (docs/model.md §6).
     pub fn resolution_step(&self, z: f64) -> f64 {
         let dz = self.d * z;
@@ -360,12 +263,24 @@ impl Camera {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::lens::depth_of_conjugate;
+    use crate::line::{Axis, Line};
+
+    /// Lit pixels of channel `number` along x under one lens.
+    fn lit_pixels(d: &Design, number: i64) -> usize {
+        let line = Line::of_channel(d, number, Axis::X).unwrap();
+        (0..line.q().unwrap())
+            .filter(|&i| line.pixel(i).lit)
+            .count()
+    }
 
     #[test]
     fn paper_out_of_focus_planes() {
         let cam = Camera::paper();
-        assert!((cam.out_of_focus_depth(Half::One) - 642.0).abs() < 1e-9);
-        assert!((cam.out_of_focus_depth(Half::Two) - 217.0).abs() < 1e-9);
+        let d = cam.design();
+        for (ch, z) in d.channels.iter().zip([642.0, 217.0]) {
+            assert!((depth_of_conjugate(cam.f_main, ch.l) - z).abs() < 1e-9);
+        }
         assert!((cam.kappa - 0.3866).abs() < 1e-4);
         assert!((cam.rho() - 35.3).abs() < 0.05);
     }
@@ -373,9 +288,9 @@ mod tests {
     #[test]
     fn paper_lit_pixels() {
         // Half 1 is f-number matched: all 15 lit. Half 2: |q − 7| < 7.5 / (1 + κ) = 5.41.
-        let cam = Camera::paper();
-        assert_eq!(cam.lit_pixels(Half::One), 15);
-        assert_eq!(cam.lit_pixels(Half::Two), 11);
+        let d = Camera::paper().design();
+        assert_eq!(lit_pixels(&d, 1), 15);
+        assert_eq!(lit_pixels(&d, 2), 11);
     }
 
     #[test]
@@ -402,5 +317,78 @@ mod tests {
             mk(f64::NAN, 0.1, 15),
             Err(Error::InvalidParameter { name: "v1", .. })
         ));
+    }
+
+    /// The camera refuses what its design refuses, naming its own field: the seed with
+    /// v = 0.7 or D = 40 has overlapping microlens images.
+    #[test]
+    fn validates_as_its_design() {
+        let p = Camera::paper();
+        let with = |aperture: f64, v: f64, f1: Option<f64>| {
+            Camera::new(
+                p.f_main, aperture, p.v1, p.kappa, p.d, v, p.mu, 15, 266, 88, f1, None,
+            )
+        };
+        for (aperture, v) in [(20.0, 0.7), (40.0, p.v)] {
+            let e = with(aperture, v, None).unwrap_err();
+            assert_eq!(e.parameter_name().as_deref(), Some("D"), "{e}");
+            assert!(e.to_string().contains("overlap"), "{e}");
+        }
+        let e = with(20.0, p.v, Some(-1.0)).unwrap_err();
+        assert_eq!(e.parameter_name().as_deref(), Some("f1"));
+        let e = Camera::new(
+            p.f_main,
+            20.0,
+            p.v1,
+            p.kappa,
+            p.d,
+            p.v,
+            p.mu,
+            15,
+            266,
+            88,
+            None,
+            Some(0.0),
+        )
+        .unwrap_err();
+        assert_eq!(e.parameter_name().as_deref(), Some("f2"));
+        let e = with(20.0, 0.0, None).unwrap_err();
+        assert_eq!(e.parameter_name().as_deref(), Some("v"));
+    }
+
+    /// `Camera::design` is the design `Camera::new` validated.
+    #[test]
+    fn seed_design_matches_camera() {
+        let cam = Camera::paper();
+        let d = cam.design();
+        let spec = |l: f64| ChannelSpec {
+            l,
+            d: cam.d,
+            v: cam.v,
+            mu: cam.mu,
+            kx: 266,
+            ky: 88,
+            grid: Grid::Rect,
+            f: None,
+            layout: "ideal".into(),
+            q: Some(15),
+            mx: None,
+            my: None,
+            share: 0.5,
+        };
+        let specs = [spec(cam.v1), spec(cam.array_plane(Half::Two))];
+        assert_eq!(
+            d,
+            Design::new(cam.f_main, cam.aperture, Aperture::Square, &specs).unwrap()
+        );
+        assert_eq!(d.channels.len(), 2);
+        assert_eq!(d.channels[1].l, cam.array_plane(Half::Two));
+        assert!(d.channels.iter().all(|c| c.ng));
+        // Lit pixels along x of half 2 (2-D pixels of the centre row) equal the 1-D rule's.
+        let ch = &d.channels[1];
+        let lit = (0..cam.q)
+            .filter(|&a| d.pixel(ch, a, cam.q / 2).lit)
+            .count();
+        assert_eq!(lit, lit_pixels(&d, 2));
     }
 }

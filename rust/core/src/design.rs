@@ -1,6 +1,6 @@
 //! General plenoptic architectures (docs/model.md §9): a main lens and one or more
 //! channels, each a microlens array with its own sensor region reached by a share of the
-//! light. The seed's split sensor is the two-channel design [`Design::from_camera`]; a
+//! light. The seed's split sensor is a two-channel design (`Camera::design`); a
 //! plain light field camera is one channel; Raytrix-style multi-focus arrays are one
 //! hexagonal channel with several lens types.
 //!
@@ -10,11 +10,8 @@
 //! nearest), which pixels are lit (square or circular aperture) and each pixel's 2-D chief
 //! sample on a plane at depth z. All lengths in mm.
 
-use crate::camera::{
-    count, derived, ng_focal_length, positive as length, Camera, Half, MAX_K, MAX_Q,
-};
 use crate::error::{Error, Result};
-use crate::optics::conjugate;
+use crate::lens::{conjugate, count, derived, ng_focal_length, positive as length, MAX_K, MAX_Q};
 
 /// Most channels a design may have.
 pub const MAX_CHANNELS: usize = 64;
@@ -329,6 +326,17 @@ impl Channel {
             self.image_pitch(),
             "d, v and L",
         )?;
+        if let Layout::Ideal { q } = self.layout {
+            // The chief ray height of the outermost pixel, (L / v) mu (Q - 1) / 2.
+            let edge = self.chief_w([self.mu * (0.0 - (q as f64 - 1.0) / 2.0), 0.0])[0];
+            if !edge.is_finite() {
+                return Err(Error::param(
+                    "mu",
+                    self.mu,
+                    "small enough that the outermost pixel's chief ray height (L / v) mu (Q - 1) / 2 is finite",
+                ));
+            }
+        }
         if !self.ng {
             return Ok(());
         }
@@ -605,36 +613,6 @@ impl Design {
         })
     }
 
-    /// The split-sensor camera as a two-channel design: L_1 = v', L_2 = v'(1 + κ), rect
-    /// grids, the ideal layout with Q, shares ½, a square aperture, f_i as the camera has
-    /// them (Ng's setting when the camera derived them).
-    pub fn from_camera(cam: &Camera) -> Design {
-        let channel = |half: Half| {
-            let l = cam.array_plane(half);
-            let f = cam.microlens_focal(half);
-            let ng = f == ng_focal_length(l, cam.v);
-            Channel {
-                l,
-                d: cam.d,
-                v: cam.v,
-                mu: cam.mu,
-                kx: cam.kx,
-                ky: cam.ky,
-                grid: Grid::Rect,
-                f: vec![f],
-                ng,
-                layout: Layout::Ideal { q: cam.q },
-                share: 0.5,
-            }
-        };
-        Design {
-            f_main: cam.f_main,
-            aperture: cam.aperture,
-            shape: Aperture::Square,
-            channels: vec![channel(Half::One), channel(Half::Two)],
-        }
-    }
-
     /// Channel `number` (from 1).
     pub fn channel(&self, number: i64) -> Result<&Channel> {
         let n = self.channels.len();
@@ -833,21 +811,6 @@ mod tests {
                 }
             }
         }
-    }
-
-    #[test]
-    fn seed_design_matches_camera() {
-        let cam = Camera::paper();
-        let d = Design::from_camera(&cam);
-        assert_eq!(d.channels.len(), 2);
-        assert_eq!(d.channels[1].l, cam.array_plane(Half::Two));
-        assert!(d.channels.iter().all(|c| c.ng));
-        // Lit pixels along x of half 2 equal the 1-D rule's Q_lit.
-        let ch = &d.channels[1];
-        let lit = (0..cam.q)
-            .filter(|&a| d.pixel(ch, a, cam.q / 2).lit)
-            .count();
-        assert_eq!(lit as u32, cam.lit_pixels(Half::Two));
     }
 
     #[test]

@@ -2,12 +2,10 @@
 //! and the sample counts ([`crate::samples`]) run on (docs/model.md §3–§6, and §9 for
 //! designs: "The 1-D analysis of §3–§6 runs along x on rect grids").
 //!
-//! A [`Line`] is built from a half of the split-sensor [`Camera`] ([`Line::of_half`]) or
-//! from a channel of a [`Design`] ([`Line::of_channel`], rect grids only). Every formula
-//! here is written in the order the camera's own methods use (`Camera::chief_w`,
-//! `Camera::chief_projection`, `Camera::object_position`, …), so a camera's results
-//! through a line are its results bit for bit, and `Camera::design`'s channel i gives the
-//! same line as the camera's half i.
+//! A [`Line`] is a channel of a [`Design`] ([`Line::of_channel`], rect grids only); the
+//! paper's half i is channel i of `Camera::design`. Every formula here is written in the
+//! order docs/model.md gives it, so the seed's numbers are the paper's closed forms bit for
+//! bit.
 //!
 //! - Lens j (j = 0 … K − 1) is centred at c_j = (j − (K − 1)/2) d; its type is j mod T
 //!   (x axis; along y, k mod T: the column j = 0 of the rect pattern (j + k) mod T).
@@ -19,12 +17,17 @@
 //! - A pixel is lit when its chief ray, w = −(L/v) θ, passes the aperture: |w| < D/2. In one
 //!   dimension the aperture is its section by the axis, so a square and a circle of width
 //!   D are the same segment.
-//! - Ray space is referred to plane v_ref: v' for the camera, L_1 (channel 1's array) for a
-//!   design (the two agree for `Camera::design`).
+//! - Ray space is referred to plane v_ref = L_1 (channel 1's array; v' of the paper's camera).
 
-use crate::camera::{Axis, Camera, Half};
 use crate::design::{Aperture, Channel, Design, Grid, Layout};
 use crate::error::{Error, Result};
+
+/// One lateral axis of the sensor (a rect microlens grid is separable).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Axis {
+    X,
+    Y,
+}
 
 /// How the pixels of a line are laid out.
 #[derive(Debug, Clone, PartialEq)]
@@ -43,7 +46,7 @@ pub struct LinePixel {
     pub lit: bool,
 }
 
-/// One channel (or camera half) along one axis.
+/// One channel along one axis.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Line {
     /// The channel's index from 0 (half 1 is 0).
@@ -70,25 +73,6 @@ pub struct Line {
 }
 
 impl Line {
-    /// Half `half` of the camera along `axis`.
-    pub fn of_half(cam: &Camera, half: Half, axis: Axis) -> Line {
-        Line {
-            index: half.index(),
-            axis,
-            f_main: cam.f_main,
-            aperture: cam.aperture,
-            v_ref: cam.v1,
-            l: cam.array_plane(half),
-            d: cam.d,
-            v: cam.v,
-            mu: cam.mu,
-            k: cam.lenses(axis),
-            focal: vec![cam.microlens_focal(half)],
-            share: 0.5,
-            pixels: LinePixels::Ideal { q: cam.q },
-        }
-    }
-
     /// Channel `number` (from 1) of `design` along `axis`. The 1-D analysis needs a rect
     /// grid: a hex channel is refused, naming `channels[i].grid`.
     pub fn of_channel(design: &Design, number: i64, axis: Axis) -> Result<Line> {
@@ -146,14 +130,6 @@ impl Line {
             .collect()
     }
 
-    /// Both halves of the camera along `axis`.
-    pub fn of_camera(cam: &Camera, axis: Axis) -> Vec<Line> {
-        Half::BOTH
-            .iter()
-            .map(|&h| Line::of_half(cam, h, axis))
-            .collect()
-    }
-
     /// Q of the ideal layout, None for the sensor layout.
     pub fn q(&self) -> Option<u32> {
         match self.pixels {
@@ -181,14 +157,14 @@ impl Line {
         j as usize % self.focal.len()
     }
 
-    /// c_j = (j − (K−1)/2) d (docs/model.md §3; `Camera::lens_center`, and the rect
+    /// c_j = (j − (K−1)/2) d (docs/model.md §3; as the rect
     /// `Channel::lens_center` along this axis: the product is the same either way round).
     #[inline]
     pub fn lens_center(&self, j: u32) -> f64 {
         (j as f64 - (self.k as f64 - 1.0) / 2.0) * self.d
     }
 
-    /// θ_q = μ (q − (Q−1)/2) of the ideal layout (`Camera::pixel_offset`).
+    /// θ_q = μ (q − (Q−1)/2) of the ideal layout (docs/model.md §3).
     #[inline]
     pub fn ideal_offset(&self, q: u32, q_count: u32) -> f64 {
         self.mu * (q as f64 - (q_count as f64 - 1.0) / 2.0)
@@ -255,7 +231,7 @@ impl Line {
         (self.v_ref / l) * (c + w * (l - zc) / zc)
     }
 
-    /// X = −p' z / v_ref (docs/model.md §5; `Camera::object_position`).
+    /// X = −p' z / v_ref (docs/model.md §5).
     #[inline]
     pub fn object_position(&self, p: f64, z: f64) -> f64 {
         let x = -p * z;
@@ -309,32 +285,32 @@ pub fn check_coincidence_channel(design: &Design, number: i64) -> Result<()> {
 mod tests {
     use super::*;
 
+    /// The seed's lines follow the paper's closed forms bit for bit, each written in the
+    /// order docs/model.md gives it: θ_q = μ (q − (Q−1)/2), c_j = (j − (K−1)/2) d,
+    /// w_q = −(L/v) θ_q, lit iff |w_q| < D/2, p' = (v'/L) [c + w (L − z')/z'].
     #[test]
-    fn camera_design_lines_equal_camera_lines() {
-        let cam = Camera::paper();
-        let d = Design::from_camera(&cam);
-        for h in Half::BOTH {
-            for axis in [Axis::X, Axis::Y] {
-                let a = Line::of_half(&cam, h, axis);
-                let b = Line::of_channel(&d, h.index() as i64 + 1, axis).unwrap();
-                assert_eq!(a, b);
+    fn seed_lines_follow_the_closed_forms() {
+        let d = crate::camera::Camera::paper().design();
+        for (h, ch) in d.channels.iter().enumerate() {
+            let Layout::Ideal { q: qq } = ch.layout else {
+                panic!("the seed has the ideal layout")
+            };
+            for (axis, k) in [(Axis::X, ch.kx), (Axis::Y, ch.ky)] {
+                let a = Line::of_channel(&d, h as i64 + 1, axis).unwrap();
                 for i in 0..a.pixel_count() as u32 {
                     let p = a.pixel(i);
-                    let q = i % cam.q;
-                    assert_eq!(p.theta.to_bits(), cam.pixel_offset(q).to_bits());
-                    assert_eq!(p.lit, cam.is_lit(h, q));
-                    assert_eq!(
-                        a.lens_center(p.j).to_bits(),
-                        cam.lens_center(p.j, cam.lenses(axis)).to_bits()
-                    );
-                    let c = a.lens_center(p.j);
-                    let w = a.chief_w(p.theta);
-                    assert_eq!(w.to_bits(), cam.chief_w(h, q).to_bits());
+                    let q = i % qq;
+                    let theta = ch.mu * (q as f64 - (qq as f64 - 1.0) / 2.0);
+                    assert_eq!(p.theta.to_bits(), theta.to_bits());
+                    let w = -(ch.l / ch.v) * theta;
+                    assert_eq!(p.lit, w.abs() < d.aperture / 2.0);
+                    let c = (p.j as f64 - (k as f64 - 1.0) / 2.0) * ch.d;
+                    assert_eq!(a.lens_center(p.j).to_bits(), c.to_bits());
+                    assert_eq!(a.chief_w(p.theta).to_bits(), w.to_bits());
                     let zc = 123.4;
-                    assert_eq!(
-                        a.chief_projection(c, w, zc).to_bits(),
-                        cam.chief_projection(h, c, q, zc).to_bits()
-                    );
+                    let v1 = d.channels[0].l;
+                    let want = (v1 / ch.l) * (c + w * (ch.l - zc) / zc);
+                    assert_eq!(a.chief_projection(c, w, zc).to_bits(), want.to_bits());
                 }
             }
         }

@@ -1,21 +1,17 @@
 //! Figures of merit of one design over a set of depths (the quantities a design sweep
-//! compares): sharp fractions from the closed-form depth of field, and the worst and
-//! median resolution (max gap, docs/model.md §6) of each half and of the split sensor;
-//! for a general design (docs/model.md §9) the same per channel and for the union, plus
+//! compares, docs/model.md §9): sharp fractions from the closed-form depth of field, and
+//! the worst and median resolution (max gap, §6) of each channel and of the union, plus
 //! each channel's lit fraction and light per lit pixel.
 
-use crate::camera::{Axis, Camera, Half};
 use crate::design::{Design, Grid};
 use crate::error::Result;
+use crate::line::Axis;
 use crate::line::Line;
-use crate::optics::{check_depths, check_design_depths, design_sharp_fractions, sharp_fractions};
+use crate::optics::{check_design_depths, design_sharp_fractions};
 use crate::parallel::check_threads;
 use crate::rayspace::{trace_line_threads, Sample};
-use crate::samples::{check_tol, design_new_samples, new_samples};
+use crate::samples::{check_tol, design_new_samples};
 use crate::samples2d::{check_tol_2d, check_window, coverage};
-
-/// Number of figures of merit, in the order of [`figures_of_merit`].
-pub const N_MERITS: usize = 9;
 
 /// Median as NumPy computes it: the middle value, or the mean of the two middle values.
 fn median(values: &mut [f64]) -> f64 {
@@ -26,35 +22,6 @@ fn median(values: &mut [f64]) -> f64 {
     } else {
         (values[n / 2 - 1] + values[n / 2]) / 2.0
     }
-}
-
-/// Figures of merit of `cam` over the depths `z` (at least one, each > F):
-/// [sharp fraction half 1, sharp fraction split (log depth over [min z, max z]),
-///  worst max gap half 1, half 2, union, median max gap half 1, half 2, union (units of
-///  δ(z)), lit-pixel fraction of half 2].
-pub fn figures_of_merit(
-    cam: &Camera,
-    z: &[f64],
-    threshold_px: f64,
-    tol: f64,
-    n_threads: Option<usize>,
-) -> Result<[f64; N_MERITS]> {
-    check_depths(cam, z)?;
-    let lo = z.iter().copied().fold(f64::INFINITY, f64::min);
-    let hi = z.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    let sharp = sharp_fractions(cam, threshold_px, lo, hi)?;
-    let ns = new_samples(cam, z, tol, Sample::Chief, n_threads)?;
-    let m = z.len();
-    let mut out = [0.0; N_MERITS];
-    out[0] = sharp[0];
-    out[1] = sharp[2];
-    for row in 0..3 {
-        let gaps = &ns.max_gap[row * m..(row + 1) * m];
-        out[2 + row] = gaps.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        out[5 + row] = median(&mut gaps.to_vec());
-    }
-    out[8] = cam.lit_pixels(Half::Two) as f64 / cam.q as f64;
-    Ok(out)
 }
 
 /// Names of the figures of merit of a design with `channels` channels, in the order of
@@ -176,13 +143,6 @@ pub fn design_metrics_2d(channels: usize) -> Vec<String> {
     names_2d(&rows)
 }
 
-/// Names of the 2-D merits of a [`Camera`] (its two-channel design, [`Design::from_camera`]),
-/// in the order of [`figures_of_merit_2d`]: as [`design_metrics_2d`] with the rows `half1`,
-/// `half2`, `union`.
-pub fn camera_metrics_2d() -> Vec<String> {
-    names_2d(&["half1".into(), "half2".into(), "union".into()])
-}
-
 /// Check the arguments only the 2-D merits have, before any work: `tol` as the 2-D
 /// distinct samples take it ((0, [`crate::samples2d::MAX_TOL_2D`]]) and `window` (finite,
 /// > 0).
@@ -223,18 +183,6 @@ pub fn design_figures_of_merit_2d(
     Ok(out)
 }
 
-/// The 2-D merits of `cam` (of its design [`Design::from_camera`], halves as channels 1
-/// and 2), named by [`camera_metrics_2d`].
-pub fn figures_of_merit_2d(
-    cam: &Camera,
-    z: &[f64],
-    tol: f64,
-    window: f64,
-    n_threads: Option<usize>,
-) -> Result<Vec<f64>> {
-    design_figures_of_merit_2d(&Design::from_camera(cam), z, tol, window, n_threads)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -248,42 +196,26 @@ mod tests {
 
     #[test]
     fn seed_design_merits() {
-        let cam = Camera::paper();
+        let cam = crate::camera::Camera::paper();
+        let design = cam.design();
         let z: Vec<f64> = (0..50)
             .map(|i| 150.0 * (10_000.0f64 / 150.0).powf(i as f64 / 49.0))
             .collect();
-        let f = figures_of_merit(&cam, &z, 0.5, 1e-6, Some(1)).unwrap();
-        assert_eq!(f[1], 1.0); // the split sensor is sharp everywhere
-        assert!(f[0] < 1.0);
-        assert!(f[4] <= f[2] && f[4] <= f[3]); // the union resolves at least as well
-        assert_eq!(f[8], 11.0 / 15.0);
-        assert!(figures_of_merit(&cam, &[50.0], 0.5, 1e-6, None).is_err());
-    }
-
-    #[test]
-    fn camera_design_merits_agree() {
-        let cam = Camera::paper();
-        let design = Design::from_camera(&cam);
-        let z: Vec<f64> = (0..40)
-            .map(|i| 150.0 * (10_000.0f64 / 150.0).powf(i as f64 / 39.0))
-            .collect();
-        let f = figures_of_merit(&cam, &z, 0.5, 1e-6, Some(1)).unwrap();
         let g = design_figures_of_merit(&design, &z, 0.5, 1e-6, Some(1)).unwrap();
         let names = design_metrics(2);
         assert_eq!(names.len(), g.len());
         let at = |n: &str| g[names.iter().position(|x| x == n).unwrap()];
-        assert_eq!(at("sharp_fraction_channel1"), f[0]);
-        assert_eq!(at("sharp_fraction_union"), f[1]);
-        for (k, row) in ["channel1", "channel2", "union"].iter().enumerate() {
-            let close = |a: f64, b: f64| (a - b).abs() <= 1e-14 * b.abs();
-            assert!(close(at(&format!("max_gap_worst_{row}")), f[2 + k]));
-            assert!(close(at(&format!("max_gap_median_{row}")), f[5 + k]));
-        }
-        assert_eq!(at("lit_fraction_channel2"), f[8]);
+        assert_eq!(at("sharp_fraction_union"), 1.0); // the split sensor is sharp everywhere
+        assert!(at("sharp_fraction_channel1") < 1.0);
+        // The union resolves at least as well as each channel.
+        let union = at("max_gap_worst_union");
+        assert!(union <= at("max_gap_worst_channel1") && union <= at("max_gap_worst_channel2"));
+        assert_eq!(at("lit_fraction_channel2"), 11.0 / 15.0);
         assert_eq!(at("lit_fraction_channel1"), 1.0);
         // a fully lit pixel of half 1 (Ng's setting): share × μ d / v
         let light = 0.5 * cam.mu * cam.d / cam.v;
         assert!((at("light_per_pixel_channel1") - light).abs() <= 1e-12 * light);
+        assert!(design_figures_of_merit(&design, &[50.0], 0.5, 1e-6, None).is_err());
     }
 
     #[test]
@@ -309,18 +241,6 @@ mod tests {
             d.sort();
             assert_eq!(f[8 + row], (d[2] as f64 + d[3] as f64) / 2.0);
         }
-        let cam = Camera::paper();
-        assert_eq!(
-            camera_metrics_2d()[..3],
-            [
-                "covering_radius_worst_half1",
-                "covering_radius_worst_half2",
-                "covering_radius_worst_union"
-            ]
-        );
-        let a = figures_of_merit_2d(&cam, &z, 1e-6, 4.0, None).unwrap();
-        let b = design_figures_of_merit_2d(&Design::from_camera(&cam), &z, 1e-6, 4.0, Some(1));
-        assert_eq!(a, b.unwrap());
         for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
             let e = design_figures_of_merit_2d(&design, &z, 1e-6, bad, None).unwrap_err();
             assert_eq!(e.parameter_name().as_deref(), Some("window"));

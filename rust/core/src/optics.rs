@@ -5,21 +5,17 @@
 
 use rayon::prelude::*;
 
-use crate::camera::{Camera, Half};
 use crate::design::{Channel, Design};
 use crate::error::{Error, Result};
+use crate::lens::{conjugate, depth_of_conjugate};
 use crate::memory;
 use crate::parallel::for_chunks;
 
 /// Default sharpness threshold on the blur radius, in pixels.
 pub const DEFAULT_THRESHOLD_PX: f64 = 0.5;
 
-/// Check a depth array: every element finite and > F (Eq. 1 is defined for z > F only).
-pub fn check_depths(cam: &Camera, z: &[f64]) -> Result<()> {
-    check_design_depths(cam.f_main, z)
-}
-
-/// [`check_depths`] for any main lens of focal length `f_main`.
+/// Check a depth array: every element finite and > F (Eq. 1 is defined for z > F only),
+/// for a main lens of focal length `f_main`.
 pub fn check_design_depths(f_main: f64, z: &[f64]) -> Result<()> {
     for (index, &value) in z.iter().enumerate() {
         if !value.is_finite() {
@@ -42,40 +38,15 @@ pub fn check_design_depths(f_main: f64, z: &[f64]) -> Result<()> {
     Ok(())
 }
 
-/// Eq. 1: z' = F z / (z − F), the conjugate of depth z (z > F).
-///
-/// For depths so large that F z overflows (z > f64::MAX / F) the algebraically equal
-/// F / (1 − F/z) is used: it cannot overflow for z > F, while everywhere else the product
-/// form is kept so that results equal a plain transcription of Eq. 1 bit for bit.
-#[inline]
-pub fn conjugate(f_main: f64, z: f64) -> f64 {
-    let num = f_main * z;
-    if num.is_finite() {
-        num / (z - f_main)
-    } else {
-        f_main / (1.0 - f_main / z)
-    }
-}
-
-/// Inverse of Eq. 1: the depth whose conjugate is z' (z' > F; z' = ∞ gives F).
-#[inline]
-pub fn depth_of_conjugate(f_main: f64, zc: f64) -> f64 {
-    if zc.is_infinite() {
-        f_main
-    } else {
-        f_main * zc / (zc - f_main)
-    }
-}
-
 /// One light field array as the closed forms of docs/model.md §2 see it: the main lens
 /// (focal length F, aperture D), the array plane L, the microlens pitch d, the distance v
 /// from the array to the sensor, the pixel pitch μ and one microlens focal length f.
 ///
-/// Every formula of §2 is written here once. A half of the split sensor is one
-/// ([`LensOptics::of_half`]); a channel of a general design gives one per lens type
-/// ([`LensOptics::of_channel`], docs/model.md §9). The camera's results are bit for bit
-/// what they were before designs existed: the fields are the values the camera's formulas
-/// read, and every expression keeps its order of operations.
+/// Every formula of §2 is written here once. A channel of a design gives one per lens type
+/// ([`LensOptics::of_channel`], docs/model.md §9); a half of the paper's split sensor is
+/// channel i of its two-channel design (`Camera::design`). Every expression keeps the
+/// order of operations of docs/model.md, so the seed's numbers are those of its closed
+/// forms bit for bit.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LensOptics {
     /// F, main lens focal length.
@@ -95,19 +66,6 @@ pub struct LensOptics {
 }
 
 impl LensOptics {
-    /// Half `half` of the split-sensor camera: L_i, f_i and the shared d, v, μ.
-    pub fn of_half(cam: &Camera, half: Half) -> LensOptics {
-        LensOptics {
-            f_main: cam.f_main,
-            aperture: cam.aperture,
-            l: cam.array_plane(half),
-            d: cam.d,
-            v: cam.v,
-            mu: cam.mu,
-            f: cam.microlens_focal(half),
-        }
-    }
-
     /// Lens type `t` (from 0) of channel `ch` of `design` (docs/model.md §9: the microlens
     /// and LF blur of type t are §2 with f_t). `t` must be below `ch.types()`.
     pub fn of_channel(design: &Design, ch: &Channel, t: usize) -> LensOptics {
@@ -179,194 +137,13 @@ impl LensOptics {
     }
 }
 
-/// Eqs. 2–3 (missing in the paper): main-lens blur radius on array plane i,
-/// H_i = (D L_i / 2) |1/z' − 1/L_i| ([`LensOptics::main_blur`]).
-#[inline]
-pub fn main_blur(cam: &Camera, half: Half, zc: f64) -> f64 {
-    LensOptics::of_half(cam, half).main_blur(zc)
-}
-
-/// Eqs. 4–5: repetitions rep_i = 2 H_i / d ([`LensOptics::repetitions`]).
-#[inline]
-pub fn repetitions(cam: &Camera, h: f64) -> f64 {
-    LensOptics::of_half(cam, Half::One).repetitions(h)
-}
-
-/// Eqs. 6–7: microlens blur b_i = (d v / 2) |1/f_i − 1/(L_i − z') − 1/v| (mm, unbounded;
-/// [`LensOptics::microlens_blur`]).
-#[inline]
-pub fn microlens_blur(cam: &Camera, half: Half, zc: f64) -> f64 {
-    LensOptics::of_half(cam, half).microlens_blur(zc)
-}
-
-/// The bounded LF blur of Fig. 1 in pixels: min(b_i, R_i) / μ ([`LensOptics::lf_blur_px`]).
-#[inline]
-pub fn lf_blur_px(cam: &Camera, half: Half, b: f64) -> f64 {
-    LensOptics::of_half(cam, half).lf_blur_px(b)
-}
-
-/// All closed-form curves for a set of depths. Two-row arrays are row-major (2, n):
-/// row 0 is half 1, row 1 is half 2.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Curves {
-    pub conjugate: Vec<f64>,
-    pub main_blur: Vec<f64>,
-    pub repetitions: Vec<f64>,
-    pub microlens_blur: Vec<f64>,
-    pub blur_px: Vec<f64>,
-    pub conventional_px: Vec<f64>,
-}
-
 /// Depths per parallel task: large enough to amortise scheduling, small enough to balance
-/// (and to keep a task's 11 output streams short runs of fresh pages).
+/// (and to keep a task's output streams short runs of fresh pages).
 const CHUNK: usize = 16 * 1024;
-
-/// Output buffers of [`curves_into`]: `conjugate` (n) and the two-row arrays (2 n,
-/// row-major (2, n): row 0 half 1, row 1 half 2). Any initial content: every element is
-/// written exactly once.
-pub struct CurvesOut<'a> {
-    pub conjugate: &'a mut [f64],
-    pub main_blur: &'a mut [f64],
-    pub repetitions: &'a mut [f64],
-    pub microlens_blur: &'a mut [f64],
-    pub blur_px: &'a mut [f64],
-    pub conventional_px: &'a mut [f64],
-}
-
-/// Bytes of the outputs of [`curves`] at n depths: 11 f64 per depth (no working buffers).
-pub fn curves_bytes(n: usize) -> u128 {
-    memory::bytes_of::<f64>(11 * n as u128)
-}
-
-/// Evaluate every curve at every depth (validated first), in parallel.
-pub fn curves(cam: &Camera, z: &[f64], n_threads: Option<usize>) -> Result<Curves> {
-    check_depths(cam, z)?;
-    let n = z.len();
-    memory::check("curves", curves_bytes(n))?;
-    let two = || memory::try_vec("curves", 2 * n, 0.0);
-    let mut out = Curves {
-        conjugate: memory::try_vec("curves", n, 0.0)?,
-        main_blur: two()?,
-        repetitions: two()?,
-        microlens_blur: two()?,
-        blur_px: two()?,
-        conventional_px: two()?,
-    };
-    let buffers = CurvesOut {
-        conjugate: &mut out.conjugate,
-        main_blur: &mut out.main_blur,
-        repetitions: &mut out.repetitions,
-        microlens_blur: &mut out.microlens_blur,
-        blur_px: &mut out.blur_px,
-        conventional_px: &mut out.conventional_px,
-    };
-    curves_into(cam, z, buffers, n_threads)?;
-    Ok(out)
-}
-
-/// [`curves`] written straight into caller-provided buffers (e.g. NumPy arrays), so the
-/// outputs are the only large allocation and each is written once: one fused pass per
-/// chunk of depths computes z' once and all ten per-half values from it, in parallel over
-/// chunks. Depths are validated and lengths checked before any write.
-pub fn curves_into(
-    cam: &Camera,
-    z: &[f64],
-    out: CurvesOut<'_>,
-    n_threads: Option<usize>,
-) -> Result<()> {
-    check_depths(cam, z)?;
-    let n = z.len();
-    let two = [
-        out.main_blur.len(),
-        out.repetitions.len(),
-        out.microlens_blur.len(),
-        out.blur_px.len(),
-        out.conventional_px.len(),
-    ];
-    if out.conjugate.len() != n || two.iter().any(|&l| l != 2 * n) {
-        return Err(Error::param(
-            "output length",
-            format!("{:?}", (out.conjugate.len(), two)),
-            format!("{n} (conjugate) and {} (two-row arrays)", 2 * n),
-        ));
-    }
-    let (h0, h1) = out.main_blur.split_at_mut(n);
-    let (r0, r1) = out.repetitions.split_at_mut(n);
-    let (b0, b1) = out.microlens_blur.split_at_mut(n);
-    let (p0, p1) = out.blur_px.split_at_mut(n);
-    let (c0, c1) = out.conventional_px.split_at_mut(n);
-    // Chunks of depths with an interrupt checkpoint between them; inside a chunk one task
-    // per CHUNK depths, each owning disjoint slices of every output.
-    let step = CHUNK * 64;
-    for_chunks(n_threads, n, step, |r| {
-        let zs = &z[r.clone()];
-        let one = [&mut *h0, &mut *r0, &mut *b0, &mut *p0, &mut *c0].map(|s| &mut s[r.clone()]);
-        let two = [&mut *h1, &mut *r1, &mut *b1, &mut *p1, &mut *c1].map(|s| &mut s[r.clone()]);
-        let [[h0, r0, b0, p0, c0], [h1, r1, b1, p1, c1]] =
-            [one, two].map(|r| r.map(|s| s.par_chunks_mut(CHUNK)));
-        out.conjugate[r.clone()]
-            .par_chunks_mut(CHUNK)
-            .zip(zs.par_chunks(CHUNK))
-            .zip(h0.zip(r0).zip(b0).zip(p0).zip(c0))
-            .zip(h1.zip(r1).zip(b1).zip(p1).zip(c1))
-            .for_each(|(((zc, zs), one), two)| {
-                let ((((h0, r0), b0), p0), c0) = one;
-                let ((((h1, r1), b1), p1), c1) = two;
-                curves_chunk(cam, zs, zc, [h0, r0, b0, p0, c0], [h1, r1, b1, p1, c1]);
-            });
-        Ok(())
-    })
-}
-
-/// One chunk of [`curves_into`]: every output element written once, in one streaming pass.
-#[inline]
-fn curves_chunk(
-    cam: &Camera,
-    zs: &[f64],
-    zc: &mut [f64],
-    one: [&mut [f64]; 5],
-    two: [&mut [f64]; 5],
-) {
-    let m = zs.len();
-    // Re-slicing to the chunk length lets the compiler drop the bounds checks.
-    let zc = &mut zc[..m];
-    let [h0, r0, b0, p0, c0] = one.map(|s| &mut s[..m]);
-    let [h1, r1, b1, p1, c1] = two.map(|s| &mut s[..m]);
-    let [o1, o2] = Half::BOTH.map(|h| LensOptics::of_half(cam, h));
-    for k in 0..m {
-        let zck = conjugate(cam.f_main, zs[k]);
-        zc[k] = zck;
-        let hk = o1.main_blur(zck);
-        let bk = o1.microlens_blur(zck);
-        h0[k] = hk;
-        r0[k] = o1.repetitions(hk);
-        b0[k] = bk;
-        p0[k] = o1.lf_blur_px(bk);
-        c0[k] = o1.conventional_px(hk);
-        let hk = o2.main_blur(zck);
-        let bk = o2.microlens_blur(zck);
-        h1[k] = hk;
-        r1[k] = o2.repetitions(hk);
-        b1[k] = bk;
-        p1[k] = o2.lf_blur_px(bk);
-        c1[k] = o2.conventional_px(hk);
-    }
-}
 
 /// Sharp depth intervals (near, far) in mm, sorted; `far` may be +∞. Open intervals:
 /// at a boundary the blur equals the threshold.
 pub type Intervals = Vec<(f64, f64)>;
-
-/// Depth of field of every configuration.
-#[derive(Debug, Clone, PartialEq)]
-pub struct DepthOfField {
-    /// Each half as a LF camera (bounded blur min(b_i, R_i)/μ), [half 1, half 2].
-    pub half: [Intervals; 2],
-    /// Split sensor: sharp where either half is.
-    pub split: Intervals,
-    /// Conventional cameras (sensor on array plane i, blur H_i/μ), [plane 1, plane 2].
-    pub conventional: [Intervals; 2],
-}
 
 /// Merge overlapping open intervals (sorted output). Touching intervals stay apart: the
 /// shared endpoint is sharp in neither.
@@ -467,20 +244,6 @@ fn check_threshold(threshold_px: f64) -> Result<()> {
     }
 }
 
-/// Depth of field, every boundary in closed form (the blur equations inverted).
-pub fn depth_of_field(cam: &Camera, threshold_px: f64) -> Result<DepthOfField> {
-    check_threshold(threshold_px)?;
-    let optics = Half::BOTH.map(|h| LensOptics::of_half(cam, h));
-    let half = optics.map(|o| o.lf_sharp(threshold_px));
-    let conventional = optics.map(|o| o.conventional_sharp(threshold_px));
-    let split = union_intervals(half.iter().flatten().copied().collect());
-    Ok(DepthOfField {
-        half,
-        split,
-        conventional,
-    })
-}
-
 /// Fraction of the depth range [lo, hi] covered by `intervals`, measured in log depth:
 /// Σ |log(iv ∩ [lo, hi])| / log(hi / lo). The intervals must not overlap (as returned).
 pub fn log_fraction(intervals: &[(f64, f64)], lo: f64, hi: f64) -> Result<f64> {
@@ -498,19 +261,6 @@ pub fn log_fraction(intervals: &[(f64, f64)], lo: f64, hi: f64) -> Result<f64> {
         .map(|(a, b)| (b / a).ln())
         .sum();
     Ok((covered / (hi / lo).ln()).clamp(0.0, 1.0))
-}
-
-/// Sharp fractions (log depth) over [lo, hi] of every configuration of [`depth_of_field`]:
-/// [half 1, half 2, split, conventional 1, conventional 2].
-pub fn sharp_fractions(cam: &Camera, threshold_px: f64, lo: f64, hi: f64) -> Result<[f64; 5]> {
-    let dof = depth_of_field(cam, threshold_px)?;
-    Ok([
-        log_fraction(&dof.half[0], lo, hi)?,
-        log_fraction(&dof.half[1], lo, hi)?,
-        log_fraction(&dof.split, lo, hi)?,
-        log_fraction(&dof.conventional[0], lo, hi)?,
-        log_fraction(&dof.conventional[1], lo, hi)?,
-    ])
 }
 
 // ---- general designs (docs/model.md §9) ----------------------------------------------
@@ -627,10 +377,8 @@ fn fill_min(out: &mut [f64], rows: &[&[f64]]) {
 }
 
 /// [`design_curves`] written straight into caller-provided buffers (e.g. NumPy arrays).
-/// Each row is computed by the same [`LensOptics`] formulas as the camera's
-/// [`curves_into`], in the same order of operations, so a camera's two-channel design
-/// ([`Design::from_camera`]) gives the camera's curves bit for bit. Depths are validated
-/// and lengths checked before any write.
+/// Each row is computed by the [`LensOptics`] formulas. Depths are validated and lengths
+/// checked before any write.
 pub fn design_curves_into(
     design: &Design,
     z: &[f64],
@@ -724,9 +472,7 @@ pub struct DesignDepthOfField {
 }
 
 /// Depth of field of a design, every boundary in closed form ([`LensOptics::lf_sharp`],
-/// [`LensOptics::conventional_sharp`], [`union_intervals`]: the camera's own code). For a
-/// camera's two-channel design the channels and their union equal [`depth_of_field`]'s
-/// halves and split bit for bit.
+/// [`LensOptics::conventional_sharp`], [`union_intervals`]).
 pub fn design_depth_of_field(design: &Design, threshold_px: f64) -> Result<DesignDepthOfField> {
     check_threshold(threshold_px)?;
     let mut types = Vec::new();
@@ -753,8 +499,6 @@ pub fn design_depth_of_field(design: &Design, threshold_px: f64) -> Result<Desig
 
 /// Sharp fractions (log depth) over [lo, hi] of every row of [`design_depth_of_field`]:
 /// (per [`type_rows`] row, per channel, the union, per channel's conventional camera).
-/// For a camera's two-channel design the channels, union and conventional rows equal
-/// [`sharp_fractions`] bit for bit.
 pub type DesignFractions = (Vec<f64>, Vec<f64>, f64, Vec<f64>);
 
 /// [`DesignFractions`] of a design.
@@ -780,51 +524,60 @@ pub fn design_sharp_fractions(
 mod tests {
     use super::*;
 
-    fn blur_at(cam: &Camera, half: Half, z: f64) -> f64 {
-        let zc = conjugate(cam.f_main, z);
-        lf_blur_px(cam, half, microlens_blur(cam, half, zc))
+    use crate::camera::Camera;
+
+    /// The seed's two-channel design (channel i is the paper's half i).
+    fn seed() -> Design {
+        Camera::paper().design()
+    }
+
+    /// Channel `c`'s (from 0) bounded LF blur in pixels at depth z (type 0).
+    fn blur_at(d: &Design, c: usize, z: f64) -> f64 {
+        let o = LensOptics::of_channel(d, &d.channels[c], 0);
+        o.lf_blur_px(o.microlens_blur(conjugate(d.f_main, z)))
     }
 
     #[test]
     fn curves_match_scalar_functions() {
-        let cam = Camera::paper();
+        let d = seed();
         let z: Vec<f64> = (0..40_000).map(|i| 81.0 + i as f64 * 0.25).collect();
-        let out = curves(&cam, &z, Some(2)).unwrap();
+        let out = design_curves(&d, &z, Some(2)).unwrap();
+        let two = LensOptics::of_channel(&d, &d.channels[1], 0);
         for (k, &zk) in z.iter().enumerate().step_by(997) {
-            let zc = conjugate(cam.f_main, zk);
+            let zc = conjugate(d.f_main, zk);
             assert_eq!(out.conjugate[k], zc);
-            assert_eq!(out.main_blur[z.len() + k], main_blur(&cam, Half::Two, zc));
-            assert_eq!(out.blur_px[k], blur_at(&cam, Half::One, zk));
+            assert_eq!(out.main_blur[z.len() + k], two.main_blur(zc));
+            assert_eq!(out.blur_px[k], blur_at(&d, 0, zk));
         }
     }
 
     #[test]
     fn rejects_depth_at_focal_length() {
-        let cam = Camera::paper();
-        let err = curves(&cam, &[100.0, 80.0], None).unwrap_err();
+        let d = seed();
+        let err = design_curves(&d, &[100.0, 80.0], None).unwrap_err();
         assert!(matches!(err, Error::InvalidDepth { index: 1, .. }));
-        assert!(curves(&cam, &[f64::NAN], None).is_err());
+        assert!(design_curves(&d, &[f64::NAN], None).is_err());
     }
 
     #[test]
     fn blur_is_bounded_at_out_of_focus_plane() {
-        let cam = Camera::paper();
-        for half in Half::BOTH {
-            let z = cam.out_of_focus_depth(half);
-            let px = blur_at(&cam, half, z);
-            assert!((px - cam.image_radius(half) / cam.mu).abs() < 1e-9);
+        let d = seed();
+        for (c, ch) in d.channels.iter().enumerate() {
+            let o = LensOptics::of_channel(&d, ch, 0);
+            let px = blur_at(&d, c, o.out_of_focus_depth());
+            assert!((px - o.image_radius() / ch.mu).abs() < 1e-9);
         }
     }
 
     #[test]
     fn dof_boundaries_hit_threshold() {
-        let cam = Camera::paper();
-        let dof = depth_of_field(&cam, 0.5).unwrap();
-        for half in Half::BOTH {
-            for &(near, far) in &dof.half[half.index()] {
+        let d = seed();
+        let dof = design_depth_of_field(&d, 0.5).unwrap();
+        for (c, iv) in dof.channels.iter().enumerate() {
+            for &(near, far) in iv {
                 for b in [near, far] {
-                    if b.is_finite() && b > cam.f_main {
-                        assert!((blur_at(&cam, half, b) - 0.5).abs() < 1e-6, "{b}");
+                    if b.is_finite() && b > d.f_main {
+                        assert!((blur_at(&d, c, b) - 0.5).abs() < 1e-6, "{b}");
                     }
                 }
                 let mid = if far.is_finite() {
@@ -832,11 +585,11 @@ mod tests {
                 } else {
                     near * 2.0
                 };
-                assert!(blur_at(&cam, half, mid) < 0.5);
+                assert!(blur_at(&d, c, mid) < 0.5);
             }
         }
-        // The split sensor covers at least what half 1 covers.
-        assert!(dof.split.len() <= dof.half[0].len() + dof.half[1].len());
+        // The union covers at least what channel 1 covers.
+        assert!(dof.union.len() <= dof.channels[0].len() + dof.channels[1].len());
     }
 
     #[test]
@@ -846,53 +599,10 @@ mod tests {
         assert!((f - (1.0 + 2f64.log10()) / 2.0).abs() < 1e-15);
         assert_eq!(log_fraction(&[], 10.0, 1000.0).unwrap(), 0.0);
         assert!(log_fraction(&[], 10.0, 10.0).is_err());
-        let s = sharp_fractions(&Camera::paper(), 0.5, 150.0, 10_000.0).unwrap();
-        assert_eq!(s[2], 1.0);
-        assert!(s[0] < 1.0 && s[1] < 1.0 && s[3] < 0.01);
-    }
-    #[test]
-    fn camera_design_is_the_camera_bit_for_bit() {
-        for cam in [
-            Camera::paper(),
-            Camera::new(
-                50.0,
-                12.5,
-                60.0,
-                0.8,
-                0.1,
-                0.48,
-                0.01,
-                10,
-                40,
-                3,
-                Some(0.5),
-                Some(0.45),
-            )
-            .unwrap(),
-        ] {
-            let design = Design::from_camera(&cam);
-            let z: Vec<f64> = (0..30_000)
-                .map(|i| cam.f_main * (1.0 + 1e-6 * 1.0009f64.powi(i)))
-                .collect();
-            let a = curves(&cam, &z, Some(2)).unwrap();
-            let b = design_curves(&design, &z, Some(3)).unwrap();
-            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-            assert_eq!(bits(&a.conjugate), bits(&b.conjugate));
-            assert_eq!(bits(&a.main_blur), bits(&b.main_blur));
-            assert_eq!(bits(&a.repetitions), bits(&b.repetitions));
-            assert_eq!(bits(&a.microlens_blur), bits(&b.microlens_blur));
-            assert_eq!(bits(&a.blur_px), bits(&b.blur_px));
-            assert_eq!(bits(&a.conventional_px), bits(&b.conventional_px));
-            assert_eq!(bits(&a.blur_px), bits(&b.channel_blur_px));
-            for t in [0.5, 0.1, 2.0, 9.0] {
-                let d1 = depth_of_field(&cam, t).unwrap();
-                let d2 = design_depth_of_field(&design, t).unwrap();
-                assert_eq!(d1.half.to_vec(), d2.channels);
-                assert_eq!(d1.half.to_vec(), d2.types);
-                assert_eq!(d1.split, d2.union);
-                assert_eq!(d1.conventional.to_vec(), d2.conventional);
-            }
-        }
+        let (_, channels, union, conventional) =
+            design_sharp_fractions(&seed(), 0.5, 150.0, 10_000.0).unwrap();
+        assert_eq!(union, 1.0);
+        assert!(channels[0] < 1.0 && channels[1] < 1.0 && conventional[0] < 0.01);
     }
 
     fn multi_focus() -> Design {

@@ -19,7 +19,7 @@ pub const SEED_SENSOR_HEIGHT: f64 = 24.0;
 /// The design called `name` (one of [`PRESETS`]).
 pub fn preset(name: &str) -> Result<Design> {
     match name {
-        "seed" => Ok(Design::from_camera(&Camera::paper())),
+        "seed" => Ok(Camera::paper().design()),
         "seed-plain" => seed_plain(),
         "split3" => split3(),
         "raytrix-r12" => raytrix_r12(),

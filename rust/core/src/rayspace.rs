@@ -12,12 +12,13 @@
 
 use rayon::prelude::*;
 
-use crate::camera::{Axis, Camera, Half};
 use crate::design::{Aperture, Design};
 use crate::error::{Error, Result};
+use crate::lens::conjugate;
+use crate::line::Axis;
 use crate::line::Line;
 use crate::memory::{self, try_vec, try_with_capacity};
-use crate::optics::{check_depths, check_design_depths, conjugate};
+use crate::optics::check_design_depths;
 use crate::parallel::{check_threads, chunk_items, for_chunks, with_threads};
 
 /// Most vertices of an integration polygon (a parallelogram clipped by one strip).
@@ -268,57 +269,6 @@ impl Rays {
     }
 }
 
-/// The ray-space geometry of one half of the camera ([`Rays`] of its line).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct HalfRays {
-    pub half: Half,
-    pub a: f64,
-    pub b: f64,
-    pub alpha: f64,
-    pub half_aperture: f64,
-}
-
-impl HalfRays {
-    pub fn new(cam: &Camera, half: Half) -> HalfRays {
-        let r = Rays::new(&Line::of_half(cam, half, Axis::X), 0);
-        HalfRays {
-            half,
-            a: r.a,
-            b: r.b,
-            alpha: r.alpha,
-            half_aperture: r.half_aperture,
-        }
-    }
-
-    fn rays(&self, cam: &Camera) -> Rays {
-        Rays {
-            a: self.a,
-            b: self.b,
-            alpha: self.alpha,
-            half_aperture: self.half_aperture,
-            d: cam.d,
-            mu: cam.mu,
-            v_l: cam.v / cam.array_plane(self.half),
-        }
-    }
-
-    /// The three strips of pixel q under the microlens centred at c ([`Rays::strips`]).
-    pub fn strips(&self, cam: &Camera, c: f64, q: u32) -> [Strip; 3] {
-        self.rays(cam).strips(c, cam.pixel_offset(q))
-    }
-
-    /// Integration polygon of pixel q under the microlens centred at c ([`Rays::polygon`]).
-    pub fn polygon(&self, cam: &Camera, c: f64, q: u32) -> Polygon {
-        self.rays(cam).polygon(c, cam.pixel_offset(q))
-    }
-
-    /// Chief ray (u, w) of pixel q under the microlens centred at c: through the microlens
-    /// centre (x = c) at w = w_q (`Camera::chief_w`).
-    pub fn chief(&self, cam: &Camera, c: f64, q: u32) -> [f64; 2] {
-        self.rays(cam).chief(c, cam.chief_w(self.half, q))
-    }
-}
-
 /// A polygon whose area is below this fraction of the largest polygon area of its half is
 /// unlit (docs/model.md §9, "Lit by area"): such an area is the rounding residue of a
 /// boundary contact (exact area 0), not light.
@@ -353,7 +303,7 @@ pub struct Trace {
     /// Lens type of the pixel's lens (j mod T).
     pub types: Vec<u32>,
     pub chief: Vec<[f64; 2]>,
-    /// The chief ray passes the main-lens aperture (docs/model.md §6, `Camera::is_lit`;
+    /// The chief ray passes the main-lens aperture (docs/model.md §6, `Line::pixel`;
     /// sensor layout: and the pixel centre lies in its lens's image cell).
     pub lit: Vec<bool>,
 }
@@ -373,14 +323,10 @@ pub fn trace_call_bytes(n: u128) -> u128 {
     n.saturating_mul(TRACE_BYTES_PER_PIXEL + TRACE_OUTPUT_BYTES_PER_PIXEL)
 }
 
-/// Trace every pixel of `half` along `axis`: its integration polygon, area, centroid,
-/// chief ray and lit flag (docs/model.md §3–4, §6). Parallel over pixels on the current
-/// rayon pool (callers run it inside their pool); the buffers are allocated fallibly.
-pub fn trace(cam: &Camera, half: Half, axis: Axis) -> Result<Trace> {
-    trace_line(&Line::of_half(cam, half, axis))
-}
-
-/// [`trace`] of any line (a camera half or a design channel along one axis).
+/// Trace every pixel of a line (a design's channel along one axis): its integration
+/// polygon, area, centroid, chief ray and lit flag (docs/model.md §3–4, §6, §9). Parallel
+/// over pixels on the current rayon pool (callers run it inside their pool); the buffers
+/// are allocated fallibly.
 pub fn trace_line(line: &Line) -> Result<Trace> {
     let mut tr = alloc_trace(line)?;
     let n = tr.polygons.len();
@@ -389,19 +335,9 @@ pub fn trace_line(line: &Line) -> Result<Trace> {
     Ok(tr)
 }
 
-/// [`trace`] as a top-level call: memory checked first (the trace, 168 bytes per pixel),
-/// run on the pool of `n_threads` in chunks of pixels with an interrupt checkpoint between
-/// chunks.
-pub fn trace_threads(
-    cam: &Camera,
-    half: Half,
-    axis: Axis,
-    n_threads: Option<usize>,
-) -> Result<Trace> {
-    trace_line_threads(&Line::of_half(cam, half, axis), n_threads)
-}
-
-/// [`trace_threads`] of any line.
+/// [`trace_line`] as a top-level call: memory checked first (the trace, 168 bytes per
+/// pixel), run on the pool of `n_threads` in chunks of pixels with an interrupt checkpoint
+/// between chunks.
 pub fn trace_line_threads(line: &Line, n_threads: Option<usize>) -> Result<Trace> {
     check_threads(n_threads)?;
     let mut tr = alloc_trace(line)?;
@@ -487,12 +423,6 @@ fn fill_trace(line: &Line, tr: &mut Trace, r: std::ops::Range<usize>) {
         });
 }
 
-/// σ = (v' − z')/z': a point of the plane at depth z is the line u + σ w = p' (docs/model.md §5).
-#[inline]
-pub fn slope(cam: &Camera, zc: f64) -> f64 {
-    (cam.v1 - zc) / zc
-}
-
 /// Footprints of n pixels at m depths, row-major (m, n); kernels (m, n, 6) when asked.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Footprints {
@@ -542,7 +472,7 @@ fn prepare(tr: &Trace, sample: Sample) -> Result<Prepared> {
     for i in 0..n {
         let (u, w) = match sample {
             Sample::Centroid => (tr.centroid[i][0], tr.centroid[i][1]),
-            // Chief: the position comes from `Camera::chief_projection` (see `footprints`);
+            // Chief: the position comes from `Line::chief_projection` (see `footprints_line`);
             // the flag NaN marks an unlit pixel.
             Sample::Chief if tr.lit[i] => (0.0, 0.0),
             Sample::Chief => (f64::NAN, f64::NAN),
@@ -558,7 +488,7 @@ fn rows_per_task(n: usize) -> usize {
     (1usize << 15).div_ceil(n.max(1)).max(1)
 }
 
-/// Output buffers of [`footprints_into`], each row-major: (m, n) for `position`, `lo`,
+/// Output buffers of [`footprints_line_into`], each row-major: (m, n) for `position`, `lo`,
 /// `hi`; (m, n, 6) for the kernel's breakpoints and values. Any initial content.
 pub struct FootprintsOut<'a> {
     pub position: &'a mut [f64],
@@ -584,19 +514,8 @@ pub fn footprints_bytes(m: u128, n: u128, kernel: bool) -> u128 {
         .saturating_add(n * FOOTPRINT_WORK_PER_PIXEL)
 }
 
-/// Validate a footprints call before anything is allocated: thread count, every depth,
-/// and the memory it needs ([`footprints_bytes`]). Returns (m, n): depths and pixels.
-pub fn check_footprints(
-    cam: &Camera,
-    z: &[f64],
-    axis: Axis,
-    kernel: bool,
-    n_threads: Option<usize>,
-) -> Result<(usize, usize)> {
-    check_footprints_line(&Line::of_half(cam, Half::One, axis), z, kernel, n_threads)
-}
-
-/// [`check_footprints`] of any line.
+/// Validate a footprints call of a line before anything is allocated: thread count, every
+/// depth, and the memory it needs ([`footprints_bytes`]). Returns (m, n): depths and pixels.
 pub fn check_footprints_line(
     line: &Line,
     z: &[f64],
@@ -611,28 +530,9 @@ pub fn check_footprints_line(
     Ok((m as usize, n as usize))
 }
 
-/// Footprints of every pixel of `half` along `axis` on the planes at depths `z`
-/// (docs/model.md §5): sample position, extent [lo, hi] in object-space X (mm), and with
-/// `kernel` the weight profile. Validated before any work; parallel over depths.
-pub fn footprints(
-    cam: &Camera,
-    z: &[f64],
-    half: Half,
-    axis: Axis,
-    sample: Sample,
-    kernel: bool,
-    n_threads: Option<usize>,
-) -> Result<Footprints> {
-    footprints_line(
-        &Line::of_half(cam, half, axis),
-        z,
-        sample,
-        kernel,
-        n_threads,
-    )
-}
-
-/// [`footprints`] of any line.
+/// Footprints of every pixel of a line on the planes at depths `z` (docs/model.md §5):
+/// sample position, extent [lo, hi] in object-space X (mm), and with `kernel` the weight
+/// profile. Validated before any work; parallel over depths.
 pub fn footprints_line(
     line: &Line,
     z: &[f64],
@@ -664,23 +564,9 @@ pub fn footprints_line(
     })
 }
 
-/// [`footprints`] written straight into caller-provided buffers (e.g. NumPy arrays), so
-/// the outputs are the only large allocation. Lengths are checked against (m, n). Runs in
-/// chunks of depths with an interrupt checkpoint between chunks.
-pub fn footprints_into(
-    cam: &Camera,
-    z: &[f64],
-    half: Half,
-    axis: Axis,
-    sample: Sample,
-    out: FootprintsOut<'_>,
-    n_threads: Option<usize>,
-) -> Result<()> {
-    let line = Line::of_half(cam, half, axis);
-    footprints_line_into(&line, z, sample, out, n_threads)
-}
-
-/// [`footprints_into`] of any line.
+/// [`footprints_line`] written straight into caller-provided buffers (e.g. NumPy arrays),
+/// so the outputs are the only large allocation. Lengths are checked against (m, n). Runs
+/// in chunks of depths with an interrupt checkpoint between chunks.
 pub fn footprints_line_into(
     line: &Line,
     z: &[f64],
@@ -977,73 +863,6 @@ fn axis_samples(line: &Line, sample: Sample, z: f64) -> Result<Vec<f64>> {
     Ok(out)
 }
 
-/// Bytes a sample_grid call holds: the two (Ky Q, Kx Q) outputs and the per-axis samples.
-pub fn sample_grid_bytes(cam: &Camera) -> u128 {
-    let cols = cam.kx as u128 * cam.q as u128;
-    let rows = cam.ky as u128 * cam.q as u128;
-    (2 * 8 * rows)
-        .saturating_mul(cols)
-        .saturating_add(8 * (rows + cols))
-}
-
-/// Validate a sample_grid call before anything is allocated; returns (rows, cols) =
-/// (Ky Q, Kx Q).
-pub fn check_sample_grid(cam: &Camera, z: f64, n_threads: Option<usize>) -> Result<(usize, usize)> {
-    check_threads(n_threads)?;
-    check_depths(cam, &[z])?;
-    memory::check("sample_grid (two outputs)", sample_grid_bytes(cam))?;
-    let q = cam.q as usize;
-    Ok((cam.ky as usize * q, cam.kx as usize * q))
-}
-
-/// The full 2D sensor of one half on the plane at depth z: (X, Y), each (Ky Q, Kx Q)
-/// row-major, rows along y and columns along x. Separable: X depends on the column only,
-/// Y on the row only, and under the square aperture a pixel yields a sample iff it does
-/// along both axes (the 4D integration region is the product of the two 2D polygons, so
-/// its centroid is the pair of centroids). Only the two outputs are allocated in full.
-pub fn sample_grid(
-    cam: &Camera,
-    z: f64,
-    half: Half,
-    sample: Sample,
-    n_threads: Option<usize>,
-) -> Result<(Vec<f64>, Vec<f64>)> {
-    let (rows, cols) = check_sample_grid(cam, z, n_threads)?;
-    let mut gx = try_vec("sample_grid", rows * cols, 0.0)?;
-    let mut gy = try_vec("sample_grid", rows * cols, 0.0)?;
-    sample_grid_into(cam, z, half, sample, &mut gx, &mut gy, n_threads)?;
-    Ok((gx, gy))
-}
-
-/// [`sample_grid`] written straight into caller-provided (Ky Q, Kx Q) buffers, in chunks
-/// of rows with an interrupt checkpoint between chunks.
-pub fn sample_grid_into(
-    cam: &Camera,
-    z: f64,
-    half: Half,
-    sample: Sample,
-    gx: &mut [f64],
-    gy: &mut [f64],
-    n_threads: Option<usize>,
-) -> Result<()> {
-    let (rows, cols) = check_sample_grid(cam, z, n_threads)?;
-    if gx.len() != rows * cols || gy.len() != rows * cols {
-        return Err(Error::param(
-            "output length",
-            format!("{:?}", (gx.len(), gy.len())),
-            format!(
-                "{} (Ky Q = {rows} rows × Kx Q = {cols} columns)",
-                rows * cols
-            ),
-        ));
-    }
-    let (lx, ly) = (
-        Line::of_half(cam, half, Axis::X),
-        Line::of_half(cam, half, Axis::Y),
-    );
-    grid_into(&lx, &ly, None, z, sample, gx, gy, n_threads)
-}
-
 /// The 2-D grid of a pair of lines: X from the column's line, Y from the row's, NaN where
 /// either axis yields no sample; with `disc` = Some(D/2) (a circular aperture, chief
 /// samples) also NaN where the chief ray's (w_x, w_y) is not strictly inside the disc.
@@ -1141,8 +960,13 @@ pub fn check_design_sample_grid(
     Ok((lx, ly))
 }
 
-/// [`sample_grid_into`] of channel `channel` (from 1) of a design (rect grids): rows the
-/// channel's pixel rows along y, columns along x ((K_y Q, K_x Q) or (M_y, M_x)).
+/// The sample positions (X, Y) of every pixel of channel `channel` (from 1) of a design
+/// (rect grids) on the plane at depth z, written into caller-provided buffers: rows the
+/// channel's pixel rows along y, columns along x ((K_y Q, K_x Q) or (M_y, M_x)), NaN where
+/// a pixel yields no sample. Separable: X depends on the column only, Y on the row only,
+/// and under the square aperture a pixel yields a sample iff it does along both axes (the
+/// 4-D integration region is the product of the two 2-D polygons, so its centroid is the
+/// pair of centroids). In chunks of rows with an interrupt checkpoint between chunks.
 pub fn design_sample_grid_into(
     design: &Design,
     channel: i64,
@@ -1169,12 +993,21 @@ pub fn design_sample_grid_into(
 mod tests {
     use super::*;
 
-    fn design(f1: Option<f64>, f2: Option<f64>) -> Camera {
+    use crate::camera::Camera;
+    use crate::lens::MAX_K;
+
+    /// The seed with 6 x 4 lenses and the given microlens focal lengths, as its design.
+    fn design(f1: Option<f64>, f2: Option<f64>) -> Design {
         let p = Camera::paper();
         Camera::new(
             p.f_main, p.aperture, p.v1, p.kappa, p.d, p.v, p.mu, 15, 6, 4, f1, f2,
         )
         .unwrap()
+        .design()
+    }
+
+    fn line(d: &Design, channel: i64, axis: Axis) -> Line {
+        Line::of_channel(d, channel, axis).unwrap()
     }
 
     fn close(a: f64, b: f64, tol: f64) -> bool {
@@ -1183,15 +1016,16 @@ mod tests {
 
     #[test]
     fn strip_offset_matches_pixel_center() {
-        // α c + θ_q is s − (v/f) c with s = Camera::pixel_center.
-        let cam = design(Some(0.5), Some(0.9));
-        for half in Half::BOTH {
-            let rays = HalfRays::new(&cam, half);
+        // α c + θ_q is s − (v/f) c with s = c (1 + v/L) + θ_q, the pixel's sensor position.
+        let d = design(Some(0.5), Some(0.9));
+        for channel in [1, 2] {
+            let ln = line(&d, channel, Axis::X);
+            let rays = Rays::new(&ln, 0);
             for q in [0, 7, 14] {
-                let c = cam.lens_center(5, 6);
-                let s = rays.strips(&cam, c, q)[2];
-                let f = cam.microlens_focal(half);
-                let want = cam.pixel_center(half, c, q) - cam.v / f * c;
+                let c = ln.lens_center(5);
+                let theta = ln.ideal_offset(q, 15);
+                let s = rays.strips(c, theta)[2];
+                let want = c * (1.0 + ln.v / ln.l) + theta - ln.v / ln.focal[0] * c;
                 assert!(((s.lo + s.hi) / 2.0 - want).abs() < 1e-12);
             }
         }
@@ -1200,9 +1034,10 @@ mod tests {
     #[test]
     fn half1_ng_rectangles() {
         // docs/model.md §8: width d, height μ v'/v, axis-aligned, in Ng's setting.
-        let cam = Camera::paper();
-        let tr = trace(&cam, Half::One, Axis::X).unwrap();
-        let h = cam.mu * cam.v1 / cam.v;
+        let d = Camera::paper().design();
+        let ch = &d.channels[0];
+        let tr = trace_line(&line(&d, 1, Axis::X)).unwrap();
+        let h = ch.mu * ch.l / ch.v;
         for (i, p) in tr.polygons.iter().enumerate() {
             assert!(tr.lit[i]);
             assert_eq!(p.n, 4);
@@ -1212,20 +1047,21 @@ mod tests {
             let umax = us.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
             let wmin = ws.iter().cloned().fold(f64::INFINITY, f64::min);
             let wmax = ws.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-            assert!(close(umax - umin, cam.d, 1e-12));
+            assert!(close(umax - umin, ch.d, 1e-12));
             assert!(close(wmax - wmin, h, 1e-9));
-            assert!(close(p.area(), cam.d * h, 1e-9));
+            assert!(close(p.area(), ch.d * h, 1e-9));
         }
     }
 
     #[test]
     fn light_is_conserved_under_each_microlens() {
         // docs/model.md §8: Σ areas = D d v'/L_i when the microlens image fits in its Q pixels.
-        let cam = Camera::paper();
-        for half in Half::BOTH {
-            let tr = trace(&cam, half, Axis::Y).unwrap();
-            let full = cam.aperture * cam.d * cam.v1 / cam.array_plane(half);
-            for lens in tr.area.chunks(cam.q as usize) {
+        let d = Camera::paper().design();
+        for channel in [1, 2] {
+            let ln = line(&d, channel, Axis::Y);
+            let tr = trace_line(&ln).unwrap();
+            let full = d.aperture * ln.d * ln.v_ref / ln.l;
+            for lens in tr.area.chunks(15) {
                 let s: f64 = lens.iter().sum();
                 assert!(close(s, full, 1e-12), "{s} vs {full}");
             }
@@ -1234,10 +1070,11 @@ mod tests {
 
     #[test]
     fn weight_profile_integrates_to_area() {
-        let cam = design(Some(0.4), Some(2.0));
-        let rays = HalfRays::new(&cam, Half::Two);
-        for q in 0..cam.q {
-            let p = rays.polygon(&cam, cam.lens_center(1, 6), q);
+        let d = design(Some(0.4), Some(2.0));
+        let ln = line(&d, 2, Axis::X);
+        let rays = Rays::new(&ln, 0);
+        for q in 0..15 {
+            let p = rays.polygon(ln.lens_center(1), ln.ideal_offset(q, 15));
             for sigma in [-0.5, 0.0, 0.3, 2.0] {
                 let (b, v) = weight_profile(&p, sigma);
                 let mut integral = 0.0;
@@ -1251,45 +1088,45 @@ mod tests {
 
     #[test]
     fn rejects_bad_input_before_work() {
-        let cam = Camera::paper();
+        let d = Camera::paper().design();
         assert!(axis_from_name("z").is_err());
         assert!(Sample::from_name("mean").is_err());
         let bad = [f64::NAN, 80.0, 10.0, f64::INFINITY];
         for z in bad {
-            let r = footprints(
-                &cam,
+            let r = footprints_line(
+                &line(&d, 1, Axis::X),
                 &[500.0, z],
-                Half::One,
-                Axis::X,
                 Sample::Chief,
                 false,
                 None,
             );
             assert!(matches!(r, Err(Error::InvalidDepth { index: 1, .. })));
             assert!(matches!(
-                sample_grid(&cam, z, Half::One, Sample::Chief, None),
+                check_design_sample_grid(&d, 1, z, Sample::Chief, None),
                 Err(Error::InvalidDepth { .. })
             ));
         }
+        let k = MAX_K as i64;
         let huge = Camera::new(
-            80.0, 20.0, 90.0, 0.3, 0.1, 1.0, 0.01, 65_535, 10_000_000, 10_000_000, None, None,
+            80.0, 20.0, 90.0, 0.3, 0.1, 0.3, 0.01, 65_535, k, k, None, None,
         )
-        .unwrap();
+        .unwrap()
+        .design();
         assert!(matches!(
-            sample_grid(&huge, 500.0, Half::One, Sample::Chief, None),
+            check_design_sample_grid(&huge, 1, 500.0, Sample::Chief, None),
             Err(Error::TooLarge { .. })
         ));
         assert!(matches!(
-            trace(&huge, Half::One, Axis::X),
+            trace_line(&line(&huge, 1, Axis::X)),
             Err(Error::TooLarge { .. })
         ));
     }
 
     #[test]
     fn chief_ray_lies_inside_lit_polygons() {
-        let cam = design(Some(0.7), None);
-        for half in Half::BOTH {
-            let tr = trace(&cam, half, Axis::X).unwrap();
+        let d = design(Some(0.7), None);
+        for channel in [1, 2] {
+            let tr = trace_line(&line(&d, channel, Axis::X)).unwrap();
             for i in 0..tr.polygons.len() {
                 if tr.lit[i] {
                     assert!(tr.area[i] > 0.0);

@@ -1,13 +1,14 @@
 //! Coincidence planes, genuinely new samples (Eqs. 8–9) and resolution at every depth
 //! (docs/model.md §3, §5, §6). Derivations: `docs/samples.md`.
 //!
-//! The sample positions are the chief samples p' of [`Camera::chief_projection`] (docs/model.md §5),
-//! the same function the ray-space engine's `sample = "chief"` footprints use, over every
-//! lit pixel ([`Camera::is_lit`]) of a half. Everything is computed on plane v' (p' space);
-//! object space is the linear map X = −p' z / v', so
-//! - the merge tolerance `tol · δ(z)` is `tol · d / Q` in p' space (independent of z),
-//! - the central field |X| ≤ K_x d z / (4 v') is |p'| ≤ K_x d / 4,
-//! - a gap g in p' is g Q / d in units of δ(z).
+//! The sample positions are the chief samples p' of [`Line::chief_projection`] (docs/model.md
+//! §5), the same function the ray-space engine's `sample = "chief"` footprints use, over
+//! every lit pixel ([`Line::pixel`]) of a channel. Everything is computed on plane
+//! v_ref = L_1 (p' space); object space is the linear map X = −p' z / L_1, so with
+//! δ(z) = μ_1 z / L_1 (docs/model.md §9)
+//! - the merge tolerance `tol · δ(z)` is `tol · μ_1` in p' space (independent of z),
+//! - the central field |X| ≤ K_x d_1 z / (4 L_1) is |p'| ≤ K_x d_1 / 4,
+//! - a gap g in p' is g / μ_1 in units of δ(z).
 //!
 //! Merge rule: the distinct count of a set of positions is the least number of closed
 //! intervals of length `tol · δ(z)` that cover it (computed greedily on the sorted positions:
@@ -17,20 +18,21 @@
 
 use rayon::prelude::*;
 
-use crate::camera::{Axis, Camera, Half};
 use crate::design::Design;
 use crate::error::{Error, Result};
+use crate::lens::{conjugate, depth_of_conjugate};
+use crate::line::Axis;
 use crate::line::{check_coincidence_channel, Line};
 use crate::memory::{self, try_reserve, try_vec};
-use crate::optics::{check_depths, check_design_depths, conjugate, depth_of_conjugate, LensOptics};
+use crate::optics::{check_design_depths, LensOptics};
 use crate::parallel::{chunk_items, for_chunks, threads, with_threads};
-use crate::rayspace::{slope, trace, trace_line, Sample, TRACE_BYTES_PER_PIXEL};
+use crate::rayspace::{trace_line, Sample, TRACE_BYTES_PER_PIXEL};
 
-/// Largest number of pixels along one axis of one half (K · Q) the brute-force count
-/// accepts (a cap on the work per depth; the memory a call needs is estimated separately,
-/// see [`new_samples_bytes`], and checked against what is available).
+/// Largest number of pixels along one axis of one channel (K · Q) the brute-force count
+/// accepts (a cap on the work per depth; the memory a call needs is estimated separately
+/// and checked against what is available).
 pub const MAX_SAMPLES_PER_AXIS: u64 = 1 << 24;
-/// Largest number of (N, T) pairs `coincidence_planes` enumerates.
+/// Largest number of (N, T) pairs `design_coincidence_planes` enumerates.
 pub const MAX_PAIRS: u64 = 1_000_000;
 /// Largest brute-force work of `coincidence_planes`: planes × (K_x + K_y) × Q_lit sample
 /// positions generated, sorted and scanned (about half a minute on one core).
@@ -39,13 +41,6 @@ pub const MAX_COINCIDENCE_WORK: u64 = 1 << 33;
 pub const DEFAULT_MAX_N: i64 = 4;
 /// Default merge tolerance of the distinct counts, in units of δ(z).
 pub const DEFAULT_TOL: f64 = 1e-6;
-
-/// The merge tolerance `tol · δ(z)` in p' space: δ(z) = d z / (Q v') maps to d / Q on
-/// plane v' (X = −p' z / v'), independent of the depth.
-#[inline]
-pub fn merge_eps(cam: &Camera, tol: f64) -> f64 {
-    tol * cam.d / cam.q as f64
-}
 
 /// Validate the merge tolerance (a multiple of δ(z); 0 merges exactly equal positions only).
 pub fn check_tol(tol: f64) -> Result<f64> {
@@ -76,31 +71,7 @@ pub fn closed_form_new_samples(k: u64, q_lit: u64, n: u64, t: u64) -> u64 {
     k * q_lit - k.saturating_sub(n) * q_lit.saturating_sub(t)
 }
 
-/// The lit pixels of a half along one axis, in order of increasing q. The lit set is
-/// contiguous and symmetric about the microlens image centre (|w_q| grows away from it).
-pub fn lit_indices(cam: &Camera, half: Half) -> Vec<u32> {
-    (0..cam.q).filter(|&q| cam.is_lit(half, q)).collect()
-}
-
-fn check_size(cam: &Camera) -> Result<()> {
-    let k = cam.kx.max(cam.ky) as u64;
-    let n = k * cam.q as u64;
-    if n > MAX_SAMPLES_PER_AXIS {
-        return Err(Error::TooMuchWork {
-            what: format!(
-                "the brute-force sample count over K = {k} microlenses x Q = {} pixels",
-                cam.q
-            ),
-            amount: n as u128,
-            limit: MAX_SAMPLES_PER_AXIS as u128,
-            unit: "pixels per axis",
-        });
-    }
-    Ok(())
-}
-
-/// The chief-sample generator of one line (a camera half or a design channel along one
-/// axis): its lens centres and lit pixels, and the constants of p' = (v_ref/L)(c + w g),
+/// The chief-sample generator of one line (a design channel along one axis): its lens centres and lit pixels, and the constants of p' = (v_ref/L)(c + w g),
 /// g = (L − z')/z' (docs/model.md §5).
 #[derive(Debug, Clone)]
 struct LineSamples {
@@ -163,37 +134,6 @@ impl LineSamples {
     }
 }
 
-/// Per-half, per-axis generators of the camera, and its lit pixel indices.
-#[derive(Debug, Clone)]
-struct Layout {
-    /// [half][axis: 0 x, 1 y].
-    lines: [[LineSamples; 2]; 2],
-    /// Lit pixel indices of half 1 and half 2.
-    lit: [Vec<u32>; 2],
-    /// The y lens centres are x lens centres, bit for bit (K_y ≤ K_x, K_x − K_y even:
-    /// c^y_j = c^x_{j + (K_x − K_y)/2}, both exact half-integer multiples of d), so every
-    /// y sample of a half is one of its x samples.
-    y_within_x: bool,
-}
-
-impl Layout {
-    fn new(cam: &Camera) -> Layout {
-        let of = |h: Half| [Axis::X, Axis::Y].map(|a| LineSamples::new(&Line::of_half(cam, h, a)));
-        Layout {
-            lines: [of(Half::One), of(Half::Two)],
-            lit: Half::BOTH.map(|h| lit_indices(cam, h)),
-            y_within_x: cam.ky <= cam.kx && (cam.kx - cam.ky) % 2 == 0,
-        }
-    }
-
-    fn line(&self, half: Half, axis: Axis) -> &LineSamples {
-        &self.lines[half.index()][match axis {
-            Axis::X => 0,
-            Axis::Y => 1,
-        }]
-    }
-}
-
 /// Reusable buffers of one worker thread (allocated once per worker, grown as needed).
 #[derive(Debug, Default)]
 struct Scratch {
@@ -223,22 +163,9 @@ impl Scratch {
         let n = n[0] as u128 + n[1] as u128;
         16 * n + 40 * inner as u128 + 8 * q as u128
     }
-
-    /// Sizes for the chief samples of a camera: (per-half positions, inner, pixel terms).
-    fn chief_sizes(cam: &Camera) -> ([usize; 2], usize, usize) {
-        let k = cam.kx.max(cam.ky) as usize;
-        let lit = Half::BOTH.map(|h| k * cam.lit_pixels(h) as usize);
-        (lit, k.max(cam.q as usize), cam.q as usize)
-    }
-
-    /// Sizes for the centroid samples: every pixel of a half along the longer axis.
-    fn centroid_sizes(cam: &Camera) -> ([usize; 2], usize, usize) {
-        let n = cam.kx.max(cam.ky) as usize * cam.q as usize;
-        ([n, n], 0, 0)
-    }
 }
 
-/// Working buffers of [`half_samples`].
+/// Working buffers of [`line_samples`].
 #[derive(Debug, Default)]
 struct Work {
     /// Per inner index: (fractional offset in its window, window shift, index).
@@ -343,24 +270,9 @@ fn insertion_fixup(x: &mut [f64]) {
     }
 }
 
-/// Sorted chief samples p' (docs/model.md §5) of every lit pixel of `half` along `axis` on the plane
-/// with conjugate `zc` ([`line_samples`] of the half's line).
-fn half_samples(
-    _cam: &Camera,
-    layout: &Layout,
-    half: Half,
-    axis: Axis,
-    zc: f64,
-    out: &mut Vec<f64>,
-    work: &mut Work,
-) {
-    line_samples(layout.line(half, axis), zc, out, work);
-}
-
 /// Sorted chief samples p' of every lit pixel of a line on the plane with conjugate `zc`.
-/// Values are bit-identical to [`Line::chief_projection`] (and so to
-/// [`Camera::chief_projection`]): p' = (v_ref/L)·(c_j + t) with t = w (L − z')/z'
-/// evaluated in the same order.
+/// Values are bit-identical to [`Line::chief_projection`]: p' = (v_ref/L)·(c_j + t) with
+/// t = w (L − z')/z' evaluated in the same order.
 fn line_samples(ls: &LineSamples, zc: f64, out: &mut Vec<f64>, work: &mut Work) {
     let l = ls.l;
     let scale = ls.scale;
@@ -509,351 +421,8 @@ fn merge_into(out: &mut Vec<f64>, x: &[f64], y: &[f64]) {
     }
 }
 
-/// Results at one depth.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-struct DepthResult {
-    distinct: [u64; 3],
-    distinct_2d: [u64; 3],
-    max_gap: [f64; 3],
-}
-
-/// Distinct counts along one axis (half 1, half 2, union) and, when `field` is given,
-/// the max gaps in δ(z) units.
-fn axis_counts(
-    cam: &Camera,
-    layout: &Layout,
-    axis: Axis,
-    zc: f64,
-    eps: f64,
-    field: f64,
-    s: &mut Scratch,
-) -> ([u64; 3], [f64; 3]) {
-    for h in Half::BOTH {
-        half_samples(cam, layout, h, axis, zc, &mut s.pos[h.index()], &mut s.work);
-    }
-    let [p1, p2, pu] = &mut s.pos;
-    merge_into(pu, p1, p2);
-    let to_delta = cam.q as f64 / cam.d;
-    let (cu, gu) = scan(pu, eps, field);
-    let halves = if cu == pu.len() as u64 {
-        // Every union sample is its own: so is every sample of each half (a subset), and
-        // only the gaps are left to find.
-        [&*p1, &*p2].map(|x| (x.len() as u64, field_gap(x, field)))
-    } else {
-        [&*p1, &*p2].map(|x| scan(x, eps, field))
-    };
-    let r = [halves[0], halves[1], (cu, gu)];
-    (r.map(|x| x.0), r.map(|x| x.1 * to_delta))
-}
-
-/// 2D distinct counts from the per-axis counts (separability, inclusion–exclusion):
-/// |A1×B1 ∪ A2×B2| = |A1||B1| + |A2||B2| − |A1∩A2||B1∩B2|, |A1∩A2| = |A1| + |A2| − |A1∪A2|.
-pub fn distinct_2d(x: [u64; 3], y: [u64; 3]) -> [u64; 3] {
-    let ix = x[0] + x[1] - x[2];
-    let iy = y[0] + y[1] - y[2];
-    [
-        x[0] * y[0],
-        x[1] * y[1],
-        x[0] * y[0] + x[1] * y[1] - ix * iy,
-    ]
-}
-
-fn depth_result(cam: &Camera, layout: &Layout, z: f64, tol: f64, s: &mut Scratch) -> DepthResult {
-    let zc = conjugate(cam.f_main, z);
-    let eps = merge_eps(cam, tol);
-    let field = cam.kx as f64 * cam.d / 4.0; // |X| ≤ K_x d z / (4 v') in p' space
-    let (dx, gap) = axis_counts(cam, layout, Axis::X, zc, eps, field, s);
-    let lit = [&layout.lit[0], &layout.lit[1]].map(|l| l.len() as u64);
-    let all_distinct_x = dx[2] == cam.kx as u64 * (lit[0] + lit[1]);
-    let dy = if cam.ky == cam.kx {
-        dx
-    } else if all_distinct_x && layout.y_within_x {
-        // No two x samples of either half lie within eps of each other, and the y samples
-        // of each half are x samples (those of the central K_y lenses): so no two y samples
-        // do either, and every count is the number of samples. The usual case away from
-        // coincidence planes; it skips the whole y pass.
-        let (n1, n2) = (cam.ky as u64 * lit[0], cam.ky as u64 * lit[1]);
-        [n1, n2, n1 + n2]
-    } else {
-        // Counts only: an infinite field skips the gap scan.
-        axis_counts(cam, layout, Axis::Y, zc, eps, f64::INFINITY, s).0
-    };
-    DepthResult {
-        distinct: dx,
-        distinct_2d: distinct_2d(dx, dy),
-        max_gap: gap,
-    }
-}
-
-/// Centroid samples of every half and axis: the (u, w) centroids of the pixels that
-/// collect light. On the plane with conjugate z' the sample is p' = u + σ w with
-/// σ = (v' − z')/z' (docs/model.md §5), the projection the engine's `footprints` use.
-struct CentroidLayout {
-    /// [half][axis: 0 x, 1 y] → centroids of the pixels with area > 0.
-    uw: [[Vec<[f64; 2]>; 2]; 2],
-}
-
-impl CentroidLayout {
-    fn new(cam: &Camera) -> Result<CentroidLayout> {
-        let mut uw: [[Vec<[f64; 2]>; 2]; 2] = Default::default();
-        for h in Half::BOTH {
-            for (a, axis) in [Axis::X, Axis::Y].into_iter().enumerate() {
-                let tr = trace(cam, h, axis)?;
-                uw[h.index()][a] = tr
-                    .centroid
-                    .iter()
-                    .zip(&tr.area)
-                    .filter(|(_, &area)| area > 0.0)
-                    .map(|(c, _)| *c)
-                    .collect();
-            }
-        }
-        Ok(CentroidLayout { uw })
-    }
-}
-
-/// Distinct centroid samples along one axis (half 1, half 2, union) and max gaps in δ(z).
-fn centroid_axis_counts(
-    cam: &Camera,
-    cl: &CentroidLayout,
-    axis: usize,
-    zc: f64,
-    eps: f64,
-    field: f64,
-    s: &mut Scratch,
-) -> ([u64; 3], [f64; 3]) {
-    let sigma = slope(cam, zc);
-    for h in Half::BOTH {
-        let pos = &mut s.pos[h.index()];
-        pos.clear();
-        pos.extend(cl.uw[h.index()][axis].iter().map(|[u, w]| u + sigma * w));
-        pos.sort_unstable_by(f64::total_cmp);
-    }
-    let [p1, p2, pu] = &mut s.pos;
-    merge_into(pu, p1, p2);
-    let to_delta = cam.q as f64 / cam.d;
-    let r = [&*p1, &*p2, &*pu].map(|x| scan(x, eps, field));
-    (r.map(|x| x.0), r.map(|x| x.1 * to_delta))
-}
-
-fn centroid_depth_result(
-    cam: &Camera,
-    cl: &CentroidLayout,
-    z: f64,
-    tol: f64,
-    s: &mut Scratch,
-) -> DepthResult {
-    let zc = conjugate(cam.f_main, z);
-    let eps = merge_eps(cam, tol);
-    let field = cam.kx as f64 * cam.d / 4.0;
-    let (dx, gap) = centroid_axis_counts(cam, cl, 0, zc, eps, field, s);
-    let dy = centroid_axis_counts(cam, cl, 1, zc, eps, f64::INFINITY, s).0;
-    DepthResult {
-        distinct: dx,
-        distinct_2d: distinct_2d(dx, dy),
-        max_gap: gap,
-    }
-}
-
-/// Genuinely new samples at m depths. Row-major (3, m) arrays: rows half 1, half 2, union.
-#[derive(Debug, Clone, PartialEq)]
-pub struct NewSamples {
-    /// Distinct chief samples along x.
-    pub distinct: Vec<u64>,
-    /// Distinct chief samples over the 2D half-sensors (K_x × K_y lenses).
-    pub distinct_2d: Vec<u64>,
-    /// Largest gap between consecutive samples along x over the central field, in δ(z)
-    /// (+∞ when the samples do not cover the field).
-    pub max_gap: Vec<f64>,
-    /// Pixels that yield a sample along x (chief: lit, K_x Q_lit; centroid: area > 0), for
-    /// half 1, half 2 and their sum.
-    pub lit: [u64; 3],
-}
-
 /// Depths per parallel task.
 const CHUNK: usize = 8;
-
-/// Output buffers of [`new_samples_into`], each row-major (3, m): rows half 1, half 2,
-/// union. Any initial content: every element is written once.
-pub struct NewSamplesOut<'a> {
-    pub distinct: &'a mut [u64],
-    pub distinct_2d: &'a mut [u64],
-    pub max_gap: &'a mut [f64],
-}
-
-/// Bytes a new_samples call at `m` depths holds at its peak, for `mode` on `threads`
-/// threads: the outputs (9 values per depth), one chunk of per-depth results, the layout
-/// (chief: lens centres and lit pixels; centroid: the centroids of every pixel of both
-/// halves and axes, plus the trace of one half and axis while they are collected) and one
-/// set of per-thread buffers per thread ([`Scratch::reserved`]).
-pub fn new_samples_bytes(cam: &Camera, m: usize, mode: Sample, threads: usize) -> u128 {
-    let m = m as u128;
-    let depth_result = std::mem::size_of::<DepthResult>() as u128;
-    let outputs = 72 * m;
-    let chunk = depth_result * m.min(1 << 20);
-    let (kx, ky, q) = (cam.kx as u128, cam.ky as u128, cam.q as u128);
-    let (layout, sizes) = match mode {
-        Sample::Chief => (8 * (kx + ky) + 8 * q, Scratch::chief_sizes(cam)),
-        Sample::Centroid => {
-            let centroids = 2 * 16 * q * (kx + ky);
-            let trace = TRACE_BYTES_PER_PIXEL * q * kx.max(ky);
-            (centroids + trace, Scratch::centroid_sizes(cam))
-        }
-    };
-    let workers = (threads as u128).min(m.div_ceil(CHUNK as u128)).max(1);
-    let scratch = workers * Scratch::bytes(sizes.0, sizes.1, sizes.2);
-    outputs + chunk + layout + scratch
-}
-
-/// Evaluate `f` at every depth in parallel, in chunks of depths with an interrupt
-/// checkpoint between chunks (CHUNK depths per task, one scratch per worker built by
-/// `scratch`), writing each depth's result into `out`.
-fn per_depth<F, S>(
-    z: &[f64],
-    n_threads: Option<usize>,
-    cost: u128,
-    scratch: S,
-    out: NewSamplesOut<'_>,
-    f: F,
-) -> Result<()>
-where
-    F: Fn(f64, &mut Scratch) -> DepthResult + Sync,
-    S: Fn() -> Result<Scratch> + Sync,
-{
-    let m = z.len();
-    let step = chunk_items(n_threads, cost)
-        .max(CHUNK * threads(n_threads))
-        .min(1 << 20);
-    let mut res = try_vec(
-        "new_samples (per-depth results)",
-        step.min(m),
-        DepthResult::default(),
-    )?;
-    for_chunks(n_threads, m, step, |r| {
-        let res = &mut res[..r.len()];
-        res.par_chunks_mut(CHUNK)
-            .zip(z[r.clone()].par_chunks(CHUNK))
-            .try_for_each_init(&scratch, |s, (rs, zs)| -> Result<()> {
-                let s = s.as_mut().map_err(|e| e.clone())?;
-                for (ri, &zi) in rs.iter_mut().zip(zs) {
-                    *ri = f(zi, s);
-                }
-                Ok(())
-            })?;
-        for (k, d) in r.zip(res.iter()) {
-            for row in 0..3 {
-                out.distinct[row * m + k] = d.distinct[row];
-                out.distinct_2d[row * m + k] = d.distinct_2d[row];
-                out.max_gap[row * m + k] = d.max_gap[row];
-            }
-        }
-        Ok(())
-    })
-}
-
-/// Validate a new_samples call before any work: threads, tolerance, depths, the work cap
-/// ([`MAX_SAMPLES_PER_AXIS`]) and the memory ([`new_samples_bytes`]). Returns the tolerance.
-pub fn check_new_samples(
-    cam: &Camera,
-    z: &[f64],
-    tol: f64,
-    mode: Sample,
-    n_threads: Option<usize>,
-) -> Result<f64> {
-    crate::parallel::check_threads(n_threads)?;
-    let tol = check_tol(tol)?;
-    check_depths(cam, z)?;
-    check_size(cam)?;
-    let bytes = new_samples_bytes(cam, z.len(), mode, threads(n_threads));
-    memory::check("new_samples", bytes)?;
-    Ok(tol)
-}
-
-/// Distinct samples (chief or centroid) and max gaps at every depth (validated first),
-/// parallel over depths.
-pub fn new_samples(
-    cam: &Camera,
-    z: &[f64],
-    tol: f64,
-    mode: Sample,
-    n_threads: Option<usize>,
-) -> Result<NewSamples> {
-    check_new_samples(cam, z, tol, mode, n_threads)?;
-    let m = z.len();
-    let what = "new_samples";
-    let mut distinct = try_vec(what, 3 * m, 0)?;
-    let mut distinct_2d = try_vec(what, 3 * m, 0)?;
-    let mut max_gap = try_vec(what, 3 * m, 0.0)?;
-    let out = NewSamplesOut {
-        distinct: &mut distinct,
-        distinct_2d: &mut distinct_2d,
-        max_gap: &mut max_gap,
-    };
-    let lit = new_samples_into(cam, z, tol, mode, out, n_threads)?;
-    Ok(NewSamples {
-        distinct,
-        distinct_2d,
-        max_gap,
-        lit,
-    })
-}
-
-/// [`new_samples`] written into caller-provided (3, m) buffers; returns `lit`.
-pub fn new_samples_into(
-    cam: &Camera,
-    z: &[f64],
-    tol: f64,
-    mode: Sample,
-    out: NewSamplesOut<'_>,
-    n_threads: Option<usize>,
-) -> Result<[u64; 3]> {
-    let tol = check_new_samples(cam, z, tol, mode, n_threads)?;
-    let m = z.len();
-    let lens = [out.distinct.len(), out.distinct_2d.len(), out.max_gap.len()];
-    if lens.iter().any(|&l| l != 3 * m) {
-        return Err(Error::param(
-            "output length",
-            format!("{lens:?}"),
-            format!("{} (3 rows × m = {m} depths)", 3 * m),
-        ));
-    }
-    let kx = cam.kx as u64;
-    // Elementary steps per depth: every sample position of both halves along both axes.
-    let cost = 4 * (cam.kx as u128 + cam.ky as u128) * cam.q as u128;
-    let lit = match mode {
-        Sample::Chief => {
-            let layout = Layout::new(cam);
-            let (n, inner, q) = Scratch::chief_sizes(cam);
-            let scratch = || Scratch::reserved(n, inner, q);
-            per_depth(z, n_threads, cost, scratch, out, |zi, s| {
-                depth_result(cam, &layout, zi, tol, s)
-            })?;
-            layout.lit.map(|l| kx * l.len() as u64)
-        }
-        Sample::Centroid => {
-            let cl = with_threads(n_threads, || CentroidLayout::new(cam))??;
-            let (n, inner, q) = Scratch::centroid_sizes(cam);
-            let scratch = || Scratch::reserved(n, inner, q);
-            per_depth(z, n_threads, cost, scratch, out, |zi, s| {
-                centroid_depth_result(cam, &cl, zi, tol, s)
-            })?;
-            cl.uw.map(|h| h[0].len() as u64)
-        }
-    };
-    Ok([lit[0], lit[1], lit[0] + lit[1]])
-}
-
-/// Distinct chief samples of one half along one axis at depth z (the brute-force count).
-pub fn count_distinct(cam: &Camera, half: Half, axis: Axis, z: f64, tol: f64) -> Result<u64> {
-    let tol = check_tol(tol)?;
-    check_depths(cam, &[z])?;
-    check_size(cam)?;
-    let layout = Layout::new(cam);
-    let mut s = Scratch::default();
-    let zc = conjugate(cam.f_main, z);
-    half_samples(cam, &layout, half, axis, zc, &mut s.pos[0], &mut s.work);
-    Ok(scan(&s.pos[0], merge_eps(cam, tol), f64::INFINITY).0)
-}
 
 /// Side of a coincidence plane relative to the half's out-of-focus plane.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -898,31 +467,10 @@ pub struct CoincidencePlane {
 /// Tolerance (in δ(z)) of the brute-force count of `coincidence_planes`.
 pub const COINCIDENCE_TOL: f64 = 1e-6;
 
-/// Every coincidence plane of `half` with coprime N ≤ max_n, T ≤ max_t (default Q), on both
-/// sides of the out-of-focus plane where it exists (1 − r > 0, z' > F), sorted by depth z,
-/// each with the closed form of Eqs. 8–9 and the brute-force count.
-pub fn coincidence_planes(
-    cam: &Camera,
-    half: Half,
-    max_n: i64,
-    max_t: Option<i64>,
-    n_threads: Option<usize>,
-) -> Result<Vec<CoincidencePlane>> {
-    let (max_n, max_t) = check_pairs(cam.q, max_n, max_t)?;
-    check_size(cam)?;
-    let pl = PlaneLines {
-        x: LineSamples::new(&Line::of_half(cam, half, Axis::X)),
-        y: LineSamples::new(&Line::of_half(cam, half, Axis::Y)),
-        kx: cam.kx,
-        ky: cam.ky,
-        q: cam.q,
-        eps: merge_eps(cam, COINCIDENCE_TOL),
-        optics: LensOptics::of_half(cam, half),
-    };
-    planes_of(&pl, max_n, max_t, n_threads)
-}
-
-/// [`coincidence_planes`] of channel `channel` (from 1) of a design: a rect grid, the
+/// Every coincidence plane (docs/model.md §6) of channel `channel` (from 1) of a design, with
+/// coprime N ≤ max_n, T ≤ max_t (default Q), on both sides of the out-of-focus plane where
+/// it exists (1 − r > 0, z' > F), sorted by depth z, each with the closed form of
+/// Eqs. 8–9 and the brute-force count. The channel must have a rect grid, the
 /// ideal layout and a square aperture, where docs/model.md §6 holds (anything else is
 /// refused with the parameter named). The merge tolerance is [`COINCIDENCE_TOL`] δ(z),
 /// δ(z) = μ_1 z / L_1 (docs/model.md §9). Chief samples do not depend on the lens types.
@@ -1448,46 +996,61 @@ pub fn design_count_distinct(design: &Design, channel: i64, z: f64, tol: f64) ->
 mod tests {
     use super::*;
 
-    fn small(kappa: f64, aperture: f64, q: i64, kx: i64, ky: i64) -> Camera {
+    use crate::camera::Camera;
+
+    /// The seed's design, or a variant of it with F = 80 (as the paper's camera).
+    fn small(kappa: f64, aperture: f64, q: i64, kx: i64, ky: i64) -> Design {
         let p = Camera::paper();
         Camera::new(
             80.0, aperture, p.v1, kappa, p.d, p.v, p.mu, q, kx, ky, None, None,
         )
         .unwrap()
+        .design()
     }
 
-    /// Reference: every chief sample via Camera::chief_projection, full sort.
-    fn brute(cam: &Camera, half: Half, k: u32, zc: f64) -> Vec<f64> {
-        let mut v: Vec<f64> = (0..k)
-            .flat_map(|j| {
-                (0..cam.q)
-                    .filter(move |&q| cam.is_lit(half, q))
-                    .map(move |q| cam.chief_projection(half, cam.lens_center(j, k), q, zc))
-            })
+    fn seed() -> Design {
+        Camera::paper().design()
+    }
+
+    /// Reference: every chief sample of the line via `Line::chief_projection` (the
+    /// paper's p' = (v'/L) [c + w (L − z')/z']), full sort.
+    fn brute(line: &Line, zc: f64) -> Vec<f64> {
+        let mut v: Vec<f64> = (0..line.pixel_count() as u32)
+            .map(|i| line.pixel(i))
+            .filter(|p| p.lit)
+            .map(|p| line.chief_projection(line.lens_center(p.j), line.chief_w(p.theta), zc))
             .collect();
         v.sort_by(|a, b| a.total_cmp(b));
         v
     }
 
+    /// Distinct chief samples of channel `c` along `axis` at depth z (merge tolerance
+    /// `tol` δ(z)).
+    fn count(d: &Design, c: i64, axis: Axis, z: f64, tol: f64) -> u64 {
+        let ls = LineSamples::new(&Line::of_channel(d, c, axis).unwrap());
+        let mut s = Scratch::default();
+        line_samples(&ls, conjugate(d.f_main, z), &mut s.pos[0], &mut s.work);
+        scan(&s.pos[0], tol * design_step(d), f64::INFINITY).0
+    }
+
     #[test]
     fn sorted_samples_are_bitwise_chief_projections() {
-        for cam in [
-            Camera::paper(),
+        for d in [
+            seed(),
             small(0.8, 20.0, 10, 37, 5),
-            small(0.2, 30.0, 4, 3, 2),
+            small(0.2, 20.0, 4, 3, 2),
         ] {
-            let layout = Layout::new(&cam);
             let mut s = Scratch::default();
             for z in [81.0, 100.0, 150.0, 217.0, 300.0, 642.0, 1000.0, 5e3, 1e5] {
-                let zc = conjugate(cam.f_main, z);
-                for half in Half::BOTH {
+                let zc = conjugate(d.f_main, z);
+                for c in [1, 2] {
                     for axis in [Axis::X, Axis::Y] {
-                        let k = cam.lenses(axis);
-                        half_samples(&cam, &layout, half, axis, zc, &mut s.pos[0], &mut s.work);
-                        let want = brute(&cam, half, k, zc);
+                        let line = Line::of_channel(&d, c, axis).unwrap();
+                        line_samples(&LineSamples::new(&line), zc, &mut s.pos[0], &mut s.work);
+                        let want = brute(&line, zc);
                         assert_eq!(s.pos[0].len(), want.len());
                         for (a, b) in s.pos[0].iter().zip(&want) {
-                            assert_eq!(a.to_bits(), b.to_bits(), "z={z} {half:?} {axis:?}");
+                            assert_eq!(a.to_bits(), b.to_bits(), "z={z} {c} {axis:?}");
                         }
                     }
                 }
@@ -1551,18 +1114,18 @@ mod tests {
     #[test]
     fn counted_equals_eqs_8_9_on_every_plane() {
         let designs = [
-            Camera::paper(),
+            seed(),
             small(0.8, 14.0, 10, 23, 7),
             small(0.39, 20.0, 15, 40, 9),
         ];
         let mut checked = 0;
-        for cam in designs {
-            for half in Half::BOTH {
-                let planes = coincidence_planes(&cam, half, 5, None, Some(1)).unwrap();
+        for d in designs {
+            for c in [1, 2] {
+                let planes = design_coincidence_planes(&d, c, 5, None, Some(1)).unwrap();
                 assert!(planes.iter().any(|p| p.side == Side::Near));
                 assert!(planes.iter().any(|p| p.side == Side::Far));
                 for p in &planes {
-                    assert_eq!(p.counted, p.new_samples, "{half:?} {p:?}");
+                    assert_eq!(p.counted, p.new_samples, "{c} {p:?}");
                     checked += 1;
                 }
             }
@@ -1572,32 +1135,29 @@ mod tests {
 
     #[test]
     fn out_of_focus_plane_collapses_to_k() {
-        let cam = Camera::paper();
-        for half in Half::BOTH {
-            let z = cam.out_of_focus_depth(half);
-            assert_eq!(
-                count_distinct(&cam, half, Axis::X, z, 1e-6).unwrap(),
-                cam.kx as u64
-            );
-            assert_eq!(
-                count_distinct(&cam, half, Axis::Y, z, 1e-6).unwrap(),
-                cam.ky as u64
-            );
+        let d = seed();
+        for (c, ch) in (1..).zip(&d.channels) {
+            let z = LensOptics::of_channel(&d, ch, 0).out_of_focus_depth();
+            assert_eq!(count(&d, c, Axis::X, z, 1e-6), ch.kx as u64);
+            assert_eq!(design_count_distinct(&d, c, z, 1e-6).unwrap(), ch.kx as u64);
+            assert_eq!(count(&d, c, Axis::Y, z, 1e-6), ch.ky as u64);
         }
-        // Half 1 on its out-of-focus plane: pixelization, max gap = Q steps.
-        let z1 = cam.out_of_focus_depth(Half::One);
-        let r = new_samples(&cam, &[z1], 1e-6, Sample::Chief, Some(1)).unwrap();
-        assert!((r.max_gap[0] - cam.q as f64).abs() < 1e-9);
+        // Half 1 on its out-of-focus plane: pixelization, max gap = Q steps (one lens
+        // pitch d in δ = μ z / L_1: d / μ = Q up to rounding, as d z / (Q v') did).
+        let ch = &d.channels[0];
+        let z1 = LensOptics::of_channel(&d, ch, 0).out_of_focus_depth();
+        let r = design_new_samples(&d, &[z1], 1e-6, Sample::Chief, Some(1)).unwrap();
+        assert!((r.max_gap[0] - 15.0).abs() < 1e-9);
     }
 
     #[test]
     fn union_bounds_and_threads_agree() {
-        let cam = Camera::paper();
+        let d = seed();
         let z: Vec<f64> = (0..200)
             .map(|i| 150.0 * (10_000.0f64 / 150.0).powf(i as f64 / 199.0))
             .collect();
-        let a = new_samples(&cam, &z, 1e-6, Sample::Chief, Some(1)).unwrap();
-        let b = new_samples(&cam, &z, 1e-6, Sample::Chief, Some(2)).unwrap();
+        let a = design_new_samples(&d, &z, 1e-6, Sample::Chief, Some(1)).unwrap();
+        let b = design_new_samples(&d, &z, 1e-6, Sample::Chief, Some(2)).unwrap();
         assert_eq!(a, b);
         let m = z.len();
         for k in 0..m {
@@ -1605,83 +1165,19 @@ mod tests {
             let g = |r: usize| a.max_gap[r * m + k];
             assert!(d(2) >= d(0).max(d(1)) && d(2) <= d(0) + d(1));
             assert!(g(2) <= g(0).min(g(1)));
-            assert!(a.distinct_2d[2 * m + k] >= a.distinct_2d[k].max(a.distinct_2d[m + k]));
         }
-        assert_eq!(a.lit, [266 * 15, 266 * 11, 266 * 26]);
-    }
-
-    #[test]
-    fn y_shortcut_equals_the_full_y_pass() {
-        // The all-distinct shortcut for the y counts against the full y pass: generic
-        // depths, every coincidence plane and both out-of-focus planes (where samples
-        // coincide and the full pass runs), and a coarse tolerance that merges samples.
-        for cam in [Camera::paper(), small(0.3866, 20.0, 9, 12, 6)] {
-            let mut z: Vec<f64> = (0..300)
-                .map(|i| 150.0 * (10_000.0f64 / 150.0).powf(i as f64 / 299.0))
-                .collect();
-            for h in Half::BOTH {
-                z.push(cam.out_of_focus_depth(h));
-                let planes = coincidence_planes(&cam, h, 3, None, Some(1)).unwrap();
-                z.extend(planes.iter().map(|p| p.z).filter(|&v| v > 100.0 && v < 1e5));
-            }
-            let fast = Layout::new(&cam);
-            assert!(fast.y_within_x);
-            let slow = Layout {
-                y_within_x: false,
-                ..fast.clone()
-            };
-            let mut s = Scratch::default();
-            let every = cam.kx as u64 * (fast.lit[0].len() + fast.lit[1].len()) as u64;
-            let mut taken = [0, 0]; // [shortcut, full y pass]
-            for tol in [1e-6, 0.3] {
-                for &zi in &z {
-                    let a = depth_result(&cam, &fast, zi, tol, &mut s);
-                    let b = depth_result(&cam, &slow, zi, tol, &mut s);
-                    assert_eq!(a, b, "z = {zi}, tol = {tol}");
-                    taken[(a.distinct[2] != every) as usize] += 1;
-                }
-            }
-            assert!(taken[0] > 0 && taken[1] > 0, "{taken:?}");
-        }
-    }
-
-    #[test]
-    fn camera_design_counts_equal_the_camera_counts() {
-        // The design path on Camera::design: the same distinct counts, lit pixels and
-        // coincidence planes bit for bit; gaps in μ_1 z/L_1 instead of d z/(Q v').
-        for cam in [Camera::paper(), small(0.8, 14.0, 10, 23, 7)] {
-            let d = Design::from_camera(&cam);
-            let z: Vec<f64> = (0..120)
-                .map(|i| 120.0 * (20_000.0f64 / 120.0).powf(i as f64 / 119.0))
-                .collect();
-            for mode in [Sample::Chief, Sample::Centroid] {
-                let a = new_samples(&cam, &z, 1e-6, mode, Some(2)).unwrap();
-                let b = design_new_samples(&d, &z, 1e-6, mode, Some(2)).unwrap();
-                assert_eq!(a.distinct, b.distinct);
-                assert_eq!(a.lit.to_vec(), b.sampled);
-                let scale = cam.q as f64 * cam.mu / cam.d;
-                for (x, y) in a.max_gap.iter().zip(&b.max_gap) {
-                    assert!(x == y || ((y * scale - x) / x).abs() < 1e-14, "{x} {y}");
-                }
-            }
-            for half in Half::BOTH {
-                let a = coincidence_planes(&cam, half, 3, None, Some(1)).unwrap();
-                let b = design_coincidence_planes(&d, half.index() as i64 + 1, 3, None, Some(1))
-                    .unwrap();
-                assert_eq!(a, b);
-            }
-        }
+        assert_eq!(a.sampled, [266 * 15, 266 * 11, 266 * 26]);
     }
 
     #[test]
     fn bad_input() {
-        let cam = Camera::paper();
-        assert!(new_samples(&cam, &[500.0], -1.0, Sample::Chief, None).is_err());
-        assert!(new_samples(&cam, &[500.0], f64::NAN, Sample::Chief, None).is_err());
-        assert!(new_samples(&cam, &[80.0], 1e-6, Sample::Chief, None).is_err());
+        let d = seed();
+        assert!(design_new_samples(&d, &[500.0], -1.0, Sample::Chief, None).is_err());
+        assert!(design_new_samples(&d, &[500.0], f64::NAN, Sample::Chief, None).is_err());
+        assert!(design_new_samples(&d, &[80.0], 1e-6, Sample::Chief, None).is_err());
         assert_eq!(Sample::from_name("centroid").unwrap(), Sample::Centroid);
         assert!(Sample::from_name("foo").is_err());
-        assert!(coincidence_planes(&cam, Half::One, 0, None, None).is_err());
-        assert!(coincidence_planes(&cam, Half::One, 2, Some(0), None).is_err());
+        assert!(design_coincidence_planes(&d, 1, 0, None, None).is_err());
+        assert!(design_coincidence_planes(&d, 1, 2, Some(0), None).is_err());
     }
 }

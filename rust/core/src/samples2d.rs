@@ -2348,7 +2348,7 @@ mod tests {
                 )],
             )
             .unwrap(),
-            Design::from_camera(&small_camera()),
+            small_camera().design(),
         ]
     }
 
@@ -2742,7 +2742,7 @@ mod tests {
 
     #[test]
     fn union_is_at_least_each_channel_and_threads_agree() {
-        let d = Design::from_camera(&Camera::paper());
+        let d = Camera::paper().design();
         let z: Vec<f64> = (0..12)
             .map(|i| 150.0 * (8000.0f64 / 150.0).powf(i as f64 / 11.0))
             .collect();
@@ -2760,8 +2760,7 @@ mod tests {
             );
         }
         // Channel 1 on its out-of-focus plane: one sample per lens.
-        let cam = Camera::paper();
-        let z1 = cam.out_of_focus_depth(crate::Half::One);
+        let z1 = crate::lens::depth_of_conjugate(d.f_main, d.channels[0].l);
         let s = samples_2d(&d, z1, 1e-6, 16.0).unwrap();
         assert_eq!(s.distinct[0], 16 * 16);
         assert_eq!(s.samples[0].len(), 256);
@@ -2808,13 +2807,7 @@ mod tests {
         assert!(chief_samples(&d, 1, 300.0, Some(0)).is_err());
         let many: Vec<f64> = vec![300.0; 1 << 24];
         assert!(matches!(
-            coverage(
-                &Design::from_camera(&Camera::paper()),
-                &many,
-                1e-6,
-                16.0,
-                None
-            ),
+            coverage(&Camera::paper().design(), &many, 1e-6, 16.0, None),
             Err(Error::TooMuchWork { .. })
         ));
         // Empty depth arrays are fine.

@@ -19,51 +19,15 @@
 
 use rayon::prelude::*;
 
-use crate::camera::{Axis, Camera, Half};
 use crate::design::Design;
 use crate::error::{Error, Result};
+use crate::lens::conjugate;
+use crate::line::Axis;
 use crate::line::Line;
 use crate::memory::{self, try_vec, try_with_capacity};
-use crate::optics::{check_design_depths, conjugate, LensOptics};
+use crate::optics::{check_design_depths, LensOptics};
 use crate::parallel::{check_threads, chunk_items, for_chunks, with_threads};
 use crate::rayspace::{trace_line, weight_profile, MAX_VERTICES, TRACE_BYTES_PER_PIXEL};
-
-/// Fraction of the light each light-field half receives from the beam splitters.
-pub const BEAM_SPLITTER: f64 = 0.5;
-
-/// Which camera the pixels belong to.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Source {
-    /// One light-field half of the split sensor (half 1 alone is the original LF camera).
-    Half(Half),
-    /// The conventional camera: the same sensor without microlenses, on array plane L_i.
-    Conventional(Half),
-}
-
-impl Source {
-    /// Source from its name: "half1", "half2", "conventional1", "conventional2".
-    pub fn from_name(name: &str) -> Result<Source> {
-        match name {
-            "half1" => Ok(Source::Half(Half::One)),
-            "half2" => Ok(Source::Half(Half::Two)),
-            "conventional1" => Ok(Source::Conventional(Half::One)),
-            "conventional2" => Ok(Source::Conventional(Half::Two)),
-            _ => Err(Error::param(
-                "source",
-                format!("{name:?}"),
-                "\"half1\", \"half2\", \"conventional1\" or \"conventional2\"",
-            )),
-        }
-    }
-
-    /// Transmission of the light path: 1/2 behind the beam splitter, 1 without it.
-    pub fn transmission(self) -> f64 {
-        match self {
-            Source::Half(_) => BEAM_SPLITTER,
-            Source::Conventional(_) => 1.0,
-        }
-    }
-}
 
 /// Which pixels of a design (docs/simulate.md, "Designs"): channel c's light field, or the
 /// conventional camera with a sensor of pitch μ_c on channel c's array plane (c from 1).
@@ -100,13 +64,12 @@ impl DesignSource {
 }
 
 /// The pixels of one source along x, as the forward model sees them: the 1-D line of a
-/// camera half or a design channel ([`Line`]), whether they are that line's light field or
-/// the conventional camera on its array plane, and the pixel pitch of the unit pixel.
+/// design channel ([`Line`]), whether they are that line's light field or the
+/// conventional camera on its array plane, and the pixel pitch of the unit pixel.
 ///
-/// Values are normalised by D μ_ref, μ_ref the camera's μ or the design's μ_1 (channel 1,
-/// as δ(z) is), so that every source of one camera or design shares one unit; the light
-/// field is multiplied by the line's `share` (½ for a camera half, [`BEAM_SPLITTER`]), the
-/// conventional camera by 1.
+/// Values are normalised by D μ_ref, μ_ref the design's μ_1 (channel 1, as δ(z) is), so
+/// that every source of one design shares one unit; the light field is multiplied by the
+/// line's `share` (½ for a half of the paper's camera), the conventional camera by 1.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Pixels {
     /// The line along x (ray space referred to v' or L_1).
@@ -118,19 +81,6 @@ pub struct Pixels {
 }
 
 impl Pixels {
-    /// A source of the camera: exactly the camera's pixels (`Line::of_half` has share ½).
-    pub fn of_camera(cam: &Camera, source: Source) -> Pixels {
-        let (half, conventional) = match source {
-            Source::Half(h) => (h, false),
-            Source::Conventional(h) => (h, true),
-        };
-        Pixels {
-            line: Line::of_half(cam, half, Axis::X),
-            conventional,
-            mu_ref: cam.mu,
-        }
-    }
-
     /// A source of the design (its channel must have a rect grid: the refusal names
     /// `channels[i].grid`).
     pub fn of_design(design: &Design, source: DesignSource) -> Result<Pixels> {
@@ -279,13 +229,8 @@ fn check_plane(px: &Pixels, z: f64, n_threads: Option<usize>) -> Result<()> {
     check_design_depths(px.line.f_main, &[z])
 }
 
-/// Kernels of every pixel of `source` along x on the plane at depth z that collects light
+/// Kernels of every pixel of a source along x on the plane at depth z that collects light
 /// (pixels with an empty integration polygon are left out), in pixel order.
-pub fn kernels(cam: &Camera, z: f64, source: Source) -> Result<Vec<Kernel>> {
-    kernels_of(&Pixels::of_camera(cam, source), z)
-}
-
-/// [`kernels`] of any source (a camera's or a design's, [`Pixels`]).
 pub fn kernels_of(px: &Pixels, z: f64) -> Result<Vec<Kernel>> {
     let line = &px.line;
     check_design_depths(line.f_main, &[z])?;
@@ -381,17 +326,7 @@ fn conventional_kernels(line: &Line, zc: f64, scale: f64, norm: f64) -> Result<V
         .collect())
 }
 
-/// Widest kernel support (hi − lo, mm in X) over the pixels of `source` at depth z.
-pub fn kernel_support(
-    cam: &Camera,
-    z: f64,
-    source: Source,
-    n_threads: Option<usize>,
-) -> Result<f64> {
-    kernel_support_of(&Pixels::of_camera(cam, source), z, n_threads)
-}
-
-/// [`kernel_support`] of any source.
+/// Widest kernel support (hi − lo, mm in X) over the pixels of a source at depth z.
 pub fn kernel_support_of(px: &Pixels, z: f64, n_threads: Option<usize>) -> Result<f64> {
     check_plane(px, z, n_threads)?;
     with_threads(n_threads, || {
@@ -430,22 +365,10 @@ fn check_field(field: (f64, f64)) -> Result<()> {
     Ok(())
 }
 
-/// The system matrix on the plane at depth z: one row per pixel of `source` whose kernel
+/// The system matrix on the plane at depth z: one row per pixel of a source whose kernel
 /// support lies inside `field` = (lo, hi) (mm in X), one column per cell of `grid`; entry
 /// (p, k) is the exact integral of pixel p's kernel over cell k, so that for a texture
 /// constant on each cell the pixel values are A t. Parallel over pixels.
-pub fn system_matrix(
-    cam: &Camera,
-    z: f64,
-    source: Source,
-    grid: Grid,
-    field: (f64, f64),
-    n_threads: Option<usize>,
-) -> Result<System> {
-    system_matrix_of(&Pixels::of_camera(cam, source), z, grid, field, n_threads)
-}
-
-/// [`system_matrix`] of any source.
 pub fn system_matrix_of(
     px: &Pixels,
     z: f64,
@@ -505,31 +428,11 @@ fn system_unchecked(px: &Pixels, z: f64, grid: Grid, field: (f64, f64)) -> Resul
     })
 }
 
-/// Pixel values of `source` on the plane at depth z for textures that are constant on each
+/// Pixel values of a source on the plane at depth z for textures that are constant on each
 /// cell of `grid`: `textures` holds n_tex rows of grid.n albedos (row-major, finite, ≥ 0).
 /// Returns (values (n_tex, n_pix) row-major, pixels), the pixels those of
-/// [`system_matrix`] with the same `field`. Noise-free expected signal, in units of a
+/// [`system_matrix_of`] with the same `field`. Noise-free expected signal, in units of a
 /// full-aperture pixel of width μ on plane v' under a white texture (module doc).
-pub fn render(
-    cam: &Camera,
-    z: f64,
-    source: Source,
-    grid: Grid,
-    field: (f64, f64),
-    textures: &[f64],
-    n_threads: Option<usize>,
-) -> Result<(Vec<f64>, Vec<u32>)> {
-    render_of(
-        &Pixels::of_camera(cam, source),
-        z,
-        grid,
-        field,
-        textures,
-        n_threads,
-    )
-}
-
-/// [`render`] of any source.
 pub fn render_of(
     px: &Pixels,
     z: f64,
@@ -601,49 +504,58 @@ fn check_rendered(n_tex: usize, n_pix: usize) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rayspace::{slope, trace, HalfRays, Polygon};
+    use crate::camera::Camera;
+    use crate::rayspace::{Polygon, Rays};
 
     fn close(a: f64, b: f64, tol: f64) -> bool {
         (a - b).abs() <= tol * a.abs().max(b.abs()).max(1e-300)
     }
 
-    fn grid_around(cam: &Camera, z: f64, cells: usize, sub: usize) -> Grid {
-        let step = cam.resolution_step(z) / sub as f64;
+    /// A grid of `cells` × `sub` cells of δ(z)/`sub` centred on the axis.
+    fn grid_around(d: &Design, z: f64, cells: usize, sub: usize) -> Grid {
+        let step = d.resolution_step(z) / sub as f64;
         let n = cells * sub;
         Grid::new(-(n as f64) * step / 2.0, step, n).unwrap()
     }
 
-    const SOURCES: [Source; 4] = [
-        Source::Half(Half::One),
-        Source::Half(Half::Two),
-        Source::Conventional(Half::One),
-        Source::Conventional(Half::Two),
+    /// The seed's sources: each half's light field and its conventional camera.
+    const SOURCES: [DesignSource; 4] = [
+        DesignSource::Channel(1),
+        DesignSource::Channel(2),
+        DesignSource::Conventional(1),
+        DesignSource::Conventional(2),
     ];
 
     #[test]
     fn rows_integrate_to_the_collected_light() {
         // Σ_k A[p, k] = ∫ kernel dX = T · area / (D μ) for every pixel inside the field.
-        let cam = Camera::paper();
+        let d = Camera::paper().design();
         for z in [217.0, 400.0, 642.0, 2000.0] {
             for src in SOURCES {
-                let grid = grid_around(&cam, z, 1500, 2);
+                let px = Pixels::of_design(&d, src).unwrap();
+                let line = &px.line;
+                let grid = grid_around(&d, z, 1500, 2);
                 let field = (grid.edge(0), grid.edge(grid.n));
-                let sys = system_matrix(&cam, z, src, grid, field, Some(2)).unwrap();
+                let sys = system_matrix_of(&px, z, grid, field, Some(2)).unwrap();
                 assert!(sys.matrix.rows > 100, "{src:?} {z}");
-                let ks = kernels(&cam, z, src).unwrap();
-                let area = |px: u32| match src {
-                    Source::Half(h) => trace(&cam, h, Axis::X).unwrap().area[px as usize],
-                    // Parallelogram |w| ≤ D/2, |x − s| ≤ μ/2 on plane L: area D μ v'/L.
-                    Source::Conventional(h) => cam.aperture * cam.mu * cam.v1 / cam.array_plane(h),
+                let ks = kernels_of(&px, z).unwrap();
+                let traced = trace_line(line).unwrap();
+                let area = |p: u32| {
+                    if px.conventional {
+                        // Parallelogram |w| ≤ D/2, |x − s| ≤ μ/2 on plane L: area D μ v'/L.
+                        d.aperture * line.mu * line.v_ref / line.l
+                    } else {
+                        traced.area[p as usize]
+                    }
                 };
-                for (r, &px) in sys.pixels.iter().enumerate().step_by(37) {
+                for (r, &p) in sys.pixels.iter().enumerate().step_by(37) {
                     let m = &sys.matrix;
                     let s: f64 = m.data[m.indptr[r] as usize..m.indptr[r + 1] as usize]
                         .iter()
                         .sum();
-                    let want = src.transmission() * area(px) / (cam.aperture * cam.mu);
-                    assert!(close(s, want, 1e-9), "{src:?} z={z} px={px}: {s} vs {want}");
-                    let k = ks.iter().find(|k| k.pixel == px).unwrap();
+                    let want = px.transmission() * area(p) / (d.aperture * line.mu);
+                    assert!(close(s, want, 1e-9), "{src:?} z={z} px={p}: {s} vs {want}");
+                    let k = ks.iter().find(|k| k.pixel == p).unwrap();
                     assert!(close(k.integral(), want, 1e-9));
                     assert!(k.lo() >= field.0 && k.hi() <= field.1);
                 }
@@ -655,18 +567,20 @@ mod tests {
     fn conventional_kernel_is_the_projected_parallelogram() {
         // The trapezoid from main_blur equals weight_profile of the ray-space parallelogram
         // |w| ≤ D/2, |a u + b w − s| ≤ μ/2 (sensor on plane L without microlenses).
-        let cam = Camera::paper();
-        for half in Half::BOTH {
-            let rays = HalfRays::new(&cam, half);
+        let d = Camera::paper().design();
+        for c in [1, 2] {
+            let px = Pixels::of_design(&d, DesignSource::Conventional(c)).unwrap();
+            let line = &px.line;
+            let rays = Rays::new(line, 0);
             let (a, b, h) = (rays.a, rays.b, rays.half_aperture);
             for z in [150.0, 217.0, 400.0, 642.0, 5000.0] {
-                let ks = kernels(&cam, z, Source::Conventional(half)).unwrap();
-                let sigma = slope(&cam, conjugate(cam.f_main, z));
+                let ks = kernels_of(&px, z).unwrap();
+                let sigma = line.slope(conjugate(d.f_main, z));
                 for k in ks.iter().step_by(501) {
-                    let n_px = cam.kx as f64 * cam.q as f64;
-                    let s = (k.pixel as f64 - (n_px - 1.0) / 2.0) * cam.mu;
+                    let n_px = line.pixel_count() as f64;
+                    let s = (k.pixel as f64 - (n_px - 1.0) / 2.0) * line.mu;
                     let u = |x: f64, w: f64| (x - b * w) / a;
-                    let (lo, hi) = (s - cam.mu / 2.0, s + cam.mu / 2.0);
+                    let (lo, hi) = (s - line.mu / 2.0, s + line.mu / 2.0);
                     let mut p = Polygon::EMPTY;
                     p.n = 4;
                     p.v[..4].copy_from_slice(&[
@@ -676,8 +590,8 @@ mod tests {
                         [u(lo, h), h],
                     ]);
                     let (br, va) = weight_profile(&p, sigma);
-                    let scale = -z / cam.v1;
-                    let norm = (cam.v1 / z) / (cam.aperture * cam.mu);
+                    let scale = -z / line.v_ref;
+                    let norm = (line.v_ref / z) / (d.aperture * line.mu);
                     // Compare the two piecewise-linear functions at many points.
                     let f = |x: f64, xs: &[f64], ws: &[f64]| -> f64 {
                         for t in 1..xs.len() {
@@ -706,18 +620,19 @@ mod tests {
     fn render_is_the_matrix_times_the_texture_and_refines_exactly() {
         // A texture constant on coarse cells, rendered on a grid 4× finer, gives the same
         // values as the coarse matrix times the coarse texture.
-        let cam = Camera::paper();
+        let d = Camera::paper().design();
         for src in SOURCES {
+            let px = Pixels::of_design(&d, src).unwrap();
             let z = 1000.0;
-            let coarse = grid_around(&cam, z, 300, 1);
-            let fine = grid_around(&cam, z, 300, 4);
+            let coarse = grid_around(&d, z, 300, 1);
+            let fine = grid_around(&d, z, 300, 4);
             let field = (coarse.edge(2), coarse.edge(coarse.n - 2));
             let t: Vec<f64> = (0..coarse.n)
                 .map(|k| ((k * 7919) % 101) as f64 / 100.0)
                 .collect();
             let tf: Vec<f64> = (0..fine.n).map(|k| t[k / 4]).collect();
-            let (vf, pf) = render(&cam, z, src, fine, field, &tf, None).unwrap();
-            let sys = system_matrix(&cam, z, src, coarse, field, None).unwrap();
+            let (vf, pf) = render_of(&px, z, fine, field, &tf, None).unwrap();
+            let sys = system_matrix_of(&px, z, coarse, field, None).unwrap();
             assert_eq!(pf, sys.pixels);
             let m = &sys.matrix;
             for (r, &got) in vf.iter().enumerate() {
@@ -777,48 +692,6 @@ mod tests {
             ),
         ];
         Design::new(50.0, 10.0, Aperture::Circle, &specs).unwrap()
-    }
-
-    #[test]
-    fn camera_design_sources_are_the_camera_sources() {
-        // Pixels::of_design of `Design::from_camera` is Pixels::of_camera (share ½ =
-        // BEAM_SPLITTER, μ_1 = μ), so every result is the camera's bit for bit.
-        let cam = Camera::paper();
-        let d = Design::from_camera(&cam);
-        assert_eq!(Line::of_half(&cam, Half::One, Axis::X).share, BEAM_SPLITTER);
-        for (src, dsrc) in [
-            (Source::Half(Half::One), DesignSource::Channel(1)),
-            (Source::Half(Half::Two), DesignSource::Channel(2)),
-            (
-                Source::Conventional(Half::One),
-                DesignSource::Conventional(1),
-            ),
-            (
-                Source::Conventional(Half::Two),
-                DesignSource::Conventional(2),
-            ),
-        ] {
-            let (a, b) = (
-                Pixels::of_camera(&cam, src),
-                Pixels::of_design(&d, dsrc).unwrap(),
-            );
-            assert_eq!(a, b);
-            assert_eq!(a.transmission(), src.transmission());
-            let z = 400.0;
-            let g = grid_around(&cam, z, 300, 2);
-            let f = (g.edge(0), g.edge(g.n));
-            let (ka, kb) = (kernels(&cam, z, src).unwrap(), kernels_of(&b, z).unwrap());
-            assert_eq!(ka.len(), kb.len());
-            for (x, y) in ka.iter().zip(&kb) {
-                assert_eq!(x.pixel, y.pixel);
-                assert_eq!(x.x.map(f64::to_bits), y.x.map(f64::to_bits));
-                assert_eq!(x.w.map(f64::to_bits), y.w.map(f64::to_bits));
-            }
-            assert_eq!(
-                system_matrix(&cam, z, src, g, f, None).unwrap(),
-                system_matrix_of(&b, z, g, f, None).unwrap()
-            );
-        }
     }
 
     #[test]
@@ -884,41 +757,42 @@ mod tests {
 
     #[test]
     fn deterministic_across_thread_counts() {
-        let cam = Camera::paper();
-        let g = grid_around(&cam, 642.0, 200, 2);
+        let d = Camera::paper().design();
+        let px = Pixels::of_design(&d, DesignSource::Channel(2)).unwrap();
+        let g = grid_around(&d, 642.0, 200, 2);
         let f = (g.edge(0), g.edge(g.n));
-        let a = system_matrix(&cam, 642.0, Source::Half(Half::Two), g, f, Some(1)).unwrap();
-        let b = system_matrix(&cam, 642.0, Source::Half(Half::Two), g, f, Some(2)).unwrap();
+        let a = system_matrix_of(&px, 642.0, g, f, Some(1)).unwrap();
+        let b = system_matrix_of(&px, 642.0, g, f, Some(2)).unwrap();
         assert_eq!(a, b);
     }
 
     #[test]
     fn rejects_bad_input() {
-        let cam = Camera::paper();
+        let d = Camera::paper().design();
+        let px = Pixels::of_design(&d, DesignSource::Channel(1)).unwrap();
         let g = Grid::new(-1.0, 0.01, 200).unwrap();
-        let src = Source::Half(Half::One);
-        assert!(Source::from_name("half3").is_err());
+        assert!(DesignSource::from_name(&d, "half3").is_err());
         assert!(Grid::new(f64::NAN, 0.1, 3).is_err());
         assert!(Grid::new(0.0, 0.0, 3).is_err());
         assert!(Grid::new(0.0, 0.1, 0).is_err());
         assert!(matches!(
-            system_matrix(&cam, 50.0, src, g, (-1.0, 1.0), None),
+            system_matrix_of(&px, 50.0, g, (-1.0, 1.0), None),
             Err(Error::InvalidDepth { .. })
         ));
-        assert!(system_matrix(&cam, 500.0, src, g, (1.0, -1.0), None).is_err());
-        assert!(system_matrix(&cam, 500.0, src, g, (-1.0, 1.0), Some(0)).is_err());
+        assert!(system_matrix_of(&px, 500.0, g, (1.0, -1.0), None).is_err());
+        assert!(system_matrix_of(&px, 500.0, g, (-1.0, 1.0), Some(0)).is_err());
         let bad_grid = Grid {
             origin: 0.0,
             step: -1.0,
             n: 3,
         };
-        assert!(system_matrix(&cam, 500.0, src, bad_grid, (-1.0, 1.0), None).is_err());
-        assert!(render(&cam, 500.0, src, g, (-1.0, 1.0), &[1.0; 199], None).is_err());
+        assert!(system_matrix_of(&px, 500.0, bad_grid, (-1.0, 1.0), None).is_err());
+        assert!(render_of(&px, 500.0, g, (-1.0, 1.0), &[1.0; 199], None).is_err());
         let mut t = vec![1.0; 200];
         t[5] = -0.1;
-        assert!(render(&cam, 500.0, src, g, (-1.0, 1.0), &t, None).is_err());
+        assert!(render_of(&px, 500.0, g, (-1.0, 1.0), &t, None).is_err());
         t[5] = f64::NAN;
-        assert!(render(&cam, 500.0, src, g, (-1.0, 1.0), &t, None).is_err());
-        assert!(kernel_support(&cam, f64::INFINITY, src, None).is_err());
+        assert!(render_of(&px, 500.0, g, (-1.0, 1.0), &t, None).is_err());
+        assert!(kernel_support_of(&px, f64::INFINITY, None).is_err());
     }
 }

@@ -2,18 +2,30 @@
 //! and consistent, or the input is refused with a named error.
 
 use splitlf_core::camera::Camera;
-use splitlf_core::optics::{self, conjugate, curves};
+use splitlf_core::lens::conjugate;
+use splitlf_core::line::Line;
+use splitlf_core::optics::{design_curves as curves, design_depth_of_field};
 use splitlf_core::rayspace::{self, Sample, LIT_AREA_RTOL};
-use splitlf_core::samples::new_samples;
-use splitlf_core::{Axis, Error, Half};
+use splitlf_core::samples::design_new_samples as new_samples;
+use splitlf_core::{Axis, Design, Error};
 
-fn seed_with(f: impl FnOnce(&mut [f64; 7])) -> Result<Camera, Error> {
+/// The seed with some of (F, D, v1, kappa, d, v, mu) changed, as its two-channel design.
+fn seed_with(f: impl FnOnce(&mut [f64; 7])) -> Result<Design, Error> {
     let p = Camera::paper();
     let mut x = [p.f_main, p.aperture, p.v1, p.kappa, p.d, p.v, p.mu];
     f(&mut x);
     Camera::new(
         x[0], x[1], x[2], x[3], x[4], x[5], x[6], 15, 266, 88, None, None,
     )
+    .map(|c| c.design())
+}
+
+fn seed() -> Design {
+    Camera::paper().design()
+}
+
+fn line(d: &Design, channel: i64, axis: Axis) -> Line {
+    Line::of_channel(d, channel, axis).unwrap()
 }
 
 #[test]
@@ -33,7 +45,7 @@ fn conjugate_of_huge_depths_is_finite_and_tends_to_f() {
 
 #[test]
 fn curves_at_huge_depths_equal_the_limit() {
-    let cam = Camera::paper();
+    let cam = seed();
     let far = curves(&cam, &[1e307, f64::MAX], None).unwrap();
     let near_inf = curves(&cam, &[1e30], None).unwrap();
     for (k, v) in far.conjugate.iter().enumerate() {
@@ -51,7 +63,7 @@ fn curves_at_huge_depths_equal_the_limit() {
 
 #[test]
 fn samples_and_footprints_at_huge_depths() {
-    let cam = Camera::paper();
+    let cam = seed();
     let z = [1e307, f64::MAX];
     for mode in [Sample::Chief, Sample::Centroid] {
         let s = new_samples(&cam, &z, 1e-6, mode, None).unwrap();
@@ -67,12 +79,15 @@ fn samples_and_footprints_at_huge_depths() {
         }
     }
     for sample in [Sample::Chief, Sample::Centroid] {
-        let fp = rayspace::footprints(&cam, &z, Half::One, Axis::X, sample, false, None).unwrap();
+        let fp =
+            rayspace::footprints_line(&line(&cam, 1, Axis::X), &z, sample, false, None).unwrap();
         assert!(fp.lo.iter().chain(&fp.hi).all(|v| v.is_finite()));
         assert!(fp.position.iter().all(|v| v.is_finite()));
     }
     assert!(cam.resolution_step(f64::MAX).is_finite());
-    assert!(cam.object_position(20.0, f64::MAX).is_finite());
+    assert!(line(&cam, 1, Axis::X)
+        .object_position(20.0, f64::MAX)
+        .is_finite());
 }
 
 #[test]
@@ -113,21 +128,24 @@ fn derived_lengths_are_validated_like_given_ones() {
 fn depth_of_field_never_returns_empty_intervals() {
     let cams = [
         seed_with(|x| x[2] = 1e300).unwrap(),
+        // D = 0.1: with D = 20 the microlens images of this F overlap (refused).
         seed_with(|x| {
             x[0] = 1e-300;
+            x[1] = 0.1;
             x[2] = 1.0;
         })
         .unwrap(),
-        Camera::paper(),
+        seed(),
     ];
     for cam in cams {
         for t in [1e-3, 0.5, 7.0, 1e6] {
-            let dof = optics::depth_of_field(&cam, t).unwrap();
+            let dof = design_depth_of_field(&cam, t).unwrap();
             let all = dof
-                .half
+                .types
                 .iter()
-                .chain(dof.conventional.iter())
-                .chain([&dof.split]);
+                .chain(&dof.channels)
+                .chain(&dof.conventional)
+                .chain([&dof.union]);
             for iv in all {
                 for w in iv.windows(2) {
                     assert!(w[0].1 <= w[1].0, "{iv:?}");
@@ -158,10 +176,11 @@ fn boundary_contacts_are_not_light() {
         None,
         None,
     )
-    .unwrap();
-    for half in [Half::One, Half::Two] {
+    .unwrap()
+    .design();
+    for channel in [1, 2] {
         for axis in [Axis::X, Axis::Y] {
-            let tr = rayspace::trace(&cam, half, axis).unwrap();
+            let tr = rayspace::trace_line(&line(&cam, channel, axis)).unwrap();
             let max = tr.area.iter().copied().fold(0.0, f64::max);
             assert!(max > 0.0);
             for (i, &a) in tr.area.iter().enumerate() {
@@ -176,15 +195,25 @@ fn boundary_contacts_are_not_light() {
     // Centroid samples count only pixels with light: the same number as the sample grid's
     // non-NaN centroid samples along x.
     let s = new_samples(&cam, &[100.0], 1e-6, Sample::Centroid, None).unwrap();
-    for half in [Half::One, Half::Two] {
-        let (gx, _) = rayspace::sample_grid(&cam, 100.0, half, Sample::Centroid, None).unwrap();
+    let (rows, cols) = (4 * 12, 8 * 12);
+    for channel in [1, 2] {
+        let (mut gx, mut gy) = (vec![0.0; rows * cols], vec![0.0; rows * cols]);
+        rayspace::design_sample_grid_into(
+            &cam,
+            channel,
+            100.0,
+            Sample::Centroid,
+            &mut gx,
+            &mut gy,
+            None,
+        )
+        .unwrap();
         // Rows are y pixels: a row whose y pixel collects light has every x sample.
-        let cols = (cam.kx * cam.q) as usize;
         let with_light = gx
             .chunks(cols)
             .map(|row| row.iter().filter(|v| !v.is_nan()).count() as u64)
             .max()
             .unwrap();
-        assert_eq!(with_light, s.lit[half.index()]);
+        assert_eq!(with_light, s.sampled[channel as usize - 1]);
     }
 }

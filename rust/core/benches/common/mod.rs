@@ -3,6 +3,8 @@
 
 #![allow(dead_code)]
 
+use criterion::{Criterion, Throughput};
+
 /// n depths geometrically spaced over [lo, hi] mm.
 pub fn geomspace(lo: f64, hi: f64, n: usize) -> Vec<f64> {
     let r = (hi / lo).ln();
@@ -14,6 +16,26 @@ pub fn geomspace(lo: f64, hi: f64, n: usize) -> Vec<f64> {
 /// Thread counts to bench: 1 and all cores.
 pub fn thread_counts() -> [Option<usize>; 2] {
     [Some(1), None]
+}
+
+/// Bench `f(n_threads)` as group `name`, once per [`thread_counts`], with `elements`
+/// elements per iteration (and `samples` criterion samples when given).
+pub fn per_thread_count(
+    c: &mut Criterion,
+    name: &str,
+    elements: u64,
+    samples: Option<usize>,
+    mut f: impl FnMut(Option<usize>),
+) {
+    let mut g = c.benchmark_group(name);
+    if let Some(n) = samples {
+        g.sample_size(n);
+    }
+    g.throughput(Throughput::Elements(elements));
+    for t in thread_counts() {
+        g.bench_function(label(t), |b| b.iter(|| f(t)));
+    }
+    g.finish();
 }
 
 pub fn label(n: Option<usize>) -> String {

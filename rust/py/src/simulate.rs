@@ -1,0 +1,125 @@
+//! The super-resolution simulation's forward model: kernel support, system matrix and
+//! noise-free rendering of a source.
+
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray2};
+use pyo3::prelude::*;
+
+use splitlf_core::simulate::{self, DesignSource, Grid, Pixels};
+use splitlf_core::Design;
+
+use crate::args::{as_flat, threads_arg};
+use crate::arrays::filled;
+use crate::design::DesignCore;
+use crate::errors::{internal, to_py};
+use crate::interrupt::run;
+
+/// A design's source from its name ("channel<c>", "conventional<c>").
+pub(crate) fn design_source(design: &Design, source: &str) -> PyResult<Pixels> {
+    let src = DesignSource::from_name(design, source).map_err(to_py)?;
+    Pixels::of_design(design, src).map_err(to_py)
+}
+
+/// Widest pixel kernel (hi − lo, mm in object-space X) of a design's source at depth z.
+#[pyfunction]
+#[pyo3(signature = (design, z, source, n_threads=None))]
+pub(crate) fn design_kernel_support(
+    py: Python<'_>,
+    design: &DesignCore,
+    z: f64,
+    source: &str,
+    n_threads: Option<&Bound<'_, PyAny>>,
+) -> PyResult<f64> {
+    let px = design_source(&design.inner, source)?;
+    let threads = threads_arg(n_threads)?;
+    run(py, || simulate::kernel_support_of(&px, z, threads))
+}
+
+/// A system matrix in CSR form (SciPy's `csr_matrix((data, indices, indptr), shape)`) and
+/// the pixel each row stands for.
+#[pyclass(frozen, get_all, module = "splitlf._native")]
+pub(crate) struct SystemMatrixArrays {
+    indptr: Py<PyArray1<i64>>,
+    indices: Py<PyArray1<i64>>,
+    data: Py<PyArray1<f64>>,
+    pixels: Py<PyArray1<i64>>,
+    shape: (usize, usize),
+}
+
+/// System matrix of a design's source ("channel<c>", "conventional<c>") at depth z on the
+/// grid (origin, step, n_cells), rows the pixels whose kernels lie in [field_lo, field_hi].
+#[pyfunction]
+#[pyo3(signature = (design, z, source, origin, step, n_cells, field_lo, field_hi, n_threads=None))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn design_system_matrix(
+    py: Python<'_>,
+    design: &DesignCore,
+    z: f64,
+    source: &str,
+    origin: f64,
+    step: f64,
+    n_cells: usize,
+    field_lo: f64,
+    field_hi: f64,
+    n_threads: Option<&Bound<'_, PyAny>>,
+) -> PyResult<SystemMatrixArrays> {
+    let px = design_source(&design.inner, source)?;
+    let grid = Grid::new(origin, step, n_cells).map_err(to_py)?;
+    let threads = threads_arg(n_threads)?;
+    let field = (field_lo, field_hi);
+    let sys = run(py, || {
+        simulate::system_matrix_of(&px, z, grid, field, threads)
+    })?;
+    let m = sys.matrix;
+    let px = sys.pixels.iter().map(|&p| p as i64);
+    Ok(SystemMatrixArrays {
+        indptr: m.indptr.into_pyarray(py).unbind(),
+        indices: m.indices.into_pyarray(py).unbind(),
+        data: m.data.into_pyarray(py).unbind(),
+        pixels: filled::<i64, _>(py, &[sys.pixels.len()], "system_matrix", px)?.unbind(),
+        shape: (m.rows, m.cols),
+    })
+}
+
+/// Noise-free pixel values (n_tex, n_pix) and the pixels they belong to.
+#[pyclass(frozen, get_all, module = "splitlf._native")]
+pub(crate) struct RenderArrays {
+    values: Py<PyArray2<f64>>,
+    pixels: Py<PyArray1<i64>>,
+}
+
+/// Noise-free pixel values of a design's source ("channel<c>", "conventional<c>") at depth
+/// z for textures (n_tex, n_cells) constant on each cell of the grid.
+#[pyfunction]
+#[pyo3(signature = (design, z, source, origin, step, field_lo, field_hi, textures, n_threads=None))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn design_render(
+    py: Python<'_>,
+    design: &DesignCore,
+    z: f64,
+    source: &str,
+    origin: f64,
+    step: f64,
+    field_lo: f64,
+    field_hi: f64,
+    textures: PyReadonlyArray2<'_, f64>,
+    n_threads: Option<&Bound<'_, PyAny>>,
+) -> PyResult<RenderArrays> {
+    let px = design_source(&design.inner, source)?;
+    let (n_tex, n_cells) = textures.as_array().dim();
+    let grid = Grid::new(origin, step, n_cells).map_err(to_py)?;
+    let threads = threads_arg(n_threads)?;
+    let flat = as_flat(&textures, "textures")?;
+    let field = (field_lo, field_hi);
+    let (values, pixels) = run(py, || {
+        simulate::render_of(&px, z, grid, field, &flat, threads)
+    })?;
+    let n_pix = pixels.len();
+    let values = numpy::ndarray::Array2::from_shape_vec((n_tex, n_pix), values)
+        .map_err(internal)?
+        .into_pyarray(py);
+    let px = pixels.iter().map(|&p| p as i64);
+    Ok(RenderArrays {
+        values: values.unbind(),
+        pixels: filled::<i64, _>(py, &[n_pix], "render", px)?.unbind(),
+    })
+}
