@@ -7,11 +7,11 @@ hexagonal channel, three lens types) and a conventional camera — with the fiel
 change (its array planes, array-to-sensor distances and lens focal lengths; the sensor,
 the pixel and lens pitches and the main lens are the budget and stay fixed).
 :func:`compare` optimises every light field architecture with :func:`splitlf.optimise` for
-one objective, sets the conventional camera's focus, then :func:`evaluate` measures the
+one objective, sets the conventional camera's focus, then :func:`table` measures the
 optimised designs over the depth range: per depth the covering radius of the union of
 channels (:func:`splitlf.coverage`) and whether the design is sharp (:func:`splitlf.curves`),
 and one row of scalar figures per design (the core's merits of
-:func:`splitlf.sweep.evaluate_design`, the covering radius over the depths, the
+:func:`splitlf.evaluate`, the covering radius over the depths, the
 super-resolution MTF50 of :func:`splitlf.simulate` where it applies).
 
 Orchestration only: every number comes from the core through the public API; this module
@@ -33,6 +33,7 @@ from . import _validate
 from .coverage import DEFAULT_TOL, DEFAULT_WINDOW, coverage
 from .design import Channel, Design
 from .errors import InvalidParameter
+from .merits import evaluate as evaluate_design
 from .optics import curves, sharp_fractions
 
 __all__ = [
@@ -43,7 +44,7 @@ __all__ = [
     "Comparison",
     "architectures",
     "compare",
-    "evaluate",
+    "table",
     "mtf50",
 ]
 
@@ -72,6 +73,8 @@ R12_F_OVER_V = (0.58267 / 0.33713, 0.52402 / 0.33713, 0.56057 / 0.33713)
 HEX_SQUARE_V = 0.7
 #: Defaults of the evaluation: depths over DEPTH_RANGE (log-spaced) and the simulation.
 EVAL_DEPTHS = 60
+#: The ``feasible`` entry of an architecture that is not optimised (the conventional camera).
+NOT_OPTIMISED = "not optimised"
 SIMULATE_OPTIONS = {"window": 128, "n_frequencies": 16, "oversample": 4}
 #: Labels of the architectures (figures, tables).
 LABELS = {
@@ -111,7 +114,9 @@ class Comparison:
     - ``optimisations``: {name: :class:`~splitlf.OptimiseResult`} of the light field
       architectures (their histories, active bounds, timing)
     - ``table``: a ``pandas.DataFrame``, one row per architecture (index ``architecture``),
-      columns as :func:`evaluate` returns them, plus ``feasible`` and ``objective``
+      columns as :func:`table` returns them, plus ``feasible`` (True or False for an
+      optimised architecture; :data:`NOT_OPTIMISED` for the conventional camera, whose
+      focus is set by a scan and no constraint applies) and ``objective`` (NaN for it)
     - ``curves``: a ``pandas.DataFrame``, one row per (architecture, depth): ``z_mm``,
       ``covering_radius`` [delta(z)], ``covering_radius_mm``, ``distinct_2d``,
       ``blur_px``, ``sharp``
@@ -300,8 +305,6 @@ def _light(design: Design, merits: Mapping[str, float], depths: np.ndarray,
     ``light_per_pixel_channel{i}`` of each channel (``merits``, or the rect twin's when the
     design has a hex channel), averaged over the channels' lit pixels along x (weights: lit
     fraction x pixels along x, the number of lit pixels of each channel's line)."""
-    from .sweep import evaluate_design
-
     twin = _rect_twin(design)
     if twin != design:
         merits = evaluate_design(twin, depths, threshold_px=threshold_px, tol=tol,
@@ -343,7 +346,7 @@ def _check_designs(designs: Any) -> None:
 def mtf50(designs: Mapping[str, Design], simulate_depths: Sequence[float], *,
           conventional: Sequence[str] = (), seed: int = 0,
           n_threads: int | None = None) -> Any:
-    """The MTF50 columns of :func:`evaluate` alone: a ``pandas.DataFrame``, one row per
+    """The MTF50 columns of :func:`table` alone: a ``pandas.DataFrame``, one row per
     design (index ``architecture``), one column ``mtf50_<z>mm`` [cycles/mm on the object]
     per depth of ``simulate_depths``: :func:`splitlf.simulate` (noise-free, random albedo,
     ``seed``, :data:`SIMULATE_OPTIONS`) of the union of channels, computed without the
@@ -382,7 +385,7 @@ def _positive(value: Any, name: str) -> float:
     return x
 
 
-def evaluate(designs: Mapping[str, Design], depths: Any = None, *,
+def table(designs: Mapping[str, Design], depths: Any = None, *,
              conventional: Sequence[str] = (), window: float = DEFAULT_WINDOW,
              threshold_px: float = 0.5, tol: float = DEFAULT_TOL,
              simulate_depths: Sequence[float] = (), seed: int = 0,
@@ -422,8 +425,6 @@ def evaluate(designs: Mapping[str, Design], depths: Any = None, *,
       (``blur_px < threshold_px``)
     """
     import pandas as pd
-
-    from .sweep import evaluate_design
 
     _check_designs(designs)
     conv = set(conventional)
@@ -532,7 +533,7 @@ def compare(preset: str, objective: str | Callable[[dict[str, float]], float],
             threshold_px: float = 0.5, tol: float = DEFAULT_TOL,
             n_threads: int | None = None) -> Comparison:
     """Optimise every architecture of :func:`architectures` on ``preset``'s sensor and
-    main lens for one objective, then :func:`evaluate` the optimised designs.
+    main lens for one objective, then :func:`table` the optimised designs.
 
     - ``preset``: ``"seed"`` or ``"raytrix-r12"`` (:data:`PRESETS`)
     - ``objective``, ``sense``, ``constraints``: as :func:`splitlf.optimise` for a Design
@@ -548,7 +549,7 @@ def compare(preset: str, objective: str | Callable[[dict[str, float]], float],
       ``merits_2d``, ``de_options``, ``threshold_px``, ``tol``, ``n_threads``: passed to
       :func:`splitlf.optimise` (deterministic for a seed, on any executor; ``merits_2d``
       True for a callable objective that reads the 2-D merits)
-    - ``simulate_depths``: depths of the MTF50 columns (:func:`evaluate`)
+    - ``simulate_depths``: depths of the MTF50 columns (:func:`table`)
 
     The conventional camera has no light field merits: its one free field, the plane of
     its sensor, is set to maximise its sharp fraction (the core's conventional depth of
@@ -586,7 +587,7 @@ def compare(preset: str, objective: str | Callable[[dict[str, float]], float],
         a = archs[n]
         if a.conventional:
             designs[n], frac = _focus(a, z_opt, threshold_px)
-            status[n] = (None, math.nan)
+            status[n] = (NOT_OPTIMISED, math.nan)
             continue
         res = optimise(a.base, dict(a.free), objective, sense,
                        constraints, depths=z_opt,
@@ -596,13 +597,13 @@ def compare(preset: str, objective: str | Callable[[dict[str, float]], float],
         designs[n], results[n] = cast(Design, res.design), res  # a Design base's result
         status[n] = (res.feasible, res.objective)
     t1 = time.perf_counter()
-    table, crv = evaluate(designs, z_eval, conventional=[n for n in names
-                                                          if archs[n].conventional],
-                          window=window, threshold_px=threshold_px, tol=tol,
-                          simulate_depths=simulate_depths, seed=seed, n_threads=n_threads)
+    tab, crv = table(designs, z_eval, conventional=[n for n in names
+                                                    if archs[n].conventional],
+                     window=window, threshold_px=threshold_px, tol=tol,
+                     simulate_depths=simulate_depths, seed=seed, n_threads=n_threads)
     t2 = time.perf_counter()
-    table.insert(0, "feasible", pd.Series({n: status[n][0] for n in names}, dtype=object))
-    table.insert(1, "objective", pd.Series({n: status[n][1] for n in names}, dtype=float))
+    tab.insert(0, "feasible", pd.Series({n: status[n][0] for n in names}, dtype=object))
+    tab.insert(1, "objective", pd.Series({n: status[n][1] for n in names}, dtype=float))
     settings = {
         "preset": preset,
         "objective": objective if isinstance(objective, str) else
@@ -615,6 +616,6 @@ def compare(preset: str, objective: str | Callable[[dict[str, float]], float],
         "tol": tol, "simulate_depths": [float(s) for s in simulate_depths],
     }
     return Comparison(preset=preset, architectures={n: archs[n] for n in names},
-                      designs=designs, optimisations=results, table=table, curves=crv,
+                      designs=designs, optimisations=results, table=tab, curves=crv,
                       settings=settings,
                       timing={"optimise_s": t1 - t0, "evaluate_s": t2 - t1})
