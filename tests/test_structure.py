@@ -118,6 +118,7 @@ def _rust_uses(folder: Path) -> dict[str, set[str]]:
         if p.stem == "lib":
             continue
         text = re.sub(r"#\[cfg\(test\)\]\s*mod tests\s*\{.*", "", p.read_text(), flags=re.S)
+        text = re.sub(r"//.*", "", text)  # comments and doc links are no dependency
         used = set(re.findall(r"crate::(\w+)", text))
         used |= {m for g in re.findall(r"crate::\{([^}]*)\}", text)
                  for m in re.findall(r"\b(\w+)\b", g)}
