@@ -10,6 +10,7 @@ use crate::error::{Error, Result};
 use crate::lens::{conjugate, depth_of_conjugate};
 use crate::memory;
 use crate::parallel::for_chunks;
+use std::ops::Range;
 
 /// Default sharpness threshold on the blur radius, in pixels.
 pub const DEFAULT_THRESHOLD_PX: f64 = 0.5;
@@ -352,33 +353,40 @@ pub fn design_curves(design: &Design, z: &[f64], n_threads: Option<usize>) -> Re
     Ok(out)
 }
 
-/// `out[k] = f(z[k])` over one range of depths, in parallel.
-fn fill(out: &mut [f64], z: &[f64], f: impl Fn(f64) -> f64 + Sync) {
-    out.par_chunks_mut(CHUNK)
-        .zip(z.par_chunks(CHUNK))
-        .for_each(|(o, z)| {
-            for (o, &z) in o.iter_mut().zip(z) {
-                *o = f(z);
+/// The rows of a row-major (rows × n) buffer restricted to the depths `span`, each cut
+/// into pieces of [`CHUNK`] depths: `pieces[j][row]` is row `row`'s piece `j`.
+fn pieces<'a>(buf: &'a mut [f64], n: usize, span: &Range<usize>) -> Vec<Vec<&'a mut [f64]>> {
+    let mut out: Vec<Vec<&'a mut [f64]>> = (0..span.len().div_ceil(CHUNK))
+        .map(|_| Vec::new())
+        .collect();
+    if n > 0 {
+        for row in buf.chunks_mut(n) {
+            for (j, p) in row[span.clone()].chunks_mut(CHUNK).enumerate() {
+                out[j].push(p);
             }
-        });
+        }
+    }
+    out
 }
 
-/// `out[k] = min over rows of rows[row][k]` over one range of depths, in parallel.
-fn fill_min(out: &mut [f64], rows: &[&[f64]]) {
-    out.par_chunks_mut(CHUNK).enumerate().for_each(|(i, o)| {
-        let start = i * CHUNK;
-        for (k, o) in o.iter_mut().enumerate() {
-            *o = rows
-                .iter()
-                .map(|r| r[start + k])
-                .fold(f64::INFINITY, f64::min);
-        }
-    });
+/// One piece of [`CHUNK`] depths of every output of [`design_curves_into`], one slice
+/// per row of each output.
+struct Piece<'a> {
+    start: usize,
+    conjugate: Vec<&'a mut [f64]>,
+    main_blur: Vec<&'a mut [f64]>,
+    repetitions: Vec<&'a mut [f64]>,
+    conventional_px: Vec<&'a mut [f64]>,
+    microlens_blur: Vec<&'a mut [f64]>,
+    blur_px: Vec<&'a mut [f64]>,
+    channel_blur_px: Vec<&'a mut [f64]>,
+    union_blur_px: Vec<&'a mut [f64]>,
 }
 
 /// [`design_curves`] written straight into caller-provided buffers (e.g. NumPy arrays).
-/// Each row is computed by the [`LensOptics`] formulas. Depths are validated and lengths
-/// checked before any write.
+/// Each row is computed by the [`LensOptics`] formulas, every output of a depth in one
+/// pass (the conjugate once per depth; memory is touched once). Depths are validated and
+/// lengths checked before any write.
 pub fn design_curves_into(
     design: &Design,
     z: &[f64],
@@ -413,44 +421,81 @@ pub fn design_curves_into(
         .iter()
         .map(|ch| LensOptics::of_channel(design, ch, 0))
         .collect();
-    let typed: Vec<LensOptics> = rows
+    let typed: Vec<(usize, LensOptics)> = rows
         .iter()
-        .map(|&(i, t)| LensOptics::of_channel(design, &design.channels[i], t))
+        .map(|&(i, t)| (i, LensOptics::of_channel(design, &design.channels[i], t)))
         .collect();
-    let at = |i: usize, span: &std::ops::Range<usize>| i * n + span.start..i * n + span.end;
+    let DesignCurvesOut {
+        conjugate: conj_buf,
+        main_blur,
+        repetitions,
+        conventional_px,
+        microlens_blur,
+        blur_px,
+        channel_blur_px,
+        union_blur_px,
+    } = out;
     let step = CHUNK * 64;
     for_chunks(n_threads, n, step, |span| {
-        let zs = &z[span.clone()];
-        fill(&mut out.conjugate[span.clone()], zs, |z| {
-            conjugate(f_main, z)
+        let mut parts: Vec<Piece> = Vec::new();
+        let mut conj = pieces(conj_buf, n, &span).into_iter();
+        let mut mb = pieces(main_blur, n, &span).into_iter();
+        let mut rep = pieces(repetitions, n, &span).into_iter();
+        let mut conv = pieces(conventional_px, n, &span).into_iter();
+        let mut micro = pieces(microlens_blur, n, &span).into_iter();
+        let mut blur = pieces(blur_px, n, &span).into_iter();
+        let mut chan = pieces(channel_blur_px, n, &span).into_iter();
+        let mut uni = pieces(union_blur_px, n, &span).into_iter();
+        for j in 0..span.len().div_ceil(CHUNK) {
+            parts.push(Piece {
+                start: span.start + j * CHUNK,
+                conjugate: conj.next().unwrap_or_default(),
+                main_blur: mb.next().unwrap_or_default(),
+                repetitions: rep.next().unwrap_or_default(),
+                conventional_px: conv.next().unwrap_or_default(),
+                microlens_blur: micro.next().unwrap_or_default(),
+                blur_px: blur.next().unwrap_or_default(),
+                channel_blur_px: chan.next().unwrap_or_default(),
+                union_blur_px: uni.next().unwrap_or_default(),
+            });
+        }
+        parts.into_par_iter().for_each(|mut p| {
+            // Row by row over the piece (each loop vectorises; the piece stays in cache).
+            let zs = &z[p.start..(p.start + CHUNK).min(n)];
+            let m = zs.len();
+            let zc = &mut p.conjugate[0][..m];
+            for (o, &zk) in zc.iter_mut().zip(zs) {
+                *o = conjugate(f_main, zk);
+            }
+            let zc: &[f64] = zc;
+            for (i, o) in channel.iter().enumerate() {
+                let (h, rep) = (&mut p.main_blur[i][..m], &mut p.repetitions[i][..m]);
+                let conv = &mut p.conventional_px[i][..m];
+                for k in 0..m {
+                    let hk = o.main_blur(zc[k]);
+                    h[k] = hk;
+                    rep[k] = o.repetitions(hk);
+                    conv[k] = o.conventional_px(hk);
+                }
+                p.channel_blur_px[i][..m].fill(f64::INFINITY);
+            }
+            p.union_blur_px[0][..m].fill(f64::INFINITY);
+            for (row, (i, o)) in typed.iter().enumerate() {
+                let (b, px) = (&mut p.microlens_blur[row][..m], &mut p.blur_px[row][..m]);
+                for k in 0..m {
+                    let bk = o.microlens_blur(zc[k]);
+                    b[k] = bk;
+                    px[k] = o.lf_blur_px(bk);
+                }
+                let px: &[f64] = px;
+                for (c, &x) in p.channel_blur_px[*i][..m].iter_mut().zip(px) {
+                    *c = c.min(x);
+                }
+                for (u, &x) in p.union_blur_px[0][..m].iter_mut().zip(px) {
+                    *u = u.min(x);
+                }
+            }
         });
-        for (i, o) in channel.iter().enumerate() {
-            let h = |z: f64| o.main_blur(conjugate(f_main, z));
-            fill(&mut out.main_blur[at(i, &span)], zs, h);
-            fill(&mut out.repetitions[at(i, &span)], zs, |z| {
-                o.repetitions(h(z))
-            });
-            fill(&mut out.conventional_px[at(i, &span)], zs, |z| {
-                o.conventional_px(h(z))
-            });
-        }
-        for (k, o) in typed.iter().enumerate() {
-            let b = |z: f64| o.microlens_blur(conjugate(f_main, z));
-            fill(&mut out.microlens_blur[at(k, &span)], zs, b);
-            fill(&mut out.blur_px[at(k, &span)], zs, |z| o.lf_blur_px(b(z)));
-        }
-        let blur: &[f64] = out.blur_px;
-        for i in 0..c {
-            let own: Vec<&[f64]> = rows
-                .iter()
-                .enumerate()
-                .filter(|(_, &(ch, _))| ch == i)
-                .map(|(k, _)| &blur[at(k, &span)])
-                .collect();
-            fill_min(&mut out.channel_blur_px[at(i, &span)], &own);
-        }
-        let all: Vec<&[f64]> = (0..r).map(|k| &blur[at(k, &span)]).collect();
-        fill_min(&mut out.union_blur_px[span.clone()], &all);
         Ok(())
     })
 }
