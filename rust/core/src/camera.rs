@@ -72,7 +72,9 @@ fn check_kappa(v1: f64, kappa: f64) -> Result<f64> {
         return Err(Error::param("kappa", kappa, "a finite number >= 0"));
     }
     let l2 = v1 * (1.0 + kappa);
-    if v1.is_finite() && !l2.is_finite() {
+    // Only a valid v1 can make kappa the culprit; an invalid v1 is channel 1's L, which the
+    // design checks (and names v1) before channel 2's.
+    if v1.is_finite() && v1 > 0.0 && !l2.is_finite() {
         return Err(Error::param(
             "kappa",
             kappa,
