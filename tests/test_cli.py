@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import splitlf
-from splitlf import Camera, depth_of_field
+from splitlf import Camera, Design, depth_of_field
 from splitlf.cli import main
 
 
@@ -27,8 +27,11 @@ def run(args, capsys):
 def test_report_seed(capsys):
     code, out, err = run(["report"], capsys)
     assert code == 0 and err == ""
-    assert "642.00" in out and "217.00" in out
-    assert "seed design" in out and "split sensor" in out
+    assert "642.0 mm" in out and "217.0 mm" in out
+    assert "seed design" in out and "union (any channel)" in out
+    assert len(out.splitlines()) <= 30  # the short report; --full has every section
+    code, full, _ = run(["report", "--full"], capsys)
+    assert code == 0 and "Coincidence planes" in full and "Coincidence planes" not in out
 
 
 def test_report_json_matches_api(capsys):
@@ -36,12 +39,13 @@ def test_report_json_matches_api(capsys):
     assert code == 0
     data = json.loads(out)
     cam = Camera.paper()
-    assert Camera.from_dict(data["camera"]) == cam
-    assert data["derived"]["half1"]["out_of_focus_depth_mm"] == cam.out_of_focus_depth(1)
-    assert data["derived"]["half2"]["lit_pixels"] == 11
+    assert Camera.from_dict(data["parameters"]) == cam == Design.from_dict(data["design"])
+    ch = data["derived"]["channels"]
+    assert ch[0]["out_of_focus_depth_mm"] == cam.out_of_focus_depth(1)
+    assert ch[1]["microlens_image_radius_mm"] == cam.image_radius(2)
     dof = depth_of_field(cam)
-    assert data["depth_of_field"]["half1"] == [[a, None if math.isinf(b) else b]
-                                               for a, b in dof.half1]
+    assert data["depth_of_field"]["light_field"]["channel 1"] == [
+        [a, None if math.isinf(b) else b] for a, b in dof.half1]
 
 
 def test_report_config(tmp_path, capsys):
@@ -49,7 +53,7 @@ def test_report_config(tmp_path, capsys):
     p = tmp_path / "cam.toml"
     cam.to_toml(p)
     code, out, _ = run(["report", "--config", str(p), "--json"], capsys)
-    assert code == 0 and json.loads(out)["camera"]["D"] == 10.0
+    assert code == 0 and json.loads(out)["parameters"]["D"] == 10.0
 
 
 @pytest.mark.parametrize("content, needle", [
@@ -89,11 +93,11 @@ def test_trace_npz(tmp_path, capsys):
     cam = Camera.paper()
     for h in (1, 2):
         t = splitlf.trace(cam, h)
-        np.testing.assert_array_equal(data[f"half{h}_area"], t.area)
-        np.testing.assert_array_equal(data[f"half{h}_vertices"], t.vertices)
-        assert summary[f"half{h}"]["pixels"] == cam.Kx * cam.Q
-    assert summary["half2"]["lit"] == cam.Kx * 11
-    assert "[camera]" in str(data["camera_toml"])
+        np.testing.assert_array_equal(data[f"channel{h}_area"], t.area)
+        np.testing.assert_array_equal(data[f"channel{h}_vertices"], t.vertices)
+        assert summary[f"channel{h}"]["pixels"] == cam.Kx * cam.Q
+    assert summary["channel2"]["lit"] == cam.Kx * 11
+    assert "[camera]" in str(data["toml"])
 
 
 def test_trace_bad_suffix(tmp_path, capsys):
@@ -221,7 +225,7 @@ def test_trace_refuses_to_overwrite(tmp_path, capsys):
     assert out.read_bytes() == b"previous"
     code, stdout, _ = run(["trace", "--out", str(out), "--force"], capsys)
     assert code == 0 and stdout.strip() == str(out)
-    assert "half1_area" in np.load(out).files
+    assert "channel1_area" in np.load(out).files
 
 
 def test_failed_write_keeps_the_previous_file(tmp_path, monkeypatch, capsys):
@@ -247,9 +251,9 @@ def test_trace_passes_threads(tmp_path, monkeypatch, capsys):
     real = rs.trace
     seen = []
 
-    def trace(camera, half, axis="x", n_threads=None):
+    def trace(camera, half=None, axis="x", n_threads=None, *, channel=None):
         seen.append(n_threads)
-        return real(camera, half, axis)
+        return real(camera, half, axis, channel=channel)
 
     monkeypatch.setattr(rs, "trace", trace)
     code, _, _ = run(["trace", "--out", str(tmp_path / "t.npz"), "--threads", "2"], capsys)

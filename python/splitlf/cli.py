@@ -31,7 +31,7 @@ from ._files import atomic_output, check_new
 from .camera import Camera, read_toml
 from .design import PRESETS, Design
 from .errors import SplitlfError
-from .report import design_report_data, format_design_report, format_report, report_data
+from .report import format_report, report_data
 
 SEED = "seed design (docs/model.md §7, reconstructed from the paper)"
 #: Resolution of ``splitlf figures`` [dots per inch]: the allowed range.
@@ -47,12 +47,6 @@ FORCE_HINT = "pass --force to overwrite"
 
 class CliError(SplitlfError):
     """A user error found by the command line, with a message fit for one line."""
-
-
-def _load_camera(path: str | None) -> tuple[Camera, str]:
-    if path is None:
-        return Camera.paper(), SEED
-    return Camera.from_toml(path), path
 
 
 def _finite(data: Any) -> Any:
@@ -134,62 +128,58 @@ _window = _real_type("window", 0.0, "a finite number > 0 (the 2-D central field'
 
 # -- report ------------------------------------------------------------------------------
 
-def _load_subject(args: argparse.Namespace) -> tuple[Camera | Design, str]:
+def _load_subject(args: argparse.Namespace) -> tuple[Design, str]:
     """What a subcommand works on: a preset design (``--preset``), a [design] or [camera]
-    TOML file (``--config``), or the seed camera."""
+    TOML file (``--config``: a Camera is a Design), or the seed camera."""
     if args.preset is not None:
         if args.config is not None:
             raise CliError("--preset and --config: give one of them")
         return Design.preset(args.preset), f"preset {args.preset}"
-    if args.config is not None and "design" in read_toml(args.config):
-        return Design.from_toml(args.config), args.config
-    return _load_camera(args.config)
+    if args.config is None:
+        return Camera.paper(), SEED
+    return _design_file(args.config), args.config
+
+
+def _design_file(path: str) -> Design:
+    """The design of a TOML file: a ``[design]`` table, else a ``[camera]`` one."""
+    if "design" in read_toml(path):
+        return Design.from_toml(path)
+    return Camera.from_toml(path)
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
     subject, source = _load_subject(args)
-    if isinstance(subject, Design):
-        data = design_report_data(subject, args.threshold, n_threads=args.threads,
-                                  samples=True)
-        text = format_design_report
-    else:
-        data = report_data(subject, args.threshold, n_threads=args.threads)
-        text = format_report
+    data = report_data(subject, args.threshold, n_threads=args.threads)
     if args.json:
         sys.stdout.write(json_text({"source": source, **data}))
     else:
-        sys.stdout.write(text(data, f"splitlf report: {source}"))
+        sys.stdout.write(format_report(data, f"splitlf report: {source}", full=args.full))
     return 0
 
 
 # -- figures -----------------------------------------------------------------------------
 
-def figure_functions(design: bool = False) -> dict[str, tuple[Any, int | str,
-                                                             tuple[float, float]]]:
-    """File stem -> (plot function taking (camera, ax=..., n_threads=...), its panels: a
-    number stacked or "channels" side by side, figure size [in]), for a camera or (when
-    ``design``) a general design."""
+def figure_functions() -> dict[str, tuple[Any, int | str, tuple[float, float]]]:
+    """File stem -> (plot function taking (design, ax=..., n_threads=...), its panels: a
+    number stacked or "channels" side by side, figure size [in])."""
     from . import plot
 
-    table = plot.DESIGN_FIGURES if design else plot.FIGURES
-    return {stem: (getattr(plot, fn), panels, size) for stem, (fn, panels, size) in table.items()}
+    return {stem: (getattr(plot, fn), panels, size)
+            for stem, (fn, panels, size) in plot.FIGURES.items()}
 
 
-def _figures_of(subject: Camera | Design) -> dict[str, tuple[Any, int | str,
-                                                             tuple[float, float]]]:
-    """:func:`figure_functions` for a camera or a design; a design with a hex channel has
-    no figure along x (``plot.RECT_ONLY``: ray space, samples along x)."""
+def _figures_of(subject: Design) -> dict[str, tuple[Any, int | str, tuple[float, float]]]:
+    """:func:`figure_functions` of a design; a design with a hex channel has no figure
+    along x (``plot.RECT_ONLY``: ray space, samples along x)."""
     from . import plot
 
-    if not isinstance(subject, Design):
-        return figure_functions()
     rect = all(ch.grid == "rect" for ch in subject.channels)
-    return {stem: f for stem, f in figure_functions(True).items()
+    return {stem: f for stem, f in figure_functions().items()
             if rect or stem not in plot.RECT_ONLY}
 
 
 def _figure_targets(out: Path, fmt: str, force: bool,
-                    subject: Camera | Design) -> dict[str, Path]:
+                    subject: Design) -> dict[str, Path]:
     """The file of every figure, checked (folder not a file, no file overwritten without
     --force) before the folder is created or anything is drawn."""
     if out.exists() and not out.is_dir():
@@ -210,7 +200,6 @@ def _cmd_figures(args: argparse.Namespace) -> int:
 
     trace_threads(args.threads)  # the ray-space figure traces: refuse what it cannot honour
     subject, _ = _load_subject(args)
-    design = isinstance(subject, Design)
     if args.z is not None and not args.z > subject.F:
         raise CliError(f"invalid --z {args.z:g}: allowed a depth > F = {subject.F:g} mm")
     out = Path(args.out)
@@ -219,7 +208,7 @@ def _cmd_figures(args: argparse.Namespace) -> int:
     for stem, (fn, panels, (w, h)) in _figures_of(subject).items():
         # A bare Figure needs no pyplot backend: nothing global is changed.
         if panels == "channels":
-            n = len(subject.channels) if design else 2
+            n = len(subject.channels)
             fig = Figure(figsize=(w * n, h), layout="constrained")
             ax = list(fig.subplots(1, n, squeeze=False)[0])
         else:
@@ -260,16 +249,12 @@ def _cmd_trace(args: argparse.Namespace) -> int:
     _check_suffix("--out", out, (".npz",))
     check_new(out, args.force, FORCE_HINT)
     threads = trace_threads(args.threads)
-    if isinstance(camera, Design):
-        hex_ = [i for i, ch in enumerate(camera.channels, start=1) if ch.grid != "rect"]
-        if hex_:
-            raise CliError(f"trace: channel {hex_[0]} has a hex grid; the 1-D trace needs "
-                           "rect grids (docs/architectures.md)")
-        arrays: dict[str, Any] = {"design_toml": np.array(camera.to_toml())}
-        parts = [(f"channel{c}", {"channel": c}) for c in range(1, len(camera.channels) + 1)]
-    else:
-        arrays = {"camera_toml": np.array(camera.to_toml())}
-        parts = [(f"half{h}", {"half": h}) for h in (1, 2)]
+    hex_ = [i for i, ch in enumerate(camera.channels, start=1) if ch.grid != "rect"]
+    if hex_:
+        raise CliError(f"trace: channel {hex_[0]} has a hex grid; the 1-D trace needs "
+                       "rect grids (docs/architectures.md)")
+    arrays: dict[str, Any] = {"toml": np.array(camera.to_toml())}
+    parts = [(f"channel{c}", {"channel": c}) for c in range(1, len(camera.channels) + 1)]
     summary: dict[str, Any] = {"path": str(out), "source": source, "axis": args.axis}
     for prefix, which in parts:
         t = rayspace.trace(camera, axis=args.axis, **which, **threads)
@@ -352,13 +337,25 @@ def load_sweep(path: str) -> dict[str, Any]:
     ``[[design.channels]]`` (docs/architectures.md; the grid then names the design's fields
     by path, ``"channels[2].L"``).
 
-    Returns {"grid", "depths", "options", "camera" (None without [camera]), "design"
-    (None without [design])}. Raises
+    Returns {"grid", "depths", "options", "base" (the [camera] or [design] base, None
+    without one)}. Raises
     :class:`CliError` / ``ValueError`` naming the file and the key for anything invalid
     (ranges, limits :data:`splitlf.sweep.MAX_DESIGNS` and :data:`~splitlf.sweep.MAX_DEPTHS`),
     ``OSError`` when the file cannot be read.
     """
-    from .sweep import _merits_2d, _threshold, _tol, _window
+    from .merits import _merits_2d, real_option
+
+    def _threshold(v: Any) -> float:
+        return real_option(v, "threshold_px", "a finite number > 0 (pixels)",
+                           lambda x: math.isfinite(x) and x > 0)
+
+    def _tol(v: Any) -> float:
+        return real_option(v, "tol", "a finite number >= 0 (a multiple of delta(z))",
+                           lambda x: math.isfinite(x) and x >= 0)
+
+    def _window(v: Any) -> float:
+        return real_option(v, "window", "a finite number > 0 (lens pitches of channel 1)",
+                           lambda x: math.isfinite(x) and x > 0)
 
     doc = read_toml(path)
     unknown = set(doc) - {"grid", "depths", "options", "camera", "design"}
@@ -382,12 +379,12 @@ def load_sweep(path: str) -> dict[str, Any]:
         options = {k: checks[k](v) for k, v in opts.items()}
     except (ValueError, TypeError) as e:
         raise CliError(f"{path}: options: {e}") from None
-    camera = Camera.from_dict(doc["camera"], source=f"{path} [camera]") if "camera" in doc \
-        else None
-    design = Design.from_dict(doc["design"], source=f"{path} [design]") if "design" in doc \
-        else None
-    return {"grid": grid, "depths": depths, "options": options, "camera": camera,
-            "design": design}
+    base: Design | None = None
+    if "camera" in doc:
+        base = Camera.from_dict(doc["camera"], source=f"{path} [camera]")
+    elif "design" in doc:
+        base = Design.from_dict(doc["design"], source=f"{path} [design]")
+    return {"grid": grid, "depths": depths, "options": options, "base": base}
 
 
 SWEEP_SUFFIXES = (".nc", ".parquet", ".json")
@@ -399,7 +396,7 @@ def _sweep_document(ds: Any) -> dict[str, Any]:
     digits); :func:`json_text` writes NaN as null."""
     df = ds.to_dataframe().reset_index()
     return {"attrs": {k: v for k, v in ds.attrs.items()
-                      if k not in ("base_camera", "base_design")},
+                      if k != "base"},
             "designs": df.to_dict(orient="records")}
 
 
@@ -413,7 +410,7 @@ def _write_sweep(ds: Any, out: Path, force: bool) -> None:
             tmp.write_text(json_text(_sweep_document(ds)), encoding="utf-8")
 
 
-def _run_sweep(camera: Camera | Design, spec: dict[str, Any], scheduler: str | None,
+def _run_sweep(camera: Design, spec: dict[str, Any], scheduler: str | None,
                n_threads: int | None) -> Any:
     from .sweep import sweep
 
@@ -434,7 +431,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         import xarray  # noqa: F401
     except ImportError:
         raise CliError('sweep needs xarray: pip install "splitlf[sweep]"') from None
-    from .sweep import METRICS, METRICS_2D, design_metrics
+    from .merits import metrics
 
     out = None if args.out is None else Path(args.out)
     if out is not None:
@@ -445,14 +442,13 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         spec["options"]["merits_2d"] = True
     if args.window is not None:
         spec["options"]["window"] = args.window
-    base = spec["camera"] or spec["design"]
+    base = spec["base"]
     if base is None:
         base = _load_subject(args)[0]
     elif args.preset is not None or args.config is not None:
-        table = "[camera]" if spec["camera"] is not None else "[design]"
         option = "--preset" if args.preset is not None else "--config"
-        raise CliError(f"{option}: {args.grid} has a {table} base already; give the base "
-                       "in one place")
+        raise CliError(f"{option}: {args.grid} has a base ([camera] or [design]) already; "
+                       "give the base in one place")
     ds = _run_sweep(base, spec, args.scheduler, args.threads)
     if out is not None:
         _write_sweep(ds, out, args.force)
@@ -463,15 +459,12 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         print(out)
     else:
         df = ds.to_dataframe().reset_index()
-        sharp = "sharp_fraction_union" if isinstance(base, Design) else "sharp_fraction_split"
-        cols = list(spec["grid"]) + [sharp, "max_gap_worst_union", "covering_radius_worst_union",
-                                     "reason"]
+        cols = list(spec["grid"]) + ["sharp_fraction_union", "max_gap_worst_union",
+                                     "covering_radius_worst_union", "reason"]
         cols = [c for c in cols if c in df.columns]
-        two_d = bool(spec["options"].get("merits_2d"))
-        metrics = (design_metrics(base, two_d) if isinstance(base, Design)
-                   else METRICS + (METRICS_2D if two_d else ()))
+        names = metrics(base, bool(spec["options"].get("merits_2d")))
         sys.stdout.write(df[cols].to_string(index=False) + "\n")
-        sys.stdout.write(f"\n{len(df)} designs; metrics: {', '.join(metrics)}\n")
+        sys.stdout.write(f"\n{len(df)} designs; metrics: {', '.join(names)}\n")
     return 0
 
 
@@ -519,8 +512,8 @@ def _simulate_noise(args: argparse.Namespace) -> dict[str, float] | None:
 
 
 def _simulate_table(rows: list[dict[str, Any]], source: str, args: argparse.Namespace) -> str:
-    """One line per depth and row of the simulation (a Camera's configurations, or a
-    Design's rows: each channel, the union, the conventional camera)."""
+    """One line per depth and row of the simulation (each channel, the union, the
+    conventional camera)."""
     noise = "noise-free" if args.photons is None else f"{args.photons:g} photons"
     width = max(13, *(len(c) + 1 for r in rows for c in r["rmse"]))
     out = [f"splitlf simulate: {source}; texture {args.texture}; {noise}",
@@ -606,7 +599,7 @@ def _optimise_document(res: Any, source: str, args: argparse.Namespace) -> dict[
             "free": res.free, "feasible": res.feasible, "active": list(res.active),
             "slack": res.slack, "merits": res.merits, "nfev": res.nfev,
             "generations": res.generations,
-            ("design" if isinstance(res.design, Design) else "camera"): res.design.as_dict()}
+            "design": res.design.design.as_dict()}
 
 
 def _cmd_optimise(args: argparse.Namespace) -> int:
@@ -813,12 +806,8 @@ def _cmd_explore(args: argparse.Namespace) -> int:
     subject, _ = _load_subject(args)
     reference = None
     if args.compare is not None:
-        if args.compare in PRESETS:
-            reference = Design.preset(args.compare)
-        elif "design" in read_toml(args.compare):
-            reference = Design.from_toml(args.compare)
-        else:
-            reference = Camera.from_toml(args.compare)
+        reference = (Design.preset(args.compare) if args.compare in PRESETS
+                     else _design_file(args.compare))
     serve(subject, port=args.port, address=args.address, reference=reference)
     return 0
 
@@ -853,20 +842,23 @@ def _merits_2d_options(p: argparse.ArgumentParser, what: str, default: str) -> N
 def _add_report(sub: Any) -> None:
     p = sub.add_parser(
         "report",
-        help="the camera, its derived values, out-of-focus planes and depth of field",
-        description="Print the camera (the seed design unless --config), its derived values, "
-        "the out-of-focus planes and the depth-of-field intervals of each half, of the split "
-        "sensor and of the conventional cameras. A general design (--preset, or a --config "
-        "file with a [design] table; docs/architectures.md) is reported per channel and per "
-        "lens type: array planes, out-of-focus planes, depth of field of each and of their "
-        "union, the coincidence planes of each channel where docs/model.md §6 holds and the "
-        "worst resolution of each channel and the union (rect grids).",
+        help="where the design is sharp and how densely it samples",
+        description="Print where the design (the seed unless --config or --preset) is sharp "
+        "and how densely it samples: its main lens, one line per channel (array plane, "
+        "out-of-focus plane, microlens image radius), the depth of field of each channel "
+        "(half), of their union and of the conventional cameras, and the worst resolution "
+        "of each channel and the union (rect grids). --full adds every channel's fields and "
+        "lens types and the coincidence planes of each channel where docs/model.md §6 "
+        "holds; --json prints all of it as one JSON document.",
     )
     _common(p, "threads for the coincidence planes and the resolution figures")
     p.add_argument("--preset", choices=PRESETS, default=None, metavar="NAME",
                    help=f"report a named design instead: {', '.join(PRESETS)} "
                    "(docs/architectures.md)")
     p.add_argument("--json", action="store_true", help="print one JSON document")
+    p.add_argument("--full", action="store_true",
+                   help="also every channel's fields and lens types and the coincidence "
+                   "planes")
     p.add_argument("--threshold", type=_threshold, default=0.5, metavar="PX",
                    help="sharpness threshold on the blur radius in pixels (default 0.5)")
     p.set_defaults(func=_cmd_report)
@@ -902,12 +894,11 @@ def _add_figures(sub: Any) -> None:
 
 def _add_trace(sub: Any) -> None:
     p = sub.add_parser("trace", help="write every pixel's ray-space polygon to .npz",
-                       description="Trace every pixel of both halves along one axis "
-                       "(docs/model.md §3-4) and write the arrays of splitlf.trace, prefixed "
-                       "half1_/half2_, with the camera as TOML, to an .npz file. A general "
-                       "design with rect grids (--preset, or a --config file with a "
-                       "[design] table) is traced channel by channel, prefixed channel1_, "
-                       "channel2_, ..., with the design as TOML (design_toml).")
+                       description="Trace every pixel of every channel (the split "
+                       "sensor's halves are channels 1 and 2) along one axis (docs/model.md "
+                       "§3-4) and write the arrays of splitlf.trace, prefixed channel1_, "
+                       "channel2_, ..., with the design as its TOML (toml), to an .npz file. "
+                       "Rect grids only.")
     _common(p, "threads of the trace")
     p.add_argument("--preset", choices=PRESETS, default=None, metavar="NAME",
                    help=f"trace a named design instead: {', '.join(PRESETS)} "

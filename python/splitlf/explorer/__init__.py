@@ -98,17 +98,13 @@ def serve(design: Any = None, *, port: int = 0, address: str = LOOPBACK,
     from bokeh.application.handlers.function import FunctionHandler
     from bokeh.server.server import Server
 
-    from ..camera import Camera
+    from .. import _validate
     from ..design import Design
     from .app import Explorer
 
     def as_design(value: Any, what: str) -> Design:
-        if isinstance(value, Camera):
-            return value.design
-        if not isinstance(value, Design):
-            raise TypeError(f"{what} must be a splitlf.Design or a splitlf.Camera, got "
-                            f"{type(value).__name__}")
-        return value
+        # the page edits the general design's fields (a Camera's is its two channels)
+        return _validate.design(value, what).design
 
     design = as_design(Design.preset("seed") if design is None else design, "design")
     ref = None if reference is None else as_design(reference, "reference")

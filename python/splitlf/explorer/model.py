@@ -21,7 +21,7 @@ from ..design import _CHANNEL_DESCRIPTIONS, _DESIGN_DESCRIPTIONS, Channel, Desig
 from ..errors import InvalidParameter, TooLargeError
 from ..optics import curves, depth_of_field
 from ..rayspace import trace
-from ..report import design_report_data
+from ..report import report_data
 from ..samples import new_samples, sweep_depths
 
 __all__ = [
@@ -311,9 +311,9 @@ def ray_space_view(design: Design, channel: int, lenses: int = RAY_LENSES) -> di
 
 
 def report_rows(design: Design, threshold_px: float = 0.5) -> list[tuple[str, str]]:
-    """The report's numbers (:func:`splitlf.report.design_report_data`) as (label, value)
+    """The report's numbers (:func:`splitlf.report.report_data`) as (label, value)
     rows for the table of the page."""
-    data = design_report_data(design, threshold_px)
+    data = report_data(design, threshold_px, samples=False)
     der = data["derived"]
     out = [("f-number", f"{der['f_number']:.4g}")]
     for ch in der["channels"]:
