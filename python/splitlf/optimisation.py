@@ -1,12 +1,13 @@
-"""Inverse design: the camera that optimises a figure of merit, subject to constraints.
+"""Inverse design: the design that optimises a figure of merit, subject to constraints.
 
-:func:`optimise` searches the free fields of a base :class:`~splitlf.Camera` with SciPy's
+:func:`optimise` searches the free fields of a base :class:`~splitlf.Design` (a
+:class:`~splitlf.Camera` is one) with SciPy's
 ``differential_evolution`` (global, deterministic for a seed), then polishes the best
 feasible design locally (Nelder-Mead on the same penalised objective, integer fields held).
-Every candidate is first built with the :class:`~splitlf.Camera` constructor and checked
-against the physical constraints (``min_microlens_f_number``, depths beyond F); only a
-valid design reaches the core, which computes its figures of merit
-(:data:`splitlf.sweep.METRICS`) over the depths. Candidates are evaluated one generation at
+Every candidate is first built by the base's own ``replace`` (its constructor validates it)
+and checked against the physical constraints (``min_microlens_f_number``, depths beyond
+F); only a valid design reaches :func:`splitlf.evaluate`, which gives its merits over the
+depths. Candidates are evaluated one generation at
 a time through ``differential_evolution``'s ``workers=`` hook: in-process on the core's
 thread pool, or in batches of plain field dicts on any ``concurrent.futures.Executor``
 (e.g. a Dask cluster's ``client.get_executor()``), exactly as :func:`splitlf.sweep.sweep`.
@@ -28,75 +29,29 @@ from typing import Any
 
 import numpy as np
 
-from . import _native, _validate
-from .camera import COUNT_FIELDS, FIELDS, Camera
+from . import _validate
 from .design import Design
 from .errors import InvalidParameter, TooLargeError
-from .sweep import (
+from .evaluate import (
     DEFAULT_THRESHOLD_PX,
     DEFAULT_TOL,
     DEFAULT_WINDOW,
-    MAX_DEPTHS,
-    METRICS,
-    METRICS_2D,
-    _design_path,
-    _evaluate_batch,
-    _evaluate_design_batch,
     _options_2d,
     _threshold,
     _tol,
-    _with_changes,
-    design_metrics,
+    evaluate,
+    merit_names,
 )
+from .sweep import MAX_DEPTHS, _evaluate_batch, _field, with_changes
 
-__all__ = ["DERIVED", "MERITS", "MERITS_2D", "OptimiseResult", "design_merits", "optimise"]
-
-#: Closed-form quantities of a design added to the core's figures of merit (each from the
-#: core's derived values of the :class:`~splitlf.Camera`).
-DERIVED = (
-    "f_number",
-    "out_of_focus_depth_half1",
-    "out_of_focus_depth_half2",
-    "image_fill_half1",
-    "image_fill_half2",
-    "lit_fraction_half1",
-    "microlens_f_number_half1",
-    "microlens_f_number_half2",
-)
-
-#: Every merit an objective or a constraint may name: the core's figures of merit over the
-#: depths (:data:`splitlf.sweep.METRICS`), then :data:`DERIVED`.
-MERITS = METRICS + DERIVED
-#: The 2-D merits an objective or a constraint may name too (:data:`splitlf.sweep.METRICS_2D`:
-#: worst and median covering radius, median distinct 2-D samples, of each half and the
-#: union, via ``Camera.design``). They are computed only when named, or with
-#: ``merits_2d=True`` (a callable objective that reads them).
-MERITS_2D = METRICS_2D
-
-MERIT_DOCS = {
-    "f_number": "main-lens f-number F / D",
-    "out_of_focus_depth_half1": "out-of-focus plane of half 1, F L_1 / (L_1 - F) [mm]",
-    "out_of_focus_depth_half2": "out-of-focus plane of half 2, F L_2 / (L_2 - F) [mm]",
-    "image_fill_half1": "microlens image diameter of half 1 over its Q pixels, "
-                        "D v / (L_1 Q mu): 1 = f-number matched, > 1 images spill over",
-    "image_fill_half2": "the same for half 2, D v / (L_2 Q mu)",
-    "lit_fraction_half1": "lit pixels per microlens of half 1 over Q",
-    "microlens_f_number_half1": "microlens f-number of half 1, f_1 / d",
-    "microlens_f_number_half2": "microlens f-number of half 2, f_2 / d",
-}
-
-def design_merits(design: Design, merits_2d: bool = False) -> tuple[str, ...]:
-    """Every merit an objective or a constraint on a Design base may name: the core's
-    figures of merit (:func:`splitlf.sweep.design_metrics`: per channel and union; with
-    ``merits_2d`` followed by the 2-D merits ``covering_radius_worst_*``,
-    ``covering_radius_median_*``, ``distinct_2d_median_*``), then ``f_number`` and
-    ``out_of_focus_depth_channel1``, ... (F L_i / (L_i - F) [mm])."""
-    return design_metrics(design, merits_2d) + ("f_number",) + tuple(
-        f"out_of_focus_depth_channel{i}" for i in range(1, len(design.channels) + 1))
+__all__ = ["OptimiseResult", "merit_names", "natural_sense", "optimise"]
 
 
-def _design_sense(merit: str) -> str | None:
-    """The natural direction of a Design merit (None: none)."""
+def natural_sense(merit: str) -> str | None:
+    """The direction in which a merit is better, used when ``sense`` is not given: "max"
+    for sharp fractions, lit fractions, light per pixel and distinct 2-D samples, "min"
+    for max gaps and covering radii, None for the closed-form values (f-number,
+    out-of-focus planes, image fill, microlens f-numbers) and the MTF50."""
     if merit.startswith(("sharp_fraction_", "lit_fraction_", "light_per_pixel_",
                          "distinct_2d_")):
         return "max"
@@ -104,16 +59,6 @@ def _design_sense(merit: str) -> str | None:
         return "min"
     return None
 
-
-#: The direction in which a merit is better, used when ``sense`` is not given.
-NATURAL_SENSE = {
-    "sharp_fraction_half1": "max",
-    "sharp_fraction_split": "max",
-    **{m: "min" for m in METRICS if m.startswith("max_gap_")},
-    "lit_fraction_half2": "max",
-    "lit_fraction_half1": "max",
-    **{m: "min" if m.startswith("covering_radius_") else "max" for m in METRICS_2D},
-}
 
 #: Energy offsets of the penalty: a valid design that violates a constraint scores
 #: PENALTY + its relative violation, an invalid design 2 PENALTY, so every feasible design
@@ -149,16 +94,16 @@ class Free:
 class OptimiseResult:
     """What :func:`optimise` found.
 
-    - ``design``: the best :class:`~splitlf.Camera` (a :class:`~splitlf.Design` for a
-      Design base; feasible when ``feasible``)
-    - ``merits``: its figures of merit {name in :data:`MERITS` (:func:`design_merits` for
-      a Design base), and :data:`MERITS_2D` when the 2-D merits were computed: value}
+    - ``design``: the best design, of the base's class (a :class:`~splitlf.Camera` for a
+      Camera base; feasible when ``feasible``)
+    - ``merits``: its merits {name of :func:`merit_names` (the 2-D ones when they were
+      computed): value}, as :func:`splitlf.evaluate` gives them
     - ``objective``: the objective's value there (as defined, not negated)
     - ``free``: the free fields' values {name: value}
     - ``feasible``: the design satisfies every constraint (else it is the valid design of
       least violation and no feasible design was found)
     - ``active``: what bounds the optimum, e.g. ``"bound: D <= 40.0"``,
-      ``"constraint: image_fill_half1 <= 1.0"``, ``"physical: invalid v1 = 79.9 ..."``: the
+      ``"constraint: image_fill_channel1 <= 1.0"``, ``"physical: invalid v1 = 79.9 ..."``: the
       bounds the design lies on and the constraints a probe step of :data:`PROBE_STEP`
       (of the bound range; 1 for an integer field) from it violates
     - ``slack``: per constraint, how far the design is inside it (>= 0 when satisfied)
@@ -173,7 +118,7 @@ class OptimiseResult:
       "evaluations" (designs that reached the core)}
     """
 
-    design: Camera | Design
+    design: Design
     merits: dict[str, float]
     objective: float
     free: dict[str, float | int]
@@ -189,11 +134,8 @@ class OptimiseResult:
 
 # -- argument checks ---------------------------------------------------------------------
 
-def _base(base: Any) -> Camera | Design:
-    if not isinstance(base, Camera | Design):
-        raise TypeError(f"base must be a splitlf.Camera or a splitlf.Design, got "
-                        f"{type(base).__name__}")
-    return base
+def _base(base: Any) -> Design:
+    return _validate.design(base, "base")
 
 
 def _real(value: Any, where: str) -> float:
@@ -205,19 +147,14 @@ def _real(value: Any, where: str) -> float:
         return math.inf if value > 0 else -math.inf
 
 
-def _free(free: Any, design: Design | None = None) -> list[Free]:
-    """The free fields: camera fields, or a Design base's free-field names
-    (:func:`splitlf.sweep.design_fields`)."""
+def _free(free: Any, design: Design) -> list[Free]:
+    """The free fields: names of :func:`splitlf.sweep.design_fields` of the base (a
+    Camera's paper fields, a Design's ``F``, ``D`` and channel paths)."""
     if not isinstance(free, Mapping) or not free:
         raise TypeError("free must be a non-empty mapping {field: (low, high)}")
     out = []
     for name, bounds in free.items():
-        if design is not None:
-            is_count = _design_path(design, name, "free")[1]
-        elif name not in FIELDS:
-            raise InvalidParameter.of("free", name, f"camera field names: {', '.join(FIELDS)}")
-        else:
-            is_count = name in COUNT_FIELDS
+        is_count = _field(design, name, "free")[1]
         if isinstance(bounds, str | bytes) or not isinstance(bounds, Sequence) \
                 or len(bounds) != 2:
             raise TypeError(f"free[{name!r}] must be a pair (low, high), got {bounds!r}")
@@ -233,8 +170,7 @@ def _free(free: Any, design: Design | None = None) -> list[Free]:
     return out
 
 
-def _objective(objective: Any, sense: Any, merits: Sequence[str] = MERITS,
-               natural: Callable[[str], str | None] = NATURAL_SENSE.get
+def _objective(objective: Any, sense: Any, merits: Sequence[str]
                ) -> tuple[Callable[[dict[str, float]], Any], str, str]:
     """(function of the merit dict, its name, "max" | "min")."""
     if isinstance(objective, str):
@@ -251,8 +187,9 @@ def _objective(objective: Any, sense: Any, merits: Sequence[str] = MERITS,
         raise TypeError("objective must be a merit name or a callable on the merit dict, "
                         f"got {type(objective).__name__}")
     if sense is None:
-        if isinstance(objective, str) and natural(objective) is not None:
-            return fn, name, natural(objective)  # type: ignore[return-value]
+        natural = natural_sense(objective) if isinstance(objective, str) else None
+        if natural is not None:
+            return fn, name, natural
         raise InvalidParameter.of("sense", None, "'max' or 'min' (needed: the objective "
                                   "has no natural direction)")
     if sense not in ("max", "min"):
@@ -260,8 +197,7 @@ def _objective(objective: Any, sense: Any, merits: Sequence[str] = MERITS,
     return fn, name, sense
 
 
-def _constraints(constraints: Any, merits: Sequence[str] = MERITS
-                 ) -> list[tuple[str, str, float]]:
+def _constraints(constraints: Any, merits: Sequence[str]) -> list[tuple[str, str, float]]:
     if constraints is None:
         return []
     if not isinstance(constraints, Mapping):
@@ -323,17 +259,19 @@ def _de_options(options: Any) -> dict[str, Any]:
 # -- the problem: candidates -> validated designs -> merits -> penalised energies ----------
 
 class _Problem:
-    def __init__(self, base: Camera, free: list[Free], z: np.ndarray, objective: Callable,
+    """Candidates -> designs (the base's own ``replace``, its constructor validating them)
+    -> merits (:func:`splitlf.evaluate`, in-process or in batches on an executor) ->
+    penalised energies, one history row per candidate."""
+
+    def __init__(self, base: Design, free: list[Free], z: np.ndarray, objective: Callable,
                  sense: str, constraints: list[tuple[str, str, float]],
                  min_f_number: float | None, core_args: tuple[float, float],
                  executor: cf.Executor | None, n_threads: int | None, threads_per_task: int,
                  batch_size: int | None, window: float | None = None) -> None:
-        self.base = self.base_dict(base)
+        self.base = base
         #: the window of the 2-D merits, None when they are not computed
         self.window = window
-        extra = METRICS_2D if window is not None else ()
-        self.core_names: Sequence[str] = METRICS + extra
-        self.merit_names: Sequence[str] = METRICS + extra + DERIVED
+        self.merit_names = merit_names(base, window is not None)
         self.free = free
         self.z = z
         self.objective = objective
@@ -354,72 +292,60 @@ class _Problem:
         self.error: BaseException | None = None
 
     # candidates
-    def base_dict(self, base: Any) -> dict[str, Any]:
-        return base.as_dict(resolved=False)
-
-    def build(self, changes: dict[str, Any]) -> Any:
-        """The design of a candidate already checked valid."""
-        return Camera(**{**self.base, **changes})
+    def build(self, changes: dict[str, Any]) -> Design:
+        """The design of a candidate (the base's class), validated by its constructor."""
+        return with_changes(self.base, changes)
 
     def changes(self, x: Sequence[float]) -> dict[str, float | int]:
         return {f.name: f.value(v) for f, v in zip(self.free, x, strict=True)}
 
-    def check(self, changes: dict[str, Any]) -> tuple[Camera | None, str, str]:
-        """(the design of ``changes``, "", "") if it is valid, else (None, why, the name of
-        the rule it breaks). Valid: the Camera constructor accepts it, so does its general
-        form ``Camera.design`` (docs/model.md §9: microlens images must not overlap), every
-        depth lies beyond F and both microlens f-numbers reach the floor."""
+    def check(self, changes: dict[str, Any]) -> tuple[Design | None, str, str]:
+        """(the design, "", "") if valid, else (None, why, the rule's name): its
+        constructor accepts it (ranges, shares, lens-type rules, overlapping images:
+        docs/model.md §9), every depth lies beyond F, every lens type's f_t / d reaches the
+        floor."""
         try:
-            cam = Camera(**{**self.base, **changes})
-            cam.design  # noqa: B018 - the §9 rules (overlapping microlens images)
+            design = self.build(changes)
         except InvalidParameter as e:
             return None, str(e), e.name
         except (ValueError, TypeError) as e:
-            return None, str(e), "camera"
-        if not self.z.min() > cam.F:
-            return None, (f"invalid F = {cam.F!r}: allowed F < the nearest depth "
+            return None, str(e), "design"
+        if not self.z.min() > design.F:
+            return None, (f"invalid F = {design.F!r}: allowed F < the nearest depth "
                           f"{float(self.z.min())!r} mm"), "F"
         if self.min_f_number is not None:
-            for h, f in ((1, cam.f1), (2, cam.f2)):
-                n = f / cam.d
-                if not n >= self.min_f_number:
-                    return None, (f"invalid microlens f-number of half {h} f{h}/d = {n!r}: "
-                                  f"allowed >= min_microlens_f_number = {self.min_f_number!r}"
-                                  ), "min_microlens_f_number"
-        return cam, "", ""
+            for i, ch in enumerate(design.resolved(), 1):
+                for t, f in enumerate(ch["f"]):
+                    n = f / ch["d"]
+                    if not n >= self.min_f_number:
+                        return None, (f"invalid microlens f-number of channel {i} type {t} "
+                                      f"f/d = {n!r}: allowed >= min_microlens_f_number = "
+                                      f"{self.min_f_number!r}"), "min_microlens_f_number"
+        return design, "", ""
 
-    def derived(self, cam: Camera) -> dict[str, float]:
-        return {
-            "f_number": cam.f_number,
-            "out_of_focus_depth_half1": cam.out_of_focus_depth(1),
-            "out_of_focus_depth_half2": cam.out_of_focus_depth(2),
-            "image_fill_half1": 2.0 * cam.image_radius(1) / (cam.Q * cam.mu),
-            "image_fill_half2": 2.0 * cam.image_radius(2) / (cam.Q * cam.mu),
-            "lit_fraction_half1": cam.lit_pixels(1) / cam.Q,
-            "microlens_f_number_half1": cam.f1 / cam.d,
-            "microlens_f_number_half2": cam.f2 / cam.d,
-        }
-
-    # the core
-    def core_merits(self, cams: list[Camera]) -> list[list[float]]:
-        """The core's figures of merit of valid designs, in order."""
-        if not cams:
+    def merits(self, designs: list[Design], changes: list[dict[str, Any]]
+               ) -> list[list[float]]:
+        """The merits of valid designs (:func:`splitlf.evaluate`), in order; with an
+        executor, batches of the plain ``changes`` beside the base (the worker rebuilds
+        the same designs)."""
+        if not designs:
             return []
         if self.executor is None:
             out = []
-            for cam in cams:
+            for d in designs:
                 t = time.perf_counter()
-                out.append(list(_native.figures_of_merit(cam.core, self.z, self.threshold_px,
-                                                         self.tol, self.n_threads,
-                                                         self.window)))
+                m = evaluate(d, self.z, threshold_px=self.threshold_px, tol=self.tol,
+                             merits_2d=self.window is not None,
+                             window=DEFAULT_WINDOW if self.window is None else self.window,
+                             n_threads=self.n_threads)
                 self.core_s += time.perf_counter() - t
+                out.append(list(m.values()))
             return out
-        size = self.batch_size or max(1, math.ceil(len(cams) / 16))
-        dicts = [c.as_dict(resolved=False) for c in cams]
-        futures = [self.executor.submit(_evaluate_batch, {}, dicts[i:i + size], self.z,
-                                        self.threshold_px, self.tol, self.window,
+        size = self.batch_size or max(1, math.ceil(len(designs) / 16))
+        futures = [self.executor.submit(_evaluate_batch, self.base, changes[i:i + size],
+                                        self.z, self.threshold_px, self.tol, self.window,
                                         self.threads_per_task)
-                   for i in range(0, len(dicts), size)]
+                   for i in range(0, len(changes), size)]
         out = []
         for fut in futures:
             for values, reason in fut.result():
@@ -429,7 +355,7 @@ class _Problem:
         return out
 
     # energies
-    def score(self, merits: dict[str, float]) -> tuple[float, float, str]:
+    def score(self, merits: dict[str, float]) -> tuple[float, float, str, str]:
         """(objective value, relative violation of the constraints, reason, the names of
         the violated constraints)."""
         try:
@@ -461,21 +387,20 @@ class _Problem:
         """Penalised energies of candidates (one history row each)."""
         cands = [self.changes(x) for x in xs]
         checked = [self.check(c) for c in cands]
-        valid = [cam for cam, _, _ in checked if cam is not None]
-        merits_core = iter(self.core_merits(valid))
-        self.evaluations += len(valid)
+        ok = [(d, c) for (d, _, _), c in zip(checked, cands, strict=True) if d is not None]
+        values = iter(self.merits([d for d, _ in ok], [c for _, c in ok]))
+        self.evaluations += len(ok)
         energies = []
-        for changes, (cam, reason, rule) in zip(cands, checked, strict=True):
+        for changes, (design, reason, rule) in zip(cands, checked, strict=True):
             row: dict[str, Any] = {"stage": self.stage, "generation": self.generation,
                                    **changes}
-            if cam is None:
+            if design is None:
                 row.update(valid=False, feasible=False, objective=math.nan,
                            **{m: math.nan for m in self.merit_names}, violated=rule,
                            reason=reason)
                 energies.append(2.0 * PENALTY)
             else:
-                merits = dict(zip(self.core_names, next(merits_core), strict=True))
-                merits.update(self.derived(cam))
+                merits = dict(zip(self.merit_names, next(values), strict=True))
                 value, violation, why, names = self.score(merits)
                 row.update(valid=True, feasible=violation == 0.0, objective=value, **merits,
                            violated=names, reason=why)
@@ -494,92 +419,6 @@ class _Problem:
 
     def one(self, x: Sequence[float]) -> float:
         return self.evaluate([x])[0]
-
-
-def _read_path(design: Design, name: str) -> Any:
-    """The value of free field ``name`` (``"F"``, ``"channels[2].L"``,
-    ``"channels[1].f[0]"``) of ``design``."""
-    if name in ("F", "D"):
-        return getattr(design, name)
-    head, _, field = name.partition("].")
-    ch = design.channels[int(head[len("channels["):]) - 1]
-    if field.startswith("f["):
-        return ch.f[int(field[2:-1])]  # type: ignore[index]
-    return getattr(ch, field)
-
-
-class _DesignProblem(_Problem):
-    """The problem of a Design base: candidates are free-field changes of the base's
-    plain dict (:meth:`Design.as_dict`), built and validated by the Design constructor
-    (ranges, shares, lens-type rules, overlapping images: docs/model.md §9)."""
-
-    def __init__(self, base: Design, *args: Any, **kwargs: Any) -> None:
-        super().__init__(base, *args, **kwargs)
-        self.core_names = design_metrics(base, self.window is not None)
-        self.merit_names = design_merits(base, self.window is not None)
-
-    def base_dict(self, base: Any) -> dict[str, Any]:
-        return base.as_dict()
-
-    def build(self, changes: dict[str, Any]) -> Design:
-        return _with_changes(self.base, changes)
-
-    def check(self, changes: dict[str, Any]) -> tuple[Any, str, str]:  # type: ignore[override]
-        """(the design, "", "") if valid, else (None, why, the rule's name): the Design
-        constructor accepts it, every depth lies beyond F, every lens type's f_t / d
-        reaches the floor."""
-        try:
-            design = self.build(changes)
-        except InvalidParameter as e:
-            return None, str(e), e.name
-        except (ValueError, TypeError) as e:
-            return None, str(e), "design"
-        if not self.z.min() > design.F:
-            return None, (f"invalid F = {design.F!r}: allowed F < the nearest depth "
-                          f"{float(self.z.min())!r} mm"), "F"
-        if self.min_f_number is not None:
-            for i, ch in enumerate(design.resolved(), 1):
-                for t, f in enumerate(ch["f"]):
-                    n = f / ch["d"]
-                    if not n >= self.min_f_number:
-                        return None, (f"invalid microlens f-number of channel {i} type {t} "
-                                      f"f/d = {n!r}: allowed >= min_microlens_f_number = "
-                                      f"{self.min_f_number!r}"), "min_microlens_f_number"
-        return design, "", ""
-
-    def derived(self, design: Design) -> dict[str, float]:  # type: ignore[override]
-        out = {"f_number": design.f_number}
-        for i in range(1, len(design.channels) + 1):
-            out[f"out_of_focus_depth_channel{i}"] = design.out_of_focus_depth(i)
-        return out
-
-    def core_merits(self, designs: list[Design]) -> list[list[float]]:  # type: ignore[override]
-        if not designs:
-            return []
-        if self.executor is None:
-            out = []
-            for d in designs:
-                t = time.perf_counter()
-                out.append(list(_native.design_figures_of_merit(
-                    d.core, self.z, self.threshold_px, self.tol, self.n_threads,
-                    self.window)))
-                self.core_s += time.perf_counter() - t
-            return out
-        size = self.batch_size or max(1, math.ceil(len(designs) / 16))
-        # plain dicts to the workers: the base and each design's free-field values (the
-        # worker rebuilds the same design with the Design constructor)
-        changes = [{f.name: _read_path(d, f.name) for f in self.free} for d in designs]
-        futures = [self.executor.submit(_evaluate_design_batch, self.base,
-                                        changes[i:i + size], self.z, self.threshold_px,
-                                        self.tol, self.window, self.threads_per_task)
-                   for i in range(0, len(changes), size)]
-        out = []
-        for fut in futures:
-            for values, reason in fut.result():
-                if values is None:
-                    raise RuntimeError(f"optimise: the core refused a checked design: {reason}")
-                out.append(values)
-        return out
 
 
 # -- the search --------------------------------------------------------------------------
@@ -674,7 +513,7 @@ def _num(x: float, integer: bool) -> str:
     return str(int(x)) if integer else repr(float(x))
 
 
-def optimise(base: Camera | Design, free: Mapping[str, tuple[float, float]],
+def optimise(base: Design, free: Mapping[str, tuple[float, float]],
              objective: str | Callable, sense: str | None = None,
              constraints: Mapping[str, tuple[str, float]] | None = None,
              depths: Any = None, seed: int = 0, executor: cf.Executor | None = None,
@@ -688,16 +527,18 @@ def optimise(base: Camera | Design, free: Mapping[str, tuple[float, float]],
              ) -> OptimiseResult:
     """The design around ``base`` that optimises ``objective`` subject to ``constraints``.
 
-    - ``base``: a :class:`~splitlf.Camera` or a :class:`~splitlf.Design`; every field not
-      free keeps its value (focal lengths left to Ng's setting keep tracking the geometry)
-    - ``free``: {field: (low, high)}: camera fields, or for a Design its free-field names
-      (:func:`splitlf.sweep.design_fields`: ``"F"``, ``"D"``, ``"channels[2].L"``,
-      ``"channels[1].f[0]"``; channels from 1, lens types from 0); the counts are searched
-      as integers (integer bounds); the others are continuous
-    - ``objective``: a merit name (:data:`MERITS`, :data:`MERITS_2D`) or a callable on the
-      merit dict returning a real number; ``sense``: "max" or "min" (default: the merit's
-      natural direction — max for sharp and lit fractions and distinct 2-D samples, min for
-      max gaps and covering radii — and required otherwise)
+    - ``base``: a :class:`~splitlf.Design` (a :class:`~splitlf.Camera` is one); every field
+      not free keeps its value (focal lengths left to Ng's setting keep tracking the
+      geometry); candidates are built by the base's own ``replace``
+    - ``free``: {field: (low, high)}, names of :func:`splitlf.sweep.design_fields`: a
+      Camera's paper fields (``"D"``, ``"kappa"``, ...), a Design's ``"F"``, ``"D"``,
+      ``"channels[2].L"``, ``"channels[1].f[0]"`` (channels from 1, lens types from 0);
+      the counts are searched as integers (integer bounds); the others are continuous
+    - ``objective``: a merit name (:func:`merit_names`, those of :func:`splitlf.evaluate`)
+      or a callable on the merit dict returning a real number; ``sense``: "max" or "min"
+      (default: the merit's :func:`natural_sense` — max for sharp and lit fractions and
+      distinct 2-D samples, min for max gaps and covering radii — and required
+      otherwise)
     - ``constraints``: {merit: ("<=" | ">=", value)}
     - ``depths``: scene depths [mm] of the core's merits (default 200 log-spaced over
       150-10 000 mm); a design with F >= the nearest depth is invalid
@@ -712,12 +553,12 @@ def optimise(base: Camera | Design, free: Mapping[str, tuple[float, float]],
       ``scipy.optimize.differential_evolution`` (:data:`DE_OPTIONS`)
     - ``polish``: refine the best feasible design with Nelder-Mead over the continuous
       fields (``polish_maxfev`` evaluations, default 100 + 100 per field)
-    - ``min_microlens_f_number``: a manufacturable floor on f_i / d of both halves; a design
-      below it is invalid (never evaluated)
+    - ``min_microlens_f_number``: a manufacturable floor on f_t / d of every lens type of
+      every channel; a design below it is invalid (never evaluated)
     - ``threshold_px``, ``tol``: sharpness threshold [px] and merge tolerance [delta(z)] of
       the core's merits, as in :func:`splitlf.sweep.sweep`
-    - ``merits_2d``: whether to compute the 2-D merits (:data:`MERITS_2D`; for a Design
-      ``design_merits(design, merits_2d=True)``), which cost a 2-D analysis per depth:
+    - ``merits_2d``: whether to compute the 2-D merits (``merit_names(base, True)``
+      beyond ``merit_names(base)``), which cost a 2-D analysis per depth:
       None (default) computes them iff the objective or a constraint names one; True
       always (a callable objective that reads them needs it); False never (naming one is
       then an error). Not computed, they are absent from ``merits`` and the history
@@ -732,19 +573,11 @@ def optimise(base: Camera | Design, free: Mapping[str, tuple[float, float]],
     by a callable objective propagates.
     """
     cam = _base(base)
-    is_design = isinstance(cam, Design)
-    if is_design:
-        names = design_merits(cam, True)
-        fields = _free(free, cam)
-        fn, _, sense_ = _objective(objective, sense, names, _design_sense)
-        cons = _constraints(constraints, names)
-        names_2d = frozenset(names) - frozenset(design_merits(cam))
-    else:
-        names = MERITS + MERITS_2D
-        fields = _free(free)
-        fn, _, sense_ = _objective(objective, sense, names)
-        cons = _constraints(constraints, names)
-        names_2d = frozenset(MERITS_2D)
+    names = merit_names(cam, True)
+    fields = _free(free, cam)
+    fn, _, sense_ = _objective(objective, sense, names)
+    cons = _constraints(constraints, names)
+    names_2d = frozenset(names) - frozenset(merit_names(cam))
     named = sorted({m for m, _, _ in cons if m in names_2d}
                    | ({objective} if isinstance(objective, str) and objective in names_2d
                       else set()))
@@ -785,8 +618,7 @@ def optimise(base: Camera | Design, free: Mapping[str, tuple[float, float]],
         raise ImportError('splitlf.optimise needs SciPy and pandas: '
                           'pip install "splitlf[sweep]"') from e
 
-    kind = _DesignProblem if is_design else _Problem
-    problem = kind(cam, fields, z, fn, sense_, cons, min_f, core_args, executor, n_threads,
+    problem = _Problem(cam, fields, z, fn, sense_, cons, min_f, core_args, executor, n_threads,
                    tpt or 1, batch_size, window=window_2d)
     bar = _progress_bar(maxiter_, progress)
 
