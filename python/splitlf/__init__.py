@@ -13,6 +13,7 @@ from .camera import Camera
 from .coverage import ChiefSamples, Coverage, Samples2D, chief_samples, coverage, samples_2d
 from .design import Channel, Design
 from .errors import InvalidParameter, SplitlfError, TooLargeError
+from .evaluate import Merits, evaluate
 from .optics import Curves, DepthOfField, curves, depth_of_field, sharp_fractions
 from .optimisation import OptimiseResult, optimise
 from .rayspace import Footprints, SampleGrid, Trace, footprints, sample_grid, trace
@@ -56,6 +57,7 @@ __all__ = [
     "Footprints",
     "Image",
     "InvalidParameter",
+    "Merits",
     "NewSamples",
     "OptimiseResult",
     "RandomAlbedo",
@@ -72,6 +74,7 @@ __all__ = [
     "coverage",
     "curves",
     "depth_of_field",
+    "evaluate",
     "explore",
     "footprints",
     "new_samples",

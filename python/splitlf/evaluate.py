@@ -196,6 +196,7 @@ def _closed_form(design: Design, z: np.ndarray, threshold_px: float) -> dict[str
     """The closed-form merits of :func:`merit_names` (from the core's derived values)."""
     from .optics import sharp_fractions
 
+    design = design.design  # the plain Design: a Camera's per-half overrides not used
     n = len(design.channels)
     sf = sharp_fractions(design, (float(z.min()), float(z.max())), threshold_px)
     out = {"f_number": design.f_number}
