@@ -9,10 +9,9 @@ import numpy as np
 import pytest
 
 import splitlf
-from splitlf import Camera, Design
-from splitlf.errors import InvalidParameter
+from splitlf import Camera, Design, _native
 from splitlf import evaluate as evaluate_design
-from splitlf import _native
+from splitlf.errors import InvalidParameter
 from splitlf.evaluate import merit_names
 from splitlf.sweep import design_fields, sweep
 

@@ -10,9 +10,8 @@ import numpy as np
 import pytest
 
 import splitlf
-from splitlf import Camera
+from splitlf import Camera, evaluate
 from splitlf.cli import main
-from splitlf import evaluate
 from splitlf.evaluate import merit_names
 from splitlf.sweep import sweep
 
