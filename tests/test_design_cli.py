@@ -13,6 +13,7 @@ import pytest
 import splitlf
 from splitlf import Camera, Design, InvalidParameter, simulate
 from splitlf.cli import json_text, main
+from splitlf.evaluate import merit_names
 
 SEED = Camera.paper()
 Z = np.geomspace(150.0, 10_000.0, 12)
@@ -56,11 +57,11 @@ def test_cli_sweep_of_a_preset_equals_the_api(tmp_path, capsys):
     assert code == 0, err
     doc = json.loads(out)
     ds = sweep(d, {"channels[2].L": [100.0, 115.0], "D": [15.0, 20.0]}, Z, progress=False)
-    assert len(doc["designs"]) == 4 and "base" not in doc["attrs"]
+    assert len(doc["designs"]) == 4 and "base_design" not in doc["attrs"]
     df = ds.to_dataframe().reset_index()
     for rec, (_, row) in zip(doc["designs"], df.iterrows(), strict=True):
         assert rec["channels[2].L"] == row["channels[2].L"] and rec["D"] == row["D"]
-        for m in splitlf.metrics(d):
+        for m in merit_names(d):
             assert rec[m] == (None if np.isnan(row[m]) else row[m]), m
     # the same base as a [design] table in the sweep file, written to NetCDF
     import tomllib
@@ -73,7 +74,7 @@ def test_cli_sweep_of_a_preset_equals_the_api(tmp_path, capsys):
     assert code == 0, err
     with xr.open_dataset(nc) as back:
         np.testing.assert_array_equal(back["max_gap_worst_union"], ds["max_gap_worst_union"])
-        assert Design.from_dict(tomllib.loads(back.attrs["base"])["design"]) == d
+        assert Design.from_dict(tomllib.loads(back.attrs["base_design"])["design"]) == d
     # the text table names the design's union rows
     code, out, _ = _cli(["sweep", "--grid", spec, "--preset", "split3"], capsys)
     assert code == 0 and "sharp_fraction_union" in out and "sharp_fraction_channel3" in out
@@ -91,7 +92,7 @@ def test_cli_sweep_of_the_camera_equals_its_design(tmp_path, capsys):
     des = json.loads(capsys.readouterr().out)["designs"]
     for a, b in zip(cam, des, strict=True):
         assert a == b and a["valid"]
-    assert set(splitlf.metrics(SEED)) <= set(cam[0])
+    assert set(merit_names(SEED)) <= set(cam[0])
 
 
 @pytest.mark.parametrize("grid, base, extra, needle", [

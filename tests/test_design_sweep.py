@@ -9,26 +9,32 @@ import numpy as np
 import pytest
 
 import splitlf
-from splitlf import Camera, Design
+from splitlf import Camera, Design, _native
+from splitlf import evaluate as evaluate_design
 from splitlf.errors import InvalidParameter
-from splitlf.sweep import design_fields, design_metrics, evaluate_design, sweep
+from splitlf.evaluate import merit_names
+from splitlf.sweep import design_fields, sweep
 
 DEPTHS = np.geomspace(150.0, 10_000.0, 30)
 
 
+def design_metrics(d, merits_2d=False):
+    """The core's merit names of ``d`` (the first of :func:`merit_names`)."""
+    return tuple(_native.design_metrics(d.core, merits_2d))
+
+
 def test_camera_and_its_design_agree():
+    # a Camera is a Design: its merits are its plain design's, bit for bit (half i is
+    # channel i; the old camera names sharp_fraction_half1/_split, max_gap_*_half*,
+    # lit_fraction_half2 are channel1/union/channel*)
     cam = Camera.paper().replace(kappa=0.3)
     a = evaluate_design(cam, DEPTHS)
     b = evaluate_design(cam.design, DEPTHS)
-    assert list(b) == list(design_metrics(cam.design))
-    assert b["sharp_fraction_channel1"] == a["sharp_fraction_half1"]
-    assert b["sharp_fraction_union"] == a["sharp_fraction_split"]
-    for kind in ("worst", "median"):
-        for row, half in (("channel1", "half1"), ("channel2", "half2"), ("union", "union")):
-            x, y = b[f"max_gap_{kind}_{row}"], a[f"max_gap_{kind}_{half}"]
-            assert abs(x - y) <= 1e-14 * abs(y), (kind, row)  # delta(z): docs/architectures
-    assert b["lit_fraction_channel2"] == a["lit_fraction_half2"]
+    assert list(b) == list(merit_names(cam.design)) == list(a)
+    assert dict(a) == dict(b)
+    assert list(b)[:13] == list(design_metrics(cam.design))
     assert b["lit_fraction_channel1"] == cam.lit_pixels(1) / cam.Q
+    assert b["lit_fraction_channel2"] == cam.lit_pixels(2) / cam.Q
     # a fully lit pixel of half 1 in Ng's setting has the 1-D etendue mu d / v
     light = 0.5 * cam.mu * cam.d / cam.v
     assert b["light_per_pixel_channel1"] == pytest.approx(light, rel=1e-12)
@@ -38,7 +44,8 @@ def test_three_channel_design_against_numpy():
     d = Design.preset("split3")
     m = evaluate_design(d, DEPTHS)
     names = design_metrics(d)
-    assert len(names) == 5 * 3 + 3 and list(m) == list(names)
+    assert len(names) == 5 * 3 + 3 and list(m)[:len(names)] == list(names)
+    assert list(m) == list(merit_names(d)) and len(m) == len(names) + 1 + 4 * 3
     sf = splitlf.sharp_fractions(d, (DEPTHS.min(), DEPTHS.max()))
     gaps = splitlf.new_samples(d, DEPTHS).max_gap
     rows = ["channel1", "channel2", "channel3", "union"]
@@ -177,7 +184,7 @@ def test_optimise_a_design_records_invalid_candidates():
 def test_design_merits_do_not_depend_on_threads_and_check_input():
     d = Design.preset("split3")
     one = evaluate_design(d, DEPTHS, n_threads=1)
-    assert one == evaluate_design(d, DEPTHS, n_threads=2)
+    assert one == evaluate_design(d, DEPTHS, n_threads=2)  # a Merits equals its items
     with pytest.raises(InvalidParameter) as e:
         evaluate_design(d, [50.0, 500.0])  # a depth not beyond F = 80
     assert e.value.name == "depths"
@@ -185,7 +192,7 @@ def test_design_merits_do_not_depend_on_threads_and_check_input():
         evaluate_design(d, DEPTHS, tol=-1.0)
     assert e.value.name == "tol"
     with pytest.raises(TypeError):
-        design_metrics(Camera.paper())
+        evaluate_design({"F": 80.0}, DEPTHS)
 
 
 def test_design_sweep_on_a_process_pool_is_identical(design_sweep):

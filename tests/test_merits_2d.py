@@ -12,9 +12,22 @@ import pytest
 
 import splitlf
 from splitlf import Camera, Channel, Design, InvalidParameter, _native
+from splitlf import evaluate as evaluate_design
 from splitlf.cli import main
-from splitlf.optimisation import MERITS, MERITS_2D, design_merits, optimise
-from splitlf.sweep import METRICS, METRICS_2D, design_metrics, evaluate_design, sweep
+from splitlf.evaluate import merit_names
+from splitlf.optimisation import optimise
+from splitlf.sweep import sweep
+
+
+def design_metrics(d, merits_2d=False):
+    """The core's merit names of ``d`` (the first of :func:`merit_names`)."""
+    return tuple(_native.design_metrics(d.core, merits_2d))
+
+
+#: The 2-D merits of a two-channel design (a Camera's), and every other merit of it.
+METRICS_2D = tuple(f"{p}_{r}" for p in ("covering_radius_worst", "covering_radius_median",
+                                         "distinct_2d_median")
+                   for r in ("channel1", "channel2", "union"))
 
 Z = np.geomspace(150.0, 10_000.0, 7)
 PREFIXES = ("covering_radius_worst", "covering_radius_median", "distinct_2d_median")
@@ -56,7 +69,8 @@ def test_design_merits_are_max_and_median_of_coverage(make, z, window):
     plain = evaluate_design(d, z)
     m = evaluate_design(d, z, merits_2d=True, window=window)
     names = design_metrics(d, merits_2d=True)
-    assert list(m) == list(names)
+    assert list(m) == list(merit_names(d, merits_2d=True))
+    assert list(m)[:len(names)] == list(names)
     rows = _rows(d)
     names_2d = [f"{p}_{r}" for p in PREFIXES for r in rows]
     assert list(names) == list(design_metrics(d)) + names_2d
@@ -68,18 +82,16 @@ def test_design_merits_are_max_and_median_of_coverage(make, z, window):
 
 
 def test_camera_merits_are_its_design_merits():
+    # a Camera is a Design: its 2-D merits (the two-engine code's *_half1, *_half2,
+    # *_union) are its design's per channel and union, bit for bit
     cam = Camera.paper().replace(kappa=0.3)
     plain = evaluate_design(cam, Z)
     m = evaluate_design(cam, Z, merits_2d=True, window=4.0)
-    assert list(m) == list(METRICS + METRICS_2D)
-    assert METRICS_2D == tuple(f"{p}_{r}" for p in PREFIXES for r in ("half1", "half2",
-                                                                       "union"))
-    assert {k: m[k] for k in METRICS} == plain  # bit for bit
-    of_design = evaluate_design(cam.design, Z, merits_2d=True, window=4.0)
-    for p in PREFIXES:
-        for row, half in (("channel1", "half1"), ("channel2", "half2"), ("union", "union")):
-            assert m[f"{p}_{half}"] == of_design[f"{p}_{row}"]
-    expected = _expected(cam.design, Z, 4.0, ["half1", "half2", "union"])
+    assert list(m) == list(merit_names(cam, merits_2d=True))
+    assert set(m) - set(plain) == set(METRICS_2D)
+    assert {k: m[k] for k in plain} == dict(plain)  # bit for bit
+    assert dict(m) == dict(evaluate_design(cam.design, Z, merits_2d=True, window=4.0))
+    expected = _expected(cam.design, Z, 4.0, ["channel1", "channel2", "union"])
     assert {k: m[k] for k in METRICS_2D} == expected
 
 
@@ -87,9 +99,8 @@ def test_names_are_absent_unless_asked_for():
     d = Design.preset("split3")
     assert not set(evaluate_design(d, Z)) & set(design_metrics(d, merits_2d=True)[18:])
     assert not set(evaluate_design(Camera.paper(), Z)) & set(METRICS_2D)
-    assert set(design_merits(d, merits_2d=True)) - set(design_merits(d)) \
+    assert set(merit_names(d, merits_2d=True)) - set(merit_names(d)) \
         == {f"{p}_{r}" for p in PREFIXES for r in _rows(d)}
-    assert not set(MERITS) & set(MERITS_2D)
 
 
 def test_sweep_with_and_without_2d_merits():
@@ -114,7 +125,7 @@ def test_sweep_with_and_without_2d_merits():
     one = evaluate_design(Camera.paper().replace(kappa=0.4), Z, merits_2d=True, window=4.0)
     for k in METRICS_2D:
         assert float(cam[k].values[1]) == one[k]
-        assert "half" in cam[k].attrs["description"] or "both" in cam[k].attrs["description"]
+        assert "channel" in cam[k].attrs["description"] or "union" in cam[k].attrs["description"]
 
 
 def test_optimise_a_hex_design_for_its_covering_radius(monkeypatch):
@@ -170,13 +181,13 @@ def test_optimise_computes_2d_merits_only_when_named():
     pytest.importorskip("pandas")
     kw = {"depths": Z[:4], "maxiter": 2, "popsize": 3, "polish": False}
     free = {"kappa": (0.1, 0.6)}
-    res = optimise(Camera.paper(), free, "sharp_fraction_split", **kw)
-    assert not set(res.merits) & set(MERITS_2D)
-    assert not set(res.history.columns) & set(MERITS_2D)
+    res = optimise(Camera.paper(), free, "sharp_fraction_union", **kw)
+    assert not set(res.merits) & set(METRICS_2D)
+    assert not set(res.history.columns) & set(METRICS_2D)
     # a constraint naming one turns them on; the objective need not
-    res = optimise(Camera.paper(), free, "sharp_fraction_split", window=4.0,
+    res = optimise(Camera.paper(), free, "sharp_fraction_union", window=4.0,
                    constraints={"covering_radius_median_union": ("<=", 100.0)}, **kw)
-    assert set(MERITS_2D) <= set(res.merits) and set(MERITS_2D) <= set(res.history.columns)
+    assert set(METRICS_2D) <= set(res.merits) and set(METRICS_2D) <= set(res.history.columns)
     # a callable objective reads them with merits_2d=True ...
     res = optimise(Camera.paper(), free, lambda m: m["distinct_2d_median_union"],
                    sense="max", merits_2d=True, window=4.0, **kw)
@@ -189,7 +200,7 @@ def test_optimise_computes_2d_merits_only_when_named():
         optimise(Camera.paper(), free, "covering_radius_worst_union", merits_2d=False, **kw)
     assert e.value.name == "merits_2d"
     with pytest.raises(TypeError, match="merits_2d"):
-        optimise(Camera.paper(), free, "sharp_fraction_split", merits_2d="yes", **kw)
+        optimise(Camera.paper(), free, "sharp_fraction_union", merits_2d="yes", **kw)
 
 
 @pytest.mark.parametrize("window", [0.0, -4.0, float("nan"), float("inf"), 10**400])
@@ -262,7 +273,7 @@ def test_cli_optimise_and_sweep_with_2d_merits(tmp_path, capsys):
     with pytest.raises(SystemExit) as e:  # argparse's own error
         main(argv[:-2] + ["0", "--json"])
     assert e.value.code == 2 and "window" in capsys.readouterr().err
-    assert main(["optimise", "--free", "kappa=0.1:0.6", "--objective", "sharp_fraction_split",
+    assert main(["optimise", "--free", "kappa=0.1:0.6", "--objective", "sharp_fraction_union",
                  "--depths", "150:10000:4", "--maxiter", "2", "--popsize", "3",
                  "--no-polish", "--json"]) == 0
     assert not set(json.loads(capsys.readouterr().out)["merits"]) & set(METRICS_2D)

@@ -11,10 +11,11 @@ import numpy as np
 import pytest
 
 import splitlf
-from splitlf import Camera, _native
+from splitlf import Camera, Design, _native
 from splitlf.cli import main
 from splitlf.errors import InvalidParameter
-from splitlf.optimisation import MERITS, optimise
+from splitlf.evaluate import merit_names
+from splitlf.optimisation import optimise
 
 pytest.importorskip("scipy")
 pd = pytest.importorskip("pandas")
@@ -34,7 +35,7 @@ def test_kappa_that_puts_half2_out_of_focus_plane_at_a_stated_depth():
     target = 300.0
     kappa = SEED.F * target / (target - SEED.F) / SEED.v1 - 1.0
     res = optimise(SEED, {"kappa": (0.05, 0.8)},
-                   lambda m: abs(m["out_of_focus_depth_half2"] - target), sense="min", **FAST)
+                   lambda m: abs(m["out_of_focus_depth_channel2"] - target), sense="min", **FAST)
     assert res.feasible
     assert res.free["kappa"] == pytest.approx(kappa, rel=RTOL)
     assert res.design.out_of_focus_depth(2) == pytest.approx(target, rel=RTOL)
@@ -42,17 +43,17 @@ def test_kappa_that_puts_half2_out_of_focus_plane_at_a_stated_depth():
 
 
 def test_fastest_aperture_that_keeps_half1_f_number_matched():
-    # image_fill_half1 = D v / (v' Q mu) <= 1: the largest D is Q mu v' / v (f-number
+    # image_fill_channel1 = D v / (v' Q mu) <= 1: the largest D is Q mu v' / v (f-number
     # matched); with v = 0.5 mm it lies below the overlap limit d (v' + v) / v.
     base = SEED.replace(v=0.5)
     d_star = base.Q * base.mu * base.v1 / base.v
     assert d_star < base.d * (base.v1 + base.v) / base.v
     res = optimise(base, {"D": (8.0, 40.0)}, "f_number", sense="min",
-                   constraints={"image_fill_half1": ("<=", 1.0)}, **FAST)
+                   constraints={"image_fill_channel1": ("<=", 1.0)}, **FAST)
     assert res.feasible
     assert res.free["D"] == pytest.approx(d_star, rel=RTOL)
-    assert res.active == ("constraint: image_fill_half1 <= 1.0",)
-    assert 0.0 <= res.slack["image_fill_half1 <= 1.0"] < RTOL
+    assert res.active == ("constraint: image_fill_channel1 <= 1.0",)
+    assert 0.0 <= res.slack["image_fill_channel1 <= 1.0"] < RTOL
 
 
 def test_overlapping_microlens_images_bound_the_aperture():
@@ -62,33 +63,32 @@ def test_overlapping_microlens_images_bound_the_aperture():
     d_star = base.d * (base.v1 + base.v) / base.v
     res = optimise(base, {"D": (8.0, 40.0)}, "f_number", sense="min", **FAST)
     assert res.free["D"] == pytest.approx(d_star, rel=RTOL)
-    # The camera validates as its design and names its own field (D, not channels[1].D).
-    assert len(res.active) == 1 and res.active[0].startswith("physical: invalid D")
+    assert len(res.active) == 1 and res.active[0].startswith("physical: invalid channels[1].D")
     assert "overlap" in res.active[0]
-    assert res.history.loc[~res.history["valid"], "violated"].eq("D").all()
+    assert res.history.loc[~res.history["valid"], "violated"].eq("channels[1].D").all()
 
 
 def test_microlens_f_number_floor_binds():
     # Ng's setting: f_1 = 1 / (1/v' + 1/v); f_1 / d = 4 gives v = 1 / (1/(4 d) - 1/v').
     v_star = 1.0 / (1.0 / (4.0 * SEED.d) - 1.0 / SEED.v1)
-    res = optimise(SEED, {"v": (0.3, 1.0)}, "microlens_f_number_half1", sense="min",
+    res = optimise(SEED, {"v": (0.3, 1.0)}, "microlens_f_number_channel1", sense="min",
                    min_microlens_f_number=4.0, **FAST)
     assert res.free["v"] == pytest.approx(v_star, rel=RTOL)
-    assert res.merits["microlens_f_number_half1"] >= 4.0
+    assert res.merits["microlens_f_number_channel1"] >= 4.0
     assert len(res.active) == 1 and "min_microlens_f_number" in res.active[0]
 
 
 def test_integer_field_is_searched_as_an_integer():
     # The seed's half-1 image is 15 pixels wide (v = d v'/D, d = 15 mu): Q = 15 fills it.
-    res = optimise(SEED, {"Q": (9, 21)}, lambda m: abs(m["image_fill_half1"] - 1.0),
+    res = optimise(SEED, {"Q": (9, 21)}, lambda m: abs(m["image_fill_channel1"] - 1.0),
                    sense="min", **FAST)
     assert res.free["Q"] == 15 and isinstance(res.design.Q, int)
     assert res.history["Q"].dtype == np.int64
-    assert res.merits["image_fill_half1"] == pytest.approx(1.0, rel=1e-12)
+    assert res.merits["image_fill_channel1"] == pytest.approx(1.0, rel=1e-12)
 
 
 def test_bound_is_reported_active():
-    res = optimise(SEED, {"kappa": (0.05, 0.3)}, lambda m: m["out_of_focus_depth_half2"],
+    res = optimise(SEED, {"kappa": (0.05, 0.3)}, lambda m: m["out_of_focus_depth_channel2"],
                    sense="max", **FAST)
     assert res.free["kappa"] == pytest.approx(0.05, rel=1e-6)
     assert res.active == ("bound: kappa >= 0.05",)
@@ -97,7 +97,7 @@ def test_bound_is_reported_active():
 # -- determinism and executors --------------------------------------------------------------
 
 PROBLEM = dict(free={"kappa": (0.05, 0.8), "D": (8.0, 40.0), "Q": (11, 17)},
-               objective="sharp_fraction_split",
+               objective="sharp_fraction_union",
                constraints={"max_gap_worst_union": ("<=", 3.0)}, depths=Z, maxiter=6,
                popsize=5, polish_maxfev=30)
 
@@ -135,41 +135,41 @@ def test_dask_local_cluster_gives_the_in_process_result(in_process):
 
 def test_invalid_designs_never_reach_the_core(monkeypatch):
     reached = []
-    real = _native.figures_of_merit
+    real = _native.design_figures_of_merit
 
     def spy(core, z, *args):
-        reached.append(core.fields())
+        reached.append(Design._from_core(core))
         return real(core, z, *args)
 
-    monkeypatch.setattr(_native, "figures_of_merit", spy)
+    monkeypatch.setattr(_native, "design_figures_of_merit", spy)
     # v' below F, apertures whose microlens images overlap, microlens f-numbers below 4:
     # all inside these bounds.
     res = optimise(SEED, {"v1": (75.0, 100.0), "D": (10.0, 30.0), "v": (0.4, 0.8)},
-                   "sharp_fraction_split", min_microlens_f_number=4.0, depths=Z, maxiter=5,
+                   "sharp_fraction_union", min_microlens_f_number=4.0, depths=Z, maxiter=5,
                    popsize=6, polish_maxfev=20)
     h = res.history
     assert len(h) == res.nfev and set(h["stage"]) == {"init", "de", "polish", "probe"}
     assert (~h["valid"]).sum() > 20 and h["valid"].sum() == len(reached)
-    assert set(h.loc[~h["valid"], "violated"]) == {"v1", "D", "min_microlens_f_number"}
-    for fields in reached:  # what reached the core is a valid design
-        cam = Camera(*fields[:10])
-        cam.design  # noqa: B018 - the §9 rules
-        assert min(cam.f1, cam.f2) / cam.d >= 4.0
+    assert set(h.loc[~h["valid"], "violated"]) == {"v1", "channels[1].D",
+                                                   "min_microlens_f_number"}
+    for d in reached:  # what reached the core is a valid design
+        assert min(f / ch["d"] for ch in d.resolved() for f in ch["f"]) >= 4.0
     for row in h[h["valid"]].itertuples():
         Camera.paper().replace(v1=row.v1, D=row.D, v=row.v).design  # noqa: B018
-    assert h.loc[~h["valid"], list(MERITS)].isna().all().all()
-    assert h.loc[h["valid"], list(MERITS)].notna().all().all()
+    names = list(merit_names(SEED))
+    assert h.loc[~h["valid"], names].isna().all().all()
+    assert h.loc[h["valid"], names].notna().all().all()
     assert (h["feasible"] == h["valid"]).all()  # no user constraints
 
 
 def test_infeasible_and_impossible_problems():
-    res = optimise(SEED, {"kappa": (0.05, 0.8)}, "sharp_fraction_split",
+    res = optimise(SEED, {"kappa": (0.05, 0.8)}, "sharp_fraction_union",
                    constraints={"max_gap_worst_union": ("<=", 0.5)}, depths=Z, maxiter=3,
                    popsize=4)
     assert not res.feasible and res.active == ()
     assert res.slack["max_gap_worst_union <= 0.5"] < 0
     with pytest.raises(splitlf.InvalidParameter, match="v1") as e:
-        optimise(SEED, {"v1": (60.0, 79.0)}, "sharp_fraction_split", depths=Z, maxiter=2,
+        optimise(SEED, {"v1": (60.0, 79.0)}, "sharp_fraction_union", depths=Z, maxiter=2,
                  popsize=3)
     assert e.value.name == "free"
 
@@ -200,18 +200,20 @@ def test_infeasible_and_impossible_problems():
     ({"executor": 2}, TypeError, "executor"),
 ])
 def test_bad_arguments_are_named(kwargs, exc, match):
-    args = {"free": {"D": (8.0, 40.0)}, "objective": "sharp_fraction_split", **kwargs}
+    args = {"free": {"D": (8.0, 40.0)}, "objective": "sharp_fraction_union", **kwargs}
     with pytest.raises(exc, match=match):
         optimise(SEED, depths=kwargs.get("depths", Z),
                  **{k: v for k, v in args.items() if k != "depths"})
 
 
-def test_design_base_names_its_own_merits():
-    # a Design base is supported (tests/test_design_sweep.py); its merits are per channel
-    with pytest.raises(InvalidParameter, match="sharp_fraction_union"):
-        optimise(splitlf.Design.preset("seed"), {"D": (8.0, 40.0)}, "sharp_fraction_split")
-    with pytest.raises(TypeError, match="Camera"):
-        optimise({"D": 20.0}, {"D": (8.0, 40.0)}, "sharp_fraction_split")
+def test_camera_and_design_bases_name_the_same_merits():
+    # a Camera is a Design: one set of merit names (per channel and union) for both; the
+    # camera-only names of the two-engine code are gone
+    for base in (SEED, splitlf.Design.preset("seed")):
+        with pytest.raises(InvalidParameter, match="sharp_fraction_union"):
+            optimise(base, {"D": (8.0, 40.0)}, "sharp_fraction_split")
+    with pytest.raises(TypeError, match="Design"):
+        optimise({"D": 20.0}, {"D": (8.0, 40.0)}, "sharp_fraction_union")
 
 
 def test_objective_callable_errors_propagate():
@@ -230,7 +232,7 @@ def test_objective_callable_errors_propagate():
 
 def test_progress_bar_over_generations(capsys):
     pytest.importorskip("tqdm")
-    optimise(SEED, {"kappa": (0.05, 0.8)}, "sharp_fraction_split", depths=Z, maxiter=3,
+    optimise(SEED, {"kappa": (0.05, 0.8)}, "sharp_fraction_union", depths=Z, maxiter=3,
              popsize=3, polish=False, progress=True)
     assert "splitlf optimise" in capsys.readouterr().err
 
@@ -240,12 +242,12 @@ def test_progress_bar_over_generations(capsys):
 def test_cli_writes_a_toml_that_report_reads(tmp_path, capsys):
     out, hist = tmp_path / "best.toml", tmp_path / "history.csv"
     argv = ["optimise", "--free", "kappa=0.05:0.8", "--free", "Q=11:17",
-            "--objective", "sharp_fraction_split", "--constraint", "max_gap_worst_union<=3",
+            "--objective", "sharp_fraction_union", "--constraint", "max_gap_worst_union<=3",
             "--depths", "150:10000:20", "--maxiter", "4", "--popsize", "4",
             "--out", str(out), "--history", str(hist), "--json"]
     assert main(argv) == 0
     doc = json.loads(capsys.readouterr().out)
-    res = optimise(SEED, {"kappa": (0.05, 0.8), "Q": (11, 17)}, "sharp_fraction_split",
+    res = optimise(SEED, {"kappa": (0.05, 0.8), "Q": (11, 17)}, "sharp_fraction_union",
                    constraints={"max_gap_worst_union": ("<=", 3.0)}, depths=Z, maxiter=4,
                    popsize=4)
     assert Camera.from_toml(out) == res.design
@@ -265,6 +267,6 @@ def test_cli_writes_a_toml_that_report_reads(tmp_path, capsys):
     (["--free", "kappa=0.05:0.8", "--out", "best.json"], ".toml"),
 ])
 def test_cli_bad_options(capsys, extra, needle):
-    assert main(["optimise", "--objective", "sharp_fraction_split", *extra]) == 2
+    assert main(["optimise", "--objective", "sharp_fraction_union", *extra]) == 2
     err = capsys.readouterr().err
     assert needle in err and err.count("\n") == 1

@@ -10,9 +10,10 @@ import numpy as np
 import pytest
 
 import splitlf
-from splitlf import Camera
+from splitlf import Camera, evaluate
 from splitlf.cli import main
-from splitlf.sweep import METRICS, evaluate_design, sweep
+from splitlf.evaluate import merit_names
+from splitlf.sweep import sweep
 
 xr = pytest.importorskip("xarray")
 
@@ -28,30 +29,71 @@ def in_process():
 def test_dimensions_and_invalid_designs(in_process):
     ds = in_process
     assert list(ds.sizes) == ["D", "kappa", "v1"] and ds.sizes["kappa"] == 3
-    assert set(METRICS) <= set(ds.data_vars)
+    assert set(merit_names(Camera.paper())) | {"valid", "reason"} == set(ds.data_vars)
     bad = ds.sel(v1=79.0)
     assert not bad["valid"].any()
     assert all("v1" in str(r) and "> F" in str(r) for r in bad["reason"].values.ravel())
     assert np.isnan(bad["max_gap_worst_union"]).all()
     good = ds.sel(v1=91.3879)
     assert good["valid"].all() and (good["reason"] == "").all()
-    assert np.isfinite(good["sharp_fraction_split"]).all()
+    assert np.isfinite(good["sharp_fraction_union"]).all()
 
 
 def test_value_equals_single_design_functions(in_process):
     cam = Camera.paper().replace(D=10.0, kappa=0.6, v1=91.3879)
     row = in_process.sel(D=10.0, kappa=0.6, v1=91.3879)
-    one = evaluate_design(cam, DEPTHS)
-    for m in METRICS:
+    one = evaluate(cam, DEPTHS)
+    for m in merit_names(cam):
         assert float(row[m]) == one[m], m
-    # and against the public single-purpose functions
+    # and against the public single-purpose functions (half i is channel i)
     sf = splitlf.sharp_fractions(cam, (DEPTHS.min(), DEPTHS.max()))
-    assert one["sharp_fraction_half1"] == sf["half1"]
-    assert one["sharp_fraction_split"] == sf["split"]
+    assert one["sharp_fraction_channel1"] == sf["channel 1"]
+    assert one["sharp_fraction_union"] == sf["union"]
     gaps = splitlf.new_samples(cam, DEPTHS).max_gap
-    assert one["max_gap_worst_half1"] == np.max(gaps[0])
+    assert one["max_gap_worst_channel1"] == np.max(gaps[0])
     assert one["max_gap_median_union"] == np.median(gaps[2])
-    assert one["lit_fraction_half2"] == cam.lit_pixels(2) / cam.Q
+    assert one["lit_fraction_channel2"] == cam.lit_pixels(2) / cam.Q
+
+
+#: The README's sweep at D = 20 mm, computed by the two-engine code before Camera became a
+#: Design (its camera metrics sharp_fraction_split, max_gap_worst_half2,
+#: lit_fraction_half2: now sharp_fraction_union, max_gap_worst_channel2,
+#: lit_fraction_channel2); kappa = linspace(0.1, 0.6, 11).
+README_D20 = {
+    "max_gap_worst_union": [
+        4.799925456470787, 11.774104756117927, 8.186302037084578, 6.966969817316678,
+        5.695886043781289, 8.233430868118871, 4.863598475763058, 8.69578100048507,
+        3.5198099557705276, 6.860575960363885, 9.253709119614268],
+    "sharp_fraction_union": [
+        0.8838751814195719, 0.948504573041373, 0.9951656958108516] + [1.0] * 8,
+    "max_gap_worst_channel2": [
+        13.208411848292121, 12.423729229220982, 12.068940652884564, 11.975534431706414,
+        11.531273363418746, 10.930216200329053, 10.68255357509271, 10.049675217684651,
+        9.961976726619346, 9.38856258443938, 9.253709119614465],
+    "max_gap_median_union": [
+        1.5080081130701077, 1.501626174570219, 1.3927669420841227, 1.359324614006427,
+        1.47418413469068, 1.5174877046456219, 1.4342751653535242, 1.4931301623899684,
+        1.4007432755521618, 1.6095627686487646, 1.5744697359293522],
+    "lit_fraction_channel2": [0.8666666666666667] * 4 + [0.7333333333333333] * 5
+    + [0.6] * 2,
+    "sharp_fraction_channel1": [0.5762691488879526] * 11,
+    "max_gap_worst_channel1": [14.569546667141804] * 11,
+}
+
+
+def test_readme_sweep_keeps_its_numbers_and_marks_overlapping_designs_invalid():
+    ds = sweep(splitlf.Camera.paper(),
+               {"D": [10.0, 20.0, 40.0], "kappa": np.linspace(0.1, 0.6, 11)},
+               depths=np.geomspace(150.0, 10_000.0, 200), progress=False)
+    for name, expected in README_D20.items():
+        np.testing.assert_allclose(ds[name].sel(D=20.0), expected, rtol=1e-12, atol=0,
+                                   err_msg=name)
+    # D = 40 mm overlaps the microlens images (docs/model.md §9): invalid rows, NaN merits,
+    # the constructor's message as the reason; D = 10, 20 are valid
+    assert ds["valid"].sel(D=[10.0, 20.0]).all()
+    bad = ds.sel(D=40.0)
+    assert not bad["valid"].any() and np.isnan(bad["max_gap_worst_union"]).all()
+    assert all("overlap" in str(r) for r in bad["reason"].values)
 
 
 def test_thread_pool_executor_gives_same_result(in_process):
@@ -114,7 +156,7 @@ def test_cli_sweep_outputs(tmp_path, capsys):
     nc = tmp_path / "out.nc"
     assert main(["sweep", "--grid", spec, "--out", str(nc)]) == 0
     back = xr.open_dataset(nc)
-    np.testing.assert_allclose(back["sharp_fraction_split"], ds["sharp_fraction_split"])
+    np.testing.assert_allclose(back["sharp_fraction_union"], ds["sharp_fraction_union"])
     back.close()
     pytest.importorskip("pyarrow")
     pq = tmp_path / "out.parquet"

@@ -5,12 +5,15 @@ description, presets, presentation and orchestration. Lengths are in millimetres
 are positive distances in front of the main lens.
 """
 
+import importlib
+from types import ModuleType
+
 from ._native import __version__
 from .camera import Camera
 from .coverage import ChiefSamples, Coverage, Samples2D, chief_samples, coverage, samples_2d
 from .design import Channel, Design
 from .errors import InvalidParameter, SplitlfError, TooLargeError
-from .merits import evaluate, metrics
+from .evaluate import Merits, evaluate
 from .optics import Curves, DepthOfField, curves, depth_of_field, sharp_fractions
 from .optimisation import OptimiseResult, optimise
 from .rayspace import Footprints, SampleGrid, Trace, footprints, sample_grid, trace
@@ -54,6 +57,7 @@ __all__ = [
     "Footprints",
     "Image",
     "InvalidParameter",
+    "Merits",
     "NewSamples",
     "OptimiseResult",
     "RandomAlbedo",
@@ -73,7 +77,6 @@ __all__ = [
     "evaluate",
     "explore",
     "footprints",
-    "metrics",
     "new_samples",
     "optimise",
     "sample_grid",
@@ -89,11 +92,9 @@ __all__ = [
 _LAZY_SUBMODULES = ("cli", "compare", "plot", "report", "sweep")
 
 
-def __getattr__(name: str) -> object:
+def __getattr__(name: str) -> ModuleType:
     if name in _LAZY_SUBMODULES:
-        from importlib import import_module
-
-        module = import_module(f".{name}", __name__)
+        module = importlib.import_module(f".{name}", __name__)
         globals()[name] = module
         return module
     raise AttributeError(f"module 'splitlf' has no attribute {name!r}")

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import numbers
 import os
-from collections.abc import Mapping
 from typing import Any
 
 from . import _native
@@ -223,28 +222,6 @@ class Camera(Design):
                 text = f"{text:<40} # {_DESCRIPTIONS[name]}"
             lines.append(text)
         return text_file(lines, path)
-
-    # -- tunable fields: the camera's own -------------------------------------------------
-    def tunable_fields(self) -> tuple[str, ...]:
-        """The camera's fields (:data:`FIELDS`): a sweep grid or ``optimise``'s ``free``
-        over a Camera names these (``cam.design`` names the general design's)."""
-        return FIELDS
-
-    def field_is_count(self, name: Any, where: str = "field") -> bool:
-        if not isinstance(name, str):
-            raise TypeError(f"{where} keys must be field names (str), got "
-                            f"{type(name).__name__}")
-        if name not in FIELDS:
-            raise InvalidParameter.of(where, name, f"camera field names: {', '.join(FIELDS)}")
-        return name in COUNT_FIELDS
-
-    def field_value(self, name: str) -> Any:
-        return getattr(self, name)
-
-    def with_fields(self, changes: Mapping[str, Any]) -> Camera:
-        """:meth:`replace` with ``changes`` (focal lengths left to Ng's setting keep
-        tracking the geometry)."""
-        return self.replace(**changes)
 
     # -- per-half values (computed by the core) ------------------------------------------
     @property

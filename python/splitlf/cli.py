@@ -343,19 +343,7 @@ def load_sweep(path: str) -> dict[str, Any]:
     (ranges, limits :data:`splitlf.sweep.MAX_DESIGNS` and :data:`~splitlf.sweep.MAX_DEPTHS`),
     ``OSError`` when the file cannot be read.
     """
-    from .merits import _merits_2d, real_option
-
-    def _threshold(v: Any) -> float:
-        return real_option(v, "threshold_px", "a finite number > 0 (pixels)",
-                           lambda x: math.isfinite(x) and x > 0)
-
-    def _tol(v: Any) -> float:
-        return real_option(v, "tol", "a finite number >= 0 (a multiple of delta(z))",
-                           lambda x: math.isfinite(x) and x >= 0)
-
-    def _window(v: Any) -> float:
-        return real_option(v, "window", "a finite number > 0 (lens pitches of channel 1)",
-                           lambda x: math.isfinite(x) and x > 0)
+    from .sweep import _merits_2d, _threshold, _tol, _window
 
     doc = read_toml(path)
     unknown = set(doc) - {"grid", "depths", "options", "camera", "design"}
@@ -396,7 +384,7 @@ def _sweep_document(ds: Any) -> dict[str, Any]:
     digits); :func:`json_text` writes NaN as null."""
     df = ds.to_dataframe().reset_index()
     return {"attrs": {k: v for k, v in ds.attrs.items()
-                      if k != "base"},
+                      if k not in ("base_camera", "base_design")},
             "designs": df.to_dict(orient="records")}
 
 
@@ -431,7 +419,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         import xarray  # noqa: F401
     except ImportError:
         raise CliError('sweep needs xarray: pip install "splitlf[sweep]"') from None
-    from .merits import metrics
+    from .evaluate import merit_names
 
     out = None if args.out is None else Path(args.out)
     if out is not None:
@@ -462,7 +450,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         cols = list(spec["grid"]) + ["sharp_fraction_union", "max_gap_worst_union",
                                      "covering_radius_worst_union", "reason"]
         cols = [c for c in cols if c in df.columns]
-        names = metrics(base, bool(spec["options"].get("merits_2d")))
+        names = merit_names(base, bool(spec["options"].get("merits_2d")))
         sys.stdout.write(df[cols].to_string(index=False) + "\n")
         sys.stdout.write(f"\n{len(df)} designs; metrics: {', '.join(names)}\n")
     return 0

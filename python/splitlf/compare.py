@@ -7,12 +7,13 @@ hexagonal channel, three lens types) and a conventional camera — with the fiel
 change (its array planes, array-to-sensor distances and lens focal lengths; the sensor,
 the pixel and lens pitches and the main lens are the budget and stay fixed).
 :func:`compare` optimises every light field architecture with :func:`splitlf.optimise` for
-one objective, sets the conventional camera's focus, then :func:`table` measures the
+one objective, sets the conventional camera's focus, then :func:`evaluate` measures the
 optimised designs over the depth range: per depth the covering radius of the union of
 channels (:func:`splitlf.coverage`) and whether the design is sharp (:func:`splitlf.curves`),
-and one row of scalar figures per design (the core's merits of
-:func:`splitlf.evaluate`, the covering radius over the depths, the
-super-resolution MTF50 of :func:`splitlf.simulate` where it applies).
+and one row of scalar figures per design, every merit among them from
+:func:`splitlf.evaluate` (sharp fraction, covering radius and distinct 2-D samples over
+the depths, light per pixel, the super-resolution MTF50 of :func:`splitlf.simulate` where
+it applies).
 
 Orchestration only: every number comes from the core through the public API; this module
 picks designs, bounds and depths, and reduces the core's per-depth arrays (worst, median).
@@ -33,18 +34,21 @@ from . import _validate
 from .coverage import DEFAULT_TOL, DEFAULT_WINDOW, coverage
 from .design import Channel, Design
 from .errors import InvalidParameter
-from .merits import evaluate as evaluate_design
+from .evaluate import SIMULATE_OPTIONS, Merits, _mtf50
+from .evaluate import evaluate as _merits
 from .optics import curves, sharp_fractions
+from .sweep import with_changes
 
 __all__ = [
     "ARCHITECTURES",
     "DEPTH_RANGE",
     "PRESETS",
+    "SIMULATE_OPTIONS",
     "Architecture",
     "Comparison",
     "architectures",
     "compare",
-    "table",
+    "evaluate",
     "mtf50",
 ]
 
@@ -71,11 +75,9 @@ R12_F_OVER_V = (0.58267 / 0.33713, 0.52402 / 0.33713, 0.56057 / 0.33713)
 #: hexagonal cell (docs/model.md §9); at the seed's L it does for v <= 0.7357 v_seed
 #: (the core's rule), so the base starts at 0.7 v_seed (the image 70 % of the pitch).
 HEX_SQUARE_V = 0.7
-#: Defaults of the evaluation: depths over DEPTH_RANGE (log-spaced) and the simulation.
+#: Defaults of the evaluation: depths over DEPTH_RANGE (log-spaced); the simulation's
+#: options are :data:`splitlf.evaluate.SIMULATE_OPTIONS` (``SIMULATE_OPTIONS`` here too).
 EVAL_DEPTHS = 60
-#: The ``feasible`` entry of an architecture that is not optimised (the conventional camera).
-NOT_OPTIMISED = "not optimised"
-SIMULATE_OPTIONS = {"window": 128, "n_frequencies": 16, "oversample": 4}
 #: Labels of the architectures (figures, tables).
 LABELS = {
     "plain": "plain light field (1 channel)",
@@ -114,9 +116,11 @@ class Comparison:
     - ``optimisations``: {name: :class:`~splitlf.OptimiseResult`} of the light field
       architectures (their histories, active bounds, timing)
     - ``table``: a ``pandas.DataFrame``, one row per architecture (index ``architecture``),
-      columns as :func:`table` returns them, plus ``feasible`` (True or False for an
-      optimised architecture; :data:`NOT_OPTIMISED` for the conventional camera, whose
-      focus is set by a scan and no constraint applies) and ``objective`` (NaN for it)
+      columns as :func:`evaluate` returns them, plus ``feasible`` (pandas' nullable
+      boolean: whether the search found a design meeting every constraint; ``<NA>``, not
+      applicable, for the conventional camera, which is not searched: its focus maximises
+      its own sharp fraction, and the objective and constraints are light field merits)
+      and ``objective`` (the search's objective value; NaN for the conventional camera)
     - ``curves``: a ``pandas.DataFrame``, one row per (architecture, depth): ``z_mm``,
       ``covering_radius`` [delta(z)], ``covering_radius_mm``, ``distinct_2d``,
       ``blur_px``, ``sharp``
@@ -301,14 +305,15 @@ def _rect_twin(design: Design) -> Design:
 
 def _light(design: Design, merits: Mapping[str, float], depths: np.ndarray,
            threshold_px: float, tol: float, n_threads: int | None) -> tuple[float, bool]:
-    """(light per lit pixel, whether it was taken from the rect twin): the core's
-    ``light_per_pixel_channel{i}`` of each channel (``merits``, or the rect twin's when the
-    design has a hex channel), averaged over the channels' lit pixels along x (weights: lit
-    fraction x pixels along x, the number of lit pixels of each channel's line)."""
+    """(light per lit pixel, whether it was taken from the rect twin): the merits
+    ``light_per_pixel_channel{i}`` of each channel (``merits``, or the rect twin's
+    :func:`splitlf.evaluate` when the design has a hex channel), averaged over the
+    channels' lit pixels along x (weights: lit fraction x pixels along x, the number of
+    lit pixels of each channel's line)."""
     twin = _rect_twin(design)
     if twin != design:
-        merits = evaluate_design(twin, depths, threshold_px=threshold_px, tol=tol,
-                                 n_threads=n_threads)
+        merits = _merits(twin, depths, threshold_px=threshold_px, tol=tol,
+                         n_threads=n_threads)
     num = den = 0.0
     for i in range(1, len(design.channels) + 1):
         lit = merits[f"lit_fraction_channel{i}"] * _row_pixels(twin, i)
@@ -317,20 +322,10 @@ def _light(design: Design, merits: Mapping[str, float], depths: np.ndarray,
     return (num / den if den > 0 else 0.0), twin != design
 
 
-def _mtf50(design: Design, z: float, conventional: bool, n_threads: int | None,
-           seed: int) -> float:
-    """The super-resolution MTF50 [cycles/mm] at depth ``z`` of the union of a light field
-    design, without the conventional reference camera of :func:`splitlf.simulate` (far out
-    of focus on the array plane of an optimised design it is by far the largest solve);
-    of a conventional design (one pixel per lens), its own sensor's: the simulation's
-    ``"conventional 1"`` row, on its own plane. NaN for a design with a hex channel."""
-    from .simulation import simulate
-
-    if any(ch.grid != "rect" for ch in design.channels):
-        return math.nan  # the simulation is 1-D along x on rect lattices (docs/simulate.md)
-    r = simulate(design, z, seed=seed, n_threads=n_threads, conventional_channel=1,
-                 conventional=conventional, **SIMULATE_OPTIONS)
-    return float(r.mtf50["conventional 1" if conventional else "union"])
+def _mtf50_row(conventional: bool) -> str:
+    """The simulation row whose MTF50 a design's table reports: the union of channels,
+    or for a conventional camera (one pixel per lens) its own sensor, ``conventional 1``."""
+    return "conventional 1" if conventional else "union"
 
 
 def _check_designs(designs: Any) -> None:
@@ -346,7 +341,7 @@ def _check_designs(designs: Any) -> None:
 def mtf50(designs: Mapping[str, Design], simulate_depths: Sequence[float], *,
           conventional: Sequence[str] = (), seed: int = 0,
           n_threads: int | None = None) -> Any:
-    """The MTF50 columns of :func:`table` alone: a ``pandas.DataFrame``, one row per
+    """The MTF50 columns of :func:`evaluate` alone: a ``pandas.DataFrame``, one row per
     design (index ``architecture``), one column ``mtf50_<z>mm`` [cycles/mm on the object]
     per depth of ``simulate_depths``: :func:`splitlf.simulate` (noise-free, random albedo,
     ``seed``, :data:`SIMULATE_OPTIONS`) of the union of channels, computed without the
@@ -361,7 +356,7 @@ def mtf50(designs: Mapping[str, Design], simulate_depths: Sequence[float], *,
     conv = set(conventional)
     sim_z = [_validate.real(s, "simulate_depths") for s in simulate_depths]
     columns = [f"mtf50_{zs:g}mm" for zs in sim_z]
-    values = [[_mtf50(d, zs, name in conv, n_threads, seed) for zs in sim_z]
+    values = [[_mtf50(d, zs, _mtf50_row(name in conv), seed, n_threads) for zs in sim_z]
               for name, d in designs.items()]
     return pd.DataFrame(values, columns=columns, dtype=float,
                         index=pd.Index(list(designs), name="architecture"))
@@ -385,7 +380,7 @@ def _positive(value: Any, name: str) -> float:
     return x
 
 
-def table(designs: Mapping[str, Design], depths: Any = None, *,
+def evaluate(designs: Mapping[str, Design], depths: Any = None, *,
              conventional: Sequence[str] = (), window: float = DEFAULT_WINDOW,
              threshold_px: float = 0.5, tol: float = DEFAULT_TOL,
              simulate_depths: Sequence[float] = (), seed: int = 0,
@@ -408,8 +403,15 @@ def table(designs: Mapping[str, Design], depths: Any = None, *,
 
     - ``table``, one row per design (index ``architecture``): ``channels``, ``pixels``,
       ``shares`` (text), ``sharp_fraction`` (the union's share of [min, max] depth, log,
-      where it is sharp), ``covering_radius_worst`` and ``covering_radius_median`` (the
-      union's largest and median covering radius over the depths, delta(z) units),
+      where it is sharp: the merit ``sharp_fraction_union``; a conventional camera's own,
+      ``sharp_fraction_conventional_channel1``. A channel's light field blur exceeds the
+      threshold only in a band around its out-of-focus plane, so a light field design
+      whose bands lie outside the range, or are each covered by another channel, is sharp
+      everywhere: 1.0, what every optimised light field design reaches when the objective
+      rewards sharpness; the covering radius and the light then tell them apart),
+      ``covering_radius_worst`` and ``covering_radius_median`` (the union's largest and
+      median covering radius over the depths, delta(z) units: the 2-D merits of
+      :func:`splitlf.evaluate` over the central field),
       ``distinct_2d_median`` (union), ``field_at_1m_mm`` (the width of the scene channel 1's
       pixel row sees at 1 m: delta(1 m) x its pixels along x; designs with the array
       farther back see a narrower field, which delta(z) units normalise),
@@ -444,46 +446,48 @@ def table(designs: Mapping[str, Design], depths: Any = None, *,
         w = window
         if is_conv and ref_pitch is not None:
             w = window * ref_pitch / d.channels[0].d
+        m = _merits(d, z, threshold_px=threshold_px, tol=tol, merits_2d=True, window=w,
+                    mtf50=sim_z, mtf50_row=_mtf50_row(is_conv), seed=seed,
+                    n_threads=n_threads)
+        rows.append(_row(name, d, m, is_conv, z, threshold_px, tol, n_threads))
+        # the per-depth curves (figures, depth bands): the same core analyses per depth
         cov = coverage(d, z, tol=tol, window=w, n_threads=n_threads)
         crv = curves(d, z)
         blur = crv.conventional_px[0] if is_conv else crv.union_blur_px
-        m = evaluate_design(d, z, threshold_px=threshold_px, tol=tol, n_threads=n_threads)
-        if is_conv:
-            sharp_fraction = sharp_fractions(d, (z.min(), z.max()), threshold_px)[
-                "conventional channel 1"]
-        else:
-            sharp_fraction = m["sharp_fraction_union"]
-        light, twin = _light(d, m, z, threshold_px, tol, n_threads)
-        rho = cov.covering_radius[-1]
-        row = {
-            "architecture": name,
-            "channels": len(d.channels),
-            "pixels": _pixels(d),
-            "shares": " ".join(f"{ch.share:.3g}" for ch in d.channels),
-            "sharp_fraction": float(sharp_fraction),
-            "covering_radius_worst": float(np.max(rho)),
-            "covering_radius_median": float(np.median(rho)),
-            "distinct_2d_median": float(np.median(cov.distinct[-1])),
-            "field_at_1m_mm": d.resolution_step(1000.0) * _row_pixels(d, 1),
-            "light_per_pixel": light,
-            "light_from_rect_twin": twin,
-            "out_of_focus_mm": " ".join(f"{d.out_of_focus_depth(i):.1f}"
-                                        for i in range(1, len(d.channels) + 1)),
-        }
-        rows.append(row)
         frames.append(pd.DataFrame({
-            "architecture": name, "z_mm": z, "covering_radius": rho,
+            "architecture": name, "z_mm": z, "covering_radius": cov.covering_radius[-1],
             "covering_radius_mm": cov.covering_radius_mm[-1],
             "distinct_2d": cov.distinct[-1], "blur_px": blur, "sharp": blur < threshold_px}))
     table = pd.DataFrame(rows).set_index("architecture")
-    if sim_z:
-        table = table.join(mtf50(designs, sim_z, conventional=sorted(conv), seed=seed,
-                                 n_threads=n_threads))
     conv_rows = [n for n in designs if n in conv]
     if conv_rows:
         ref = table.loc[conv_rows[0], "light_per_pixel"]
         table["light_relative"] = table["light_per_pixel"] / ref
     return table, pd.concat(frames, ignore_index=True)
+
+
+def _row(name: str, d: Design, m: Merits, is_conv: bool, z: np.ndarray,
+         threshold_px: float, tol: float, n_threads: int | None) -> dict[str, Any]:
+    """One row of :func:`evaluate`'s table from the design's merits ``m``
+    (:func:`splitlf.evaluate` with the 2-D merits) and its descriptive fields."""
+    light, twin = _light(d, m, z, threshold_px, tol, n_threads)
+    sharp = m["sharp_fraction_conventional_channel1" if is_conv else "sharp_fraction_union"]
+    return {
+        "architecture": name,
+        "channels": len(d.channels),
+        "pixels": _pixels(d),
+        "shares": " ".join(f"{ch.share:.3g}" for ch in d.channels),
+        "sharp_fraction": float(sharp),
+        "covering_radius_worst": float(m["covering_radius_worst_union"]),
+        "covering_radius_median": float(m["covering_radius_median_union"]),
+        "distinct_2d_median": float(m["distinct_2d_median_union"]),
+        "field_at_1m_mm": d.resolution_step(1000.0) * _row_pixels(d, 1),
+        "light_per_pixel": light,
+        "light_from_rect_twin": twin,
+        "out_of_focus_mm": " ".join(f"{m[f'out_of_focus_depth_channel{i}']:.1f}"
+                                    for i in range(1, len(d.channels) + 1)),
+        **{k: float(v) for k, v in m.items() if k.startswith("mtf50_")},
+    }
 
 
 # -- the comparison ------------------------------------------------------------------------
@@ -501,13 +505,11 @@ def _focus(arch: Architecture, z: np.ndarray, threshold_px: float) -> tuple[Desi
     deterministic. Returns (the design, its sharp fraction)."""
     from scipy.optimize import minimize_scalar
 
-    from .sweep import _with_changes
-
     (name, (lo, hi)), = arch.free.items()
-    base = arch.base.as_dict()
+    base = arch.base
 
     def fraction(L: float) -> float:
-        d = _with_changes(base, {name: float(L)})
+        d = with_changes(base, {name: float(L)})
         return sharp_fractions(d, (z.min(), z.max()), threshold_px)["conventional channel 1"]
 
     grid = np.linspace(lo, hi, 64)
@@ -517,7 +519,7 @@ def _focus(arch: Architecture, z: np.ndarray, threshold_px: float) -> tuple[Desi
     res = minimize_scalar(lambda L: -fraction(L), bounds=(a, b), method="bounded",
                           options={"xatol": 1e-9 * (hi - lo)})
     best = float(res.x) if -res.fun >= values[k] else float(grid[k])
-    return _with_changes(base, {name: best}), fraction(best)
+    return with_changes(base, {name: best}), fraction(best)
 
 
 def compare(preset: str, objective: str | Callable[[dict[str, float]], float],
@@ -533,7 +535,7 @@ def compare(preset: str, objective: str | Callable[[dict[str, float]], float],
             threshold_px: float = 0.5, tol: float = DEFAULT_TOL,
             n_threads: int | None = None) -> Comparison:
     """Optimise every architecture of :func:`architectures` on ``preset``'s sensor and
-    main lens for one objective, then :func:`table` the optimised designs.
+    main lens for one objective, then :func:`evaluate` the optimised designs.
 
     - ``preset``: ``"seed"`` or ``"raytrix-r12"`` (:data:`PRESETS`)
     - ``objective``, ``sense``, ``constraints``: as :func:`splitlf.optimise` for a Design
@@ -549,7 +551,7 @@ def compare(preset: str, objective: str | Callable[[dict[str, float]], float],
       ``merits_2d``, ``de_options``, ``threshold_px``, ``tol``, ``n_threads``: passed to
       :func:`splitlf.optimise` (deterministic for a seed, on any executor; ``merits_2d``
       True for a callable objective that reads the 2-D merits)
-    - ``simulate_depths``: depths of the MTF50 columns (:func:`table`)
+    - ``simulate_depths``: depths of the MTF50 columns (:func:`evaluate`)
 
     The conventional camera has no light field merits: its one free field, the plane of
     its sensor, is set to maximise its sharp fraction (the core's conventional depth of
@@ -587,7 +589,7 @@ def compare(preset: str, objective: str | Callable[[dict[str, float]], float],
         a = archs[n]
         if a.conventional:
             designs[n], frac = _focus(a, z_opt, threshold_px)
-            status[n] = (NOT_OPTIMISED, math.nan)
+            status[n] = (None, math.nan)
             continue
         res = optimise(a.base, dict(a.free), objective, sense,
                        constraints, depths=z_opt,
@@ -597,13 +599,15 @@ def compare(preset: str, objective: str | Callable[[dict[str, float]], float],
         designs[n], results[n] = cast(Design, res.design), res  # a Design base's result
         status[n] = (res.feasible, res.objective)
     t1 = time.perf_counter()
-    tab, crv = table(designs, z_eval, conventional=[n for n in names
-                                                    if archs[n].conventional],
-                     window=window, threshold_px=threshold_px, tol=tol,
-                     simulate_depths=simulate_depths, seed=seed, n_threads=n_threads)
+    table, crv = evaluate(designs, z_eval, conventional=[n for n in names
+                                                          if archs[n].conventional],
+                          window=window, threshold_px=threshold_px, tol=tol,
+                          simulate_depths=simulate_depths, seed=seed, n_threads=n_threads)
     t2 = time.perf_counter()
-    tab.insert(0, "feasible", pd.Series({n: status[n][0] for n in names}, dtype=object))
-    tab.insert(1, "objective", pd.Series({n: status[n][1] for n in names}, dtype=float))
+    # feasible: pandas' nullable boolean, <NA> (not applicable) for the conventional camera
+    table.insert(0, "feasible", pd.Series({n: status[n][0] for n in names},
+                                          dtype="boolean"))
+    table.insert(1, "objective", pd.Series({n: status[n][1] for n in names}, dtype=float))
     settings = {
         "preset": preset,
         "objective": objective if isinstance(objective, str) else
@@ -616,6 +620,6 @@ def compare(preset: str, objective: str | Callable[[dict[str, float]], float],
         "tol": tol, "simulate_depths": [float(s) for s in simulate_depths],
     }
     return Comparison(preset=preset, architectures={n: archs[n] for n in names},
-                      designs=designs, optimisations=results, table=tab, curves=crv,
+                      designs=designs, optimisations=results, table=table, curves=crv,
                       settings=settings,
                       timing={"optimise_s": t1 - t0, "evaluate_s": t2 - t1})

@@ -17,7 +17,6 @@ import dataclasses
 import math
 import numbers
 import os
-import re
 from collections.abc import Mapping
 from collections.abc import Set as AbstractSet
 from typing import TYPE_CHECKING, Any, Literal, cast
@@ -35,12 +34,6 @@ CHANNEL_FIELDS = ("L", "d", "v", "mu", "Kx", "Ky", "f", "grid", "layout", "Q", "
 _REQUIRED_CHANNEL_FIELDS = ("L", "d", "v", "mu", "Kx", "Ky")
 #: Design fields, in constructor order.
 DESIGN_FIELDS = ("F", "D", "channels", "aperture")
-#: Numeric channel fields a sweep grid or optimise's free fields may name
-#: (``channels[i].NAME``, :meth:`Design.tunable_fields`), and the counts among them.
-TUNABLE_CHANNEL_FIELDS = ("L", "d", "v", "mu", "Kx", "Ky", "Q", "Mx", "My", "share")
-TUNABLE_COUNT_FIELDS = ("Kx", "Ky", "Q", "Mx", "My")
-_PATH = re.compile(r"channels\[(\d+)\]\.([A-Za-z]+)(?:\[(\d+)\])?")
-
 #: The names of :meth:`Design.preset` (from the core), in the documented order.
 PRESETS: tuple[str, ...] = tuple(_native.DesignCore.presets())
 
@@ -362,81 +355,6 @@ class Design:
                 elif name == "f":
                     lines.append("# f omitted: Ng's setting 1/f = 1/L + 1/v")
         return text_file(lines, path)
-
-    # -- tunable fields (sweeps and inverse design) ----------------------------------------
-    def tunable_fields(self) -> tuple[str, ...]:
-        """The numeric fields a sweep grid or ``optimise``'s ``free`` may name:
-        ``"F"``, ``"D"``, then for each channel i (from 1) ``"channels[i].L"``, ``.d``,
-        ``.v``, ``.mu``, ``.Kx``, ``.Ky``, ``.Q``, ``.Mx``, ``.My``, ``.share`` and, when the
-        channel gives its focal lengths, ``"channels[i].f[t]"`` for each lens type t (from
-        0). (A :class:`~splitlf.Camera` names its own fields instead.)"""
-        out = ["F", "D"]
-        for i, ch in enumerate(self.channels, 1):
-            out += [f"channels[{i}].{n}" for n in TUNABLE_CHANNEL_FIELDS]
-            if ch.f is not None:
-                out += [f"channels[{i}].f[{t}]" for t in range(len(ch.f))]
-        return tuple(out)
-
-    def field_is_count(self, name: Any, where: str = "field") -> bool:
-        """Whether tunable field ``name`` is a count (an integer); ``TypeError`` for a
-        non-string, :class:`InvalidParameter` named ``where`` for a name that is not one of
-        :meth:`tunable_fields` (a malformed path, a channel or lens type the design
-        lacks)."""
-        if not isinstance(name, str):
-            raise TypeError(f"{where} keys must be field names (str), got "
-                            f"{type(name).__name__}")
-        if name in ("F", "D"):
-            return False
-        allowed = ('"F", "D", "channels[i].NAME" (i from 1, NAME one of '
-                   f'{", ".join(TUNABLE_CHANNEL_FIELDS)}) or "channels[i].f[t]" (t from 0)')
-        m = _PATH.fullmatch(name)
-        if m is None or (m[3] is not None and m[2] != "f") \
-                or (m[3] is None and m[2] not in TUNABLE_CHANNEL_FIELDS):
-            raise InvalidParameter.of(where, name, allowed)
-        i, n = int(m[1]), len(self.channels)
-        if not 1 <= i <= n:
-            raise InvalidParameter.of(where, name, f"a channel number in [1, {n}] (the "
-                                      f"design has {n} channel{'s' if n > 1 else ''})")
-        if m[3] is not None:
-            f = self.channels[i - 1].f
-            if f is None:
-                raise InvalidParameter.of(where, name, f"channel {i}'s focal lengths are "
-                                          "Ng's setting (f = None): give the base channel "
-                                          "explicit focal lengths to vary them")
-            t = int(m[3])
-            if t >= len(f):
-                raise InvalidParameter.of(where, name, f"a lens type in [0, {len(f) - 1}] "
-                                          f"(channel {i} has {len(f)} lens types)")
-        return m[2] in TUNABLE_COUNT_FIELDS
-
-    def field_value(self, name: str) -> Any:
-        """The value of tunable field ``name`` (checked by :meth:`field_is_count`)."""
-        m = _PATH.fullmatch(name)
-        if m is None:
-            return getattr(self, name)
-        ch = self.channels[int(m[1]) - 1]
-        if m[3] is not None:
-            return cast(tuple[float, ...], ch.f)[int(m[3])]
-        return getattr(ch, m[2])
-
-    def with_fields(self, changes: Mapping[str, Any]) -> Design:
-        """A new design with the tunable fields ``changes`` ({name: value}, names as
-        :meth:`tunable_fields`) changed, built and validated by the constructor."""
-        fields: dict[str, Any] = {"F": self.F, "D": self.D, "aperture": self.aperture}
-        channels = [ch.as_dict() for ch in self.channels]
-        for name, value in changes.items():
-            m = _PATH.fullmatch(name)
-            if m is None:
-                fields[name] = value
-                continue
-            ch = channels[int(m[1]) - 1]
-            if m[3] is None:
-                ch[m[2]] = value
-            else:
-                f = list(ch["f"])
-                f[int(m[3])] = value
-                ch["f"] = f
-        return Design(channels=tuple(Channel(**c) for c in channels), **fields)
 
     # -- derived values (computed by the core) -------------------------------------------
     @property

@@ -1,12 +1,13 @@
-"""Inverse design: the camera that optimises a figure of merit, subject to constraints.
+"""Inverse design: the design that optimises a figure of merit, subject to constraints.
 
-:func:`optimise` searches the free fields of a base :class:`~splitlf.Design` with SciPy's
+:func:`optimise` searches the free fields of a base :class:`~splitlf.Design` (a
+:class:`~splitlf.Camera` is one) with SciPy's
 ``differential_evolution`` (global, deterministic for a seed), then polishes the best
 feasible design locally (Nelder-Mead on the same penalised objective, integer fields held).
-Every candidate is first built with the base's own constructor and checked
-against the physical constraints (``min_microlens_f_number``, depths beyond F); only a
-valid design reaches the core, which computes its figures of merit
-(:func:`splitlf.metrics`) over the depths. Candidates are evaluated one generation at
+Every candidate is first built by the base's own ``replace`` (its constructor validates it)
+and checked against the physical constraints (``min_microlens_f_number``, depths beyond
+F); only a valid design reaches :func:`splitlf.evaluate`, which gives its merits over the
+depths. Candidates are evaluated one generation at
 a time through ``differential_evolution``'s ``workers=`` hook: in-process on the core's
 thread pool, or in batches of plain field dicts on any ``concurrent.futures.Executor``
 (e.g. a Dask cluster's ``client.get_executor()``), exactly as :func:`splitlf.sweep.sweep`.
@@ -31,51 +32,26 @@ import numpy as np
 from . import _validate
 from .design import Design
 from .errors import InvalidParameter, TooLargeError
-from .merits import (
+from .evaluate import (
     DEFAULT_THRESHOLD_PX,
     DEFAULT_TOL,
     DEFAULT_WINDOW,
-    Options,
-    core_merits,
-    metrics,
-    options,
+    _options_2d,
+    _threshold,
+    _tol,
+    evaluate,
+    merit_names,
 )
-from .sweep import MAX_DEPTHS, _evaluate_batch
+from .sweep import MAX_DEPTHS, _evaluate_batch, _field, with_changes
 
-__all__ = ["MERIT_DOCS", "OptimiseResult", "design_merits", "optimise"]
-
-#: The closed-form merits of a design added to the core's figures of merit (each from the
-#: core's derived values of the design), per channel i from 1.
-MERIT_DOCS = {
-    "f_number": "main-lens f-number F / D",
-    "out_of_focus_depth_channel": "out-of-focus plane of channel {i}, F L_i / (L_i - F) [mm]",
-    "image_fill_channel": "microlens image diameter of channel {i} over its lens pitch, "
-                          "D v_i / (L_i d_i): 1 = f-number matched (the seed), below 1 the "
-                          "images leave a dark ring",
-    "microlens_f_number_channel": "smallest microlens f-number of channel {i}'s lens types, "
-                                  "f_t / d_i",
-}
+__all__ = ["OptimiseResult", "merit_names", "natural_sense", "optimise"]
 
 
-def _derived_names(design: Design) -> tuple[str, ...]:
-    per_channel = [k for k in MERIT_DOCS if k != "f_number"]
-    return ("f_number",) + tuple(f"{k}{i}" for k in per_channel
-                                 for i in range(1, len(design.channels) + 1))
-
-
-def design_merits(design: Design, merits_2d: bool = False) -> tuple[str, ...]:
-    """Every merit an objective or a constraint may name: the core's figures of merit
-    (:func:`splitlf.metrics`: per channel and union; with ``merits_2d`` followed by the 2-D
-    merits ``covering_radius_worst_*``, ``covering_radius_median_*``,
-    ``distinct_2d_median_*``), then the closed forms of :data:`MERIT_DOCS`: ``f_number``,
-    ``out_of_focus_depth_channel1``, ..., ``image_fill_channel1``, ...,
-    ``microlens_f_number_channel1``, ... For the split sensor channel i is half i and the
-    union is the split sensor (``sharp_fraction_union``)."""
-    return metrics(design, merits_2d) + _derived_names(design)
-
-
-def _design_sense(merit: str) -> str | None:
-    """The natural direction of a merit (None: none)."""
+def natural_sense(merit: str) -> str | None:
+    """The direction in which a merit is better, used when ``sense`` is not given: "max"
+    for sharp fractions, lit fractions, light per pixel and distinct 2-D samples, "min"
+    for max gaps and covering radii, None for the closed-form values (f-number,
+    out-of-focus planes, image fill, microlens f-numbers) and the MTF50."""
     if merit.startswith(("sharp_fraction_", "lit_fraction_", "light_per_pixel_",
                          "distinct_2d_")):
         return "max"
@@ -119,15 +95,15 @@ class OptimiseResult:
     """What :func:`optimise` found.
 
     - ``design``: the best design, of the base's class (a :class:`~splitlf.Camera` for a
-      Design base; feasible when ``feasible``)
-    - ``merits``: its figures of merit {name in :func:`design_merits` of the base (the 2-D
-      merits only when they were computed): value}
+      Camera base; feasible when ``feasible``)
+    - ``merits``: its merits {name of :func:`merit_names` (the 2-D ones when they were
+      computed): value}, as :func:`splitlf.evaluate` gives them
     - ``objective``: the objective's value there (as defined, not negated)
     - ``free``: the free fields' values {name: value}
     - ``feasible``: the design satisfies every constraint (else it is the valid design of
       least violation and no feasible design was found)
     - ``active``: what bounds the optimum, e.g. ``"bound: D <= 40.0"``,
-      ``"constraint: image_fill_half1 <= 1.0"``, ``"physical: invalid v1 = 79.9 ..."``: the
+      ``"constraint: image_fill_channel1 <= 1.0"``, ``"physical: invalid v1 = 79.9 ..."``: the
       bounds the design lies on and the constraints a probe step of :data:`PROBE_STEP`
       (of the bound range; 1 for an integer field) from it violates
     - ``slack``: per constraint, how far the design is inside it (>= 0 when satisfied)
@@ -172,13 +148,13 @@ def _real(value: Any, where: str) -> float:
 
 
 def _free(free: Any, design: Design) -> list[Free]:
-    """The free fields: tunable fields of the base (:meth:`Design.tunable_fields`: a
-    Camera's own fields, a Design's paths)."""
+    """The free fields: names of :func:`splitlf.sweep.design_fields` of the base (a
+    Camera's paper fields, a Design's ``F``, ``D`` and channel paths)."""
     if not isinstance(free, Mapping) or not free:
         raise TypeError("free must be a non-empty mapping {field: (low, high)}")
     out = []
     for name, bounds in free.items():
-        is_count = design.field_is_count(name, "free")
+        is_count = _field(design, name, "free")[1]
         if isinstance(bounds, str | bytes) or not isinstance(bounds, Sequence) \
                 or len(bounds) != 2:
             raise TypeError(f"free[{name!r}] must be a pair (low, high), got {bounds!r}")
@@ -211,7 +187,7 @@ def _objective(objective: Any, sense: Any, merits: Sequence[str]
         raise TypeError("objective must be a merit name or a callable on the merit dict, "
                         f"got {type(objective).__name__}")
     if sense is None:
-        natural = _design_sense(objective) if isinstance(objective, str) else None
+        natural = natural_sense(objective) if isinstance(objective, str) else None
         if natural is not None:
             return fn, name, natural
         raise InvalidParameter.of("sense", None, "'max' or 'min' (needed: the objective "
@@ -283,28 +259,26 @@ def _de_options(options: Any) -> dict[str, Any]:
 # -- the problem: candidates -> validated designs -> merits -> penalised energies ----------
 
 class _Problem:
-    """Candidates (changes of the base's tunable fields) -> validated designs -> merits ->
-    penalised energies. A candidate is built by the base's own constructor
-    (``base.with_fields``: ranges, shares, lens-type rules, overlapping images, docs/model.md
-    §9) and checked against the depths and the microlens f-number floor; only a valid design
-    reaches the core."""
+    """Candidates -> designs (the base's own ``replace``, its constructor validating them)
+    -> merits (:func:`splitlf.evaluate`, in-process or in batches on an executor) ->
+    penalised energies, one history row per candidate."""
 
     def __init__(self, base: Design, free: list[Free], z: np.ndarray, objective: Callable,
                  sense: str, constraints: list[tuple[str, str, float]],
-                 min_f_number: float | None, opts: Options,
+                 min_f_number: float | None, core_args: tuple[float, float],
                  executor: cf.Executor | None, n_threads: int | None, threads_per_task: int,
-                 batch_size: int | None) -> None:
+                 batch_size: int | None, window: float | None = None) -> None:
         self.base = base
-        self.opts = opts
-        on_2d = opts[2] is not None
-        self.core_names: Sequence[str] = metrics(base, on_2d)
-        self.merit_names: Sequence[str] = design_merits(base, on_2d)
+        #: the window of the 2-D merits, None when they are not computed
+        self.window = window
+        self.merit_names = merit_names(base, window is not None)
         self.free = free
         self.z = z
         self.objective = objective
         self.sign = -1.0 if sense == "max" else 1.0
         self.constraints = constraints
         self.min_f_number = min_f_number
+        self.threshold_px, self.tol = core_args
         self.executor = executor
         self.n_threads = n_threads
         self.threads_per_task = threads_per_task
@@ -319,16 +293,17 @@ class _Problem:
 
     # candidates
     def build(self, changes: dict[str, Any]) -> Design:
-        """The design of a candidate (validated by its constructor)."""
-        return self.base.with_fields(changes)
+        """The design of a candidate (the base's class), validated by its constructor."""
+        return with_changes(self.base, changes)
 
     def changes(self, x: Sequence[float]) -> dict[str, float | int]:
         return {f.name: f.value(v) for f, v in zip(self.free, x, strict=True)}
 
     def check(self, changes: dict[str, Any]) -> tuple[Design | None, str, str]:
-        """(the design, "", "") if valid, else (None, why, the rule's name): the
-        constructor accepts it, every depth lies beyond F, every lens type's f_t / d
-        reaches the floor."""
+        """(the design, "", "") if valid, else (None, why, the rule's name): its
+        constructor accepts it (ranges, shares, lens-type rules, overlapping images:
+        docs/model.md §9), every depth lies beyond F, every lens type's f_t / d reaches the
+        floor."""
         try:
             design = self.build(changes)
         except InvalidParameter as e:
@@ -348,38 +323,28 @@ class _Problem:
                                       f"{self.min_f_number!r}"), "min_microlens_f_number"
         return design, "", ""
 
-    def derived(self, design: Design) -> dict[str, float]:
-        """The closed-form merits of :data:`MERIT_DOCS` (from the core's derived values)."""
-        plain = design.design
-        out = {"f_number": design.f_number}
-        resolved = design.resolved()
-        n = len(design.channels)
-        for i in range(1, n + 1):
-            out[f"out_of_focus_depth_channel{i}"] = plain.out_of_focus_depth(i)
-        for i, ch in enumerate(design.channels, 1):
-            out[f"image_fill_channel{i}"] = 2.0 * plain.image_radius(i) / ch.d
-        for i, ch in enumerate(resolved, 1):
-            out[f"microlens_f_number_channel{i}"] = min(ch["f"]) / ch["d"]
-        return out
-
-    # the core
-    def core_merits(self, designs: list[Design]) -> list[list[float]]:
-        """The core's figures of merit of valid designs, in order."""
+    def merits(self, designs: list[Design], changes: list[dict[str, Any]]
+               ) -> list[list[float]]:
+        """The merits of valid designs (:func:`splitlf.evaluate`), in order; with an
+        executor, batches of the plain ``changes`` beside the base (the worker rebuilds
+        the same designs)."""
         if not designs:
             return []
         if self.executor is None:
             out = []
             for d in designs:
                 t = time.perf_counter()
-                out.append(core_merits(d, self.z, self.opts, self.n_threads))
+                m = evaluate(d, self.z, threshold_px=self.threshold_px, tol=self.tol,
+                             merits_2d=self.window is not None,
+                             window=DEFAULT_WINDOW if self.window is None else self.window,
+                             n_threads=self.n_threads)
                 self.core_s += time.perf_counter() - t
+                out.append(list(m.values()))
             return out
         size = self.batch_size or max(1, math.ceil(len(designs) / 16))
-        # to the workers: the base (it pickles as its fields) and each design's free-field
-        # values; the worker rebuilds the same design with the base's constructor
-        changes = [{f.name: d.field_value(f.name) for f in self.free} for d in designs]
         futures = [self.executor.submit(_evaluate_batch, self.base, changes[i:i + size],
-                                        self.z, self.opts, self.threads_per_task)
+                                        self.z, self.threshold_px, self.tol, self.window,
+                                        self.threads_per_task)
                    for i in range(0, len(changes), size)]
         out = []
         for fut in futures:
@@ -422,9 +387,9 @@ class _Problem:
         """Penalised energies of candidates (one history row each)."""
         cands = [self.changes(x) for x in xs]
         checked = [self.check(c) for c in cands]
-        valid = [d for d, _, _ in checked if d is not None]
-        merits_core = iter(self.core_merits(valid))
-        self.evaluations += len(valid)
+        ok = [(d, c) for (d, _, _), c in zip(checked, cands, strict=True) if d is not None]
+        values = iter(self.merits([d for d, _ in ok], [c for _, c in ok]))
+        self.evaluations += len(ok)
         energies = []
         for changes, (design, reason, rule) in zip(cands, checked, strict=True):
             row: dict[str, Any] = {"stage": self.stage, "generation": self.generation,
@@ -435,8 +400,7 @@ class _Problem:
                            reason=reason)
                 energies.append(2.0 * PENALTY)
             else:
-                merits = dict(zip(self.core_names, next(merits_core), strict=True))
-                merits.update(self.derived(design))
+                merits = dict(zip(self.merit_names, next(values), strict=True))
                 value, violation, why, names = self.score(merits)
                 row.update(valid=True, feasible=violation == 0.0, objective=value, **merits,
                            violated=names, reason=why)
@@ -564,17 +528,17 @@ def optimise(base: Design, free: Mapping[str, tuple[float, float]],
     """The design around ``base`` that optimises ``objective`` subject to ``constraints``.
 
     - ``base``: a :class:`~splitlf.Design` (a :class:`~splitlf.Camera` is one); every field
-      not free keeps its value (a Camera's focal lengths left to Ng's setting keep tracking
-      the geometry)
-    - ``free``: {field: (low, high)}: the base's tunable fields
-      (:meth:`~splitlf.Design.tunable_fields`: a Camera's own fields; a Design's ``"F"``,
-      ``"D"``, ``"channels[2].L"``,
-      ``"channels[1].f[0]"``; channels from 1, lens types from 0); the counts are searched
-      as integers (integer bounds); the others are continuous
-    - ``objective``: a merit name (:func:`design_merits` with the 2-D ones) or a callable on the
-      merit dict returning a real number; ``sense``: "max" or "min" (default: the merit's
-      natural direction — max for sharp and lit fractions and distinct 2-D samples, min for
-      max gaps and covering radii — and required otherwise)
+      not free keeps its value (focal lengths left to Ng's setting keep tracking the
+      geometry); candidates are built by the base's own ``replace``
+    - ``free``: {field: (low, high)}, names of :func:`splitlf.sweep.design_fields`: a
+      Camera's paper fields (``"D"``, ``"kappa"``, ...), a Design's ``"F"``, ``"D"``,
+      ``"channels[2].L"``, ``"channels[1].f[0]"`` (channels from 1, lens types from 0);
+      the counts are searched as integers (integer bounds); the others are continuous
+    - ``objective``: a merit name (:func:`merit_names`, those of :func:`splitlf.evaluate`)
+      or a callable on the merit dict returning a real number; ``sense``: "max" or "min"
+      (default: the merit's :func:`natural_sense` — max for sharp and lit fractions and
+      distinct 2-D samples, min for max gaps and covering radii — and required
+      otherwise)
     - ``constraints``: {merit: ("<=" | ">=", value)}
     - ``depths``: scene depths [mm] of the core's merits (default 200 log-spaced over
       150-10 000 mm); a design with F >= the nearest depth is invalid
@@ -589,12 +553,12 @@ def optimise(base: Design, free: Mapping[str, tuple[float, float]],
       ``scipy.optimize.differential_evolution`` (:data:`DE_OPTIONS`)
     - ``polish``: refine the best feasible design with Nelder-Mead over the continuous
       fields (``polish_maxfev`` evaluations, default 100 + 100 per field)
-    - ``min_microlens_f_number``: a manufacturable floor on f_t / d of every lens type; a design
-      below it is invalid (never evaluated)
+    - ``min_microlens_f_number``: a manufacturable floor on f_t / d of every lens type of
+      every channel; a design below it is invalid (never evaluated)
     - ``threshold_px``, ``tol``: sharpness threshold [px] and merge tolerance [delta(z)] of
       the core's merits, as in :func:`splitlf.sweep.sweep`
-    - ``merits_2d``: whether to compute the 2-D merits (``design_merits(design,
-      merits_2d=True)`` lists them), which cost a 2-D analysis per depth:
+    - ``merits_2d``: whether to compute the 2-D merits (``merit_names(base, True)``
+      beyond ``merit_names(base)``), which cost a 2-D analysis per depth:
       None (default) computes them iff the objective or a constraint names one; True
       always (a callable objective that reads them needs it); False never (naming one is
       then an error). Not computed, they are absent from ``merits`` and the history
@@ -609,11 +573,11 @@ def optimise(base: Design, free: Mapping[str, tuple[float, float]],
     by a callable objective propagates.
     """
     cam = _base(base)
-    names = design_merits(cam, True)
+    names = merit_names(cam, True)
     fields = _free(free, cam)
     fn, _, sense_ = _objective(objective, sense, names)
     cons = _constraints(constraints, names)
-    names_2d = frozenset(names) - frozenset(design_merits(cam))
+    names_2d = frozenset(names) - frozenset(merit_names(cam))
     named = sorted({m for m, _, _ in cons if m in names_2d}
                    | ({objective} if isinstance(objective, str) and objective in names_2d
                       else set()))
@@ -637,7 +601,8 @@ def optimise(base: Design, free: Mapping[str, tuple[float, float]],
         min_f = _real(min_microlens_f_number, "min_microlens_f_number")
         if not (math.isfinite(min_f) and min_f > 0):
             raise InvalidParameter.of("min_microlens_f_number", min_f, "a finite number > 0")
-    core_opts = options(threshold_px, tol, on_2d, window)
+    core_args = (_threshold(threshold_px), _tol(tol))
+    window_2d = _options_2d(on_2d, window, core_args[1])
     n_threads = _validate.n_threads(n_threads)
     tpt = _validate.n_threads(threads_per_task)
     if batch_size is not None:
@@ -653,8 +618,8 @@ def optimise(base: Design, free: Mapping[str, tuple[float, float]],
         raise ImportError('splitlf.optimise needs SciPy and pandas: '
                           'pip install "splitlf[sweep]"') from e
 
-    problem = _Problem(cam, fields, z, fn, sense_, cons, min_f, core_opts, executor,
-                       n_threads, tpt or 1, batch_size)
+    problem = _Problem(cam, fields, z, fn, sense_, cons, min_f, core_args, executor, n_threads,
+                   tpt or 1, batch_size, window=window_2d)
     bar = _progress_bar(maxiter_, progress)
 
     def callback(xk: Any, convergence: float = 0.0) -> None:

@@ -1,0 +1,85 @@
+"""splitlf.evaluate is the one source of a design's merits: sweep, optimise and compare
+report what it gives for the same design and depths, and no other module calls the core's
+merit entry."""
+
+from __future__ import annotations
+
+import pathlib
+import re
+
+import numpy as np
+import pytest
+
+import splitlf
+from splitlf import Camera, Design, Merits, evaluate
+from splitlf.evaluate import merit_doc, merit_names
+
+Z = np.geomspace(150.0, 10_000.0, 12)
+PACKAGE = pathlib.Path(splitlf.__file__).parent
+
+
+def test_only_evaluate_calls_the_core_merit_entry():
+    callers = sorted(str(p.relative_to(PACKAGE)) for p in PACKAGE.rglob("*.py")
+                     if re.search(r"\bdesign_figures_of_merit\b|\bfigures_of_merit\b",
+                                  p.read_text(encoding="utf-8")))
+    assert callers == ["evaluate.py"]
+
+
+def test_merits_is_a_read_only_mapping_with_its_settings():
+    m = evaluate(Camera.paper(), Z, threshold_px=0.5)
+    assert isinstance(m, Merits) and list(m) == list(merit_names(Camera.paper()))
+    assert m == dict(m) and m["sharp_fraction_union"] == 1.0
+    assert m.threshold_px == 0.5 and m.window is None and m.depths.tolist() == Z.tolist()
+    with pytest.raises(TypeError):
+        m["f_number"] = 1.0  # type: ignore[index]
+    assert all(merit_doc(n) for n in m)
+    # a Camera is a Design: the same merits as its plain design, bit for bit
+    assert dict(m) == dict(evaluate(Design.preset("seed"), Z))
+
+
+def test_closed_form_merits():
+    cam = Camera.paper()
+    m = evaluate(cam, Z)
+    assert m["f_number"] == cam.F / cam.D
+    assert m["image_fill_channel1"] == pytest.approx(cam.D * cam.v / (cam.v1 * cam.Q * cam.mu),
+                                                     rel=1e-12)
+    assert m["microlens_f_number_channel2"] == pytest.approx(cam.f2 / cam.d, rel=1e-12)
+    sf = splitlf.sharp_fractions(cam, (Z.min(), Z.max()))
+    assert m["sharp_fraction_conventional_channel1"] == sf["conventional channel 1"]
+
+
+def test_sweep_reports_evaluate():
+    xr = pytest.importorskip("xarray")
+    assert xr
+    from splitlf.sweep import sweep
+
+    d = Design.preset("split3")
+    ds = sweep(d, {"D": [15.0, 20.0]}, Z, progress=False, merits_2d=True, window=3.0)
+    one = evaluate(d.replace(D=15.0), Z, merits_2d=True, window=3.0)
+    for k, v in one.items():
+        assert float(ds[k].sel(D=15.0)) == v, k
+
+
+def test_optimise_reports_evaluate():
+    pytest.importorskip("scipy")
+    pytest.importorskip("pandas")
+    res = splitlf.optimise(Camera.paper(), {"kappa": (0.1, 0.6)}, "max_gap_worst_union",
+                           depths=Z, maxiter=2, popsize=3, polish=False)
+    assert res.merits == dict(evaluate(res.design, Z))
+    assert type(res.design) is Camera
+
+
+def test_compare_reports_evaluate():
+    pytest.importorskip("scipy")
+    pd = pytest.importorskip("pandas")
+    assert pd
+    from splitlf.compare import evaluate as compare_designs
+
+    d = Design.preset("seed")
+    table, _ = compare_designs({"split": d}, Z, window=2.0)
+    m = evaluate(d, Z, merits_2d=True, window=2.0)
+    row = table.loc["split"]
+    assert row["sharp_fraction"] == m["sharp_fraction_union"]
+    assert row["covering_radius_worst"] == m["covering_radius_worst_union"]
+    assert row["covering_radius_median"] == m["covering_radius_median_union"]
+    assert row["distinct_2d_median"] == m["distinct_2d_median_union"]
