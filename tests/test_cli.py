@@ -36,12 +36,12 @@ def test_report_json_matches_api(capsys):
     assert code == 0
     data = json.loads(out)
     cam = Camera.paper()
-    assert Camera.from_dict(data["camera"]) == cam
-    assert data["derived"]["half1"]["out_of_focus_depth_mm"] == cam.out_of_focus_depth(1)
-    assert data["derived"]["half2"]["lit_pixels"] == 11
+    assert splitlf.Design.from_dict(data["design"]) == cam
+    assert data["derived"]["channels"][0]["out_of_focus_depth_mm"] == \
+        cam.out_of_focus_depth(1)
     dof = depth_of_field(cam)
-    assert data["depth_of_field"]["half1"] == [[a, None if math.isinf(b) else b]
-                                               for a, b in dof.half1]
+    assert data["depth_of_field"]["light_field"]["channel 1"] == \
+        [[a, None if math.isinf(b) else b] for a, b in dof.half1]
 
 
 def test_report_config(tmp_path, capsys):
@@ -49,11 +49,11 @@ def test_report_config(tmp_path, capsys):
     p = tmp_path / "cam.toml"
     cam.to_toml(p)
     code, out, _ = run(["report", "--config", str(p), "--json"], capsys)
-    assert code == 0 and json.loads(out)["camera"]["D"] == 10.0
+    assert code == 0 and json.loads(out)["design"]["D"] == 10.0
 
 
 @pytest.mark.parametrize("content, needle", [
-    (None, "No such file"),
+    (None, "error: no such file: "),
     ("[camera\n", "not valid TOML"),
     ("[camera]\nF = -1\n", "missing"),
 ])
@@ -89,11 +89,11 @@ def test_trace_npz(tmp_path, capsys):
     cam = Camera.paper()
     for h in (1, 2):
         t = splitlf.trace(cam, h)
-        np.testing.assert_array_equal(data[f"half{h}_area"], t.area)
-        np.testing.assert_array_equal(data[f"half{h}_vertices"], t.vertices)
-        assert summary[f"half{h}"]["pixels"] == cam.Kx * cam.Q
-    assert summary["half2"]["lit"] == cam.Kx * 11
-    assert "[camera]" in str(data["camera_toml"])
+        np.testing.assert_array_equal(data[f"channel{h}_area"], t.area)
+        np.testing.assert_array_equal(data[f"channel{h}_vertices"], t.vertices)
+        assert summary[f"channel{h}"]["pixels"] == cam.Kx * cam.Q
+    assert summary["channel2"]["lit"] == cam.Kx * 11
+    assert "[camera]" in str(data["design_toml"])  # the seed camera's own TOML
 
 
 def test_trace_bad_suffix(tmp_path, capsys):
@@ -221,7 +221,7 @@ def test_trace_refuses_to_overwrite(tmp_path, capsys):
     assert out.read_bytes() == b"previous"
     code, stdout, _ = run(["trace", "--out", str(out), "--force"], capsys)
     assert code == 0 and stdout.strip() == str(out)
-    assert "half1_area" in np.load(out).files
+    assert "channel1_area" in np.load(out).files
 
 
 def test_failed_write_keeps_the_previous_file(tmp_path, monkeypatch, capsys):
@@ -247,9 +247,9 @@ def test_trace_passes_threads(tmp_path, monkeypatch, capsys):
     real = rs.trace
     seen = []
 
-    def trace(camera, half, axis="x", n_threads=None):
+    def trace(camera, half=None, axis="x", n_threads=None, *, channel=None):
         seen.append(n_threads)
-        return real(camera, half, axis)
+        return real(camera, half, axis, channel=channel)
 
     monkeypatch.setattr(rs, "trace", trace)
     code, _, _ = run(["trace", "--out", str(tmp_path / "t.npz"), "--threads", "2"], capsys)

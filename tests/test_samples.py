@@ -301,19 +301,23 @@ def test_report_has_planes_and_worst_resolution():
     data = report_data(cam)
     json.dumps(data, allow_nan=False)
     for h in (1, 2):
-        rows = data["coincidence_planes"][f"half{h}"]
+        rows = data["coincidence_planes"][f"channel {h}"]
         assert rows and all(r["N"] <= 3 for r in rows)
         assert all(r["counted"] == r["new_samples"] for r in rows)
         assert {r["side"] for r in rows} == {"near", "far"}
     res = data["resolution"]
     assert res["z_range_mm"] == [150.0, 10000.0]
     # Half 1's worst case is its out-of-focus plane: pixelization, a gap of Q steps.
-    assert res["half1"]["max_gap"] == pytest.approx(15.0, rel=1e-9)
-    assert res["half1"]["z_mm"] == pytest.approx(642.0, rel=1e-9)
-    assert res["split"]["max_gap"] <= min(res["half1"]["max_gap"], res["half2"]["max_gap"])
-    text = format_report(data, "t")
+    assert res["channel 1"]["max_gap"] == pytest.approx(15.0, rel=1e-9)
+    assert res["channel 1"]["z_mm"] == pytest.approx(642.0, rel=1e-9)
+    assert res["union"]["max_gap"] <= min(res["channel 1"]["max_gap"],
+                                          res["channel 2"]["max_gap"])
+    text = format_report(data, "t", full=True)
     assert "Coincidence planes (N <= 3" in text and "Worst resolution over 150" in text
-    assert "counted == Eq. 8 on" in text and "split sensor   max gap" in text
+    assert "half 1: 63 planes, counted == Eq. 8/9 on 63" in text
+    assert "split sensor   max gap" in text
+    short = format_report(data, "t")
+    assert "Coincidence planes" not in short and "split sensor   max gap" in short
 
 
 def test_cli_report_json_has_samples(capsys):
