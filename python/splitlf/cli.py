@@ -844,10 +844,8 @@ def _compare_note(table: Any, objective: str) -> str | None:
     if lf.empty or not (lf["sharp_fraction"] == 1.0).all():
         return None
     why = ("the objective maximised it" if objective == "sharp_fraction_union" else
-           "each one is sharp somewhere at every depth of the range (the split channels "
-           "cover it together)")
-    return (f"note: sharp (the union's sharp fraction) is 1 for every light field row: {why}; "
-            "compare them by the other columns")
+           "some channel is sharp at every depth")
+    return f"note: sharp (the union's sharp fraction) is 1 for every light field row: {why}"
 
 
 def _compare_text(res: Any, args: argparse.Namespace, constraints: dict[str, Any],
