@@ -21,11 +21,6 @@ from typing import Any, NoReturn
 
 import numpy as np
 
-try:  # Python >= 3.11
-    import tomllib
-except ModuleNotFoundError:  # pragma: no cover - Python 3.10 (the tomli backport)
-    import tomli as tomllib
-
 from . import _native
 from ._files import atomic_output, check_new, read_toml
 from .camera import Camera
@@ -43,7 +38,8 @@ SIMULATE_WINDOW = 256
 #: Threads of the core: the allowed range of ``--threads``.
 THREADS_RANGE = (1, _native.MAX_THREADS)
 #: What the CLI reports as a user error (one line, exit 2); anything else is a bug.
-USER_ERRORS = (SplitlfError, ValueError, TypeError, OSError, tomllib.TOMLDecodeError)
+#: (read_toml reports invalid TOML as a ValueError naming the file.)
+USER_ERRORS = (SplitlfError, ValueError, TypeError, OSError)
 FORCE_HINT = "pass --force to overwrite"
 
 
@@ -182,7 +178,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
 # -- figures -----------------------------------------------------------------------------
 
-def figure_functions() -> dict[str, tuple[Any, int | str, tuple[float, float]]]:
+def figure_functions() -> dict[str, tuple[Any, Any, tuple[float, float]]]:
     """File stem -> (plot function taking (design, ax=..., n_threads=...), its panels: a
     number stacked or "channels" side by side, figure size [in])."""
     from . import plot
@@ -191,7 +187,7 @@ def figure_functions() -> dict[str, tuple[Any, int | str, tuple[float, float]]]:
             in plot.FIGURES.items()}
 
 
-def _figures_of(subject: Design) -> dict[str, tuple[Any, int | str, tuple[float, float]]]:
+def _figures_of(subject: Design) -> dict[str, tuple[Any, Any, tuple[float, float]]]:
     """:func:`figure_functions` for a design; a design with a hex channel has no figure
     along x (``plot.RECT_ONLY``: ray space, samples along x)."""
     from . import plot
@@ -232,7 +228,7 @@ def _cmd_figures(args: argparse.Namespace) -> int:
         if panels == "channels":
             n = len(subject.channels)
             fig = Figure(figsize=(w * n, h), layout="constrained")
-            ax = list(fig.subplots(1, n, squeeze=False)[0])
+            ax: Any = list(fig.subplots(1, n, squeeze=False)[0])
         else:
             fig = Figure(figsize=(w, h), layout="constrained")
             ax = fig.add_subplot() if panels == 1 else fig.subplots(panels, 1, sharex=True)

@@ -99,8 +99,9 @@ def serve(design: Any = None, *, port: int = 0, address: str = LOOPBACK,
     a free port) and print its URL. ``threaded=True`` returns a :class:`Running` server at
     once (``.url``, ``.stop()``); otherwise blocks until interrupted. Each browser session
     gets its own copy of the design. The URL is printed once the server listens (a port
-    in use is an ``OSError`` before it); the server stops at interpreter exit. ``reference`` (a Design or Camera) is drawn beside
-    it on the same axes (the page can also pin its current design as the reference)."""
+    in use is an ``OSError`` before it); the server stops at interpreter exit.
+    ``reference`` (a Design or Camera) is drawn beside it on the same axes (the page can
+    also pin its current design as the reference)."""
     from bokeh.application import Application
     from bokeh.application.handlers.function import FunctionHandler
     from bokeh.server.server import Server
