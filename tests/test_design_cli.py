@@ -17,9 +17,6 @@ from splitlf.evaluate import merit_names
 
 SEED = Camera.paper()
 Z = np.geomspace(150.0, 10_000.0, 12)
-#: A Camera's rows and the same rows of its design (docs/architectures.md).
-SIM_ROWS = {"half1": "channel 1", "half2": "channel 2", "split": "union",
-            "conventional": "conventional 1"}
 
 
 def _cli(argv, capsys):
@@ -49,6 +46,7 @@ def _sweep_file(tmp_path, grid_lines, base="", name="sweep.toml"):
 
 def test_cli_sweep_of_a_preset_equals_the_api(tmp_path, capsys):
     xr = pytest.importorskip("xarray")
+    from splitlf.evaluate import merit_names as design_metrics
     from splitlf.sweep import sweep
 
     d = Design.preset("split3")
@@ -61,7 +59,7 @@ def test_cli_sweep_of_a_preset_equals_the_api(tmp_path, capsys):
     df = ds.to_dataframe().reset_index()
     for rec, (_, row) in zip(doc["designs"], df.iterrows(), strict=True):
         assert rec["channels[2].L"] == row["channels[2].L"] and rec["D"] == row["D"]
-        for m in merit_names(d):
+        for m in design_metrics(d):
             assert rec[m] == (None if np.isnan(row[m]) else row[m]), m
     # the same base as a [design] table in the sweep file, written to NetCDF
     import tomllib
@@ -80,9 +78,7 @@ def test_cli_sweep_of_a_preset_equals_the_api(tmp_path, capsys):
     assert code == 0 and "sharp_fraction_union" in out and "sharp_fraction_channel3" in out
 
 
-def test_cli_sweep_of_the_camera_equals_its_design(tmp_path, capsys):
-    # one path: the seed camera (its own fields) and its general design (paths) give the
-    # same merits, bit for bit
+def test_cli_sweep_of_camera_design_equals_the_camera_path(tmp_path, capsys):
     pytest.importorskip("xarray")
     spec = _sweep_file(tmp_path, "D = [10.0, 20.0]\n")
     assert main(["sweep", "--grid", spec, "--json"]) == 0
@@ -91,8 +87,9 @@ def test_cli_sweep_of_the_camera_equals_its_design(tmp_path, capsys):
     assert main(["sweep", "--grid", spec, "--config", cfg, "--json"]) == 0
     des = json.loads(capsys.readouterr().out)["designs"]
     for a, b in zip(cam, des, strict=True):
-        assert a == b and a["valid"]
-    assert set(merit_names(SEED)) <= set(cam[0])
+        assert a["D"] == b["D"] and a["valid"] and b["valid"]
+        for m in merit_names(SEED):  # the camera is its design: the same merits
+            assert b[m] == pytest.approx(a[m], rel=1e-14, nan_ok=True), m
 
 
 @pytest.mark.parametrize("grid, base, extra, needle", [
@@ -126,19 +123,23 @@ def test_cli_simulate_of_a_preset_equals_the_api(capsys):
         ["channel 1", "channel 2", "channel 3", "union", "conventional 1"]
     code, out, _ = _cli(["simulate", "--preset", "split3", "--z", "700"], capsys)
     rows = [ln.split() for ln in out.splitlines()[2:]]
-    assert code == 0 and [" ".join(w[1:-3]) for w in rows] == list(r.rows)
-    assert [float(w[-3]) for w in rows] == [round(r.rmse[k], 4) for k in r.rows]
+    assert code == 0 and [" ".join(w[1:-4]) for w in rows] == list(r.rows)
+    assert [float(w[-4]) for w in rows] == [round(r.rmse[k], 4) for k in r.rows]
+    assert [float(w[-1]) for w in rows] == [round(256 * r.delta, 3)] * len(r.rows)
+    assert "window 256 cells of delta(z)" in out.splitlines()[0]
 
 
-def test_cli_simulate_of_the_camera_equals_its_design(tmp_path, capsys):
+def test_cli_simulate_of_camera_design_equals_the_camera_path(tmp_path, capsys):
     pytest.importorskip("scipy")
+    # at 642 mm delta(z) of the design and the camera agree to the bit, so every number does
     assert main(["simulate", "--z", "642", "--json"]) == 0
     cam = json.loads(capsys.readouterr().out)["results"][0]
     cfg = _design_file(tmp_path, SEED.design)
     assert main(["simulate", "--config", cfg, "--z", "642", "--json"]) == 0
     des = json.loads(capsys.readouterr().out)["results"][0]
-    assert cam == des
-    assert list(cam["rmse"]) == ["channel 1", "channel 2", "union", "conventional 1"]
+    assert des["delta_mm"] == cam["delta_mm"]
+    for key in ("rmse", "psnr_db", "mtf50_cycles_per_mm", "regularization", "pixels"):
+        assert cam[key] == des[key], key
 
 
 def test_cli_simulate_refuses_a_hex_design_by_name(tmp_path, capsys):
@@ -165,44 +166,45 @@ def test_cli_optimise_of_a_preset_equals_the_api_and_writes_a_design(tmp_path, c
                            maxiter=3, popsize=4, n_threads=1)
     assert doc["free"] == res.free and doc["merits"] == json.loads(json_text(res.merits))
     assert doc["design"] == res.design.as_dict() and "camera" not in doc
-    assert res.design.design is res.design  # a Design base's result is a plain Design
     assert Design.from_toml(out) == res.design
     code, text, err = _cli(["report", "--config", str(out), "--json"], capsys)
     assert code == 0 and json.loads(text)["design"] == res.design.as_dict()
 
 
-def test_cli_optimise_of_the_camera_equals_its_design(tmp_path, capsys):
+def test_cli_optimise_of_camera_design_equals_the_camera_path(tmp_path, capsys):
     pytest.importorskip("scipy")
     pytest.importorskip("pandas")
     hist_c, hist_d = tmp_path / "c.csv", tmp_path / "d.csv"
-    common = ["--free", "D=8:40", *OPT, "--no-polish", "--objective", "sharp_fraction_union"]
-    assert main(["optimise", *common, "--history", str(hist_c)]) == 0
+    common = ["--free", "D=8:40", *OPT, "--no-polish"]
+    assert main(["optimise", *common, "--objective", "sharp_fraction_union",
+                 "--history", str(hist_c)]) == 0
     capsys.readouterr()
     cfg = _design_file(tmp_path, SEED.design)
-    assert main(["optimise", "--config", cfg, *common, "--history", str(hist_d)]) == 0
+    assert main(["optimise", "--config", cfg, *common, "--objective", "sharp_fraction_union",
+                 "--history", str(hist_d)]) == 0
     capsys.readouterr()
     import pandas as pd
 
     a, b = pd.read_csv(hist_c), pd.read_csv(hist_d)
-    # the same candidates, the same validity and the same merits, candidate by candidate
+    # the same candidates, the same validity and the same objective, candidate by candidate
     assert len(a) == len(b) > 10
-    words = ["violated", "reason"]  # each base names its own fields: D / channels[1].D
-    pd.testing.assert_frame_equal(a.drop(columns=words), b.drop(columns=words))
-    bad = ~a["valid"]
-    assert bad.any() and set(a["violated"][bad]) == {"D"}
-    assert set(b["violated"][bad]) == {"channels[1].D"}
+    np.testing.assert_array_equal(a["D"], b["D"])
+    np.testing.assert_array_equal(a["valid"], b["valid"])
+    np.testing.assert_array_equal(a["objective"], b["objective"])
+    np.testing.assert_array_equal(a["sharp_fraction_union"], b["sharp_fraction_union"])
 
 
 @pytest.mark.parametrize("extra, needle", [
-    (["--preset", "seed", "--free", "kappa=0.05:0.8"], "invalid free = 'kappa'"),
+    (["--preset", "seed", "--free", "kappa=0.05:0.8"], "invalid --free = 'kappa'"),
     (["--preset", "seed", "--free", "D=8:40", "--objective", "sharp_fraction_split"],
-     "invalid objective = 'sharp_fraction_split'"),
+     "invalid --objective = 'sharp_fraction_split': allowed one of: sharp_fraction_channel1"),
     (["--preset", "nope", "--free", "D=8:40"], "invalid choice: 'nope'"),
 ])
 def test_cli_optimise_bad_design_options_are_named(capsys, extra, needle):
     argv = ["optimise", "--objective", "sharp_fraction_union", *extra]
     code, out, err = _cli(argv, capsys)
     assert code == 2 and out == "" and needle in err and err.count("\n") == 1, err
+    assert "callable" not in err
 
 
 # -- plot.resolution ------------------------------------------------------------------------
@@ -241,7 +243,7 @@ def test_plot_resolution_of_a_design_draws_the_simulation(capsys):
     np.testing.assert_allclose(ml.get_ydata(), ch1.L / (ch1.d * z), rtol=1e-15)
 
 
-def test_plot_resolution_of_the_camera_equals_its_design():
+def test_plot_resolution_of_camera_design_equals_the_camera_figure():
     pytest.importorskip("scipy")
     from matplotlib.figure import Figure
 
@@ -252,13 +254,21 @@ def test_plot_resolution_of_the_camera_equals_its_design():
     fa, fb = Figure().subplots(2, 1), Figure().subplots(2, 1)
     resolution(SEED, (400.0, 700.0), ax=fa, **kw)
     resolution(SEED.design, (400.0, 700.0), ax=fb, **kw)
-    za = fa[0].lines[0].get_xdata()
+    za, zb = fa[0].lines[0].get_xdata(), fb[0].lines[0].get_xdata()
+    np.testing.assert_allclose(zb, za, rtol=1e-15)
     assert za[0] == 400.0 and za[1] == pytest.approx(642.0, rel=1e-12) and za.size == 3
-    for a, b in ((fa[0], fb[0]), (fa[1], fb[1])):
-        assert [ln.get_label() for ln in a.lines] == [ln.get_label() for ln in b.lines]
-        for la, lb in zip(a.lines, b.lines, strict=True):
-            np.testing.assert_array_equal(la.get_xdata(), lb.get_xdata())
-            np.testing.assert_array_equal(la.get_ydata(), lb.get_ydata())
+    # delta(z) is d z / (Q v') for the camera, mu_1 z / L_1 for its design: where the two
+    # agree to the bit (400 mm among them) every number agrees to the bit, elsewhere to
+    # the 1e-2 of a pixel entering or leaving the field (tests/test_design_simulate.py)
+    same = np.array([SEED.core.resolution_step(z) == SEED.design.resolution_step(z)
+                     for z in za])
+    assert same[0]
+    for k in range(4):  # half 1, half 2, split, conventional; channel 1, 2, union, conv. 1
+        assert fb[0].lines[k].get_label() == fa[0].lines[k].get_label()
+        for a, b in ((fa[0], fb[0]), (fa[1], fb[1])):
+            ya, yb = a.lines[k].get_ydata(), b.lines[k].get_ydata()
+            np.testing.assert_array_equal(ya[same], yb[same])
+            np.testing.assert_allclose(yb[~same], ya[~same], rtol=1e-2)
 
 
 def test_plot_resolution_refuses_a_hex_design_before_drawing():
@@ -271,38 +281,40 @@ def test_plot_resolution_refuses_a_hex_design_before_drawing():
         resolution(Design.preset("raytrix-r12"), ax=axes)
     assert e.value.name == "channels[1].grid"
     assert not axes[0].lines and not axes[1].lines
-    with pytest.raises(TypeError, match="must be a splitlf.Design"):
+    with pytest.raises(TypeError, match="splitlf.Design"):
         resolution("seed", ax=axes)
 
 
 # -- report ---------------------------------------------------------------------------------
 
-def test_report_data_is_one_report_for_every_design():
-    from splitlf.report import format_report, report_data
+def test_report_data_of_a_design_is_the_design_report():
+    from splitlf.report import design_report_data, format_report, report_data
 
     d = Design.preset("raytrix-r12")
     data = report_data(d, 1.0)
-    assert "resolution" in data and "resolution" not in report_data(d, 1.0, samples=False)
-    assert report_data(SEED)["parameters"] == SEED.as_dict()
+    assert data == design_report_data(d, 1.0, samples=True)
+    assert "resolution" not in design_report_data(d, 1.0)  # the explorer's quick form
+    assert format_report(data, "t", full=True).startswith("t\n\nMain lens")
+    # one builder: the camera's report is its design's
+    assert report_data(SEED) == report_data(SEED.design)
     assert report_data(SEED)["design"] == SEED.design.as_dict()
-    assert format_report(data, "t") != format_report(data, "t", full=True)
-    with pytest.raises(TypeError, match="must be a splitlf.Design"):
+    with pytest.raises(TypeError, match="splitlf.Design"):
         report_data(SEED.as_dict())
     with pytest.raises(InvalidParameter) as e:
         report_data(d, n_threads=0)
     assert e.value.name == "n_threads"
 
 
-def test_report_of_the_camera_equals_its_design():
+def test_design_report_has_the_sample_sections():
     from splitlf.report import report_data
 
-    cam, des = report_data(SEED), report_data(SEED.design)
-    assert {k: v for k, v in cam.items() if k != "parameters"} == \
-        {k: v for k, v in des.items() if k != "parameters"}
+    des = report_data(SEED)
     for h in (1, 2):
-        rows = cam["coincidence_planes"][f"channel {h}"]
+        rows = des["coincidence_planes"][f"channel {h}"]
         assert rows and all(r["counted"] == r["new_samples"] for r in rows)
-    assert cam["resolution"]["channel 1"]["max_gap"] == pytest.approx(15.0, rel=1e-9)
+    res = des["resolution"]
+    assert res["channel 1"]["max_gap"] == pytest.approx(15.0, rel=1e-9)
+    assert res["union"]["max_gap"] < res["channel 2"]["max_gap"]
     # a hex design: no coincidence planes, no 1-D worst resolution, said so
     hexd = report_data(Design.preset("raytrix-r12"))
     assert hexd["coincidence_planes"] == {"channel 1": None} and hexd["resolution"] is None

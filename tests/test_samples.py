@@ -314,7 +314,10 @@ def test_report_has_planes_and_worst_resolution():
                                           res["channel 2"]["max_gap"])
     text = format_report(data, "t", full=True)
     assert "Coincidence planes (N <= 3" in text and "Worst resolution over 150" in text
-    assert "counted == Eq. 8/9 on" in text and "union          max gap" in text
+    assert "half 1: 63 planes, counted == Eq. 8/9 on 63" in text
+    assert "split sensor   max gap" in text
+    short = format_report(data, "t")
+    assert "Coincidence planes" not in short and "split sensor   max gap" in short
 
 
 def test_cli_report_json_has_samples(capsys):

@@ -21,16 +21,11 @@ from typing import Any, NoReturn
 
 import numpy as np
 
-try:  # Python >= 3.11
-    import tomllib
-except ModuleNotFoundError:  # pragma: no cover - Python 3.10 (the tomli backport)
-    import tomli as tomllib
-
 from . import _native
-from ._files import atomic_output, check_new
-from .camera import Camera, read_toml
+from ._files import atomic_output, check_new, read_toml
+from .camera import Camera
 from .design import PRESETS, Design
-from .errors import SplitlfError
+from .errors import InvalidParameter, SplitlfError
 from .report import format_report, report_data
 
 SEED = "seed design (docs/model.md §7, reconstructed from the paper)"
@@ -38,15 +33,46 @@ SEED = "seed design (docs/model.md §7, reconstructed from the paper)"
 DPI_RANGE = (10, 1000)
 #: Depths of ``splitlf simulate --z-range``: the allowed range of ``--n``.
 SIMULATE_N_RANGE = (1, 1000)
+#: Cells of delta(z) in the central field that ``splitlf simulate`` scores.
+SIMULATE_WINDOW = 256
 #: Threads of the core: the allowed range of ``--threads``.
 THREADS_RANGE = (1, _native.MAX_THREADS)
 #: What the CLI reports as a user error (one line, exit 2); anything else is a bug.
-USER_ERRORS = (SplitlfError, ValueError, TypeError, OSError, tomllib.TOMLDecodeError)
+#: (read_toml reports invalid TOML as a ValueError naming the file.)
+USER_ERRORS = (SplitlfError, ValueError, TypeError, OSError)
 FORCE_HINT = "pass --force to overwrite"
 
 
 class CliError(SplitlfError):
     """A user error found by the command line, with a message fit for one line."""
+
+
+def _need(module: str, command: str, extra: str) -> None:
+    """Refuse, in one line naming the extra to install, when an optional dependency is
+    missing (``sys.modules[module] = None`` counts as missing too)."""
+    import importlib
+
+    try:
+        importlib.import_module(module)
+    except ImportError:
+        raise CliError(f'{command} needs {module}: pip install "splitlf[{extra}]"') from None
+
+
+def load_design(path: str) -> Design:
+    """The design of a TOML file: a ``[design]`` table (and its ``[[design.channels]]``)
+    or a ``[camera]`` table (the paper's fields; a Camera is a Design). Validated once,
+    here, before any subcommand writes anything: every error is a :class:`CliError` that
+    names the file (``no such file: PATH`` when it is missing)."""
+    try:
+        doc = read_toml(path)
+        return (Design.from_toml if "design" in doc else Camera.from_toml)(path)
+    except FileNotFoundError:
+        raise CliError(f"no such file: {path}") from None
+    except IsADirectoryError:
+        raise CliError(f"{path}: a folder, not a TOML file") from None
+    except (ValueError, TypeError) as e:
+        msg = str(e)
+        raise CliError(msg if msg.startswith(path) else f"{path}: {msg}") from None
 
 
 def _finite(data: Any) -> Any:
@@ -129,22 +155,15 @@ _window = _real_type("window", 0.0, "a finite number > 0 (the 2-D central field'
 # -- report ------------------------------------------------------------------------------
 
 def _load_subject(args: argparse.Namespace) -> tuple[Design, str]:
-    """What a subcommand works on: a preset design (``--preset``), a [design] or [camera]
-    TOML file (``--config``: a Camera is a Design), or the seed camera."""
+    """What a subcommand works on, and its name: a preset (``--preset``), a [design] or
+    [camera] TOML file (``--config``), or the seed design."""
     if args.preset is not None:
         if args.config is not None:
             raise CliError("--preset and --config: give one of them")
         return Design.preset(args.preset), f"preset {args.preset}"
-    if args.config is None:
-        return Camera.paper(), SEED
-    return _design_file(args.config), args.config
-
-
-def _design_file(path: str) -> Design:
-    """The design of a TOML file: a ``[design]`` table, else a ``[camera]`` one."""
-    if "design" in read_toml(path):
-        return Design.from_toml(path)
-    return Camera.from_toml(path)
+    if args.config is not None:
+        return load_design(args.config), args.config
+    return Camera.paper(), SEED
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
@@ -159,17 +178,17 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
 # -- figures -----------------------------------------------------------------------------
 
-def figure_functions() -> dict[str, tuple[Any, int | str, tuple[float, float]]]:
+def figure_functions() -> dict[str, tuple[Any, Any, tuple[float, float]]]:
     """File stem -> (plot function taking (design, ax=..., n_threads=...), its panels: a
     number stacked or "channels" side by side, figure size [in])."""
     from . import plot
 
-    return {stem: (getattr(plot, fn), panels, size)
-            for stem, (fn, panels, size) in plot.FIGURES.items()}
+    return {stem: (getattr(plot, fn), panels, size) for stem, (fn, panels, size)
+            in plot.FIGURES.items()}
 
 
-def _figures_of(subject: Design) -> dict[str, tuple[Any, int | str, tuple[float, float]]]:
-    """:func:`figure_functions` of a design; a design with a hex channel has no figure
+def _figures_of(subject: Design) -> dict[str, tuple[Any, Any, tuple[float, float]]]:
+    """:func:`figure_functions` for a design; a design with a hex channel has no figure
     along x (``plot.RECT_ONLY``: ray space, samples along x)."""
     from . import plot
 
@@ -178,8 +197,7 @@ def _figures_of(subject: Design) -> dict[str, tuple[Any, int | str, tuple[float,
             if rect or stem not in plot.RECT_ONLY}
 
 
-def _figure_targets(out: Path, fmt: str, force: bool,
-                    subject: Design) -> dict[str, Path]:
+def _figure_targets(out: Path, fmt: str, force: bool, subject: Design) -> dict[str, Path]:
     """The file of every figure, checked (folder not a file, no file overwritten without
     --force) before the folder is created or anything is drawn."""
     if out.exists() and not out.is_dir():
@@ -210,7 +228,7 @@ def _cmd_figures(args: argparse.Namespace) -> int:
         if panels == "channels":
             n = len(subject.channels)
             fig = Figure(figsize=(w * n, h), layout="constrained")
-            ax = list(fig.subplots(1, n, squeeze=False)[0])
+            ax: Any = list(fig.subplots(1, n, squeeze=False)[0])
         else:
             fig = Figure(figsize=(w, h), layout="constrained")
             ax = fig.add_subplot() if panels == 1 else fig.subplots(panels, 1, sharex=True)
@@ -253,7 +271,7 @@ def _cmd_trace(args: argparse.Namespace) -> int:
     if hex_:
         raise CliError(f"trace: channel {hex_[0]} has a hex grid; the 1-D trace needs "
                        "rect grids (docs/architectures.md)")
-    arrays: dict[str, Any] = {"toml": np.array(camera.to_toml())}
+    arrays: dict[str, Any] = {"design_toml": np.array(camera.to_toml())}
     parts = [(f"channel{c}", {"channel": c}) for c in range(1, len(camera.channels) + 1)]
     summary: dict[str, Any] = {"path": str(out), "source": source, "axis": args.axis}
     for prefix, which in parts:
@@ -337,14 +355,12 @@ def load_sweep(path: str) -> dict[str, Any]:
     ``[[design.channels]]`` (docs/architectures.md; the grid then names the design's fields
     by path, ``"channels[2].L"``).
 
-    Returns {"grid", "depths", "options", "base" (the [camera] or [design] base, None
-    without one)}. Raises
+    Returns {"grid", "depths", "options", "base" (the [camera] or [design] table's design,
+    None without one)}. Raises
     :class:`CliError` / ``ValueError`` naming the file and the key for anything invalid
     (ranges, limits :data:`splitlf.sweep.MAX_DESIGNS` and :data:`~splitlf.sweep.MAX_DEPTHS`),
     ``OSError`` when the file cannot be read.
     """
-    from .sweep import _merits_2d, _threshold, _tol, _window
-
     doc = read_toml(path)
     unknown = set(doc) - {"grid", "depths", "options", "camera", "design"}
     if unknown:
@@ -356,23 +372,51 @@ def load_sweep(path: str) -> dict[str, Any]:
         raise CliError(f"{path}: needs a non-empty [grid] table of camera fields")
     grid = {k: _linspace(f"{path}: grid.{k}", v) for k, v in doc["grid"].items()}
     depths = _sweep_depths(path, doc.get("depths", {}))
-    opts = doc.get("options", {})
-    checks = {"threshold_px": _threshold, "tol": _tol, "merits_2d": _merits_2d,
-              "window": _window}
-    bad = set(opts) - set(checks) if isinstance(opts, dict) else {"(not a table)"}
+    options = _sweep_options(path, doc.get("options", {}))
+    base = None
+    for table, build in (("camera", Camera.from_dict), ("design", Design.from_dict)):
+        if table in doc:
+            try:
+                base = build(doc[table], source=f"{path} [{table}]")
+            except (ValueError, TypeError) as e:
+                msg = str(e)
+                raise CliError(msg if msg.startswith(path) else f"{path} [{table}]: {msg}"
+                               ) from None
+    return {"grid": grid, "depths": depths, "options": options, "base": base}
+
+
+SWEEP_OPTIONS = ("threshold_px", "tol", "merits_2d", "window")
+
+
+def _sweep_options(path: str, opts: Any) -> dict[str, Any]:
+    """The [options] table of a sweep file, checked as :func:`splitlf.evaluate` checks
+    them."""
+    from .evaluate import (
+        DEFAULT_THRESHOLD_PX,
+        DEFAULT_TOL,
+        DEFAULT_WINDOW,
+        _merits_2d,
+        _options_2d,
+        _threshold,
+        _tol,
+        _window,
+    )
+
+    def check(threshold_px: Any, tol: Any, merits_2d: Any, window: Any) -> None:
+        _threshold(threshold_px)
+        _options_2d(merits_2d, window, _tol(tol))
+
+    bad = set(opts) - set(SWEEP_OPTIONS) if isinstance(opts, dict) else {"(not a table)"}
     if bad:
         raise CliError(f"{path}: unknown [options] key(s) {sorted(bad)}; "
-                       f"allowed: {', '.join(checks)}")
+                       f"allowed: {', '.join(SWEEP_OPTIONS)}")
+    full = {"threshold_px": DEFAULT_THRESHOLD_PX, "tol": DEFAULT_TOL, "merits_2d": False,
+            "window": DEFAULT_WINDOW, **opts}
     try:
-        options = {k: checks[k](v) for k, v in opts.items()}
+        check(*(full[k] for k in SWEEP_OPTIONS))
     except (ValueError, TypeError) as e:
         raise CliError(f"{path}: options: {e}") from None
-    base: Design | None = None
-    if "camera" in doc:
-        base = Camera.from_dict(doc["camera"], source=f"{path} [camera]")
-    elif "design" in doc:
-        base = Design.from_dict(doc["design"], source=f"{path} [design]")
-    return {"grid": grid, "depths": depths, "options": options, "base": base}
+    return dict(opts)
 
 
 SWEEP_SUFFIXES = (".nc", ".parquet", ".json")
@@ -384,7 +428,7 @@ def _sweep_document(ds: Any) -> dict[str, Any]:
     digits); :func:`json_text` writes NaN as null."""
     df = ds.to_dataframe().reset_index()
     return {"attrs": {k: v for k, v in ds.attrs.items()
-                      if k not in ("base_camera", "base_design")},
+                      if k not in ("base_design", "base_camera")},
             "designs": df.to_dict(orient="records")}
 
 
@@ -414,13 +458,34 @@ def _run_sweep(camera: Design, spec: dict[str, Any], scheduler: str | None,
                      n_threads=n_threads, **spec["options"])
 
 
-def _cmd_sweep(args: argparse.Namespace) -> int:
-    try:
-        import xarray  # noqa: F401
-    except ImportError:
-        raise CliError('sweep needs xarray: pip install "splitlf[sweep]"') from None
+def _sweep_base(args: argparse.Namespace, spec: dict[str, Any]) -> Design:
+    """The base of a sweep: the file's [camera] or [design] table, else --preset,
+    --config or the seed; never two of them."""
+    if spec["base"] is None:
+        return _load_subject(args)[0]
+    if args.preset is not None or args.config is not None:
+        option = "--preset" if args.preset is not None else "--config"
+        raise CliError(f"{option}: {args.grid} has a [camera] or [design] base already; "
+                       "give the base in one place")
+    return spec["base"]
+
+
+def _sweep_table(ds: Any, base: Design, spec: dict[str, Any]) -> str:
     from .evaluate import merit_names
 
+    df = ds.to_dataframe().reset_index()
+    cols = list(spec["grid"]) + ["sharp_fraction_union", "max_gap_worst_union",
+                                 "covering_radius_worst_union", "reason"]
+    cols = [c for c in cols if c in df.columns]
+    two_d = bool(spec["options"].get("merits_2d"))
+    window = f" (2-D merits on a central field of {spec['options'].get('window', 16.0):g} " \
+        "lens pitches)" if two_d else ""
+    return (df[cols].to_string(index=False) + "\n\n" + f"{len(df)} designs{window}; metrics: "
+            f"{', '.join(merit_names(base, two_d))}\n")
+
+
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    _need("xarray", "sweep", "sweep")
     out = None if args.out is None else Path(args.out)
     if out is not None:
         _check_suffix("--out", out, SWEEP_SUFFIXES)
@@ -430,13 +495,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         spec["options"]["merits_2d"] = True
     if args.window is not None:
         spec["options"]["window"] = args.window
-    base = spec["base"]
-    if base is None:
-        base = _load_subject(args)[0]
-    elif args.preset is not None or args.config is not None:
-        option = "--preset" if args.preset is not None else "--config"
-        raise CliError(f"{option}: {args.grid} has a base ([camera] or [design]) already; "
-                       "give the base in one place")
+    base = _sweep_base(args, spec)
     ds = _run_sweep(base, spec, args.scheduler, args.threads)
     if out is not None:
         _write_sweep(ds, out, args.force)
@@ -446,13 +505,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     elif out is not None:
         print(out)
     else:
-        df = ds.to_dataframe().reset_index()
-        cols = list(spec["grid"]) + ["sharp_fraction_union", "max_gap_worst_union",
-                                     "covering_radius_worst_union", "reason"]
-        cols = [c for c in cols if c in df.columns]
-        names = merit_names(base, bool(spec["options"].get("merits_2d")))
-        sys.stdout.write(df[cols].to_string(index=False) + "\n")
-        sys.stdout.write(f"\n{len(df)} designs; metrics: {', '.join(names)}\n")
+        sys.stdout.write(_sweep_table(ds, base, spec))
     return 0
 
 
@@ -473,11 +526,22 @@ def parse_texture(spec: str) -> Any:
             return Sinusoid(f) if kind == "sinusoid" else BarChart(f)
         if kind == "image":
             path, _, width = rest.rpartition(":")
-            return Image(np.load(path, allow_pickle=False), float(width))
+            return Image(_load_npy(path), float(width))
     except ValueError as e:
         raise CliError(f"--texture {spec}: {e}") from None
     raise CliError(f"--texture {spec}: allowed random, sinusoid:F, bars:F (cycles/mm) "
                    "or image:FILE.npy:WIDTH_MM")
+
+
+def _load_npy(path: str) -> Any:
+    """The array of a .npy file; a file that is not one (e.g. a TOML file, or pickled
+    objects) is refused in the CLI's words."""
+    try:
+        return np.load(path, allow_pickle=False)
+    except FileNotFoundError:
+        raise CliError(f"no such file: {path}") from None
+    except (ValueError, EOFError):
+        raise CliError(f"{path}: not a NumPy .npy array file") from None
 
 
 def _simulate_depths(args: argparse.Namespace) -> list[float]:
@@ -501,22 +565,25 @@ def _simulate_noise(args: argparse.Namespace) -> dict[str, float] | None:
 
 def _simulate_table(rows: list[dict[str, Any]], source: str, args: argparse.Namespace) -> str:
     """One line per depth and row of the simulation (each channel, the union, the
-    conventional camera)."""
+    conventional camera unless --no-conventional)."""
     noise = "noise-free" if args.photons is None else f"{args.photons:g} photons"
     width = max(13, *(len(c) + 1 for r in rows for c in r["rmse"]))
-    out = [f"splitlf simulate: {source}; texture {args.texture}; {noise}",
+    out = [f"splitlf simulate: {source}; texture {args.texture}; {noise}; window "
+           f"{SIMULATE_WINDOW} cells of delta(z)",
            f"{'z [mm]':>9}  {'config':<{width}}{'RMSE':>9}{'PSNR [dB]':>11}"
-           f"{'MTF50 [c/mm]':>14}"]
+           f"{'MTF50 [c/mm]':>14}{'window [mm]':>13}"]
     for r in rows:
         for c in r["rmse"]:
             psnr = r["psnr_db"][c]
             out.append(f"{r['z_mm']:>9.1f}  {c:<{width}}{r['rmse'][c]:>9.4f}"
                        f"{math.inf if psnr is None else psnr:>11.2f}"
-                       f"{r['mtf50_cycles_per_mm'][c]:>14.3f}")
+                       f"{r['mtf50_cycles_per_mm'][c]:>14.3f}"
+                       f"{SIMULATE_WINDOW * r['delta_mm']:>13.3f}")
     return "\n".join(out) + "\n"
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
+    _need("scipy", "simulate", "simulate")
     from .simulation import simulate
 
     out = None if args.out is None else Path(args.out)
@@ -528,8 +595,10 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     camera, source = _load_subject(args)
     texture = parse_texture(args.texture)
     rows = [simulate(camera, z, texture=texture, noise=noise, seed=args.seed,
+                     window=SIMULATE_WINDOW, conventional=not args.no_conventional,
                      n_threads=args.threads).summary() for z in depths]
-    doc = {"source": source, "texture": args.texture, "results": rows}
+    doc = {"source": source, "texture": args.texture, "window_cells": SIMULATE_WINDOW,
+           "results": rows}
     if out is not None:
         _write_text(out, json_text(doc), args.force)
     if args.json:
@@ -586,13 +655,49 @@ def _optimise_document(res: Any, source: str, args: argparse.Namespace) -> dict[
     return {"source": source, "objective": args.objective, "objective_value": res.objective,
             "free": res.free, "feasible": res.feasible, "active": list(res.active),
             "slack": res.slack, "merits": res.merits, "nfev": res.nfev,
-            "generations": res.generations,
-            "design": res.design.design.as_dict()}
+            "generations": res.generations, "design": res.design.design.as_dict()}
 
 
-def _cmd_optimise(args: argparse.Namespace) -> int:
-    from .optimisation import optimise
+#: The API's parameter names of optimise and compare -> the options a CLI user wrote.
+OPTION_OF = {"objective": "--objective", "constraints": "--constraint", "free": "--free",
+             "sense": "--sense", "min_microlens_f_number": "--min-microlens-f-number",
+             "merits_2d": "--merits-2d", "window": "--window", "which": "--architectures",
+             "depths": "--depths", "optimise_depths": "--optimise-depths",
+             "simulate_depths": "--simulate-depths", "threshold_px": "--threshold"}
 
+
+def _in_cli_words(e: InvalidParameter) -> CliError | InvalidParameter:
+    """An API error of optimise or compare in the CLI's words: the option the user wrote
+    instead of the parameter's name, and no callable (the CLI takes a merit name)."""
+    import re
+
+    key = e.name.split("[")[0]
+    if key not in OPTION_OF:
+        return e
+    msg = str(e).replace(f"invalid {e.name}", f"invalid {OPTION_OF[key]}", 1)
+    msg = re.sub(r"a merit name \((.*)\) or a callable.*$", r"one of: \1", msg)
+    return CliError(msg.replace(" or a callable", ""))
+
+
+def _search(run: Callable[..., Any], args: argparse.Namespace, *call: Any,
+            **kwargs: Any) -> Any:
+    """``run(*call, **kwargs)`` in process or on the Dask scheduler of --scheduler, its
+    argument errors in the CLI's words."""
+    try:
+        if args.scheduler is None:
+            return run(*call, **kwargs)
+        try:
+            from distributed import Client
+        except ImportError:
+            raise CliError('--scheduler needs Dask: pip install "splitlf[dask]"') from None
+        with Client(args.scheduler) as client:
+            return run(*call, executor=client.get_executor(), **kwargs)
+    except InvalidParameter as e:
+        raise _in_cli_words(e) from None
+
+
+def _optimise_outputs(args: argparse.Namespace) -> tuple[Path | None, Path | None]:
+    """--out and --history, checked before any work."""
     out = None if args.out is None else Path(args.out)
     if out is not None:
         _check_suffix("--out", out, (".toml",))
@@ -601,6 +706,27 @@ def _cmd_optimise(args: argparse.Namespace) -> int:
     if hist is not None:
         _check_suffix("--history", hist, (".csv", ".parquet"))
         check_new(hist, args.force, FORCE_HINT)
+    return out, hist
+
+
+def _write_optimised(res: Any, out: Path | None, hist: Path | None, force: bool) -> None:
+    if out is not None:
+        with atomic_output(out, force=force, hint=FORCE_HINT) as tmp:
+            tmp.write_text(res.design.to_toml(), encoding="utf-8")
+    if hist is not None:
+        with atomic_output(hist, force=force, hint=FORCE_HINT) as tmp:
+            if hist.suffix == ".csv":
+                res.history.to_csv(tmp, index=False)
+            else:
+                res.history.to_parquet(tmp, index=False)
+
+
+def _cmd_optimise(args: argparse.Namespace) -> int:
+    for module in ("scipy", "pandas"):
+        _need(module, "optimise", "sweep")
+    from .optimisation import optimise
+
+    out, hist = _optimise_outputs(args)
     free = dict(parse_free(f) for f in args.free)
     constraints = dict(parse_constraint(c) for c in args.constraint or [])
     depths = _optimise_depths(args.depths)
@@ -611,28 +737,11 @@ def _cmd_optimise(args: argparse.Namespace) -> int:
                   merits_2d=True if args.merits_2d else None)
     if args.window is not None:
         kwargs["window"] = args.window
-    if args.scheduler is None:
-        res = optimise(camera, free, args.objective, **kwargs)
-    else:
-        try:
-            from distributed import Client
-        except ImportError:
-            raise CliError('--scheduler needs Dask: pip install "splitlf[dask]"') from None
-        with Client(args.scheduler) as client:
-            res = optimise(camera, free, args.objective, executor=client.get_executor(),
-                           **kwargs)
+    res = _search(optimise, args, camera, free, args.objective, **kwargs)
     if not res.feasible:
         raise CliError(f"no feasible design found in {res.nfev} candidates (least violation: "
                        f"{res.slack}); widen --free or relax --constraint")
-    if out is not None:
-        with atomic_output(out, force=args.force, hint=FORCE_HINT) as tmp:
-            tmp.write_text(res.design.to_toml(), encoding="utf-8")
-    if hist is not None:
-        with atomic_output(hist, force=args.force, hint=FORCE_HINT) as tmp:
-            if hist.suffix == ".csv":
-                res.history.to_csv(tmp, index=False)
-            else:
-                res.history.to_parquet(tmp, index=False)
+    _write_optimised(res, out, hist, args.force)
     doc = _optimise_document(res, source, args)
     if args.json:
         sys.stdout.write(json_text(doc if out is None else {"path": str(out), **doc}))
@@ -699,47 +808,80 @@ def _compare_document(res: Any) -> dict[str, Any]:
     }
 
 
-def _cmd_compare(args: argparse.Namespace) -> int:
-    try:
-        import pandas  # noqa: F401
-        import scipy  # noqa: F401
-    except ImportError:
-        raise CliError('compare needs SciPy and pandas: pip install "splitlf[sweep]"') from None
-    from .compare import compare
+#: Columns of the default (narrow) comparison table, most useful first, and their
+#: abbreviations; MTF50 columns follow while the table fits :data:`COMPARE_WIDTH`.
+COMPARE_COLUMNS = {"feasible": "feasible", "objective": "objective", "channels": "ch",
+                   "pixels": "pixels", "sharp_fraction": "sharp",
+                   "covering_radius_worst": "cov_worst",
+                   "covering_radius_median": "cov_med", "light_per_pixel": "light/px",
+                   "light_relative": "light_rel", "distinct_2d_median": "dist_2d"}
+#: Width of the default comparison table [characters]; ``--wide`` prints every column.
+COMPARE_WIDTH = 100
 
-    names = _compare_names(args.architectures)
-    out, fig_path = _compare_targets(args, names)
-    constraints = dict(parse_constraint(c) for c in args.constraint or [])
-    depths = _optimise_depths(args.depths, "--depths")
-    opt_depths = _optimise_depths(args.optimise_depths, "--optimise-depths")
-    sim = []
-    for text in (args.simulate_depths or "").split(","):
-        if text.strip():
-            try:
-                sim.append(_depth(text.strip()))
-            except argparse.ArgumentTypeError as e:
-                raise CliError(f"--simulate-depths: {e}") from None
-    kwargs = dict(which=names, depths=depths, optimise_depths=opt_depths,
-                  window=args.window, optimise_window=args.optimise_window,
-                  maxiter=args.maxiter, popsize=args.popsize, polish=args.polish,
-                  seed=args.seed, simulate_depths=sim, threshold_px=args.threshold,
-                  n_threads=args.threads)
-    if args.scheduler is None:
-        res = compare(args.preset, args.objective, args.sense, constraints, **kwargs)
-    else:
-        try:
-            from distributed import Client
-        except ImportError:
-            raise CliError('--scheduler needs Dask: pip install "splitlf[dask]"') from None
-        with Client(args.scheduler) as client:
-            res = compare(args.preset, args.objective, args.sense, constraints,
-                          executor=client.get_executor(), **kwargs)
+
+def _compare_frame(table: Any, wide: bool) -> Any:
+    """The comparison table to print: every column (``wide``), or the most useful ones,
+    abbreviated, as many as fit :data:`COMPARE_WIDTH` columns; the conventional row's
+    feasible ("not optimised") shows as "-"."""
+    from .compare import NOT_OPTIMISED
+
+    tab = table.drop(columns=["light_from_rect_twin"], errors="ignore").copy()
+    if "feasible" in tab.columns:
+        tab["feasible"] = [("-" if f == NOT_OPTIMISED else f) for f in tab["feasible"]]
+    if wide:
+        return tab
+    keep = [c for c in [*COMPARE_COLUMNS, *(c for c in tab.columns if c.startswith("mtf50_"))]
+            if c in tab.columns]
+    short = tab[keep].rename(columns=COMPARE_COLUMNS)
+    while len(short.columns) > 1 and max(
+            map(len, _frame_text(short).splitlines())) > COMPARE_WIDTH:
+        short = short.iloc[:, :-1]
+    return short
+
+
+def _frame_text(frame: Any) -> str:
+    return str(frame.to_string(float_format=lambda x: f"{x:.4g}"))
+
+
+def _compare_note(table: Any, objective: str) -> str | None:
+    """Why the union's sharp fraction is 1 for every light field row, when it is."""
+    from .compare import NOT_OPTIMISED
+
+    if "sharp_fraction" not in table.columns or "feasible" not in table.columns:
+        return None
+    lf = table[[f != NOT_OPTIMISED for f in table["feasible"]]]
+    if lf.empty or not (lf["sharp_fraction"] == 1.0).all():
+        return None
+    why = ("the objective maximised it" if objective == "sharp_fraction_union" else
+           "some channel is sharp at every depth")
+    return f"note: sharp (the union's sharp fraction) is 1 for every light field row: {why}"
+
+
+def _compare_text(res: Any, args: argparse.Namespace, constraints: dict[str, Any],
+                  written: list[Path]) -> str:
+    cons = ", ".join(f"{m} {op} {v:g}" for m, (op, v) in constraints.items())
+    note = _compare_note(res.table, args.objective)
+    frame = _compare_frame(res.table, args.wide)
+    lines = [f"splitlf compare: preset {res.preset}; {args.objective}"
+             f"{' (' + args.sense + ')' if args.sense else ''}"
+             f"{'; subject to ' + cons if cons else ''}",
+             _frame_text(frame),
+             *([note] if note else []),
+             *([] if args.wide else ["(--wide: every column, unabbreviated)"]),
+             f"optimised in {res.timing['optimise_s']:.1f} s, evaluated in "
+             f"{res.timing['evaluate_s']:.1f} s",
+             *(str(p) for p in written)]
+    return "\n".join(lines) + "\n"
+
+
+def _write_compare(res: Any, out: Path | None, fig_path: Path | None,
+                   force: bool) -> list[Path]:
     written = []
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
-        with atomic_output(out / "table.csv", force=args.force, hint=FORCE_HINT) as tmp:
+        with atomic_output(out / "table.csv", force=force, hint=FORCE_HINT) as tmp:
             res.table.to_csv(tmp)
-        with atomic_output(out / "curves.csv", force=args.force, hint=FORCE_HINT) as tmp:
+        with atomic_output(out / "curves.csv", force=force, hint=FORCE_HINT) as tmp:
             res.curves.to_csv(tmp, index=False)
         written += [out / "table.csv", out / "curves.csv"]
         for n, d in res.designs.items():
@@ -752,24 +894,46 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 
         fig = Figure(figsize=(9.5, 12.0), layout="constrained")
         plot_compare(res, ax=fig.subplots(3, 1, height_ratios=[3, 2, 1.3]))
-        with atomic_output(fig_path, force=args.force, hint=FORCE_HINT) as tmp:
+        with atomic_output(fig_path, force=force, hint=FORCE_HINT) as tmp:
             fig.savefig(tmp, dpi=150, format=fig_path.suffix[1:])
         written.append(fig_path)
+    return written
+
+
+def _simulate_depth_list(spec: str | None) -> list[float]:
+    sim = []
+    for text in (spec or "").split(","):
+        if text.strip():
+            try:
+                sim.append(_depth(text.strip()))
+            except argparse.ArgumentTypeError as e:
+                raise CliError(f"--simulate-depths: {e}") from None
+    return sim
+
+
+def _cmd_compare(args: argparse.Namespace) -> int:
+    for module in ("scipy", "pandas"):
+        _need(module, "compare", "sweep")
+    from .compare import compare
+
+    names = _compare_names(args.architectures)
+    out, fig_path = _compare_targets(args, names)
+    constraints = dict(parse_constraint(c) for c in args.constraint or [])
+    kwargs = dict(which=names, depths=_optimise_depths(args.depths, "--depths"),
+                  optimise_depths=_optimise_depths(args.optimise_depths, "--optimise-depths"),
+                  window=args.window, optimise_window=args.optimise_window,
+                  maxiter=args.maxiter, popsize=args.popsize, polish=args.polish,
+                  seed=args.seed, simulate_depths=_simulate_depth_list(args.simulate_depths),
+                  threshold_px=args.threshold, n_threads=args.threads)
+    res = _search(compare, args, args.preset, args.objective, args.sense, constraints,
+                  **kwargs)
+    written = _write_compare(res, out, fig_path, args.force)
     if args.json:
         doc = _compare_document(res)
         doc["written"] = [str(p) for p in written]
         sys.stdout.write(json_text(doc))
-        return 0
-    cons = ", ".join(f"{m} {op} {v:g}" for m, (op, v) in constraints.items())
-    lines = [f"splitlf compare: preset {res.preset}; {args.objective}"
-             f"{' (' + args.sense + ')' if args.sense else ''}"
-             f"{'; subject to ' + cons if cons else ''}",
-             res.table.drop(columns=["light_from_rect_twin"]).to_string(
-                 float_format=lambda x: f"{x:.4g}"),
-             f"optimised in {res.timing['optimise_s']:.1f} s, evaluated in "
-             f"{res.timing['evaluate_s']:.1f} s",
-             *(str(p) for p in written)]
-    sys.stdout.write("\n".join(lines) + "\n")
+    else:
+        sys.stdout.write(_compare_text(res, args, constraints, written))
     return 0
 
 
@@ -795,29 +959,60 @@ def _cmd_explore(args: argparse.Namespace) -> int:
     reference = None
     if args.compare is not None:
         reference = (Design.preset(args.compare) if args.compare in PRESETS
-                     else _design_file(args.compare))
-    serve(subject, port=args.port, address=args.address, reference=reference)
+                     else load_design(args.compare))
+    try:
+        serve(subject, port=args.port, address=args.address, reference=reference)
+    except OSError as e:
+        raise CliError(f"--port {args.port}: cannot listen on {args.address}: "
+                       f"{e.strerror or e}") from None
     return 0
 
 
-def _common(p: argparse.ArgumentParser, threads_help: str) -> None:
-    p.add_argument("--config", metavar="FILE.toml",
+# -- option groups, declared once ----------------------------------------------------------
+
+def _design_source(p: argparse.ArgumentParser, what: str) -> None:
+    """The design source: --config FILE (a [camera] or [design] TOML) or --preset NAME."""
+    g = p.add_argument_group("design (default: the seed design)")
+    g.add_argument("--config", metavar="FILE.toml",
                    help="a TOML file with a [camera] table, or a [design] table and its "
-                   "[[design.channels]] (docs/architectures.md); default: the seed design")
-    p.add_argument("--threads", type=_threads, default=None, metavar="N",
-                   help=f"{threads_help} (an integer in [{THREADS_RANGE[0]}, "
-                   f"{THREADS_RANGE[1]}]; default: all cores)")
-
-
-def _preset(p: argparse.ArgumentParser, what: str) -> None:
-    p.add_argument("--preset", choices=PRESETS, default=None, metavar="NAME",
+                   "[[design.channels]] (docs/architectures.md)")
+    g.add_argument("--preset", choices=PRESETS, default=None, metavar="NAME",
                    help=f"{what} a named design instead: {', '.join(PRESETS)} "
                    "(docs/architectures.md)")
 
 
-def _force(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--force", action="store_true",
+def _threads_option(p: argparse.ArgumentParser, what: str) -> None:
+    p.add_argument("--threads", type=_threads, default=None, metavar="N",
+                   help=f"{what} (an integer in [{THREADS_RANGE[0]}, "
+                   f"{THREADS_RANGE[1]}]; default: all cores)")
+
+
+def _output(p: argparse.ArgumentParser, out: str | None, metavar: str = "FILE",
+            default: str | None = None, json_help: str = "print one JSON document") -> None:
+    """The output group: --out (when ``out`` says what it writes), --force, --json
+    (unless ``json_help`` is empty)."""
+    g = p.add_argument_group("output")
+    if out is not None:
+        g.add_argument("--out", default=default, metavar=metavar, help=out)
+    g.add_argument("--force", action="store_true",
                    help="overwrite existing output files (default: refuse)")
+    if json_help:
+        g.add_argument("--json", action="store_true", help=json_help)
+
+
+def _depths_option(p: argparse.ArgumentParser, option: str, default: str, what: str) -> None:
+    p.add_argument(option, default=default, metavar="MIN:MAX:NUM",
+                   help=f"log-spaced depths of {what} [mm] (default {default})")
+
+
+def _scheduler_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="Dask scheduler address, e.g. tcp://host:8786")
+
+
+def _threshold_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--threshold", type=_threshold, default=0.5, metavar="PX",
+                   help="sharpness threshold on the blur radius in pixels (default 0.5)")
 
 
 def _merits_2d_options(p: argparse.ArgumentParser, what: str, default: str) -> None:
@@ -830,25 +1025,20 @@ def _merits_2d_options(p: argparse.ArgumentParser, what: str, default: str) -> N
 def _add_report(sub: Any) -> None:
     p = sub.add_parser(
         "report",
-        help="where the design is sharp and how densely it samples",
-        description="Print where the design (the seed unless --config or --preset) is sharp "
-        "and how densely it samples: its main lens, one line per channel (array plane, "
-        "out-of-focus plane, microlens image radius), the depth of field of each channel "
-        "(half), of their union and of the conventional cameras, and the worst resolution "
-        "of each channel and the union (rect grids). --full adds every channel's fields and "
-        "lens types and the coincidence planes of each channel where docs/model.md §6 "
-        "holds; --json prints all of it as one JSON document.",
+        help="where a design is sharp and how densely it samples",
+        description="Print where the design (the seed design unless --config or --preset) "
+        "is sharp and how densely it samples: a summary of the design, its out-of-focus "
+        "planes, the depth of field of each channel (each half of the split sensor) and of "
+        "their union, and the worst resolution. --full adds every field of every channel, "
+        "its lens types and the coincidence planes where docs/model.md §6 holds.",
     )
-    _common(p, "threads for the coincidence planes and the resolution figures")
-    p.add_argument("--preset", choices=PRESETS, default=None, metavar="NAME",
-                   help=f"report a named design instead: {', '.join(PRESETS)} "
-                   "(docs/architectures.md)")
-    p.add_argument("--json", action="store_true", help="print one JSON document")
+    _design_source(p, "report")
+    _threads_option(p, "threads for the coincidence planes and the resolution figures")
+    _threshold_option(p)
     p.add_argument("--full", action="store_true",
-                   help="also every channel's fields and lens types and the coincidence "
-                   "planes")
-    p.add_argument("--threshold", type=_threshold, default=0.5, metavar="PX",
-                   help="sharpness threshold on the blur radius in pixels (default 0.5)")
+                   help="every field of every channel, its lens types and the coincidence "
+                   "planes (default: the short answer)")
+    _output(p, None)
     p.set_defaults(func=_cmd_report)
 
 
@@ -862,42 +1052,35 @@ def _add_figures(sub: Any) -> None:
                        "type, its microlens images and its sample map. Every option is "
                        "checked, and no existing file is overwritten without --force, "
                        "before the folder is created.")
-    _common(p, "threads of the core for every figure")
-    p.add_argument("--preset", choices=PRESETS, default=None, metavar="NAME",
-                   help=f"draw a named design instead: {', '.join(PRESETS)} "
-                   "(docs/architectures.md)")
+    _design_source(p, "draw")
+    _threads_option(p, "threads of the core for every figure")
     p.add_argument("--z", type=_depth, default=None, metavar="MM",
                    help="depth of the sample map [mm], > F (default: channel 1's "
                    "out-of-focus plane with several channels, twice it with one)")
-    p.add_argument("--out", default="figures", metavar="DIR",
-                   help="output folder, created if missing (default: figures)")
     p.add_argument("--format", choices=("png", "svg"), default="png",
                    help="image format (default: png)")
     p.add_argument("--dpi", type=_dpi, default=150,
                    help=f"resolution in dots per inch, an integer in [{DPI_RANGE[0]}, "
                    f"{DPI_RANGE[1]}] (default 150)")
-    _force(p)
+    _output(p, "output folder, created if missing (default: figures)", "DIR", "figures",
+            json_help="")
     p.set_defaults(func=_cmd_figures)
 
 
 def _add_trace(sub: Any) -> None:
     p = sub.add_parser("trace", help="write every pixel's ray-space polygon to .npz",
-                       description="Trace every pixel of every channel (the split "
-                       "sensor's halves are channels 1 and 2) along one axis (docs/model.md "
-                       "§3-4) and write the arrays of splitlf.trace, prefixed channel1_, "
-                       "channel2_, ..., with the design as its TOML (toml), to an .npz file. "
-                       "Rect grids only.")
-    _common(p, "threads of the trace")
-    p.add_argument("--preset", choices=PRESETS, default=None, metavar="NAME",
-                   help=f"trace a named design instead: {', '.join(PRESETS)} "
-                   "(docs/architectures.md; rect grids only)")
+                       description="Trace every pixel of both halves along one axis "
+                       "(docs/model.md §3-4) and write the arrays of splitlf.trace, prefixed "
+                       "half1_/half2_, with the camera as TOML, to an .npz file. A general "
+                       "design with rect grids (--preset, or a --config file with a "
+                       "[design] table) is traced channel by channel, prefixed channel1_, "
+                       "channel2_, ..., with the design as TOML (design_toml).")
+    _design_source(p, "trace")
+    _threads_option(p, "threads of the trace")
     p.add_argument("--axis", choices=("x", "y"), default="x",
                    help="the sensor axis traced (default: x)")
-    p.add_argument("--out", default="trace.npz", metavar="FILE.npz",
-                   help="output file (default: trace.npz)")
-    p.add_argument("--json", action="store_true",
-                   help="print a JSON summary of the arrays instead of the path")
-    _force(p)
+    _output(p, "output file (default: trace.npz)", "FILE.npz", "trace.npz",
+            "print a JSON summary of the arrays instead of the path")
     p.set_defaults(func=_cmd_trace)
 
 
@@ -909,20 +1092,16 @@ def _add_sweep(sub: Any) -> None:
                        "the grid names by path (\"channels[2].L\" = [...]; "
                        "docs/architectures.md). Without a base in the file: --preset, "
                        "--config, or the seed design.")
-    _common(p, "threads of the core for in-process sweeps")
-    _preset(p, "sweep around")
+    _design_source(p, "sweep around")
+    _threads_option(p, "threads of the core for in-process sweeps")
     p.add_argument("--grid", required=True, metavar="SWEEP.toml",
                    help="the sweep file: [grid], [depths], [options], [camera] or [design]")
-    p.add_argument("--scheduler", metavar="ADDRESS",
-                   help="Dask scheduler address, e.g. tcp://host:8786")
-    p.add_argument("--out", metavar="FILE",
-                   help="write the sweep to .nc (NetCDF), .parquet or .json")
-    p.add_argument("--json", action="store_true",
-                   help="print the designs as JSON records (with --out: as well)")
+    _scheduler_option(p)
     _merits_2d_options(p, "also compute the 2-D merits (covering radius, distinct 2-D "
                        "samples; a 2-D analysis per depth: slower); also [options] "
                        "merits_2d = true", "default 16, or [options] window")
-    _force(p)
+    _output(p, "write the sweep to .nc (NetCDF), .parquet or .json",
+            json_help="print the designs as JSON records (with --out: as well)")
     p.set_defaults(func=_cmd_sweep)
 
 
@@ -934,8 +1113,8 @@ def _add_simulate(sub: Any) -> None:
                        "with rect grids (--preset, or a --config file with a [design] "
                        "table) is simulated per channel, for their union and for the "
                        "conventional camera on channel 1's array plane.")
-    _common(p, "threads of the core")
-    _preset(p, "simulate")
+    _design_source(p, "simulate")
+    _threads_option(p, "threads of the core")
     where = p.add_mutually_exclusive_group()
     where.add_argument("--z", type=_depth, default=1000.0, metavar="MM",
                        help="depth of the plane in mm (default 1000)")
@@ -953,10 +1132,10 @@ def _add_simulate(sub: Any) -> None:
     p.add_argument("--seed", type=_seed, default=0,
                    help="seed of the random texture and the noise, an integer >= 0 "
                    "(default 0)")
-    p.add_argument("--json", action="store_true",
-                   help="print one JSON document (with --out: as well)")
-    p.add_argument("--out", metavar="FILE.json", help="write the JSON document to a file")
-    _force(p)
+    p.add_argument("--no-conventional", action="store_true",
+                   help="leave out the conventional camera (only the light field rows)")
+    _output(p, "write the JSON document to a file", "FILE.json",
+            json_help="print one JSON document (with --out: as well)")
     p.set_defaults(func=_cmd_simulate)
 
 
@@ -967,8 +1146,8 @@ def _add_optimise(sub: Any) -> None:
                        "locally, for the design that optimises a figure of merit subject to "
                        "constraints (docs/optimise.md); write it as a TOML that report "
                        "--config reads (a [design] file for a design base).")
-    _common(p, "threads of the core for in-process evaluation")
-    _preset(p, "optimise around")
+    _design_source(p, "optimise around")
+    _threads_option(p, "threads of the core for in-process evaluation")
     p.add_argument("--free", action="append", required=True, metavar="NAME=LOW:HIGH",
                    help="a free field and its bounds (repeat; a camera field such as kappa, "
                    "or a design's by path such as channels[2].L; counts such as Q are "
@@ -979,8 +1158,7 @@ def _add_optimise(sub: Any) -> None:
                    help="maximise or minimise (default: the merit's natural direction)")
     p.add_argument("--constraint", action="append", metavar="MERIT<=VALUE",
                    help="a constraint MERIT<=VALUE or MERIT>=VALUE (repeat)")
-    p.add_argument("--depths", default="150:10000:200", metavar="MIN:MAX:NUM",
-                   help="log-spaced scene depths of the merits [mm] (default 150:10000:200)")
+    _depths_option(p, "--depths", "150:10000:200", "the merits")
     p.add_argument("--min-microlens-f-number", type=_f_number, default=None, metavar="N",
                    help="manufacturable floor on the microlens f-number f_i/d")
     p.add_argument("--seed", type=_seed, default=0, help="seed of the search (default 0)")
@@ -989,17 +1167,14 @@ def _add_optimise(sub: Any) -> None:
     p.add_argument("--popsize", type=_integer_type("population multiplier", 1, 10_000),
                    default=15, help="population per free field (default 15)")
     p.add_argument("--no-polish", action="store_true", help="skip the local polish")
-    p.add_argument("--scheduler", metavar="ADDRESS",
-                   help="Dask scheduler address, e.g. tcp://host:8786")
-    p.add_argument("--out", metavar="BEST.toml",
-                   help="write the best design ([camera] TOML, [design] for a design base)")
+    _scheduler_option(p)
     p.add_argument("--history", metavar="FILE",
                    help="write every evaluated candidate to .csv or .parquet")
-    p.add_argument("--json", action="store_true", help="print one JSON document")
     _merits_2d_options(p, "compute and report the 2-D merits even when neither the "
                        "objective nor a constraint names one (they are computed when one "
                        "does)", "default 16")
-    _force(p)
+    _output(p, "write the best design ([camera] TOML, [design] for a design base)",
+            "BEST.toml")
     p.set_defaults(func=_cmd_optimise)
 
 
@@ -1029,11 +1204,8 @@ def _add_compare(sub: Any) -> None:
     p.add_argument("--architectures", default=None, metavar="A,B,...",
                    help=f"a comma-separated subset of {','.join(ARCHITECTURES)} "
                    "(default: all)")
-    p.add_argument("--depths", default="150:10000:60", metavar="MIN:MAX:NUM",
-                   help="log-spaced depths of the evaluation [mm] (default 150:10000:60)")
-    p.add_argument("--optimise-depths", default="150:10000:12", metavar="MIN:MAX:NUM",
-                   help="log-spaced depths of the merits inside the search [mm] "
-                   "(default 150:10000:12)")
+    _depths_option(p, "--depths", "150:10000:60", "the evaluation")
+    _depths_option(p, "--optimise-depths", "150:10000:12", "the merits inside the search")
     p.add_argument("--window", type=_real_type("window", 0.0, "a finite number > 0"),
                    default=16.0, metavar="PITCHES",
                    help="central field of the evaluation's covering radius, in lens "
@@ -1050,20 +1222,16 @@ def _add_compare(sub: Any) -> None:
     p.add_argument("--seed", type=_seed, default=0, help="seed of the search (default 0)")
     p.add_argument("--simulate-depths", default=None, metavar="Z1,Z2,...",
                    help="depths [mm] of the super-resolution MTF50 columns (default none)")
-    p.add_argument("--threshold", type=_threshold, default=0.5, metavar="PX",
-                   help="sharpness threshold on the blur radius in pixels (default 0.5)")
-    p.add_argument("--threads", type=_threads, default=None, metavar="N",
-                   help=f"threads of the core (an integer in [{THREADS_RANGE[0]}, "
-                   f"{THREADS_RANGE[1]}]; default: all cores)")
-    p.add_argument("--scheduler", metavar="ADDRESS",
-                   help="Dask scheduler address, e.g. tcp://host:8786")
-    p.add_argument("--out", metavar="DIR",
-                   help="write table.csv, curves.csv and one NAME.toml per optimised design "
-                   "into this folder (created if missing)")
+    _threshold_option(p)
+    _threads_option(p, "threads of the core")
+    _scheduler_option(p)
     p.add_argument("--figure", metavar="FILE.png",
                    help="write the comparison figure (splitlf.plot.compare), .png or .svg")
-    p.add_argument("--json", action="store_true", help="print one JSON document")
-    _force(p)
+    p.add_argument("--wide", action="store_true",
+                   help="print every column of the table, unabbreviated (default: the most "
+                   f"useful columns, fitting {COMPARE_WIDTH} characters)")
+    _output(p, "write table.csv, curves.csv and one NAME.toml per optimised design into "
+            "this folder (created if missing)", "DIR")
     p.set_defaults(func=_cmd_compare)
 
 
@@ -1073,10 +1241,7 @@ def _add_explore(sub: Any) -> None:
                        "web app, for a preset, a [design] or [camera] TOML file, or the seed "
                        "design, and print its URL. It binds 127.0.0.1 and accepts only pages "
                        "and websockets addressed to it. Ctrl-C stops it.")
-    p.add_argument("--config", metavar="FILE.toml",
-                   help="a [design] or [camera] TOML file (default: the seed design)")
-    p.add_argument("--preset", choices=PRESETS, default=None, metavar="NAME",
-                   help=f"start from a named design: {', '.join(PRESETS)}")
+    _design_source(p, "start from")
     p.add_argument("--port", type=_integer_type("port", 0, 65535), default=5006,
                    help="TCP port, an integer in [0, 65535]; 0 picks a free one (default 5006)")
     p.add_argument("--compare", default=None, metavar="NAME|FILE.toml",
@@ -1110,10 +1275,16 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         return args.func(args)
+    except KeyboardInterrupt:
+        print(f"splitlf {args.command}: interrupted", file=sys.stderr)
+        return 130
     except BrokenPipeError:
         # The reader went away (e.g. `splitlf report | head`): not an error of ours.
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
+    except FileNotFoundError as e:
+        print(f"splitlf {args.command}: error: no such file: {e.filename}", file=sys.stderr)
+        return 2
     except USER_ERRORS as e:
         msg = " ".join(str(e).split()) or type(e).__name__
         print(f"splitlf {args.command}: error: {msg}", file=sys.stderr)

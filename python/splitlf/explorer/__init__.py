@@ -11,6 +11,7 @@ neither connect nor embed it.
 from __future__ import annotations
 
 import asyncio
+import atexit
 import ipaddress
 import socket
 import threading
@@ -48,6 +49,7 @@ class Running:
 
     def __init__(self, url: str, server: Any, thread: threading.Thread) -> None:
         self.url, self.server, self.thread = url, server, thread
+        atexit.register(self.stop)  # the interpreter's exit stops the server cleanly
 
     def __repr__(self) -> str:
         return f"<splitlf explorer at {self.url}>"
@@ -59,7 +61,11 @@ class Running:
                 f'height="{self.height}" style="border:0" title="splitlf explorer"></iframe>')
 
     def stop(self) -> None:
-        """Stop the server and wait for its thread."""
+        """Stop the server and wait for its thread (again: nothing; also at interpreter
+        exit)."""
+        atexit.unregister(self.stop)
+        if not self.thread.is_alive():
+            return
         loop = self.server.io_loop
 
         def halt() -> None:
@@ -92,19 +98,23 @@ def serve(design: Any = None, *, port: int = 0, address: str = LOOPBACK,
     :class:`~splitlf.Camera`; default the seed preset) on ``address:port`` (``port=0``:
     a free port) and print its URL. ``threaded=True`` returns a :class:`Running` server at
     once (``.url``, ``.stop()``); otherwise blocks until interrupted. Each browser session
-    gets its own copy of the design. ``reference`` (a Design or Camera) is drawn beside
-    it on the same axes (the page can also pin its current design as the reference)."""
+    gets its own copy of the design. The URL is printed once the server listens (a port
+    in use is an ``OSError`` before it); the server stops at interpreter exit.
+    ``reference`` (a Design or Camera) is drawn beside it on the same axes (the page can
+    also pin its current design as the reference)."""
     from bokeh.application import Application
     from bokeh.application.handlers.function import FunctionHandler
     from bokeh.server.server import Server
 
-    from .. import _validate
     from ..design import Design
     from .app import Explorer
 
     def as_design(value: Any, what: str) -> Design:
-        # the page edits the general design's fields (a Camera's is its two channels)
-        return _validate.design(value, what).design
+        """The general form of a design (a Camera is a Design: its two-channel form)."""
+        if not isinstance(value, Design):
+            raise TypeError(f"{what} must be a splitlf.Design or a splitlf.Camera, got "
+                            f"{type(value).__name__}")
+        return value.design
 
     design = as_design(Design.preset("seed") if design is None else design, "design")
     ref = None if reference is None else as_design(reference, "reference")
@@ -129,11 +139,16 @@ def serve(design: Any = None, *, port: int = 0, address: str = LOOPBACK,
         _refuse_other_hosts(server, address)
         return server
 
-    print(f"splitlf explorer: {url}", flush=True)
     if not threaded:
-        server = make()
+        server = make()  # binds the port: an OSError here, before the URL is printed
         server.start()
-        server.io_loop.start()
+        print(f"splitlf explorer: {url}", flush=True)
+        atexit.register(server.stop)
+        try:
+            server.io_loop.start()
+        finally:
+            atexit.unregister(server.stop)
+            server.stop()
         return server
     holder: list[Any] = []
     errors: list[BaseException] = []
@@ -157,4 +172,5 @@ def serve(design: Any = None, *, port: int = 0, address: str = LOOPBACK,
     ready.wait(60)
     if errors:
         raise errors[0]
+    print(f"splitlf explorer: {url}", flush=True)
     return Running(url, holder[0], thread)
