@@ -395,11 +395,9 @@ def _sweep_options(path: str, opts: Any) -> dict[str, Any]:
         DEFAULT_THRESHOLD_PX,
         DEFAULT_TOL,
         DEFAULT_WINDOW,
-        _merits_2d,
         _options_2d,
         _threshold,
         _tol,
-        _window,
     )
 
     def check(threshold_px: Any, tol: Any, merits_2d: Any, window: Any) -> None:
