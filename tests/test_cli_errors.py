@@ -230,8 +230,6 @@ def test_simulate_no_conventional(capsys):
 
 def _comparison_table():
     pd = pytest.importorskip("pandas")
-    from splitlf.compare import NOT_OPTIMISED
-
     cols = ["channels", "pixels", "shares", "sharp_fraction", "covering_radius_worst",
             "covering_radius_median", "distinct_2d_median", "field_at_1m_mm",
             "light_per_pixel", "light_from_rect_twin", "light_relative", "out_of_focus_mm",
@@ -244,7 +242,7 @@ def _comparison_table():
     tab.index.name = "architecture"
     tab.loc["conventional", "sharp_fraction"] = 0.1
     tab.insert(0, "feasible", pd.Series({n: True for n in rows} |
-                                        {"conventional": NOT_OPTIMISED}, dtype=object))
+                                        {"conventional": pd.NA}, dtype="boolean"))
     tab.insert(1, "objective", pd.Series({n: 1.0 for n in rows} |
                                          {"conventional": np.nan}, dtype=float))
     return tab
@@ -261,7 +259,7 @@ def test_compare_table_fits_100_columns_unless_wide():
     text = _compare_text(res, args, {}, [])
     assert max(map(len, text.splitlines())) <= 100
     conv = next(ln for ln in text.splitlines() if ln.startswith("conventional"))
-    assert conv.split()[1] == "-" and "not optimised" not in text and "None" not in text
+    assert conv.split()[1] == "-" and "<NA>" not in text and "None" not in text
     assert ("note: sharp (the union's sharp fraction) is 1 for every light field row: the "
             "objective maximised it") in text
     args.wide = True

@@ -820,12 +820,10 @@ COMPARE_WIDTH = 100
 def _compare_frame(table: Any, wide: bool) -> Any:
     """The comparison table to print: every column (``wide``), or the most useful ones,
     abbreviated, as many as fit :data:`COMPARE_WIDTH` columns; the conventional row's
-    feasible ("not optimised") shows as "-"."""
-    from .compare import NOT_OPTIMISED
-
+    feasible (not applicable: <NA>) shows as "-"."""
     tab = table.drop(columns=["light_from_rect_twin"], errors="ignore").copy()
     if "feasible" in tab.columns:
-        tab["feasible"] = [("-" if f == NOT_OPTIMISED else f) for f in tab["feasible"]]
+        tab["feasible"] = [_feasible_text(f) for f in tab["feasible"]]
     if wide:
         return tab
     keep = [c for c in [*COMPARE_COLUMNS, *(c for c in tab.columns if c.startswith("mtf50_"))]
@@ -841,13 +839,19 @@ def _frame_text(frame: Any) -> str:
     return str(frame.to_string(float_format=lambda x: f"{x:.4g}"))
 
 
+def _feasible_text(value: Any) -> str:
+    """A comparison row's feasible: True, False, or "-" where it does not apply (the
+    conventional camera is not searched: pandas' <NA>)."""
+    import pandas as pd
+
+    return "-" if pd.isna(value) else str(bool(value))
+
+
 def _compare_note(table: Any, objective: str) -> str | None:
     """Why the union's sharp fraction is 1 for every light field row, when it is."""
-    from .compare import NOT_OPTIMISED
-
     if "sharp_fraction" not in table.columns or "feasible" not in table.columns:
         return None
-    lf = table[[f != NOT_OPTIMISED for f in table["feasible"]]]
+    lf = table[[_feasible_text(f) != "-" for f in table["feasible"]]]
     if lf.empty or not (lf["sharp_fraction"] == 1.0).all():
         return None
     why = ("the objective maximised it" if objective == "sharp_fraction_union" else
