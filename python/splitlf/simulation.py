@@ -63,7 +63,7 @@ MAX_PHOTONS = 1e15
 MAX_POISSON_MEAN = 1e18
 
 
-def _scipy():
+def _scipy() -> tuple[types.ModuleType, types.ModuleType, types.ModuleType]:
     try:
         import scipy.linalg as sla
         import scipy.sparse as sp
@@ -146,7 +146,7 @@ def forward(design: Design, z: float, source: str, origin: float, step: float,
 
 def system_matrix(design: Design, z: float, source: str, origin: float, step: float,
                   n_cells: int, field: tuple[float, float] | None = None,
-                  n_threads: int | None = None):
+                  n_threads: int | None = None) -> tuple[Any, np.ndarray]:
     """The sparse system matrix (``scipy.sparse.csr_matrix``, pixels x cells) of ``source``
     on the plane at depth ``z``: entry (p, k) is the exact integral of pixel p's kernel over
     cell k (assembled in the core), in the units of :func:`forward`. Returns (matrix,
@@ -174,7 +174,7 @@ def _real(value: Any, name: str) -> float:
         try:
             return float(value)
         except OverflowError:
-            return math.inf if value > 0 else -math.inf
+            return -math.inf if value < 0 else math.inf
     return _validate.real(value, name)
 
 
