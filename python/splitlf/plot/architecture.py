@@ -3,6 +3,7 @@ images on the sensor, and the 2-D sample map on a plane at depth z."""
 
 from __future__ import annotations
 
+import math
 import numbers
 from typing import Any
 
@@ -28,9 +29,10 @@ def _design(design: Any) -> Any:
 def _positive_int(name: str, value: Any, hi: int) -> int:
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
         raise TypeError(f"{name} must be an integer, got {type(value).__name__} {value!r}")
-    if not 1 <= value <= hi:
-        raise InvalidParameter.of(name, int(value), f"an integer in [1, {hi}]")
-    return int(value)
+    n = int(value)
+    if not 1 <= n <= hi:
+        raise InvalidParameter.of(name, n, f"an integer in [1, {hi}]")
+    return n
 
 
 def _crop(shape: tuple[int, int], half: tuple[int, int]) -> tuple[slice, slice]:
@@ -42,7 +44,7 @@ def _crop(shape: tuple[int, int], half: tuple[int, int]) -> tuple[slice, slice]:
 
 
 def microlens_images(design: Any, channel: int | None = None, lenses: int = 6, ax: Any = None,
-                     *, n_threads: int | None = None):
+                     *, n_threads: int | None = None) -> Any:
     """The pixels of the centre of a channel's sensor: each lit pixel coloured by the
     type of the lens it belongs to (docs/model.md §9, lens types), unlit pixels grey,
     and a dark line between neighbouring pixels of different lenses (the image cells).
@@ -132,7 +134,7 @@ def _cell_edges(lens: np.ndarray, x0: int, y0: int) -> Any:
     r, c = np.nonzero(np.any(lens[1:, :] != lens[:-1, :], axis=-1))  # between r and r + 1
     y = y0 + r + 0.5
     segs.append(np.stack([np.stack([x0 + c - 0.5, y], -1), np.stack([x0 + c + 0.5, y], -1)], 1))
-    return LineCollection(np.concatenate(segs), colors=[BOUNDARY], linewidths=1.0)
+    return LineCollection(list(np.concatenate(segs)), colors=[BOUNDARY], linewidths=1.0)
 
 
 def _rgb(name: str) -> tuple[float, float, float]:
@@ -145,7 +147,7 @@ MARKERS = ("o", "x", "+", "^", "s", "v")
 
 
 def sample_map(design: Any, z: float | None = None, ax: Any = None, *, tol: float = 1e-6,
-               window: float = 16.0, zoom: float = 2.0, n_threads: int | None = None):
+               window: float = 16.0, zoom: float = 2.0, n_threads: int | None = None) -> Any:
     """The 2-D chief samples of every channel on the plane at depth ``z`` (docs/model.md
     §9): each channel's distinct samples (one colour and marker per channel) in units of
     delta(z), in a box of ``zoom`` lens pitches of channel 1 about the axis, with the
@@ -212,6 +214,10 @@ def sample_map(design: Any, z: float | None = None, ax: Any = None, *, tol: floa
 def _real(name: str, value: Any) -> float:
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise TypeError(f"{name} must be a real number, got {type(value).__name__} {value!r}")
-    if not np.isfinite(value):
-        raise InvalidParameter.of(name, float(value), "a finite number > 0")
-    return float(value)
+    try:
+        x = float(value)
+    except OverflowError:  # an integer beyond the float range
+        x = -math.inf if value < 0 else math.inf
+    if not math.isfinite(x):
+        raise InvalidParameter.of(name, x, "a finite number > 0")
+    return x

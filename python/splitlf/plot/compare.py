@@ -31,7 +31,7 @@ def _cell(value: Any, fmt: str) -> str:
     return fmt.format(value)
 
 
-def compare(result: Any, ax: Any = None, *, table: bool = True):
+def compare(result: Any, ax: Any = None, *, table: bool = True) -> Any:
     """The covering radius of the union of channels against depth for every architecture
     of a :class:`splitlf.compare.Comparison`: in mm on the plane (log-log) and, below it,
     in units of each design's delta(z) = mu z / L_1 (which normalises the field of view),

@@ -21,7 +21,8 @@ DEPTH_COLOURS = ("#d62728", "#2ca02c", "#1f5fd6")
 MORE_CHANNEL_COLOURS = ("#b07cc6", "#c49c94", "#e377c2", "#bcbd22", "#17becf")
 
 
-def _polygons(tr, keep):
+def _polygons(tr: rayspace.Trace, keep: np.ndarray) -> list[np.ndarray]:
+    """The integration polygons of the pixels ``keep`` (a boolean mask) of ``tr``."""
     return [tr.vertices[i, : tr.n_vertices[i]] for i in np.flatnonzero(keep)]
 
 

@@ -51,7 +51,7 @@ def resolution(
     window: int = 256,
     n_frequencies: int = 32,
     n_threads: int | None = None,
-):
+) -> tuple[Any, Any]:
     """MTF50 (top, cycles/mm on the object, log-log) and RMSE of a random albedo (bottom)
     against depth for each channel alone (the seed: half 1, half 2), their union (the
     split sensor) and the conventional camera on channel 1's array plane, with the delta(z)

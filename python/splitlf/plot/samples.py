@@ -40,7 +40,7 @@ def samples(
     max_n: int = 2,
     tol: float = 1e-6,
     n_threads: int | None = None,
-):
+) -> tuple[Any, Any]:
     """Distinct samples (top) and max gap in units of delta(z) (bottom) against log depth,
     for each channel (the seed: half 1, half 2) and their union (the split sensor), with
     the out-of-focus planes (dashed vertical lines) and the coincidence planes N <=
