@@ -31,21 +31,18 @@ from bokeh.core.property.descriptors import UnsetValueError
 from bokeh.document import Document
 from bokeh.events import Tap
 from bokeh.layouts import column, row
-from bokeh.models import (
+from bokeh.models import ColumnDataSource, CustomJS, FactorRange, Range1d, TabPanel, Tabs
+
+# the defining subpackages: mypy cannot follow bokeh.models' computed __all__ to these
+from bokeh.models.annotations import LegendItem, Span, Title
+from bokeh.models.widgets import (
     Button,
-    ColumnDataSource,
-    CustomJS,
     DataTable,
     Div,
-    FactorRange,
     FileInput,
-    Range1d,
     Select,
     Slider,
-    Span,
     TableColumn,
-    TabPanel,
-    Tabs,
     TextInput,
 )
 from bokeh.palettes import Category10_10
@@ -141,6 +138,22 @@ def _nice_ceiling(x: float) -> float:
     return float(next(m * p for m in (1.0, 2.0, 2.5, 5.0, 10.0) if m * p >= x * (1 - 1e-12)))
 
 
+def _title(fig: figure) -> Title:
+    """A figure's title model (Bokeh makes one of the title string it is given)."""
+    title = fig.title
+    if not isinstance(title, Title):
+        raise TypeError(f"the figure's title is {title!r}, not a bokeh Title")
+    return title
+
+
+def _last_legend_item(fig: figure) -> LegendItem:
+    """The item the last ``legend_label=`` glyph added to ``fig``'s legend."""
+    item = fig.legend.items[-1]
+    if not isinstance(item, LegendItem):
+        raise TypeError(f"the legend's last item is {item!r}, not a bokeh LegendItem")
+    return item
+
+
 def _grid(items: list[Any], per_row: int = PER_ROW) -> Any:
     return column(*[row(*items[i:i + per_row]) for i in range(0, len(items), per_row)])
 
@@ -177,7 +190,8 @@ class Explorer:
     # -- layout --------------------------------------------------------------------------
     def _build_controls(self) -> None:
         self.banner = Div(text="", visible=False, width=540)
-        self.preset = Select(title="preset", options=["custom", *PRESETS],
+        presets: list[str | tuple[Any, str]] = ["custom", *PRESETS]
+        self.preset = Select(title="preset", options=presets,
                              value=self._preset_of(self.design), width=150)
         self.preset.on_change("value", self._on_preset)
         self.load = FileInput(title="load TOML", accept=".toml", multiple=False, width=230)
@@ -228,8 +242,10 @@ class Explorer:
         self.layout = row(controls, views, sizing_mode="stretch_width")
 
     def _text_widget(self, field: Field, key: str, value: str) -> Any:
+        w: Select | TextInput
         if field.kind == "choice":
-            w = Select(title=field.label, options=list(field.choices), value=value,
+            choices: list[str | tuple[Any, str]] = list(field.choices)
+            w = Select(title=field.label, options=choices, value=value,
                        description=field.help, width=CONTROL_WIDTH - 5)
         else:
             # The placeholder (the key) names the input for people and for the tests.
@@ -275,10 +291,11 @@ class Explorer:
         self.distinct_src = ColumnDataSource(dict(nothing), name="distinct")
         self.cover_src = ColumnDataSource(dict(nothing), name="covering_radius")
         # Fixed left borders: the figures keep their layout when their tick labels change.
+        self.blur_y_range = Range1d(start=0, end=10)
         f = figure(title="Blur against depth (Fig. 1); dashed: conventional cameras",
                    x_axis_type="log", height=300, sizing_mode="stretch_width", tools=tools,
                    x_axis_label="depth z [mm]", y_axis_label="blur radius [px]",
-                   y_range=Range1d(0, 10), min_border_left=70)
+                   y_range=self.blur_y_range, min_border_left=70)
         f.multi_line("xs", "ys", color="color", legend_field="label", line_width=2,
                      source=self.blur_src)
         f.multi_line("xs", "ys", color="color", line_dash="dashed", source=self.conv_src)
@@ -287,9 +304,10 @@ class Explorer:
         f.add_layout(self.threshold_span)
         f.legend.location = "top_right"
         self.blur_fig = f
+        self.dof_y_range = FactorRange()
         d = figure(title="Depth of field: sharp intervals (blur < threshold)",
                    x_axis_type="log", height=170, sizing_mode="stretch_width",
-                   x_range=f.x_range, y_range=FactorRange(), tools="xpan,xwheel_zoom,reset",
+                   x_range=f.x_range, y_range=self.dof_y_range, tools="xpan,xwheel_zoom,reset",
                    x_axis_label="depth z [mm]", min_border_left=70)
         d.hbar(y="row", left="left", right="right", height=0.6, color="color",
                source=self.dof_src)
@@ -307,7 +325,7 @@ class Explorer:
         s.multi_line("xs", "ys", color="color", legend_field="label", line_width=1.5,
                      source=self.gap_distinct_src)
         s.scatter("x", "y", color="color", size=6, source=self.distinct_src)
-        s.title.text_font_size = "11px"
+        _title(s).text_font_size = "11px"
         self.distinct_fig = s
         c = figure(title=GAP_TITLE, x_axis_type="log", height=270,
                    sizing_mode="stretch_width", tools=tools, x_range=s.x_range,
@@ -315,7 +333,7 @@ class Explorer:
         c.multi_line("xs", "ys", color="color", legend_field="label", line_width=1.5,
                      source=self.gap_src)
         c.scatter("x", "y", color="color", size=6, source=self.cover_src)
-        c.title.text_font_size = "11px"
+        _title(c).text_font_size = "11px"
         self.cover_fig = c
         # The report as a table of a data source, and the status (which design each view
         # shows) as a data source: changing either sends data, never re-lays the page out.
@@ -366,12 +384,12 @@ class Explorer:
         self.ref_gap_src = ColumnDataSource(dict(empty), name="reference_max_gap")
         self.ref_distinct_src = ColumnDataSource(dict(nothing), name="reference_distinct")
         self.ref_cover_src = ColumnDataSource(dict(nothing), name="reference_covering_radius")
-        self._ref_items = []
+        self._ref_items: list[LegendItem] = []
         for fig, src in ((f, self.ref_blur_src), (s, self.ref_gap_distinct_src),
                          (c, self.ref_gap_src)):
             fig.multi_line("xs", "ys", color=REFERENCE_COLOR, line_dash="dashed",
                            line_width=1.5, legend_label="reference", source=src)
-            self._ref_items.append(fig.legend.items[-1])
+            self._ref_items.append(_last_legend_item(fig))
             self._ref_items[-1].visible = self.reference is not None
         for fig, src in ((s, self.ref_distinct_src), (c, self.ref_cover_src)):
             fig.scatter("x", "y", color=REFERENCE_COLOR, size=6, marker="diamond",
@@ -380,7 +398,8 @@ class Explorer:
             fig.legend.location = "bottom_right" if fig is s else "top_right"
             fig.legend.label_text_font_size = "10px"
             fig.legend.background_fill_alpha = 0.6
-            fig.legend.padding = 4
+            # bokeh's stub types Legend.padding as its Property, not the property's value
+            fig.legend.padding = 4  # type: ignore[assignment]
             fig.legend.spacing = 0
             fig.legend.click_policy = "hide"
 
@@ -541,8 +560,8 @@ class Explorer:
                    gen: int) -> None:
         self.gap_distinct_src.data = _lines(gap["z"], gap["rows"], gap["distinct"])
         title = gap["note"] or DISTINCT_TITLE  # why the 1-D lines are absent, if they are
-        if self.distinct_fig.title.text != title:
-            self.distinct_fig.title.text = title
+        if _title(self.distinct_fig).text != title:
+            _title(self.distinct_fig).text = title
         self.gap_src.data = _lines(gap["z"], gap["rows"], gap["max_gap"])
         if ref_gap is None:
             if self.ref_gap_src.data["label"]:
@@ -581,14 +600,14 @@ class Explorer:
         bp = np.asarray(blur["blur_px"], dtype=float)
         top = float(np.nanmax(np.where(np.isfinite(bp), bp, np.nan))) if bp.size else 1.0
         end = _nice_ceiling(max(1.2 * top, 1.5 * blur["threshold_px"]))
-        if self.blur_fig.y_range.end != end:
-            self.blur_fig.y_range.end = end
+        if self.blur_y_range.end != end:
+            self.blur_y_range.end = end
         self.threshold_span.location = blur["threshold_px"]
         rows = list(blur["dof_rows"])
         zmax = float(z[-1])
         colors = {r: Category10_10[i % 10] for i, r in enumerate(rows)}
         colors["reference"] = REFERENCE_COLOR
-        self.dof_fig.y_range.factors = rows[::-1]
+        self.dof_y_range.factors = rows[::-1]
         self.dof_src.data = {
             "row": [r for r, _, _ in blur["dof"]],
             "left": [max(a, float(z[0])) for _, a, _ in blur["dof"]],
@@ -692,7 +711,7 @@ class Explorer:
                              "color": color, "label": label}
         union = (f"; {m['rows'][-1]}: {m['distinct'][-1]} distinct, "
                  f"ρ = {m['covering_radius'][-1]:.3g} δ" if len(m["rows"]) > 2 else "")
-        self.map_fig.title.text = (f"2-D samples at z = {m['z']:.5g} mm "
+        _title(self.map_fig).text = (f"2-D samples at z = {m['z']:.5g} mm "
                                    f"(δ = {m['delta_mm'] * 1e3:.3g} µm){union}")
 
     def _compute_rays(self, design: Design, channel: int) -> Any:
@@ -704,7 +723,7 @@ class Explorer:
             "color": [model_color(t) for t in r["type"]]}
         h = r["half_aperture"]
         self.aperture_spans[0].location, self.aperture_spans[1].location = -h, h
-        self.rays_fig.title.text = r["note"] or (
+        _title(self.rays_fig).text = r["note"] or (
             f"Ray space of channel {channel} (Fig. 4): pixels under the {model.RAY_LENSES} "
             "central microlenses")
 
@@ -713,7 +732,7 @@ class Explorer:
         ny, nx = rgba.shape
         self.sensor_src.data = {"image": [rgba], "x": [im["x0"] - 0.5], "y": [im["y0"] - 0.5],
                                 "dw": [nx], "dh": [ny]}
-        self.sensor_fig.title.text = (f"Microlens images, channel {channel}: {im['lit']} of "
+        _title(self.sensor_fig).text = (f"Microlens images, channel {channel}: {im['lit']} of "
                                       f"{im['pixels']} pixels shown are lit")
 
     def _apply_samples(self, data: dict[str, Any], ref: dict[str, Any] | None,
