@@ -26,7 +26,7 @@ import dataclasses
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
-from typing import Any, cast
+from typing import Any
 
 import numpy as np
 
@@ -596,7 +596,7 @@ def compare(preset: str, objective: str | Callable[[dict[str, float]], float],
                        seed=seed, executor=executor, progress=progress, maxiter=maxiter,
                        popsize=popsize, polish=polish, threshold_px=threshold_px, tol=tol,
                        n_threads=n_threads, de_options=de_options, **extra)
-        designs[n], results[n] = cast(Design, res.design), res  # a Design base's result
+        designs[n], results[n] = res.design, res
         status[n] = (res.feasible, res.objective)
     t1 = time.perf_counter()
     table, crv = evaluate(designs, z_eval, conventional=[n for n in names

@@ -37,7 +37,7 @@ DEFAULT_TOL: float = _native.DEFAULT_TOL
 DEFAULT_WINDOW: float = _native.DEFAULT_WINDOW
 #: Options of the MTF50 simulations (noise-free, random albedo): a 128-cell window, 16 test
 #: frequencies, 4x oversampling (docs/compare.md, "Budget").
-SIMULATE_OPTIONS = {"window": 128, "n_frequencies": 16, "oversample": 4}
+SIMULATE_OPTIONS: dict[str, Any] = {"window": 128, "n_frequencies": 16, "oversample": 4}
 
 _DOCS = {
     "sharp_fraction": "share of [min, max] depth (log) where {row} is sharp (light field "
@@ -141,8 +141,8 @@ def _real_option(value: Any, name: str, allowed: str, ok: Callable[[float], bool
         raise TypeError(f"{name} must be a real number, got {type(value).__name__} {value!r}")
     try:
         x = float(value)
-    except OverflowError:
-        x = math.inf if value > 0 else -math.inf
+    except OverflowError:  # an integer (or a Fraction) beyond the float range
+        x = -math.inf if value < 0 else math.inf
     if not ok(x):
         raise InvalidParameter.of(name, x, allowed)
     return x

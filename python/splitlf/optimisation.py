@@ -37,6 +37,7 @@ from .evaluate import (
     DEFAULT_TOL,
     DEFAULT_WINDOW,
     _options_2d,
+    _real_option,
     _threshold,
     _tol,
     evaluate,
@@ -139,12 +140,8 @@ def _base(base: Any) -> Design:
 
 
 def _real(value: Any, where: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{where} must be a real number, got {type(value).__name__} {value!r}")
-    try:
-        return float(value)
-    except OverflowError:
-        return math.inf if value > 0 else -math.inf
+    """A real number (an integer beyond the float range is +-inf), else ``TypeError``."""
+    return _real_option(value, where, "a real number", lambda x: True)
 
 
 def _free(free: Any, design: Design) -> list[Free]:
@@ -415,7 +412,7 @@ class _Problem:
         self.stage = "init" if self.map_calls == 0 else "de"
         self.generation = self.map_calls
         self.map_calls += 1
-        return self.evaluate([np.asarray(x, dtype=float) for x in xs])
+        return self.evaluate([list(np.asarray(x, dtype=float)) for x in xs])
 
     def one(self, x: Sequence[float]) -> float:
         return self.evaluate([x])[0]
@@ -423,7 +420,7 @@ class _Problem:
 
 # -- the search --------------------------------------------------------------------------
 
-def _progress_bar(total: int, progress: bool | None):
+def _progress_bar(total: int, progress: bool | None) -> Any:
     if progress is None:
         progress = sys.stderr.isatty()
     if not progress:

@@ -142,7 +142,7 @@ def with_changes(base: Design, changes: Mapping[str, Any]) -> Design:
         if m[3] is None:
             ch[m[2]] = value
         else:
-            f = list(ch.get("f", base.channels[i].f))
+            f = list(ch.get("f", base.channels[i].f or ()))
             f[int(m[3])] = value
             ch["f"] = tuple(f)
     if channels:
@@ -253,7 +253,7 @@ def _batches(designs: Iterator[dict[str, Any]], size: int) -> Iterator[list[dict
         yield batch
 
 
-def _progress_bar(total: int, progress: bool | None):
+def _progress_bar(total: int, progress: bool | None) -> Any:
     if progress is None:
         progress = total > 1 and sys.stderr.isatty()
     if not progress:
@@ -309,8 +309,8 @@ def _run(tasks: Iterator[list[dict[str, Any]]], args: tuple[Any, ...],
             bar.update(len(part))
 
 
-def _dataset(xr, axes: Mapping[str, np.ndarray], results: list[Result | None],
-             attrs: dict[str, Any], metric_names: Sequence[str]):
+def _dataset(xr: Any, axes: Mapping[str, np.ndarray], results: list[Result | None],
+             attrs: dict[str, Any], metric_names: Sequence[str]) -> Any:
     """The ``xarray.Dataset`` of a sweep: one dimension per grid field."""
     names = list(axes)
     shape = tuple(a.size for a in axes.values())
@@ -332,12 +332,12 @@ def _dataset(xr, axes: Mapping[str, np.ndarray], results: list[Result | None],
     return xr.Dataset(data, coords=dict(axes), attrs=attrs)
 
 
-def sweep(camera: Design, grid: Mapping[str, Sequence[Any]], depths,
+def sweep(camera: Design, grid: Mapping[str, Sequence[Any]], depths: Any,
           executor: cf.Executor | None = None, progress: bool | None = None, *,
           threshold_px: float = DEFAULT_THRESHOLD_PX, tol: float = DEFAULT_TOL,
           merits_2d: bool = False, window: float = DEFAULT_WINDOW,
           n_threads: int | None = None, batch_size: int | None = None,
-          threads_per_task: int = 1):
+          threads_per_task: int = 1) -> Any:
     """Figures of merit for every design of a full-factorial grid around ``camera``.
 
     - ``camera``: the base :class:`~splitlf.Design` (a :class:`~splitlf.Camera` is one);
@@ -382,7 +382,7 @@ def sweep(camera: Design, grid: Mapping[str, Sequence[Any]], depths,
     threshold_px, tol = _threshold(threshold_px), _tol(tol)
     window_2d = _options_2d(merits_2d, window, tol)
     n_threads = _validate.n_threads(n_threads)
-    threads_per_task = _validate.n_threads(threads_per_task)
+    task_threads = _validate.n_threads(threads_per_task)
     n_designs = math.prod(a.size for a in axes.values())
     batch = _batch_size(batch_size, n_designs, executor)
     on_2d = window_2d is not None
@@ -391,11 +391,11 @@ def sweep(camera: Design, grid: Mapping[str, Sequence[Any]], depths,
     bar = _progress_bar(n_designs, progress)
     try:
         _run(_batches(_designs(axes, counts), batch), args, executor, n_threads,
-             threads_per_task, results, bar)
+             task_threads, results, bar)
     finally:
         if bar is not None:
             bar.close()
-    attrs = {
+    attrs: dict[str, Any] = {
         "depth_min_mm": float(z.min()),
         "depth_max_mm": float(z.max()),
         "n_depths": int(z.size),
