@@ -509,13 +509,14 @@ def test_report_preset_json(name, capsys):
 
 
 def test_report_preset_text(capsys):
-    code, out, err = run(["report", "--preset", "split3"], capsys)
+    code, out, err = run(["report", "--preset", "split3", "--full"], capsys)
     assert code == 0 and err == ""
     assert out.startswith("splitlf report: preset split3\n")
     for needle in ("642.00 mm", "300.30 mm", "217.00 mm", "union (any channel)",
                    "80.0 - inf", "Channel 3: share 0.333333"):
         assert needle in out, needle
-    code, out, _ = run(["report", "--preset", "raytrix-r12", "--threshold", "1"], capsys)
+    code, out, _ = run(["report", "--preset", "raytrix-r12", "--threshold", "1", "--full"],
+                       capsys)
     assert "lens type 2: f" in out and "focused at z = 364.08 mm" in out
     assert "channel 1 type 3 (light field)" in out and "blur < 1 px" in out
 

@@ -5,9 +5,6 @@ description, presets, presentation and orchestration. Lengths are in millimetres
 are positive distances in front of the main lens.
 """
 
-import importlib
-from types import ModuleType
-
 from ._native import __version__
 from .camera import Camera
 from .coverage import ChiefSamples, Coverage, Samples2D, chief_samples, coverage, samples_2d
@@ -92,9 +89,11 @@ __all__ = [
 _LAZY_SUBMODULES = ("cli", "compare", "plot", "report", "sweep")
 
 
-def __getattr__(name: str) -> ModuleType:
+def __getattr__(name: str) -> object:
     if name in _LAZY_SUBMODULES:
-        module = importlib.import_module(f".{name}", __name__)
+        from importlib import import_module
+
+        module = import_module(f".{name}", __name__)
         globals()[name] = module
         return module
     raise AttributeError(f"module 'splitlf' has no attribute {name!r}")
