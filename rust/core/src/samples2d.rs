@@ -2042,22 +2042,18 @@ pub fn samples_2d(design: &Design, z: f64, tol: f64, window: f64) -> Result<Samp
 }
 
 /// Distinct counts and covering radii at m depths: row-major (n_channels + 1, m) arrays,
-/// rows the channels then the union.
+/// rows the channels then the union. Owned (what [`coverage`] returns) or the caller's
+/// buffers ([`CoverageOut`]).
 #[derive(Debug, Clone, PartialEq)]
-pub struct Coverage {
-    pub rows: usize,
-    pub distinct: Vec<u64>,
-    pub covering_radius: Vec<f64>,
-    pub covering_radius_mm: Vec<f64>,
+pub struct Coverage<U = Vec<u64>, F = Vec<f64>> {
+    pub distinct: U,
+    pub covering_radius: F,
+    pub covering_radius_mm: F,
 }
 
-/// Output buffers of [`coverage_into`], each row-major (n_channels + 1, m). Any initial
-/// content: every element is written once.
-pub struct CoverageOut<'a> {
-    pub distinct: &'a mut [u64],
-    pub covering_radius: &'a mut [f64],
-    pub covering_radius_mm: &'a mut [f64],
-}
+/// Output buffers of [`coverage_into`]. Any initial content: every element is written
+/// once.
+pub type CoverageOut<'a> = Coverage<&'a mut [u64], &'a mut [f64]>;
 
 /// Bytes a coverage call at the depths `z` holds at its peak when every depth is settled by
 /// its first pass: the outputs (24 bytes per row and depth), one chunk of per-depth
@@ -2160,22 +2156,22 @@ pub fn coverage(
     window: f64,
     n_threads: Option<usize>,
 ) -> Result<Coverage> {
-    let rows = design.channels.len() + 1;
-    let n = rows * z.len();
+    let n = (design.channels.len() + 1) * z.len();
     let what = "coverage";
-    let mut r = Coverage {
-        rows,
-        distinct: try_vec(what, n, 0)?,
-        covering_radius: try_vec(what, n, 0.0)?,
-        covering_radius_mm: try_vec(what, n, 0.0)?,
-    };
-    let out = CoverageOut {
-        distinct: &mut r.distinct,
-        covering_radius: &mut r.covering_radius,
-        covering_radius_mm: &mut r.covering_radius_mm,
+    let mut distinct = try_vec(what, n, 0)?;
+    let mut radius = try_vec(what, n, 0.0)?;
+    let mut radius_mm = try_vec(what, n, 0.0)?;
+    let out = Coverage {
+        distinct: &mut distinct[..],
+        covering_radius: &mut radius[..],
+        covering_radius_mm: &mut radius_mm[..],
     };
     coverage_into(design, z, tol, window, out, n_threads)?;
-    Ok(r)
+    Ok(Coverage {
+        distinct,
+        covering_radius: radius,
+        covering_radius_mm: radius_mm,
+    })
 }
 
 #[cfg(test)]
