@@ -166,7 +166,7 @@ pub fn design_figures_of_merit_2d(
 ) -> Result<Vec<f64>> {
     let cov = coverage(design, z, tol, window, n_threads)?;
     let m = z.len();
-    let rows = cov.rows;
+    let rows = design.channels.len() + 1;
     let mut out = Vec::with_capacity(3 * rows);
     let radii: Vec<&[f64]> = cov.covering_radius.chunks(m).collect();
     out.extend(

@@ -278,40 +278,49 @@ pub fn type_rows(design: &Design) -> Vec<(usize, usize)> {
 }
 
 /// Closed-form curves of a design at n depths. Per-channel arrays are row-major (C, n),
-/// one row per channel; per-type arrays (R, n), one row per [`type_rows`] entry.
+/// one row per channel; per-type arrays (R, n), one row per [`type_rows`] entry. `B` is
+/// the storage of each array: owned (`Vec<f64>`, what [`design_curves`] returns) or the
+/// caller's buffers ([`DesignCurvesOut`]).
 #[derive(Debug, Clone, PartialEq)]
-pub struct DesignCurves {
+pub struct DesignCurves<B = Vec<f64>> {
     /// z' (n).
-    pub conjugate: Vec<f64>,
+    pub conjugate: B,
     /// H of each channel (C, n).
-    pub main_blur: Vec<f64>,
+    pub main_blur: B,
     /// rep = 2 H / d of each channel (C, n).
-    pub repetitions: Vec<f64>,
+    pub repetitions: B,
     /// H / μ of each channel (C, n).
-    pub conventional_px: Vec<f64>,
+    pub conventional_px: B,
     /// b of each (channel, type) (R, n).
-    pub microlens_blur: Vec<f64>,
+    pub microlens_blur: B,
     /// min(b, R) / μ of each (channel, type) (R, n).
-    pub blur_px: Vec<f64>,
+    pub blur_px: B,
     /// The smallest `blur_px` of each channel's types (C, n): the channel is sharp where it
     /// is below the threshold.
-    pub channel_blur_px: Vec<f64>,
+    pub channel_blur_px: B,
     /// The smallest `blur_px` of every row (n): the design is sharp where it is below the
     /// threshold.
-    pub union_blur_px: Vec<f64>,
+    pub union_blur_px: B,
 }
 
 /// Output buffers of [`design_curves_into`] (shapes as in [`DesignCurves`]). Any initial
 /// content: every element is written exactly once.
-pub struct DesignCurvesOut<'a> {
-    pub conjugate: &'a mut [f64],
-    pub main_blur: &'a mut [f64],
-    pub repetitions: &'a mut [f64],
-    pub conventional_px: &'a mut [f64],
-    pub microlens_blur: &'a mut [f64],
-    pub blur_px: &'a mut [f64],
-    pub channel_blur_px: &'a mut [f64],
-    pub union_blur_px: &'a mut [f64],
+pub type DesignCurvesOut<'a> = DesignCurves<&'a mut [f64]>;
+
+impl DesignCurves {
+    /// The owned arrays as the output buffers of [`design_curves_into`].
+    pub fn as_out(&mut self) -> DesignCurvesOut<'_> {
+        DesignCurves {
+            conjugate: &mut self.conjugate,
+            main_blur: &mut self.main_blur,
+            repetitions: &mut self.repetitions,
+            conventional_px: &mut self.conventional_px,
+            microlens_blur: &mut self.microlens_blur,
+            blur_px: &mut self.blur_px,
+            channel_blur_px: &mut self.channel_blur_px,
+            union_blur_px: &mut self.union_blur_px,
+        }
+    }
 }
 
 /// Bytes of the outputs of [`design_curves`] at n depths: (2 + 4 C + 2 R) f64 per depth.
@@ -339,17 +348,7 @@ pub fn design_curves(design: &Design, z: &[f64], n_threads: Option<usize>) -> Re
         channel_blur_px: buf(c)?,
         union_blur_px: buf(1)?,
     };
-    let buffers = DesignCurvesOut {
-        conjugate: &mut out.conjugate,
-        main_blur: &mut out.main_blur,
-        repetitions: &mut out.repetitions,
-        conventional_px: &mut out.conventional_px,
-        microlens_blur: &mut out.microlens_blur,
-        blur_px: &mut out.blur_px,
-        channel_blur_px: &mut out.channel_blur_px,
-        union_blur_px: &mut out.union_blur_px,
-    };
-    design_curves_into(design, z, buffers, n_threads)?;
+    design_curves_into(design, z, out.as_out(), n_threads)?;
     Ok(out)
 }
 

@@ -2042,22 +2042,18 @@ pub fn samples_2d(design: &Design, z: f64, tol: f64, window: f64) -> Result<Samp
 }
 
 /// Distinct counts and covering radii at m depths: row-major (n_channels + 1, m) arrays,
-/// rows the channels then the union.
+/// rows the channels then the union. Owned (what [`coverage`] returns) or the caller's
+/// buffers ([`CoverageOut`]).
 #[derive(Debug, Clone, PartialEq)]
-pub struct Coverage {
-    pub rows: usize,
-    pub distinct: Vec<u64>,
-    pub covering_radius: Vec<f64>,
-    pub covering_radius_mm: Vec<f64>,
+pub struct Coverage<U = Vec<u64>, F = Vec<f64>> {
+    pub distinct: U,
+    pub covering_radius: F,
+    pub covering_radius_mm: F,
 }
 
-/// Output buffers of [`coverage_into`], each row-major (n_channels + 1, m). Any initial
-/// content: every element is written once.
-pub struct CoverageOut<'a> {
-    pub distinct: &'a mut [u64],
-    pub covering_radius: &'a mut [f64],
-    pub covering_radius_mm: &'a mut [f64],
-}
+/// Output buffers of [`coverage_into`]. Any initial content: every element is written
+/// once.
+pub type CoverageOut<'a> = Coverage<&'a mut [u64], &'a mut [f64]>;
 
 /// Bytes a coverage call at the depths `z` holds at its peak when every depth is settled by
 /// its first pass: the outputs (24 bytes per row and depth), one chunk of per-depth
@@ -2160,22 +2156,22 @@ pub fn coverage(
     window: f64,
     n_threads: Option<usize>,
 ) -> Result<Coverage> {
-    let rows = design.channels.len() + 1;
-    let n = rows * z.len();
+    let n = (design.channels.len() + 1) * z.len();
     let what = "coverage";
-    let mut r = Coverage {
-        rows,
-        distinct: try_vec(what, n, 0)?,
-        covering_radius: try_vec(what, n, 0.0)?,
-        covering_radius_mm: try_vec(what, n, 0.0)?,
-    };
-    let out = CoverageOut {
-        distinct: &mut r.distinct,
-        covering_radius: &mut r.covering_radius,
-        covering_radius_mm: &mut r.covering_radius_mm,
+    let mut distinct = try_vec(what, n, 0)?;
+    let mut radius = try_vec(what, n, 0.0)?;
+    let mut radius_mm = try_vec(what, n, 0.0)?;
+    let out = Coverage {
+        distinct: &mut distinct[..],
+        covering_radius: &mut radius[..],
+        covering_radius_mm: &mut radius_mm[..],
     };
     coverage_into(design, z, tol, window, out, n_threads)?;
-    Ok(r)
+    Ok(Coverage {
+        distinct,
+        covering_radius: radius,
+        covering_radius_mm: radius_mm,
+    })
 }
 
 #[cfg(test)]
@@ -2213,6 +2209,25 @@ mod tests {
             my: m.map(|m| m.1),
             share: 0.5,
         }
+    }
+
+    /// One channel of 40 x 36 lenses of pitch `d` with Q = 1 pixel per lens (pixel pitch
+    /// 0.01), behind a square main lens of aperture `aperture` (F = 50, L = 60, v = 0.3).
+    fn one_pixel_lenses(aperture: f64, d: f64) -> Design {
+        let channel = spec(
+            60.0,
+            d,
+            0.3,
+            0.01,
+            40,
+            36,
+            Grid::Rect,
+            None,
+            "ideal",
+            Some(1),
+            None,
+        );
+        Design::new(50.0, aperture, Aperture::Square, &[channel]).unwrap()
     }
 
     /// Small designs of every kind: rect/hex, ideal/sensor, square/circle, several types,
@@ -2541,25 +2556,7 @@ mod tests {
         }
         // Through the whole pipeline: one channel of Q = 1 pixel per lens and d = mu, so
         // the samples are the lens centres' image, a square grid of pitch delta(z).
-        let d = Design::new(
-            50.0,
-            2.0,
-            Aperture::Square,
-            &[spec(
-                60.0,
-                0.01,
-                0.3,
-                0.01,
-                40,
-                36,
-                Grid::Rect,
-                None,
-                "ideal",
-                Some(1),
-                None,
-            )],
-        )
-        .unwrap();
+        let d = one_pixel_lenses(2.0, 0.01);
         let z = [120.0, 500.0, 3000.0];
         let c = coverage(&d, &z, 1e-6, 16.0, Some(2)).unwrap();
         for (k, &zk) in z.iter().enumerate() {
@@ -2612,6 +2609,35 @@ mod tests {
         }
     }
 
+    /// One pass of [`rows_from`] at a depth: its rows, the samples it kept and how many
+    /// points it gathered.
+    struct Pass {
+        rows: Vec<RowResult>,
+        keep: Vec<Vec<[f64; 2]>>,
+        gathered: usize,
+    }
+
+    /// The pass at depth z with one of the context's shortcuts on, then off (`set`
+    /// switches it): what the shortcut must not change.
+    fn on_and_off(
+        ctx: &mut Ctx<'_>,
+        z: f64,
+        w: &mut Work,
+        set: fn(&mut Ctx<'_>, bool),
+    ) -> [Pass; 2] {
+        [true, false].map(|on| {
+            set(ctx, on);
+            let geom = ctx.geom(z);
+            let mut keep = vec![Vec::new(); ctx.tables.len() + 1];
+            let rows = rows_from(ctx, &geom, geom.first, w, Some(&mut keep), false).unwrap();
+            Pass {
+                rows,
+                keep,
+                gathered: w.pts.len(),
+            }
+        })
+    }
+
     #[test]
     fn separable_channels_equal_the_general_computation() {
         let mut checked = 0;
@@ -2619,19 +2645,11 @@ mod tests {
             let mut ctx = context(&d, 1e-6, 16.0).unwrap();
             let mut w = Work::default();
             for z in [d.f_main * 1.2, 200.0, 700.0, 5000.0] {
-                let geom = ctx.geom(z);
-                let mut keep = vec![Vec::new(); d.channels.len() + 1];
-                ctx.separable = true;
-                let fast =
-                    rows_from(&ctx, &geom, geom.first, &mut w, Some(&mut keep), false).unwrap();
-                let fast_keep = keep.clone();
-                ctx.separable = false;
-                let slow =
-                    rows_from(&ctx, &geom, geom.first, &mut w, Some(&mut keep), false).unwrap();
-                for (r, (a, b)) in fast.iter().zip(&slow).enumerate() {
+                let [fast, slow] = on_and_off(&mut ctx, z, &mut w, |c, on| c.separable = on);
+                for (r, (a, b)) in fast.rows.iter().zip(&slow.rows).enumerate() {
                     assert_eq!(a.distinct, b.distinct, "z = {z}");
                     assert!((a.rho - b.rho).abs() <= 1e-12 * b.rho, "{a:?} {b:?}");
-                    assert_eq!(fast_keep[r], keep[r]);
+                    assert_eq!(fast.keep[r], slow.keep[r]);
                 }
                 let separable = d.channels.iter().zip(&ctx.tables).any(|(_, t)| {
                     matches!(t.px, PixelTables::Ideal { .. }) && d.shape == Aperture::Square
@@ -2651,17 +2669,10 @@ mod tests {
             for separable in [true, false] {
                 ctx.separable = separable;
                 for z in [d.f_main * 1.2, 200.0, 700.0, 5000.0] {
-                    let geom = ctx.geom(z);
-                    let mut keep = vec![Vec::new(); 2];
-                    ctx.union_is_channel = true;
-                    let fast =
-                        rows_from(&ctx, &geom, geom.first, &mut w, Some(&mut keep), false).unwrap();
-                    let fast_keep = keep.clone();
-                    ctx.union_is_channel = false;
-                    let slow =
-                        rows_from(&ctx, &geom, geom.first, &mut w, Some(&mut keep), false).unwrap();
-                    assert_eq!(fast, slow, "z = {z}");
-                    assert_eq!(fast_keep, keep, "z = {z}");
+                    let [fast, slow] =
+                        on_and_off(&mut ctx, z, &mut w, |c, on| c.union_is_channel = on);
+                    assert_eq!(fast.rows, slow.rows, "z = {z}");
+                    assert_eq!(fast.keep, slow.keep, "z = {z}");
                     checked += 1;
                 }
             }
@@ -2680,20 +2691,10 @@ mod tests {
                 let mut ctx = context(&d, tol, window).unwrap();
                 let mut w = Work::default();
                 for z in [d.f_main * 1.2, 200.0, 700.0, 5000.0] {
-                    let geom = ctx.geom(z);
-                    let n = d.channels.len() + 1;
-                    let (mut keep_on, mut keep_off) = (vec![Vec::new(); n], vec![Vec::new(); n]);
-                    ctx.trial = true;
-                    let on = rows_from(&ctx, &geom, geom.first, &mut w, Some(&mut keep_on), false)
-                        .unwrap();
-                    let n_on = w.pts.len();
-                    ctx.trial = false;
-                    let off =
-                        rows_from(&ctx, &geom, geom.first, &mut w, Some(&mut keep_off), false)
-                            .unwrap();
-                    assert_eq!(on, off, "z = {z}, tol {tol}, window {window}");
-                    assert_eq!(keep_on, keep_off, "z = {z}, tol {tol}, window {window}");
-                    settled += (n_on < w.pts.len()) as usize;
+                    let [on, off] = on_and_off(&mut ctx, z, &mut w, |c, on| c.trial = on);
+                    assert_eq!(on.rows, off.rows, "z = {z}, tol {tol}, window {window}");
+                    assert_eq!(on.keep, off.keep, "z = {z}, tol {tol}, window {window}");
+                    settled += (on.gathered < off.gathered) as usize;
                     cases += 1;
                 }
             }
@@ -2706,25 +2707,7 @@ mod tests {
         // Lens pitch 0.99 delta and tol = 1: every sample is linked to its neighbours, the
         // whole grid is one component, represented by its least (X, Y) member at the far
         // corner of the array, well beyond every margin but the last.
-        let d = Design::new(
-            50.0,
-            1.9,
-            Aperture::Square,
-            &[spec(
-                60.0,
-                0.0099,
-                0.3,
-                0.01,
-                40,
-                36,
-                Grid::Rect,
-                None,
-                "ideal",
-                Some(1),
-                None,
-            )],
-        )
-        .unwrap();
+        let d = one_pixel_lenses(1.9, 0.0099);
         let ctx = context(&d, 1.0, 16.0).unwrap();
         let mut w = Work::default();
         let geom = ctx.geom(500.0);

@@ -19,6 +19,19 @@ pub(crate) fn design_source(design: &Design, source: &str) -> PyResult<Pixels> {
     Pixels::of_design(design, src).map_err(to_py)
 }
 
+/// What a system matrix and a rendering share: the design's source, the grid of n_cells
+/// cells of width `step` from `origin`, and the field [field_lo, field_hi].
+fn forward_model(
+    design: &Design,
+    source: &str,
+    (origin, step, n_cells): (f64, f64, usize),
+    field: (f64, f64),
+) -> PyResult<(Pixels, Grid, (f64, f64))> {
+    let px = design_source(design, source)?;
+    let grid = Grid::new(origin, step, n_cells).map_err(to_py)?;
+    Ok((px, grid, field))
+}
+
 /// Widest pixel kernel (hi − lo, mm in object-space X) of a design's source at depth z.
 #[pyfunction]
 #[pyo3(signature = (design, z, source, n_threads=None))]
@@ -62,10 +75,9 @@ pub(crate) fn design_system_matrix(
     field_hi: f64,
     n_threads: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<SystemMatrixArrays> {
-    let px = design_source(&design.inner, source)?;
-    let grid = Grid::new(origin, step, n_cells).map_err(to_py)?;
+    let cells = (origin, step, n_cells);
+    let (px, grid, field) = forward_model(&design.inner, source, cells, (field_lo, field_hi))?;
     let threads = threads_arg(n_threads)?;
-    let field = (field_lo, field_hi);
     let sys = run(py, || {
         simulate::system_matrix_of(&px, z, grid, field, threads)
     })?;
@@ -104,12 +116,11 @@ pub(crate) fn design_render(
     textures: PyReadonlyArray2<'_, f64>,
     n_threads: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<RenderArrays> {
-    let px = design_source(&design.inner, source)?;
     let (n_tex, n_cells) = textures.as_array().dim();
-    let grid = Grid::new(origin, step, n_cells).map_err(to_py)?;
+    let cells = (origin, step, n_cells);
+    let (px, grid, field) = forward_model(&design.inner, source, cells, (field_lo, field_hi))?;
     let threads = threads_arg(n_threads)?;
     let flat = as_flat(&textures, "textures")?;
-    let field = (field_lo, field_hi);
     let (values, pixels) = run(py, || {
         simulate::render_of(&px, z, grid, field, &flat, threads)
     })?;
