@@ -36,7 +36,8 @@ LONG_CALLS = {
     "samples_2d": "splitlf.samples_2d(IL, 500.0, window=200.0)",
     "coverage": "splitlf.coverage(IL, np.geomspace(300, 3000, 50), window=200.0)",
     "coincidence_planes": "splitlf.coincidence_planes(P.replace(Kx=10**5), 1, max_n=40)",
-    "system_matrix": "splitlf.simulation.system_matrix(P, 800.0, 'half1', -2.0, 1e-4, 40_000)",
+    "system_matrix": "for _ in range(10**4): "
+                     "splitlf.simulation.system_matrix(P, 800.0, 'half1', -2.0, 1e-4, 40_000)",
     "sweep": "splitlf.sweep.sweep(P, {'D': np.linspace(10, 25, 400)}, "
              "np.geomspace(150, 1e4, 20_000))",
 }
