@@ -1331,9 +1331,14 @@ pub fn covering_radius(points: &[[f64; 2]], field: [f64; 2]) -> Result<f64> {
     let mut verts = Vec::new();
     try_reserve(&mut verts, what, points.len())?;
     verts.extend(points.iter().map(|p| Point2::new(flush(p[0]), flush(p[1]))));
-    // Seconds for millions of points, in spade, with no checkpoint: on a thread of its own
-    // (the call can stop meanwhile).
-    let tri = parallel::detached(move || Tri::bulk_load(verts))?.map_err(|e| {
+    // Seconds for millions of points, in spade, with no checkpoint: then on a thread of its
+    // own (the call can stop meanwhile).
+    let tri = if verts.len() >= CHECK_ITEMS {
+        parallel::detached(move || Tri::bulk_load(verts))?
+    } else {
+        Tri::bulk_load(verts)
+    };
+    let tri = tri.map_err(|e| {
         Error::param(
             "samples",
             format!("a set spade cannot triangulate ({e:?})"),
@@ -1429,9 +1434,12 @@ pub fn covering_radius(points: &[[f64; 2]], field: [f64; 2]) -> Result<f64> {
     }
     cand.retain(|c| c.0 > best * (1.0 + PRUNE_RTOL));
     cand.sort_unstable_by(|x, y| y.0.total_cmp(&x.0));
-    for &(u, p) in &cand {
+    for (i, &(u, p)) in cand.iter().enumerate() {
         if u <= best * (1.0 + PRUNE_RTOL) {
             break;
+        }
+        if i % CHECK_ITEMS == 0 {
+            parallel::checkpoint()?;
         }
         best = best.max(nearest(p));
     }
@@ -1751,6 +1759,7 @@ fn row_pass(
         return Ok(Pass::Widen(next));
     }
     if let Some(out) = field_reps {
+        parallel::checkpoint()?;
         out.clear();
         try_reserve(out, "samples_2d (representatives)", distinct as usize)?;
         out.extend(
