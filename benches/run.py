@@ -568,6 +568,86 @@ def run_workload(w: Workload, quick: bool, rounds: int) -> dict[str, Any]:
     return result
 
 
+# -- W9: concurrent small calls (a ratio within one process, no NumPy twin) -----------------
+
+#: Python threads of W9's concurrent runs.
+W9_THREADS = (2, 8)
+
+
+def _w9_calls(quick: bool) -> dict[str, Callable[[], Any]]:
+    """Small calls at n_threads=1: the work a server or a thread pool executor hands out."""
+    cam = splitlf.Camera.paper()
+    z = np.geomspace(150.0, 1e4, 10 if quick else 20)
+    return {
+        "sample_grid": lambda: splitlf.sample_grid(cam, 800.0, 2, n_threads=1),
+        "footprints_kernel": lambda: splitlf.footprints(cam, z, 2, kernel=True, n_threads=1),
+    }
+
+
+def _w9_serial(fn: Callable[[], Any], n: int) -> float:
+    """Wall time of n calls one after the other."""
+    t0 = time.perf_counter()
+    for _ in range(n):
+        fn()
+    return time.perf_counter() - t0
+
+
+def _w9_concurrent(fn: Callable[[], Any], k: int, reps: int) -> float:
+    """Wall time of k Python threads each making `reps` calls."""
+    import threading
+
+    go = threading.Barrier(k + 1)
+
+    def work() -> None:
+        go.wait()
+        for _ in range(reps):
+            fn()
+
+    threads = [threading.Thread(target=work) for _ in range(k)]
+    for t in threads:
+        t.start()
+    go.wait()
+    t0 = time.perf_counter()
+    for t in threads:
+        t.join()
+    return time.perf_counter() - t0
+
+
+def run_w9(quick: bool, rounds: int) -> dict[str, Any]:
+    """W9: k Python threads each making the same small call at n_threads=1, against the
+    same k x reps calls made one after the other on one thread (alternating, medians of
+    the ratio concurrent / serial). On c cores the ideal ratio is max(1/c, 1/k): concurrent
+    calls hold no lock of the core's (the GIL is released, pools are per call)."""
+    calls = _w9_calls(quick)
+    reps = 2 if quick else 6
+    ratios: dict[str, dict[str, float]] = {}
+    times: dict[str, dict[str, list[float]]] = {}
+    for name, fn in calls.items():
+        fn()  # warm up (pools, caches)
+        for k in W9_THREADS:
+            per: list[float] = []
+            serial_s: list[float] = []
+            for r in range(rounds):
+                gc.collect()
+                order = (0, 1) if r % 2 == 0 else (1, 0)
+                got = {}
+                for side in order:
+                    if side == 0:
+                        got[0] = _w9_serial(fn, k * reps)
+                    else:
+                        got[1] = _w9_concurrent(fn, k, reps)
+                serial_s.append(got[0])
+                per.append(got[1] / got[0])
+            key = f"{name}_x{k}"
+            ratios[key] = statistics.median(per)
+            times[key] = {"serial_s": serial_s, "ratio": per}
+    return {"workload": "W9", "kind": "concurrent",
+            "title": "concurrent small calls (n_threads=1) from 2 and 8 Python threads",
+            "sizes": {"reps_per_thread": reps, "threads": list(W9_THREADS), "quick": quick},
+            "rounds": rounds, "threads_all": os.cpu_count() or 1,
+            "ratio_concurrent_over_serial": ratios, "runs": times}
+
+
 # -- W8: the design explorer in a browser (benches/w8_explore.py) --------------------------
 
 #: Workloads run only when named in --only (not NumPy-against-native timings).
@@ -621,7 +701,7 @@ def write_markdown(doc: dict[str, Any], path: Path) -> None:
         "arrays of the output's total size. Peak memory: extra resident memory of one run in "
         "a fresh process.",
     ]
-    if any(r.get("kind") != "study" and r["workload"] not in BROWSER_WORKLOADS
+    if any(r.get("kind") not in ("study", "concurrent") and r["workload"] not in BROWSER_WORKLOADS
            for r in doc["results"]):
         lines += [
             "",
@@ -631,7 +711,7 @@ def write_markdown(doc: dict[str, Any], path: Path) -> None:
             "|---|---|---|---|---|---|---|---|---|---|---|",
         ]
     for r in doc["results"]:
-        if r.get("kind") == "study" or r["workload"] in BROWSER_WORKLOADS:
+        if r.get("kind") in ("study", "concurrent") or r["workload"] in BROWSER_WORKLOADS:
             continue
         m = r["median_s"]
         floor = (f"{r['numpy_over_floor']:.2f} | {r['native_all_over_floor']:.2f}"
@@ -644,7 +724,7 @@ def write_markdown(doc: dict[str, Any], path: Path) -> None:
             f"{r['speedup_1_to_all']:.2f} | {floor} | "
             f"{_mib(r['peak_mib']['numpy'])} / {r['peak_mib']['native']:.0f} / {out_mib} |"
         )
-    lines += _markdown_studies(doc)
+    lines += _markdown_studies(doc) + _markdown_concurrent(doc)
     lines += _markdown_targets(doc) + _markdown_browser(doc)
     path.write_text("\n".join(lines) + "\n")
 
@@ -672,6 +752,19 @@ def _markdown_studies(doc: dict[str, Any]) -> list[str]:
             f"{core['native_1']:.3g} / {core['native_all']:.3g} | "
             f"{100 * share['native_1']:.1f} % / {100 * share['native_all']:.1f} % | "
             f"< {100 * r['target_share_outside_core']:.0f} %: {'met' if met else 'NOT met'} |")
+    return out
+
+
+def _markdown_concurrent(doc: dict[str, Any]) -> list[str]:
+    """The W9 line: concurrent over serial wall time of the same calls (one process)."""
+    out = []
+    for r in doc["results"]:
+        if r.get("kind") == "concurrent":
+            ratios = ", ".join(f"{k.replace('_x', ' x ')} threads {v:.2f}"
+                               for k, v in r["ratio_concurrent_over_serial"].items())
+            out += ["", f"W9 ({r['title']}; concurrent / serial wall time of the same calls, "
+                    f"medians of {r['rounds']} alternating rounds, {r['threads_all']} cores; "
+                    f"targets 2 threads <= 0.75, 8 threads <= 0.9 on 2 cores): {ratios}."]
     return out
 
 
@@ -745,7 +838,7 @@ def compare(previous: dict[str, Any], results: list[dict[str, Any]]) -> dict[str
         o = old.get(r["workload"])
         if o is None:
             continue
-        if r["workload"] in BROWSER_WORKLOADS:
+        if r["workload"] in BROWSER_WORKLOADS or r.get("kind") == "concurrent":
             continue
         row = {
             "native_all_now_over_then": r["median_s"]["native_all"] / o["median_s"]["native_all"],
@@ -767,9 +860,9 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="small sizes (CI smoke test)")
     ap.add_argument("--only", nargs="*",
-                    choices=sorted([*WORKLOADS, *STUDIES]) + list(BROWSER_WORKLOADS),
-                    help="workloads to run (default W1-W7; W8, the explorer in a browser, "
-                    "only when named)")
+                    choices=sorted([*WORKLOADS, *STUDIES, "W9"]) + list(BROWSER_WORKLOADS),
+                    help="workloads to run (default W1-W7 and W9; W8, the explorer in a "
+                    "browser, only when named)")
     ap.add_argument("--rounds", type=int, default=None,
                     help="alternating rounds (default 7, 3 with --quick)")
     ap.add_argument("--out", type=Path, default=None,
@@ -790,7 +883,7 @@ def main(argv: list[str] | None = None) -> int:
     previous = (json.loads(prev_path.read_text())
                 if not args.quick and prev_path.exists() else None)
     results = []
-    for name in args.only or sorted([*WORKLOADS, *STUDIES]):
+    for name in args.only or sorted([*WORKLOADS, *STUDIES, "W9"]):
         if name == "W8":
             w8 = run_w8(args.quick)
             if w8 is not None:
@@ -799,6 +892,14 @@ def main(argv: list[str] | None = None) -> int:
                       flush=True)
             continue
         load_before = os.getloadavg()
+        if name == "W9":
+            r = run_w9(args.quick, rounds)
+            r["load_average"] = {"before": load_before, "after": os.getloadavg()}
+            results.append(r)
+            print("W9: concurrent / serial wall time " + ", ".join(
+                f"{k} {v:.2f}" for k, v in r["ratio_concurrent_over_serial"].items()),
+                flush=True)
+            continue
         if name in STUDIES:
             r = run_study(STUDIES[name], args.quick, rounds)
         else:

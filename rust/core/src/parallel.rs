@@ -6,15 +6,19 @@
 //!   pool (None builds a pool of all cores here), and the pool cache records the process
 //!   that built it: a forked child finds a different pid, forgets the parent's pools (they
 //!   cannot be shut down: their threads and locks belong to the parent) and builds its own.
-//! - A bounded cache: at most [`MAX_POOLS`] pools are kept, the least recently used is
-//!   dropped (its threads exit when the last call using it returns).
+//! - One pool per call: a call leases a pool of its size and returns it when done, so
+//!   concurrent calls (from several Python threads) never queue on one pool.
+//! - A bounded cache: at most [`MAX_POOLS`] idle pools are kept, the least recently used is
+//!   dropped (its threads exit).
 //! - Interruption: long calls run in chunks, each chunk parallel inside the pool, and call
 //!   [`checkpoint`] between chunks on the calling thread; a caller (the Python binding)
 //!   installs a check there with [`interruptible`] (e.g. "has Ctrl-C been pressed?").
 
 use std::cell::RefCell;
 use std::ops::Range;
-use std::sync::{Arc, Mutex, MutexGuard};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{mpsc, Arc, Mutex, MutexGuard};
+use std::time::Duration;
 
 use rayon::{ThreadPool, ThreadPoolBuilder};
 
@@ -22,8 +26,8 @@ use crate::error::{Error, Result};
 
 /// Largest thread count accepted (far above any real machine; guards against typos).
 pub const MAX_THREADS: usize = 1024;
-/// Most thread pools kept alive at once (one per distinct thread count, least recently
-/// used dropped first).
+/// Most idle thread pools kept alive (least recently used dropped first); the pools of
+/// calls running at the time come on top.
 pub const MAX_POOLS: usize = 4;
 
 struct Cache {
@@ -31,7 +35,8 @@ struct Cache {
     pid: u32,
     /// Use counter: `pools[i].1` is the tick of the pool's last use.
     tick: u64,
-    pools: Vec<(usize, u64, Arc<ThreadPool>)>,
+    /// Idle pools: (threads, tick of last use, pool). A pool in use by a call is not here.
+    pools: Vec<(usize, u64, ThreadPool, Arc<AtomicBool>)>,
 }
 
 static CACHE: Mutex<Cache> = Mutex::new(Cache {
@@ -66,40 +71,85 @@ pub fn threads(n_threads: Option<usize>) -> usize {
     n_threads.unwrap_or_else(all_cores)
 }
 
-/// The pool of `n` threads of this process, built on first use (outside the cache lock,
-/// so the lock is only ever held for a lookup).
-fn pool(n: usize) -> Result<Arc<ThreadPool>> {
-    {
-        let mut c = cache();
-        c.tick += 1;
-        let tick = c.tick;
-        if let Some(e) = c.pools.iter_mut().find(|e| e.0 == n) {
-            e.1 = tick;
-            return Ok(Arc::clone(&e.2));
+/// A pool of `n` threads leased by one call: concurrent calls never share a pool (a
+/// shared pool ran them one after the other: two calls with `n_threads = 1` from two
+/// Python threads took as long as in series). Dropping the lease returns the pool to the
+/// idle cache (at most [`MAX_POOLS`] kept, the least recently used dropped first: its
+/// threads exit).
+struct Lease {
+    n: usize,
+    pid: u32,
+    pool: Option<ThreadPool>,
+    /// The pool's stop flag, read by [`checkpoint`] on its worker threads.
+    stop: Arc<AtomicBool>,
+}
+
+impl Lease {
+    fn install<R: Send>(&self, f: impl FnOnce() -> R + Send) -> R {
+        match &self.pool {
+            Some(p) => p.install(f),
+            None => f(), // never: the pool is only taken out by drop
         }
     }
-    let built = ThreadPoolBuilder::new()
+}
+
+impl Drop for Lease {
+    fn drop(&mut self) {
+        let Some(pool) = self.pool.take() else {
+            return;
+        };
+        let mut c = cache();
+        if c.pid != self.pid {
+            // Leased before a fork, returned in the child: its threads are the parent's.
+            std::mem::forget(pool);
+            return;
+        }
+        c.tick += 1;
+        let tick = c.tick;
+        if c.pools.len() >= MAX_POOLS {
+            let oldest = (0..c.pools.len())
+                .min_by_key(|&i| c.pools[i].1)
+                .unwrap_or(0);
+            let dropped = c.pools.swap_remove(oldest);
+            drop(c); // its threads are told to exit outside the lock
+            drop(dropped);
+            c = cache();
+        }
+        self.stop.store(false, Ordering::Relaxed);
+        c.pools.push((self.n, tick, pool, Arc::clone(&self.stop)));
+    }
+}
+
+/// Lease an idle pool of `n` threads of this process, or build one (outside the cache
+/// lock, so the lock is only ever held for a lookup).
+fn lease(n: usize) -> Result<Lease> {
+    let pid = {
+        let mut c = cache();
+        if let Some(i) = c.pools.iter().position(|e| e.0 == n) {
+            let (_, _, pool, stop) = c.pools.swap_remove(i);
+            return Ok(Lease {
+                n,
+                pid: c.pid,
+                pool: Some(pool),
+                stop,
+            });
+        }
+        c.pid
+    };
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = Arc::clone(&stop);
+    let pool = ThreadPoolBuilder::new()
         .num_threads(n)
         .thread_name(|i| format!("splitlf-{i}"))
+        .start_handler(move |_| POOL_STOP.with(|s| *s.borrow_mut() = Some(Arc::clone(&flag))))
         .build()
         .map_err(|e| Error::param("n_threads", n, format!("a pool that can be started ({e})")))?;
-    let built = Arc::new(built);
-    let mut c = cache();
-    c.tick += 1;
-    let tick = c.tick;
-    if let Some(e) = c.pools.iter_mut().find(|e| e.0 == n) {
-        // Another thread built one meanwhile: use it, drop ours.
-        e.1 = tick;
-        return Ok(Arc::clone(&e.2));
-    }
-    if c.pools.len() >= MAX_POOLS {
-        let oldest = (0..c.pools.len())
-            .min_by_key(|&i| c.pools[i].1)
-            .unwrap_or(0);
-        c.pools.swap_remove(oldest);
-    }
-    c.pools.push((n, tick, Arc::clone(&built)));
-    Ok(built)
+    Ok(Lease {
+        n,
+        pid,
+        pool: Some(pool),
+        stop,
+    })
 }
 
 /// Validate a thread count: `None` means all cores.
@@ -117,7 +167,7 @@ pub fn check_threads(n_threads: Option<usize>) -> Result<()> {
 /// Run `f` on this process's pool of `n_threads` threads (None: all cores).
 pub fn with_threads<R: Send>(n_threads: Option<usize>, f: impl FnOnce() -> R + Send) -> Result<R> {
     check_threads(n_threads)?;
-    Ok(pool(threads(n_threads))?.install(f))
+    Ok(lease(threads(n_threads))?.install(f))
 }
 
 /// Run `work` on consecutive ranges of at most `step` items covering 0..n, each inside the
@@ -129,12 +179,13 @@ pub fn for_chunks(
     mut work: impl FnMut(Range<usize>) -> Result<()> + Send,
 ) -> Result<()> {
     check_threads(n_threads)?;
-    let pool = pool(threads(n_threads))?;
+    let pool = lease(threads(n_threads))?;
     let step = step.max(1);
     let mut start = 0;
     while start < n {
         let end = start.saturating_add(step).min(n);
-        pool.install(|| work(start..end))?;
+        let range = start..end;
+        watched(&pool, || work(range))?;
         start = end;
         if start < n {
             checkpoint()?;
@@ -151,10 +202,83 @@ pub fn chunk_items(n_threads: Option<usize>, cost: u128) -> usize {
     per.clamp(t, 1 << 40) as usize
 }
 
+/// How often a calling thread waiting for work of its call asks its interrupt check.
+const WATCH_EVERY: Duration = Duration::from_millis(20);
+
+/// Run `f` in the leased pool. With an interrupt check installed on the calling thread,
+/// the calling thread waits for `f` (run by a helper thread) and asks the check every
+/// [`WATCH_EVERY`]; when it says stop, the pool's stop flag makes every [`checkpoint`]
+/// inside `f`, on any of the pool's threads, return [`Error::Interrupted`]. Without a check
+/// `f` runs as `install` runs it.
+fn watched<R: Send>(pool: &Lease, f: impl FnOnce() -> Result<R> + Send) -> Result<R> {
+    if !HOOK.with(|h| h.borrow().is_some()) {
+        return pool.install(f);
+    }
+    let caller = std::thread::current();
+    std::thread::scope(|s| {
+        let helper = s.spawn(|| {
+            let r = pool.install(f);
+            caller.unpark();
+            r
+        });
+        let mut stopped = false;
+        while !helper.is_finished() {
+            std::thread::park_timeout(WATCH_EVERY);
+            if !stopped && !helper.is_finished() && checkpoint().is_err() {
+                pool.stop.store(true, Ordering::Relaxed);
+                stopped = true;
+            }
+        }
+        let r = helper
+            .join()
+            .unwrap_or_else(|p| std::panic::resume_unwind(p));
+        if stopped {
+            Err(Error::Interrupted)
+        } else {
+            r
+        }
+    })
+}
+
+/// Run `f` on a thread of its own and wait for it, asking [`checkpoint`] every
+/// [`WATCH_EVERY`]: for one long step that has no checkpoints of its own (a library call).
+/// When the check says stop, the call returns [`Error::Interrupted`] at once and `f`
+/// finishes in the background, its result dropped (so `f` owns what it uses).
+pub fn detached<R: Send + 'static>(f: impl FnOnce() -> R + Send + 'static) -> Result<R> {
+    if !HOOK.with(|h| h.borrow().is_some()) && !POOL_STOP.with(|s| s.borrow().is_some()) {
+        return Ok(f());
+    }
+    let (tx, rx) = mpsc::sync_channel(1);
+    std::thread::Builder::new()
+        .name("splitlf-detached".into())
+        .spawn(move || {
+            let _ = tx.send(f());
+        })
+        .map_err(|e| {
+            Error::param(
+                "n_threads",
+                1,
+                format!("a thread that can be started ({e})"),
+            )
+        })?;
+    loop {
+        match rx.recv_timeout(WATCH_EVERY) {
+            Ok(r) => return Ok(r),
+            Err(mpsc::RecvTimeoutError::Timeout) => checkpoint()?,
+            Err(mpsc::RecvTimeoutError::Disconnected) => {
+                return Err(Error::param("n_threads", 1, "a thread that does not panic"))
+            }
+        }
+    }
+}
+
 type Hook = Box<dyn FnMut() -> bool>;
 
 thread_local! {
     static HOOK: RefCell<Option<Hook>> = const { RefCell::new(None) };
+    /// On a pool's worker thread: the pool's stop flag (set when the call that leased the
+    /// pool is interrupted).
+    static POOL_STOP: RefCell<Option<Arc<AtomicBool>>> = const { RefCell::new(None) };
 }
 
 /// Run `f` with `stop` as this thread's interrupt check: [`checkpoint`] calls it, and a
@@ -172,9 +296,18 @@ pub fn interruptible<R>(stop: impl FnMut() -> bool + 'static, f: impl FnOnce() -
     f()
 }
 
-/// Between two chunks of a long call: ask the interrupt check installed on this thread by
-/// [`interruptible`] (none: continue).
+/// Between two chunks of a long call: on a pool's worker, whether the call was stopped;
+/// on the calling thread, ask the interrupt check installed by [`interruptible`] (none:
+/// continue). Cheap enough for every few milliseconds of work.
 pub fn checkpoint() -> Result<()> {
+    let pool_stopped = POOL_STOP.with(|s| {
+        s.borrow()
+            .as_ref()
+            .is_some_and(|f| f.load(Ordering::Relaxed))
+    });
+    if pool_stopped {
+        return Err(Error::Interrupted);
+    }
     // Taken out while it runs: the check may run code that calls the core again.
     let Some(mut stop) = HOOK.with(|h| h.borrow_mut().take()) else {
         return Ok(());
@@ -208,9 +341,14 @@ mod tests {
             );
         }
         assert!(cache().pools.len() <= MAX_POOLS);
-        let a = pool(3).unwrap();
-        let b = pool(3).unwrap();
-        assert!(Arc::ptr_eq(&a, &b));
+        // A pool is reused once returned, and never shared by two calls at once.
+        let a = lease(3).unwrap();
+        let id = |l: &Lease| l.pool.as_ref().map(|p| p as *const ThreadPool as usize);
+        let b = lease(3).unwrap();
+        assert_ne!(id(&a), id(&b));
+        assert_eq!(b.install(rayon::current_num_threads), 3);
+        drop((a, b));
+        assert!(cache().pools.len() <= MAX_POOLS);
         assert!(with_threads(Some(0), || ()).is_err());
         assert!(with_threads(Some(MAX_THREADS + 1), || ()).is_err());
         assert_eq!(

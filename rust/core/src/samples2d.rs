@@ -1164,6 +1164,7 @@ fn components(
         )
     }));
     w.keys.sort_unstable();
+    parallel::checkpoint()?;
     w.parent.clear();
     try_reserve(&mut w.parent, what, n)?;
     w.parent.extend(0..n as u32);
@@ -1233,6 +1234,7 @@ fn components(
             }
         }
     };
+    parallel::checkpoint()?;
     let mut ptr = 0;
     for (ci, c) in cells.iter().enumerate() {
         let (kx, ky) = c.key;
@@ -1285,6 +1287,9 @@ fn excess(p: [f64; 2], field: [f64; 2]) -> f64 {
 
 // ---- covering radius -------------------------------------------------------------------
 
+/// Items of a long serial loop between two interrupt checkpoints.
+const CHECK_ITEMS: usize = 1 << 16;
+
 type Tri = DelaunayTriangulation<Point2<f64>, (), (), (), HierarchyHintGenerator<f64>>;
 
 #[inline]
@@ -1326,7 +1331,14 @@ pub fn covering_radius(points: &[[f64; 2]], field: [f64; 2]) -> Result<f64> {
     let mut verts = Vec::new();
     try_reserve(&mut verts, what, points.len())?;
     verts.extend(points.iter().map(|p| Point2::new(flush(p[0]), flush(p[1]))));
-    let tri = Tri::bulk_load(verts).map_err(|e| {
+    // Seconds for millions of points, in spade, with no checkpoint: then on a thread of its
+    // own (the call can stop meanwhile).
+    let tri = if verts.len() >= CHECK_ITEMS {
+        parallel::detached(move || Tri::bulk_load(verts))?
+    } else {
+        Tri::bulk_load(verts)
+    };
+    let tri = tri.map_err(|e| {
         Error::param(
             "samples",
             format!("a set spade cannot triangulate ({e:?})"),
@@ -1349,7 +1361,10 @@ pub fn covering_radius(points: &[[f64; 2]], field: [f64; 2]) -> Result<f64> {
     let mut cand: Vec<(f64, [f64; 2])> = Vec::new();
     try_reserve(&mut cand, what, tri.num_inner_faces() + 4)?;
     let near_box = |c: f64, h: f64| c.abs() <= h + 1e-12 * (h + c.abs());
-    for f in tri.inner_faces() {
+    for (i, f) in tri.inner_faces().enumerate() {
+        if i % CHECK_ITEMS == 0 {
+            parallel::checkpoint()?;
+        }
         let c = f.circumcenter();
         let c = [c.x, c.y];
         centres[f.fix().index()] = c;
@@ -1364,7 +1379,10 @@ pub fn covering_radius(points: &[[f64; 2]], field: [f64; 2]) -> Result<f64> {
         }
     }
     const T_SLACK: f64 = 1e-6;
-    for e in tri.undirected_edges() {
+    for (i, e) in tri.undirected_edges().enumerate() {
+        if i % CHECK_ITEMS == 0 {
+            parallel::checkpoint()?;
+        }
         let d = e.as_directed();
         let (a, b) = (d.from().position(), d.to().position());
         let mid = [(a.x + b.x) / 2.0, (a.y + b.y) / 2.0];
@@ -1416,9 +1434,12 @@ pub fn covering_radius(points: &[[f64; 2]], field: [f64; 2]) -> Result<f64> {
     }
     cand.retain(|c| c.0 > best * (1.0 + PRUNE_RTOL));
     cand.sort_unstable_by(|x, y| y.0.total_cmp(&x.0));
-    for &(u, p) in &cand {
+    for (i, &(u, p)) in cand.iter().enumerate() {
         if u <= best * (1.0 + PRUNE_RTOL) {
             break;
+        }
+        if i % CHECK_ITEMS == 0 {
+            parallel::checkpoint()?;
         }
         best = best.max(nearest(p));
     }
@@ -1738,6 +1759,7 @@ fn row_pass(
         return Ok(Pass::Widen(next));
     }
     if let Some(out) = field_reps {
+        parallel::checkpoint()?;
         out.clear();
         try_reserve(out, "samples_2d (representatives)", distinct as usize)?;
         out.extend(

@@ -56,6 +56,7 @@ macro_rules! functions {
 
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    interrupt::numpy_ready(m.py())?;
     constants(m)?;
     classes!(m, design::CameraCore, design::DesignCore);
     classes!(
