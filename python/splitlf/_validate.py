@@ -14,7 +14,7 @@ import numpy as np
 
 from . import _native
 from .design import Design
-from .errors import InvalidParameter
+from .errors import InvalidParameter, TooLargeError
 
 #: Largest thread count (from the core).
 MAX_THREADS: int = _native.MAX_THREADS
@@ -79,6 +79,29 @@ def depths(value: Any, name: str = "z") -> np.ndarray:
         raise InvalidParameter.of(name, f"an array of shape {arr.shape}",
                                   "a scalar or a one-dimensional array of depths")
     return arr
+
+
+#: Most depths a design is evaluated at (each depth is a full sample analysis).
+MAX_DEPTHS = 100_000
+
+
+def depth_range(value: Any, name: str = "depths") -> np.ndarray:
+    """The depths a design's merits are taken over (sweeps, the inverse design, the
+    comparison): 2..:data:`MAX_DEPTHS` finite values > 0, at least two distinct (their
+    [min, max] is the range of the sharp fractions). ``TooLargeError`` beyond the limit,
+    :class:`InvalidParameter` naming ``name`` (and the element) otherwise."""
+    z = depths(value, name)
+    if z.size > MAX_DEPTHS:
+        raise TooLargeError(f"{z.size} depths; the limit is {MAX_DEPTHS} depths per design",
+                            what=name, limit=MAX_DEPTHS)
+    bad = np.flatnonzero(~np.isfinite(z) | (z <= 0))
+    if bad.size:
+        i = int(bad[0])
+        raise InvalidParameter.of(name, float(z[i]), "finite depths > 0 mm", index=i)
+    if z.size < 2 or z.min() == z.max():
+        raise InvalidParameter.of(name, f"{z.size} depth(s), {np.unique(z).size} distinct",
+                                  "at least two distinct depths (mm)")
+    return z
 
 
 def depth(value: Any, name: str = "z") -> float:

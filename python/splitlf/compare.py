@@ -365,12 +365,7 @@ def mtf50(designs: Mapping[str, Design], simulate_depths: Sequence[float], *,
 def _depths(depths: Any, name: str) -> np.ndarray:
     if depths is None:
         return np.geomspace(*DEPTH_RANGE, EVAL_DEPTHS)
-    z = _validate.depths(depths, name)
-    if z.size < 2 or not np.all(np.isfinite(z)) or np.any(z <= 0) or z.min() == z.max():
-        raise InvalidParameter.of(name, f"{z.size} depths from {z.min() if z.size else 0} "
-                                  f"to {z.max() if z.size else 0}",
-                                  "at least two distinct finite depths > 0 (mm)")
-    return np.sort(z)
+    return np.sort(_validate.depth_range(depths, name))
 
 
 def _positive(value: Any, name: str) -> float:

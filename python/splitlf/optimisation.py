@@ -31,7 +31,7 @@ import numpy as np
 
 from . import _validate
 from .design import Design
-from .errors import InvalidParameter, TooLargeError
+from .errors import InvalidParameter
 from .evaluate import (
     DEFAULT_THRESHOLD_PX,
     DEFAULT_TOL,
@@ -43,7 +43,7 @@ from .evaluate import (
     evaluate,
     merit_names,
 )
-from .sweep import MAX_DEPTHS, _evaluate_batch, _field, with_changes
+from .sweep import _evaluate_batch, _field, with_changes
 
 __all__ = ["OptimiseResult", "merit_names", "natural_sense", "optimise"]
 
@@ -219,18 +219,7 @@ def _constraints(constraints: Any, merits: Sequence[str]) -> list[tuple[str, str
 def _depths(depths: Any) -> np.ndarray:
     if depths is None:
         return np.geomspace(150.0, 10_000.0, 200)
-    z = _validate.depths(depths, "depths")
-    if z.size > MAX_DEPTHS:
-        raise TooLargeError(f"{z.size} depths; the limit is {MAX_DEPTHS}", what="depths",
-                            limit=MAX_DEPTHS)
-    bad = np.flatnonzero(~np.isfinite(z) | (z <= 0))
-    if bad.size:
-        i = int(bad[0])
-        raise InvalidParameter.of("depths", float(z[i]), "finite depths > 0 mm", index=i)
-    if z.size < 2 or z.min() == z.max():
-        raise InvalidParameter.of("depths", f"{z.size} depth(s), {np.unique(z).size} distinct",
-                                  "at least two distinct depths (mm)")
-    return z
+    return _validate.depth_range(depths)
 
 
 def _count(value: Any, name: str, lo: int = 1) -> int:

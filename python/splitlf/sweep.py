@@ -51,7 +51,7 @@ evaluate_design = evaluate
 #: refused before any work. At ~1-10 ms per design this is hours of work already.
 MAX_DESIGNS = 1_000_000
 #: Most depths per design (each depth is a full sample analysis of the design).
-MAX_DEPTHS = 100_000
+MAX_DEPTHS = _validate.MAX_DEPTHS
 
 #: Numeric channel fields a Design's grid or free fields may name (``channels[i].NAME``),
 #: and the counts among them (integers).
@@ -211,18 +211,7 @@ def _depths(depths: Any, camera: Design,
     """The depths of the whole sweep: 2..MAX_DEPTHS finite values, at least two distinct,
     and not all designs' F or more (a depth <= F of one design makes that design invalid;
     <= every design's F, the whole sweep)."""
-    z = _validate.depths(depths, "depths")
-    if z.size > MAX_DEPTHS:
-        raise TooLargeError(f"{z.size} depths; the limit is {MAX_DEPTHS} depths per design "
-                            "(splitlf.sweep.MAX_DEPTHS)", what="sweep depths",
-                            limit=MAX_DEPTHS)
-    bad = np.flatnonzero(~np.isfinite(z) | (z <= 0))
-    if bad.size:
-        i = int(bad[0])
-        raise InvalidParameter.of("depths", float(z[i]), "finite depths > 0 mm", index=i)
-    if z.size < 2 or z.min() == z.max():
-        raise InvalidParameter.of("depths", f"{z.size} depth(s), {np.unique(z).size} distinct",
-                                  "at least two distinct depths (mm)")
+    z = _validate.depth_range(depths)
     f_min = float(np.min(axes["F"])) if "F" in axes else camera.F
     if z.min() <= f_min:
         raise InvalidParameter.of("depths", float(z.min()),

@@ -382,7 +382,11 @@ mod tests {
             },
         );
         assert_eq!(r, Err(Error::Interrupted));
-        assert_eq!((calls.get(), done), (2, 2));
+        // The check runs between chunks, and also while the caller waits for a chunk (every
+        // WATCH_EVERY): under load a chunk can outlast that, so the second "stop" may come
+        // before the second chunk. Either way the call stops at once, far before chunk 10.
+        assert_eq!(calls.get(), 2);
+        assert!((1..=2).contains(&done), "{done} chunks ran");
         assert!(checkpoint().is_ok()); // the check is gone with its scope
     }
 }
