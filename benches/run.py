@@ -334,20 +334,19 @@ def _w7_run(sizes: dict[str, Any], n_threads: int | None) -> dict[str, float]:
 
 def _w7_check(sizes: dict[str, Any]) -> dict[str, Any]:
     """The search at all threads and at 1 thread: the same history, row for row; the best
-    design's merits equal `splitlf.sweep.evaluate_design` of it (the public API, not the
+    design's merits equal `splitlf.evaluate` of it (the public API, not the
     search's own path) exactly; the core evaluated exactly the valid candidates."""
-    from splitlf.sweep import evaluate_design
 
     a = w7_optimise.search(sizes["generations"], sizes["popsize"], None)
     b = w7_optimise.search(sizes["generations"], sizes["popsize"], 1)
     assert a.history.equals(b.history) and a.free == b.free, "W7: threads changed the search"
-    api = evaluate_design(a.design, w7_optimise.depths())
+    api = splitlf.evaluate(a.design, w7_optimise.depths())
     for name, value in api.items():
         np.testing.assert_array_equal(a.merits[name], value, err_msg=f"W7: merit {name}")
     valid = int(a.history["valid"].sum())
     assert valid == int(a.timing["evaluations"]), ("W7: core evaluations", valid, a.timing)
     assert a.generations == sizes["generations"], ("W7: generations", a.generations)
-    return {"same_history_1_and_all_threads": True, "merits_equal_evaluate_design": True,
+    return {"same_history_1_and_all_threads": True, "merits_equal_evaluate": True,
             "candidates": a.nfev, "valid_candidates": valid}
 
 

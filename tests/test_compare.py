@@ -362,3 +362,14 @@ def test_plot_draws_the_api_numbers():
         splitlf.plot.compare(res, ax=list(Figure().subplots(4, 1)))
     with pytest.raises(TypeError):
         splitlf.plot.compare("not a comparison")
+
+
+def test_table_of_a_camera_is_its_designs():
+    # A Camera is its two-channel design: the comparison table gives the same row (the
+    # rect twin of the light merits is built on the general design; a Camera's replace
+    # takes its own fields only).
+    pd = pytest.importorskip("pandas")
+    z = np.geomspace(300.0, 3000.0, 3)
+    a, _ = splitlf.compare.evaluate({"seed": splitlf.Camera.paper()}, z, window=2.0)
+    b, _ = splitlf.compare.evaluate({"seed": splitlf.Design.preset("seed")}, z, window=2.0)
+    pd.testing.assert_frame_equal(a, b)

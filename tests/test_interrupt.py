@@ -27,7 +27,7 @@ LONG_CALLS = {
     "new_samples": "splitlf.new_samples(P.replace(Kx=10**5), np.geomspace(150, 1e4, 50_000))",
     "new_samples_centroid": "splitlf.new_samples(P.replace(Kx=10**5), "
                             "np.geomspace(150, 1e4, 50_000), sample='centroid', n_threads=1)",
-    "figures_of_merit": "splitlf.sweep.evaluate_design(P.replace(Kx=10**5), "
+    "figures_of_merit": "splitlf.evaluate(P.replace(Kx=10**5), "
                         "np.geomspace(150, 1e4, 50_000))",
     "footprints_kernel": "splitlf.footprints(P.replace(Kx=4000), np.geomspace(150, 1e4, 2000), "
                          "2, kernel=True)",

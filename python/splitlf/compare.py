@@ -299,8 +299,9 @@ def _rect_twin(design: Design) -> Design:
     types, pixels, share): the core's light per pixel and lit fraction are 1-D measures
     along x on rect lattices (docs/architectures.md), and a row of lenses along x is the
     same on both lattices."""
-    return design.replace(channels=tuple(ch.replace(grid="rect") if ch.grid == "hex" else ch
-                                         for ch in design.channels))
+    general = design.design  # a Camera's channels are its design's
+    return general.replace(channels=tuple(ch.replace(grid="rect") if ch.grid == "hex" else ch
+                                          for ch in general.channels))
 
 
 def _light(design: Design, merits: Mapping[str, float], depths: np.ndarray,

@@ -28,12 +28,9 @@ from .evaluate import (
     DEFAULT_THRESHOLD_PX,
     DEFAULT_TOL,
     DEFAULT_WINDOW,
-    _merits_2d,
     _options_2d,
-    _real_option,
     _threshold,
     _tol,
-    _window,
     evaluate,
     merit_doc,
     merit_names,
@@ -41,11 +38,6 @@ from .evaluate import (
 
 __all__ = ["DEFAULT_THRESHOLD_PX", "DEFAULT_TOL", "DEFAULT_WINDOW", "MAX_DEPTHS", "MAX_DESIGNS",
            "design_fields", "merit_names", "sweep"]
-
-# the argument checks live in splitlf.evaluate; the command line imports them from here
-_CHECKS = (_merits_2d, _real_option, _threshold, _tol, _window)
-#: The former name of :func:`splitlf.evaluate` (kept for callers of ``splitlf.sweep``).
-evaluate_design = evaluate
 
 #: Most designs one sweep evaluates (the product of the grid's sizes); a larger grid is
 #: refused before any work. At ~1-10 ms per design this is hours of work already.
