@@ -22,7 +22,7 @@ from splitlf.compare import (
     mtf50,
 )
 from splitlf.errors import InvalidParameter
-from splitlf.report import design_report_data
+from splitlf.report import report_data
 
 pytest.importorskip("scipy")
 pd = pytest.importorskip("pandas")
@@ -64,7 +64,7 @@ def test_seed_numbers_equal_report_coverage_and_trace():
     assert row["covering_radius_median"] == np.median(cov.covering_radius[-1])
     assert row["distinct_2d_median"] == np.median(cov.distinct[-1])
     # sharpness: the report's depth of field of the union
-    dof = design_report_data(seed)["depth_of_field"]["light_field"]["union"]
+    dof = report_data(seed, samples=False)["depth_of_field"]["light_field"]["union"]
     assert row["sharp_fraction"] == pytest.approx(_log_fraction(dof, Z.min(), Z.max()),
                                                   rel=1e-12)
     assert curves["sharp"].tolist() == [_inside(dof, z) for z in Z]

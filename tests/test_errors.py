@@ -35,7 +35,7 @@ def test_bad_depth_names_the_parameter_and_element():
     assert (e.value.name, e.value.value, e.value.index) == ("z", 80.0, 2)
     assert "F = 80" in e.value.allowed
     with pytest.raises(InvalidParameter) as e:
-        splitlf.sweep.evaluate_design(P, [500.0, np.nan])
+        splitlf.evaluate(P, [500.0, np.nan])
     assert (e.value.name, e.value.index) == ("depths", 1)
 
 

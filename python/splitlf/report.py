@@ -14,7 +14,7 @@ from .design import Design
 from .optics import depth_of_field
 from .samples import coincidence_planes, worst_resolution
 
-__all__ = ["report_data", "format_report", "design_report_data", "format_design_report"]
+__all__ = ["format_report", "report_data"]
 
 #: Coincidence planes listed in the report: N <= 3 (T <= Q).
 REPORT_MAX_N = 3
@@ -85,13 +85,6 @@ def report_data(design: Design, threshold_px: float = 0.5, *, n_threads: int | N
     if samples:
         out.update(_samples_data(general, n_threads))
     return out
-
-
-def design_report_data(design: Design, threshold_px: float = 0.5, *,
-                       n_threads: int | None = None, samples: bool = False) -> dict[str, Any]:
-    """:func:`report_data` without the sample sections by default (the explorer's quick
-    form)."""
-    return report_data(design, threshold_px, n_threads=n_threads, samples=samples)
 
 
 # -- text --------------------------------------------------------------------------------
@@ -234,8 +227,3 @@ def format_report(data: dict[str, Any], title: str, *, full: bool = False) -> st
     if not full:
         out += ["", "(--full: every field, the lens types and the coincidence planes)"]
     return "\n".join(out) + "\n"
-
-
-def format_design_report(data: dict[str, Any], title: str) -> str:
-    """:func:`format_report` with every section (``full=True``)."""
-    return format_report(data, title, full=True)

@@ -214,11 +214,9 @@ def new_samples(
         n_threads: threads of the core, ``None`` (default) for all cores.
 
     Returns:
-        For a Camera, :class:`NewSamples` with (3, m) arrays (rows half 1, half 2, union);
-        for a Design, :class:`DesignNewSamples` with (C + 1, m) arrays (rows the channels,
-        then their union). ``Camera.design`` gives the camera's ``distinct`` and
-        ``sampled`` exactly and its ``max_gap`` to rounding (delta(z) is mu_1 z / L_1
-        there, d z / (Q v') for the camera: equal when d = Q mu).
+        :class:`NewSamples` with (C + 1, m) arrays: rows the channels (for the split
+        sensor half 1, half 2), then their union; ``max_gap`` in delta(z) = mu_1 z / L_1
+        (docs/model.md §9; §6's d z / (Q v') is the same when d = Q mu).
 
     Raises:
         TypeError: ``camera`` is not a Design; ``z`` or ``tol`` is not
