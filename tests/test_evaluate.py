@@ -12,7 +12,7 @@ import pytest
 
 import splitlf
 from splitlf import Camera, Design, Merits, evaluate
-from splitlf.evaluate import merit_doc, merit_names
+from splitlf.merits import merit_doc, merit_names
 
 Z = np.geomspace(150.0, 10_000.0, 12)
 PACKAGE = pathlib.Path(splitlf.__file__).parent
@@ -22,7 +22,7 @@ def test_only_evaluate_calls_the_core_merit_entry():
     callers = sorted(str(p.relative_to(PACKAGE)) for p in PACKAGE.rglob("*.py")
                      if re.search(r"\bdesign_figures_of_merit\b|\bfigures_of_merit\b",
                                   p.read_text(encoding="utf-8")))
-    assert callers == ["evaluate.py"]
+    assert callers == ["merits.py"]
 
 
 def test_merits_is_a_read_only_mapping_with_its_settings():

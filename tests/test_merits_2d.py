@@ -14,7 +14,7 @@ import splitlf
 from splitlf import Camera, Channel, Design, InvalidParameter, _native
 from splitlf import evaluate as evaluate_design
 from splitlf.cli import main
-from splitlf.evaluate import merit_names
+from splitlf.merits import merit_names
 from splitlf.optimisation import optimise
 from splitlf.sweep import sweep
 

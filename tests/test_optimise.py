@@ -14,7 +14,7 @@ import splitlf
 from splitlf import Camera, Design, _native
 from splitlf.cli import main
 from splitlf.errors import InvalidParameter
-from splitlf.evaluate import merit_names
+from splitlf.merits import merit_names
 from splitlf.optimisation import optimise
 
 pytest.importorskip("scipy")

@@ -10,7 +10,7 @@ from .camera import Camera
 from .coverage import ChiefSamples, Coverage, Samples2D, chief_samples, coverage, samples_2d
 from .design import Channel, Design
 from .errors import InvalidParameter, SplitlfError, TooLargeError
-from .evaluate import Merits, evaluate
+from .merits import Merits, evaluate
 from .optics import Curves, DepthOfField, curves, depth_of_field, sharp_fractions
 from .optimisation import OptimiseResult, optimise
 from .rayspace import Footprints, SampleGrid, Trace, footprints, sample_grid, trace

@@ -391,27 +391,17 @@ SWEEP_OPTIONS = ("threshold_px", "tol", "merits_2d", "window")
 def _sweep_options(path: str, opts: Any) -> dict[str, Any]:
     """The [options] table of a sweep file, checked as :func:`splitlf.evaluate` checks
     them."""
-    from .evaluate import (
-        DEFAULT_THRESHOLD_PX,
-        DEFAULT_TOL,
-        DEFAULT_WINDOW,
-        _options_2d,
-        _threshold,
-        _tol,
-    )
-
-    def check(threshold_px: Any, tol: Any, merits_2d: Any, window: Any) -> None:
-        _threshold(threshold_px)
-        _options_2d(merits_2d, window, _tol(tol))
+    from . import merits as ev
 
     bad = set(opts) - set(SWEEP_OPTIONS) if isinstance(opts, dict) else {"(not a table)"}
     if bad:
         raise CliError(f"{path}: unknown [options] key(s) {sorted(bad)}; "
                        f"allowed: {', '.join(SWEEP_OPTIONS)}")
-    full = {"threshold_px": DEFAULT_THRESHOLD_PX, "tol": DEFAULT_TOL, "merits_2d": False,
-            "window": DEFAULT_WINDOW, **opts}
-    try:
-        check(*(full[k] for k in SWEEP_OPTIONS))
+    full = {"threshold_px": ev.DEFAULT_THRESHOLD_PX, "tol": ev.DEFAULT_TOL,
+            "merits_2d": False, "window": ev.DEFAULT_WINDOW, **opts}
+    try:  # the checks of splitlf.evaluate's options
+        ev._threshold(full["threshold_px"])
+        ev._options_2d(full["merits_2d"], full["window"], ev._tol(full["tol"]))
     except (ValueError, TypeError) as e:
         raise CliError(f"{path}: options: {e}") from None
     return dict(opts)
@@ -469,7 +459,7 @@ def _sweep_base(args: argparse.Namespace, spec: dict[str, Any]) -> Design:
 
 
 def _sweep_table(ds: Any, base: Design, spec: dict[str, Any]) -> str:
-    from .evaluate import merit_names
+    from .merits import merit_names
 
     df = ds.to_dataframe().reset_index()
     cols = list(spec["grid"]) + ["sharp_fraction_union", "max_gap_worst_union",

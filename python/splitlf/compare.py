@@ -34,8 +34,8 @@ from . import _validate
 from .coverage import DEFAULT_TOL, DEFAULT_WINDOW, coverage
 from .design import Channel, Design
 from .errors import InvalidParameter
-from .evaluate import SIMULATE_OPTIONS, Merits, _mtf50
-from .evaluate import evaluate as _merits
+from .merits import SIMULATE_OPTIONS, Merits, _mtf50
+from .merits import evaluate as _merits
 from .optics import curves, sharp_fractions
 from .sweep import with_changes
 
@@ -76,7 +76,7 @@ R12_F_OVER_V = (0.58267 / 0.33713, 0.52402 / 0.33713, 0.56057 / 0.33713)
 #: (the core's rule), so the base starts at 0.7 v_seed (the image 70 % of the pitch).
 HEX_SQUARE_V = 0.7
 #: Defaults of the evaluation: depths over DEPTH_RANGE (log-spaced); the simulation's
-#: options are :data:`splitlf.evaluate.SIMULATE_OPTIONS` (``SIMULATE_OPTIONS`` here too).
+#: options are :data:`splitlf.merits.SIMULATE_OPTIONS` (``SIMULATE_OPTIONS`` here too).
 EVAL_DEPTHS = 60
 #: Labels of the architectures (figures, tables).
 LABELS = {

@@ -32,7 +32,7 @@ import numpy as np
 from . import _validate
 from .design import Design
 from .errors import InvalidParameter
-from .evaluate import (
+from .merits import (
     DEFAULT_THRESHOLD_PX,
     DEFAULT_TOL,
     DEFAULT_WINDOW,

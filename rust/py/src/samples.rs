@@ -173,7 +173,7 @@ pub(crate) fn design_metrics(design: &DesignCore, merits_2d: bool) -> Vec<String
 }
 
 /// Figures of merit of a design over depths, per channel and union (see
-/// `splitlf.evaluate.merit_names`), followed by its 2-D merits when `window` is given.
+/// `splitlf.merits.merit_names`), followed by its 2-D merits when `window` is given.
 #[pyfunction]
 #[pyo3(signature = (design, z, threshold_px=optics::DEFAULT_THRESHOLD_PX, tol=samples::DEFAULT_TOL, n_threads=None, window=None))]
 pub(crate) fn design_figures_of_merit(

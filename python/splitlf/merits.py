@@ -1,4 +1,5 @@
-"""The evaluation layer: every figure of merit of a design, from one call.
+"""The evaluation layer (``splitlf.merits``; its :func:`evaluate` is ``splitlf.evaluate``):
+every figure of merit of a design, from one call.
 
 :func:`evaluate` is what :func:`splitlf.sweep.sweep`, :func:`splitlf.optimise`,
 :func:`splitlf.compare.compare` and the explorer report per design: the core's figures of
