@@ -120,8 +120,7 @@ class Camera(Design):
             explicit[name] = given[name] is not None
             values[name] = None if given[name] is None else _real(name, given[name])
         core = _native.CameraCore(*(values[n] for n in FIELDS))
-        design = Design._from_core(_native.DesignCore.from_camera(core))
-        Design.__init__(self, design.F, design.D, design.channels, design.aperture)
+        self._adopt(_native.DesignCore.from_camera(core))  # validated by the core already
         set_ = object.__setattr__
         for name, value in zip(FIELDS, core.fields(), strict=True):
             if name not in ("F", "D"):

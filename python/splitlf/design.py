@@ -228,12 +228,22 @@ class Design:
 
     @staticmethod
     def _from_core(core: _native.DesignCore) -> Design:
+        design = object.__new__(Design)
+        design._adopt(core)
+        return design
+
+    def _adopt(self, core: _native.DesignCore) -> None:
+        """Take the fields of a design the core has already validated (a preset, a
+        camera's), without building and validating it a second time."""
         F, D, aperture = core.main_lens()
         channels = []
         for c in core.channels():
             f = None if c.pop("ng") else tuple(c["f"])
             channels.append(Channel(**{**c, "f": f}))
-        return Design(F, D, tuple(channels), aperture)
+        set_ = object.__setattr__
+        for name, value in (("F", F), ("D", D), ("channels", tuple(channels)),
+                            ("aperture", aperture), ("_core", core)):
+            set_(self, name, value)
 
     def _key(self) -> tuple[Any, ...]:
         return (self.F, self.D, self.channels, self.aperture)
