@@ -11,7 +11,9 @@
 //! [`samples`] the coincidence planes and genuinely new samples (Eqs. 8–9, docs/model.md §6),
 //! [`samples2d`] the 2-D chief samples, distinct samples and covering radius of a design (§9),
 //! [`merit`] the figures of merit of one design that sweeps compare,
-//! [`simulate`] the forward model and system matrix of the super-resolution simulation.
+//! [`simulate`] the forward model and system matrix of the super-resolution simulation,
+//! [`render`] the 2-D forward model (raw images, §10) with [`scene`], [`texture`] and
+//! [`polygon`].
 //! Every parallel entry point takes `n_threads` (see [`parallel`]).
 
 pub mod camera;
@@ -23,11 +25,15 @@ pub mod memory;
 pub mod merit;
 pub mod optics;
 pub mod parallel;
+pub mod polygon;
 pub mod presets;
 pub mod rayspace;
+pub mod render;
 pub mod samples;
 pub mod samples2d;
+pub mod scene;
 pub mod simulate;
+pub mod texture;
 
 pub use camera::{Camera, Half};
 pub use design::{Aperture, Channel, ChannelSpec, Design, Grid, Layout};

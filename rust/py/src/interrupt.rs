@@ -59,6 +59,25 @@ pub(crate) fn run_as<R: Send>(
     depth: &'static str,
     f: impl FnOnce() -> splitlf_core::Result<R> + Send,
 ) -> PyResult<R> {
+    run_reporting(py, depth, None, f)
+}
+
+/// A progress report: `callback(done, total)` called with the GIL at each signal check on
+/// the main thread, `done` read from the counter the core advances.
+pub(crate) struct Progress {
+    pub callback: Py<PyAny>,
+    pub done: Arc<std::sync::atomic::AtomicUsize>,
+    pub total: usize,
+}
+
+/// [`run_as`] with an optional progress report (main thread only: elsewhere the report
+/// would have to take the GIL).
+pub(crate) fn run_reporting<R: Send>(
+    py: Python<'_>,
+    depth: &'static str,
+    progress: Option<Progress>,
+    f: impl FnOnce() -> splitlf_core::Result<R> + Send,
+) -> PyResult<R> {
     let caught: Arc<Mutex<Option<PyErr>>> = Arc::default();
     let slot = Arc::clone(&caught);
     let main = on_main_thread(py);
@@ -75,11 +94,22 @@ pub(crate) fn run_as<R: Send>(
                 return finalizing();
             }
             next = now + CHECK_EVERY;
-            Python::try_attach(|py| match py.check_signals() {
-                Ok(()) => false,
-                Err(e) => {
-                    *slot.lock().unwrap_or_else(|p| p.into_inner()) = Some(e);
-                    true
+            Python::try_attach(|py| {
+                match py.check_signals().and_then(|()| {
+                    if let Some(p) = &progress {
+                        let done = p
+                            .done
+                            .load(std::sync::atomic::Ordering::Relaxed)
+                            .min(p.total);
+                        p.callback.call1(py, (done, p.total))?;
+                    }
+                    Ok(())
+                }) {
+                    Ok(()) => false,
+                    Err(e) => {
+                        *slot.lock().unwrap_or_else(|p| p.into_inner()) = Some(e);
+                        true
+                    }
                 }
             })
             .unwrap_or(true)

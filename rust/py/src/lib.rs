@@ -3,7 +3,7 @@
 //! work ([`interrupt`]), fallible allocation of the NumPy outputs ([`arrays`]), named
 //! result objects, and the mapping of core errors to the exceptions of `splitlf.errors`
 //! ([`errors`]). The bindings are split by domain: [`design`] (the validated models),
-//! [`optics`], [`samples`], [`rayspace`], [`coverage`] and [`simulate`]; this file only
+//! [`optics`], [`samples`], [`rayspace`], [`coverage`], [`simulate`] and [`render`]; this file only
 //! registers them.
 
 mod args;
@@ -14,6 +14,7 @@ mod errors;
 mod interrupt;
 mod optics;
 mod rayspace;
+mod render;
 mod samples;
 mod simulate;
 
@@ -42,6 +43,8 @@ fn constants(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("DEFAULT_WINDOW", samples2d::DEFAULT_WINDOW)?;
     m.add("MAX_TOL_2D", samples2d::MAX_TOL_2D)?;
     m.add("MAX_COVERAGE_WORK", samples2d::MAX_COVERAGE_WORK)?;
+    m.add("RENDER_ORDER", splitlf_core::render::DEFAULT_ORDER)?;
+    m.add("MAX_RENDER_ORDER", splitlf_core::render::MAX_ORDER)?;
     Ok(())
 }
 
@@ -73,6 +76,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
         coverage::CoverageArrays,
         simulate::SystemMatrixArrays,
         simulate::RenderArrays,
+        render::RenderScene,
     );
     // Closed forms; samples along one axis and figures of merit; ray space; 2-D samples;
     // the simulation's forward model; the memory guard.
@@ -94,6 +98,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
         simulate::design_kernel_support,
         simulate::design_system_matrix,
         simulate::design_render,
+        render::render,
+        render::render_extent,
         arrays::available_memory,
     );
     Ok(())

@@ -1,0 +1,116 @@
+//! Convex polygons in the plane: area, centroid, clipping by half-planes (Sutherland–
+//! Hodgman), the building blocks of the 2-D forward model (docs/render.md).
+
+/// A point (x, y).
+pub type Pt = [f64; 2];
+
+/// Signed area (positive for counter-clockwise vertices; shoelace formula).
+pub fn signed_area(p: &[Pt]) -> f64 {
+    let n = p.len();
+    if n < 3 {
+        return 0.0;
+    }
+    let mut s = 0.0;
+    for i in 0..n {
+        let a = p[i];
+        let b = p[(i + 1) % n];
+        s += a[0] * b[1] - a[1] * b[0];
+    }
+    0.5 * s
+}
+
+/// Centroid of a polygon of non-zero area (the vertex mean when the area vanishes).
+pub fn centroid(p: &[Pt]) -> Pt {
+    let n = p.len();
+    if n == 0 {
+        return [0.0, 0.0];
+    }
+    // Relative to the first vertex, for precision far from the origin.
+    let o = p[0];
+    let (mut a, mut cx, mut cy) = (0.0, 0.0, 0.0);
+    for i in 0..n {
+        let (x0, y0) = (p[i][0] - o[0], p[i][1] - o[1]);
+        let q = p[(i + 1) % n];
+        let (x1, y1) = (q[0] - o[0], q[1] - o[1]);
+        let c = x0 * y1 - x1 * y0;
+        a += c;
+        cx += (x0 + x1) * c;
+        cy += (y0 + y1) * c;
+    }
+    if a.abs() > 0.0 {
+        [o[0] + cx / (3.0 * a), o[1] + cy / (3.0 * a)]
+    } else {
+        let m = p.iter().fold([0.0, 0.0], |s, v| [s[0] + v[0], s[1] + v[1]]);
+        [m[0] / n as f64, m[1] / n as f64]
+    }
+}
+
+/// Keep the part of `src` where `f(point) >= 0`, `f` affine (a half-plane), into `out`.
+pub fn clip_into(src: &[Pt], out: &mut Vec<Pt>, f: impl Fn(Pt) -> f64) {
+    out.clear();
+    let n = src.len();
+    if n == 0 {
+        return;
+    }
+    let mut prev = src[n - 1];
+    let mut fp = f(prev);
+    for &cur in src {
+        let fc = f(cur);
+        if fc >= 0.0 {
+            if fp < 0.0 {
+                out.push(cut(prev, cur, fp, fc));
+            }
+            out.push(cur);
+        } else if fp >= 0.0 {
+            out.push(cut(prev, cur, fp, fc));
+        }
+        prev = cur;
+        fp = fc;
+    }
+}
+
+#[inline]
+fn cut(a: Pt, b: Pt, fa: f64, fb: f64) -> Pt {
+    let t = fa / (fa - fb);
+    [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]
+}
+
+/// Clip `poly` in place to the axis-aligned box [x0, x1] × [y0, y1] (`tmp` is scratch).
+pub fn clip_box(poly: &mut Vec<Pt>, tmp: &mut Vec<Pt>, x0: f64, x1: f64, y0: f64, y1: f64) {
+    clip_into(poly, tmp, |p| p[0] - x0);
+    clip_into(tmp, poly, |p| x1 - p[0]);
+    clip_into(poly, tmp, |p| p[1] - y0);
+    clip_into(tmp, poly, |p| y1 - p[1]);
+}
+
+/// Bounding box (x0, x1, y0, y1) of a non-empty point set.
+pub fn bounds(p: &[Pt]) -> (f64, f64, f64, f64) {
+    p.iter().fold(
+        (
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        ),
+        |(a, b, c, d), v| (a.min(v[0]), b.max(v[0]), c.min(v[1]), d.max(v[1])),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn square_area_centroid_and_clip() {
+        let sq = vec![[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]];
+        assert_eq!(signed_area(&sq), 4.0);
+        assert_eq!(centroid(&sq), [1.0, 1.0]);
+        let mut p = sq.clone();
+        let mut t = Vec::new();
+        clip_box(&mut p, &mut t, 0.5, 1.5, -1.0, 1.0);
+        assert!((signed_area(&p) - 1.0).abs() < 1e-15);
+        let mut out = Vec::new();
+        clip_into(&sq, &mut out, |q| q[0] + q[1] - 2.0); // upper-right triangle
+        assert!((signed_area(&out) - 2.0).abs() < 1e-15);
+    }
+}

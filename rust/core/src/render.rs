@@ -1,0 +1,1326 @@
+//! The 2-D forward model (docs/model.md §10, docs/render.md): what each channel's sensor
+//! records for a textured Lambertian scene.
+//!
+//! A pixel's value is share / (μ_1² A) · ∫∫ T(P_hit(u, w)) du dw over the rays it collects,
+//! with du dw = (L_1/L)² dx dw (x the ray's point on the channel's array plane). Per lens
+//! that can send light to the pixel, the 4-D integral is done as a 2-D Gauss–Legendre
+//! quadrature over one pair of variables and an exact integral over the other:
+//! - **outer w** (the main-lens point; used when the lens's image of its own cell, |α| d,
+//!   is narrower than a pixel, α = 1 + v/L − v/f: microlenses focused near the main lens,
+//!   Ng's setting α = 0): for each w the rays form a convex polygon of x (the lens cell
+//!   clipped by the pixel's preimage, a square of side μ/|α|);
+//! - **outer s** (the sensor point in the pixel; used otherwise): for each s the rays form
+//!   the polygon of x inside the cell whose main-lens point w(x) = (L/v)(α x + (v/f) c − s)
+//!   lies in the aperture (a square, or a disc as a 256-gon of equal area).
+//!
+//! The polygon is mapped to the scene through each vertex's ray hit, and T is averaged
+//! over the image polygon exactly ([`Texture::average`]). On a fronto-parallel plane the
+//! map is affine and this is exact; on slanted planes and depth maps the polygon is cut
+//! into pieces small enough that the map's non-linearity is below the error budget.
+//! The quadrature intervals are cut where the integrand's kinks are known (where the pixel
+//! square or the aperture edges cross the cell's edges), so that for a constant texture
+//! the rule is exact on rect cells with a square aperture.
+//!
+//! **Exact route**: a fronto-parallel plane, rect cells, a square aperture, the ideal
+//! layout and an image (or constant) texture: a pixel's ray set is the product of its x
+//! and y polygons of §4, and its value is Σ_cells T · I_x · I_y with I the areas of the
+//! 1-D polygons between the cell's edges — no quadrature error.
+
+use std::f64::consts::PI;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use rayon::prelude::*;
+
+use crate::design::{Aperture, Channel, Design, Grid, Layout};
+use crate::error::{Error, Result};
+use crate::memory;
+use crate::parallel::{checkpoint, for_chunks};
+use crate::polygon::{bounds, clip_box, clip_into, signed_area, Pt};
+use crate::scene::{Scene, Surface};
+use crate::texture::{Scratch, Texture};
+
+/// Sides of the polygon standing for a circular aperture's preimage (radius scaled so that
+/// its area equals the disc's).
+pub const CIRCLE_SIDES: usize = 256;
+/// Gauss–Legendre nodes per interval and axis by default.
+pub const DEFAULT_ORDER: usize = 6;
+/// Largest order accepted.
+pub const MAX_ORDER: usize = 32;
+/// Relative depth variation across one mapped piece of a polygon on a curved or slanted
+/// surface (the map to the scene is treated as affine within a piece).
+const PIECE_DEPTH_RTOL: f64 = 2e-4;
+/// Most pieces per axis a polygon is cut into.
+const MAX_PIECES: usize = 24;
+
+/// Options of a render.
+#[derive(Debug, Clone, Copy)]
+pub struct RenderOptions {
+    /// Gauss–Legendre nodes per interval and axis.
+    pub order: usize,
+}
+
+impl Default for RenderOptions {
+    fn default() -> Self {
+        RenderOptions {
+            order: DEFAULT_ORDER,
+        }
+    }
+}
+
+/// Gauss–Legendre nodes and weights on [−1, 1] (Newton on P_n from Chebyshev guesses).
+pub fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
+    let mut x = vec![0.0; n];
+    let mut w = vec![0.0; n];
+    for i in 0..n.div_ceil(2) {
+        let mut z = (PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
+        let mut dp = 1.0;
+        for _ in 0..100 {
+            let (mut p0, mut p1) = (1.0, z);
+            for k in 2..=n {
+                let p2 = ((2 * k - 1) as f64 * z * p1 - (k - 1) as f64 * p0) / k as f64;
+                p0 = p1;
+                p1 = p2;
+            }
+            let p = if n == 1 { z } else { p1 };
+            let pm = if n == 1 { 1.0 } else { p0 };
+            dp = n as f64 * (z * p - pm) / (z * z - 1.0);
+            if n == 1 {
+                dp = 1.0;
+            }
+            let dz = p / dp;
+            z -= dz;
+            if dz.abs() < 1e-16 {
+                break;
+            }
+        }
+        x[i] = -z;
+        x[n - 1 - i] = z;
+        let wi = 2.0 / ((1.0 - z * z) * dp * dp);
+        w[i] = wi;
+        w[n - 1 - i] = wi;
+    }
+    if n == 1 {
+        return (vec![0.0], vec![2.0]);
+    }
+    (x, w)
+}
+
+/// One channel as the renderer sees it.
+struct Chan<'a> {
+    ch: &'a Channel,
+    f_main: f64,
+    /// Aperture half-width (square) or radius (circle).
+    r_ap: f64,
+    shape: Aperture,
+    /// share (L_1/L)² / (μ_1² A).
+    norm: f64,
+    /// (α, κ = v/f) per lens type.
+    types: Vec<(f64, f64)>,
+    /// The lens cell around its centre (counter-clockwise).
+    cell: Vec<Pt>,
+    /// Half-extents of the cell's bounding box; the y of the hex's side vertices.
+    hx: f64,
+    hy: f64,
+    hy_side: f64,
+    /// The unit circle as an equal-area polygon (circle apertures).
+    ngon: Vec<Pt>,
+    /// Lens image centre magnification 1 + v/L.
+    m: f64,
+    /// v/L.
+    vl: f64,
+}
+
+impl<'a> Chan<'a> {
+    fn new(design: &'a Design, ch: &'a Channel) -> Chan<'a> {
+        let l1 = design.channels[0].l;
+        let mu1 = design.channels[0].mu;
+        let r_ap = design.aperture / 2.0;
+        let area = match design.shape {
+            Aperture::Square => design.aperture * design.aperture,
+            Aperture::Circle => PI * r_ap * r_ap,
+        };
+        let norm = ch.share * (l1 / ch.l).powi(2) / (mu1 * mu1 * area);
+        let types =
+            ch.f.iter()
+                .map(|&f| (1.0 + ch.v / ch.l - ch.v / f, ch.v / f))
+                .collect();
+        let d = ch.d;
+        let (cell, hx, hy, hy_side) = match ch.grid {
+            Grid::Rect => {
+                let h = d / 2.0;
+                (vec![[-h, -h], [h, -h], [h, h], [-h, h]], h, h, h)
+            }
+            Grid::Hex => {
+                let (a, b) = (d / 2.0, d / 3f64.sqrt());
+                let side = b / 2.0;
+                (
+                    vec![
+                        [0.0, -b],
+                        [a, -side],
+                        [a, side],
+                        [0.0, b],
+                        [-a, side],
+                        [-a, -side],
+                    ],
+                    a,
+                    b,
+                    side,
+                )
+            }
+        };
+        let n = CIRCLE_SIDES as f64;
+        let scale = (2.0 * PI / (n * (2.0 * PI / n).sin())).sqrt();
+        let ngon = (0..CIRCLE_SIDES)
+            .map(|i| {
+                let t = 2.0 * PI * i as f64 / n;
+                [scale * t.cos(), scale * t.sin()]
+            })
+            .collect();
+        Chan {
+            ch,
+            f_main: design.f_main,
+            r_ap,
+            shape: design.shape,
+            norm,
+            types,
+            cell,
+            hx,
+            hy,
+            hy_side,
+            ngon,
+            m: ch.magnification(),
+            vl: ch.v / ch.l,
+        }
+    }
+
+    /// Largest reach of a lens's light from its image centre on the sensor, per axis.
+    fn reach(&self) -> [f64; 2] {
+        let amax = self.types.iter().map(|t| t.0.abs()).fold(0.0, f64::max);
+        let ap = self.vl * self.r_ap;
+        [amax * self.hx + ap, amax * self.hy + ap]
+    }
+
+    /// The coordinates along `axis` of the cell's vertices (relative to its centre).
+    fn vertex_coords(&self, axis: usize) -> Vec<f64> {
+        let mut v: Vec<f64> = self.cell.iter().map(|p| p[axis]).collect();
+        v.sort_by(|a, b| a.total_cmp(b));
+        v.dedup();
+        v
+    }
+
+    /// Does the type's α call for the outer-w rule (its cell's image narrower than a pixel)?
+    fn outer_w(&self, alpha: f64) -> bool {
+        alpha.abs() * 2.0 * self.hx < self.ch.mu
+    }
+}
+
+/// Per-worker buffers.
+#[derive(Default)]
+struct Work {
+    tex: Scratch,
+    poly: Vec<Pt>,
+    tmp: Vec<Pt>,
+    piece: Vec<Pt>,
+    mapped: Vec<Pt>,
+    cuts_a: Vec<f64>,
+    cuts_b: Vec<f64>,
+}
+
+/// Quadrature rule on [−1, 1].
+struct Rule {
+    x: Vec<f64>,
+    w: Vec<f64>,
+}
+
+/// The lines along one axis (0: X, 1: Y) where a texture's albedo jumps, as (origin,
+/// spacing, first, last index): an image's cell edges, a bar chart's bar edges.
+fn texture_lines(t: &Texture, axis: usize) -> Option<(f64, f64, i64, i64)> {
+    match t {
+        Texture::Image(im) => {
+            let (x0, x1, y0, y1) = im.extent();
+            let (rows, cols) = im.shape();
+            Some(if axis == 0 {
+                (x0, (x1 - x0) / cols as f64, 0, cols as i64)
+            } else {
+                (y0, (y1 - y0) / rows as f64, 0, rows as i64)
+            })
+        }
+        Texture::Bars { frequency, .. } if axis == 0 => {
+            Some((0.0, 0.5 / frequency, i64::MIN / 4, i64::MAX / 4))
+        }
+        _ => None,
+    }
+}
+
+/// Most texture kinks added to one axis's cuts; beyond, the interval is split uniformly
+/// into [`MAX_SPLITS`] parts instead.
+const MAX_KINKS: usize = 40;
+/// Uniform parts of an interval whose texture kinks are too many to cut at.
+const MAX_SPLITS: usize = 8;
+
+/// Add to `out` the values of the outer variable t in [t0, t1] where a moving line
+/// P = slope t + intercept of the polygon crosses one of the texture's lines; false when
+/// there are more than [`MAX_KINKS`] in all (then `out` holds uniform splits).
+fn texture_kinks(
+    lines: Option<(f64, f64, i64, i64)>,
+    moving: &[(f64, f64)],
+    t0: f64,
+    t1: f64,
+    out: &mut Vec<f64>,
+) {
+    let Some((o, h, first, last)) = lines else {
+        return;
+    };
+    let start = out.len();
+    let mut too_many = false;
+    'lines: for &(slope, icpt) in moving {
+        if slope == 0.0 || !slope.is_finite() {
+            continue;
+        }
+        let (pa, pb) = (slope * t0 + icpt, slope * t1 + icpt);
+        let (lo, hi) = if pa < pb { (pa, pb) } else { (pb, pa) };
+        let i0 = (((lo - o) / h).ceil() as i64).max(first);
+        let i1 = (((hi - o) / h).floor() as i64).min(last);
+        if i1 - i0 >= MAX_KINKS as i64 {
+            too_many = true;
+            break 'lines;
+        }
+        for i in i0..=i1 {
+            out.push((o + i as f64 * h - icpt) / slope);
+            if out.len() - start > MAX_KINKS {
+                too_many = true;
+                break 'lines;
+            }
+        }
+    }
+    if too_many {
+        out.truncate(start);
+        for k in 1..MAX_SPLITS {
+            out.push(t0 + (t1 - t0) * k as f64 / MAX_SPLITS as f64);
+        }
+    }
+}
+
+/// Sorted unique cuts of [lo, hi] (including both ends) from candidate breakpoints.
+fn intervals(lo: f64, hi: f64, cands: &[f64], out: &mut Vec<f64>) {
+    out.clear();
+    out.push(lo);
+    let tol = 1e-12 * (hi - lo).abs().max(f64::MIN_POSITIVE);
+    let mut c: Vec<f64> = cands
+        .iter()
+        .copied()
+        .filter(|&b| b > lo + tol && b < hi - tol)
+        .collect();
+    c.sort_by(|a, b| a.total_cmp(b));
+    for b in c {
+        if b > *out.last().unwrap_or(&lo) + tol {
+            out.push(b);
+        }
+    }
+    out.push(hi);
+}
+
+/// The contribution of one lens (centre c, type t) to the pixel at sensor point s_pix
+/// (before the channel's norm).
+fn lens_contribution(
+    chan: &Chan,
+    scene: &Scene,
+    rule: &Rule,
+    c: Pt,
+    t: usize,
+    s_pix: Pt,
+    wk: &mut Work,
+) -> f64 {
+    let (alpha, kappa) = chan.types[t];
+    let mu = chan.ch.mu;
+    let e = [chan.m * c[0] - s_pix[0], chan.m * c[1] - s_pix[1]];
+    if chan.outer_w(alpha) {
+        outer_w(chan, scene, rule, c, alpha, e, mu, wk)
+    } else {
+        outer_s(chan, scene, rule, c, alpha, kappa, e, mu, wk)
+    }
+}
+
+/// Outer-w rule: ∫ over w of (area of the x-polygon × mean T over its scene image).
+#[allow(clippy::too_many_arguments)]
+fn outer_w(
+    chan: &Chan,
+    scene: &Scene,
+    rule: &Rule,
+    c: Pt,
+    alpha: f64,
+    e: Pt,
+    mu: f64,
+    wk: &mut Work,
+) -> f64 {
+    let lv = 1.0 / chan.vl;
+    let aa = alpha.abs();
+    // w-range per axis and the kinks of the integrand inside it (in w units).
+    let range = |e: f64, h: f64| -> (f64, f64) {
+        (lv * (e - aa * h - mu / 2.0), lv * (e + aa * h + mu / 2.0))
+    };
+    let kinks = |e: f64, hs: &[f64]| -> Vec<f64> {
+        let mut k = Vec::with_capacity(4 * hs.len());
+        for &h in hs {
+            for s1 in [-1.0, 1.0] {
+                for s2 in [-1.0, 1.0] {
+                    k.push(lv * (e + s1 * aa * h + s2 * mu / 2.0));
+                }
+            }
+        }
+        k
+    };
+    let (mut x0, mut x1) = range(e[0], chan.hx);
+    let (y0, y1) = range(e[1], chan.hy);
+    let r = chan.r_ap;
+    x0 = x0.max(-r);
+    x1 = x1.min(r);
+    let (y0, y1) = (y0.max(-r), y1.min(r));
+    if !(x1 > x0 && y1 > y0) {
+        return 0.0;
+    }
+    let mut kx = kinks(e[0], &[chan.hx]);
+    let ky = kinks(e[1], &[chan.hy, chan.hy_side]);
+    let circle = chan.shape == Aperture::Circle;
+    if circle {
+        for b in [y0, y1] {
+            if b.abs() < r {
+                let q = (r * r - b * b).sqrt();
+                kx.extend([-q, q]);
+            }
+        }
+    }
+    // The texture's kinks: where the polygon's vertex lines cross the texture's lines.
+    let z = reference_depth(chan, scene, c, [0.5 * (x0 + x1), 0.5 * (y0 + y1)]);
+    let (l, bb) = (chan.ch.l, 1.0 - z / chan.f_main + z / chan.ch.l);
+    let mut ky = ky;
+    for (axis, (t0, t1)) in [(0, (x0, x1)), (1, (y0, y1))] {
+        let mut moving: Vec<(f64, f64)> = chan
+            .vertex_coords(axis)
+            .iter()
+            .map(|&xi| (bb, -z / l * (c[axis] + xi)))
+            .collect();
+        if alpha != 0.0 {
+            let slope = bb - z / l * chan.vl / alpha;
+            for sgn in [-1.0, 1.0] {
+                moving.push((
+                    slope,
+                    -z / l * (c[axis] - e[axis] / alpha + sgn * mu / (2.0 * aa)),
+                ));
+            }
+        }
+        let target = if axis == 0 { &mut kx } else { &mut ky };
+        texture_kinks(texture_lines(&scene.texture, axis), &moving, t0, t1, target);
+    }
+    let mut cx = std::mem::take(&mut wk.cuts_a);
+    let mut cy = std::mem::take(&mut wk.cuts_b);
+    intervals(x0, x1, &kx, &mut cx);
+    let mut total = 0.0;
+    for ix in 1..cx.len() {
+        let (a, b) = (cx[ix - 1], cx[ix]);
+        // Circle: integrate w_x in φ = asin(w_x / r) (the chord length is smooth in φ).
+        let (pa, pb) = if circle {
+            (
+                (a / r).clamp(-1.0, 1.0).asin(),
+                (b / r).clamp(-1.0, 1.0).asin(),
+            )
+        } else {
+            (a, b)
+        };
+        let (hm, hw) = (0.5 * (pa + pb), 0.5 * (pb - pa));
+        for (&nx, &wx) in rule.x.iter().zip(&rule.w) {
+            let p = hm + hw * nx;
+            let (w_x, jac) = if circle {
+                (r * p.sin(), r * p.cos())
+            } else {
+                (p, 1.0)
+            };
+            let (mut ylo, mut yhi) = (y0, y1);
+            if circle {
+                let q = (r * r - w_x * w_x).max(0.0).sqrt();
+                ylo = ylo.max(-q);
+                yhi = yhi.min(q);
+            }
+            if !(yhi > ylo) {
+                continue;
+            }
+            intervals(ylo, yhi, &ky, &mut cy);
+            let mut inner = 0.0;
+            for iy in 1..cy.len() {
+                let (ya, yb) = (cy[iy - 1], cy[iy]);
+                let (ym, yw) = (0.5 * (ya + yb), 0.5 * (yb - ya));
+                for (&ny, &wy) in rule.x.iter().zip(&rule.w) {
+                    let w = [w_x, ym + yw * ny];
+                    inner += wy * yw * node_w(chan, scene, c, alpha, e, mu, w, wk);
+                }
+            }
+            total += wx * hw * jac * inner;
+        }
+    }
+    wk.cuts_a = cx;
+    wk.cuts_b = cy;
+    total
+}
+
+/// The outer-w integrand at main-lens point w.
+#[allow(clippy::too_many_arguments)]
+fn node_w(
+    chan: &Chan,
+    scene: &Scene,
+    c: Pt,
+    alpha: f64,
+    e: Pt,
+    mu: f64,
+    w: Pt,
+    wk: &mut Work,
+) -> f64 {
+    wk.poly.clear();
+    wk.poly.extend_from_slice(&chan.cell);
+    if alpha != 0.0 {
+        // ξ ∈ ((v/L) w − e)/α ± μ/(2|α|).
+        let g = [
+            (chan.vl * w[0] - e[0]) / alpha,
+            (chan.vl * w[1] - e[1]) / alpha,
+        ];
+        let h = mu / (2.0 * alpha.abs());
+        clip_box(
+            &mut wk.poly,
+            &mut wk.tmp,
+            g[0] - h,
+            g[0] + h,
+            g[1] - h,
+            g[1] + h,
+        );
+    }
+    let area = signed_area(&wk.poly);
+    if area <= 0.0 {
+        return 0.0;
+    }
+    area * scene_mean(chan, scene, c, |_| w, wk)
+}
+
+/// Outer-s rule: ∫ over the sensor point s in the pixel (and in the lens's reach).
+#[allow(clippy::too_many_arguments)]
+fn outer_s(
+    chan: &Chan,
+    scene: &Scene,
+    rule: &Rule,
+    c: Pt,
+    alpha: f64,
+    kappa: f64,
+    e: Pt,
+    mu: f64,
+    wk: &mut Work,
+) -> f64 {
+    // Offsets σ = s − img (img = (1 + v/L) c): the pixel is σ ∈ −e ± μ/2; the lens's
+    // light reaches |σ| ≤ |α| h + (v/L) r_ap per axis.
+    let aa = alpha.abs();
+    let rho = chan.vl * chan.r_ap; // (v/L) r_ap; the preimage radius is rho / |α|
+    let reach = [aa * chan.hx + rho, aa * chan.hy + rho];
+    let (x0, x1) = (
+        (-e[0] - mu / 2.0).max(-reach[0]),
+        (-e[0] + mu / 2.0).min(reach[0]),
+    );
+    let (y0, y1) = (
+        (-e[1] - mu / 2.0).max(-reach[1]),
+        (-e[1] + mu / 2.0).min(reach[1]),
+    );
+    if !(x1 > x0 && y1 > y0) {
+        return 0.0;
+    }
+    let kinks = |hs: &[f64]| -> Vec<f64> {
+        let mut k = Vec::new();
+        if chan.shape == Aperture::Square {
+            for &h in hs {
+                for s1 in [-1.0, 1.0] {
+                    for s2 in [-1.0, 1.0] {
+                        k.push(s1 * aa * (h + s2 * rho / aa));
+                    }
+                }
+            }
+        }
+        k
+    };
+    let mut kx = kinks(&[chan.hx]);
+    let mut ky = kinks(&[chan.hy, chan.hy_side]);
+    // The texture's kinks (see outer_w), in σ = s − img.
+    let z = reference_depth(chan, scene, c, [0.0, 0.0]);
+    let (l, bb) = (chan.ch.l, 1.0 - z / chan.f_main + z / chan.ch.l);
+    let lvb = bb / chan.vl;
+    for (axis, (t0, t1)) in [(0, (x0, x1)), (1, (y0, y1))] {
+        let mut moving: Vec<(f64, f64)> = chan
+            .vertex_coords(axis)
+            .iter()
+            .map(|&xi| (-lvb, lvb * alpha * xi - z / l * (c[axis] + xi)))
+            .collect();
+        for sgn in [-1.0, 1.0] {
+            let icpt = sgn * (bb * chan.r_ap * alpha.signum() - z / l * rho / aa) - z / l * c[axis];
+            moving.push((-z / l / alpha, icpt));
+        }
+        let target = if axis == 0 { &mut kx } else { &mut ky };
+        texture_kinks(texture_lines(&scene.texture, axis), &moving, t0, t1, target);
+    }
+    let mut cx = std::mem::take(&mut wk.cuts_a);
+    let mut cy = std::mem::take(&mut wk.cuts_b);
+    intervals(x0, x1, &kx, &mut cx);
+    intervals(y0, y1, &ky, &mut cy);
+    let lv = 1.0 / chan.vl;
+    let mut total = 0.0;
+    for ix in 1..cx.len() {
+        let (xm, xw) = (0.5 * (cx[ix - 1] + cx[ix]), 0.5 * (cx[ix] - cx[ix - 1]));
+        for (&nx, &wx) in rule.x.iter().zip(&rule.w) {
+            let sx = xm + xw * nx;
+            for iy in 1..cy.len() {
+                let (ym, yw) = (0.5 * (cy[iy - 1] + cy[iy]), 0.5 * (cy[iy] - cy[iy - 1]));
+                for (&ny, &wy) in rule.x.iter().zip(&rule.w) {
+                    let sigma = [sx, ym + yw * ny];
+                    // Preimage of the aperture: ξ ∈ σ/α + (ρ/|α|) · unit aperture.
+                    let g = [sigma[0] / alpha, sigma[1] / alpha];
+                    let rad = rho / aa;
+                    wk.poly.clear();
+                    wk.poly.extend_from_slice(&chan.cell);
+                    match chan.shape {
+                        Aperture::Square => clip_box(
+                            &mut wk.poly,
+                            &mut wk.tmp,
+                            g[0] - rad,
+                            g[0] + rad,
+                            g[1] - rad,
+                            g[1] + rad,
+                        ),
+                        Aperture::Circle => clip_disc(&chan.ngon, g, rad, wk),
+                    }
+                    let area = signed_area(&wk.poly);
+                    if area <= 0.0 {
+                        continue;
+                    }
+                    // w(ξ) = (L/v)(α ξ − σ) (from s = α x − (v/L) w + κ c, x = c + ξ).
+                    let wfun = |xi: Pt| {
+                        [
+                            lv * (alpha * xi[0] - sigma[0]),
+                            lv * (alpha * xi[1] - sigma[1]),
+                        ]
+                    };
+                    let v = area * scene_mean(chan, scene, c, wfun, wk);
+                    total += wx * xw * wy * yw * v;
+                }
+            }
+        }
+    }
+    let _ = kappa;
+    wk.cuts_a = cx;
+    wk.cuts_b = cy;
+    total * lv * lv
+}
+
+/// The depth that the kinks of a lens's quadrature are placed for: the plane's depth, or
+/// where the ray through the lens centre and main-lens point `w` meets the surface (the
+/// surface's mean depth when it misses).
+fn reference_depth(chan: &Chan, scene: &Scene, c: Pt, w: Pt) -> f64 {
+    if let Some(z) = scene.surface.fronto() {
+        return z;
+    }
+    let (f, l) = (chan.f_main, chan.ch.l);
+    let a = [w[0] / f + (c[0] - w[0]) / l, w[1] / f + (c[1] - w[1]) / l];
+    match scene.surface.hit(w, a) {
+        Some((z, _)) => z,
+        None => match &scene.surface {
+            Surface::Plane { z0, .. } => *z0,
+            Surface::Map(m) => 0.5 * (m.zmin + m.zmax),
+        },
+    }
+}
+
+/// Clip `wk.poly` by the disc (centre g, radius rad) as the equal-area polygon `ngon`.
+fn clip_disc(ngon: &[Pt], g: Pt, rad: f64, wk: &mut Work) {
+    // Quick accept: every vertex inside the inscribed circle of the polygon.
+    let inscribed = rad * ngon[0][0] * (PI / ngon.len() as f64).cos();
+    let inside = wk.poly.iter().all(|p| {
+        let (dx, dy) = (p[0] - g[0], p[1] - g[1]);
+        dx * dx + dy * dy <= inscribed * inscribed
+    });
+    if inside {
+        return;
+    }
+    let n = ngon.len();
+    let step = 2.0 * PI / n as f64;
+    // The n-gon edges that can cut the polygon: those facing its vertices' directions.
+    let (bx0, bx1, by0, by1) = bounds(&wk.poly);
+    let centre_inside = g[0] >= bx0 && g[0] <= bx1 && g[1] >= by0 && g[1] <= by1;
+    let (i0, i1) = if centre_inside {
+        (0i64, n as i64 - 1)
+    } else {
+        let ang: Vec<f64> = wk
+            .poly
+            .iter()
+            .map(|p| (p[1] - g[1]).atan2(p[0] - g[0]))
+            .collect();
+        let a0 = ang[0];
+        let (mut lo, mut hi) = (0.0f64, 0.0f64);
+        for &a in &ang {
+            let mut d = a - a0;
+            while d > PI {
+                d -= 2.0 * PI;
+            }
+            while d < -PI {
+                d += 2.0 * PI;
+            }
+            lo = lo.min(d);
+            hi = hi.max(d);
+        }
+        (
+            ((a0 + lo) / step).floor() as i64 - 1,
+            ((a0 + hi) / step).ceil() as i64 + 1,
+        )
+    };
+    for k in i0..=i1 {
+        let i = k.rem_euclid(n as i64) as usize;
+        let (a, b) = (ngon[i], ngon[(i + 1) % n]);
+        let (ax, ay) = (g[0] + rad * a[0], g[1] + rad * a[1]);
+        let (ex, ey) = (rad * (b[0] - a[0]), rad * (b[1] - a[1]));
+        clip_into(&wk.poly, &mut wk.tmp, |p| {
+            ex * (p[1] - ay) - ey * (p[0] - ax)
+        });
+        std::mem::swap(&mut wk.poly, &mut wk.tmp);
+        if wk.poly.is_empty() {
+            return;
+        }
+    }
+}
+
+/// The mean albedo over the scene image of the polygon `wk.poly` (local cell coordinates
+/// ξ, x = c + ξ), each vertex's ray having main-lens point `w_of(ξ)`.
+fn scene_mean(chan: &Chan, scene: &Scene, c: Pt, w_of: impl Fn(Pt) -> Pt, wk: &mut Work) -> f64 {
+    let l = chan.ch.l;
+    let f = chan.f_main;
+    let a_of = |xi: Pt, w: Pt| {
+        [
+            w[0] / f + (c[0] + xi[0] - w[0]) / l,
+            w[1] / f + (c[1] + xi[1] - w[1]) / l,
+        ]
+    };
+    if let Some(z) = scene.surface.fronto() {
+        wk.mapped.clear();
+        for &xi in &wk.poly {
+            let w = w_of(xi);
+            let a = a_of(xi, w);
+            wk.mapped.push([w[0] - z * a[0], w[1] - z * a[1]]);
+        }
+        return scene.texture.average(&wk.mapped, &mut wk.tex);
+    }
+    // Slanted or curved: hits at the vertices decide how finely to cut.
+    let mut zmin = f64::INFINITY;
+    let mut zmax = f64::NEG_INFINITY;
+    let mut misses = 0;
+    let mut pmin = [f64::INFINITY; 2];
+    let mut pmax = [f64::NEG_INFINITY; 2];
+    for &xi in &wk.poly {
+        let w = w_of(xi);
+        match scene.surface.hit(w, a_of(xi, w)) {
+            Some((z, p)) => {
+                zmin = zmin.min(z);
+                zmax = zmax.max(z);
+                for k in 0..2 {
+                    pmin[k] = pmin[k].min(p[k]);
+                    pmax[k] = pmax[k].max(p[k]);
+                }
+            }
+            None => misses += 1,
+        }
+    }
+    if misses == wk.poly.len() {
+        // Check the centroid before declaring the whole polygon background.
+        let ctr = crate::polygon::centroid(&wk.poly);
+        let w = w_of(ctr);
+        if scene.surface.hit(w, a_of(ctr, w)).is_none() {
+            return scene.background;
+        }
+    }
+    let mut n = if zmin.is_finite() {
+        ((zmax - zmin) / zmin / PIECE_DEPTH_RTOL).sqrt().ceil() as usize
+    } else {
+        1
+    };
+    if let Surface::Map(m) = &scene.surface {
+        let cell = m.cell();
+        let span = ((pmax[0] - pmin[0]) / cell[0]).max((pmax[1] - pmin[1]) / cell[1]);
+        if span.is_finite() {
+            n = n.max(span.ceil() as usize);
+        }
+    }
+    if misses > 0 {
+        n = n.max(4);
+    }
+    let n = n.clamp(1, MAX_PIECES);
+    let (x0, x1, y0, y1) = bounds(&wk.poly);
+    let total_area = signed_area(&wk.poly);
+    let mut acc = 0.0;
+    let src = std::mem::take(&mut wk.poly);
+    for i in 0..n {
+        for j in 0..n {
+            let (px0, px1) = (
+                x0 + (x1 - x0) * i as f64 / n as f64,
+                x0 + (x1 - x0) * (i + 1) as f64 / n as f64,
+            );
+            let (py0, py1) = (
+                y0 + (y1 - y0) * j as f64 / n as f64,
+                y0 + (y1 - y0) * (j + 1) as f64 / n as f64,
+            );
+            wk.piece.clear();
+            wk.piece.extend_from_slice(&src);
+            if n > 1 {
+                clip_box(&mut wk.piece, &mut wk.tmp, px0, px1, py0, py1);
+            }
+            let area = signed_area(&wk.piece);
+            if area <= 0.0 {
+                continue;
+            }
+            wk.mapped.clear();
+            let mut miss = false;
+            for &xi in &wk.piece {
+                let w = w_of(xi);
+                match scene.surface.hit(w, a_of(xi, w)) {
+                    Some((_, p)) => wk.mapped.push(p),
+                    None => {
+                        miss = true;
+                        break;
+                    }
+                }
+            }
+            let v = if miss {
+                let ctr = crate::polygon::centroid(&wk.piece);
+                let w = w_of(ctr);
+                match scene.surface.hit(w, a_of(ctr, w)) {
+                    Some((_, p)) => scene.texture.at(p),
+                    None => scene.background,
+                }
+            } else {
+                scene.texture.average(&wk.mapped, &mut wk.tex)
+            };
+            acc += area * v;
+        }
+    }
+    wk.poly = src;
+    acc / total_area
+}
+
+/// The raw shape (rows, cols) of a channel.
+pub fn raw_shape(ch: &Channel) -> (usize, usize) {
+    match ch.layout {
+        Layout::Ideal { q } => ((ch.ky * q) as usize, (ch.kx * q) as usize),
+        Layout::Sensor { mx, my } => (my as usize, mx as usize),
+    }
+}
+
+/// The object-space rectangle (X0, X1, Y0, Y1) on the fronto-parallel plane at depth z
+/// that holds every point a ray of any channel can reach (rays through any point of the
+/// aperture and any point of the array's cells).
+pub fn view_extent(design: &Design, z: f64) -> Result<[f64; 4]> {
+    crate::optics::check_design_depths(design.f_main, &[z])?;
+    let r = design.aperture / 2.0;
+    let mut ext = [
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+    ];
+    for ch in &design.channels {
+        let (w, h) = ch.array_extent();
+        // P = w (1 − z/F + z/L) − (z/L) x, extreme over |x| ≤ extent/2 and |w| ≤ r.
+        let b = (1.0 - z / design.f_main + z / ch.l).abs() * r;
+        let gx = z / ch.l * w / 2.0 + b;
+        let gy = z / ch.l * h / 2.0 + b;
+        ext = [
+            ext[0].min(-gx),
+            ext[1].max(gx),
+            ext[2].min(-gy),
+            ext[3].max(gy),
+        ];
+    }
+    Ok(ext)
+}
+
+/// Check that the surface is in front of the main lens's focal plane wherever the design
+/// looks (z > F at every point of the view over the surface's depth range).
+fn check_surface(design: &Design, surface: &Surface) -> Result<()> {
+    let f = design.f_main;
+    match surface {
+        Surface::Plane { z0, g } => {
+            if g[0] == 0.0 && g[1] == 0.0 {
+                if *z0 <= f {
+                    return Err(Error::param("z0", *z0, format!("a depth > F = {f} mm")));
+                }
+                return Ok(());
+            }
+            // The view grows with depth: iterate the extent at the plane's deepest point
+            // inside it (a few rounds converge for any slope that stays in front of F).
+            if *z0 <= f {
+                return Err(Error::param("z0", *z0, format!("a depth > F = {f} mm")));
+            }
+            let mut zt = *z0;
+            for _ in 0..8 {
+                let e = view_extent(design, zt.max(f * 1.0001))?;
+                let corners = [[e[0], e[2]], [e[0], e[3]], [e[1], e[2]], [e[1], e[3]]];
+                let depths: Vec<f64> = corners
+                    .iter()
+                    .map(|p| z0 + g[0] * p[0] + g[1] * p[1])
+                    .collect();
+                let lo = depths.iter().cloned().fold(f64::INFINITY, f64::min);
+                let hi = depths.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+                if lo <= f {
+                    return Err(Error::param(
+                        "plane",
+                        format!("Z = {z0} + {} X + {} Y", g[0], g[1]),
+                        format!(
+                            "a plane deeper than F = {f} mm everywhere in view (it reaches {} mm at a corner of the view)",
+                            crate::error::short_number(lo)
+                        ),
+                    ));
+                }
+                if hi <= zt * (1.0 + 1e-9) {
+                    break;
+                }
+                zt = hi;
+            }
+            Ok(())
+        }
+        Surface::Map(m) => {
+            if m.zmin <= f {
+                return Err(Error::param(
+                    "depth_map",
+                    m.zmin,
+                    format!("depths > F = {f} mm (the surface must lie in front of the main lens's focal plane)"),
+                ));
+            }
+            Ok(())
+        }
+    }
+}
+
+/// Whether a channel takes the exact route.
+fn exact_route(design: &Design, ch: &Channel, scene: &Scene) -> bool {
+    scene.surface.fronto().is_some()
+        && ch.grid == Grid::Rect
+        && design.shape == Aperture::Square
+        && matches!(ch.layout, Layout::Ideal { .. })
+        && matches!(scene.texture, Texture::Image(_) | Texture::Constant(_))
+}
+
+/// Bytes a render holds at its peak: the raws, plus the exact route's per-type tables.
+pub fn render_bytes(design: &Design) -> u128 {
+    design
+        .channels
+        .iter()
+        .map(|ch| {
+            let (r, c) = raw_shape(ch);
+            (r as u128) * (c as u128) * 8
+        })
+        .sum()
+}
+
+/// Render every channel's raw (row-major, §10 layout) into new buffers. `done` counts
+/// finished raw rows over all channels (for progress).
+pub fn render(
+    design: &Design,
+    scene: &Scene,
+    opts: RenderOptions,
+    n_threads: Option<usize>,
+    done: &AtomicUsize,
+) -> Result<Vec<Vec<f64>>> {
+    memory::check("the rendered raw images", render_bytes(design) + (1 << 20))?;
+    let mut raws = Vec::with_capacity(design.channels.len());
+    for ch in &design.channels {
+        let (rows, cols) = raw_shape(ch);
+        raws.push(memory::try_vec("a rendered raw image", rows * cols, 0.0)?);
+    }
+    let outs: Vec<&mut [f64]> = raws.iter_mut().map(|r| r.as_mut_slice()).collect();
+    render_into(design, scene, opts, n_threads, done, outs)?;
+    Ok(raws)
+}
+
+/// Check a render's options and scene against the design before any work.
+pub fn check_render(design: &Design, scene: &Scene, opts: RenderOptions) -> Result<()> {
+    if !(1..=MAX_ORDER).contains(&opts.order) {
+        return Err(Error::param(
+            "order",
+            opts.order,
+            format!("an integer in [1, {MAX_ORDER}]"),
+        ));
+    }
+    check_surface(design, &scene.surface)
+}
+
+/// [`render`] into the caller's buffers, one per channel of [`raw_shape`] (row-major).
+pub fn render_into(
+    design: &Design,
+    scene: &Scene,
+    opts: RenderOptions,
+    n_threads: Option<usize>,
+    done: &AtomicUsize,
+    outs: Vec<&mut [f64]>,
+) -> Result<()> {
+    check_render(design, scene, opts)?;
+    if outs.len() != design.channels.len() {
+        return Err(Error::param(
+            "outputs",
+            outs.len(),
+            "one buffer per channel",
+        ));
+    }
+    let (x, w) = gauss_legendre(opts.order);
+    let rule = Rule { x, w };
+    for (ch, raw) in design.channels.iter().zip(outs) {
+        let (rows, cols) = raw_shape(ch);
+        if raw.len() != rows * cols {
+            return Err(Error::param(
+                "outputs",
+                raw.len(),
+                format!("{} values", rows * cols),
+            ));
+        }
+        let chan = Chan::new(design, ch);
+        if exact_route(design, ch, scene) {
+            exact::render_channel(design, &chan, scene, raw, n_threads, done)?;
+        } else {
+            general_channel(design, &chan, scene, &rule, raw, n_threads, done)?;
+        }
+    }
+    Ok(())
+}
+
+/// The general route over one channel's raw, parallel over rows.
+fn general_channel(
+    design: &Design,
+    chan: &Chan,
+    scene: &Scene,
+    rule: &Rule,
+    raw: &mut [f64],
+    n_threads: Option<usize>,
+    done: &AtomicUsize,
+) -> Result<()> {
+    let ch = chan.ch;
+    let (rows, cols) = raw_shape(ch);
+    let per_row = (cols as u128) * (rule.x.len() as u128).pow(2) * 200;
+    let step = crate::parallel::chunk_items(n_threads, per_row);
+    let reach = chan.reach();
+    let raw_ptr = SendPtr(raw.as_mut_ptr());
+    for_chunks(n_threads, rows, step, |range| {
+        let start = range.start;
+        // SAFETY: each chunk writes its own disjoint rows of `raw`.
+        let chunk = unsafe {
+            std::slice::from_raw_parts_mut(raw_ptr.get().add(start * cols), range.len() * cols)
+        };
+        chunk.par_chunks_mut(cols).enumerate().try_for_each_init(
+            Work::default,
+            |wk, (i, row)| -> Result<()> {
+                checkpoint()?;
+                let b = (start + i) as u32;
+                for (a, out) in row.iter_mut().enumerate() {
+                    *out = pixel_value(design, chan, scene, rule, a as u32, b, reach, wk);
+                }
+                done.fetch_add(1, Ordering::Relaxed);
+                Ok(())
+            },
+        )
+    })
+}
+
+#[derive(Clone, Copy)]
+struct SendPtr(*mut f64);
+// SAFETY: used only to hand disjoint row ranges of one buffer to the chunks of one call.
+unsafe impl Send for SendPtr {}
+unsafe impl Sync for SendPtr {}
+impl SendPtr {
+    fn get(self) -> *mut f64 {
+        self.0
+    }
+}
+
+/// One pixel (column a, row b of the channel's raw).
+#[allow(clippy::too_many_arguments)]
+fn pixel_value(
+    design: &Design,
+    chan: &Chan,
+    scene: &Scene,
+    rule: &Rule,
+    a: u32,
+    b: u32,
+    reach: [f64; 2],
+    wk: &mut Work,
+) -> f64 {
+    let ch = chan.ch;
+    match ch.layout {
+        Layout::Ideal { q } => {
+            let px = design.pixel(ch, a, b);
+            let c = ch.lens_center(px.j, px.k);
+            let s = [chan.m * c[0] + px.theta[0], chan.m * c[1] + px.theta[1]];
+            let _ = q;
+            chan.norm * lens_contribution(chan, scene, rule, c, px.t, s, wk)
+        }
+        Layout::Sensor { mx, my } => {
+            let mu = ch.mu;
+            let s = [
+                mu * (a as f64 - (mx as f64 - 1.0) / 2.0),
+                mu * (b as f64 - (my as f64 - 1.0) / 2.0),
+            ];
+            let (j0, k0) = ch.nearest_lens(s);
+            let p = ch.image_pitch();
+            let row = match ch.grid {
+                Grid::Rect => p,
+                Grid::Hex => p * 3f64.sqrt() / 2.0,
+            };
+            let dj = (reach[0] / p).ceil() as i64 + 1;
+            let dk = (reach[1] / row).ceil() as i64 + 1;
+            let mut v = 0.0;
+            for k in (k0 as i64 - dk).max(0)..=(k0 as i64 + dk).min(ch.ky as i64 - 1) {
+                for j in (j0 as i64 - dj).max(0)..=(j0 as i64 + dj).min(ch.kx as i64 - 1) {
+                    let (j, k) = (j as u32, k as u32);
+                    let c = ch.lens_center(j, k);
+                    let img = [chan.m * c[0], chan.m * c[1]];
+                    if (s[0] - img[0]).abs() > reach[0] + mu
+                        || (s[1] - img[1]).abs() > reach[1] + mu
+                    {
+                        continue;
+                    }
+                    v += lens_contribution(chan, scene, rule, c, ch.lens_type(j, k), s, wk);
+                }
+            }
+            chan.norm * v
+        }
+    }
+}
+
+/// The exact route (module doc): separable 1-D ray-set areas per texture column and row.
+mod exact {
+    use super::*;
+    use crate::texture::ImageTexture;
+
+    /// Areas of one pixel's 1-D ray set (x, w) between consecutive cell edges of one axis:
+    /// `first` the index of the first cell, then the areas; plus the areas before the
+    /// first edge and after the last (outside the texture) and the total.
+    pub(super) struct Profile {
+        pub first: usize,
+        pub areas: Vec<f64>,
+        pub total: f64,
+    }
+
+    /// The 1-D ray-set polygon in (ξ, w) (ξ = x − c) of a pixel at offset θ from its lens
+    /// image centre: |ξ| ≤ d/2, |w| ≤ D/2, |α ξ − (v/L) w − θ| ≤ μ/2.
+    fn polygon(chan: &Chan, alpha: f64, theta: f64) -> Vec<Pt> {
+        let (h, r, mu, vl) = (chan.hx, chan.r_ap, chan.ch.mu, chan.vl);
+        let mut p = vec![[-h, -r], [h, -r], [h, r], [-h, r]];
+        let mut t = Vec::new();
+        clip_into(&p, &mut t, |q| {
+            mu / 2.0 - (alpha * q[0] - vl * q[1] - theta)
+        });
+        clip_into(&t, &mut p, |q| {
+            mu / 2.0 + (alpha * q[0] - vl * q[1] - theta)
+        });
+        p
+    }
+
+    /// The profile of a pixel (lens centre c, offset θ, type α) against cell edges
+    /// `edge(i)` for i = 0..=n (ascending), on the plane at depth z: the scene coordinate is
+    /// X = B w − (z/L)(c + ξ), B = 1 − z/F + z/L.
+    pub(super) fn profile(
+        chan: &Chan,
+        alpha: f64,
+        c: f64,
+        theta: f64,
+        z: f64,
+        n: usize,
+        edge: impl Fn(usize) -> f64,
+    ) -> Profile {
+        let poly = polygon(chan, alpha, theta);
+        let total = signed_area(&poly);
+        let l = chan.ch.l;
+        let bb = 1.0 - z / chan.f_main + z / l;
+        let xs = |q: Pt| bb * q[1] - z / l * (c + q[0]);
+        if total <= 0.0 {
+            return Profile {
+                first: 0,
+                areas: Vec::new(),
+                total: 0.0,
+            };
+        }
+        let lo = poly.iter().map(|&q| xs(q)).fold(f64::INFINITY, f64::min);
+        let hi = poly
+            .iter()
+            .map(|&q| xs(q))
+            .fold(f64::NEG_INFINITY, f64::max);
+        let mut tmp = Vec::new();
+        // A(X): the area of the polygon where the scene coordinate is ≤ X.
+        let below = |x: f64, tmp: &mut Vec<Pt>| -> f64 {
+            if x <= lo {
+                return 0.0;
+            }
+            if x >= hi {
+                return total;
+            }
+            clip_into(&poly, tmp, |q| x - xs(q));
+            signed_area(tmp)
+        };
+        // Cells i whose [edge(i), edge(i+1)] meets [lo, hi].
+        let (e0, en) = (edge(0), edge(n));
+        let step = (en - e0) / n as f64;
+        let i0 = (((lo - e0) / step).floor().max(0.0) as usize).min(n);
+        let i1 = (((hi - e0) / step).ceil().max(0.0) as usize).min(n);
+        let mut areas = Vec::with_capacity(i1.saturating_sub(i0));
+        let mut prev = below(edge(i0), &mut tmp);
+        let before = prev;
+        for i in i0..i1 {
+            let a = below(edge(i + 1), &mut tmp);
+            areas.push(a - prev);
+            prev = a;
+        }
+        let _ = (before, prev);
+        let _ = en;
+        Profile {
+            first: i0,
+            areas,
+            total,
+        }
+    }
+
+    pub(super) fn render_channel(
+        _design: &Design,
+        chan: &Chan,
+        scene: &Scene,
+        raw: &mut [f64],
+        n_threads: Option<usize>,
+        done: &AtomicUsize,
+    ) -> Result<()> {
+        let ch = chan.ch;
+        let z = scene.surface.fronto().unwrap_or(f64::NAN);
+        let Layout::Ideal { q } = ch.layout else {
+            return Err(Error::param(
+                "layout",
+                "sensor",
+                "the ideal layout (exact route)",
+            ));
+        };
+        let constant;
+        let tex: &ImageTexture = match &scene.texture {
+            Texture::Image(im) => im,
+            Texture::Constant(v) => {
+                constant = ImageTexture::new(&[*v], 1, 1, [-1.0, 1.0, -1.0, 1.0])?;
+                &constant
+            }
+            _ => {
+                return Err(Error::param(
+                    "texture",
+                    "analytic",
+                    "an image texture (exact route)",
+                ))
+            }
+        };
+        let (rows, cols) = raw_shape(ch);
+        let (tx0, tx1, ty0, ty1) = tex.extent();
+        let (tr, tc) = tex.shape();
+        let hx = (tx1 - tx0) / tc as f64;
+        let hy = (ty1 - ty0) / tr as f64;
+        let theta = |i: u32| ch.mu * ((i % q) as f64 - (q as f64 - 1.0) / 2.0);
+        // X profiles per type and column a; Y profiles (top-down texture rows: edge i at
+        // Y1 − i hy, so flip: bottom-up row index) per type and row b.
+        let nt = chan.types.len();
+        let px: Vec<Vec<Profile>> = (0..nt)
+            .map(|t| {
+                (0..cols as u32)
+                    .into_par_iter()
+                    .map(|a| {
+                        let c = ch.lens_center(a / q, 0)[0];
+                        profile(chan, chan.types[t].0, c, theta(a), z, tc, |i| {
+                            tx0 + i as f64 * hx
+                        })
+                    })
+                    .collect()
+            })
+            .collect();
+        let py: Vec<Vec<Profile>> = (0..nt)
+            .map(|t| {
+                (0..rows as u32)
+                    .into_par_iter()
+                    .map(|b| {
+                        let c = ch.lens_center(0, b / q)[1];
+                        profile(chan, chan.types[t].0, c, theta(b), z, tr, |i| {
+                            ty0 + i as f64 * hy
+                        })
+                    })
+                    .collect()
+            })
+            .collect();
+        let mean = tex.mean_value();
+        let norm = chan.norm;
+        let step = crate::parallel::chunk_items(n_threads, (cols as u128) * 64);
+        let raw_ptr = SendPtr(raw.as_mut_ptr());
+        for_chunks(n_threads, rows, step, |range| {
+            let start = range.start;
+            // SAFETY: each chunk writes its own disjoint rows of `raw`.
+            let chunk = unsafe {
+                std::slice::from_raw_parts_mut(raw_ptr.get().add(start * cols), range.len() * cols)
+            };
+            chunk.par_chunks_mut(cols).enumerate().try_for_each_init(
+                || vec![vec![0.0; tc]; nt],
+                |tmps, (i, row)| -> Result<()> {
+                    checkpoint()?;
+                    let b = (start + i) as usize;
+                    let k = b as u32 / q;
+                    // Per type: tmp[i] = Σ_rows Iy[row] T[row][i] (bottom-up rows) and
+                    // the y-area inside the texture.
+                    let mut ay_in = vec![0.0; nt];
+                    for t in 0..nt {
+                        let yp = &py[t][b];
+                        let tmp = &mut tmps[t];
+                        tmp.iter_mut().for_each(|v| *v = 0.0);
+                        for (r, &ay) in yp.areas.iter().enumerate() {
+                            let bu = yp.first + r;
+                            if ay == 0.0 {
+                                continue;
+                            }
+                            ay_in[t] += ay;
+                            for (tv, &v) in tmp.iter_mut().zip(tex.row_bottom_up(bu)) {
+                                *tv += ay * v;
+                            }
+                        }
+                    }
+                    for (a, out) in row.iter_mut().enumerate() {
+                        let t = ch.lens_type(a as u32 / q, k);
+                        let (xp, yp) = (&px[t][a], &py[t][b]);
+                        let tmp = &tmps[t];
+                        let mut inside = 0.0;
+                        let mut ax_in = 0.0;
+                        for (m, &ax) in xp.areas.iter().enumerate() {
+                            inside += tmp[xp.first + m] * ax;
+                            ax_in += ax;
+                        }
+                        let out_area = xp.total * yp.total - ax_in * ay_in[t];
+                        *out = norm * (inside + mean * out_area);
+                    }
+                    done.fetch_add(1, Ordering::Relaxed);
+                    Ok(())
+                },
+            )
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gauss_legendre_integrates_polynomials() {
+        for n in 1..=12 {
+            let (x, w) = gauss_legendre(n);
+            for p in 0..2 * n {
+                let s: f64 = x.iter().zip(&w).map(|(x, w)| w * x.powi(p as i32)).sum();
+                let exact = if p % 2 == 1 {
+                    0.0
+                } else {
+                    2.0 / (p as f64 + 1.0)
+                };
+                assert!((s - exact).abs() < 1e-13, "n={n} p={p}: {s} vs {exact}");
+            }
+        }
+    }
+}

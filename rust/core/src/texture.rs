@@ -1,0 +1,744 @@
+//! Albedo textures on object space (docs/model.md §10, "Textures") and their exact
+//! integrals over convex polygons, the inner integral of the 2-D forward model
+//! (docs/render.md).
+//!
+//! Every kind integrates exactly over a polygon:
+//! - image (piecewise constant on cells, its mean outside): Green's theorem,
+//!   ∬ T dX dY = ∮ G dY with G(X, Y) = ∫_{X0}^{X} T dX', piecewise linear in X on each row
+//!   of cells; each edge is cut where it crosses a row or a column, and on each piece G is
+//!   linear, so the trapezoid rule is exact. Cost: the rows and columns an edge crosses.
+//! - sinusoid along X: the same with G in closed form (a sinc on each edge).
+//! - bar chart: G piecewise linear, edges cut at the bar edges.
+//! - slanted edge: low × area + (high − low) × area of the polygon clipped by the edge's
+//!   half-plane; Siemens star: the same with each bright wedge (two half-planes).
+
+use std::f64::consts::PI;
+
+use crate::error::{Error, Result};
+use crate::polygon::{centroid, clip_into, signed_area, Pt};
+
+/// Largest number of texture cells (far beyond any image; guards typos).
+pub const MAX_TEXTURE_CELLS: usize = 1 << 31;
+/// Most spokes of a Siemens star.
+pub const MAX_SPOKES: u32 = 100_000;
+
+/// An image texture: `rows` × `cols` albedos on uniform cells over [x0, x1] × [y0, y1],
+/// row 0 at the top (y1); the array's mean outside. Stored bottom-up with row prefix sums.
+#[derive(Debug, Clone)]
+pub struct ImageTexture {
+    x0: f64,
+    x1: f64,
+    y0: f64,
+    y1: f64,
+    rows: usize,
+    cols: usize,
+    hx: f64,
+    hy: f64,
+    mean: f64,
+    /// Bottom-up row b (b = rows − 1 − r): `prefix[b * (cols + 1) + i]` = Σ_{i' < i} T hx.
+    prefix: Vec<f64>,
+    /// Values bottom-up, `values[b * cols + i]`.
+    values: Vec<f64>,
+}
+
+/// A texture T(X, Y) ≥ 0 (docs/model.md §10).
+#[derive(Debug, Clone)]
+pub enum Texture {
+    Constant(f64),
+    Image(Box<ImageTexture>),
+    /// mean + amplitude sin(2π f X + phase).
+    Sinusoid {
+        frequency: f64,
+        mean: f64,
+        amplitude: f64,
+        phase: f64,
+    },
+    /// `high` on [k/f, (k + ½)/f), `low` on the rest.
+    Bars {
+        frequency: f64,
+        low: f64,
+        high: f64,
+    },
+    /// `high` where (X − X0) cos a − (Y − Y0) sin a ≥ 0.
+    Edge {
+        normal: [f64; 2],
+        center: [f64; 2],
+        low: f64,
+        high: f64,
+    },
+    /// `high` where ⌊θ spokes / π⌋ is even, θ = atan2(Y − Y0, X − X0) ∈ [0, 2π).
+    Star {
+        spokes: u32,
+        center: [f64; 2],
+        low: f64,
+        high: f64,
+    },
+}
+
+fn albedo(name: &'static str, x: f64) -> Result<f64> {
+    if x.is_finite() && x >= 0.0 {
+        Ok(x)
+    } else {
+        Err(Error::param(name, x, "a finite albedo >= 0"))
+    }
+}
+
+fn finite(name: &'static str, x: f64) -> Result<f64> {
+    if x.is_finite() {
+        Ok(x)
+    } else {
+        Err(Error::param(name, x, "a finite number"))
+    }
+}
+
+fn positive(name: &'static str, x: f64) -> Result<f64> {
+    if x.is_finite() && x > 0.0 {
+        Ok(x)
+    } else {
+        Err(Error::param(name, x, "a finite value > 0"))
+    }
+}
+
+fn count(kind: &str, params: &[f64], n: usize) -> Result<()> {
+    if params.len() == n {
+        Ok(())
+    } else {
+        Err(Error::param(
+            "texture_params",
+            format!("{} values", params.len()),
+            format!("{n} values for a {kind:?} texture"),
+        ))
+    }
+}
+
+impl ImageTexture {
+    /// `values` row-major [row][col], row 0 at the top.
+    pub fn new(values: &[f64], rows: usize, cols: usize, extent: [f64; 4]) -> Result<Self> {
+        if rows == 0 || cols == 0 || rows.saturating_mul(cols) > MAX_TEXTURE_CELLS {
+            return Err(Error::param(
+                "texture_image",
+                format!("{rows} x {cols}"),
+                format!("a non-empty 2-D array of at most {MAX_TEXTURE_CELLS} cells"),
+            ));
+        }
+        let [x0, x1, y0, y1] = extent;
+        for (n, v) in [("X0", x0), ("X1", x1), ("Y0", y0), ("Y1", y1)] {
+            finite(n, v)?;
+        }
+        if !(x1 > x0 && y1 > y0 && (x1 - x0).is_finite() && (y1 - y0).is_finite()) {
+            return Err(Error::param(
+                "extent",
+                format!("({x0}, {x1}, {y0}, {y1})"),
+                "X0 < X1 and Y0 < Y1 (mm)",
+            ));
+        }
+        let mut sum = 0.0;
+        for &v in values {
+            albedo("texture_image", v)?;
+            sum += v;
+        }
+        let mean = sum / values.len() as f64;
+        let hx = (x1 - x0) / cols as f64;
+        let hy = (y1 - y0) / rows as f64;
+        let mut flipped = crate::memory::try_vec("the texture", rows * cols, 0.0)?;
+        let mut prefix = crate::memory::try_vec("the texture's row sums", rows * (cols + 1), 0.0)?;
+        for b in 0..rows {
+            let r = rows - 1 - b;
+            let src = &values[r * cols..(r + 1) * cols];
+            flipped[b * cols..(b + 1) * cols].copy_from_slice(src);
+            let p = &mut prefix[b * (cols + 1)..(b + 1) * (cols + 1)];
+            let mut acc = 0.0;
+            for (i, &v) in src.iter().enumerate() {
+                p[i] = acc;
+                acc += v * hx;
+            }
+            p[cols] = acc;
+        }
+        Ok(ImageTexture {
+            x0,
+            x1,
+            y0,
+            y1,
+            rows,
+            cols,
+            hx,
+            hy,
+            mean,
+            prefix,
+            values: flipped,
+        })
+    }
+
+    /// (X0, X1, Y0, Y1).
+    pub fn extent(&self) -> (f64, f64, f64, f64) {
+        (self.x0, self.x1, self.y0, self.y1)
+    }
+
+    /// (rows, cols).
+    pub fn shape(&self) -> (usize, usize) {
+        (self.rows, self.cols)
+    }
+
+    /// The mean albedo (used outside the extent).
+    pub fn mean_value(&self) -> f64 {
+        self.mean
+    }
+
+    /// Bottom-up row b (b = rows − 1 − r) of the values.
+    pub fn row_bottom_up(&self, b: usize) -> &[f64] {
+        &self.values[b * self.cols..(b + 1) * self.cols]
+    }
+
+    fn at(&self, p: Pt) -> f64 {
+        let (x, y) = (p[0], p[1]);
+        if !(x >= self.x0 && x < self.x1 && y >= self.y0 && y < self.y1) {
+            return self.mean;
+        }
+        let i = (((x - self.x0) / self.hx) as usize).min(self.cols - 1);
+        let b = (((y - self.y0) / self.hy) as usize).min(self.rows - 1);
+        self.values[b * self.cols + i]
+    }
+
+    /// G_b(X) = ∫_{x0}^{X} T dX' on bottom-up row b (None: outside the rows, mean).
+    #[inline]
+    fn g(&self, b: Option<usize>, x: f64) -> f64 {
+        let Some(b) = b else {
+            return self.mean * (x - self.x0);
+        };
+        if x <= self.x0 {
+            return self.mean * (x - self.x0);
+        }
+        let p = &self.prefix[b * (self.cols + 1)..(b + 1) * (self.cols + 1)];
+        if x >= self.x1 {
+            return p[self.cols] + self.mean * (x - self.x1);
+        }
+        let i = (((x - self.x0) / self.hx) as usize).min(self.cols - 1);
+        p[i] + self.values[b * self.cols + i] * (x - (self.x0 + i as f64 * self.hx))
+    }
+
+    /// Column-edge knots of G strictly between xa and xb (either order), in order from xa.
+    fn knots(&self, xa: f64, xb: f64, out: &mut Vec<f64>) {
+        out.clear();
+        let (lo, hi) = if xa < xb { (xa, xb) } else { (xb, xa) };
+        let lo_c = lo.max(self.x0);
+        let hi_c = hi.min(self.x1);
+        if hi_c < lo_c {
+            return;
+        }
+        // Knots X0 + i hx for i in [i0, i1] with lo < knot < hi.
+        let i0 = ((lo_c - self.x0) / self.hx).floor().max(0.0) as usize;
+        let i1 = (((hi_c - self.x0) / self.hx).ceil() as usize).min(self.cols);
+        for i in i0..=i1 {
+            let k = self.x0 + i as f64 * self.hx;
+            if k > lo && k < hi {
+                out.push(k);
+            }
+        }
+        if xa > xb {
+            out.reverse();
+        }
+    }
+
+    /// ∫ G dY along the segment a → b.
+    fn edge(&self, a: Pt, b: Pt, knots: &mut Vec<f64>) -> f64 {
+        let dy = b[1] - a[1];
+        if dy == 0.0 {
+            return 0.0;
+        }
+        // Cut at the row edges y0 + k hy (and y0, y1) between a and b.
+        let (ylo, yhi) = if dy > 0.0 { (a[1], b[1]) } else { (b[1], a[1]) };
+        let mut total = 0.0;
+        let mut cuts: [f64; 2] = [ylo, yhi];
+        // Row index (bottom-up) of a y strictly inside the rows, else None.
+        let row_of = |y: f64| -> Option<usize> {
+            if y > self.y0 && y < self.y1 {
+                Some((((y - self.y0) / self.hy) as usize).min(self.rows - 1))
+            } else {
+                None
+            }
+        };
+        let x_at = |y: f64| a[0] + (b[0] - a[0]) * ((y - a[1]) / dy);
+        // Walk the y-pieces from ylo up to yhi.
+        let first = if ylo <= self.y0 {
+            None
+        } else {
+            Some(((ylo - self.y0) / self.hy).floor() as i64)
+        };
+        let mut y = ylo;
+        let mut k = first; // index of the row-edge cell containing y (None: below y0)
+        while y < yhi {
+            // Next cut above y.
+            let next = match k {
+                None => self.y0,
+                Some(k) if k >= self.rows as i64 => f64::INFINITY,
+                Some(k) => self.y0 + (k + 1) as f64 * self.hy,
+            };
+            let next = if next <= y {
+                y + f64::MIN_POSITIVE
+            } else {
+                next
+            };
+            let ye = next.min(yhi);
+            let row = row_of(0.5 * (y + ye));
+            let (xs, xe) = (x_at(y), x_at(ye));
+            // ∫ G_row(X(Y)) dY over [y, ye]: piecewise linear in Y, cut at column knots.
+            self.knots(xs, xe, knots);
+            let mut px = xs;
+            let mut py = y;
+            let mut gp = self.g(row, xs);
+            let slope_y = if xe != xs { (ye - y) / (xe - xs) } else { 0.0 };
+            for &kx in knots.iter() {
+                let ky = y + (kx - xs) * slope_y;
+                let gk = self.g(row, kx);
+                total += 0.5 * (gp + gk) * (ky - py);
+                px = kx;
+                py = ky;
+                gp = gk;
+            }
+            let _ = px;
+            let ge = self.g(row, xe);
+            total += 0.5 * (gp + ge) * (ye - py);
+            y = ye;
+            k = Some(match k {
+                None => 0,
+                Some(k) => k + 1,
+            });
+            cuts[0] = y;
+        }
+        let _ = cuts;
+        if dy > 0.0 {
+            total
+        } else {
+            -total
+        }
+    }
+}
+
+impl Texture {
+    /// A texture from the seam's description (kind, params, optional image): see
+    /// docs/render.md. Errors name the parameter.
+    pub fn from_parts(
+        kind: &str,
+        params: &[f64],
+        image: Option<(&[f64], usize, usize)>,
+    ) -> Result<Texture> {
+        if kind != "image" && image.is_some() {
+            return Err(Error::param(
+                "texture_image",
+                "an array",
+                format!("None for a {kind:?} texture"),
+            ));
+        }
+        match kind {
+            "constant" => {
+                count(kind, params, 1)?;
+                Ok(Texture::Constant(albedo("albedo", params[0])?))
+            }
+            "image" => {
+                count(kind, params, 4)?;
+                let Some((v, rows, cols)) = image else {
+                    return Err(Error::param(
+                        "texture_image",
+                        "None",
+                        "a 2-D array of albedos for an \"image\" texture",
+                    ));
+                };
+                let ext = [params[0], params[1], params[2], params[3]];
+                Ok(Texture::Image(Box::new(ImageTexture::new(
+                    v, rows, cols, ext,
+                )?)))
+            }
+            "sinusoid" => {
+                count(kind, params, 4)?;
+                let frequency = positive("frequency", params[0])?;
+                let mean = albedo("mean", params[1])?;
+                let amplitude = albedo("amplitude", params[2])?;
+                let phase = finite("phase", params[3])?;
+                if amplitude > mean {
+                    return Err(Error::param(
+                        "amplitude",
+                        amplitude,
+                        format!("<= mean = {mean} (albedo >= 0)"),
+                    ));
+                }
+                Ok(Texture::Sinusoid {
+                    frequency,
+                    mean,
+                    amplitude,
+                    phase,
+                })
+            }
+            "bars" => {
+                count(kind, params, 3)?;
+                Ok(Texture::Bars {
+                    frequency: positive("frequency", params[0])?,
+                    low: albedo("low", params[1])?,
+                    high: albedo("high", params[2])?,
+                })
+            }
+            "edge" => {
+                count(kind, params, 5)?;
+                let a = finite("angle", params[0])?.to_radians();
+                Ok(Texture::Edge {
+                    normal: [a.cos(), -a.sin()],
+                    low: albedo("low", params[1])?,
+                    high: albedo("high", params[2])?,
+                    center: [finite("center", params[3])?, finite("center", params[4])?],
+                })
+            }
+            "star" => {
+                count(kind, params, 5)?;
+                let s = params[0];
+                if !(s.fract() == 0.0 && s >= 1.0 && s <= MAX_SPOKES as f64) {
+                    return Err(Error::param(
+                        "spokes",
+                        s,
+                        format!("an integer in [1, {MAX_SPOKES}]"),
+                    ));
+                }
+                Ok(Texture::Star {
+                    spokes: s as u32,
+                    low: albedo("low", params[1])?,
+                    high: albedo("high", params[2])?,
+                    center: [finite("center", params[3])?, finite("center", params[4])?],
+                })
+            }
+            _ => Err(Error::param(
+                "texture",
+                format!("{kind:?}"),
+                "one of \"constant\", \"image\", \"sinusoid\", \"bars\", \"edge\", \"star\"",
+            )),
+        }
+    }
+
+    /// The mean albedo (of the array, of a period, or (low + high)/2).
+    pub fn mean(&self) -> f64 {
+        match self {
+            Texture::Constant(c) => *c,
+            Texture::Image(im) => im.mean,
+            Texture::Sinusoid { mean, .. } => *mean,
+            Texture::Bars { low, high, .. }
+            | Texture::Edge { low, high, .. }
+            | Texture::Star { low, high, .. } => 0.5 * (low + high),
+        }
+    }
+
+    /// The image texture, if this is one.
+    pub fn image(&self) -> Option<&ImageTexture> {
+        match self {
+            Texture::Image(im) => Some(im),
+            _ => None,
+        }
+    }
+
+    /// T at a point.
+    pub fn at(&self, p: Pt) -> f64 {
+        match self {
+            Texture::Constant(c) => *c,
+            Texture::Image(im) => im.at(p),
+            Texture::Sinusoid {
+                frequency,
+                mean,
+                amplitude,
+                phase,
+            } => mean + amplitude * (2.0 * PI * frequency * p[0] + phase).sin(),
+            Texture::Bars {
+                frequency,
+                low,
+                high,
+            } => {
+                let s = frequency * p[0];
+                if s - s.floor() < 0.5 {
+                    *high
+                } else {
+                    *low
+                }
+            }
+            Texture::Edge {
+                normal,
+                center,
+                low,
+                high,
+            } => {
+                if normal[0] * (p[0] - center[0]) + normal[1] * (p[1] - center[1]) >= 0.0 {
+                    *high
+                } else {
+                    *low
+                }
+            }
+            Texture::Star {
+                spokes,
+                center,
+                low,
+                high,
+            } => {
+                let mut t = (p[1] - center[1]).atan2(p[0] - center[0]);
+                if t < 0.0 {
+                    t += 2.0 * PI;
+                }
+                if ((t * *spokes as f64 / PI).floor() as i64) % 2 == 0 {
+                    *high
+                } else {
+                    *low
+                }
+            }
+        }
+    }
+
+    /// The mean of T over a convex polygon (T at its centroid when its area vanishes).
+    pub fn average(&self, poly: &[Pt], scratch: &mut Scratch) -> f64 {
+        let area = signed_area(poly);
+        let (x0, x1, y0, y1) = crate::polygon::bounds(poly);
+        let scale = (x1 - x0).max(y1 - y0);
+        if !(area.abs() > 1e-12 * scale * scale) || !area.is_finite() {
+            return self.at(centroid(poly));
+        }
+        let v = self.integral(poly, area, scratch) / area;
+        v.max(0.0)
+    }
+
+    /// ∫ T over a polygon of signed area `area` (same orientation sign as `area`).
+    fn integral(&self, poly: &[Pt], area: f64, s: &mut Scratch) -> f64 {
+        let n = poly.len();
+        match self {
+            Texture::Constant(c) => c * area,
+            Texture::Image(im) => {
+                let mut t = 0.0;
+                for i in 0..n {
+                    t += im.edge(poly[i], poly[(i + 1) % n], &mut s.knots);
+                }
+                t
+            }
+            Texture::Sinusoid {
+                frequency,
+                mean,
+                amplitude,
+                phase,
+            } => {
+                let w = 2.0 * PI * frequency;
+                let mut t = 0.0;
+                for i in 0..n {
+                    let (a, b) = (poly[i], poly[(i + 1) % n]);
+                    let dy = b[1] - a[1];
+                    if dy == 0.0 {
+                        continue;
+                    }
+                    let xm = 0.5 * (a[0] + b[0]);
+                    let h = 0.5 * w * (b[0] - a[0]);
+                    let sinc = if h.abs() < 1e-8 {
+                        1.0 - h * h / 6.0
+                    } else {
+                        h.sin() / h
+                    };
+                    t += dy * (mean * xm - amplitude / w * (w * xm + phase).cos() * sinc);
+                }
+                t
+            }
+            Texture::Bars {
+                frequency,
+                low,
+                high,
+            } => {
+                // G(X) = low X + (high − low) H(X)/f, H the high part in periods.
+                let g = |x: f64| {
+                    let s = frequency * x;
+                    let k = s.floor();
+                    low * x + (high - low) * (0.5 * k + (s - k).min(0.5)) / frequency
+                };
+                let mut t = 0.0;
+                for i in 0..n {
+                    let (a, b) = (poly[i], poly[(i + 1) % n]);
+                    let dy = b[1] - a[1];
+                    if dy == 0.0 {
+                        continue;
+                    }
+                    // Knots at X = m / (2 f) between a and b.
+                    let (sa, sb) = (2.0 * frequency * a[0], 2.0 * frequency * b[0]);
+                    let (mut px, mut gp) = (a[0], g(a[0]));
+                    let mut py = a[1];
+                    let (m0, m1) = (sa.min(sb).floor() as i64 + 1, sa.max(sb).ceil() as i64 - 1);
+                    let slope = if b[0] != a[0] {
+                        dy / (b[0] - a[0])
+                    } else {
+                        0.0
+                    };
+                    let mut knots: Vec<i64> = (m0..=m1).collect();
+                    if sa > sb {
+                        knots.reverse();
+                    }
+                    for m in knots {
+                        let kx = m as f64 / (2.0 * frequency);
+                        let ky = a[1] + (kx - a[0]) * slope;
+                        let gk = g(kx);
+                        t += 0.5 * (gp + gk) * (ky - py);
+                        px = kx;
+                        py = ky;
+                        gp = gk;
+                    }
+                    let _ = px;
+                    t += 0.5 * (gp + g(b[0])) * (b[1] - py);
+                }
+                t
+            }
+            Texture::Edge {
+                normal,
+                center,
+                low,
+                high,
+            } => {
+                clip_into(poly, &mut s.a, |p| {
+                    normal[0] * (p[0] - center[0]) + normal[1] * (p[1] - center[1])
+                });
+                low * area + (high - low) * signed_area(&s.a)
+            }
+            Texture::Star {
+                spokes,
+                center,
+                low,
+                high,
+            } => low * area + (high - low) * star_bright_area(poly, *spokes, *center, s),
+        }
+    }
+}
+
+/// Signed area of the polygon's part in the bright wedges of a Siemens star.
+fn star_bright_area(poly: &[Pt], spokes: u32, c: Pt, s: &mut Scratch) -> f64 {
+    let width = PI / spokes as f64;
+    // The wedges the polygon can touch: all when the centre is inside or on it, else the
+    // angular range of its vertices (a convex polygon not containing c spans < π).
+    let inside = {
+        let n = poly.len();
+        let sgn = signed_area(poly).signum();
+        (0..n).all(|i| {
+            let (a, b) = (poly[i], poly[(i + 1) % n]);
+            sgn * ((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])) >= 0.0
+        })
+    };
+    let wedges = 2 * spokes as i64;
+    let (k0, k1) = if inside {
+        (0, wedges - 1)
+    } else {
+        let ang: Vec<f64> = poly
+            .iter()
+            .map(|p| (p[1] - c[1]).atan2(p[0] - c[0]))
+            .collect();
+        // Unwrap around the first vertex's angle.
+        let a0 = ang[0];
+        let rel: Vec<f64> = ang
+            .iter()
+            .map(|&a| {
+                let mut d = a - a0;
+                while d > PI {
+                    d -= 2.0 * PI;
+                }
+                while d < -PI {
+                    d += 2.0 * PI;
+                }
+                d
+            })
+            .collect();
+        let lo = a0 + rel.iter().cloned().fold(f64::INFINITY, f64::min);
+        let hi = a0 + rel.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+        (
+            (lo / width).floor() as i64 - 1,
+            (hi / width).floor() as i64 + 1,
+        )
+    };
+    let mut total = 0.0;
+    for k in k0..=k1 {
+        if k.rem_euclid(2) != 0 {
+            continue;
+        }
+        let (t0, t1) = (k as f64 * width, (k + 1) as f64 * width);
+        let (e0, e1) = ([t0.cos(), t0.sin()], [t1.cos(), t1.sin()]);
+        clip_into(poly, &mut s.a, |p| {
+            e0[0] * (p[1] - c[1]) - e0[1] * (p[0] - c[0])
+        });
+        if spokes == 1 {
+            total += signed_area(&s.a);
+            continue;
+        }
+        clip_into(&s.a, &mut s.b, |p| {
+            e1[1] * (p[0] - c[0]) - e1[0] * (p[1] - c[1])
+        });
+        total += signed_area(&s.b);
+    }
+    total
+}
+
+/// Reusable buffers of one worker.
+#[derive(Debug, Default)]
+pub struct Scratch {
+    pub knots: Vec<f64>,
+    pub a: Vec<Pt>,
+    pub b: Vec<Pt>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tri() -> Vec<Pt> {
+        vec![[0.13, -0.4], [2.71, 0.35], [0.9, 1.93]]
+    }
+
+    /// Brute-force mean over the polygon by a fine midpoint grid.
+    fn brute(t: &Texture, p: &[Pt], n: usize) -> f64 {
+        let (x0, x1, y0, y1) = crate::polygon::bounds(p);
+        let (hx, hy) = ((x1 - x0) / n as f64, (y1 - y0) / n as f64);
+        let mut s = 0.0;
+        let mut c = 0usize;
+        let inside = |q: Pt| {
+            (0..p.len()).all(|i| {
+                let (a, b) = (p[i], p[(i + 1) % p.len()]);
+                (b[0] - a[0]) * (q[1] - a[1]) - (b[1] - a[1]) * (q[0] - a[0]) >= 0.0
+            })
+        };
+        for i in 0..n {
+            for j in 0..n {
+                let q = [x0 + (i as f64 + 0.5) * hx, y0 + (j as f64 + 0.5) * hy];
+                if inside(q) {
+                    s += t.at(q);
+                    c += 1;
+                }
+            }
+        }
+        s / c as f64
+    }
+
+    #[test]
+    fn every_kind_matches_a_fine_grid() {
+        let vals: Vec<f64> = (0..35).map(|i| ((i * 7919) % 13) as f64 / 13.0).collect();
+        let kinds = [
+            Texture::from_parts("image", &[-0.5, 2.0, -0.2, 1.5], Some((&vals, 5, 7))).unwrap(),
+            Texture::from_parts("sinusoid", &[1.3, 0.5, 0.4, 0.3], None).unwrap(),
+            Texture::from_parts("bars", &[1.7, 0.1, 0.9], None).unwrap(),
+            Texture::from_parts("edge", &[20.0, 0.1, 0.9, 1.0, 0.5], None).unwrap(),
+            Texture::from_parts("star", &[5.0, 0.1, 0.9, 1.1, 0.6], None).unwrap(),
+            Texture::from_parts("star", &[1.0, 0.1, 0.9, 1.1, 0.6], None).unwrap(),
+            Texture::from_parts("constant", &[0.7], None).unwrap(),
+        ];
+        let mut s = Scratch::default();
+        for t in &kinds {
+            for poly in [tri(), tri().into_iter().rev().collect::<Vec<_>>()] {
+                let exact = t.average(&poly, &mut s);
+                let b = brute(t, &tri(), 1500);
+                assert!((exact - b).abs() < 3e-3, "{t:?}: {exact} vs {b}");
+            }
+        }
+    }
+
+    #[test]
+    fn image_cells_exact() {
+        // A polygon equal to one cell averages to that cell's value exactly.
+        let vals = [1.0, 2.0, 3.0, 4.0, 5.0, 6.0]; // 2 rows x 3 cols, row 0 top
+        let t = Texture::from_parts("image", &[0.0, 3.0, 0.0, 2.0], Some((&vals, 2, 3))).unwrap();
+        let mut s = Scratch::default();
+        let cell = [[1.0, 1.0], [2.0, 1.0], [2.0, 2.0], [1.0, 2.0]]; // top row, middle col
+        assert!((t.average(&cell, &mut s) - 2.0).abs() < 1e-14);
+        let low = [[2.0, 0.0], [3.0, 0.0], [3.0, 1.0], [2.0, 1.0]];
+        assert!((t.average(&low, &mut s) - 6.0).abs() < 1e-14);
+        let out = [[5.0, 5.0], [6.0, 5.0], [6.0, 6.0], [5.0, 6.0]];
+        assert!((t.average(&out, &mut s) - 3.5).abs() < 1e-14);
+    }
+}

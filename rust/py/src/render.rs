@@ -1,0 +1,134 @@
+//! The 2-D forward model: a scene (texture, surface, background) and the raws of every
+//! channel of a design (docs/render.md).
+
+use std::sync::atomic::AtomicUsize;
+use std::sync::Arc;
+
+use numpy::{PyArray2, PyArrayMethods, PyReadonlyArray2};
+use pyo3::prelude::*;
+
+use splitlf_core::render::{self as core_render, RenderOptions};
+use splitlf_core::scene::{Scene, Surface};
+use splitlf_core::texture::Texture;
+
+use crate::args::threads_arg;
+use crate::arrays::empty;
+use crate::design::DesignCore;
+use crate::errors::{internal, to_py};
+use crate::interrupt::{run_reporting, Progress};
+
+/// A validated scene of the forward model.
+#[pyclass(frozen, module = "splitlf._native")]
+pub(crate) struct RenderScene {
+    pub(crate) inner: Arc<Scene>,
+}
+
+/// A C-contiguous copy of a 2-D float array's values and its shape.
+fn array_parts(a: &PyReadonlyArray2<'_, f64>) -> (Vec<f64>, usize, usize) {
+    let view = a.as_array();
+    let (r, c) = view.dim();
+    (view.iter().copied().collect(), r, c)
+}
+
+#[pymethods]
+impl RenderScene {
+    #[new]
+    #[pyo3(signature = (texture, texture_params, texture_image, surface, surface_params, depth_map, background))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        texture: &str,
+        texture_params: Vec<f64>,
+        texture_image: Option<PyReadonlyArray2<'_, f64>>,
+        surface: &str,
+        surface_params: Vec<f64>,
+        depth_map: Option<PyReadonlyArray2<'_, f64>>,
+        background: f64,
+    ) -> PyResult<Self> {
+        let image = texture_image.as_ref().map(array_parts);
+        let tex = Texture::from_parts(
+            texture,
+            &texture_params,
+            image.as_ref().map(|(v, r, c)| (v.as_slice(), *r, *c)),
+        )
+        .map_err(to_py)?;
+        let map = depth_map.as_ref().map(array_parts);
+        let surf = Surface::from_parts(
+            surface,
+            &surface_params,
+            map.as_ref().map(|(v, r, c)| (v.as_slice(), *r, *c)),
+        )
+        .map_err(to_py)?;
+        let scene = Scene::new(tex, surf, background).map_err(to_py)?;
+        Ok(RenderScene {
+            inner: Arc::new(scene),
+        })
+    }
+
+    /// The texture's mean albedo.
+    #[getter]
+    fn texture_mean(&self) -> f64 {
+        self.inner.texture.mean()
+    }
+}
+
+/// Every channel's raw image of `scene` (docs/model.md §10 layout), one float64 array per
+/// channel. `order`: Gauss–Legendre nodes per interval and axis of the general route.
+/// `progress(done, total)` is called on the main thread while the render runs.
+#[pyfunction]
+#[pyo3(signature = (design, scene, order=core_render::DEFAULT_ORDER, n_threads=None, progress=None))]
+pub(crate) fn render<'py>(
+    py: Python<'py>,
+    design: &DesignCore,
+    scene: &RenderScene,
+    order: usize,
+    n_threads: Option<&Bound<'py, PyAny>>,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Vec<Bound<'py, PyArray2<f64>>>> {
+    let threads = threads_arg(n_threads)?;
+    let d = design.inner.clone();
+    let sc = Arc::clone(&scene.inner);
+    let done = Arc::new(AtomicUsize::new(0));
+    let total: usize = d
+        .channels
+        .iter()
+        .map(|ch| core_render::raw_shape(ch).0)
+        .sum();
+    let report = progress.map(|callback| Progress {
+        callback,
+        done: Arc::clone(&done),
+        total,
+    });
+    let counter = Arc::clone(&done);
+    let opts = RenderOptions { order };
+    core_render::check_render(&d, &sc, opts).map_err(to_py)?;
+    let bytes = core_render::render_bytes(&d);
+    splitlf_core::memory::check("the rendered raw images", bytes).map_err(to_py)?;
+    let mut out = Vec::with_capacity(d.channels.len());
+    for ch in &d.channels {
+        let (r, c) = core_render::raw_shape(ch);
+        out.push(empty::<f64, numpy::Ix2>(
+            py,
+            &[r, c],
+            "a rendered raw image",
+        )?);
+    }
+    {
+        let mut guards: Vec<_> = out.iter().map(|a| a.readwrite()).collect();
+        let mut slices = Vec::with_capacity(guards.len());
+        for g in guards.iter_mut() {
+            slices.push(g.as_slice_mut().map_err(internal)?);
+        }
+        run_reporting(py, "z0", report, move || {
+            core_render::render_into(&d, &sc, opts, threads, &counter, slices)
+        })?;
+    }
+    Ok(out)
+}
+
+/// The object-space rectangle (X0, X1, Y0, Y1) on the fronto-parallel plane at depth z
+/// holding every point any pixel of the design can see.
+#[pyfunction]
+pub(crate) fn render_extent(design: &DesignCore, z: f64) -> PyResult<(f64, f64, f64, f64)> {
+    let e = core_render::view_extent(&design.inner, z).map_err(to_py)?;
+    Ok((e[0], e[1], e[2], e[3]))
+}
