@@ -14,8 +14,10 @@ from .merits import Merits, evaluate
 from .optics import Curves, DepthOfField, curves, depth_of_field, sharp_fractions
 from .optimisation import OptimiseResult, optimise
 from .rayspace import Footprints, SampleGrid, Trace, footprints, sample_grid, trace
+from .rendering import DepthMap, Plane, Raw, Scene, render
 from .samples import CoincidencePlanes, NewSamples, coincidence_planes, new_samples
-from .simulation import BarChart, Image, RandomAlbedo, Simulation, Sinusoid, simulate
+from .simulation import Simulation, simulate
+from .textures import BarChart, Image, RandomAlbedo, SiemensStar, Sinusoid, SlantedEdge
 
 
 def explore(design: Design | None = None, *, port: int = 0,
@@ -49,6 +51,7 @@ __all__ = [
     "CoincidencePlanes",
     "Coverage",
     "Curves",
+    "DepthMap",
     "DepthOfField",
     "Design",
     "Footprints",
@@ -57,11 +60,16 @@ __all__ = [
     "Merits",
     "NewSamples",
     "OptimiseResult",
+    "Plane",
     "RandomAlbedo",
+    "Raw",
     "SampleGrid",
     "Samples2D",
+    "Scene",
+    "SiemensStar",
     "Simulation",
     "Sinusoid",
+    "SlantedEdge",
     "SplitlfError",
     "TooLargeError",
     "Trace",
@@ -76,6 +84,7 @@ __all__ = [
     "footprints",
     "new_samples",
     "optimise",
+    "render",
     "sample_grid",
     "samples_2d",
     "sharp_fractions",

@@ -75,6 +75,12 @@ def load_design(path: str) -> Design:
         raise CliError(msg if msg.startswith(path) else f"{path}: {msg}") from None
 
 
+def _named_design(spec: str) -> Design:
+    """A design named on the command line: a preset name, else a [design] or [camera]
+    TOML file (:func:`load_design`)."""
+    return Design.preset(spec) if spec in PRESETS else load_design(spec)
+
+
 def _finite(data: Any) -> Any:
     """``data`` with every non-finite float replaced by None (JSON has no inf or NaN)."""
     if isinstance(data, float):
@@ -598,6 +604,174 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     return 0
 
 
+# -- render ------------------------------------------------------------------------------
+
+def parse_render_texture(spec: str, width: float | None) -> Any:
+    """The texture of ``render --texture``: random | sinusoid:F | bars:F (F in cycles/mm
+    on the object) | edge[:ANGLE] (degrees) | star[:SPOKES] | an image file (.png or
+    .npy; needs ``width`` [mm]). Raises :class:`CliError` for anything else."""
+    from .textures import BarChart, RandomAlbedo, SiemensStar, Sinusoid, SlantedEdge
+
+    kind, colon, rest = spec.partition(":")
+    known = {"random", "sinusoid", "bars", "edge", "star"}
+    if kind not in known or (kind == "random" and colon):
+        return _image_texture(spec, width)
+    if width is not None:
+        raise CliError("--width: only with an image file as --texture")
+    try:
+        if kind == "random":
+            return RandomAlbedo()
+        if kind in ("sinusoid", "bars"):
+            return (Sinusoid if kind == "sinusoid" else BarChart)(float(rest))
+        if kind == "edge":
+            return SlantedEdge(float(rest)) if colon else SlantedEdge()
+        return SiemensStar(int(rest)) if colon else SiemensStar()
+    except ValueError as e:
+        raise CliError(f"--texture {spec}: {e}") from None
+
+
+TEXTURE_FORMS = ("random, sinusoid:F, bars:F (cycles/mm), edge[:ANGLE], star[:SPOKES] or "
+                 "an image file (.png, .npy) with --width")
+
+
+def _image_texture(path: str, width: float | None) -> Any:
+    """An :class:`~splitlf.Image` from a .npy array of albedos or a PNG (read by
+    matplotlib: values in [0, 1], a colour image as the Rec. 709 luma of R, G, B)."""
+    from .textures import Image
+
+    suffix = Path(path).suffix.lower()
+    if suffix not in (".png", ".npy"):
+        raise CliError(f"--texture {path}: allowed {TEXTURE_FORMS}")
+    if width is None:
+        raise CliError(f"--texture {path}: an image needs --width MM (its width on the "
+                       "object)")
+    if suffix == ".npy":
+        array = _load_npy(path)
+    else:
+        _need("matplotlib", "render with a PNG texture", "plot")
+        import matplotlib.image
+
+        if not Path(path).is_file():
+            raise CliError(f"no such file: {path}")
+        try:
+            array = np.asarray(matplotlib.image.imread(path), dtype=np.float64)
+        except (OSError, ValueError, SyntaxError) as e:
+            raise CliError(f"{path}: not a PNG image ({e})") from None
+        if array.ndim == 3:
+            array = array[..., :3] @ np.array([0.2126, 0.7152, 0.0722])[:array.shape[2]]
+    try:
+        return Image(array, width)
+    except (TypeError, ValueError) as e:
+        raise CliError(f"--texture {path}: {e}") from None
+
+
+def parse_render_depth(spec: str, extent: str | None) -> Any:
+    """The surface of ``render --depth``: a depth [mm] | plane:Z0,GX,GY | a .npy depth map
+    (needs ``extent`` X0,X1,Y0,Y1 [mm])."""
+    from .rendering import DepthMap, Plane
+
+    if spec.lower().endswith(".npy"):
+        if extent is None:
+            raise CliError(f"--depth {spec}: a depth map needs --extent X0,X1,Y0,Y1 (mm)")
+        box: Any = _numbers("--extent", extent, 4)
+        try:
+            return DepthMap(_load_npy(spec), box)
+        except (TypeError, ValueError) as e:
+            raise CliError(f"--depth {spec}: {e}") from None
+    if extent is not None:
+        raise CliError("--extent: only with a .npy depth map as --depth")
+    try:
+        if spec.startswith("plane:"):
+            return Plane(*_numbers("--depth plane:", spec[6:], 3))
+        return Plane(_numbers("--depth", spec, 1)[0])
+    except ValueError as e:
+        raise CliError(f"--depth {spec}: {e}") from None
+
+
+def _numbers(option: str, text: str, n: int) -> tuple[float, ...]:
+    """``n`` comma-separated finite numbers, else :class:`CliError` naming ``option``."""
+    try:
+        values = tuple(float(t) for t in text.split(","))
+    except ValueError:
+        values = ()
+    if len(values) != n or not all(math.isfinite(v) for v in values):
+        raise CliError(f"{option} {text}: allowed {n} comma-separated finite number"
+                       f"{'s' if n > 1 else ''}" + (" (a depth in mm, plane:Z0,GX,GY or a "
+                                                     ".npy depth map)" if n == 1 else ""))
+    return values
+
+
+def _render_noise(text: str) -> dict[str, float]:
+    """``--noise N[,READ]``: photo-electrons for value 1 and read noise (electrons rms)."""
+    photons, _, read = text.partition(",")
+    try:
+        return {"photons": _photons(photons),
+                "read_noise": _read_noise(read) if read else 0.0}
+    except argparse.ArgumentTypeError as e:
+        raise argparse.ArgumentTypeError(f"--noise {text}: {e}") from None
+
+
+_render_noise.__name__ = "noise"
+
+
+def _render_targets(args: argparse.Namespace) -> tuple[Path, Path | None]:
+    out = Path(args.out)
+    _check_suffix("--out", out, (".npz",))
+    check_new(out, args.force, FORCE_HINT)
+    png = None if args.png is None else Path(args.png)
+    if png is not None:
+        _check_suffix("--png", png, (".png",))
+        _need("matplotlib", "render --png", "plot")
+        check_new(png, args.force, FORCE_HINT)
+        if png.resolve() == out.resolve():
+            raise CliError("--png and --out: give two different files")
+    return out, png
+
+
+def _render_summary(raw: Any, out: Path, png: Path | None, args: argparse.Namespace
+                    ) -> dict[str, Any]:
+    channels = [{"channel": i, "shape": list(a.shape), "min": float(a.min()),
+                 "max": float(a.max()), "mean": float(a.mean())}
+                for i, a in enumerate(raw.images, 1)]
+    return {"path": str(out), "png": None if png is None else str(png),
+            "design": args.design, "texture": args.texture, "depth": args.depth,
+            "noise": args.noise, "seed": args.seed, "channels": channels}
+
+
+def _write_render(raw: Any, out: Path, png: Path | None, force: bool) -> None:
+    """The raw file, and its picture (both atomic; the picture is put in place only once
+    the raw file is)."""
+    import contextlib
+
+    with contextlib.ExitStack() as stack:
+        if png is not None:
+            from .plot import raw as plot_raw
+            from .plot._mpl import pyplot
+
+            tmp = stack.enter_context(atomic_output(png, force=force, hint=FORCE_HINT))
+            fig = plot_raw(raw)
+            try:
+                fig.savefig(tmp, dpi=150)
+            finally:
+                pyplot().close(fig)
+        raw.save(out, force=force)
+
+
+def _cmd_render(args: argparse.Namespace) -> int:
+    from .rendering import Scene, render
+
+    out, png = _render_targets(args)
+    design = _named_design(args.design)
+    texture = parse_render_texture(args.texture, args.width)
+    depth = parse_render_depth(args.depth, args.extent)
+    scene = Scene(texture, depth)
+    raw = render(design, scene, noise=args.noise, seed=args.seed, n_threads=args.threads)
+    _write_render(raw, out, png, args.force)
+    sys.stdout.write(json_text(_render_summary(raw, out, png, args)) if args.json
+                     else f"{out}\n")
+    return 0
+
+
 # -- optimise ----------------------------------------------------------------------------
 
 def parse_free(spec: str) -> tuple[str, tuple[float, float]]:
@@ -948,10 +1122,7 @@ def _cmd_explore(args: argparse.Namespace) -> int:
     from .explorer import serve
 
     subject, _ = _load_subject(args)
-    reference = None
-    if args.compare is not None:
-        reference = (Design.preset(args.compare) if args.compare in PRESETS
-                     else load_design(args.compare))
+    reference = None if args.compare is None else _named_design(args.compare)
     try:
         serve(subject, port=args.port, address=args.address, reference=reference)
     except OSError as e:
@@ -980,16 +1151,19 @@ def _threads_option(p: argparse.ArgumentParser, what: str) -> None:
 
 
 def _output(p: argparse.ArgumentParser, out: str | None, metavar: str = "FILE",
-            default: str | None = None, json_help: str = "print one JSON document") -> None:
-    """The output group: --out (when ``out`` says what it writes), --force, --json
-    (unless ``json_help`` is empty)."""
+            default: str | None = None, json_help: str = "print one JSON document",
+            required: bool = False) -> Any:
+    """The output group: --out (when ``out`` says what it writes; also -o when
+    ``required``), --force, --json (unless ``json_help`` is empty). Returns the group."""
     g = p.add_argument_group("output")
     if out is not None:
-        g.add_argument("--out", default=default, metavar=metavar, help=out)
+        g.add_argument("--out", *(["-o"] if required else []), default=default,
+                       metavar=metavar, help=out, required=required)
     g.add_argument("--force", action="store_true",
                    help="overwrite existing output files (default: refuse)")
     if json_help:
         g.add_argument("--json", action="store_true", help=json_help)
+    return g
 
 
 def _depths_option(p: argparse.ArgumentParser, option: str, default: str, what: str) -> None:
@@ -1131,6 +1305,41 @@ def _add_simulate(sub: Any) -> None:
     p.set_defaults(func=_cmd_simulate)
 
 
+def _add_render(sub: Any) -> None:
+    p = sub.add_parser("render", help="the raw sensor images of a textured scene",
+                       description="Render what each channel's sensor records for a "
+                       "textured surface (docs/model.md §10) and write the raws to an .npz "
+                       "file that splitlf.Raw.load reads (and, with --png, a picture of "
+                       "them with a zoom on a few micro-images).")
+    p.add_argument("design", metavar="DESIGN",
+                   help=f"a preset ({', '.join(PRESETS)}) or a TOML file with a [design] "
+                   "or [camera] table")
+    p.add_argument("--texture", required=True, metavar="SPEC",
+                   help="random | sinusoid:F | bars:F (cycles/mm) | edge[:ANGLE] (degrees "
+                   "from vertical, default 5) | star[:SPOKES] (default 36) | an image file "
+                   "(.png or .npy of albedos) with --width")
+    p.add_argument("--width", type=_real_type("width", 0.0, "a finite width > 0 (mm)"),
+                   default=None, metavar="MM", help="an image texture's width on the object")
+    p.add_argument("--depth", required=True, metavar="SPEC",
+                   help="a depth in mm (a fronto-parallel plane) | plane:Z0,GX,GY "
+                   "(Z = Z0 + GX X + GY Y) | a .npy depth map with --extent")
+    p.add_argument("--extent", default=None, metavar="X0,X1,Y0,Y1",
+                   help="a depth map's extent on the object [mm] (with a negative X0: "
+                   "--extent=X0,X1,Y0,Y1)")
+    p.add_argument("--noise", type=_render_noise, default=None, metavar="N[,READ]",
+                   help="add noise: N photo-electrons for value 1 (Poisson), READ electrons "
+                   "rms of read noise (default 0)")
+    p.add_argument("--seed", type=_seed, default=0,
+                   help="seed of the random texture and the noise, an integer >= 0 "
+                   "(default 0)")
+    _threads_option(p, "threads of the core")
+    g = _output(p, "the raw file to write (.npz)", "RAW.npz", required=True,
+                json_help="print a JSON summary of the raws instead of the path")
+    g.add_argument("--png", default=None, metavar="FILE.png",
+                   help="also write a picture of the raws (splitlf.plot.raw)")
+    p.set_defaults(func=_cmd_render)
+
+
 def _add_optimise(sub: Any) -> None:
     p = sub.add_parser("optimise", help="the best design for an objective (inverse design)",
                        description="Search the free fields of the camera (the seed design "
@@ -1246,7 +1455,7 @@ def _add_explore(sub: Any) -> None:
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of every subcommand (report, figures, trace, sweep, simulate,
-    optimise, compare, explore)."""
+    render, optimise, compare, explore)."""
     parser = _Parser(
         prog="splitlf",
         description="Design and analysis of split-sensor light field cameras.",
@@ -1254,7 +1463,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
                                 help="what to do (COMMAND --help for its options)")
     for add in (_add_report, _add_figures, _add_trace, _add_sweep, _add_simulate,
-                _add_optimise, _add_compare, _add_explore):
+                _add_render, _add_optimise, _add_compare, _add_explore):
         add(sub)
     return parser
 
@@ -1275,7 +1484,9 @@ def main(argv: list[str] | None = None) -> int:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
     except FileNotFoundError as e:
-        print(f"splitlf {args.command}: error: no such file: {e.filename}", file=sys.stderr)
+        # an OSError names its file; check_new's (a missing output folder) says it all
+        msg = f"no such file: {e.filename}" if e.filename is not None else str(e)
+        print(f"splitlf {args.command}: error: {msg}", file=sys.stderr)
         return 2
     except USER_ERRORS as e:
         msg = " ".join(str(e).split()) or type(e).__name__

@@ -31,6 +31,20 @@ import numpy as np
 from . import _native, _validate
 from .design import Design
 from .errors import InvalidParameter
+from .textures import (
+    ANALYTIC,
+    MTF_AMPLITUDE,
+    TEXTURES,
+    BarChart,
+    Image,
+    RandomAlbedo,
+    SiemensStar,
+    Sinusoid,
+    SlantedEdge,
+    _albedo,
+    _piecewise_antiderivative,
+    _positive,
+)
 
 __all__ = [
     "HALF_SOURCES",
@@ -40,8 +54,10 @@ __all__ = [
     "BarChart",
     "Image",
     "RandomAlbedo",
+    "SiemensStar",
     "Simulation",
     "Sinusoid",
+    "SlantedEdge",
     "simulate",
 ]
 
@@ -51,8 +67,6 @@ __all__ = [
 PRIOR_STEP = 0.4
 #: Relative regularisation weight without noise (times the mean diagonal of A^T A).
 NOISE_FREE_WEIGHT = 1e-6
-#: Sinusoids of the MTF search: mean and amplitude (albedo), two phases (0 and 90 deg).
-MTF_MEAN, MTF_AMPLITUDE = 0.5, 0.4
 #: Normal equations up to this many cells are solved by dense Cholesky, larger by sparse LU.
 DENSE_CELLS = 6000
 #: Largest ``photons`` of the noise model (a full-aperture pixel's photo-electrons; real
@@ -165,148 +179,10 @@ def system_matrix(design: Design, z: float, source: str, origin: float, step: fl
     return sp.csr_matrix((a.data, a.indices, a.indptr), shape=a.shape), a.pixels
 
 
-# -- textures ----------------------------------------------------------------------------
+# -- textures (splitlf.textures) -----------------------------------------------------------
 
-def _real(value: Any, name: str) -> float:
-    """A real number (an integer beyond the float range becomes +-inf, for the range
-    check to reject), else ``TypeError``."""
-    if isinstance(value, numbers.Integral) and not isinstance(value, bool):
-        try:
-            return float(value)
-        except OverflowError:
-            return -math.inf if value < 0 else math.inf
-    return _validate.real(value, name)
-
-
-def _positive(value: Any, name: str, upper: float = math.inf) -> float:
-    x = _real(value, name)
-    if not (math.isfinite(x) and 0 < x <= upper):
-        allowed = "a finite value > 0" if upper == math.inf else f"a value in (0, {upper:g}]"
-        raise InvalidParameter.of(name, x, allowed)
-    return x
-
-
-def _albedo(value: Any, name: str) -> float:
-    x = _real(value, name)
-    if not (math.isfinite(x) and x >= 0):
-        raise InvalidParameter.of(name, x, "a finite value >= 0")
-    return x
-
-
-@dataclasses.dataclass(frozen=True)
-class Sinusoid:
-    """mean + amplitude sin(2 pi frequency X + phase); frequency in cycles/mm on the
-    object, X the object-space position [mm] (0 on the optical axis).
-
-    ``frequency`` finite > 0; ``mean``, ``amplitude`` finite >= 0 with amplitude <= mean
-    (albedo >= 0); ``phase`` [rad]. Raises ``TypeError`` (not real numbers) and
-    :class:`~splitlf.errors.InvalidParameter` (out of range)."""
-
-    frequency: float
-    mean: float = MTF_MEAN
-    amplitude: float = MTF_AMPLITUDE
-    phase: float = 0.0
-
-    def __post_init__(self) -> None:
-        _positive(self.frequency, "frequency")
-        m, a = _albedo(self.mean, "mean"), _albedo(self.amplitude, "amplitude")
-        _validate.real(self.phase, "phase")
-        if a > m:
-            raise ValueError(f"invalid amplitude = {a}: allowed <= mean = {m} (albedo >= 0)")
-
-    def antiderivative(self, x: np.ndarray) -> np.ndarray:
-        """The integral of the albedo from 0 to each X in ``x`` [mm] (any shape); its
-        differences give exact cell averages."""
-        w = 2 * np.pi * self.frequency
-        return self.mean * x - self.amplitude / w * np.cos(w * x + self.phase)
-
-
-@dataclasses.dataclass(frozen=True)
-class BarChart:
-    """A square wave: ``high`` on the first half of each period, ``low`` on the second;
-    ``frequency`` in bar pairs (cycles) per mm on the object, a bar edge at X = 0.
-
-    ``frequency`` finite > 0; ``low``, ``high`` finite albedos >= 0. Raises ``TypeError``
-    (not real numbers) and :class:`~splitlf.errors.InvalidParameter` (out of range)."""
-
-    frequency: float
-    low: float = 0.1
-    high: float = 0.9
-
-    def __post_init__(self) -> None:
-        _positive(self.frequency, "frequency")
-        _albedo(self.low, "low")
-        _albedo(self.high, "high")
-
-    def antiderivative(self, x: np.ndarray) -> np.ndarray:
-        """The integral of the albedo from 0 to each X in ``x`` [mm] (any shape)."""
-        s = self.frequency * x
-        k = np.floor(s)
-        high_part = 0.5 * k + np.minimum(s - k, 0.5)  # high-bar length, in periods
-        return self.low * x + (self.high - self.low) * high_part / self.frequency
-
-
-@dataclasses.dataclass(frozen=True)
-class RandomAlbedo:
-    """Independent albedos uniform in [low, high] on cells of ``cell`` mm (default
-    delta(z)), aligned with X = 0, drawn from the simulation's seeded generator. A row of a
-    2D i.i.d. albedo field is a 1D i.i.d. albedo, so this is the 2D random albedo too.
-
-    ``cell`` [mm] finite > 0 or None; 0 <= ``low`` <= ``high``, finite. Raises
-    ``TypeError`` and :class:`~splitlf.errors.InvalidParameter`."""
-
-    cell: float | None = None
-    low: float = 0.0
-    high: float = 1.0
-
-    def __post_init__(self) -> None:
-        if self.cell is not None:
-            _positive(self.cell, "cell")
-        lo, hi = _albedo(self.low, "low"), _albedo(self.high, "high")
-        if hi < lo:
-            raise ValueError(f"invalid high = {hi}: allowed >= low = {lo}")
-
-
-@dataclasses.dataclass(frozen=True, eq=False)
-class Image:
-    """A user image: a 2D array of albedos (finite, >= 0) ``width`` mm wide on the object,
-    centred on the optical axis; the simulation reads one row (default the middle one),
-    pixels as constant cells. Outside the image the albedo is the row's mean.
-
-    ``array``: 2D (rows, columns) numeric array; ``width`` [mm] finite > 0; ``row`` an
-    integer in [0, rows) or None. Raises ``TypeError`` (dtype, row type) and
-    ``ValueError`` (shape, non-finite or negative albedo, range)."""
-
-    array: np.ndarray
-    width: float
-    row: int | None = None
-
-    def __post_init__(self) -> None:
-        a = np.asarray(self.array)
-        if a.dtype == object or not (np.issubdtype(a.dtype, np.floating)
-                                     or np.issubdtype(a.dtype, np.integer)
-                                     or a.dtype == np.bool_):
-            raise TypeError(f"Image.array must be a numeric 2D array, got dtype {a.dtype}")
-        if a.ndim != 2 or min(a.shape) < 1:
-            raise ValueError(f"Image.array must be a non-empty 2D array, got shape {a.shape}")
-        a = a.astype(np.float64)
-        if not np.all(np.isfinite(a)) or np.any(a < 0):
-            raise ValueError("Image.array must hold finite albedos >= 0")
-        _positive(self.width, "width")
-        if self.row is not None:
-            if isinstance(self.row, bool) or not isinstance(self.row, numbers.Integral):
-                raise TypeError(f"Image.row must be an integer or None, got {self.row!r}")
-            if not 0 <= int(self.row) < a.shape[0]:
-                raise ValueError(f"invalid row = {self.row}: allowed 0..{a.shape[0] - 1}")
-        object.__setattr__(self, "array", a)
-
-    def line(self) -> np.ndarray:
-        """The row the simulation reads (``row``, default the middle one), shape (width,)."""
-        r = self.array.shape[0] // 2 if self.row is None else int(self.row)
-        return self.array[r]
-
-
-Texture = Sinusoid | BarChart | RandomAlbedo | Image | Callable[[np.ndarray], Any] | str
+Texture = (Sinusoid | BarChart | SlantedEdge | SiemensStar | RandomAlbedo | Image
+           | Callable[[np.ndarray], Any] | str)
 
 
 def _texture(value: Any) -> Any:
@@ -314,24 +190,15 @@ def _texture(value: Any) -> Any:
         if value != "random":
             raise ValueError(
                 f"invalid texture = {value!r}: allowed \"random\", or a Sinusoid, BarChart, "
-                "RandomAlbedo, Image or a callable albedo(X mm)"
+                "SlantedEdge, SiemensStar, RandomAlbedo, Image or a callable albedo(X mm)"
             )
         return RandomAlbedo()
-    if isinstance(value, Sinusoid | BarChart | RandomAlbedo | Image) or callable(value):
+    if isinstance(value, TEXTURES) or callable(value):
         return value
     raise TypeError(
-        "texture must be \"random\", a Sinusoid, BarChart, RandomAlbedo, Image or a "
-        f"callable albedo(X mm), got {type(value).__name__}"
+        "texture must be \"random\", a Sinusoid, BarChart, SlantedEdge, SiemensStar, "
+        f"RandomAlbedo, Image or a callable albedo(X mm), got {type(value).__name__}"
     )
-
-
-def _piecewise_antiderivative(edges: np.ndarray, values: np.ndarray, x: np.ndarray,
-                              outside: float) -> np.ndarray:
-    """Antiderivative at x of the function equal to values[i] on [edges[i], edges[i+1]]
-    and ``outside`` elsewhere (0 at edges[0])."""
-    cum = np.concatenate([[0.0], np.cumsum(values * np.diff(edges))])
-    inside = np.interp(x, edges, cum)
-    return inside + outside * (np.minimum(x - edges[0], 0.0) + np.maximum(x - edges[-1], 0.0))
 
 
 def _fine_texture(tex: Any, edges: np.ndarray, delta: float,
@@ -339,7 +206,7 @@ def _fine_texture(tex: Any, edges: np.ndarray, delta: float,
     """Cell averages of the texture on the fine cells between ``edges`` (exact for every
     kind except a callable, which is sampled at the cell centres)."""
     h = np.diff(edges)
-    if isinstance(tex, Sinusoid | BarChart):
+    if isinstance(tex, ANALYTIC):  # the row Y = 0 of a 2-D texture
         return np.maximum(np.diff(tex.antiderivative(edges)) / h, 0.0)
     if isinstance(tex, RandomAlbedo):
         cell = delta if tex.cell is None else tex.cell

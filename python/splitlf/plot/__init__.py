@@ -1,10 +1,12 @@
 """Figures (matplotlib, optional: ``pip install "splitlf[plot]"``). matplotlib is imported
 only when a figure is drawn; every function takes ``ax=None`` and returns the Axes it drew
-on; this package never selects a backend."""
+on (:func:`raw`, which draws panels of its own, returns the Figure); this package never
+selects a backend."""
 
 from .architecture import microlens_images, sample_map
 from .compare import compare
 from .curves import blur, repetitions
+from .raw import raw
 from .rayspace import ray_space
 from .resolution import resolution
 from .samples import samples
@@ -16,6 +18,7 @@ __all__ = [
     "blur",
     "compare",
     "microlens_images",
+    "raw",
     "ray_space",
     "repetitions",
     "resolution",

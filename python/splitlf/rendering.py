@@ -1,0 +1,495 @@
+"""Raw images: what each channel's sensor records for a textured 3-D scene
+(docs/model.md §10, "Raw images (2-D forward model)").
+
+A :class:`Scene` is a texture (:mod:`splitlf.textures`) on a surface: a fronto-parallel
+or slanted :class:`Plane`, or a :class:`DepthMap`. :func:`render` integrates every pixel
+of every channel in the Rust core (``_native.render``) and returns a :class:`Raw`: one
+2-D float64 array per channel in §10's layout (``sensor``: [m_y, m_x]; ``ideal``:
+[k Q + q_y, j Q + q_x]), in units where a pixel of pitch mu_1 on plane L_1 that sees the
+whole aperture under a white albedo reads 1 (a fully lit pixel of the seed's halves
+reads 1/2). This module holds validation, the random texture's draw, the noise and the
+raw file format.
+
+Random streams: a seed s gives two independent NumPy generators,
+``np.random.default_rng([s, 0])`` for a :class:`~splitlf.RandomAlbedo`'s cells and
+``np.random.default_rng([s, 1])`` for the noise (channel 1's Poisson counts, then its
+read noise, then channel 2's, ...), so a given seed gives the same raw bit for bit and
+the noise of a raw does not depend on the texture.
+
+Raw files (:meth:`Raw.save`, :meth:`Raw.load`): an uncompressed NumPy ``.npz`` archive
+(no pickled objects) with the keys
+
+- ``format``: the string ``"splitlf-raw/1"``;
+- ``design``: the design as TOML text (:meth:`splitlf.Design.to_toml` of its general
+  form, a ``[design]`` table);
+- ``channel1``, ..., ``channelC``: each channel's raw, float64 [row, col].
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import numbers
+import os
+import sys
+import zipfile
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from . import _native, _validate
+from ._files import atomic_output
+from .design import Design
+from .errors import InvalidParameter
+from .simulation import _add_noise, _noise, _seed
+from .textures import TEXTURES, RandomAlbedo, _albedo, _finite
+
+__all__ = ["FORMAT", "DepthMap", "Plane", "Raw", "Scene", "render"]
+
+#: The ``format`` entry of a raw file.
+FORMAT = "splitlf-raw/1"
+#: Rounds of the fixed point that sizes a random texture for a slanted plane.
+_EXTENT_ROUNDS = 64
+#: A random texture on a slanted plane covers depths up to this many times z0 (a plane
+#: seen at grazing incidence reaches any depth; beyond, the albedo is the texture's mean).
+RANDOM_DEPTH_FACTOR = 4.0
+
+Extent = tuple[float, float, float, float]
+
+
+def _extent(value: Any, name: str = "extent") -> Extent:
+    """(X0, X1, Y0, Y1) [mm], finite, X0 < X1 and Y0 < Y1."""
+    if isinstance(value, str | bytes) or not hasattr(value, "__len__") or len(value) != 4:
+        raise TypeError(f"{name} must be (X0, X1, Y0, Y1) in mm, got {value!r}")
+    x0, x1, y0, y1 = (_finite(v, f"{name}[{i}]") for i, v in enumerate(value))
+    if not (x0 < x1 and y0 < y1):
+        raise InvalidParameter.of(name, (x0, x1, y0, y1), "X0 < X1 and Y0 < Y1 (mm)")
+    return x0, x1, y0, y1
+
+
+def _real_array(value: Any, name: str) -> np.ndarray:
+    """A non-empty 2-D numeric array as a read-only float64 copy, else ``TypeError`` or
+    :class:`InvalidParameter` naming ``name``."""
+    a = np.asarray(value)
+    if a.dtype == object or not (np.issubdtype(a.dtype, np.floating)
+                                 or np.issubdtype(a.dtype, np.integer)):
+        raise TypeError(f"{name} must be a 2-D array of real numbers, got dtype {a.dtype}")
+    if a.ndim != 2 or min(a.shape) < 1:
+        raise InvalidParameter.of(name, f"an array of shape {a.shape}", "a non-empty 2-D array")
+    a = np.array(a, dtype=np.float64, order="C")
+    a.setflags(write=False)
+    return a
+
+
+# -- surfaces ----------------------------------------------------------------------------------
+
+@dataclasses.dataclass(frozen=True)
+class Plane:
+    """The plane Z = z0 + gx X + gy Y [mm] (gx = gy = 0: fronto-parallel at depth z0).
+
+    ``z0`` finite > 0 (the render also needs the plane in front of the main lens's focal
+    plane, Z > F, wherever a pixel sees it: the core checks that, knowing the field of
+    view); ``gx``, ``gy`` finite slopes. Raises ``TypeError`` and
+    :class:`~splitlf.errors.InvalidParameter` naming the field."""
+
+    z0: float
+    gx: float = 0.0
+    gy: float = 0.0
+
+    def __post_init__(self) -> None:
+        if isinstance(self.z0, bool | np.bool_):
+            raise TypeError(f"z0 must be a real depth in mm, got {self.z0!r}")
+        z0 = _finite(self.z0, "z0")
+        if z0 <= 0:
+            raise InvalidParameter.of("z0", z0, "a finite depth > 0 mm in front of the main "
+                                      "lens (and > F where the render sees it)")
+        object.__setattr__(self, "z0", z0)
+        object.__setattr__(self, "gx", _finite(self.gx, "gx"))
+        object.__setattr__(self, "gy", _finite(self.gy, "gy"))
+
+    def depths(self, extent: Extent) -> tuple[float, float]:
+        """The least and greatest depth of the plane over the rectangle ``extent``."""
+        x0, x1, y0, y1 = extent
+        z = [self.z0 + self.gx * x + self.gy * y for x in (x0, x1) for y in (y0, y1)]
+        return min(z), max(z)
+
+    def seam(self) -> tuple[str, list[float], None]:
+        """The native scene's surface: ("plane", [z0, gx, gy], None)."""
+        return "plane", [self.z0, self.gx, self.gy], None
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class DepthMap:
+    """Depths [mm] sampled at the centres of uniform cells over ``extent`` (X0, X1, Y0,
+    Y1) [mm] (row 0 at the top, Y1; column 0 at the left, X0): bilinear between centres,
+    constant beyond the outer centres up to the extent's edge, no surface outside it (rays
+    there see the scene's background).
+
+    ``depth`` a non-empty 2-D array of finite depths > 0; ``extent`` finite with X0 < X1,
+    Y0 < Y1; ``confidence`` (a per-sample weight, e.g. of a depth estimate) and
+    ``confident`` (a per-sample bool) optional arrays of the same shape, carried along.
+    The arrays are kept as read-only float64 (bool) copies. Raises ``TypeError`` and
+    :class:`~splitlf.errors.InvalidParameter` naming the field (and the element)."""
+
+    depth: np.ndarray
+    extent: Extent
+    confidence: np.ndarray | None = None
+    confident: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        z = _real_array(self.depth, "depth")
+        bad = np.flatnonzero(~(np.isfinite(z) & (z > 0)))
+        if bad.size:
+            i = int(bad[0])
+            r, c = divmod(i, z.shape[1])
+            allowed = "finite depths > 0 mm"
+            value = float(z.flat[i])
+            raise InvalidParameter(f"invalid depth[{r}, {c}] = {value!r}: allowed {allowed}",
+                                   name="depth", value=value, allowed=allowed, index=i)
+        object.__setattr__(self, "depth", z)
+        object.__setattr__(self, "extent", _extent(self.extent))
+        if self.confidence is not None:
+            c = _real_array(self.confidence, "confidence")
+            if c.shape != z.shape:
+                raise InvalidParameter.of("confidence", f"shape {c.shape}",
+                                          f"the depth's shape {z.shape}")
+            object.__setattr__(self, "confidence", c)
+        if self.confident is not None:
+            b = np.array(self.confident)
+            if b.dtype != np.bool_ or b.shape != z.shape:
+                raise InvalidParameter.of("confident", f"{b.dtype} array of shape {b.shape}",
+                                          f"a bool array of the depth's shape {z.shape}")
+            b.setflags(write=False)
+            object.__setattr__(self, "confident", b)
+
+    def seam(self) -> tuple[str, list[float], np.ndarray]:
+        """The native scene's surface: ("depthmap", [X0, X1, Y0, Y1], depth)."""
+        return "depthmap", list(self.extent), self.depth
+
+
+def _surface(value: Any) -> Plane | DepthMap:
+    if isinstance(value, Plane | DepthMap):
+        return value
+    if isinstance(value, numbers.Real) and not isinstance(value, bool | np.bool_):
+        return Plane(float(value))
+    raise TypeError("depth must be a number (a fronto-parallel plane at that depth, mm), a "
+                    f"splitlf.Plane or a splitlf.DepthMap, got {type(value).__name__}")
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Scene:
+    """A Lambertian surface carrying a texture (docs/model.md §10, "Scene").
+
+    - ``texture``: a :class:`~splitlf.Sinusoid`, :class:`~splitlf.BarChart`,
+      :class:`~splitlf.SlantedEdge`, :class:`~splitlf.SiemensStar`,
+      :class:`~splitlf.RandomAlbedo`, :class:`~splitlf.Image`, or ``"random"`` (a
+      RandomAlbedo on delta(z) cells)
+    - ``depth``: a number (the fronto-parallel plane at that depth [mm], kept as a
+      :class:`Plane`), a :class:`Plane` or a :class:`DepthMap`
+    - ``background``: the albedo a ray sees when it meets no surface, finite >= 0
+      (default: the texture's mean)
+
+    Raises ``TypeError`` and :class:`~splitlf.errors.InvalidParameter` naming the field."""
+
+    texture: Any
+    depth: Any
+    background: float | None = None
+
+    def __post_init__(self) -> None:
+        tex = self.texture
+        if isinstance(tex, str) and tex == "random":
+            tex = RandomAlbedo()
+        if not isinstance(tex, TEXTURES):
+            raise TypeError("texture must be \"random\", a Sinusoid, BarChart, SlantedEdge, "
+                            "SiemensStar, RandomAlbedo or Image, got "
+                            f"{type(self.texture).__name__} {self.texture!r}"[:300])
+        object.__setattr__(self, "texture", tex)
+        object.__setattr__(self, "depth", _surface(self.depth))
+        bg = float(tex.mean) if self.background is None else self.background
+        object.__setattr__(self, "background", _albedo(bg, "background"))
+
+    def reference_depth(self) -> float:
+        """The depth whose delta(z) sizes a default random texture's cells: a plane's z0,
+        a depth map's median depth."""
+        if isinstance(self.depth, Plane):
+            return self.depth.z0
+        return float(np.median(self.depth.depth))
+
+
+# -- the raw -----------------------------------------------------------------------------------
+
+def _expected_shapes(design: Design) -> list[tuple[int, int]]:
+    """Each channel's raw shape: (Ky Q, Kx Q) for the ideal layout, (My, Mx) for the
+    sensor layout (docs/model.md §10, "Raw image layout")."""
+    shapes = []
+    for ch in design.resolved():
+        if ch["layout"] == "ideal":
+            shapes.append((ch["Ky"] * ch["Q"], ch["Kx"] * ch["Q"]))
+        else:
+            shapes.append((ch["My"], ch["Mx"]))
+    return shapes
+
+
+def _image(value: Any, i: int, shape: tuple[int, int], copy: bool) -> np.ndarray:
+    """Channel i + 1's raw as a read-only float64 C array (a copy when ``copy``, else the
+    array itself when it already is one: raws the package made)."""
+    name = f"images[{i}]"
+    a = np.asarray(value)
+    if a.dtype == object or not (np.issubdtype(a.dtype, np.floating)
+                                 or np.issubdtype(a.dtype, np.integer)):
+        raise TypeError(f"{name} must be a 2-D array of real numbers, got dtype {a.dtype}")
+    if a.shape != shape:
+        raise InvalidParameter(
+            f"invalid {name}: shape {a.shape}, allowed {shape} (channel {i + 1}'s raw, "
+            "docs/model.md §10)", name=name, value=a.shape, allowed=str(shape))
+    out = (np.array(a, dtype=np.float64, order="C") if copy
+           else np.ascontiguousarray(a, dtype=np.float64))
+    if not np.isfinite(out).all():
+        k = int(np.flatnonzero(~np.isfinite(out))[0])
+        r, c = divmod(k, shape[1])
+        raise InvalidParameter(f"invalid {name}: {out.flat[k]} at [{r}, {c}], allowed finite "
+                               "values", name=name, value=float(out.flat[k]),
+                               allowed="finite values")
+    out.setflags(write=False)
+    return out
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Raw:
+    """The raw images of a design: ``images[i]`` is channel i + 1's sensor image, a
+    read-only float64 2-D array in docs/model.md §10's layout (``ideal``: shape (Ky Q,
+    Kx Q), element [k Q + q_y, j Q + q_x]; ``sensor``: shape (My, Mx), element
+    [m_y, m_x]). Values are in §10's units (a full-aperture pixel of pitch mu_1 under a
+    white albedo reads 1; each channel includes its ``share``).
+
+    Built by :func:`render`, or directly to wrap raws from elsewhere (another renderer, a
+    real camera): ``images`` a sequence of one array per channel (copied). Raises
+    ``TypeError`` and :class:`~splitlf.errors.InvalidParameter` (named ``images`` for the
+    count, ``images[i]`` for a shape or a value that is not finite)."""
+
+    design: Design
+    images: tuple[np.ndarray, ...]
+
+    def __post_init__(self) -> None:
+        self._check(copy=True)
+
+    @classmethod
+    def _adopt(cls, design: Design, images: Sequence[np.ndarray]) -> Raw:
+        """A Raw of arrays this package made (the core's raws, a loaded file): checked
+        like any, but kept without a copy (a render's peak memory stays the raws')."""
+        raw = object.__new__(cls)
+        object.__setattr__(raw, "design", design)
+        object.__setattr__(raw, "images", images)
+        raw._check(copy=False)
+        return raw
+
+    def _check(self, copy: bool) -> None:
+        design = _validate.design(self.design)
+        imgs = self.images
+        if isinstance(imgs, np.ndarray) or not isinstance(imgs, Sequence):
+            raise TypeError("images must be a sequence of 2-D arrays, one per channel, got "
+                            f"{type(imgs).__name__}")
+        shapes = _expected_shapes(design)
+        if len(imgs) != len(shapes):
+            raise InvalidParameter.of("images", f"{len(imgs)} arrays",
+                                      f"one array per channel: {len(shapes)}")
+        object.__setattr__(self, "images", tuple(_image(a, i, s, copy) for i, (a, s)
+                                                 in enumerate(zip(imgs, shapes, strict=True))))
+
+    def channel(self, i: int) -> np.ndarray:
+        """Channel ``i``'s raw (channels numbered from 1)."""
+        n = len(self.images)
+        c = _validate.integer(i, "channel", f"an integer in [1, {n}]")
+        if not 1 <= c <= n:
+            raise InvalidParameter.of("channel", c, f"an integer in [1, {n}]")
+        return self.images[c - 1]
+
+    def save(self, path: str | os.PathLike[str], *, force: bool = True) -> None:
+        """Write the raw file (module docstring: an ``.npz`` with ``format``, ``design``
+        and ``channel1``, ...) atomically: a temporary file in the same folder, renamed
+        onto ``path`` when complete, so an error or Ctrl-C leaves no partial file.
+        ``force=False`` refuses an existing ``path`` (``FileExistsError``)."""
+        arrays: dict[str, Any] = {"format": np.array(FORMAT),
+                                  "design": np.array(self.design.design.to_toml())}
+        arrays.update({f"channel{i}": a for i, a in enumerate(self.images, 1)})
+        with atomic_output(path, force=force) as tmp, open(tmp, "wb") as fh:
+            np.savez(fh, **arrays)
+
+    @classmethod
+    def load(cls, path: str | os.PathLike[str]) -> Raw:
+        """Read a raw file written by :meth:`save` (exact round trip). Raises
+        ``FileNotFoundError`` (no such file) and ``ValueError`` naming ``path`` and what is
+        wrong for anything that is not such a file."""
+        name = os.fspath(path)
+        if os.path.isdir(name):
+            raise ValueError(f"{name}: a folder, not a splitlf raw file")
+        try:
+            npz = np.load(name, allow_pickle=False)
+        except FileNotFoundError:
+            raise
+        except (OSError, ValueError, EOFError, zipfile.BadZipFile) as e:
+            raise ValueError(f"{name}: not a splitlf raw file (not a NumPy .npz archive: "
+                             f"{e})") from None
+        if not isinstance(npz, np.lib.npyio.NpzFile):
+            raise ValueError(f"{name}: not a splitlf raw file (a .npy array, not an .npz "
+                             "archive)")
+        with npz:
+            try:
+                return _read_raw(name, npz)
+            except (ValueError, TypeError, KeyError, zipfile.BadZipFile) as e:
+                msg = str(e)
+                raise ValueError(msg if msg.startswith(name) else f"{name}: {msg}") from None
+
+
+def _read_raw(name: str, npz: Any) -> Raw:
+    keys = set(npz.files)
+    if "format" not in keys or npz["format"].shape != () or str(npz["format"]) != FORMAT:
+        raise ValueError(f"not a splitlf raw file (needs format = {FORMAT!r})")
+    if "design" not in keys or npz["design"].dtype.kind != "U" or npz["design"].shape != ():
+        raise ValueError("no design TOML text (key 'design')")
+    design = _design_from_text(name, str(npz["design"]))
+    channels = [f"channel{i}" for i in range(1, len(design.channels) + 1)]
+    extra = sorted(keys - {"format", "design", *channels})
+    missing = [c for c in channels if c not in keys]
+    if missing or extra:
+        raise ValueError(f"the arrays {sorted(keys - {'format', 'design'})} do not match "
+                         f"the design's {len(channels)} channel(s) ({', '.join(channels)})")
+    return Raw._adopt(design, tuple(npz[c] for c in channels))
+
+
+def _design_from_text(name: str, text: str) -> Design:
+    if sys.version_info >= (3, 11):
+        import tomllib
+    else:  # pragma: no cover - Python 3.10 (the tomli backport)
+        import tomli as tomllib
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise ValueError(f"its design is not valid TOML: {e}") from None
+    if set(doc) != {"design"} or not isinstance(doc["design"], dict):
+        raise ValueError("its design TOML needs exactly one [design] table")
+    return Design.from_dict(doc["design"], source=f"{name}: design")
+
+
+# -- render ------------------------------------------------------------------------------------
+
+def _bbox(a: Extent, b: Extent) -> Extent:
+    return min(a[0], b[0]), max(a[1], b[1]), min(a[2], b[2]), max(a[3], b[3])
+
+
+def _view(core: Any, zlo: float, zhi: float) -> Extent:
+    """What the pixels see over depths [zlo, zhi]: a ray's lateral position is affine in
+    its depth (docs/model.md §10), so the box of the two end planes' extents holds it."""
+    ext: Any = _native.render_extent  # type: ignore[attr-defined]
+    a, b = (tuple(float(v) for v in ext(core, z)) for z in (zlo, zhi))
+    return min(a[0], b[0]), max(a[1], b[1]), min(a[2], b[2]), max(a[3], b[3])
+
+
+def _random_extent(design: Design, surface: Plane | DepthMap) -> Extent:
+    """The region a random texture covers: what the pixels see over the scene's depths."""
+    core, near = design.core, design.F * (1 + 1e-9)
+    if isinstance(surface, DepthMap):
+        box = _view(core, float(surface.depth.min()), float(surface.depth.max()))
+        x0, x1, y0, y1 = surface.extent
+        clipped = (max(box[0], x0), min(box[1], x1), max(box[2], y0), min(box[3], y1))
+        return clipped if clipped[0] < clipped[1] and clipped[2] < clipped[3] else box
+    box = _view(core, surface.z0, surface.z0)
+    cap = RANDOM_DEPTH_FACTOR * surface.z0
+    for _ in range(_EXTENT_ROUNDS):  # the plane's depths in view, to a fixed point
+        lo, hi = surface.depths(box)
+        grown = _bbox(box, _view(core, min(max(lo, near), cap), min(max(hi, near), cap)))
+        if grown == box:
+            break
+        box = grown
+    return box
+
+
+def _texture_seam(scene: Scene, design: Design, rng: np.random.Generator
+                  ) -> tuple[str, list[float], np.ndarray | None]:
+    tex = scene.texture
+    if isinstance(tex, RandomAlbedo):
+        step = design.resolution_step(scene.reference_depth())
+        return tex.seam(_random_extent(design, scene.depth), step, rng)
+    kind, params, image = tex.seam()
+    return kind, params, image
+
+
+def _progress_flag(progress: Any) -> bool:
+    """Whether to show a bar (the sweep's convention: None = only when stderr is a
+    terminal)."""
+    if progress is not None and not isinstance(progress, bool):
+        raise TypeError(f"progress must be None, True or False, got {progress!r}")
+    return sys.stderr.isatty() if progress is None else progress
+
+
+def _progress(show: bool) -> tuple[Any, Callable[[int, int], None] | None]:
+    """A tqdm bar and the core's callback for it (without tqdm, no bar)."""
+    if not show:
+        return None, None
+    try:
+        from tqdm.auto import tqdm
+    except ImportError:
+        return None, None
+    bar = tqdm(total=1, desc="splitlf render", unit="block")
+
+    def update(done: int, total: int) -> None:
+        if bar.total != total:
+            bar.total = total
+        bar.update(done - bar.n)
+
+    return bar, update
+
+
+def render(design: Design, scene: Scene, *, noise: Mapping[str, float] | None = None,
+           seed: int | None = 0, n_threads: int | None = None,
+           progress: bool | None = None) -> Raw:
+    """Each channel's raw sensor image of ``scene`` (docs/model.md §10), computed in the
+    core.
+
+    - ``design``: a :class:`~splitlf.Design` (any of §9: rect or hex grids, lens types,
+      square or circular aperture, ideal or sensor layout; a :class:`~splitlf.Camera` is
+      one)
+    - ``scene``: a :class:`Scene`; a :class:`~splitlf.RandomAlbedo` texture is drawn on
+      cells covering everything the pixels see (``_native.render_extent`` over the
+      scene's depths)
+    - ``noise``: None (noise-free) or ``{"photons": N, "read_noise": r}`` as in
+      :func:`~splitlf.simulate`: counts Poisson(N value) plus Gaussian read noise of r
+      electrons rms, divided by N (N finite in (0, 1e15], r finite >= 0)
+    - ``seed``: an integer >= 0 (or None: fresh entropy); the texture is drawn by
+      ``np.random.default_rng([seed, 0])``, the noise by ``np.random.default_rng([seed,
+      1])``, channel 1 first: a given seed gives the same raw bit for bit
+    - ``n_threads``: threads of the core (None: all cores)
+    - ``progress``: a tqdm bar on stderr (None: only when stderr is a terminal)
+
+    Returns a :class:`Raw`. Raises ``TypeError`` and
+    :class:`~splitlf.errors.InvalidParameter` (checked before any work; the core adds a
+    surface at or behind the main lens's focal plane where a pixel sees it),
+    :class:`~splitlf.errors.TooLargeError` (up front, saying how much memory it needs)
+    and ``KeyboardInterrupt`` (Ctrl-C stops the core within a second).
+    """
+    subject = _validate.design(design)
+    if not isinstance(scene, Scene):
+        raise TypeError(f"scene must be a splitlf.Scene, got {type(scene).__name__}")
+    noise_ = _noise(noise)
+    seed_ = _seed(seed)
+    threads = _validate.n_threads(n_threads)
+    show = _progress_flag(progress)
+    fresh: Any = np.random.SeedSequence().entropy  # an int for a fresh SeedSequence
+    entropy = int(fresh) if seed_ is None else seed_
+    texture_rng = np.random.default_rng([entropy, 0])
+    noise_rng = np.random.default_rng([entropy, 1])
+    kind, params, image = _texture_seam(scene, subject, texture_rng)
+    surface, sparams, depth_map = scene.depth.seam()
+    native_scene = _native.RenderScene(  # type: ignore[attr-defined]
+        kind, params, image, surface, sparams, depth_map, scene.background)
+    bar, callback = _progress(show)
+    try:
+        images = _native.render(  # type: ignore[attr-defined]
+            subject.core, native_scene, threads, callback)
+    finally:
+        if bar is not None:
+            bar.close()
+    images = list(images)
+    for i, a in enumerate(images):  # in place: one channel's noise draws at a time
+        images[i] = _add_noise(np.asarray(a), noise_, noise_rng)
+    return Raw._adopt(subject, tuple(images))

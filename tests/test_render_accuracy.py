@@ -1,0 +1,496 @@
+"""Accuracy of ``splitlf.render`` (issue 21, docs/model.md §10) against two independent
+references written from §9-§10 in plain NumPy: tests/exact_render.py (polygon clipping,
+the exact route) and tests/mc_render.py (a Monte-Carlo renderer with standard errors from
+independent batches).
+
+- Exact route (fronto-parallel plane, rect grid, square aperture, ideal layout, image
+  texture): equal to the clipping sums to 1e-12 of a fully lit white pixel.
+- White: 1/2 on every fully lit pixel of the seed's two halves, the clipped measure on the
+  vignetted ones.
+- Every other family (slanted planes, depth maps, hex cells with three lens types and a
+  circular aperture in the sensor layout where lens images spill onto the neighbours'
+  pixels, a rect sensor layout, edge and star textures, several channels): Monte-Carlo
+  z-scores on 20-30 sampled pixels per channel. Per pixel z = (native - MC) /
+  sqrt(se^2 + e^2), se the MC's standard error (from 20 batch means, so z follows Student's
+  t with 19 degrees of freedom) and e = 2e-4 of white, an allowance for the native's own
+  quadrature error (its stated bound is 1e-3 of white). On every pixel |z| stays below the
+  Bonferroni bound of the t law (false alarm 1e-3 per family: about 5.4 for 30 pixels);
+  the mean of z^2 stays below E t^2 = 19/17 plus four of its standard deviations; and
+  |native - MC| <= 1e-3 white + (that bound) se.
+- Orientation: a bright square in the texture's upper-left quadrant (X < 0, Y > 0) lands
+  where the geometry puts it (the main lens inverts: lens centres c with c_x > 0, c_y < 0,
+  i.e. high raw columns and low raw rows); a flipped or transposed raw fails the check.
+
+The self-consistency tests (MC against the exact reference, the depth-map solver against
+the plane) need no native render and hold on their own.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from exact_render import exact_raw, exact_white, view_extent
+from mc_render import mc_pixels, scene
+from scipy import stats
+
+import splitlf
+
+FAMILY_ALPHA = 1e-3  # false-alarm probability of one family's z-score bound
+NATIVE_ERR = 2e-4  # of white: the native's own error that a z-score should not punish
+ABS_TOL = 1e-3  # of white: the stated accuracy of the 4-D route
+EXACT_TOL = 1e-12  # of white: the exact route
+
+
+def seed_small(kx: int = 8, ky: int = 6) -> splitlf.Design:
+    """The seed (docs/model.md §7) with fewer lenses: both halves, share 1/2 each."""
+    seed = splitlf.Design.preset("seed")
+    return seed.replace(channels=tuple(ch.replace(Kx=kx, Ky=ky) for ch in seed.channels))
+
+
+def r12_small() -> splitlf.Design:
+    """raytrix-r12 (hex, three lens types, circular aperture, sensor layout) with 12 x 10
+    lenses and the default sensor grid that covers them."""
+    r12 = splitlf.Design.preset("raytrix-r12")
+    ch = r12.channels[0].replace(Kx=12, Ky=10, Mx=None, My=None)
+    return r12.replace(channels=(ch,))
+
+
+def rect_two() -> splitlf.Design:
+    """Two rect channels: a sensor layout with two defocused lens types (their images
+    spill onto the neighbours' pixels) and an ideal layout with two lens types."""
+    seed = splitlf.Design.preset("seed")
+    s1, s2 = seed.channels
+    ch1 = splitlf.Channel(L=s1.L, d=s1.d, v=s1.v, mu=s1.mu, Kx=8, Ky=7, f=(0.55, 0.7),
+                          layout="sensor", share=0.6)
+    ch2 = splitlf.Channel(L=s2.L, d=s2.d, v=s2.v, mu=s2.mu, Kx=7, Ky=6, f=(0.6, 0.65),
+                          Q=15, share=0.4)
+    return splitlf.Design(seed.F, seed.D, (ch1, ch2))
+
+
+def white(design: splitlf.Design, channel: int) -> float:
+    """A fully lit white pixel of pitch mu_1 on plane L_1: the channel's share."""
+    return design.resolved()[channel - 1]["share"]
+
+
+def render(design: splitlf.Design, texture, depth, background: float) -> tuple:
+    raw = splitlf.render(design, splitlf.Scene(texture, depth, background=background))
+    return raw.images
+
+
+def image_texture(array: np.ndarray, width: float) -> tuple:
+    """(API texture, reference texture) of an image ``width`` mm wide centred on the axis."""
+    rows, cols = array.shape
+    h = width * rows / cols
+    return splitlf.Image(array, width), ("image", [-width / 2, width / 2, -h / 2, h / 2],
+                                         array)
+
+
+def view_width(design: splitlf.Design, z: float) -> float:
+    """The widest extent (mm, either axis) seen on the plane at z by any ideal-layout
+    channel of the design, else a generous bound from the array size."""
+    out = 0.0
+    for i, ch in enumerate(design.resolved(), 1):
+        if ch["layout"] == "ideal" and ch["grid"] == "rect":
+            e = view_extent(design, i, z)
+            out = max(out, e[1] - e[0], e[3] - e[2])
+        else:
+            # lens centres within the array, their samples spread by the main-lens blur
+            zc = design.F * z / (z - design.F)
+            half = (max(ch["Kx"], ch["Ky"]) + 2) * ch["d"] / 2
+            blur = design.D / 2 * abs(ch["L"] - zc) / zc
+            out = max(out, 2 * z / ch["L"] * (half + blur))
+    return out
+
+
+def sample_pixels(shape: tuple[int, int], n: int, rng: np.random.Generator,
+                  values: np.ndarray | None = None) -> list[tuple[int, int]]:
+    """n distinct pixels, three quarters of them (when ``values`` is given) among those
+    with light."""
+    rows, cols = shape
+    allpix = np.arange(rows * cols)
+    if values is not None:
+        lit = allpix[values.ravel() > 0]
+        k = min(lit.size, (3 * n) // 4)
+        chosen = set(rng.choice(lit, k, replace=False).tolist())
+        rest = np.setdiff1d(allpix, np.fromiter(chosen, dtype=np.int64))
+        chosen |= set(rng.choice(rest, n - k, replace=False).tolist())
+    else:
+        chosen = set(rng.choice(allpix, n, replace=False).tolist())
+    return [(int(p) // cols, int(p) % cols) for p in sorted(chosen)]
+
+
+def z_bound(n: int, n_batches: int) -> float:
+    """The per-pixel |z| bound of n pixels: the standard error comes from n_batches batch
+    means, so z has Student's t law with n_batches - 1 degrees of freedom; Bonferroni over
+    the n pixels at FAMILY_ALPHA (20 batches: 5.4 for 30 pixels, 5.7 for 60; the normal
+    law's 4.2-4.3 would give false alarms at the t law's heavier tails)."""
+    return float(stats.t.ppf(1.0 - FAMILY_ALPHA / (2.0 * max(n, 1)), n_batches - 1))
+
+
+def mean_z2_bound(n: int, n_batches: int) -> float:
+    """Upper bound of the mean of n squared t-scores (nu = n_batches - 1 degrees of
+    freedom): E t^2 = nu/(nu - 2) plus four standard deviations of the mean,
+    Var t^2 = 2 nu^2 (nu - 1) / ((nu - 2)^2 (nu - 4))."""
+    nu = n_batches - 1.0
+    var = 2.0 * nu * nu * (nu - 1.0) / ((nu - 2.0) ** 2 * (nu - 4.0))
+    return nu / (nu - 2.0) + 4.0 * math.sqrt(var / max(n, 1))
+
+
+def z_stats(value: np.ndarray, mean: np.ndarray, se: np.ndarray, w: float,
+            allowance: float, n_batches: int = 20) -> dict[str, float]:
+    """Agreement figures of ``value`` against MC estimates (mean, se from n_batches
+    batches), w the channel's white."""
+    diff = value - mean
+    scale = np.sqrt(se ** 2 + (allowance * w) ** 2)
+    # z only where the MC has an error: an integrand constant over a pixel's rays (white,
+    # a uniform patch) gives se = 0 and an estimate exact up to rounding, checked by the
+    # absolute bound alone
+    noisy = scale > 1e-9 * w
+    z = diff[noisy] / scale[noisy]
+    zmax = z_bound(value.size, n_batches)
+    return {"n": float(value.size), "n_noisy": float(noisy.sum()),
+            "max_z": float(np.max(np.abs(z), initial=0.0)), "z_bound": zmax,
+            "mean_z2": float(np.mean(z ** 2)) if noisy.any() else 0.0,
+            "mean_z2_bound": mean_z2_bound(int(noisy.sum()), n_batches),
+            "max_diff": float(np.max(np.abs(diff))) / w,
+            "max_excess": float(np.max(np.abs(diff) - zmax * se)) / w,
+            "max_se": float(np.max(se)) / w, "median_se": float(np.median(se)) / w}
+
+
+def assert_agree(stats: dict[str, float], what: str) -> None:
+    """|z| below the Bonferroni t bound on every pixel, the mean of z^2 below its bound,
+    |native - MC| <= 1e-3 white + z_bound se (figures in units of white)."""
+    print(what, {k: round(v, 6) for k, v in stats.items()})
+    assert stats["max_z"] < stats["z_bound"], (what, stats)
+    assert stats["mean_z2"] <= stats["mean_z2_bound"], (what, stats)
+    assert stats["max_excess"] <= ABS_TOL, (what, stats)
+
+
+def check_mc(design: splitlf.Design, raws: tuple, ref_scene: dict, n_pixels: int,
+             seed: int, what: str, n_rays: int = 200_000, n_batches: int = 20) -> None:
+    """The native raws of every channel against the MC renderer on sampled pixels."""
+    rng = np.random.default_rng(seed)
+    for i, ch in enumerate(design.resolved(), 1):
+        raw = np.asarray(raws[i - 1])
+        shape = ((ch["Ky"] * ch["Q"], ch["Kx"] * ch["Q"]) if ch["layout"] == "ideal"
+                 else (ch["My"], ch["Mx"]))
+        assert raw.shape == shape, (what, i, raw.shape, shape)
+        pixels = sample_pixels(shape, n_pixels, rng, raw)
+        mean, se = mc_pixels(design, i, pixels, ref_scene, n_rays, n_batches, rng)
+        value = np.array([raw[p] for p in pixels])
+        assert_agree(z_stats(value, mean, se, white(design, i), NATIVE_ERR, n_batches),
+                     f"{what}, channel {i}")
+
+
+# -- the references against each other (valid without the native render) ------------------
+
+
+@pytest.mark.parametrize("z", [217.0, 642.0, 1000.0])
+def test_mc_matches_exact_reference(z: float) -> None:
+    """The MC renderer and the clipping sums agree in z-score on the seed's exact route
+    (vignetted pixels of half 2 included), and the MC's errors are honest (mean z^2 is
+    neither much above nor much below 1)."""
+    design = seed_small()
+    rng = np.random.default_rng(int(z))
+    image = rng.random((18, 24))
+    width = 0.8 * view_width(design, z)
+    _, tex = image_texture(image, width)
+    ref_scene = scene(tex, ("plane", [z, 0.0, 0.0]), 0.3)
+    for i in (1, 2):
+        exact = exact_raw(design, i, z, image, tuple(tex[1]))
+        pixels = sample_pixels(exact.shape, 40, rng, exact)
+        mean, se = mc_pixels(design, i, pixels, ref_scene, 100_000, 20, rng)
+        stats = z_stats(np.array([exact[p] for p in pixels]), mean, se, 0.5, 0.0)
+        assert_agree(stats, f"MC vs exact, z = {z}, channel {i}")
+        n = stats["n_noisy"]
+        assert n >= 20
+        # honest errors: not inflated either (the lower tail of the same bound)
+        assert stats["mean_z2"] >= 2 * 19 / 17 - stats["mean_z2_bound"], stats
+
+
+def test_mc_white_is_exact_measure() -> None:
+    """Under a white albedo the MC gives 1/2 on fully lit pixels of both seed halves and
+    the clipped measure on the vignetted ones (half 2's partly lit rows and columns)."""
+    design = seed_small()
+    ref_scene = scene(("constant", [1.0]), ("plane", [500.0, 0.0, 0.0]), 1.0)
+    rng = np.random.default_rng(5)
+    for i in (1, 2):
+        ex = exact_white(design, i)
+        pixels = [(7 + 15 * k, q + 15 * j) for k, j, q in ((0, 0, 2), (1, 3, 7), (2, 4, 12),
+                                                           (3, 7, 0), (5, 2, 3), (4, 5, 1))]
+        mean, se = mc_pixels(design, i, pixels, ref_scene, 100_000, 20, rng)
+        value = np.array([ex[p] for p in pixels])
+        assert np.all(np.abs(mean - value) <= 1e-12 + z_bound(6, 20) * se), (i, mean, se)
+    # the clipped measure: 1/2 exactly where fully lit, 15 (half 1) and 9 (half 2) lit
+    # pixels per axis, the partly lit q = 2, 12 of half 2 between 0 and 1/2
+    for i, full in ((1, range(0, 15)), (2, range(3, 12))):
+        row = exact_white(design, i)[7]
+        np.testing.assert_allclose(row[list(full)], 0.5, rtol=0, atol=1e-14)
+        assert np.count_nonzero(np.abs(row[:15] - 0.5) < 1e-12) == len(full)
+    row2 = exact_white(design, 2)[7, :15]
+    assert 0 < row2[2] < 0.5 and 0 < row2[12] < 0.5 and row2[0] == row2[1] == 0.0
+
+
+def test_mc_depth_map_solver() -> None:
+    """The MC's depth-map intersection: a map sampling a plane (bilinear interpolation is
+    exact for it inside the outer centres) renders as the plane; a constant map as the
+    fronto-parallel plane (against the exact reference)."""
+    design = seed_small(6, 5)
+    z0, gx, gy = 600.0, 0.4, -0.3
+    width = 1.5 * view_width(design, z0)
+    n = 41
+    centres = -width / 2 + width * (np.arange(n) + 0.5) / n
+    X, Y = np.meshgrid(centres, centres[::-1])  # row 0 at the top
+    depth = z0 + gx * X + gy * Y
+    extent = [-width / 2, width / 2, -width / 2, width / 2]
+    rng = np.random.default_rng(11)
+    image = rng.random((16, 16))
+    _, tex = image_texture(image, 0.7 * width)
+    plane = scene(tex, ("plane", [z0, gx, gy]), 0.3)
+    dmap = scene(tex, ("depthmap", extent, depth), 0.3)
+    for i in (1, 2):
+        pixels = sample_pixels((design.channels[i - 1].Ky * 15, design.channels[i - 1].Kx * 15),
+                               12, rng)
+        m1, s1 = mc_pixels(design, i, pixels, plane, 30_000, 20, rng)
+        m2, s2 = mc_pixels(design, i, pixels, dmap, 30_000, 20, rng)
+        z = (m1 - m2) / np.sqrt(s1 ** 2 + s2 ** 2 + 1e-30)
+        assert np.max(np.abs(z)) < z_bound(len(pixels), 20), (i, z)
+    const = scene(tex, ("depthmap", extent, np.full((3, 4), z0)), 0.3)
+    exact = exact_raw(design, 1, z0, image, tuple(tex[1]))
+    pixels = sample_pixels(exact.shape, 15, rng, exact)
+    mean, se = mc_pixels(design, 1, pixels, const, 40_000, 20, rng)
+    stats = z_stats(np.array([exact[p] for p in pixels]), mean, se, 0.5, 0.0)
+    assert_agree(stats, "constant depth map vs exact")
+
+
+def spill_design() -> tuple[splitlf.Design, float]:
+    """(design, total): raytrix-r12's optics with 3 x 3 lenses, coarse 20 um pixels and a
+    sensor grid wide enough to catch every ray that passes the aperture and a lens cell
+    (each type's spill included); ``total`` the white raw's sum that then follows from
+    §10 alone: share (L_1/L)^2 N |cell| / mu_1^2 (every such ray lands on some pixel)."""
+    r12 = splitlf.Design.preset("raytrix-r12")
+    ch = r12.channels[0].replace(Kx=3, Ky=3, mu=0.02, Mx=None, My=None)
+    res = r12.replace(channels=(ch,)).resolved()[0]
+    d, v, L, mu = res["d"], res["v"], res["L"], res["mu"]
+    alpha = max(abs(1 + v / L - v / f) for f in res["f"])
+    spread = v / L * r12.D / 2
+    width = 3.5 * d * (1 + v / L) + 2 * (alpha * d / 2 + spread)
+    height = (math.sqrt(3) + 2 / math.sqrt(3)) * d * (1 + v / L) + 2 * (
+        alpha * d / math.sqrt(3) + spread)
+    mx, my = math.ceil(width / mu) + 2, math.ceil(height / mu) + 2
+    design = r12.replace(channels=(ch.replace(Mx=mx, My=my),))
+    return design, 9 * (math.sqrt(3) / 2 * d * d) / (mu * mu)
+
+
+def test_mc_sensor_white_conservation() -> None:
+    """Spill bookkeeping of the MC renderer: under white, the sensor-layout raw of a hex
+    design with three defocused lens types sums (over every pixel) to the light through
+    the aperture and the lens cells, within its standard error; the lenses that reach
+    each pixel are all found."""
+    design, total = spill_design()
+    ch = design.resolved()[0]
+    pixels = [(r, c) for r in range(ch["My"]) for c in range(ch["Mx"])]
+    white_scene = scene(("constant", [1.0]), ("plane", [450.0, 0.0, 0.0]), 1.0)
+    mean, se = mc_pixels(design, 1, pixels, white_scene, 4000, 20, np.random.default_rng(7))
+    err = math.sqrt(float(np.sum(se ** 2)))
+    assert abs(mean.sum() - total) <= z_bound(1, 20) * err, (mean.sum(), total, err)
+    edge = mean.reshape(ch["My"], ch["Mx"])
+    assert edge[0].max() == edge[-1].max() == edge[:, 0].max() == edge[:, -1].max() == 0.0
+
+
+def test_sensor_white_conservation() -> None:
+    """The native raw of the same design under white sums to the same total, within the
+    stated per-pixel accuracy (1e-3 of white) summed over the pixels with light, and it is
+    0 on the grid's border (no light lands there)."""
+    design, total = spill_design()
+    api, _ = image_texture(np.ones((2, 2)), 3.0)
+    raw = np.asarray(render(design, api, 450.0, 1.0)[0])
+    lit = np.count_nonzero(raw > 0)
+    assert abs(raw.sum() - total) <= ABS_TOL * lit, (raw.sum(), total, lit)
+    assert max(raw[0].max(), raw[-1].max(), raw[:, 0].max(), raw[:, -1].max()) == 0.0
+
+
+# -- the native render: the exact route ------------------------------------------------------
+
+
+@pytest.mark.parametrize("z", [217.0, 400.0, 642.0, 1000.0, 3000.0])
+def test_exact_route(z: float) -> None:
+    """Fronto-parallel plane, rect grid, square aperture, ideal layout, an asymmetric image
+    texture (covering part of the view, so the mean beyond it counts too): the native raw
+    equals the clipping sums to 1e-12 of a fully lit white pixel, on both seed halves."""
+    design = seed_small()
+    rng = np.random.default_rng(int(z) + 1)
+    image = rng.random((17, 23))
+    image[:4, :5] += 2.0  # upper-left corner brighter: not symmetric under any flip
+    api, tex = image_texture(image, 0.75 * view_width(design, z))
+    raws = render(design, api, float(z), 0.25)
+    assert len(raws) == 2
+    for i in (1, 2):
+        ref = exact_raw(design, i, z, image, tuple(tex[1]))
+        raw = np.asarray(raws[i - 1])
+        assert raw.shape == ref.shape == (90, 120)
+        err = np.max(np.abs(raw - ref))
+        assert err <= EXACT_TOL * white(design, i), (z, i, err)
+
+
+def test_white() -> None:
+    """White albedo: 1/2 on every fully lit pixel of both seed halves (all of half 1, 9 x 9
+    per lens of half 2), the clipped measure on half 2's vignetted pixels."""
+    design = seed_small()
+    api, _ = image_texture(np.ones((2, 3)), 5.0)  # white inside and (its mean) outside
+    for z in (300.0, 642.0):
+        raws = render(design, api, z, 1.0)
+        for i in (1, 2):
+            ref = exact_white(design, i)
+            raw = np.asarray(raws[i - 1])
+            assert np.max(np.abs(raw - ref)) <= EXACT_TOL * 0.5, (z, i)
+            full = np.abs(ref - 0.5) < 1e-12
+            assert np.count_nonzero(full) == (15 * 15 if i == 1 else 9 * 9) * 8 * 6
+            np.testing.assert_allclose(raw[full], 0.5, rtol=0, atol=EXACT_TOL * 0.5)
+
+
+# -- the native render: Monte-Carlo z-scores on every family ---------------------------------
+
+
+def test_mc_seed_slanted_plane() -> None:
+    """Seed (rect, square, ideal, two channels) on a slanted plane, image texture."""
+    design = seed_small()
+    rng = np.random.default_rng(21)
+    image = rng.random((20, 26))
+    api, tex = image_texture(image, 0.8 * view_width(design, 700.0))
+    plane = (700.0, 0.45, -0.3)
+    raws = render(design, api, splitlf.Plane(*plane), 0.3)
+    check_mc(design, raws, scene(tex, ("plane", list(plane)), 0.3), 30, 22,
+             "seed, slanted plane")
+
+
+def test_mc_hex_sensor_spill() -> None:
+    """Reduced raytrix-r12: hex cells, three lens types, circular aperture, sensor layout
+    (every type defocused: |alpha| ~ 0.4 >> v/L, light spills onto the neighbours' pixels);
+    a Siemens star on the fronto-parallel plane at 450 mm and an image on a slanted
+    plane."""
+    design = r12_small()
+    ch = design.resolved()[0]
+    alphas = [1 + ch["v"] / ch["L"] - ch["v"] / f for f in ch["f"]]
+    # the spread of a lens's light on the sensor exceeds its image cell: spill
+    reach = min(abs(a) for a in alphas) * ch["d"] / 2 + ch["v"] / ch["L"] * design.D / 2
+    assert reach > ch["d"] * (1 + ch["v"] / ch["L"]) / 2
+    star = splitlf.SiemensStar(12, 0.1, 0.9, center=(0.2, -0.1))
+    raws = render(design, star, 450.0, 0.5)
+    check_mc(design, raws, scene(("star", [12, 0.1, 0.9, 0.2, -0.1]),
+                                 ("plane", [450.0, 0.0, 0.0]), 0.5),
+             30, 31, "r12 small, star, fronto", n_rays=100_000)
+    rng = np.random.default_rng(32)
+    image = rng.random((15, 19))
+    api, tex = image_texture(image, 0.8 * view_width(design, 450.0))
+    plane = (450.0, -0.3, 0.2)
+    raws = render(design, api, splitlf.Plane(*plane), 0.4)
+    check_mc(design, raws, scene(tex, ("plane", list(plane)), 0.4), 30, 33,
+             "r12 small, image, slanted", n_rays=100_000)
+
+
+def test_mc_rect_sensor_two_channels() -> None:
+    """Two rect channels (a sensor layout with spill, an ideal layout with two lens types,
+    shares 0.6 / 0.4) on a slanted edge; each channel checked."""
+    design = rect_two()
+    edge = splitlf.SlantedEdge(10.0, 0.2, 0.9, center=(0.3, -0.2))
+    raws = render(design, edge, 500.0, 0.5)
+    assert len(raws) == 2
+    check_mc(design, raws, scene(("edge", [10.0, 0.2, 0.9, 0.3, -0.2]),
+                                 ("plane", [500.0, 0.0, 0.0]), 0.5),
+             30, 41, "rect two channels, edge", n_rays=100_000)
+
+
+def test_mc_star_and_edge_on_seed() -> None:
+    """Seed halves: a Siemens star at 300 mm and a slanted edge at 2000 mm (analytic
+    textures on the exact route's geometry)."""
+    design = seed_small()
+    star = splitlf.SiemensStar(8, 0.0, 1.0, center=(0.0, 0.0))
+    raws = render(design, star, 300.0, 0.5)
+    check_mc(design, raws, scene(("star", [8, 0.0, 1.0, 0.0, 0.0]),
+                                 ("plane", [300.0, 0.0, 0.0]), 0.5), 30, 51, "seed, star")
+    edge = splitlf.SlantedEdge(-25.0, 0.3, 0.8, center=(-0.5, 0.4))
+    raws = render(design, edge, 2000.0, 0.5)
+    check_mc(design, raws, scene(("edge", [-25.0, 0.3, 0.8, -0.5, 0.4]),
+                                 ("plane", [2000.0, 0.0, 0.0]), 0.5), 30, 52, "seed, edge")
+
+
+def test_mc_depth_map() -> None:
+    """Seed halves on a curved depth map (450-900 mm) that covers most of the view (rays
+    beyond its extent see the background), image texture."""
+    design = seed_small(6, 5)
+    z = 600.0
+    width = view_width(design, z)
+    n = 9
+    t = (np.arange(n) + 0.5) / n - 0.5
+    X, Y = np.meshgrid(t, t[::-1])
+    depth = 650.0 + 200.0 * np.sin(2.5 * X) * np.cos(1.7 * Y) + 120.0 * X
+    extent = (-0.45 * width, 0.5 * width, -0.5 * width, 0.4 * width)
+    rng = np.random.default_rng(61)
+    image = rng.random((14, 18))
+    api, tex = image_texture(image, 0.9 * width)
+    raws = render(design, api, splitlf.DepthMap(depth, extent), 0.15)
+    check_mc(design, raws, scene(tex, ("depthmap", list(extent), depth), 0.15), 20, 62,
+             "seed, depth map", n_rays=50_000)
+
+
+# -- orientation ------------------------------------------------------------------------------
+
+
+def bright_quadrant(raw: np.ndarray) -> tuple[int, int]:
+    """(top, right): which quadrant of a raw holds most of its light above the minimum."""
+    r = raw - raw.min()
+    h, w = r.shape[0] // 2, r.shape[1] // 2
+    sums = np.array([[r[:h, :w].sum(), r[:h, w:].sum()], [r[h:, :w].sum(), r[h:, w:].sum()]])
+    top, right = np.unravel_index(np.argmax(sums), sums.shape)
+    assert sums[top, right] > 0.7 * sums.sum()
+    return 1 - int(top), int(right)
+
+
+def orientation_case() -> tuple[splitlf.Design, float, np.ndarray, tuple]:
+    """A square seed (8 x 8 lenses) at half 1's out-of-focus plane, where each lens sees a
+    small patch, and a bright square in the texture's upper-left quadrant (X < 0, Y > 0)."""
+    design = seed_small(8, 8)
+    z = 642.0
+    image = np.zeros((12, 12))
+    image[2:5, 2:5] = 1.0  # rows near the top (Y > 0), columns on the left (X < 0)
+    x0, x1, _, _ = view_extent(design, 1, z)
+    _, tex = image_texture(image, 1.6 * (x1 - x0))
+    return design, z, image, tex
+
+
+def test_orientation_reference() -> None:
+    """The geometry (§9's chief ray X = -(z/L)[c + ...]: the main lens inverts) puts a
+    bright patch at X < 0, Y > 0 under lenses with c_x > 0, c_y < 0: high raw columns and
+    low raw rows (the raw's top right as printed). The exact reference and the MC say so;
+    a row-flipped or transposed raw does not pass."""
+    design, z, image, tex = orientation_case()
+    ref = exact_raw(design, 1, z, image, tuple(tex[1]))
+    assert bright_quadrant(ref) == (1, 1)
+    for wrong in (ref[::-1], ref.T, ref[:, ::-1]):
+        with pytest.raises(AssertionError):
+            assert bright_quadrant(wrong) == (1, 1)
+    # the MC agrees on the brightest pixel and on its mirror images
+    top = np.unravel_index(np.argmax(ref), ref.shape)
+    pixels = [top, (ref.shape[0] - 1 - top[0], top[1]), (top[1], top[0])]
+    mean, se = mc_pixels(design, 1, pixels, scene(tex, ("plane", [z, 0.0, 0.0]), 0.0),
+                         40_000, 20, np.random.default_rng(3))
+    assert mean[0] > 0.3 and np.all(mean[1:] < 0.05), (mean, se)
+    assert np.all(np.abs(mean - [ref[p] for p in pixels]) <= z_bound(3, 20) * se + 1e-12)
+
+
+def test_orientation_native() -> None:
+    """The native raw shows the bright square where the reference does; a row flip or a
+    transpose of the channel would not equal the reference."""
+    design, z, image, tex = orientation_case()
+    api = splitlf.Image(image, tex[1][1] - tex[1][0])
+    raws = render(design, api, z, 0.0)
+    assert bright_quadrant(np.asarray(raws[0])) == (1, 1)  # half 2 is blurred at 642 mm
+    for i in (1, 2):
+        raw = np.asarray(raws[i - 1])
+        ref = exact_raw(design, i, z, image, tuple(tex[1]))
+        assert np.max(np.abs(raw - ref)) <= EXACT_TOL * 0.5
+        assert np.max(np.abs(raw[::-1] - ref)) > 0.1
+        assert np.max(np.abs(raw.T - ref)) > 0.1
