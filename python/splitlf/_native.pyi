@@ -1,5 +1,6 @@
 """Type stubs of the Rust extension module (rust/py)."""
 
+from collections.abc import Callable, Sequence
 from typing import Any, final
 
 import numpy as np
@@ -23,6 +24,8 @@ __all__ = [
     "MAX_THREADS",
     "MAX_TOL_2D",
     "MAX_TYPES",
+    "MIN_RENDER_TOL",
+    "RENDER_TOL",
     "CameraCore",
     "ChiefSampleArrays",
     "CoverageArrays",
@@ -33,6 +36,7 @@ __all__ = [
     "FootprintArrays",
     "PlaneColumns",
     "RenderArrays",
+    "RenderScene",
     "SampleGridArrays",
     "Samples2dArrays",
     "SystemMatrixArrays",
@@ -54,6 +58,8 @@ __all__ = [
     "design_sharp_fractions",
     "design_system_matrix",
     "design_trace",
+    "render",
+    "render_extent",
     "samples_2d",
 ]
 
@@ -75,6 +81,8 @@ MAX_M: int
 DEFAULT_WINDOW: float
 MAX_TOL_2D: float
 MAX_COVERAGE_WORK: int
+RENDER_TOL: float
+MIN_RENDER_TOL: float
 
 _F64 = npt.NDArray[np.float64]
 _I64 = npt.NDArray[np.int64]
@@ -379,4 +387,27 @@ def design_render(
     textures: _F64,
     n_threads: int | None = None,
 ) -> RenderArrays: ...
+@final
+class RenderScene:
+    def __new__(
+        cls,
+        texture: str,
+        texture_params: Sequence[float],
+        texture_image: _F64 | None,
+        surface: str,
+        surface_params: Sequence[float],
+        depth_map: _F64 | None,
+        background: float,
+    ) -> RenderScene: ...
+    @property
+    def texture_mean(self) -> float: ...
+
+def render(
+    design: DesignCore,
+    scene: RenderScene,
+    tol: float = ...,
+    n_threads: int | None = None,
+    progress: Callable[[int, int], object] | None = None,
+) -> list[_F64]: ...
+def render_extent(design: DesignCore, z: float) -> tuple[float, float, float, float]: ...
 def available_memory() -> int: ...

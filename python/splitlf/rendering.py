@@ -380,7 +380,7 @@ def _bbox(a: Extent, b: Extent) -> Extent:
 def _view(core: Any, zlo: float, zhi: float) -> Extent:
     """What the pixels see over depths [zlo, zhi]: a ray's lateral position is affine in
     its depth (docs/model.md §10), so the box of the two end planes' extents holds it."""
-    ext: Any = _native.render_extent  # type: ignore[attr-defined]
+    ext: Any = _native.render_extent
     a, b = (tuple(float(v) for v in ext(core, z)) for z in (zlo, zhi))
     return min(a[0], b[0]), max(a[1], b[1]), min(a[2], b[2]), max(a[3], b[3])
 
@@ -441,7 +441,7 @@ def _progress(show: bool) -> tuple[Any, Callable[[int, int], None] | None]:
 
 
 def render(design: Design, scene: Scene, *, noise: Mapping[str, float] | None = None,
-           seed: int | None = 0, n_threads: int | None = None,
+           seed: int | None = 0, tol: float | None = None, n_threads: int | None = None,
            progress: bool | None = None) -> Raw:
     """Each channel's raw sensor image of ``scene`` (docs/model.md §10), computed in the
     core.
@@ -458,6 +458,10 @@ def render(design: Design, scene: Scene, *, noise: Mapping[str, float] | None = 
     - ``seed``: an integer >= 0 (or None: fresh entropy); the texture is drawn by
       ``np.random.default_rng([seed, 0])``, the noise by ``np.random.default_rng([seed,
       1])``, channel 1 first: a given seed gives the same raw bit for bit
+    - ``tol``: the error target of a pixel, relative to a fully lit pixel under a white
+      albedo (None: ``_native.RENDER_TOL``, 1e-3; allowed [1e-10, 0.1]); the exact route
+      (rect grid, square aperture, ideal layout, fronto-parallel plane, image texture) has
+      no quadrature error at all (docs/render.md)
     - ``n_threads``: threads of the core (None: all cores)
     - ``progress``: a tqdm bar on stderr (None: only when stderr is a terminal)
 
@@ -473,6 +477,7 @@ def render(design: Design, scene: Scene, *, noise: Mapping[str, float] | None = 
     noise_ = _noise(noise)
     seed_ = _seed(seed)
     threads = _validate.n_threads(n_threads)
+    tol_ = _native.RENDER_TOL if tol is None else _validate.real(tol, "tol")
     show = _progress_flag(progress)
     fresh: Any = np.random.SeedSequence().entropy  # an int for a fresh SeedSequence
     entropy = int(fresh) if seed_ is None else seed_
@@ -480,12 +485,12 @@ def render(design: Design, scene: Scene, *, noise: Mapping[str, float] | None = 
     noise_rng = np.random.default_rng([entropy, 1])
     kind, params, image = _texture_seam(scene, subject, texture_rng)
     surface, sparams, depth_map = scene.depth.seam()
-    native_scene = _native.RenderScene(  # type: ignore[attr-defined]
+    native_scene = _native.RenderScene(
         kind, params, image, surface, sparams, depth_map, scene.background)
     bar, callback = _progress(show)
     try:
-        images = _native.render(  # type: ignore[attr-defined]
-            subject.core, native_scene, threads, callback)
+        images = _native.render(subject.core, native_scene, tol=tol_, n_threads=threads,
+                                progress=callback)
     finally:
         if bar is not None:
             bar.close()

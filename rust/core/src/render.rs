@@ -42,10 +42,10 @@ use crate::texture::{Scratch, Texture};
 /// Sides of the polygon standing for a circular aperture's preimage (radius scaled so that
 /// its area equals the disc's).
 pub const CIRCLE_SIDES: usize = 256;
-/// Gauss–Legendre nodes per interval and axis by default.
-pub const DEFAULT_ORDER: usize = 6;
-/// Largest order accepted.
-pub const MAX_ORDER: usize = 32;
+/// Default error target of a pixel, relative to a fully lit pixel under a white albedo.
+pub const DEFAULT_TOL: f64 = 1e-3;
+/// Smallest error target accepted (the quadrature's own limit is far below).
+pub const MIN_TOL: f64 = 1e-10;
 /// Relative depth variation across one mapped piece of a polygon on a curved or slanted
 /// surface (the map to the scene is treated as affine within a piece).
 const PIECE_DEPTH_RTOL: f64 = 2e-4;
@@ -55,54 +55,15 @@ const MAX_PIECES: usize = 24;
 /// Options of a render.
 #[derive(Debug, Clone, Copy)]
 pub struct RenderOptions {
-    /// Gauss–Legendre nodes per interval and axis.
-    pub order: usize,
+    /// Error target of the general route's adaptive quadrature per pixel and lens,
+    /// relative to a fully lit pixel under a white albedo.
+    pub tol: f64,
 }
 
 impl Default for RenderOptions {
     fn default() -> Self {
-        RenderOptions {
-            order: DEFAULT_ORDER,
-        }
+        RenderOptions { tol: DEFAULT_TOL }
     }
-}
-
-/// Gauss–Legendre nodes and weights on [−1, 1] (Newton on P_n from Chebyshev guesses).
-pub fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
-    let mut x = vec![0.0; n];
-    let mut w = vec![0.0; n];
-    for i in 0..n.div_ceil(2) {
-        let mut z = (PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
-        let mut dp = 1.0;
-        for _ in 0..100 {
-            let (mut p0, mut p1) = (1.0, z);
-            for k in 2..=n {
-                let p2 = ((2 * k - 1) as f64 * z * p1 - (k - 1) as f64 * p0) / k as f64;
-                p0 = p1;
-                p1 = p2;
-            }
-            let p = if n == 1 { z } else { p1 };
-            let pm = if n == 1 { 1.0 } else { p0 };
-            dp = n as f64 * (z * p - pm) / (z * z - 1.0);
-            if n == 1 {
-                dp = 1.0;
-            }
-            let dz = p / dp;
-            z -= dz;
-            if dz.abs() < 1e-16 {
-                break;
-            }
-        }
-        x[i] = -z;
-        x[n - 1 - i] = z;
-        let wi = 2.0 / ((1.0 - z * z) * dp * dp);
-        w[i] = wi;
-        w[n - 1 - i] = wi;
-    }
-    if n == 1 {
-        return (vec![0.0], vec![2.0]);
-    }
-    (x, w)
 }
 
 /// One channel as the renderer sees it.
@@ -226,12 +187,6 @@ struct Work {
     cuts_b: Vec<f64>,
 }
 
-/// Quadrature rule on [−1, 1].
-struct Rule {
-    x: Vec<f64>,
-    w: Vec<f64>,
-}
-
 /// The lines along one axis (0: X, 1: Y) where a texture's albedo jumps, as (origin,
 /// spacing, first, last index): an image's cell edges, a bar chart's bar edges.
 fn texture_lines(t: &Texture, axis: usize) -> Option<(f64, f64, i64, i64)> {
@@ -252,6 +207,9 @@ fn texture_lines(t: &Texture, axis: usize) -> Option<(f64, f64, i64, i64)> {
     }
 }
 
+/// Largest scene image of a pixel's polygon, in texture cells, for which the quadrature is
+/// cut at the texture's lines.
+const KINK_CELLS: f64 = 4.0;
 /// Most texture kinks added to one axis's cuts; beyond, the interval is split uniformly
 /// into [`MAX_SPLITS`] parts instead.
 const MAX_KINKS: usize = 40;
@@ -263,6 +221,7 @@ const MAX_SPLITS: usize = 8;
 /// there are more than [`MAX_KINKS`] in all (then `out` holds uniform splits).
 fn texture_kinks(
     lines: Option<(f64, f64, i64, i64)>,
+    extent: f64,
     moving: &[(f64, f64)],
     t0: f64,
     t1: f64,
@@ -271,6 +230,12 @@ fn texture_kinks(
     let Some((o, h, first, last)) = lines else {
         return;
     };
+    // A polygon whose scene image spans many texture lines averages over them: each
+    // crossing is a weak kink the adaptive rule handles; cutting at all of them costs more
+    // than it gains. Cut only for images of a few cells (where a crossing is strong).
+    if extent > KINK_CELLS * h {
+        return;
+    }
     let start = out.len();
     let mut too_many = false;
     'lines: for &(slope, icpt) in moving {
@@ -325,20 +290,102 @@ fn intervals(lo: f64, hi: f64, cands: &[f64], out: &mut Vec<f64>) {
 fn lens_contribution(
     chan: &Chan,
     scene: &Scene,
-    rule: &Rule,
+    tol: f64,
     c: Pt,
     t: usize,
     s_pix: Pt,
     wk: &mut Work,
 ) -> f64 {
-    let (alpha, kappa) = chan.types[t];
+    let (alpha, _) = chan.types[t];
     let mu = chan.ch.mu;
     let e = [chan.m * c[0] - s_pix[0], chan.m * c[1] - s_pix[1]];
     if chan.outer_w(alpha) {
-        outer_w(chan, scene, rule, c, alpha, e, mu, wk)
+        outer_w(chan, scene, tol, c, alpha, e, mu, wk)
     } else {
-        outer_s(chan, scene, rule, c, alpha, kappa, e, mu, wk)
+        outer_s(chan, scene, tol, c, alpha, e, mu, wk)
     }
+}
+
+/// 2-D adaptive quadrature on the box [x0, x1] × [y0, y1]: the 3 × 3 Gauss–Legendre rule,
+/// accepted when it differs from the 2 × 2 rule by at most `tol`; otherwise the box is cut
+/// in four (at most [`MAX_DEPTH`] times), each quarter with a quarter of the tolerance. Both
+/// rules are exact for bicubic integrands, so on boxes between the known kinks of a
+/// constant or piecewise constant texture the first test already passes.
+#[allow(clippy::too_many_arguments)]
+fn adaptive(
+    f: &mut impl FnMut(f64, f64, &mut Work) -> f64,
+    rough: &impl Fn(f64, f64, f64, f64, &mut Work) -> bool,
+    x0: f64,
+    x1: f64,
+    y0: f64,
+    y1: f64,
+    tol: f64,
+    depth: u32,
+    wk: &mut Work,
+) -> f64 {
+    let (xm, xh, ym, yh) = (0.5 * (x0 + x1), 0.5 * (x1 - x0), 0.5 * (y0 + y1), 0.5 * (y1 - y0));
+    let area = 4.0 * xh * yh;
+    let t = 0.25 * tol;
+    if depth < ROUGH_DEPTH && rough(x0, x1, y0, y1, wk) {
+        // A texture discontinuity sweeps through the box: the rules cannot see it.
+        return adaptive(f, rough, x0, xm, y0, ym, t, depth + 1, wk)
+            + adaptive(f, rough, xm, x1, y0, ym, t, depth + 1, wk)
+            + adaptive(f, rough, x0, xm, ym, y1, t, depth + 1, wk)
+            + adaptive(f, rough, xm, x1, ym, y1, t, depth + 1, wk);
+    }
+    // 2 × 2 and 3 × 3 Gauss–Legendre: the difference bounds the 2-point rule's error
+    // and, far more pessimistically, the 3-point rule's, which is returned.
+    let g = 0.577_350_269_189_625_8; // 1/√3
+    let mut g1 = 0.0;
+    for sx in [-g, g] {
+        for sy in [-g, g] {
+            g1 += f(xm + sx * xh, ym + sy * yh, wk);
+        }
+    }
+    g1 *= 0.25 * area;
+    let (n3, w3) = (0.774_596_669_241_483_4, [5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0]);
+    let nodes = [-n3, 0.0, n3];
+    let mut g2 = 0.0;
+    for (i, &sx) in nodes.iter().enumerate() {
+        for (j, &sy) in nodes.iter().enumerate() {
+            g2 += w3[i] * w3[j] * f(xm + sx * xh, ym + sy * yh, wk);
+        }
+    }
+    g2 *= area;
+    if (g2 - g1).abs() <= tol || depth >= MAX_DEPTH {
+        return g2;
+    }
+    adaptive(f, rough, x0, xm, y0, ym, t, depth + 1, wk)
+        + adaptive(f, rough, xm, x1, y0, ym, t, depth + 1, wk)
+        + adaptive(f, rough, x0, xm, ym, y1, t, depth + 1, wk)
+        + adaptive(f, rough, xm, x1, ym, y1, t, depth + 1, wk)
+}
+
+/// Halvings forced on a box that a texture discontinuity sweeps (a feature the 2- and
+/// 3-point rules could both miss is then at most 1/64 of the box).
+const ROUGH_DEPTH: u32 = 3;
+/// Most halvings of a box by [`adaptive`].
+const MAX_DEPTH: u32 = 6;
+
+/// Adaptive quadrature over the boxes between consecutive cuts, the tolerance shared in
+/// proportion to their areas.
+fn over_boxes(
+    f: &mut impl FnMut(f64, f64, &mut Work) -> f64,
+    rough: &impl Fn(f64, f64, f64, f64, &mut Work) -> bool,
+    cx: &[f64],
+    cy: &[f64],
+    tol: f64,
+    wk: &mut Work,
+) -> f64 {
+    let total = (cx[cx.len() - 1] - cx[0]) * (cy[cy.len() - 1] - cy[0]);
+    let mut s = 0.0;
+    for i in 1..cx.len() {
+        for j in 1..cy.len() {
+            let a = (cx[i] - cx[i - 1]) * (cy[j] - cy[j - 1]);
+            s += adaptive(f, rough, cx[i - 1], cx[i], cy[j - 1], cy[j], tol * a / total, 0, wk);
+        }
+    }
+    s
 }
 
 /// Outer-w rule: ∫ over w of (area of the x-polygon × mean T over its scene image).
@@ -346,7 +393,7 @@ fn lens_contribution(
 fn outer_w(
     chan: &Chan,
     scene: &Scene,
-    rule: &Rule,
+    tol: f64,
     c: Pt,
     alpha: f64,
     e: Pt,
@@ -370,17 +417,15 @@ fn outer_w(
         }
         k
     };
-    let (mut x0, mut x1) = range(e[0], chan.hx);
-    let (y0, y1) = range(e[1], chan.hy);
     let r = chan.r_ap;
-    x0 = x0.max(-r);
-    x1 = x1.min(r);
-    let (y0, y1) = (y0.max(-r), y1.min(r));
+    let (x0, x1) = range(e[0], chan.hx);
+    let (y0, y1) = range(e[1], chan.hy);
+    let (x0, x1, y0, y1) = (x0.max(-r), x1.min(r), y0.max(-r), y1.min(r));
     if !(x1 > x0 && y1 > y0) {
         return 0.0;
     }
     let mut kx = kinks(e[0], &[chan.hx]);
-    let ky = kinks(e[1], &[chan.hy, chan.hy_side]);
+    let mut ky = kinks(e[1], &[chan.hy, chan.hy_side]);
     let circle = chan.shape == Aperture::Circle;
     if circle {
         for b in [y0, y1] {
@@ -393,7 +438,6 @@ fn outer_w(
     // The texture's kinks: where the polygon's vertex lines cross the texture's lines.
     let z = reference_depth(chan, scene, c, [0.5 * (x0 + x1), 0.5 * (y0 + y1)]);
     let (l, bb) = (chan.ch.l, 1.0 - z / chan.f_main + z / chan.ch.l);
-    let mut ky = ky;
     for (axis, (t0, t1)) in [(0, (x0, x1)), (1, (y0, y1))] {
         let mut moving: Vec<(f64, f64)> = chan
             .vertex_coords(axis)
@@ -403,96 +447,98 @@ fn outer_w(
         if alpha != 0.0 {
             let slope = bb - z / l * chan.vl / alpha;
             for sgn in [-1.0, 1.0] {
-                moving.push((
-                    slope,
-                    -z / l * (c[axis] - e[axis] / alpha + sgn * mu / (2.0 * aa)),
-                ));
+                moving.push((slope, -z / l * (c[axis] - e[axis] / alpha + sgn * mu / (2.0 * aa))));
             }
         }
         let target = if axis == 0 { &mut kx } else { &mut ky };
-        texture_kinks(texture_lines(&scene.texture, axis), &moving, t0, t1, target);
+        let half = if axis == 0 { chan.hx } else { chan.hy };
+        let size = if alpha != 0.0 { (2.0 * half).min(mu / aa) } else { 2.0 * half };
+        texture_kinks(texture_lines(&scene.texture, axis), z / l * size, &moving, t0, t1, target);
     }
     let mut cx = std::mem::take(&mut wk.cuts_a);
     let mut cy = std::mem::take(&mut wk.cuts_b);
     intervals(x0, x1, &kx, &mut cx);
-    let mut total = 0.0;
-    for ix in 1..cx.len() {
-        let (a, b) = (cx[ix - 1], cx[ix]);
-        // Circle: integrate w_x in φ = asin(w_x / r) (the chord length is smooth in φ).
-        let (pa, pb) = if circle {
-            (
-                (a / r).clamp(-1.0, 1.0).asin(),
-                (b / r).clamp(-1.0, 1.0).asin(),
-            )
-        } else {
-            (a, b)
-        };
-        let (hm, hw) = (0.5 * (pa + pb), 0.5 * (pb - pa));
-        for (&nx, &wx) in rule.x.iter().zip(&rule.w) {
-            let p = hm + hw * nx;
-            let (w_x, jac) = if circle {
-                (r * p.sin(), r * p.cos())
+    intervals(y0, y1, &ky, &mut cy);
+    // A box is rough when a vertex of the polygon's scene image, moving over the box,
+    // meets a discontinuity of the texture that no cut follows (a line through the
+    // polygon's interior throughout leaves the integrand smooth).
+    let g = z / l;
+    let slope = if alpha != 0.0 { bb.abs().max((bb - g * chan.vl / alpha).abs()) } else { bb.abs() };
+    let rough = |a0: f64, a1: f64, b0: f64, b1: f64, wk: &mut Work| {
+        let w = [0.5 * (a0 + a1), 0.5 * (b0 + b1)];
+        let m = [slope * 0.5 * (a1 - a0), slope * 0.5 * (b1 - b0)];
+        poly_w(chan, alpha, e, mu, w, wk);
+        wk.poly.iter().any(|xi| {
+            let p = [bb * w[0] - g * (c[0] + xi[0]), bb * w[1] - g * (c[1] + xi[1])];
+            scene.texture.jumps_in(p[0] - m[0], p[0] + m[0], p[1] - m[1], p[1] + m[1])
+        })
+    };
+    let total = if !circle {
+        let mut f = |wx: f64, wy: f64, wk: &mut Work| node_w(chan, scene, c, alpha, e, mu, [wx, wy], wk);
+        over_boxes(&mut f, &rough, &cx, &cy, tol, wk)
+    } else {
+        // w_x = r sin φ; per interval of w_x the y-range is either the box's (then its
+        // cuts apply) or clipped by the circle (then w_y runs over [ylo, yhi] as u ∈ [0, 1]).
+        let width = x1 - x0;
+        let mut sum = 0.0;
+        for i in 1..cx.len() {
+            let (a, b) = (cx[i - 1], cx[i]);
+            let t = tol * (b - a) / width;
+            let (pa, pb) = ((a / r).clamp(-1.0, 1.0).asin(), (b / r).clamp(-1.0, 1.0).asin());
+            let mid = 0.5 * (a + b);
+            let q = (r * r - mid * mid).max(0.0).sqrt();
+            let clipped = -q > y0 || q < y1;
+            if !clipped {
+                let mut f = |p: f64, wy: f64, wk: &mut Work| {
+                    r * p.cos() * node_w(chan, scene, c, alpha, e, mu, [r * p.sin(), wy], wk)
+                };
+                let rough_p = |p0: f64, p1: f64, b0: f64, b1: f64, wk: &mut Work| {
+                    let (a0, a1) = (r * p0.sin(), r * p1.sin());
+                    rough(a0.min(a1), a0.max(a1), b0, b1, wk)
+                };
+                sum += over_boxes(&mut f, &rough_p, &[pa, pb], &cy, t, wk);
             } else {
-                (p, 1.0)
-            };
-            let (mut ylo, mut yhi) = (y0, y1);
-            if circle {
-                let q = (r * r - w_x * w_x).max(0.0).sqrt();
-                ylo = ylo.max(-q);
-                yhi = yhi.min(q);
+                let mut f = |p: f64, u: f64, wk: &mut Work| {
+                    let wx = r * p.sin();
+                    let q = (r * r - wx * wx).max(0.0).sqrt();
+                    let (lo, hi) = (y0.max(-q), y1.min(q));
+                    if hi <= lo {
+                        return 0.0;
+                    }
+                    let wy = lo + u * (hi - lo);
+                    r * p.cos() * (hi - lo) * node_w(chan, scene, c, alpha, e, mu, [wx, wy], wk)
+                };
+                let rough_p = |p0: f64, p1: f64, _: f64, _: f64, wk: &mut Work| {
+                    let (a0, a1) = (r * p0.sin(), r * p1.sin());
+                    rough(a0.min(a1), a0.max(a1), y0, y1, wk)
+                };
+                sum += adaptive(&mut f, &rough_p, pa, pb, 0.0, 1.0, t, 0, wk);
             }
-            if !(yhi > ylo) {
-                continue;
-            }
-            intervals(ylo, yhi, &ky, &mut cy);
-            let mut inner = 0.0;
-            for iy in 1..cy.len() {
-                let (ya, yb) = (cy[iy - 1], cy[iy]);
-                let (ym, yw) = (0.5 * (ya + yb), 0.5 * (yb - ya));
-                for (&ny, &wy) in rule.x.iter().zip(&rule.w) {
-                    let w = [w_x, ym + yw * ny];
-                    inner += wy * yw * node_w(chan, scene, c, alpha, e, mu, w, wk);
-                }
-            }
-            total += wx * hw * jac * inner;
         }
-    }
+        sum
+    };
     wk.cuts_a = cx;
     wk.cuts_b = cy;
     total
 }
 
-/// The outer-w integrand at main-lens point w.
-#[allow(clippy::too_many_arguments)]
-fn node_w(
-    chan: &Chan,
-    scene: &Scene,
-    c: Pt,
-    alpha: f64,
-    e: Pt,
-    mu: f64,
-    w: Pt,
-    wk: &mut Work,
-) -> f64 {
+/// The outer-w polygon at main-lens point w into `wk.poly` (cell coordinates ξ); its area.
+fn poly_w(chan: &Chan, alpha: f64, e: Pt, mu: f64, w: Pt, wk: &mut Work) -> f64 {
     wk.poly.clear();
     wk.poly.extend_from_slice(&chan.cell);
     if alpha != 0.0 {
         // ξ ∈ ((v/L) w − e)/α ± μ/(2|α|).
-        let g = [
-            (chan.vl * w[0] - e[0]) / alpha,
-            (chan.vl * w[1] - e[1]) / alpha,
-        ];
+        let g = [(chan.vl * w[0] - e[0]) / alpha, (chan.vl * w[1] - e[1]) / alpha];
         let h = mu / (2.0 * alpha.abs());
-        clip_box(
-            &mut wk.poly,
-            &mut wk.tmp,
-            g[0] - h,
-            g[0] + h,
-            g[1] - h,
-            g[1] + h,
-        );
+        clip_box(&mut wk.poly, &mut wk.tmp, g[0] - h, g[0] + h, g[1] - h, g[1] + h);
     }
-    let area = signed_area(&wk.poly);
+    signed_area(&wk.poly)
+}
+
+/// The outer-w integrand at main-lens point w.
+#[allow(clippy::too_many_arguments)]
+fn node_w(chan: &Chan, scene: &Scene, c: Pt, alpha: f64, e: Pt, mu: f64, w: Pt, wk: &mut Work) -> f64 {
+    let area = poly_w(chan, alpha, e, mu, w, wk);
     if area <= 0.0 {
         return 0.0;
     }
@@ -504,10 +550,9 @@ fn node_w(
 fn outer_s(
     chan: &Chan,
     scene: &Scene,
-    rule: &Rule,
+    tol: f64,
     c: Pt,
     alpha: f64,
-    kappa: f64,
     e: Pt,
     mu: f64,
     wk: &mut Work,
@@ -517,14 +562,8 @@ fn outer_s(
     let aa = alpha.abs();
     let rho = chan.vl * chan.r_ap; // (v/L) r_ap; the preimage radius is rho / |α|
     let reach = [aa * chan.hx + rho, aa * chan.hy + rho];
-    let (x0, x1) = (
-        (-e[0] - mu / 2.0).max(-reach[0]),
-        (-e[0] + mu / 2.0).min(reach[0]),
-    );
-    let (y0, y1) = (
-        (-e[1] - mu / 2.0).max(-reach[1]),
-        (-e[1] + mu / 2.0).min(reach[1]),
-    );
+    let (x0, x1) = ((-e[0] - mu / 2.0).max(-reach[0]), (-e[0] + mu / 2.0).min(reach[0]));
+    let (y0, y1) = ((-e[1] - mu / 2.0).max(-reach[1]), (-e[1] + mu / 2.0).min(reach[1]));
     if !(x1 > x0 && y1 > y0) {
         return 0.0;
     }
@@ -534,7 +573,7 @@ fn outer_s(
             for &h in hs {
                 for s1 in [-1.0, 1.0] {
                     for s2 in [-1.0, 1.0] {
-                        k.push(s1 * aa * (h + s2 * rho / aa));
+                        k.push(s1 * (aa * h + s2 * rho));
                     }
                 }
             }
@@ -558,59 +597,61 @@ fn outer_s(
             moving.push((-z / l / alpha, icpt));
         }
         let target = if axis == 0 { &mut kx } else { &mut ky };
-        texture_kinks(texture_lines(&scene.texture, axis), &moving, t0, t1, target);
+        let half = if axis == 0 { chan.hx } else { chan.hy };
+        let size = (lvb * alpha - z / l).abs() * 2.0 * half;
+        texture_kinks(texture_lines(&scene.texture, axis), size, &moving, t0, t1, target);
     }
     let mut cx = std::mem::take(&mut wk.cuts_a);
     let mut cy = std::mem::take(&mut wk.cuts_b);
     intervals(x0, x1, &kx, &mut cx);
     intervals(y0, y1, &ky, &mut cy);
     let lv = 1.0 / chan.vl;
-    let mut total = 0.0;
-    for ix in 1..cx.len() {
-        let (xm, xw) = (0.5 * (cx[ix - 1] + cx[ix]), 0.5 * (cx[ix] - cx[ix - 1]));
-        for (&nx, &wx) in rule.x.iter().zip(&rule.w) {
-            let sx = xm + xw * nx;
-            for iy in 1..cy.len() {
-                let (ym, yw) = (0.5 * (cy[iy - 1] + cy[iy]), 0.5 * (cy[iy] - cy[iy - 1]));
-                for (&ny, &wy) in rule.x.iter().zip(&rule.w) {
-                    let sigma = [sx, ym + yw * ny];
-                    // Preimage of the aperture: ξ ∈ σ/α + (ρ/|α|) · unit aperture.
-                    let g = [sigma[0] / alpha, sigma[1] / alpha];
-                    let rad = rho / aa;
-                    wk.poly.clear();
-                    wk.poly.extend_from_slice(&chan.cell);
-                    match chan.shape {
-                        Aperture::Square => clip_box(
-                            &mut wk.poly,
-                            &mut wk.tmp,
-                            g[0] - rad,
-                            g[0] + rad,
-                            g[1] - rad,
-                            g[1] + rad,
-                        ),
-                        Aperture::Circle => clip_disc(&chan.ngon, g, rad, wk),
-                    }
-                    let area = signed_area(&wk.poly);
-                    if area <= 0.0 {
-                        continue;
-                    }
-                    // w(ξ) = (L/v)(α ξ − σ) (from s = α x − (v/L) w + κ c, x = c + ξ).
-                    let wfun = |xi: Pt| {
-                        [
-                            lv * (alpha * xi[0] - sigma[0]),
-                            lv * (alpha * xi[1] - sigma[1]),
-                        ]
-                    };
-                    let v = area * scene_mean(chan, scene, c, wfun, wk);
-                    total += wx * xw * wy * yw * v;
-                }
-            }
-        }
-    }
-    let _ = kappa;
+    let mut f = |sx: f64, sy: f64, wk: &mut Work| node_s(chan, scene, c, alpha, [sx, sy], wk);
+    // Rough boxes (see outer_w): P = B w(ξ) − (z/L)(c + ξ), w(ξ) = (L/v)(α ξ − σ); a vertex
+    // of the cell moves by −B (L/v) per unit σ, one of the aperture's preimage by −(z/L)/α.
+    let g = z / l;
+    let slope = lvb.abs().max(g / aa);
+    let rough = |a0: f64, a1: f64, b0: f64, b1: f64, wk: &mut Work| {
+        let sg = [0.5 * (a0 + a1), 0.5 * (b0 + b1)];
+        let m = [slope * 0.5 * (a1 - a0), slope * 0.5 * (b1 - b0)];
+        poly_s(chan, alpha, sg, wk);
+        wk.poly.iter().any(|xi| {
+            let w = [lv * (alpha * xi[0] - sg[0]), lv * (alpha * xi[1] - sg[1])];
+            let p = [bb * w[0] - g * (c[0] + xi[0]), bb * w[1] - g * (c[1] + xi[1])];
+            scene.texture.jumps_in(p[0] - m[0], p[0] + m[0], p[1] - m[1], p[1] + m[1])
+        })
+    };
+    let total = over_boxes(&mut f, &rough, &cx, &cy, tol / (lv * lv), wk);
     wk.cuts_a = cx;
     wk.cuts_b = cy;
     total * lv * lv
+}
+
+/// The outer-s polygon at sensor offset σ into `wk.poly` (cell coordinates ξ): the cell
+/// clipped by the aperture's preimage ξ ∈ σ/α + (ρ/|α|) · unit aperture; its area.
+fn poly_s(chan: &Chan, alpha: f64, sigma: Pt, wk: &mut Work) -> f64 {
+    let rho = chan.vl * chan.r_ap;
+    let g = [sigma[0] / alpha, sigma[1] / alpha];
+    let rad = rho / alpha.abs();
+    wk.poly.clear();
+    wk.poly.extend_from_slice(&chan.cell);
+    match chan.shape {
+        Aperture::Square => clip_box(&mut wk.poly, &mut wk.tmp, g[0] - rad, g[0] + rad, g[1] - rad, g[1] + rad),
+        Aperture::Circle => clip_disc(&chan.ngon, g, rad, wk),
+    }
+    signed_area(&wk.poly)
+}
+
+/// The outer-s integrand at sensor offset σ = s − img.
+fn node_s(chan: &Chan, scene: &Scene, c: Pt, alpha: f64, sigma: Pt, wk: &mut Work) -> f64 {
+    let lv = 1.0 / chan.vl;
+    let area = poly_s(chan, alpha, sigma, wk);
+    if area <= 0.0 {
+        return 0.0;
+    }
+    // w(ξ) = (L/v)(α ξ − σ) (from s = α x − (v/L) w + κ c, x = c + ξ).
+    let wfun = |xi: Pt| [lv * (alpha * xi[0] - sigma[0]), lv * (alpha * xi[1] - sigma[1])];
+    area * scene_mean(chan, scene, c, wfun, wk)
 }
 
 /// The depth that the kinks of a lens's quadrature are placed for: the plane's depth, or
@@ -940,12 +981,8 @@ pub fn render(
 
 /// Check a render's options and scene against the design before any work.
 pub fn check_render(design: &Design, scene: &Scene, opts: RenderOptions) -> Result<()> {
-    if !(1..=MAX_ORDER).contains(&opts.order) {
-        return Err(Error::param(
-            "order",
-            opts.order,
-            format!("an integer in [1, {MAX_ORDER}]"),
-        ));
+    if !(opts.tol.is_finite() && (MIN_TOL..=0.1).contains(&opts.tol)) {
+        return Err(Error::param("tol", opts.tol, format!("a value in [{MIN_TOL:e}, 0.1]")));
     }
     check_surface(design, &scene.surface)
 }
@@ -967,8 +1004,6 @@ pub fn render_into(
             "one buffer per channel",
         ));
     }
-    let (x, w) = gauss_legendre(opts.order);
-    let rule = Rule { x, w };
     for (ch, raw) in design.channels.iter().zip(outs) {
         let (rows, cols) = raw_shape(ch);
         if raw.len() != rows * cols {
@@ -982,7 +1017,7 @@ pub fn render_into(
         if exact_route(design, ch, scene) {
             exact::render_channel(design, &chan, scene, raw, n_threads, done)?;
         } else {
-            general_channel(design, &chan, scene, &rule, raw, n_threads, done)?;
+            general_channel(design, &chan, scene, opts.tol, raw, n_threads, done)?;
         }
     }
     Ok(())
@@ -993,14 +1028,18 @@ fn general_channel(
     design: &Design,
     chan: &Chan,
     scene: &Scene,
-    rule: &Rule,
+    tol: f64,
     raw: &mut [f64],
     n_threads: Option<usize>,
     done: &AtomicUsize,
 ) -> Result<()> {
     let ch = chan.ch;
     let (rows, cols) = raw_shape(ch);
-    let per_row = (cols as u128) * (rule.x.len() as u128).pow(2) * 200;
+    let per_row = (cols as u128) * 2000;
+    // The adaptive rule's absolute target per lens (before the channel's norm): tol × the
+    // ray measure of a fully lit pixel, cell area × (μ L / v)².
+    let full = signed_area(&chan.cell) * (ch.mu / chan.vl).powi(2);
+    let tol = tol * full;
     let step = crate::parallel::chunk_items(n_threads, per_row);
     let reach = chan.reach();
     let raw_ptr = SendPtr(raw.as_mut_ptr());
@@ -1016,7 +1055,7 @@ fn general_channel(
                 checkpoint()?;
                 let b = (start + i) as u32;
                 for (a, out) in row.iter_mut().enumerate() {
-                    *out = pixel_value(design, chan, scene, rule, a as u32, b, reach, wk);
+                    *out = pixel_value(design, chan, scene, tol, a as u32, b, reach, wk);
                 }
                 done.fetch_add(1, Ordering::Relaxed);
                 Ok(())
@@ -1042,7 +1081,7 @@ fn pixel_value(
     design: &Design,
     chan: &Chan,
     scene: &Scene,
-    rule: &Rule,
+    tol: f64,
     a: u32,
     b: u32,
     reach: [f64; 2],
@@ -1055,7 +1094,7 @@ fn pixel_value(
             let c = ch.lens_center(px.j, px.k);
             let s = [chan.m * c[0] + px.theta[0], chan.m * c[1] + px.theta[1]];
             let _ = q;
-            chan.norm * lens_contribution(chan, scene, rule, c, px.t, s, wk)
+            chan.norm * lens_contribution(chan, scene, tol, c, px.t, s, wk)
         }
         Layout::Sensor { mx, my } => {
             let mu = ch.mu;
@@ -1082,7 +1121,7 @@ fn pixel_value(
                     {
                         continue;
                     }
-                    v += lens_contribution(chan, scene, rule, c, ch.lens_type(j, k), s, wk);
+                    v += lens_contribution(chan, scene, tol, c, ch.lens_type(j, k), s, wk);
                 }
             }
             chan.norm * v
@@ -1309,18 +1348,15 @@ mod tests {
     use super::*;
 
     #[test]
-    fn gauss_legendre_integrates_polynomials() {
-        for n in 1..=12 {
-            let (x, w) = gauss_legendre(n);
-            for p in 0..2 * n {
-                let s: f64 = x.iter().zip(&w).map(|(x, w)| w * x.powi(p as i32)).sum();
-                let exact = if p % 2 == 1 {
-                    0.0
-                } else {
-                    2.0 / (p as f64 + 1.0)
-                };
-                assert!((s - exact).abs() < 1e-13, "n={n} p={p}: {s} vs {exact}");
-            }
-        }
+    fn adaptive_is_exact_on_bilinear_and_converges_on_a_disc() {
+        let mut wk = Work::default();
+        let mut f = |x: f64, y: f64, _: &mut Work| 1.0 + 2.0 * x - y + 3.0 * x * y;
+        let smooth0 = |_: f64, _: f64, _: f64, _: f64, _: &mut Work| false;
+        let v = adaptive(&mut f, &smooth0, 0.0, 2.0, -1.0, 1.0, 1e-12, 0, &mut wk);
+        assert!((v - 8.0).abs() < 1e-12, "{v}");
+        let mut disc = |x: f64, y: f64, _: &mut Work| if x * x + y * y < 1.0 { 1.0 } else { 0.0 };
+        let smooth = |_: f64, _: f64, _: f64, _: f64, _: &mut Work| false;
+        let v = adaptive(&mut disc, &smooth, -1.0, 1.0, -1.0, 1.0, 1e-3, 0, &mut wk);
+        assert!((v - PI).abs() < 0.05, "{v}");
     }
 }

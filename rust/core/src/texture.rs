@@ -423,6 +423,44 @@ impl Texture {
         }
     }
 
+    /// Does the albedo jump inside the box [x0, x1] × [y0, y1] along a line that the
+    /// renderer's cuts do not follow (a slanted edge, a star's spokes or centre)? Image
+    /// cells and bar edges are axis-aligned: the renderer cuts at them.
+    pub fn jumps_in(&self, x0: f64, x1: f64, y0: f64, y1: f64) -> bool {
+        let corners = [[x0, y0], [x1, y0], [x1, y1], [x0, y1]];
+        match self {
+            Texture::Edge { normal, center, .. } => {
+                let side = |p: &Pt| normal[0] * (p[0] - center[0]) + normal[1] * (p[1] - center[1]);
+                let (lo, hi) = corners.iter().map(side).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
+                lo <= 0.0 && hi >= 0.0
+            }
+            Texture::Star { spokes, center, .. } => {
+                if center[0] >= x0 && center[0] <= x1 && center[1] >= y0 && center[1] <= y1 {
+                    return true;
+                }
+                let width = PI / *spokes as f64;
+                let a0 = (corners[0][1] - center[1]).atan2(corners[0][0] - center[0]);
+                let (mut lo, mut hi) = (0.0f64, 0.0f64);
+                for p in &corners[1..] {
+                    let mut d = (p[1] - center[1]).atan2(p[0] - center[0]) - a0;
+                    while d > PI {
+                        d -= 2.0 * PI;
+                    }
+                    while d < -PI {
+                        d += 2.0 * PI;
+                    }
+                    lo = lo.min(d);
+                    hi = hi.max(d);
+                }
+                // A few spoke edges: localised kinks the rules may miss; many: weak kinks
+                // spread over the box, which the rules' comparison sees.
+                let crossings = ((a0 + hi) / width).floor() - ((a0 + lo) / width).floor();
+                (1.0..=8.0).contains(&crossings)
+            }
+            _ => false,
+        }
+    }
+
     /// The image texture, if this is one.
     pub fn image(&self) -> Option<&ImageTexture> {
         match self {

@@ -43,8 +43,8 @@ fn constants(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("DEFAULT_WINDOW", samples2d::DEFAULT_WINDOW)?;
     m.add("MAX_TOL_2D", samples2d::MAX_TOL_2D)?;
     m.add("MAX_COVERAGE_WORK", samples2d::MAX_COVERAGE_WORK)?;
-    m.add("RENDER_ORDER", splitlf_core::render::DEFAULT_ORDER)?;
-    m.add("MAX_RENDER_ORDER", splitlf_core::render::MAX_ORDER)?;
+    m.add("RENDER_TOL", splitlf_core::render::DEFAULT_TOL)?;
+    m.add("MIN_RENDER_TOL", splitlf_core::render::MIN_TOL)?;
     Ok(())
 }
 

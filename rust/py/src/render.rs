@@ -72,15 +72,16 @@ impl RenderScene {
 }
 
 /// Every channel's raw image of `scene` (docs/model.md §10 layout), one float64 array per
-/// channel. `order`: Gauss–Legendre nodes per interval and axis of the general route.
+/// channel. `tol`: the general route's error target per pixel, relative to a fully lit
+/// pixel under a white albedo.
 /// `progress(done, total)` is called on the main thread while the render runs.
 #[pyfunction]
-#[pyo3(signature = (design, scene, order=core_render::DEFAULT_ORDER, n_threads=None, progress=None))]
+#[pyo3(signature = (design, scene, tol=core_render::DEFAULT_TOL, n_threads=None, progress=None))]
 pub(crate) fn render<'py>(
     py: Python<'py>,
     design: &DesignCore,
     scene: &RenderScene,
-    order: usize,
+    tol: f64,
     n_threads: Option<&Bound<'py, PyAny>>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Vec<Bound<'py, PyArray2<f64>>>> {
@@ -99,7 +100,7 @@ pub(crate) fn render<'py>(
         total,
     });
     let counter = Arc::clone(&done);
-    let opts = RenderOptions { order };
+    let opts = RenderOptions { tol };
     core_render::check_render(&d, &sc, opts).map_err(to_py)?;
     let bytes = core_render::render_bytes(&d);
     splitlf_core::memory::check("the rendered raw images", bytes).map_err(to_py)?;
