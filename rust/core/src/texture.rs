@@ -431,7 +431,12 @@ impl Texture {
         match self {
             Texture::Edge { normal, center, .. } => {
                 let side = |p: &Pt| normal[0] * (p[0] - center[0]) + normal[1] * (p[1] - center[1]);
-                let (lo, hi) = corners.iter().map(side).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
+                let (lo, hi) = corners
+                    .iter()
+                    .map(side)
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                        (a.min(v), b.max(v))
+                    });
                 lo <= 0.0 && hi >= 0.0
             }
             Texture::Star { spokes, center, .. } => {
@@ -528,7 +533,7 @@ impl Texture {
         let area = signed_area(poly);
         let (x0, x1, y0, y1) = crate::polygon::bounds(poly);
         let scale = (x1 - x0).max(y1 - y0);
-        if !(area.abs() > 1e-12 * scale * scale) || !area.is_finite() {
+        if area.abs() <= 1e-12 * scale * scale || !area.is_finite() {
             return self.at(centroid(poly));
         }
         let v = self.integral(poly, area, scratch) / area;
