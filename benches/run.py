@@ -567,13 +567,13 @@ def run_workload(w: Workload, quick: bool, rounds: int) -> dict[str, Any]:
     return result
 
 
-# -- W9: concurrent small calls (a ratio within one process, no NumPy twin) -----------------
+# -- W12: concurrent small calls (a ratio within one process, no NumPy twin) ----------------
 
-#: Python threads of W9's concurrent runs.
-W9_THREADS = (2, 8)
+#: Python threads of W12's concurrent runs.
+W12_THREADS = (2, 8)
 
 
-def _w9_calls(quick: bool) -> dict[str, Callable[[], Any]]:
+def _w12_calls(quick: bool) -> dict[str, Callable[[], Any]]:
     """Small calls at n_threads=1: the work a server or a thread pool executor hands out."""
     cam = splitlf.Camera.paper()
     z = np.geomspace(150.0, 1e4, 10 if quick else 20)
@@ -583,7 +583,7 @@ def _w9_calls(quick: bool) -> dict[str, Callable[[], Any]]:
     }
 
 
-def _w9_serial(fn: Callable[[], Any], n: int) -> float:
+def _w12_serial(fn: Callable[[], Any], n: int) -> float:
     """Wall time of n calls one after the other."""
     t0 = time.perf_counter()
     for _ in range(n):
@@ -591,7 +591,7 @@ def _w9_serial(fn: Callable[[], Any], n: int) -> float:
     return time.perf_counter() - t0
 
 
-def _w9_concurrent(fn: Callable[[], Any], k: int, reps: int) -> float:
+def _w12_concurrent(fn: Callable[[], Any], k: int, reps: int) -> float:
     """Wall time of k Python threads each making `reps` calls."""
     import threading
 
@@ -612,18 +612,18 @@ def _w9_concurrent(fn: Callable[[], Any], k: int, reps: int) -> float:
     return time.perf_counter() - t0
 
 
-def run_w9(quick: bool, rounds: int) -> dict[str, Any]:
-    """W9: k Python threads each making the same small call at n_threads=1, against the
+def run_w12(quick: bool, rounds: int) -> dict[str, Any]:
+    """W12: k Python threads each making the same small call at n_threads=1, against the
     same k x reps calls made one after the other on one thread (alternating, medians of
     the ratio concurrent / serial). On c cores the ideal ratio is max(1/c, 1/k): concurrent
     calls hold no lock of the core's (the GIL is released, pools are per call)."""
-    calls = _w9_calls(quick)
+    calls = _w12_calls(quick)
     reps = 2 if quick else 6
     ratios: dict[str, dict[str, float]] = {}
     times: dict[str, dict[str, list[float]]] = {}
     for name, fn in calls.items():
         fn()  # warm up (pools, caches)
-        for k in W9_THREADS:
+        for k in W12_THREADS:
             per: list[float] = []
             serial_s: list[float] = []
             for r in range(rounds):
@@ -632,17 +632,17 @@ def run_w9(quick: bool, rounds: int) -> dict[str, Any]:
                 got = {}
                 for side in order:
                     if side == 0:
-                        got[0] = _w9_serial(fn, k * reps)
+                        got[0] = _w12_serial(fn, k * reps)
                     else:
-                        got[1] = _w9_concurrent(fn, k, reps)
+                        got[1] = _w12_concurrent(fn, k, reps)
                 serial_s.append(got[0])
                 per.append(got[1] / got[0])
             key = f"{name}_x{k}"
             ratios[key] = statistics.median(per)
             times[key] = {"serial_s": serial_s, "ratio": per}
-    return {"workload": "W9", "kind": "concurrent",
+    return {"workload": "W12", "kind": "concurrent",
             "title": "concurrent small calls (n_threads=1) from 2 and 8 Python threads",
-            "sizes": {"reps_per_thread": reps, "threads": list(W9_THREADS), "quick": quick},
+            "sizes": {"reps_per_thread": reps, "threads": list(W12_THREADS), "quick": quick},
             "rounds": rounds, "threads_all": os.cpu_count() or 1,
             "ratio_concurrent_over_serial": ratios, "runs": times}
 
@@ -755,13 +755,13 @@ def _markdown_studies(doc: dict[str, Any]) -> list[str]:
 
 
 def _markdown_concurrent(doc: dict[str, Any]) -> list[str]:
-    """The W9 line: concurrent over serial wall time of the same calls (one process)."""
+    """The W12 line: concurrent over serial wall time of the same calls (one process)."""
     out = []
     for r in doc["results"]:
         if r.get("kind") == "concurrent":
             ratios = ", ".join(f"{k.replace('_x', ' x ')} threads {v:.2f}"
                                for k, v in r["ratio_concurrent_over_serial"].items())
-            out += ["", f"W9 ({r['title']}; concurrent / serial wall time of the same calls, "
+            out += ["", f"W12 ({r['title']}; concurrent / serial wall time of the same calls, "
                     f"medians of {r['rounds']} alternating rounds, {r['threads_all']} cores; "
                     f"targets 2 threads <= 0.75, 8 threads <= 0.9 on 2 cores): {ratios}."]
     return out
@@ -855,12 +855,17 @@ def compare(previous: dict[str, Any], results: list[dict[str, Any]]) -> dict[str
     return {"commit": previous.get("commit"), "workloads": rows}
 
 
+def _ordered(names: list[str]) -> list[str]:
+    """Workload names in numeric order (W1, ..., W9, W12)."""
+    return sorted(names, key=lambda n: int(n[1:]))
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="small sizes (CI smoke test)")
     ap.add_argument("--only", nargs="*",
-                    choices=sorted([*WORKLOADS, *STUDIES, "W9"]) + list(BROWSER_WORKLOADS),
-                    help="workloads to run (default W1-W7 and W9; W8, the explorer in a "
+                    choices=_ordered([*WORKLOADS, *STUDIES, "W12"]) + list(BROWSER_WORKLOADS),
+                    help="workloads to run (default W1-W7 and W12; W8, the explorer in a "
                     "browser, only when named)")
     ap.add_argument("--rounds", type=int, default=None,
                     help="alternating rounds (default 7, 3 with --quick)")
@@ -882,7 +887,7 @@ def main(argv: list[str] | None = None) -> int:
     previous = (json.loads(prev_path.read_text())
                 if not args.quick and prev_path.exists() else None)
     results = []
-    for name in args.only or sorted([*WORKLOADS, *STUDIES, "W9"]):
+    for name in args.only or _ordered([*WORKLOADS, *STUDIES, "W12"]):
         if name == "W8":
             w8 = run_w8(args.quick)
             if w8 is not None:
@@ -891,11 +896,11 @@ def main(argv: list[str] | None = None) -> int:
                       flush=True)
             continue
         load_before = os.getloadavg()
-        if name == "W9":
-            r = run_w9(args.quick, rounds)
+        if name == "W12":
+            r = run_w12(args.quick, rounds)
             r["load_average"] = {"before": load_before, "after": os.getloadavg()}
             results.append(r)
-            print("W9: concurrent / serial wall time " + ", ".join(
+            print("W12: concurrent / serial wall time " + ", ".join(
                 f"{k} {v:.2f}" for k, v in r["ratio_concurrent_over_serial"].items()),
                 flush=True)
             continue

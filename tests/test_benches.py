@@ -24,9 +24,9 @@ def test_quick_benchmarks_run(tmp_path):
                     "--out", str(tmp_path)], check=True, capture_output=True, text=True)
     doc = json.loads((tmp_path / "results.json").read_text())
     names = [r["workload"] for r in doc["results"]]
-    assert names == ["W1", "W2", "W3", "W4", "W5", "W6", "W7", "W9"] and doc["quick"] is True
+    assert names == ["W1", "W2", "W3", "W4", "W5", "W6", "W7", "W12"] and doc["quick"] is True
     for r in doc["results"]:
-        if r["workload"] == "W9":  # a ratio within one process, no NumPy twin
+        if r["workload"] == "W12":  # a ratio within one process, no NumPy twin
             continue
         assert all(t > 0 for t in r["median_s"].values())
         if "output_mib" in r:  # the outputs themselves must show in the measured peak
@@ -51,8 +51,8 @@ def test_quick_benchmarks_run(tmp_path):
     table = (tmp_path / "RESULTS.md").read_text()
     assert "| W7: " in table and "share outside the core" in table
     assert table.count("\n| W") == len(names) - 1
-    # W9: concurrent over serial wall time of the same calls, every call and thread count
-    w9 = by["W9"]["ratio_concurrent_over_serial"]
-    assert set(w9) == {f"{c}_x{k}" for c in ("sample_grid", "footprints_kernel")
-                       for k in (2, 8)}, set(w9)
-    assert all(0 < v < 100 for v in w9.values()) and "W9 (" in table
+    # W12: concurrent over serial wall time of the same calls, every call and thread count
+    w12 = by["W12"]["ratio_concurrent_over_serial"]
+    assert set(w12) == {f"{c}_x{k}" for c in ("sample_grid", "footprints_kernel")
+                        for k in (2, 8)}, set(w12)
+    assert all(0 < v < 100 for v in w12.values()) and "W12 (" in table
