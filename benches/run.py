@@ -43,6 +43,7 @@ sys.path.insert(0, str(HERE))
 
 import numpy_impl  # noqa: E402
 import w7_optimise  # noqa: E402
+import w9_render  # noqa: E402
 
 import splitlf  # noqa: E402
 
@@ -567,6 +568,99 @@ def run_workload(w: Workload, quick: bool, rounds: int) -> dict[str, Any]:
     return result
 
 
+# -- W9: raw images (`render`; benches/w9_render.py) ------------------------------------------
+
+#: At most this many rounds of W9 (a round renders three scenes three ways: ~30 s).
+W9_MAX_ROUNDS = 5
+W9_NAMES = {"seed": "seed, exact route, fronto 1000 mm",
+            "r12_fronto": "raytrix-r12, fronto 1000 mm",
+            "r12_slanted": "raytrix-r12, slanted Z = 1000 + 0.3 X + 0.1 Y"}
+
+
+def _met(ok: bool) -> str:
+    return "met" if ok else "NOT met"
+
+
+def _w9_summary(r: dict[str, Any]) -> str:
+    parts = []
+    for name, s in r["scenes"].items():
+        parts.append(f"{name}: native {s['pixels_per_s']['native_all']:.3g} px/s, "
+                     f"NumPy twin/native {s['ratio_numpy_over_native_all']:.1f}x (all) "
+                     f"{s['ratio_numpy_over_native_1']:.1f}x (1 thr), MC/native "
+                     f"{s['ratio_mc_over_native_1']:.0f}x (1 thr), 1->all "
+                     f"{s['speedup_1_to_all']:.2f}x")
+    m = r["peak_memory_seed"]
+    parts.append(f"seed peak {m['peak_over_outputs_and_texture']:.2f}x raws+texture")
+    if "r12_full" in r:
+        b = r["r12_full"]
+        parts.append(f"r12 fronto full sensor {b['full_seconds']:.1f} s on {b['threads']} "
+                     f"threads ({b['part']}{', extrapolated' if b['part'] != 'full' else ''})")
+    return "W9: " + "; ".join(parts)
+
+
+def _markdown_render(doc: dict[str, Any]) -> list[str]:
+    """The W9 table (render: per scene, per pixel) and its targets."""
+    out = []
+    for r in doc["results"]:
+        if r.get("kind") != "render":
+            continue
+        t, sz = r["targets"], r["sizes"]
+        out += ["", f"W9 ({r['title']}; {r['rounds']} alternating rounds, medians, "
+                f"{r['threads_all']} cores). Times per pixel; the NumPy twins are "
+                "benches/numpy_impl.py's `render_exact` (the exact route, every pixel) and "
+                f"`render_pixels` (a fixed {sz['twin_nodes']} x {sz['twin_nodes']} "
+                "Gauss-Legendre rule per piece of the lens cell, exact inner integrals over the "
+                f"pixel's aperture square, on {sz['twin_pixels']} random pixels); MC is "
+                "tests/mc_render.py (NumPy, 1 thread) extrapolated to a standard error of "
+                "1e-3 of white per pixel. Texture: random "
+                f"{sz['texture']} x {sz['texture']} over the (full-size) view at 1000 mm; "
+                f"raytrix-r12 with {sz['r12_K'][0]} x {sz['r12_K'][1]} lenses.", "",
+                "| scene | pixels | native 1 thr / all [µs/px] | native all [px/s] | "
+                "NumPy twin [µs/px] | twin/native 1 / all | agreement [white] | "
+                "MC [µs/px] | MC/native 1 thr / MC÷cores/native all | 1→all |",
+                "|---|---|---|---|---|---|---|---|---|---|"]
+        for name, s in r["scenes"].items():
+            us, mc, a = s["us_per_pixel"], s["monte_carlo"], s["agreement"]
+            out.append(
+                f"| {W9_NAMES.get(name, name)} | {s['pixels']:,} | {us['native_1']:.3g} / "
+                f"{us['native_all']:.3g} | {s['pixels_per_s']['native_all']:.3g} | "
+                f"{us['numpy']:.3g} | {s['ratio_numpy_over_native_1']:.1f} / "
+                f"{s['ratio_numpy_over_native_all']:.1f} | {a['max_diff_white']:.1e} "
+                f"(≤ {a['limit_white']:.0e}) | {mc['us_per_pixel']:.3g} | "
+                f"{s['ratio_mc_over_native_1']:.0f} / {s['ratio_mc_all_over_native_all']:.0f} | "
+                f"{s['speedup_1_to_all']:.2f} |")
+        sc = r["scenes"]
+        twin = min(s["ratio_numpy_over_native_all"] for s in sc.values())
+        mc = min(s["ratio_mc_over_native_1"] for s in sc.values())
+        thr = min(s["speedup_1_to_all"] for s in sc.values())
+        m = r["peak_memory_seed"]
+        line = (f"Targets (issue 21): NumPy twin / native ≥ {t['twin']:.0f}x: worst "
+                f"{twin:.1f}x, {_met(twin >= t['twin'])}; MC / native (same threads) ≥ "
+                f"{t['mc']:.0f}x: worst {mc:.0f}x, {_met(mc >= t['mc'])}; 1 → "
+                f"{r['threads_all']} threads ≥ {t['threads']}x: worst {thr:.2f}x, "
+                f"{_met(thr >= t['threads'])}; peak ≤ {t['peak']}x raws + texture: seed "
+                f"{m['peak_mib']:.0f} MiB = {m['peak_over_outputs_and_texture']:.2f}x "
+                f"({(m['output_bytes'] + m['texture_bytes']) / 2**20:.0f} MiB), "
+                f"{_met(m['peak_over_outputs_and_texture'] <= t['peak'])}")
+        if "r12_full" in r:
+            b = r["r12_full"]
+            ok = b["peak_over_outputs_and_texture"] <= t["peak"]
+            line += (f"; raytrix-r12 {b['part']} sensor ({b['Mx']} x {b['My']} pixels) "
+                     f"{b['peak_mib']:.0f} MiB = {b['peak_over_outputs_and_texture']:.2f}x, "
+                     f"{_met(ok)}")
+            full = b["full_seconds"]
+            how = ("measured" if b["part"] == "full" else
+                   f"extrapolated from the central quarter ({b['seconds']:.1f} s for "
+                   f"{b['pixels']:,} pixels; predicted from the reduced scene "
+                   f"{b['predicted_full_seconds']:.0f} s)")
+            line += (f"; raytrix-r12 fronto-parallel, full sensor ({b['full_pixels']:,} pixels), "
+                     f"tol 1e-3, {b['threads']} threads ≤ {t['r12_fronto_s']:.0f} s: "
+                     f"{full:.1f} s ({b['full_pixels'] / full:.3g} px/s, {how}), "
+                     f"{_met(full <= t['r12_fronto_s'])}")
+        out += ["", line + "."]
+    return out
+
+
 # -- W12: concurrent small calls (a ratio within one process, no NumPy twin) ----------------
 
 #: Python threads of W12's concurrent runs.
@@ -700,8 +794,8 @@ def write_markdown(doc: dict[str, Any], path: Path) -> None:
         "arrays of the output's total size. Peak memory: extra resident memory of one run in "
         "a fresh process.",
     ]
-    if any(r.get("kind") not in ("study", "concurrent") and r["workload"] not in BROWSER_WORKLOADS
-           for r in doc["results"]):
+    if any(r.get("kind") not in ("study", "concurrent", "render")
+           and r["workload"] not in BROWSER_WORKLOADS for r in doc["results"]):
         lines += [
             "",
             "| workload | sizes | NumPy [s] | native 1 thr [s] | native all [s] | "
@@ -710,7 +804,8 @@ def write_markdown(doc: dict[str, Any], path: Path) -> None:
             "|---|---|---|---|---|---|---|---|---|---|---|",
         ]
     for r in doc["results"]:
-        if r.get("kind") in ("study", "concurrent") or r["workload"] in BROWSER_WORKLOADS:
+        if (r.get("kind") in ("study", "concurrent", "render")
+                or r["workload"] in BROWSER_WORKLOADS):
             continue
         m = r["median_s"]
         floor = (f"{r['numpy_over_floor']:.2f} | {r['native_all_over_floor']:.2f}"
@@ -723,7 +818,7 @@ def write_markdown(doc: dict[str, Any], path: Path) -> None:
             f"{r['speedup_1_to_all']:.2f} | {floor} | "
             f"{_mib(r['peak_mib']['numpy'])} / {r['peak_mib']['native']:.0f} / {out_mib} |"
         )
-    lines += _markdown_studies(doc) + _markdown_concurrent(doc)
+    lines += _markdown_studies(doc) + _markdown_render(doc) + _markdown_concurrent(doc)
     lines += _markdown_targets(doc) + _markdown_browser(doc)
     path.write_text("\n".join(lines) + "\n")
 
@@ -837,7 +932,8 @@ def compare(previous: dict[str, Any], results: list[dict[str, Any]]) -> dict[str
         o = old.get(r["workload"])
         if o is None:
             continue
-        if r["workload"] in BROWSER_WORKLOADS or r.get("kind") == "concurrent":
+        if (r["workload"] in BROWSER_WORKLOADS or r.get("kind") in ("concurrent", "render")
+                or o.get("kind") != r.get("kind")):
             continue
         row = {
             "native_all_now_over_then": r["median_s"]["native_all"] / o["median_s"]["native_all"],
@@ -864,8 +960,8 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="small sizes (CI smoke test)")
     ap.add_argument("--only", nargs="*",
-                    choices=_ordered([*WORKLOADS, *STUDIES, "W12"]) + list(BROWSER_WORKLOADS),
-                    help="workloads to run (default W1-W7 and W12; W8, the explorer in a "
+                    choices=_ordered([*WORKLOADS, *STUDIES, "W9", "W12"]) + list(BROWSER_WORKLOADS),
+                    help="workloads to run (default W1-W7, W9 and W12; W8, the explorer in a "
                     "browser, only when named)")
     ap.add_argument("--rounds", type=int, default=None,
                     help="alternating rounds (default 7, 3 with --quick)")
@@ -887,7 +983,7 @@ def main(argv: list[str] | None = None) -> int:
     previous = (json.loads(prev_path.read_text())
                 if not args.quick and prev_path.exists() else None)
     results = []
-    for name in args.only or _ordered([*WORKLOADS, *STUDIES, "W12"]):
+    for name in args.only or _ordered([*WORKLOADS, *STUDIES, "W9", "W12"]):
         if name == "W8":
             w8 = run_w8(args.quick)
             if w8 is not None:
@@ -896,6 +992,12 @@ def main(argv: list[str] | None = None) -> int:
                       flush=True)
             continue
         load_before = os.getloadavg()
+        if name == "W9":
+            r = w9_render.run(args.quick, min(rounds, W9_MAX_ROUNDS))
+            r["load_average"] = {"before": load_before, "after": os.getloadavg()}
+            results.append(r)
+            print(_w9_summary(r), flush=True)
+            continue
         if name == "W12":
             r = run_w12(args.quick, rounds)
             r["load_average"] = {"before": load_before, "after": os.getloadavg()}
