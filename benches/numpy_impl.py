@@ -533,6 +533,27 @@ def _focals(ch) -> list[float]:
     return [1.0 / (1.0 / ch.L + 1.0 / ch.v)] if ch.f is None else list(ch.f)
 
 
+@np.errstate(divide="ignore", invalid="ignore")
+def _clip_all(V: np.ndarray, k: np.ndarray, n0, n1, h) -> tuple[np.ndarray, np.ndarray]:
+    """Sutherland-Hodgman against n0 x + n1 y <= h, vectorised over polygons and vertices
+    (`_clip` loops over vertex slots: slow for many-sided polygons): V (P, M, 2), each
+    polygon's first k vertices in order; returns (P, 2M, 2) with the kept slots first."""
+    P, M, _ = V.shape
+    slot = np.arange(M)[None, :]
+    nxt = np.where(slot + 1 < k[:, None], slot + 1, 0)
+    B = np.take_along_axis(V, nxt[..., None], axis=1)
+    da = h[:, None] - (n0[:, None] * V[..., 0] + n1[:, None] * V[..., 1])
+    db = h[:, None] - (n0[:, None] * B[..., 0] + n1[:, None] * B[..., 1])
+    edge = slot < k[:, None]
+    t = da / (da - db)
+    cand = np.stack([V, V + t[..., None] * (B - V)], axis=2).reshape(P, 2 * M, 2)
+    keep = np.stack([edge & (da >= 0.0),
+                     edge & (((da > 0.0) & (db < 0.0)) | ((da < 0.0) & (db > 0.0)))],
+                    axis=2).reshape(P, 2 * M)
+    order = np.argsort(~keep, axis=1, kind="stable")
+    return np.take_along_axis(cand, order[..., None], axis=1), keep.sum(axis=1)
+
+
 @np.errstate(divide="ignore", invalid="ignore")  # parallel edges: no crossing
 def _poly_clip(V: np.ndarray, k: np.ndarray, n0, n1, h) -> tuple[np.ndarray, np.ndarray]:
     """Every polygon's part where n0 x + n1 y <= h (Sutherland-Hodgman, one edge),
@@ -545,7 +566,7 @@ def _poly_clip(V: np.ndarray, k: np.ndarray, n0, n1, h) -> tuple[np.ndarray, np.
                           & live).any(axis=1))
     if cut.size == 0:
         return V, k
-    V2, k2 = _clip(V[cut], k[cut], (n0[cut], n1[cut]), h[cut])
+    V2, k2 = _clip_all(V[cut], k[cut], n0[cut], n1[cut], h[cut])
     M = max(V.shape[1], int(k2.max(initial=0)), 1)
     out = np.empty((V.shape[0], M, 2))
     out[:, :V.shape[1]] = V
@@ -768,36 +789,61 @@ class ImageTexture:
              + self.mean * (X - Xc))
         return np.where(in_row, g, self.mean * (X - self.X0))
 
-    def _crossings(self, a: np.ndarray, b: np.ndarray, o: float, h: float) -> np.ndarray:
-        """Parameters t in (0, 1) where the segments a -> b cross the lines o + k h (slots
-        past the last crossing hold 1)."""
-        lo = np.ceil((np.minimum(a, b) - o) / h)
-        hi = np.floor((np.maximum(a, b) - o) / h)
-        n = int(np.max(hi - lo + 1, initial=0))
-        if n <= 0:
-            return np.ones(a.shape + (0,))
-        k = lo[..., None] + np.arange(n)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = (o + k * h - a[..., None]) / (b - a)[..., None]
-        return np.where((k <= hi[..., None]) & (t > 0.0) & (t < 1.0), t, 1.0)
-
     def integral(self, X: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(∬ T, signed area) over the polygons with vertices (X[..., m], Y[..., m]) in
-        order: ∮ G dY edge by edge, each edge cut where it crosses a row or a column (G is
-        then linear along each part: its midpoint value is exact)."""
+        """(∬ T, signed area) over the polygons with vertices (X[i, m], Y[i, m]) in order
+        (a polygon with fewer vertices repeats its last one)."""
         Xb, Yb = np.roll(X, -1, axis=-1), np.roll(Y, -1, axis=-1)
-        t = np.concatenate([np.zeros(X.shape + (1,)),
-                            self._crossings(X, Xb, self.X0, self.hx),
-                            self._crossings(Y, Yb, self.Y0, self.hy),
-                            np.ones(X.shape + (1,))], axis=-1)
-        t.sort(axis=-1)
-        tm = 0.5 * (t[..., 1:] + t[..., :-1])
-        dt = np.diff(t, axis=-1)
-        dX, dY = (Xb - X)[..., None], (Yb - Y)[..., None]
-        g = self.G(X[..., None] + tm * dX, Y[..., None] + tm * dY)
-        total = (g * dt).sum(axis=-1) * (Yb - Y)
-        area = 0.5 * (X * Yb - Xb * Y).sum(axis=-1)
-        return total.sum(axis=-1), area
+        owner = np.repeat(np.arange(X.shape[0]), X.shape[-1])
+        return self.boundary(X.ravel(), Y.ravel(), Xb.ravel(), Yb.ravel(), owner, X.shape[0])
+
+    def boundary(self, xa, ya, xb, yb, owner, n) -> tuple[np.ndarray, np.ndarray]:
+        """(∬ T, signed area) over n regions, each given by its boundary as oriented
+        segments (xa, ya) -> (xb, yb) (counter-clockwise, in any order; owner[i] the region
+        of segment i): Green's theorem, ∮ G dY, each segment cut where it crosses a row or
+        a column line (G is linear along each part: its midpoint value is exact). The parts
+        of all segments are one flat array (ragged: as many as a segment has crossings),
+        sorted by (segment, t)."""
+        area = np.bincount(owner, weights=0.5 * (xa * yb - xb * ya), minlength=n)
+        live = np.flatnonzero(ya != yb)  # only segments with dY contribute
+        xa, ya, xb, yb, owner = xa[live], ya[live], xb[live], yb[live], owner[live]
+        m = live.size
+        seg = np.arange(m)
+        ts, es = [np.zeros(m), np.ones(m)], [seg, seg]
+        for a, b, o, h in ((xa, xb, self.X0, self.hx), (ya, yb, self.Y0, self.hy)):
+            lo = np.ceil((np.minimum(a, b) - o) / h)
+            hi = np.floor((np.maximum(a, b) - o) / h)
+            cnt = np.maximum(hi - lo + 1, 0).astype(np.int64)
+            which = np.repeat(seg, cnt)
+            k = lo[which] + (np.arange(which.size) - np.repeat(np.cumsum(cnt) - cnt, cnt))
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t = (o + k * h - a[which]) / (b - a)[which]
+            keep = (t > 0.0) & (t < 1.0)
+            ts.append(t[keep])
+            es.append(which[keep])
+        t, e = np.concatenate(ts), np.concatenate(es)
+        order = np.lexsort((t, e))
+        t, e = t[order], e[order]
+        same = e[1:] == e[:-1]
+        t0, t1, e = t[:-1][same], t[1:][same], e[:-1][same]
+        tm = 0.5 * (t0 + t1)
+        dX, dY = xb[e] - xa[e], yb[e] - ya[e]
+        g = self.G(xa[e] + tm * dX, ya[e] + tm * dY) * (t1 - t0) * dY
+        return np.bincount(owner[e], weights=g, minlength=n), area
+
+
+def _inside_parts(ax, ay, bx, by, nx, ny, h):
+    """Cyrus-Beck: the parameters [t0, t1] of the segments a -> b (shape S) inside the
+    convex regions n . p <= h (half-planes along the last axis of nx, ny, h, broadcast
+    against S + (H,)); t0 >= t1 where a segment is outside."""
+    dx, dy = (bx - ax)[..., None], (by - ay)[..., None]
+    num = h - (nx * ax[..., None] + ny * ay[..., None])
+    den = nx * dx + ny * dy
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = num / den
+    t1 = np.minimum(np.where(den > 0.0, t, np.inf).min(axis=-1), 1.0)
+    t0 = np.maximum(np.where(den < 0.0, t, -np.inf).max(axis=-1), 0.0)
+    out = ((den == 0.0) & (num < 0.0)).any(axis=-1)
+    return t0, np.where(out, -np.inf, t1)
 
 
 def _hits(design, ch, plane, cx, cy, wx, wy):
@@ -966,3 +1012,140 @@ def render_pixels(design, channel: int, rows: np.ndarray, cols: np.ndarray, scen
         tot = (val * wxi).reshape(len(o), -1).sum(axis=1)
         out += np.bincount(pix[o], weights=tot, minlength=len(rows))
     return render_norm(design, ch) * out
+
+
+def render_pixels_s(design, channel: int, rows: np.ndarray, cols: np.ndarray, scene: dict,
+                    n_s: int = 3, chunk: int = 1024) -> np.ndarray:
+    """Like `render_pixels`, with the integration order swapped (the order the core uses
+    for the R12, docs/render.md "outer s"): outer, the sensor point s over the pixel's
+    square (∩ the lens's reach), n_s x n_s Gauss-Legendre nodes, fixed; inner, exact, the
+    rays through s from one lens: xi in the cell whose main-lens point
+    w(xi) = (L/v)(alpha xi - sigma) is in the aperture, i.e. the cell clipped by the
+    aperture's preimage (centre sigma/alpha, radius (v/L) r/|alpha|; a circle as a 256-gon
+    of its area), mapped to the plane through its vertices' hits and integrated exactly
+    (`ImageTexture.integral`); the mean times the polygon's area in xi, times (L/v)^2
+    (ds = (v/L)^2 dw at fixed xi). Exact inner integral on a fronto-parallel plane (the map
+    is affine); on a slanted plane the map is projective and its Jacobian is taken as
+    constant over the polygon."""
+    ch = design.channels[channel - 1]
+    res = design.resolved()[channel - 1]
+    if ch.layout != "sensor" or ch.grid != "hex" or design.aperture != "circle":
+        raise NotImplementedError("this twin handles hex sensor-layout channels, circle")
+    r = design.D / 2.0
+    L, v, mu = ch.L, ch.v, ch.mu
+    vl, m = v / L, 1.0 + v / L
+    alphas = np.array([1.0 + vl - v / f for f in _focals(ch)])
+    centres, types = lens_grid(ch)
+    img = centres * m
+    rows, cols = np.asarray(rows), np.asarray(cols)
+    s = np.stack([mu * (cols - (res["Mx"] - 1.0) / 2.0),
+                  mu * (rows - (res["My"] - 1.0) / 2.0)], axis=1)
+    a, b = ch.d / 2.0, ch.d / np.sqrt(3.0)
+    hexv = np.array([[0.0, -b], [a, -b / 2], [a, b / 2], [0.0, b], [-a, b / 2], [-a, -b / 2]])
+    rho = vl * r
+    reach_ab = np.abs(alphas).max() * np.array([a, b]) + rho  # |sigma| per axis
+    near = np.all(np.abs(s[:, None, :] - img[None, :, :]) <= reach_ab + mu / 2.0 + 1e-12,
+                  axis=2)
+    pix, lens = np.nonzero(near)
+    alpha = alphas[types[lens]]
+    c = centres[lens]
+    # the pixel square in sigma = s - img, clipped to the lens's reach
+    e = s[pix] - img[lens]
+    lo = np.maximum(e - mu / 2.0, -(np.abs(alpha)[:, None] * np.array([a, b]) + rho))
+    hi = np.minimum(e + mu / 2.0, np.abs(alpha)[:, None] * np.array([a, b]) + rho)
+    ok = np.all(hi > lo, axis=1)
+    pix, alpha, c, lo, hi = pix[ok], alpha[ok], c[ok], lo[ok], hi[ok]
+    g, wg = _gauss(n_s)
+    # nodes: (pairs, n_s, n_s)
+    sx = 0.5 * (lo[:, 0] + hi[:, 0])[:, None] + 0.5 * (hi[:, 0] - lo[:, 0])[:, None] * g
+    sy = 0.5 * (lo[:, 1] + hi[:, 1])[:, None] + 0.5 * (hi[:, 1] - lo[:, 1])[:, None] * g
+    wx_ = 0.25 * ((hi[:, 0] - lo[:, 0])[:, None] * wg)[:, :, None] * (
+        (hi[:, 1] - lo[:, 1])[:, None] * wg)[:, None, :]
+    SX = np.broadcast_to(sx[:, :, None], wx_.shape).ravel()
+    SY = np.broadcast_to(sy[:, None, :], wx_.shape).ravel()
+    WT = wx_.ravel()
+    own = np.repeat(np.arange(pix.size), n_s * n_s)
+    al = alpha[own]
+    gx0, gy0 = SX / al, SY / al  # the aperture's preimage: centre sigma/alpha
+    rad = rho / np.abs(al)
+    n_gon = 256
+    step = 2.0 * np.pi / n_gon
+    R = np.sqrt(2.0 * np.pi / (n_gon * np.sin(step)))  # equal-area n-gon of the unit disc
+    h_in = R * np.cos(step / 2.0)  # its inradius
+    tex = ImageTexture(scene["image"], scene["extent"])
+    plane = tuple(float(p) for p in scene["plane"])
+    # The cell's sides (counter-clockwise, outward normals) and the n-gon's (per node).
+    hx0, hx1 = hexv, np.roll(hexv, -1, axis=0)
+    hn = np.stack([hx1[:, 1] - hx0[:, 1], hx0[:, 0] - hx1[:, 0]], 1)
+    hh = (hn * hx0).sum(axis=1)
+    phi = (np.arange(n_gon) + 0.5) * step
+    gn = np.stack([np.cos(phi), np.sin(phi)], 1)
+    gv = R * np.stack([np.cos(phi - step / 2.0), np.sin(phi - step / 2.0)], 1)
+    # Where the n-gon holds the whole cell (every vertex within its inradius), the region
+    # is the cell; where it is farther than the cell's circumradius, nothing.
+    d2 = (hexv[None, :, 0] - gx0[:, None]) ** 2 + (hexv[None, :, 1] - gy0[:, None]) ** 2
+    whole = (d2 <= (h_in * rad[:, None]) ** 2).all(axis=1)
+    far = np.hypot(gx0, gy0) >= b + R * rad
+    val = np.zeros(SX.size)
+    todo = np.flatnonzero(~far)
+    for i in range(0, todo.size, chunk):
+        k = todo[i:i + chunk]
+        g0 = np.stack([gx0[k], gy0[k]], 1)
+        rk = rad[k]
+        rim = np.flatnonzero(~whole[k])
+        # the region's boundary: the cell's sides inside the n-gon ...
+        ax, ay = np.broadcast_to(hx0[:, 0], (k.size, 6)), np.broadcast_to(hx0[:, 1], (k.size, 6))
+        bx, by = np.broadcast_to(hx1[:, 0], (k.size, 6)), np.broadcast_to(hx1[:, 1], (k.size, 6))
+        t0, t1 = np.zeros((k.size, 6)), np.ones((k.size, 6))
+        # Only the n-gon's edges facing the cell matter: those within the cone from its
+        # centre g0 that holds the cell's circumcircle (the n-gon is star-shaped about g0).
+        gr = g0[rim]
+        dist = np.hypot(gr[:, 0], gr[:, 1])
+        half = np.arcsin(np.minimum(1.0, b / np.maximum(dist, 1e-300)))
+        mid = np.arctan2(-gr[:, 1], -gr[:, 0])
+        i0 = np.floor((mid - half) / step).astype(np.int64) - 1
+        cnt = np.minimum(np.ceil((mid + half) / step).astype(np.int64) + 2 - i0, n_gon)
+        W = int(cnt.max(initial=1))
+        idx = (i0[:, None] + np.arange(W)) % n_gon  # (rim, W) edges; slots >= cnt repeat
+        used = np.arange(W)[None, :] < cnt[:, None]
+        idx = np.where(used, idx, idx[:, :1])
+        nx_, ny_ = gn[idx, 0], gn[idx, 1]
+        # n-gon half-planes of a node: n . p <= n . g0 + rad R cos(step/2)
+        ngh = nx_ * gr[:, 0, None] + ny_ * gr[:, 1, None] + (rk[rim] * h_in)[:, None]
+        t0[rim], t1[rim] = _inside_parts(ax[rim], ay[rim], bx[rim], by[rim], nx_[:, None, :],
+                                         ny_[:, None, :], ngh[:, None, :])
+        # ... and the n-gon's sides inside the cell (where the n-gon cuts it)
+        vx = g0[rim, 0, None] + rk[rim, None] * gv[idx, 0]
+        vy = g0[rim, 1, None] + rk[rim, None] * gv[idx, 1]
+        nxt = (idx + 1) % n_gon
+        wx2 = g0[rim, 0, None] + rk[rim, None] * gv[nxt, 0]
+        wy2 = g0[rim, 1, None] + rk[rim, None] * gv[nxt, 1]
+        u0, u1 = _inside_parts(vx, vy, wx2, wy2, hn[:, 0], hn[:, 1], hh)
+        u1 = np.where(used, u1, -np.inf)
+        seg_a = [np.stack([ax + t0 * (bx - ax), ay + t0 * (by - ay)], -1),
+                 np.stack([vx + u0 * (wx2 - vx), vy + u0 * (wy2 - vy)], -1)]
+        seg_b = [np.stack([ax + t1 * (bx - ax), ay + t1 * (by - ay)], -1),
+                 np.stack([vx + u1 * (wx2 - vx), vy + u1 * (wy2 - vy)], -1)]
+        ok = [t1 > t0, u1 > u0]
+        A = np.concatenate([sa[o] for sa, o in zip(seg_a, ok, strict=True)])
+        Bv = np.concatenate([sb[o] for sb, o in zip(seg_b, ok, strict=True)])
+        own_k = np.concatenate([np.broadcast_to(np.arange(k.size)[:, None], t1.shape)[ok[0]],
+                                np.broadcast_to(rim[:, None], u1.shape)[ok[1]]])
+        # xi-area of each region, and its image on the plane through the rays' hits
+        xi_area = np.bincount(own_k, weights=0.5 * (A[:, 0] * Bv[:, 1] - Bv[:, 0] * A[:, 1]),
+                              minlength=k.size)
+        kk = k[own_k]
+        cxy, sig, alk = c[own[kk]], np.stack([SX[kk], SY[kk]], 1), al[kk][:, None]
+        ends = []
+        for Pt in (A, Bv):
+            w = (alk * Pt - sig) / vl
+            x = cxy + Pt
+            X, Y, hit = _hits(design, ch, plane, x[:, 0], x[:, 1], w[:, 0], w[:, 1])
+            if not hit.all():
+                raise ValueError("a ray misses the plane")
+            ends += [X, Y]
+        tot, parea = tex.boundary(ends[0], ends[1], ends[2], ends[3], own_k, k.size)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            val[k] = np.where(xi_area > 0.0, tot / parea * xi_area, 0.0)
+    tot = np.bincount(own, weights=val * WT, minlength=pix.size) / (vl * vl)
+    return render_norm(design, ch) * np.bincount(pix, weights=tot, minlength=len(rows))

@@ -608,25 +608,33 @@ def _markdown_render(doc: dict[str, Any]) -> list[str]:
         out += ["", f"W9 ({r['title']}; {r['rounds']} alternating rounds, medians, "
                 f"{r['threads_all']} cores). Times per pixel; the NumPy twins are "
                 "benches/numpy_impl.py's `render_exact` (the exact route, every pixel) and "
-                f"`render_pixels` (a fixed {sz['twin_nodes']} x {sz['twin_nodes']} "
-                "Gauss-Legendre rule per piece of the lens cell, exact inner integrals over the "
-                f"pixel's aperture square, on {sz['twin_pixels']} random pixels); MC is "
+                f"`render_pixels_s` (the core's order: a fixed {sz['twin_nodes']} x "
+                f"{sz['twin_nodes']} Gauss-Legendre rule over the pixel, exact texture "
+                "integrals over the image of the lens cell clipped by the aperture's preimage; "
+                f"on {sz['twin_pixels']} random pixels); second twin (once, not in the "
+                f"rounds): `render_pixels` (the other order, {sz['check_nodes']} x "
+                f"{sz['check_nodes']} nodes over the lens cell, exact inner integrals over the "
+                f"pixel's aperture square, on {sz['check_pixels']} of those pixels). MC is "
                 "tests/mc_render.py (NumPy, 1 thread) extrapolated to a standard error of "
                 "1e-3 of white per pixel. Texture: random "
                 f"{sz['texture']} x {sz['texture']} over the (full-size) view at 1000 mm; "
                 f"raytrix-r12 with {sz['r12_K'][0]} x {sz['r12_K'][1]} lenses.", "",
                 "| scene | pixels | native 1 thr / all [µs/px] | native all [px/s] | "
                 "NumPy twin [µs/px] | twin/native 1 / all | agreement [white] | "
+                "second twin [µs/px], agreement [white] | "
                 "MC [µs/px] | MC/native 1 thr / MC÷cores/native all | 1→all |",
-                "|---|---|---|---|---|---|---|---|---|---|"]
+                "|---|---|---|---|---|---|---|---|---|---|---|"]
         for name, s in r["scenes"].items():
             us, mc, a = s["us_per_pixel"], s["monte_carlo"], s["agreement"]
+            b = a.get("second_twin")
+            second = "–" if b is None else (f"{b['us_per_pixel']:.3g}, "
+                                            f"{b['max_diff_white']:.1e}")
             out.append(
                 f"| {W9_NAMES.get(name, name)} | {s['pixels']:,} | {us['native_1']:.3g} / "
                 f"{us['native_all']:.3g} | {s['pixels_per_s']['native_all']:.3g} | "
                 f"{us['numpy']:.3g} | {s['ratio_numpy_over_native_1']:.1f} / "
                 f"{s['ratio_numpy_over_native_all']:.1f} | {a['max_diff_white']:.1e} "
-                f"(≤ {a['limit_white']:.0e}) | {mc['us_per_pixel']:.3g} | "
+                f"(≤ {a['limit_white']:.0e}) | {second} | {mc['us_per_pixel']:.3g} | "
                 f"{s['ratio_mc_over_native_1']:.0f} / {s['ratio_mc_all_over_native_all']:.0f} | "
                 f"{s['speedup_1_to_all']:.2f} |")
         sc = r["scenes"]
