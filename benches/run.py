@@ -43,6 +43,7 @@ sys.path.insert(0, str(HERE))
 
 import numpy_impl  # noqa: E402
 import w7_optimise  # noqa: E402
+import w9_render  # noqa: E402
 
 import splitlf  # noqa: E402
 
@@ -567,13 +568,114 @@ def run_workload(w: Workload, quick: bool, rounds: int) -> dict[str, Any]:
     return result
 
 
-# -- W9: concurrent small calls (a ratio within one process, no NumPy twin) -----------------
+# -- W9: raw images (`render`; benches/w9_render.py) ------------------------------------------
 
-#: Python threads of W9's concurrent runs.
-W9_THREADS = (2, 8)
+#: At most this many rounds of W9 (a round renders three scenes three ways: ~30 s).
+W9_MAX_ROUNDS = 5
+W9_NAMES = {"seed": "seed, exact route, fronto 1000 mm",
+            "r12_fronto": "raytrix-r12, fronto 1000 mm",
+            "r12_slanted": "raytrix-r12, slanted Z = 1000 + 0.3 X + 0.1 Y"}
 
 
-def _w9_calls(quick: bool) -> dict[str, Callable[[], Any]]:
+def _met(ok: bool) -> str:
+    return "met" if ok else "NOT met"
+
+
+def _w9_summary(r: dict[str, Any]) -> str:
+    parts = []
+    for name, s in r["scenes"].items():
+        parts.append(f"{name}: native {s['pixels_per_s']['native_all']:.3g} px/s, "
+                     f"NumPy twin/native {s['ratio_numpy_over_native_all']:.1f}x (all) "
+                     f"{s['ratio_numpy_over_native_1']:.1f}x (1 thr), MC/native "
+                     f"{s['ratio_mc_over_native_1']:.0f}x (1 thr), 1->all "
+                     f"{s['speedup_1_to_all']:.2f}x")
+    m = r["peak_memory_seed"]
+    parts.append(f"seed peak {m['peak_over_outputs_and_texture']:.2f}x raws+texture")
+    if "r12_full" in r:
+        b = r["r12_full"]
+        parts.append(f"r12 fronto full sensor {b['full_seconds']:.1f} s on {b['threads']} "
+                     f"threads ({b['part']}{', extrapolated' if b['part'] != 'full' else ''})")
+    return "W9: " + "; ".join(parts)
+
+
+def _markdown_render(doc: dict[str, Any]) -> list[str]:
+    """The W9 table (render: per scene, per pixel) and its targets."""
+    out = []
+    for r in doc["results"]:
+        if r.get("kind") != "render":
+            continue
+        t, sz = r["targets"], r["sizes"]
+        out += ["", f"W9 ({r['title']}; {r['rounds']} alternating rounds, medians, "
+                f"{r['threads_all']} cores). Times per pixel; the NumPy twins are "
+                "benches/numpy_impl.py's `render_exact` (the exact route, every pixel) and "
+                f"`render_pixels_s` (the core's order: a fixed {sz['twin_nodes']} x "
+                f"{sz['twin_nodes']} Gauss-Legendre rule over the pixel, exact texture "
+                "integrals over the image of the lens cell clipped by the aperture's preimage; "
+                f"on {sz['twin_pixels']} random pixels); second twin (once, not in the "
+                f"rounds): `render_pixels` (the other order, {sz['check_nodes']} x "
+                f"{sz['check_nodes']} nodes over the lens cell, exact inner integrals over the "
+                f"pixel's aperture square, on {sz['check_pixels']} of those pixels). MC is "
+                "tests/mc_render.py (NumPy, 1 thread) extrapolated to a standard error of "
+                "1e-3 of white per pixel. Texture: random "
+                f"{sz['texture']} x {sz['texture']} over the (full-size) view at 1000 mm; "
+                f"raytrix-r12 with {sz['r12_K'][0]} x {sz['r12_K'][1]} lenses.", "",
+                "| scene | pixels | native 1 thr / all [µs/px] | native all [px/s] | "
+                "NumPy twin [µs/px] | twin/native 1 / all | agreement [white] | "
+                "second twin [µs/px], agreement [white] | "
+                "MC [µs/px] | MC/native 1 thr / MC÷cores/native all | 1→all |",
+                "|---|---|---|---|---|---|---|---|---|---|---|"]
+        for name, s in r["scenes"].items():
+            us, mc, a = s["us_per_pixel"], s["monte_carlo"], s["agreement"]
+            b = a.get("second_twin")
+            second = "–" if b is None else (f"{b['us_per_pixel']:.3g}, "
+                                            f"{b['max_diff_white']:.1e}")
+            out.append(
+                f"| {W9_NAMES.get(name, name)} | {s['pixels']:,} | {us['native_1']:.3g} / "
+                f"{us['native_all']:.3g} | {s['pixels_per_s']['native_all']:.3g} | "
+                f"{us['numpy']:.3g} | {s['ratio_numpy_over_native_1']:.1f} / "
+                f"{s['ratio_numpy_over_native_all']:.1f} | {a['max_diff_white']:.1e} "
+                f"(≤ {a['limit_white']:.0e}) | {second} | {mc['us_per_pixel']:.3g} | "
+                f"{s['ratio_mc_over_native_1']:.0f} / {s['ratio_mc_all_over_native_all']:.0f} | "
+                f"{s['speedup_1_to_all']:.2f} |")
+        sc = r["scenes"]
+        twin = min(s["ratio_numpy_over_native_all"] for s in sc.values())
+        mc = min(s["ratio_mc_over_native_1"] for s in sc.values())
+        thr = min(s["speedup_1_to_all"] for s in sc.values())
+        m = r["peak_memory_seed"]
+        line = (f"Targets (issue 21): NumPy twin / native ≥ {t['twin']:.0f}x: worst "
+                f"{twin:.1f}x, {_met(twin >= t['twin'])}; MC / native (same threads) ≥ "
+                f"{t['mc']:.0f}x: worst {mc:.0f}x, {_met(mc >= t['mc'])}; 1 → "
+                f"{r['threads_all']} threads ≥ {t['threads']}x: worst {thr:.2f}x, "
+                f"{_met(thr >= t['threads'])}; peak ≤ {t['peak']}x raws + texture: seed "
+                f"{m['peak_mib']:.0f} MiB = {m['peak_over_outputs_and_texture']:.2f}x "
+                f"({(m['output_bytes'] + m['texture_bytes']) / 2**20:.0f} MiB), "
+                f"{_met(m['peak_over_outputs_and_texture'] <= t['peak'])}")
+        if "r12_full" in r:
+            b = r["r12_full"]
+            ok = b["peak_over_outputs_and_texture"] <= t["peak"]
+            line += (f"; raytrix-r12 {b['part']} sensor ({b['Mx']} x {b['My']} pixels) "
+                     f"{b['peak_mib']:.0f} MiB = {b['peak_over_outputs_and_texture']:.2f}x, "
+                     f"{_met(ok)}")
+            full = b["full_seconds"]
+            how = ("measured" if b["part"] == "full" else
+                   f"extrapolated from the central quarter ({b['seconds']:.1f} s for "
+                   f"{b['pixels']:,} pixels; predicted from the reduced scene "
+                   f"{b['predicted_full_seconds']:.0f} s)")
+            line += (f"; raytrix-r12 fronto-parallel, full sensor ({b['full_pixels']:,} pixels), "
+                     f"tol 1e-3, {b['threads']} threads ≤ {t['r12_fronto_s']:.0f} s: "
+                     f"{full:.1f} s ({b['full_pixels'] / full:.3g} px/s, {how}), "
+                     f"{_met(full <= t['r12_fronto_s'])}")
+        out += ["", line + "."]
+    return out
+
+
+# -- W12: concurrent small calls (a ratio within one process, no NumPy twin) ----------------
+
+#: Python threads of W12's concurrent runs.
+W12_THREADS = (2, 8)
+
+
+def _w12_calls(quick: bool) -> dict[str, Callable[[], Any]]:
     """Small calls at n_threads=1: the work a server or a thread pool executor hands out."""
     cam = splitlf.Camera.paper()
     z = np.geomspace(150.0, 1e4, 10 if quick else 20)
@@ -583,7 +685,7 @@ def _w9_calls(quick: bool) -> dict[str, Callable[[], Any]]:
     }
 
 
-def _w9_serial(fn: Callable[[], Any], n: int) -> float:
+def _w12_serial(fn: Callable[[], Any], n: int) -> float:
     """Wall time of n calls one after the other."""
     t0 = time.perf_counter()
     for _ in range(n):
@@ -591,7 +693,7 @@ def _w9_serial(fn: Callable[[], Any], n: int) -> float:
     return time.perf_counter() - t0
 
 
-def _w9_concurrent(fn: Callable[[], Any], k: int, reps: int) -> float:
+def _w12_concurrent(fn: Callable[[], Any], k: int, reps: int) -> float:
     """Wall time of k Python threads each making `reps` calls."""
     import threading
 
@@ -612,18 +714,18 @@ def _w9_concurrent(fn: Callable[[], Any], k: int, reps: int) -> float:
     return time.perf_counter() - t0
 
 
-def run_w9(quick: bool, rounds: int) -> dict[str, Any]:
-    """W9: k Python threads each making the same small call at n_threads=1, against the
+def run_w12(quick: bool, rounds: int) -> dict[str, Any]:
+    """W12: k Python threads each making the same small call at n_threads=1, against the
     same k x reps calls made one after the other on one thread (alternating, medians of
     the ratio concurrent / serial). On c cores the ideal ratio is max(1/c, 1/k): concurrent
     calls hold no lock of the core's (the GIL is released, pools are per call)."""
-    calls = _w9_calls(quick)
+    calls = _w12_calls(quick)
     reps = 2 if quick else 6
     ratios: dict[str, dict[str, float]] = {}
     times: dict[str, dict[str, list[float]]] = {}
     for name, fn in calls.items():
         fn()  # warm up (pools, caches)
-        for k in W9_THREADS:
+        for k in W12_THREADS:
             per: list[float] = []
             serial_s: list[float] = []
             for r in range(rounds):
@@ -632,17 +734,17 @@ def run_w9(quick: bool, rounds: int) -> dict[str, Any]:
                 got = {}
                 for side in order:
                     if side == 0:
-                        got[0] = _w9_serial(fn, k * reps)
+                        got[0] = _w12_serial(fn, k * reps)
                     else:
-                        got[1] = _w9_concurrent(fn, k, reps)
+                        got[1] = _w12_concurrent(fn, k, reps)
                 serial_s.append(got[0])
                 per.append(got[1] / got[0])
             key = f"{name}_x{k}"
             ratios[key] = statistics.median(per)
             times[key] = {"serial_s": serial_s, "ratio": per}
-    return {"workload": "W9", "kind": "concurrent",
+    return {"workload": "W12", "kind": "concurrent",
             "title": "concurrent small calls (n_threads=1) from 2 and 8 Python threads",
-            "sizes": {"reps_per_thread": reps, "threads": list(W9_THREADS), "quick": quick},
+            "sizes": {"reps_per_thread": reps, "threads": list(W12_THREADS), "quick": quick},
             "rounds": rounds, "threads_all": os.cpu_count() or 1,
             "ratio_concurrent_over_serial": ratios, "runs": times}
 
@@ -700,8 +802,8 @@ def write_markdown(doc: dict[str, Any], path: Path) -> None:
         "arrays of the output's total size. Peak memory: extra resident memory of one run in "
         "a fresh process.",
     ]
-    if any(r.get("kind") not in ("study", "concurrent") and r["workload"] not in BROWSER_WORKLOADS
-           for r in doc["results"]):
+    if any(r.get("kind") not in ("study", "concurrent", "render")
+           and r["workload"] not in BROWSER_WORKLOADS for r in doc["results"]):
         lines += [
             "",
             "| workload | sizes | NumPy [s] | native 1 thr [s] | native all [s] | "
@@ -710,7 +812,8 @@ def write_markdown(doc: dict[str, Any], path: Path) -> None:
             "|---|---|---|---|---|---|---|---|---|---|---|",
         ]
     for r in doc["results"]:
-        if r.get("kind") in ("study", "concurrent") or r["workload"] in BROWSER_WORKLOADS:
+        if (r.get("kind") in ("study", "concurrent", "render")
+                or r["workload"] in BROWSER_WORKLOADS):
             continue
         m = r["median_s"]
         floor = (f"{r['numpy_over_floor']:.2f} | {r['native_all_over_floor']:.2f}"
@@ -723,7 +826,7 @@ def write_markdown(doc: dict[str, Any], path: Path) -> None:
             f"{r['speedup_1_to_all']:.2f} | {floor} | "
             f"{_mib(r['peak_mib']['numpy'])} / {r['peak_mib']['native']:.0f} / {out_mib} |"
         )
-    lines += _markdown_studies(doc) + _markdown_concurrent(doc)
+    lines += _markdown_studies(doc) + _markdown_render(doc) + _markdown_concurrent(doc)
     lines += _markdown_targets(doc) + _markdown_browser(doc)
     path.write_text("\n".join(lines) + "\n")
 
@@ -755,13 +858,13 @@ def _markdown_studies(doc: dict[str, Any]) -> list[str]:
 
 
 def _markdown_concurrent(doc: dict[str, Any]) -> list[str]:
-    """The W9 line: concurrent over serial wall time of the same calls (one process)."""
+    """The W12 line: concurrent over serial wall time of the same calls (one process)."""
     out = []
     for r in doc["results"]:
         if r.get("kind") == "concurrent":
             ratios = ", ".join(f"{k.replace('_x', ' x ')} threads {v:.2f}"
                                for k, v in r["ratio_concurrent_over_serial"].items())
-            out += ["", f"W9 ({r['title']}; concurrent / serial wall time of the same calls, "
+            out += ["", f"W12 ({r['title']}; concurrent / serial wall time of the same calls, "
                     f"medians of {r['rounds']} alternating rounds, {r['threads_all']} cores; "
                     f"targets 2 threads <= 0.75, 8 threads <= 0.9 on 2 cores): {ratios}."]
     return out
@@ -837,7 +940,8 @@ def compare(previous: dict[str, Any], results: list[dict[str, Any]]) -> dict[str
         o = old.get(r["workload"])
         if o is None:
             continue
-        if r["workload"] in BROWSER_WORKLOADS or r.get("kind") == "concurrent":
+        if (r["workload"] in BROWSER_WORKLOADS or r.get("kind") in ("concurrent", "render")
+                or o.get("kind") != r.get("kind")):
             continue
         row = {
             "native_all_now_over_then": r["median_s"]["native_all"] / o["median_s"]["native_all"],
@@ -855,12 +959,17 @@ def compare(previous: dict[str, Any], results: list[dict[str, Any]]) -> dict[str
     return {"commit": previous.get("commit"), "workloads": rows}
 
 
+def _ordered(names: list[str]) -> list[str]:
+    """Workload names in numeric order (W1, ..., W9, W12)."""
+    return sorted(names, key=lambda n: int(n[1:]))
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="small sizes (CI smoke test)")
     ap.add_argument("--only", nargs="*",
-                    choices=sorted([*WORKLOADS, *STUDIES, "W9"]) + list(BROWSER_WORKLOADS),
-                    help="workloads to run (default W1-W7 and W9; W8, the explorer in a "
+                    choices=_ordered([*WORKLOADS, *STUDIES, "W9", "W12"]) + list(BROWSER_WORKLOADS),
+                    help="workloads to run (default W1-W7, W9 and W12; W8, the explorer in a "
                     "browser, only when named)")
     ap.add_argument("--rounds", type=int, default=None,
                     help="alternating rounds (default 7, 3 with --quick)")
@@ -882,7 +991,7 @@ def main(argv: list[str] | None = None) -> int:
     previous = (json.loads(prev_path.read_text())
                 if not args.quick and prev_path.exists() else None)
     results = []
-    for name in args.only or sorted([*WORKLOADS, *STUDIES, "W9"]):
+    for name in args.only or _ordered([*WORKLOADS, *STUDIES, "W9", "W12"]):
         if name == "W8":
             w8 = run_w8(args.quick)
             if w8 is not None:
@@ -892,10 +1001,16 @@ def main(argv: list[str] | None = None) -> int:
             continue
         load_before = os.getloadavg()
         if name == "W9":
-            r = run_w9(args.quick, rounds)
+            r = w9_render.run(args.quick, min(rounds, W9_MAX_ROUNDS))
             r["load_average"] = {"before": load_before, "after": os.getloadavg()}
             results.append(r)
-            print("W9: concurrent / serial wall time " + ", ".join(
+            print(_w9_summary(r), flush=True)
+            continue
+        if name == "W12":
+            r = run_w12(args.quick, rounds)
+            r["load_average"] = {"before": load_before, "after": os.getloadavg()}
+            results.append(r)
+            print("W12: concurrent / serial wall time " + ", ".join(
                 f"{k} {v:.2f}" for k, v in r["ratio_concurrent_over_serial"].items()),
                 flush=True)
             continue

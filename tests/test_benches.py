@@ -24,9 +24,10 @@ def test_quick_benchmarks_run(tmp_path):
                     "--out", str(tmp_path)], check=True, capture_output=True, text=True)
     doc = json.loads((tmp_path / "results.json").read_text())
     names = [r["workload"] for r in doc["results"]]
-    assert names == ["W1", "W2", "W3", "W4", "W5", "W6", "W7", "W9"] and doc["quick"] is True
+    assert names == ["W1", "W2", "W3", "W4", "W5", "W6", "W7", "W9", "W12"]
+    assert doc["quick"] is True
     for r in doc["results"]:
-        if r["workload"] == "W9":  # a ratio within one process, no NumPy twin
+        if r["workload"] in ("W9", "W12"):  # per-scene figures; a ratio within one process
             continue
         assert all(t > 0 for t in r["median_s"].values())
         if "output_mib" in r:  # the outputs themselves must show in the measured peak
@@ -50,9 +51,21 @@ def test_quick_benchmarks_run(tmp_path):
         assert w7["ms_per_evaluated_design"][side] >= w7["core_ms_per_evaluated_design"][side]
     table = (tmp_path / "RESULTS.md").read_text()
     assert "| W7: " in table and "share outside the core" in table
-    assert table.count("\n| W") == len(names) - 1
-    # W9: concurrent over serial wall time of the same calls, every call and thread count
-    w9 = by["W9"]["ratio_concurrent_over_serial"]
-    assert set(w9) == {f"{c}_x{k}" for c in ("sample_grid", "footprints_kernel")
-                       for k in (2, 8)}, set(w9)
-    assert all(0 < v < 100 for v in w9.values()) and "W9 (" in table
+    assert table.count("\n| W") == len(names) - 2  # W1-W6 and W7's rows
+    # W9: each scene's twin agreed with the core (checked before timing), every figure
+    # measured, the seed's raws show in its peak memory
+    w9 = by["W9"]
+    assert w9["kind"] == "render" and set(w9["scenes"]) == {"seed", "r12_fronto", "r12_slanted"}
+    for s in w9["scenes"].values():
+        assert s["agreement"]["max_diff_white"] <= s["agreement"]["limit_white"]
+        assert all(t > 0 for t in s["us_per_pixel"].values())
+        assert s["monte_carlo"]["us_per_pixel"] > 0 and s["ratio_mc_over_native_1"] > 0
+    assert w9["scenes"]["seed"]["agreement"]["limit_white"] == 1e-12
+    mem = w9["peak_memory_seed"]
+    assert mem["peak_mib"] * 2**20 >= 0.5 * mem["output_bytes"]
+    assert "W9 (" in table and "Targets (issue 21)" in table
+    # W12: concurrent over serial wall time of the same calls, every call and thread count
+    w12 = by["W12"]["ratio_concurrent_over_serial"]
+    assert set(w12) == {f"{c}_x{k}" for c in ("sample_grid", "footprints_kernel")
+                        for k in (2, 8)}, set(w12)
+    assert all(0 < v < 100 for v in w12.values()) and "W12 (" in table
