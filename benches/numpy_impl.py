@@ -1015,14 +1015,14 @@ def render_pixels(design, channel: int, rows: np.ndarray, cols: np.ndarray, scen
 
 
 def render_pixels_s(design, channel: int, rows: np.ndarray, cols: np.ndarray, scene: dict,
-                    n_s: int = 3, chunk: int = 1024) -> np.ndarray:
+                    n_s: int = 3, chunk: int = 1024, n_gon: int = 100) -> np.ndarray:
     """Like `render_pixels`, with the integration order swapped (the order the core uses
     for the R12, docs/render.md "outer s"): outer, the sensor point s over the pixel's
     square (∩ the lens's reach), n_s x n_s Gauss-Legendre nodes, fixed; inner, exact, the
     rays through s from one lens: xi in the cell whose main-lens point
     w(xi) = (L/v)(alpha xi - sigma) is in the aperture, i.e. the cell clipped by the
-    aperture's preimage (centre sigma/alpha, radius (v/L) r/|alpha|; a circle as a 256-gon
-    of its area), mapped to the plane through its vertices' hits and integrated exactly
+    aperture's preimage (centre sigma/alpha, radius (v/L) r/|alpha|; a circle as an n_gon
+    of its area: 100 sides, as the core draws it at tol 1e-3), mapped to the plane through its vertices' hits and integrated exactly
     (`ImageTexture.integral`); the mean times the polygon's area in xi, times (L/v)^2
     (ds = (v/L)^2 dw at fixed xi). Exact inner integral on a fronto-parallel plane (the map
     is affine); on a slanted plane the map is projective and its Jacobian is taken as
@@ -1068,7 +1068,6 @@ def render_pixels_s(design, channel: int, rows: np.ndarray, cols: np.ndarray, sc
     al = alpha[own]
     gx0, gy0 = SX / al, SY / al  # the aperture's preimage: centre sigma/alpha
     rad = rho / np.abs(al)
-    n_gon = 256
     step = 2.0 * np.pi / n_gon
     R = np.sqrt(2.0 * np.pi / (n_gon * np.sin(step)))  # equal-area n-gon of the unit disc
     h_in = R * np.cos(step / 2.0)  # its inradius
