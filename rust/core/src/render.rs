@@ -62,6 +62,11 @@ pub const MIN_TOL: f64 = 1e-10;
 const PIECE_DEPTH_RTOL: f64 = 2e-4;
 /// Most pieces per axis a polygon is cut into.
 const MAX_PIECES: usize = 24;
+/// Relative accuracy assumed of one evaluation of the integrand on a slanted plane or a
+/// depth map (its pieces' count changes with the node, so it is not smooth at that level):
+/// the adaptive rule accepts a box when its two rules agree to tol plus this fraction of
+/// the box's value, instead of chasing those steps to the deepest level.
+const PIECE_NOISE: f64 = 2e-4;
 
 /// Options of a render.
 #[derive(Debug, Clone, Copy)]
@@ -190,6 +195,8 @@ impl<'a> Chan<'a> {
 /// Per-worker buffers.
 #[derive(Default)]
 struct Work {
+    /// Relative accuracy of one evaluation of the integrand (0: exact; see `PIECE_NOISE`).
+    rel_floor: f64,
     tex: Scratch,
     poly: Vec<Pt>,
     tmp: Vec<Pt>,
@@ -372,7 +379,7 @@ fn adaptive(
         }
     }
     g2 *= area;
-    if (g2 - g1).abs() <= tol || depth >= MAX_DEPTH {
+    if (g2 - g1).abs() <= tol + wk.rel_floor * g2.abs() || depth >= MAX_DEPTH {
         return g2;
     }
     adaptive(f, rough, x0, xm, y0, ym, t, depth + 1, wk)
@@ -1160,7 +1167,14 @@ fn general_channel(
             std::slice::from_raw_parts_mut(raw_ptr.get().add(start * cols), range.len() * cols)
         };
         chunk.par_chunks_mut(cols).enumerate().try_for_each_init(
-            Work::default,
+            || Work {
+                rel_floor: if scene.surface.fronto().is_some() {
+                    0.0
+                } else {
+                    PIECE_NOISE
+                },
+                ..Work::default()
+            },
             |wk, (i, row)| -> Result<()> {
                 checkpoint()?;
                 let b = (start + i) as u32;

@@ -12,8 +12,8 @@ use crate::texture::Texture;
 pub const MAX_DEPTH_SAMPLES: usize = 1 << 28;
 /// Steps of the march along a ray before bisection (depth maps).
 const MARCH_STEPS: usize = 96;
-/// Bisection steps after the march (relative precision 2^-52 of the map's depth range).
-const BISECTIONS: usize = 52;
+/// Most refinement steps after the march (Illinois false position, bisection where the map is undefined).
+const BISECTIONS: usize = 80;
 
 /// A depth map: depths at the centres of uniform cells over [x0, x1] × [y0, y1] (row 0
 /// at the top), bilinear between centres, constant beyond the outer centres up to the
@@ -229,12 +229,45 @@ impl Surface {
                     let z = m.zmin + step * i as f64;
                     if let Some(v) = f(z) {
                         if v >= 0.0 {
+                            // Illinois false position on the bracket (f(lo) < 0 ≤ f(hi)),
+                            // a bisection step where f is undefined; to 1e-13 relative.
                             let (mut lo, mut hi) = (prev, z);
+                            let (mut flo, mut fhi) = (f(lo).unwrap_or(f64::NAN), v);
+                            let (mut side, eps) = (0i32, 1e-13 * hi.abs().max(1.0));
                             for _ in 0..BISECTIONS {
-                                let mid = 0.5 * (lo + hi);
+                                if hi - lo <= eps {
+                                    break;
+                                }
+                                let mut mid = if flo.is_finite() && fhi > flo {
+                                    lo - flo * (hi - lo) / (fhi - flo)
+                                } else {
+                                    0.5 * (lo + hi)
+                                };
+                                if !(mid > lo && mid < hi) {
+                                    mid = 0.5 * (lo + hi);
+                                }
                                 match f(mid) {
-                                    Some(v) if v >= 0.0 => hi = mid,
-                                    _ => lo = mid,
+                                    Some(fm) if fm >= 0.0 => {
+                                        hi = mid;
+                                        fhi = fm;
+                                        if side == 1 {
+                                            flo *= 0.5;
+                                        }
+                                        side = 1;
+                                    }
+                                    Some(fm) => {
+                                        lo = mid;
+                                        flo = fm;
+                                        if side == -1 {
+                                            fhi *= 0.5;
+                                        }
+                                        side = -1;
+                                    }
+                                    None => {
+                                        lo = mid;
+                                        flo = f64::NAN;
+                                        side = 0;
+                                    }
                                 }
                             }
                             return Some((hi, at(hi)));
