@@ -1179,6 +1179,8 @@ fn general_channel(
                 checkpoint()?;
                 let b = (start + i) as u32;
                 for (a, out) in row.iter_mut().enumerate() {
+                    // A pixel can take milliseconds (depth maps): check for Ctrl-C per pixel.
+                    checkpoint()?;
                     *out = pixel_value(design, chan, scene, tol, a as u32, b, reach, wk);
                 }
                 done.fetch_add(1, Ordering::Relaxed);
