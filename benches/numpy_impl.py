@@ -1022,7 +1022,8 @@ def render_pixels_s(design, channel: int, rows: np.ndarray, cols: np.ndarray, sc
     rays through s from one lens: xi in the cell whose main-lens point
     w(xi) = (L/v)(alpha xi - sigma) is in the aperture, i.e. the cell clipped by the
     aperture's preimage (centre sigma/alpha, radius (v/L) r/|alpha|; a circle as an n_gon
-    of its area: 100 sides, as the core draws it at tol 1e-3), mapped to the plane through its vertices' hits and integrated exactly
+    of its area: 100 sides, as the core draws it at tol 1e-3), mapped to the plane through
+    its vertices' hits and integrated exactly
     (`ImageTexture.integral`); the mean times the polygon's area in xi, times (L/v)^2
     (ds = (v/L)^2 dw at fixed xi). Exact inner integral on a fronto-parallel plane (the map
     is affine); on a slanted plane the map is projective and its Jacobian is taken as

@@ -29,7 +29,8 @@ def scene_texture(width: float) -> splitlf.Image:
     y, x = np.mgrid[0:rows, 0:cols] / cols
     img = 0.45 + 0.0 * x
     for _ in range(40):  # smooth blobs
-        cx, cy, r, a = rng.uniform(0, 1), rng.uniform(0, 0.75), rng.uniform(0.02, 0.12), rng.uniform(-0.25, 0.25)
+        cx, cy = rng.uniform(0, 1), rng.uniform(0, 0.75)
+        r, a = rng.uniform(0.02, 0.12), rng.uniform(-0.25, 0.25)
         img += a * np.exp(-((x - cx) ** 2 + (y - cy) ** 2) / (2 * r * r))
     for _ in range(12):  # sharp discs
         cx, cy, r = rng.uniform(0, 1), rng.uniform(0, 0.75), rng.uniform(0.01, 0.04)

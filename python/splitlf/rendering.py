@@ -485,8 +485,10 @@ def render(design: Design, scene: Scene, *, noise: Mapping[str, float] | None = 
     noise_rng = np.random.default_rng([entropy, 1])
     kind, params, image = _texture_seam(scene, subject, texture_rng)
     surface, sparams, depth_map = scene.depth.seam()
+    background = scene.background
+    assert background is not None  # Scene.__post_init__ sets it
     native_scene = _native.RenderScene(
-        kind, params, image, surface, sparams, depth_map, scene.background)
+        kind, params, image, surface, sparams, depth_map, background)
     bar, callback = _progress(show)
     try:
         images = _native.render(subject.core, native_scene, tol=tol_, n_threads=threads,
