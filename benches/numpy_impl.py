@@ -6,6 +6,8 @@ in-place arithmetic where it saves passes, no Python loops over elements.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 
@@ -861,6 +863,21 @@ def _hits(design, ch, plane, cx, cy, wx, wy):
     return wx - z * ax, wy - z * ay, (den > 0.0) & (z > F)
 
 
+def circle_sides(tol: float = 1e-3) -> int:
+    """Sides of the equal-area polygon standing for a circular aperture at accuracy ``tol``
+    (docs/render.md: its area gap to the disc, about 2.5 / n^2, kept within tol / 4;
+    32 to 1024 sides): 100 at 1e-3."""
+    return int(min(max(math.ceil(math.sqrt(2.5 / (tol / 4.0))), 32), 1024))
+
+
+def equal_area_ngon(n_gon: int) -> tuple[np.ndarray, float, float]:
+    """The regular n_gon of the unit disc's area: (angles phi of its edges' normals, the
+    angular step, its circumradius); its inradius is R cos(step / 2)."""
+    step = 2.0 * np.pi / n_gon
+    R = float(np.sqrt(2.0 * np.pi / (n_gon * np.sin(step))))
+    return (np.arange(n_gon) + 0.5) * step, step, R
+
+
 def _aperture_halfplanes(design, n_gon: int = 256) -> tuple[np.ndarray, float, float, float]:
     """The aperture as half-planes cos(phi) w_x + sin(phi) w_y <= h: a square's 4 sides, or
     a circle's n_gon-gon of the disc's area (angles phi of its edges' normals). Returns
@@ -868,9 +885,22 @@ def _aperture_halfplanes(design, n_gon: int = 256) -> tuple[np.ndarray, float, f
     r = design.D / 2.0
     if design.aperture == "square":
         return np.array([0.0, 0.5, 1.0, 1.5]) * np.pi, r, 0.0, r * np.sqrt(2.0)
-    step = 2.0 * np.pi / n_gon
-    R = r * np.sqrt(2.0 * np.pi / (n_gon * np.sin(step)))  # equal area
-    return (np.arange(n_gon) + 0.5) * step, R * np.cos(step / 2.0), step, R
+    phi, step, R = equal_area_ngon(n_gon)
+    return phi, r * R * np.cos(step / 2.0), step, r * R
+
+
+def _lens_images(ch, vl: float, m: float) -> tuple[np.ndarray, ...]:
+    """Each lens type's alpha = 1 + v/L - v/f, the lens centres, their types and their
+    image centres (1 + v/L) c (docs/model.md §9-§10)."""
+    alphas = np.array([1.0 + vl - ch.v / f for f in _focals(ch)])
+    centres, types = lens_grid(ch)
+    return alphas, centres, types, centres * m
+
+
+def _pixel_centres(res: dict, mu: float, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """Sensor-layout pixel centres (x, y) of pixels [rows, cols]."""
+    return np.stack([mu * (cols - (res["Mx"] - 1.0) / 2.0),
+                     mu * (rows - (res["My"] - 1.0) / 2.0)], axis=1)
 
 
 def render_pixels(design, channel: int, rows: np.ndarray, cols: np.ndarray, scene: dict,
@@ -909,12 +939,9 @@ def render_pixels(design, channel: int, rows: np.ndarray, cols: np.ndarray, scen
     L, v, mu = ch.L, ch.v, ch.mu
     vl, m = v / L, 1.0 + v / L
     hw = mu / (2.0 * vl)  # half side of the pixel's w square
-    alphas = np.array([1.0 + vl - v / f for f in _focals(ch)])
-    centres, types = lens_grid(ch)
-    img = centres * m
+    alphas, centres, types, img = _lens_images(ch, vl, m)
     rows, cols = np.asarray(rows), np.asarray(cols)
-    s = np.stack([mu * (cols - (res["Mx"] - 1.0) / 2.0),
-                  mu * (rows - (res["My"] - 1.0) / 2.0)], axis=1)
+    s = _pixel_centres(res, mu, rows, cols)
     half = np.array([ch.d / 2.0, ch.d / np.sqrt(3.0) if ch.grid == "hex" else ch.d / 2.0])
     reach = np.abs(alphas).max() * half + vl * r + mu / 2.0
     near = np.all(np.abs(s[:, None, :] - img[None, :, :]) <= reach + 1e-12, axis=2)
@@ -1015,19 +1042,19 @@ def render_pixels(design, channel: int, rows: np.ndarray, cols: np.ndarray, scen
 
 
 def render_pixels_s(design, channel: int, rows: np.ndarray, cols: np.ndarray, scene: dict,
-                    n_s: int = 3, chunk: int = 1024, n_gon: int = 100) -> np.ndarray:
+                    n_s: int = 3, chunk: int = 1024, n_gon: int | None = None
+                    ) -> np.ndarray:
     """Like `render_pixels`, with the integration order swapped (the order the core uses
     for the R12, docs/render.md "outer s"): outer, the sensor point s over the pixel's
     square (∩ the lens's reach), n_s x n_s Gauss-Legendre nodes, fixed; inner, exact, the
     rays through s from one lens: xi in the cell whose main-lens point
     w(xi) = (L/v)(alpha xi - sigma) is in the aperture, i.e. the cell clipped by the
     aperture's preimage (centre sigma/alpha, radius (v/L) r/|alpha|; a circle as an n_gon
-    of its area: 100 sides, as the core draws it at tol 1e-3), mapped to the plane through
-    its vertices' hits and integrated exactly
-    (`ImageTexture.integral`); the mean times the polygon's area in xi, times (L/v)^2
-    (ds = (v/L)^2 dw at fixed xi). Exact inner integral on a fronto-parallel plane (the map
-    is affine); on a slanted plane the map is projective and its Jacobian is taken as
-    constant over the polygon."""
+    of its area, by default `circle_sides()` as the core draws it at tol 1e-3), mapped to
+    the plane through its vertices' hits and integrated exactly (`ImageTexture.integral`);
+    the mean times the polygon's area in xi, times (L/v)^2 (ds = (v/L)^2 dw at fixed xi).
+    Exact inner integral on a fronto-parallel plane (the map is affine); on a slanted
+    plane the map is projective and its Jacobian is taken as constant over the polygon."""
     ch = design.channels[channel - 1]
     res = design.resolved()[channel - 1]
     if ch.layout != "sensor" or ch.grid != "hex" or design.aperture != "circle":
@@ -1035,12 +1062,9 @@ def render_pixels_s(design, channel: int, rows: np.ndarray, cols: np.ndarray, sc
     r = design.D / 2.0
     L, v, mu = ch.L, ch.v, ch.mu
     vl, m = v / L, 1.0 + v / L
-    alphas = np.array([1.0 + vl - v / f for f in _focals(ch)])
-    centres, types = lens_grid(ch)
-    img = centres * m
+    alphas, centres, types, img = _lens_images(ch, vl, m)
     rows, cols = np.asarray(rows), np.asarray(cols)
-    s = np.stack([mu * (cols - (res["Mx"] - 1.0) / 2.0),
-                  mu * (rows - (res["My"] - 1.0) / 2.0)], axis=1)
+    s = _pixel_centres(res, mu, rows, cols)
     a, b = ch.d / 2.0, ch.d / np.sqrt(3.0)
     hexv = np.array([[0.0, -b], [a, -b / 2], [a, b / 2], [0.0, b], [-a, b / 2], [-a, -b / 2]])
     rho = vl * r
@@ -1069,8 +1093,9 @@ def render_pixels_s(design, channel: int, rows: np.ndarray, cols: np.ndarray, sc
     al = alpha[own]
     gx0, gy0 = SX / al, SY / al  # the aperture's preimage: centre sigma/alpha
     rad = rho / np.abs(al)
-    step = 2.0 * np.pi / n_gon
-    R = np.sqrt(2.0 * np.pi / (n_gon * np.sin(step)))  # equal-area n-gon of the unit disc
+    if n_gon is None:
+        n_gon = circle_sides()
+    phi, step, R = equal_area_ngon(n_gon)  # the equal-area n-gon of the unit disc
     h_in = R * np.cos(step / 2.0)  # its inradius
     tex = ImageTexture(scene["image"], scene["extent"])
     plane = tuple(float(p) for p in scene["plane"])
@@ -1078,7 +1103,6 @@ def render_pixels_s(design, channel: int, rows: np.ndarray, cols: np.ndarray, sc
     hx0, hx1 = hexv, np.roll(hexv, -1, axis=0)
     hn = np.stack([hx1[:, 1] - hx0[:, 1], hx0[:, 0] - hx1[:, 0]], 1)
     hh = (hn * hx0).sum(axis=1)
-    phi = (np.arange(n_gon) + 0.5) * step
     gn = np.stack([np.cos(phi), np.sin(phi)], 1)
     gv = R * np.stack([np.cos(phi - step / 2.0), np.sin(phi - step / 2.0)], 1)
     # Where the n-gon holds the whole cell (every vertex within its inradius), the region

@@ -44,6 +44,7 @@ sys.path.insert(0, str(HERE))
 import numpy_impl  # noqa: E402
 import w7_optimise  # noqa: E402
 import w9_render  # noqa: E402
+from timing import timed  # noqa: E402
 
 import splitlf  # noqa: E402
 
@@ -438,15 +439,6 @@ def _floor(w: Workload, inp: dict[str, Any]) -> Callable[[], None]:
         return lambda: floor_arrays_run(arrays)
     nbytes = w.out_bytes(inp)
     return lambda: floor_run(nbytes)
-
-
-def timed(fn: Callable[..., Any], *args: Any) -> float:
-    gc.collect()
-    t0 = time.perf_counter()
-    r = fn(*args)
-    dt = time.perf_counter() - t0
-    del r
-    return dt
 
 
 def peak_memory(name: str, side: str, quick: bool, traced: bool = False) -> float:

@@ -62,6 +62,7 @@ sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parent / "tests"))  # mc_render (and its `reference`)
 
 import numpy_impl  # noqa: E402
+from timing import timed  # noqa: E402
 
 import splitlf  # noqa: E402
 from splitlf import _native  # noqa: E402
@@ -212,15 +213,6 @@ def check(inp: dict[str, Any], name: str) -> dict[str, Any]:
     return out
 
 
-def _timed(fn, *args) -> float:
-    gc.collect()
-    t0 = time.perf_counter()
-    r = fn(*args)
-    dt = time.perf_counter() - t0
-    del r
-    return dt
-
-
 def monte_carlo(inp: dict[str, Any], name: str, n_pixels: int, n_rays: int,
                 rng: np.random.Generator) -> dict[str, Any]:
     """tests/mc_render.py on n_pixels random pixels of the scene: per pixel its time at
@@ -333,7 +325,7 @@ def run(quick: bool, rounds: int) -> dict[str, Any]:
     for r in range(rounds):
         for side in order[r % len(order):] + order[:r % len(order)]:
             fn, *args = sides[side]
-            times[side].append(_timed(fn, *args))
+            times[side].append(timed(fn, *args))
     med = {k: statistics.median(v) for k, v in times.items()}
     scenes: dict[str, Any] = {}
     rng = np.random.default_rng(4)

@@ -4,6 +4,30 @@
 /// A point (x, y).
 pub type Pt = [f64; 2];
 
+/// The angles (radians) of the points `pts` seen from `c`, as the range [lo, hi] they span
+/// unwrapped around the first point's angle: lo ≤ that angle ≤ hi, hi − lo < 2π. For points
+/// of a convex set that does not contain `c`, the set's whole angular extent.
+pub fn angular_span(pts: &[Pt], c: Pt) -> (f64, f64) {
+    use std::f64::consts::PI;
+    let Some(first) = pts.first() else {
+        return (0.0, 0.0);
+    };
+    let a0 = (first[1] - c[1]).atan2(first[0] - c[0]);
+    let (mut lo, mut hi) = (0.0f64, 0.0f64);
+    for p in &pts[1..] {
+        let mut d = (p[1] - c[1]).atan2(p[0] - c[0]) - a0;
+        while d > PI {
+            d -= 2.0 * PI;
+        }
+        while d < -PI {
+            d += 2.0 * PI;
+        }
+        lo = lo.min(d);
+        hi = hi.max(d);
+    }
+    (a0 + lo, a0 + hi)
+}
+
 /// Signed area (positive for counter-clockwise vertices; shoelace formula).
 pub fn signed_area(p: &[Pt]) -> f64 {
     let n = p.len();

@@ -15,7 +15,7 @@
 use std::f64::consts::PI;
 
 use crate::error::{Error, Result};
-use crate::polygon::{centroid, clip_into, signed_area, Pt};
+use crate::polygon::{angular_span, centroid, clip_into, signed_area, Pt};
 
 /// Largest number of texture cells (far beyond any image; guards typos).
 pub const MAX_TEXTURE_CELLS: usize = 1 << 31;
@@ -444,22 +444,10 @@ impl Texture {
                     return true;
                 }
                 let width = PI / *spokes as f64;
-                let a0 = (corners[0][1] - center[1]).atan2(corners[0][0] - center[0]);
-                let (mut lo, mut hi) = (0.0f64, 0.0f64);
-                for p in &corners[1..] {
-                    let mut d = (p[1] - center[1]).atan2(p[0] - center[0]) - a0;
-                    while d > PI {
-                        d -= 2.0 * PI;
-                    }
-                    while d < -PI {
-                        d += 2.0 * PI;
-                    }
-                    lo = lo.min(d);
-                    hi = hi.max(d);
-                }
+                let (lo, hi) = angular_span(&corners, *center);
                 // A few spoke edges: localised kinks the rules may miss; many: weak kinks
                 // spread over the box, which the rules' comparison sees.
-                let crossings = ((a0 + hi) / width).floor() - ((a0 + lo) / width).floor();
+                let crossings = (hi / width).floor() - (lo / width).floor();
                 (1.0..=8.0).contains(&crossings)
             }
             _ => false,
@@ -661,27 +649,7 @@ fn star_bright_area(poly: &[Pt], spokes: u32, c: Pt, s: &mut Scratch) -> f64 {
     let (k0, k1) = if inside {
         (0, wedges - 1)
     } else {
-        let ang: Vec<f64> = poly
-            .iter()
-            .map(|p| (p[1] - c[1]).atan2(p[0] - c[0]))
-            .collect();
-        // Unwrap around the first vertex's angle.
-        let a0 = ang[0];
-        let rel: Vec<f64> = ang
-            .iter()
-            .map(|&a| {
-                let mut d = a - a0;
-                while d > PI {
-                    d -= 2.0 * PI;
-                }
-                while d < -PI {
-                    d += 2.0 * PI;
-                }
-                d
-            })
-            .collect();
-        let lo = a0 + rel.iter().cloned().fold(f64::INFINITY, f64::min);
-        let hi = a0 + rel.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+        let (lo, hi) = angular_span(poly, c);
         (
             (lo / width).floor() as i64 - 1,
             (hi / width).floor() as i64 + 1,

@@ -1,0 +1,18 @@
+"""One timing helper shared by the benchmark scripts."""
+
+from __future__ import annotations
+
+import gc
+import time
+from collections.abc import Callable
+from typing import Any
+
+
+def timed(fn: Callable[..., Any], *args: Any) -> float:
+    """Seconds of one call of ``fn(*args)``, after a garbage collection, its result dropped."""
+    gc.collect()
+    t0 = time.perf_counter()
+    r = fn(*args)
+    dt = time.perf_counter() - t0
+    del r
+    return dt
