@@ -5,6 +5,7 @@ description, presets, presentation and orchestration. Lengths are in millimetres
 are positive distances in front of the main lens.
 """
 
+from . import measure
 from ._native import __version__
 from .camera import Camera
 from .coverage import ChiefSamples, Coverage, Samples2D, chief_samples, coverage, samples_2d
@@ -14,6 +15,7 @@ from .merits import Merits, evaluate
 from .optics import Curves, DepthOfField, curves, depth_of_field, sharp_fractions
 from .optimisation import OptimiseResult, optimise
 from .rayspace import Footprints, SampleGrid, Trace, footprints, sample_grid, trace
+from .reconstruction import Reconstruction, reconstruct
 from .rendering import DepthMap, Plane, Raw, Scene, render
 from .samples import CoincidencePlanes, NewSamples, coincidence_planes, new_samples
 from .simulation import Simulation, simulate
@@ -85,6 +87,9 @@ __all__ = [
     "new_samples",
     "optimise",
     "render",
+    "reconstruct",
+    "Reconstruction",
+    "measure",
     "sample_grid",
     "samples_2d",
     "sharp_fractions",

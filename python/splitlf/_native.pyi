@@ -7,10 +7,18 @@ import numpy as np
 import numpy.typing as npt
 
 __all__ = [
+    "CameraCore",
+    "ChiefSampleArrays",
+    "CoverageArrays",
     "DEFAULT_MAX_N",
     "DEFAULT_THRESHOLD_PX",
     "DEFAULT_TOL",
     "DEFAULT_WINDOW",
+    "DesignCore",
+    "DesignCurvesArrays",
+    "DesignDepthOfFieldIntervals",
+    "DesignSamplesArrays",
+    "FootprintArrays",
     "MAX_CELLS",
     "MAX_CHANNELS",
     "MAX_COINCIDENCE_WORK",
@@ -25,16 +33,9 @@ __all__ = [
     "MAX_TOL_2D",
     "MAX_TYPES",
     "MIN_RENDER_TOL",
-    "RENDER_TOL",
-    "CameraCore",
-    "ChiefSampleArrays",
-    "CoverageArrays",
-    "DesignCore",
-    "DesignCurvesArrays",
-    "DesignDepthOfFieldIntervals",
-    "DesignSamplesArrays",
-    "FootprintArrays",
+    "OUTSIDE_SHARE",
     "PlaneColumns",
+    "RENDER_TOL",
     "RenderArrays",
     "RenderScene",
     "SampleGridArrays",
@@ -43,6 +44,8 @@ __all__ = [
     "TraceArrays",
     "__version__",
     "available_memory",
+    "cell_averages",
+    "cell_grid",
     "chief_samples",
     "coverage",
     "design_coincidence_planes",
@@ -58,9 +61,13 @@ __all__ = [
     "design_sharp_fractions",
     "design_system_matrix",
     "design_trace",
+    "pixel_span",
+    "reconstruction_factors",
+    "reconstruction_system",
     "render",
     "render_extent",
     "samples_2d",
+    "seen_region",
 ]
 
 __version__: str
@@ -411,3 +418,34 @@ def render(
 ) -> list[_F64]: ...
 def render_extent(design: DesignCore, z: float) -> tuple[float, float, float, float]: ...
 def available_memory() -> int: ...
+OUTSIDE_SHARE: float
+def seen_region(
+    design: DesignCore, z: float, channels: list[int] | None = None
+) -> tuple[float, float, float, float]: ...
+def pixel_span(design: DesignCore, z: float, channels: list[int] | None = None) -> float: ...
+def cell_grid(
+    extent: tuple[float, float, float, float], step: float
+) -> tuple[float, float, float, int, int]: ...
+def reconstruction_system(
+    design: DesignCore,
+    z: float,
+    grid: tuple[float, float, float, int, int],
+    channels: list[int] | None = None,
+    n_threads: int | None = None,
+    progress: Callable[[int, int], object] | None = None,
+) -> tuple[
+    npt.NDArray[np.uint32],
+    npt.NDArray[np.uint64],
+    npt.NDArray[np.uint64],
+    npt.NDArray[np.uint32],
+    _F64,
+]: ...
+def reconstruction_factors(
+    design: DesignCore, z: float, grid: tuple[float, float, float, int, int], channel: int
+) -> tuple[
+    float,
+    npt.NDArray[np.uint8],
+    list[tuple[npt.NDArray[np.uint64], npt.NDArray[np.uint32], _F64, _F64]],
+    list[tuple[npt.NDArray[np.uint64], npt.NDArray[np.uint32], _F64, _F64]],
+]: ...
+def cell_averages(scene: RenderScene, grid: tuple[float, float, float, int, int]) -> _F64: ...

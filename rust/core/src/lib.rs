@@ -33,6 +33,7 @@ pub mod samples;
 pub mod samples2d;
 pub mod scene;
 pub mod simulate;
+pub mod system;
 pub mod texture;
 
 pub use camera::{Camera, Half};

@@ -14,6 +14,7 @@ mod errors;
 mod interrupt;
 mod optics;
 mod rayspace;
+mod reconstruct;
 mod render;
 mod samples;
 mod simulate;
@@ -44,6 +45,7 @@ fn constants(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("MAX_TOL_2D", samples2d::MAX_TOL_2D)?;
     m.add("MAX_COVERAGE_WORK", samples2d::MAX_COVERAGE_WORK)?;
     m.add("RENDER_TOL", splitlf_core::render::DEFAULT_TOL)?;
+    m.add("OUTSIDE_SHARE", splitlf_core::system::OUTSIDE_SHARE)?;
     m.add("MIN_RENDER_TOL", splitlf_core::render::MIN_TOL)?;
     Ok(())
 }
@@ -100,6 +102,12 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
         simulate::design_render,
         render::render,
         render::render_extent,
+        reconstruct::seen_region,
+        reconstruct::pixel_span,
+        reconstruct::cell_grid,
+        reconstruct::reconstruction_system,
+        reconstruct::reconstruction_factors,
+        reconstruct::cell_averages,
         arrays::available_memory,
     );
     Ok(())

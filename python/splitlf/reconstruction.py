@@ -1,0 +1,325 @@
+"""Super-resolved all-in-focus images from raws (docs/model.md §11, docs/reconstruct.md).
+
+:func:`reconstruct` solves for the albedo on a uniform grid of cells over a region of a
+known surface: the core builds the sparse linear map A (row = raw pixel, column = cell,
+entry = what the pixel records when the cell alone is white; ``_native.reconstruction_system``,
+with the forward model's own integration, so that ``A t`` is ``render``'s raw of the image
+texture t), and SciPy's conjugate gradients solve the regularised least squares
+
+    min_t  sum_rows ((A t - raw) / sigma)^2  +  lambda * |D t|^2
+
+with sigma the raw's noise per pixel (from ``noise``, or a stated floor for noise-free
+raws), D the differences between neighbouring cells and lambda a fixed prior weight. The
+regulariser's weight never depends on the number of rows: more data never hurts.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from . import _native, _validate
+from .design import Design
+from .errors import InvalidParameter
+from .rendering import Plane, Raw, _extent, _progress_flag
+from .simulation import _noise
+
+Extent = tuple[float, float, float, float]
+
+#: The noise (fraction of a fully lit white pixel, 1 sigma) assumed for a raw given without
+#: ``noise``: the forward model's stated accuracy (docs/render.md).
+NOISE_FLOOR = 1e-3
+#: The default weight lambda of the smoothness prior: neighbouring cells' albedos differ by
+#: about 1/sqrt(lambda) = 0.5 (a prior as wide as the albedo range's half).
+DEFAULT_REGULARIZATION = 4.0
+#: Conjugate-gradient stop: the residual of the normal equations relative to their
+#: right-hand side.
+CG_RTOL = 1e-6
+#: At most this many iterations.
+CG_MAX_ITER = 2000
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Reconstruction:
+    """A reconstructed albedo image: ``image`` (2-D float64, row 0 at the top = largest Y,
+    column 0 at the left, like a texture) of cells of pitch ``step`` (mm) uniform over
+    ``extent`` = (X0, X1, Y0, Y1) in object-space mm, on the surface ``depth``, from
+    ``channels`` (numbered from 1) of ``design``; and what the solve did: ``rows`` (raw
+    pixels used), ``iterations``, ``residual`` (the normal equations' relative residual),
+    ``regularization`` (lambda) and ``noise`` (the per-pixel sigma model used)."""
+
+    image: np.ndarray
+    extent: Extent
+    step: float
+    design: Design
+    depth: float
+    channels: tuple[int, ...]
+    rows: int
+    iterations: int
+    residual: float
+    regularization: float
+    noise: str
+
+    def __post_init__(self) -> None:
+        self.image.setflags(write=False)
+
+
+def _depth(depth: Any) -> float:
+    if isinstance(depth, Plane):
+        if depth.gx != 0.0 or depth.gy != 0.0:
+            raise InvalidParameter.of(
+                "depth", f"Plane({depth.z0}, {depth.gx}, {depth.gy})",
+                "a fronto-parallel plane (a number, or a Plane with gx = gy = 0): slanted "
+                "planes and depth maps are not reconstructed yet (docs/reconstruct.md)")
+        return float(depth.z0)
+    if isinstance(depth, bool) or not isinstance(depth, (int, float, np.integer, np.floating)):
+        raise TypeError("depth must be a number (mm) or a splitlf.Plane, got "
+                        f"{type(depth).__name__}")
+    z = float(depth)
+    if not math.isfinite(z):
+        raise InvalidParameter.of("depth", z, "a finite depth > F (mm)")
+    return z
+
+
+def _channels(design: Design, channels: Any) -> tuple[int, ...]:
+    n = len(design.channels)
+    if channels is None:
+        return tuple(range(1, n + 1))
+    if isinstance(channels, (int, np.integer)) and not isinstance(channels, bool):
+        channels = (channels,)
+    if not isinstance(channels, Sequence) or isinstance(channels, str) or not channels:
+        raise TypeError("channels must be None, a channel number or a non-empty sequence of "
+                        f"them, got {channels!r}")
+    out = []
+    for c in channels:
+        if isinstance(c, bool) or not isinstance(c, (int, np.integer)):
+            raise TypeError(f"channels must hold integers, got {c!r}")
+        if not 1 <= int(c) <= n:
+            raise InvalidParameter.of("channels", int(c), f"channel numbers in 1..{n}")
+        if int(c) in out:
+            raise InvalidParameter.of("channels", int(c), "each channel at most once")
+        out.append(int(c))
+    return tuple(out)
+
+
+def _sigma(y: np.ndarray, noise: Mapping[str, float] | None, white: np.ndarray
+           ) -> tuple[np.ndarray, str]:
+    """Per-row noise sigma: Poisson(N v)/N plus read noise r/N (render's model), or the
+    floor NOISE_FLOOR x white for noise-free raws; never below the floor."""
+    floor = NOISE_FLOOR * white
+    if noise is None:
+        return floor, f"noise-free: sigma = {NOISE_FLOOR:g} of white"
+    n, r = noise["photons"], noise["read_noise"]
+    var = np.maximum(y, 0.0) / n + (r / n) ** 2
+    return np.maximum(np.sqrt(var), floor), f"photons {n:g}, read noise {r:g}"
+
+
+def _smoothness(t: np.ndarray) -> np.ndarray:
+    """D^T D t for D the differences between horizontal and vertical neighbour cells."""
+    g = np.zeros_like(t)
+    dx = t[:, 1:] - t[:, :-1]
+    g[:, 1:] += dx
+    g[:, :-1] -= dx
+    dy = t[1:, :] - t[:-1, :]
+    g[1:, :] += dy
+    g[:-1, :] -= dy
+    return g
+
+
+def _neighbours(ny: int, nx: int) -> np.ndarray:
+    """The diagonal of D^T D: each cell's number of neighbours."""
+    n = np.zeros((ny, nx))
+    n[:, 1:] += 1
+    n[:, :-1] += 1
+    n[1:, :] += 1
+    n[:-1, :] += 1
+    return n
+
+
+@dataclasses.dataclass
+class _Part:
+    """The pixels of one lens type of one channel that see only the grid: the map's rows
+    norm (y row b) ⊗ (x row a), restricted to the raw rows and columns with such pixels."""
+
+    norm: float
+    px: Any  # CSR, (raw columns kept, grid columns)
+    py: Any  # CSR, (raw rows kept, grid rows from the top)
+    mask: np.ndarray  # (rows kept, columns kept): the pixel is a row of the map
+    y: np.ndarray  # the raw values at the mask
+    white: float  # the channel's share (a fully lit white pixel)
+
+    def forward(self, t: np.ndarray) -> np.ndarray:
+        v = (self.px @ (self.py @ t).T).T
+        return self.norm * v[self.mask]
+
+    def adjoint(self, r: np.ndarray) -> np.ndarray:
+        full = np.zeros(self.mask.shape)
+        full[self.mask] = r
+        return self.norm * (self.py.T @ (self.px.T @ full.T).T)
+
+    def diagonal(self, w: np.ndarray) -> np.ndarray:
+        """diag(A^T W A) for per-row weights w."""
+        full = np.zeros(self.mask.shape)
+        full[self.mask] = w
+        px2, py2 = self.px.multiply(self.px), self.py.multiply(self.py)
+        return self.norm ** 2 * (py2.T @ (px2.T @ full.T).T)
+
+
+def _parts(raw: Raw, chans: tuple[int, ...], z: float, grid: tuple) -> list[_Part]:
+    from scipy import sparse
+
+    design = raw.design
+    gnx, gny = grid[3], grid[4]
+    shares = [c["share"] for c in design.resolved()]
+    parts = []
+    for c in chans:
+        norm, types, xs, ys = _native.reconstruction_factors(design.core, z, grid, c)
+        img = raw.images[c - 1]
+        rows, cols = types.shape
+        for t, ((xi, xj, xd, tx), (yi, yj, yd, ty)) in enumerate(zip(xs, ys, strict=True)):
+            px = sparse.csr_matrix((xd, xj.astype(np.int64), xi.astype(np.int64)),
+                                   shape=(cols, gnx))
+            py = sparse.csr_matrix((yd, yj.astype(np.int64), yi.astype(np.int64)),
+                                   shape=(rows, gny))
+            sx = np.asarray(px.sum(axis=1)).ravel()
+            sy = np.asarray(py.sum(axis=1)).ravel()
+            total = ty[:, None] * tx[None, :]
+            inside = sy[:, None] * sx[None, :]
+            kept = ((types == t) & (total > 0.0) & (inside > 0.0)
+                    & (total - inside <= _native.OUTSIDE_SHARE * total))
+            r_sel = np.flatnonzero(kept.any(axis=1))
+            c_sel = np.flatnonzero(kept.any(axis=0))
+            if r_sel.size == 0:
+                continue
+            mask = kept[np.ix_(r_sel, c_sel)]
+            parts.append(_Part(norm=norm, px=px[c_sel], py=py[r_sel], mask=mask,
+                               y=img[np.ix_(r_sel, c_sel)][mask], white=shares[c - 1]))
+    return parts
+
+
+def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None = None,
+                regularization: float | None = None, channels: Any = None,
+                noise: Mapping[str, float] | None = None, n_threads: int | None = None,
+                progress: bool | None = None) -> Reconstruction:
+    """The albedo on a grid of cells over ``region`` of the surface ``depth``, from the raw
+    (docs/model.md §11, docs/reconstruct.md).
+
+    - ``raw``: a :class:`splitlf.Raw` (rendered, loaded or wrapped)
+    - ``depth``: the surface: a depth (mm) or a fronto-parallel :class:`splitlf.Plane`
+      (slanted planes and depth maps: not yet)
+    - ``region``: (X0, X1, Y0, Y1) mm (None: what each chosen channel sees through at
+      least half its aperture, ``_native.seen_region``); rounded out to whole cells
+    - ``step``: the cell pitch, mm (None: delta(z) = mu_1 z / L_1, the sensor's step)
+    - ``regularization``: lambda, the smoothness prior's weight (None:
+      ``DEFAULT_REGULARIZATION``); it does not depend on the number of pixels
+    - ``channels``: channel numbers from 1 (None: every channel)
+    - ``noise``: the raw's noise, as for :func:`splitlf.render` (``{"photons": N,
+      "read_noise": r}``); None: noise-free, weighted as ``NOISE_FLOOR`` of white
+    - ``n_threads``: checked and accepted for symmetry with ``render``; the map's factors
+      are built in the core in well under a second and the solve runs in SciPy
+    - ``progress``: a tqdm bar (None: only when stderr is a terminal)
+
+    Cells within one pixel's span (``_native.pixel_span``) beyond the region are solved
+    for too and cropped, so that every pixel that sees the region is explained. Raises
+    ``TypeError``, :class:`~splitlf.errors.InvalidParameter`,
+    :class:`~splitlf.errors.TooLargeError` (the matrix would not fit: a smaller region,
+    a coarser step or tiles) and ``KeyboardInterrupt``.
+    """
+    from scipy.sparse.linalg import LinearOperator, cg
+
+    if not isinstance(raw, Raw):
+        raise TypeError(f"raw must be a splitlf.Raw, got {type(raw).__name__}")
+    design = raw.design
+    z = _depth(depth)
+    chans = _channels(design, channels)
+    noise_ = _noise(noise)
+    lam = DEFAULT_REGULARIZATION if regularization is None else _validate.real(
+        regularization, "regularization")
+    if not (math.isfinite(lam) and lam > 0.0):
+        raise InvalidParameter.of("regularization", lam, "a finite value > 0")
+    _validate.n_threads(n_threads)  # checked; see the docstring
+    show = _progress_flag(progress)
+    core = design.core
+    if step is None:
+        step_ = design.resolution_step(z)
+    else:
+        step_ = _validate.real(step, "step")
+        if not (math.isfinite(step_) and step_ > 0.0):
+            raise InvalidParameter.of("step", step_, "a finite value > 0 (mm)")
+    ext = (_native.seen_region(core, z, list(chans)) if region is None
+           else _extent(region, "region"))
+    x0, y1, h, nx, ny = _native.cell_grid(ext, step_)
+    inner: Extent = (x0, x0 + nx * h, y1 - ny * h, y1)
+    pad = math.ceil(_native.pixel_span(core, z, list(chans)) / h)
+    gx0, gy1, _, gnx, gny = _native.cell_grid(
+        (inner[0] - pad * h, inner[1] + pad * h, inner[2] - pad * h, inner[3] + pad * h), h)
+    bar = None
+    if show:
+        try:
+            from tqdm.auto import tqdm
+
+            bar = tqdm(total=CG_MAX_ITER, desc="splitlf reconstruct", unit="step")
+        except ImportError:
+            pass
+    try:
+        parts = _parts(raw, chans, z, (gx0, gy1, h, gnx, gny))
+        rows = sum(int(p.mask.sum()) for p in parts)
+        if rows == 0:
+            raise InvalidParameter.of(
+                "region", f"({inner[0]:.6g}, {inner[1]:.6g}, {inner[2]:.6g}, {inner[3]:.6g})",
+                "a region some pixel of the chosen channels sees")
+        weights = []
+        for p in parts:
+            sigma, noise_text = _sigma(p.y, noise_, np.full(p.y.shape, p.white))
+            weights.append(1.0 / sigma ** 2)
+        shape = (gny, gnx)
+        n_cells = gny * gnx
+
+        def normal(v: np.ndarray) -> np.ndarray:
+            t = v.reshape(shape)
+            out = lam * _smoothness(t)
+            for p, w in zip(parts, weights, strict=True):
+                out += p.adjoint(w * p.forward(t))
+            return out.ravel()
+
+        M = LinearOperator((n_cells, n_cells), matvec=normal, dtype=np.float64)
+        pairs = list(zip(parts, weights, strict=True))
+        rhs = np.sum([p.adjoint(w * p.y) for p, w in pairs], axis=0).ravel()
+        diag = lam * _neighbours(*shape)
+        for p, w in zip(parts, weights, strict=True):
+            diag += p.diagonal(w)
+        diag = diag.ravel()
+        # Start from the normalised back-projection (A^T W y / A^T W A 1); cells no
+        # pixel sees start at the weighted mean.
+        ones = np.ones(shape)
+        seen = np.sum([p.adjoint(w * p.forward(ones)) for p, w in pairs], axis=0).ravel()
+        guess = np.full(n_cells, float(np.sum(rhs) / max(float(np.sum(seen)), 1e-300)))
+        ok = seen > 0.0
+        guess[ok] = rhs[ok] / seen[ok]
+        pre = LinearOperator((n_cells, n_cells), dtype=np.float64,
+                             matvec=lambda v: v / np.where(diag > 0.0, diag, 1.0))
+        it = [0]
+        if bar is not None:
+            bar.reset(total=CG_MAX_ITER)
+            bar.set_description("splitlf reconstruct (CG)")
+
+        def count(_: np.ndarray) -> None:
+            it[0] += 1
+            if bar is not None:
+                bar.update(1)
+
+        t, _info = cg(M, rhs, x0=guess, rtol=CG_RTOL, maxiter=CG_MAX_ITER, M=pre,
+                      callback=count)
+    finally:
+        if bar is not None:
+            bar.close()
+    norm_rhs = float(np.linalg.norm(rhs))
+    resid = float(np.linalg.norm(normal(t) - rhs)) / norm_rhs if norm_rhs > 0 else 0.0
+    img = t.reshape(gny, gnx)[pad:pad + ny, pad:pad + nx].copy()
+    return Reconstruction(image=img, extent=inner, step=h, design=design, depth=z,
+                          channels=chans, rows=rows, iterations=it[0], residual=resid,
+                          regularization=lam, noise=noise_text)

@@ -1,0 +1,535 @@
+//! The linear map from a scene's albedo to the raw (docs/model.md §11, docs/reconstruct.md):
+//! row = raw pixel, column = cell of a uniform grid over a region of the surface, entry =
+//! the value the pixel records when the albedo is 1 on that cell and 0 elsewhere. It is
+//! built with the forward model's own integration ([`crate::render`]), so that for an
+//! image texture on the grid `A t` is the rendered raw.
+//!
+//! Today the map is built on the forward model's exact route: a fronto-parallel plane, a
+//! rect grid, a square aperture and the ideal layout. A pixel's ray set is then the
+//! product of its x and y polygons (§4), and its entry on cell (i, j) is the product of
+//! the areas of the two 1-D polygons between the cell's edges: exact, no quadrature.
+
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use rayon::prelude::*;
+
+use crate::design::{Aperture, Channel, Design, Grid, Layout};
+use crate::error::{Error, Result};
+use crate::memory;
+use crate::parallel::{checkpoint, for_chunks};
+use crate::render::exact::{profile, Profile};
+use crate::render::Chan;
+
+/// A uniform grid of square cells over [x0, x0 + nx h] × [y1 − ny h, y1]; cell (r, c) (row
+/// r from the top, column c from the left, like a texture) is unknown r nx + c.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CellGrid {
+    pub x0: f64,
+    pub y1: f64,
+    pub step: f64,
+    pub nx: usize,
+    pub ny: usize,
+}
+
+impl CellGrid {
+    /// The grid of pitch `step` covering `extent` = [X0, X1, Y0, Y1] (the extent rounded
+    /// out to whole cells, centred on the asked one).
+    pub fn covering(extent: [f64; 4], step: f64) -> Result<CellGrid> {
+        if !(step.is_finite() && step > 0.0) {
+            return Err(Error::param("step", step, "a finite value > 0 (mm)"));
+        }
+        let [x0, x1, y0, y1] = extent;
+        if !(extent.iter().all(|v| v.is_finite()) && x1 > x0 && y1 > y0) {
+            return Err(Error::param(
+                "region",
+                format!("({x0}, {x1}, {y0}, {y1})"),
+                "finite (X0, X1, Y0, Y1) with X0 < X1 and Y0 < Y1 (mm)",
+            ));
+        }
+        let cells = |a: f64, b: f64| ((b - a) / step * (1.0 - 1e-12)).ceil().max(1.0);
+        let (fx, fy) = (cells(x0, x1), cells(y0, y1));
+        if fx * fy > 1e12 {
+            return Err(Error::param(
+                "step",
+                step,
+                "a pitch giving fewer than 1e12 cells over the region",
+            ));
+        }
+        let (nx, ny) = (fx as usize, fy as usize);
+        let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
+        Ok(CellGrid {
+            x0: cx - 0.5 * nx as f64 * step,
+            y1: cy + 0.5 * ny as f64 * step,
+            step,
+            nx,
+            ny,
+        })
+    }
+
+    /// [X0, X1, Y0, Y1] of the grid.
+    pub fn extent(&self) -> [f64; 4] {
+        [
+            self.x0,
+            self.x0 + self.nx as f64 * self.step,
+            self.y1 - self.ny as f64 * self.step,
+            self.y1,
+        ]
+    }
+
+    pub fn cells(&self) -> usize {
+        self.nx * self.ny
+    }
+}
+
+/// A pixel's row is kept when at most this share of its ray measure falls outside the
+/// grid (its value must be explained by the grid's cells alone).
+pub const OUTSIDE_SHARE: f64 = 1e-9;
+
+/// The map as compressed sparse rows, one row per kept pixel.
+#[derive(Debug, Default, Clone)]
+pub struct System {
+    /// Per row: the channel (from 0) and the pixel's flat index b · cols + a in its raw.
+    pub channel: Vec<u32>,
+    pub pixel: Vec<u64>,
+    pub indptr: Vec<u64>,
+    pub indices: Vec<u32>,
+    pub data: Vec<f64>,
+}
+
+/// Can the map be built for this channel (the exact route)? The reason when not.
+fn supported(design: &Design, ch: &Channel) -> std::result::Result<(), &'static str> {
+    if ch.grid != Grid::Rect {
+        return Err("a rect grid");
+    }
+    if design.shape != Aperture::Square {
+        return Err("a square aperture");
+    }
+    if !matches!(ch.layout, Layout::Ideal { .. }) {
+        return Err("the ideal layout");
+    }
+    Ok(())
+}
+
+/// The default region: the rectangle of the plane at depth z that each of `channels` sees
+/// through at least half its aperture per axis. A point P is seen from main-lens point w
+/// through array point x = (B w − P) L / z (B = 1 − z/F + z/L); for |w| ≤ r/2 that x lies
+/// inside the array (half-width W/2) when |P| ≤ (z/L) W/2 − |B| r/2.
+pub fn seen_region(design: &Design, channels: &[usize], z: f64) -> Result<[f64; 4]> {
+    crate::optics::check_design_depths(design.f_main, &[z])?;
+    let r = design.aperture / 2.0;
+    let (mut hx, mut hy) = (f64::INFINITY, f64::INFINITY);
+    for &i in channels {
+        let ch = channel(design, i)?;
+        let (w, h) = ch.array_extent();
+        let b = (1.0 - z / design.f_main + z / ch.l).abs() * r / 2.0;
+        hx = hx.min(z / ch.l * w / 2.0 - b);
+        hy = hy.min(z / ch.l * h / 2.0 - b);
+    }
+    if !(hx > 0.0 && hy > 0.0) {
+        return Err(Error::param(
+            "region",
+            "none",
+            format!(
+                "a region: at z = {z} mm no point is seen by the chosen channels through \
+                 half the aperture; give one explicitly"
+            ),
+        ));
+    }
+    Ok([-hx, hx, -hy, hy])
+}
+
+/// The widest object-space span (mm, either axis) of one pixel's rays on the plane at
+/// depth z among `channels`: X = B w − (z/L)(c + ξ) with |ξ| ≤ h (the cell's bounding
+/// box) and w in the pixel's preimage on the main lens, |α ξ − (v/L) w − θ| ≤ μ/2, of
+/// width (L/v)(|α| 2h + μ) (at most D): at most (z/L) 2h + |B| min(D, (L/v)(|α| 2h + μ)).
+/// A pixel that sees any point of a region sees only points within this margin of it.
+pub fn pixel_span(design: &Design, channels: &[usize], z: f64) -> Result<f64> {
+    crate::optics::check_design_depths(design.f_main, &[z])?;
+    let mut span = 0.0f64;
+    for &i in channels {
+        let ch = channel(design, i)?;
+        let h = match ch.grid {
+            Grid::Rect => ch.d / 2.0,
+            Grid::Hex => ch.d / 3f64.sqrt(),
+        };
+        let b = (1.0 - z / design.f_main + z / ch.l).abs();
+        for &f in &ch.f {
+            let alpha = 1.0 + ch.v / ch.l - ch.v / f;
+            let w = (ch.l / ch.v * (alpha.abs() * 2.0 * h + ch.mu)).min(design.aperture);
+            span = span.max(z / ch.l * 2.0 * h + b * w);
+        }
+    }
+    Ok(span)
+}
+
+/// One axis's profiles of one lens type against a grid's cell edges, as compressed sparse
+/// rows: row = raw column (x) or raw row (y), column = grid column (x) or grid row from the
+/// top (y), entry = the area of the pixel's 1-D ray polygon between the cell's edges; with
+/// each row's total area (inside the grid or not).
+#[derive(Debug, Default, Clone)]
+pub struct AxisProfiles {
+    pub indptr: Vec<u64>,
+    pub indices: Vec<u32>,
+    pub data: Vec<f64>,
+    pub total: Vec<f64>,
+}
+
+/// The factors of one channel's map (exact route): per lens type t, the pixel (b, a) of type
+/// t has the row norm · (y[t] row b) ⊗ (x[t] row a); `types` is the type of each pixel,
+/// row-major.
+#[derive(Debug, Default, Clone)]
+pub struct Factors {
+    pub norm: f64,
+    pub x: Vec<AxisProfiles>,
+    pub y: Vec<AxisProfiles>,
+    pub types: Vec<u8>,
+    pub rows: usize,
+    pub cols: usize,
+}
+
+fn axis_csr(p: &[Profile], flip: Option<usize>) -> AxisProfiles {
+    let mut out = AxisProfiles {
+        indptr: vec![0],
+        ..AxisProfiles::default()
+    };
+    for pr in p {
+        let mut row: Vec<(u32, f64)> = pr
+            .areas
+            .iter()
+            .enumerate()
+            .filter(|(_, &v)| v != 0.0)
+            .map(|(m, &v)| {
+                let k = pr.first + m;
+                (flip.map_or(k, |n| n - 1 - k) as u32, v)
+            })
+            .collect();
+        row.sort_by_key(|e| e.0);
+        for (k, v) in row {
+            out.indices.push(k);
+            out.data.push(v);
+        }
+        out.indptr.push(out.data.len() as u64);
+        out.total.push(pr.total);
+    }
+    out
+}
+
+/// The factors of channel `i`'s map (module doc) for the plane at depth z and the grid.
+pub fn factors(design: &Design, i: usize, z: f64, grid: &CellGrid) -> Result<Factors> {
+    crate::optics::check_design_depths(design.f_main, &[z])?;
+    let ch = channel(design, i)?;
+    if let Err(need) = supported(design, ch) {
+        return Err(unsupported(i, need));
+    }
+    let Layout::Ideal { q } = ch.layout else {
+        unreachable!("checked by `supported`")
+    };
+    if ch.f.len() > u8::MAX as usize {
+        return Err(Error::param("f", ch.f.len(), "at most 255 lens types"));
+    }
+    let chan = Chan::new(design, ch, crate::render::DEFAULT_TOL);
+    let pr = profiles(&chan, z, grid, q);
+    let (rows, cols) = crate::render::raw_shape(ch);
+    memory::check(
+        "the reconstruction's pixel-type map",
+        memory::bytes_of::<u8>(rows as u128 * cols as u128),
+    )?;
+    let mut types = Vec::with_capacity(rows * cols);
+    for b in 0..rows {
+        for a in 0..cols {
+            types.push(ch.lens_type(a as u32 / q, b as u32 / q) as u8);
+        }
+    }
+    Ok(Factors {
+        norm: chan.norm,
+        x: pr.px.iter().map(|p| axis_csr(p, None)).collect(),
+        y: pr.py.iter().map(|p| axis_csr(p, Some(grid.ny))).collect(),
+        types,
+        rows,
+        cols,
+    })
+}
+
+fn unsupported(i: usize, need: &str) -> Error {
+    Error::param(
+        "design",
+        format!("channel {}", i + 1),
+        format!(
+            "{need}: the system is built today on the forward model's exact route \
+             (rect grid, square aperture, ideal layout, fronto-parallel plane)"
+        ),
+    )
+}
+
+fn channel(design: &Design, i: usize) -> Result<&Channel> {
+    design.channels.get(i).ok_or_else(|| {
+        Error::param(
+            "channels",
+            i + 1,
+            format!("channel numbers in 1..={}", design.channels.len()),
+        )
+    })
+}
+
+/// Bytes of a map of `rows` rows and `nnz` entries (CSR, u32 indices, u64 row offsets).
+pub fn system_bytes(rows: u128, nnz: u128) -> u128 {
+    memory::bytes_of::<f64>(nnz)
+        .saturating_add(memory::bytes_of::<u32>(nnz))
+        .saturating_add(memory::bytes_of::<u64>(rows.saturating_mul(3)))
+}
+
+/// One channel's profiles against the grid: x per (type, raw column), y per (type, raw row).
+struct Profiles {
+    px: Vec<Vec<Profile>>,
+    py: Vec<Vec<Profile>>,
+}
+
+fn profiles(chan: &Chan, z: f64, grid: &CellGrid, q: u32) -> Profiles {
+    let ch = chan.ch;
+    let (rows, cols) = crate::render::raw_shape(ch);
+    let theta = |i: u32| ch.mu * ((i % q) as f64 - (q as f64 - 1.0) / 2.0);
+    let [gx0, _, gy0, _] = grid.extent();
+    let h = grid.step;
+    let nt = chan.types.len();
+    let axis = |n: usize, y: bool, t: usize| -> Vec<Profile> {
+        (0..n as u32)
+            .into_par_iter()
+            .map(|i| {
+                let (c, e0, cells) = if y {
+                    (ch.lens_center(0, i / q)[1], gy0, grid.ny)
+                } else {
+                    (ch.lens_center(i / q, 0)[0], gx0, grid.nx)
+                };
+                profile(chan, chan.types[t].0, c, theta(i), z, cells, |k| {
+                    e0 + k as f64 * h
+                })
+            })
+            .collect()
+    };
+    Profiles {
+        px: (0..nt).map(|t| axis(cols, false, t)).collect(),
+        py: (0..nt).map(|t| axis(rows, true, t)).collect(),
+    }
+}
+
+/// Is the pixel's ray set (x profile `xp`, y profile `yp`) lit and inside the grid?
+fn kept(xp: &Profile, yp: &Profile) -> bool {
+    let total = xp.total * yp.total;
+    if total <= 0.0 {
+        return false;
+    }
+    let inside: f64 = xp.areas.iter().sum::<f64>() * yp.areas.iter().sum::<f64>();
+    inside > 0.0 && total - inside <= OUTSIDE_SHARE * total
+}
+
+/// The map for the fronto-parallel plane at depth `z`, the grid `grid` and the channels
+/// `channels` (numbered from 0). `done` counts the raw rows handled (for progress).
+pub fn build(
+    design: &Design,
+    channels: &[usize],
+    z: f64,
+    grid: &CellGrid,
+    n_threads: Option<usize>,
+    done: &AtomicUsize,
+) -> Result<System> {
+    crate::optics::check_design_depths(design.f_main, &[z])?;
+    if channels.is_empty() {
+        return Err(Error::param("channels", "none", "at least one channel"));
+    }
+    if grid.cells() > u32::MAX as usize {
+        return Err(Error::param(
+            "region",
+            grid.cells(),
+            "fewer than 2^32 cells (a smaller region or a coarser step)",
+        ));
+    }
+    for &i in channels {
+        let ch = channel(design, i)?;
+        if let Err(need) = supported(design, ch) {
+            return Err(unsupported(i, need));
+        }
+    }
+    let mut out = System {
+        indptr: vec![0],
+        ..System::default()
+    };
+    for &i in channels {
+        let ch = &design.channels[i];
+        let Layout::Ideal { q } = ch.layout else {
+            unreachable!("checked by `supported`")
+        };
+        // The tolerance only sizes a circle's polygon (unused on this route).
+        let chan = Chan::new(design, ch, crate::render::DEFAULT_TOL);
+        let pr = profiles(&chan, z, grid, q);
+        let (rows, cols) = crate::render::raw_shape(ch);
+        let typ = |a: usize, b: usize| ch.lens_type(a as u32 / q, b as u32 / q);
+        // Count first, to check the memory before any entry is written.
+        let counts: Vec<(usize, usize)> = (0..rows)
+            .into_par_iter()
+            .map(|b| {
+                let (mut n, mut nnz) = (0usize, 0usize);
+                for a in 0..cols {
+                    let t = typ(a, b);
+                    let (xp, yp) = (&pr.px[t][a], &pr.py[t][b]);
+                    if kept(xp, yp) {
+                        n += 1;
+                        nnz += xp.areas.iter().filter(|&&v| v != 0.0).count()
+                            * yp.areas.iter().filter(|&&v| v != 0.0).count();
+                    }
+                }
+                (n, nnz)
+            })
+            .collect();
+        let (n_rows, nnz) = counts.iter().fold((0u128, 0u128), |(r, z), &(a, b)| {
+            (r + a as u128, z + b as u128)
+        });
+        let have = (out.channel.len() as u128, out.data.len() as u128);
+        memory::check(
+            "the reconstruction's system matrix",
+            system_bytes(have.0 + n_rows, have.1 + nnz),
+        )?;
+        // Rows in parallel chunks, each chunk's entries in its own buffers, then appended.
+        let step = crate::parallel::chunk_items(n_threads, (cols as u128) * 64);
+        let parts = std::sync::Mutex::new(Vec::new());
+        let norm = chan.norm;
+        let nx = grid.nx;
+        for_chunks(n_threads, rows, step, |range| {
+            let chunk: Result<Vec<System>> = range
+                .clone()
+                .into_par_iter()
+                .map(|b| -> Result<System> {
+                    checkpoint()?;
+                    let mut s = System {
+                        indptr: Vec::with_capacity(counts[b].0),
+                        ..System::default()
+                    };
+                    s.data.reserve(counts[b].1);
+                    s.indices.reserve(counts[b].1);
+                    for a in 0..cols {
+                        let t = typ(a, b);
+                        let (xp, yp) = (&pr.px[t][a], &pr.py[t][b]);
+                        if !kept(xp, yp) {
+                            continue;
+                        }
+                        // Top-down rows of the grid: bottom-up row bu is row ny − 1 − bu.
+                        for (m, &ay) in yp.areas.iter().enumerate().rev() {
+                            if ay == 0.0 {
+                                continue;
+                            }
+                            let row = grid.ny - 1 - (yp.first + m);
+                            for (n, &ax) in xp.areas.iter().enumerate() {
+                                if ax != 0.0 {
+                                    s.indices.push((row * nx + xp.first + n) as u32);
+                                    s.data.push(norm * ax * ay);
+                                }
+                            }
+                        }
+                        s.channel.push(i as u32);
+                        s.pixel.push((b * cols + a) as u64);
+                        s.indptr.push(s.data.len() as u64);
+                    }
+                    done.fetch_add(1, Ordering::Relaxed);
+                    Ok(s)
+                })
+                .collect();
+            let chunk = chunk?;
+            parts
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner)
+                .push((range.start, chunk));
+            Ok(())
+        })?;
+        let mut parts = parts
+            .into_inner()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        parts.sort_by_key(|p| p.0);
+        for (_, chunk) in parts {
+            for s in chunk {
+                let base = out.data.len() as u64;
+                out.channel.extend_from_slice(&s.channel);
+                out.pixel.extend_from_slice(&s.pixel);
+                out.indptr.extend(s.indptr.iter().map(|&p| base + p));
+                out.indices.extend_from_slice(&s.indices);
+                out.data.extend_from_slice(&s.data);
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// The texture averaged over each cell of the grid, row-major from the top row.
+pub fn cell_averages(texture: &crate::texture::Texture, grid: &CellGrid) -> Vec<f64> {
+    let mut v = vec![0.0; grid.cells()];
+    v.par_chunks_mut(grid.nx.max(1)).enumerate().for_each_init(
+        crate::texture::Scratch::default,
+        |s, (r, row)| {
+            let y1 = grid.y1 - r as f64 * grid.step;
+            let y0 = y1 - grid.step;
+            for (c, out) in row.iter_mut().enumerate() {
+                let x0 = grid.x0 + c as f64 * grid.step;
+                let x1 = x0 + grid.step;
+                *out = texture.average(&[[x0, y0], [x1, y0], [x1, y1], [x0, y1]], s);
+            }
+        },
+    );
+    v
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::{render_into, RenderOptions};
+    use crate::scene::{Scene, Surface};
+    use crate::texture::{ImageTexture, Texture};
+
+    fn seed_small() -> Design {
+        let mut d = crate::presets::preset("seed").unwrap();
+        for ch in d.channels.iter_mut() {
+            ch.kx = 6;
+            ch.ky = 5;
+        }
+        d
+    }
+
+    /// A t equals the rendered raw of the image texture t on the grid, for every kept pixel
+    /// (the pixels that see only the grid: their render does not use the mean beyond it).
+    #[test]
+    fn matrix_times_texture_is_the_render() {
+        let d = seed_small();
+        let z = 700.0;
+        let grid = CellGrid::covering([-1.5, 2.0, -1.0, 1.2], 0.07).unwrap();
+        let done = AtomicUsize::new(0);
+        let sys = build(&d, &[0, 1], z, &grid, None, &done).unwrap();
+        assert!(!sys.channel.is_empty());
+        let n = grid.cells();
+        let vals: Vec<f64> = (0..n).map(|i| ((i * 7919) % 101) as f64 / 100.0).collect();
+        let [x0, x1, y0, y1] = grid.extent();
+        let tex = ImageTexture::new(&vals, grid.ny, grid.nx, [x0, x1, y0, y1]).unwrap();
+        let scene = Scene::new(
+            Texture::Image(Box::new(tex)),
+            Surface::from_parts("plane", &[z, 0.0, 0.0], None).unwrap(),
+            0.5,
+        )
+        .unwrap();
+        let mut raws: Vec<Vec<f64>> = d
+            .channels
+            .iter()
+            .map(|ch| {
+                let (r, c) = crate::render::raw_shape(ch);
+                vec![0.0; r * c]
+            })
+            .collect();
+        let outs: Vec<&mut [f64]> = raws.iter_mut().map(|v| v.as_mut_slice()).collect();
+        render_into(&d, &scene, RenderOptions::default(), None, &done, outs).unwrap();
+        let mut worst = 0.0f64;
+        for r in 0..sys.channel.len() {
+            let (lo, hi) = (sys.indptr[r] as usize, sys.indptr[r + 1] as usize);
+            let v: f64 = (lo..hi)
+                .map(|k| sys.data[k] * vals[sys.indices[k] as usize])
+                .sum();
+            let want = raws[sys.channel[r] as usize][sys.pixel[r] as usize];
+            worst = worst.max((v - want).abs());
+        }
+        assert!(worst < 1e-12, "{worst}");
+    }
+}

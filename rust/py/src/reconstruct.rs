@@ -1,0 +1,210 @@
+//! The linear map of a reconstruction (docs/model.md §11, docs/reconstruct.md): built in
+//! the core with the forward model's integration, handed to Python as CSR arrays.
+
+use std::sync::atomic::AtomicUsize;
+use std::sync::Arc;
+
+use numpy::{IntoPyArray, PyArray1};
+use pyo3::prelude::*;
+
+use splitlf_core::system::{self, CellGrid};
+
+use crate::args::threads_arg;
+use crate::design::DesignCore;
+use crate::errors::to_py;
+use crate::interrupt::{run_reporting, Progress};
+
+/// Channels numbered from 1 (Python) to indices from 0, every channel when None.
+fn channel_indices(design: &DesignCore, channels: Option<Vec<i64>>) -> PyResult<Vec<usize>> {
+    let n = design.inner.channels.len();
+    match channels {
+        None => Ok((0..n).collect()),
+        Some(v) => v
+            .into_iter()
+            .map(|c| {
+                if c >= 1 && (c as u128) <= n as u128 {
+                    Ok(c as usize - 1)
+                } else {
+                    Err(to_py(splitlf_core::Error::param(
+                        "channels",
+                        c,
+                        format!("channel numbers in 1..={n}"),
+                    )))
+                }
+            })
+            .collect(),
+    }
+}
+
+/// The default region (X0, X1, Y0, Y1) at depth z: what each chosen channel sees through at
+/// least half its aperture.
+#[pyfunction]
+#[pyo3(signature = (design, z, channels=None))]
+pub(crate) fn seen_region(
+    design: &DesignCore,
+    z: f64,
+    channels: Option<Vec<i64>>,
+) -> PyResult<(f64, f64, f64, f64)> {
+    let ch = channel_indices(design, channels)?;
+    let e = system::seen_region(&design.inner, &ch, z).map_err(to_py)?;
+    Ok((e[0], e[1], e[2], e[3]))
+}
+
+/// The widest span (mm) of one pixel's rays on the plane at depth z.
+#[pyfunction]
+#[pyo3(signature = (design, z, channels=None))]
+pub(crate) fn pixel_span(design: &DesignCore, z: f64, channels: Option<Vec<i64>>) -> PyResult<f64> {
+    let ch = channel_indices(design, channels)?;
+    system::pixel_span(&design.inner, &ch, z).map_err(to_py)
+}
+
+/// The grid of pitch `step` covering `extent`: (X0, Y1, step, nx, ny).
+#[pyfunction]
+pub(crate) fn cell_grid(
+    extent: (f64, f64, f64, f64),
+    step: f64,
+) -> PyResult<(f64, f64, f64, usize, usize)> {
+    let g = CellGrid::covering([extent.0, extent.1, extent.2, extent.3], step).map_err(to_py)?;
+    Ok((g.x0, g.y1, g.step, g.nx, g.ny))
+}
+
+/// A grid tuple (X0, Y1, step, nx, ny), checked by re-deriving it from its extent.
+fn checked_grid(grid: (f64, f64, f64, usize, usize)) -> PyResult<CellGrid> {
+    let g = CellGrid {
+        x0: grid.0,
+        y1: grid.1,
+        step: grid.2,
+        nx: grid.3,
+        ny: grid.4,
+    };
+    let checked = CellGrid::covering(g.extent(), g.step).map_err(to_py)?;
+    if checked.nx != g.nx || checked.ny != g.ny {
+        return Err(to_py(splitlf_core::Error::param(
+            "grid",
+            format!("{grid:?}"),
+            "a grid from cell_grid",
+        )));
+    }
+    Ok(g)
+}
+
+type Csr<'py> = (
+    Bound<'py, PyArray1<u32>>,
+    Bound<'py, PyArray1<u64>>,
+    Bound<'py, PyArray1<u64>>,
+    Bound<'py, PyArray1<u32>>,
+    Bound<'py, PyArray1<f64>>,
+);
+
+/// The map for the fronto-parallel plane at depth z over the grid (X0, Y1, step, nx, ny):
+/// (channel from 0, pixel flat index, indptr, indices, data) per kept row.
+/// `progress(done, total)` counts raw rows.
+#[pyfunction]
+#[pyo3(signature = (design, z, grid, channels=None, n_threads=None, progress=None))]
+pub(crate) fn reconstruction_system<'py>(
+    py: Python<'py>,
+    design: &DesignCore,
+    z: f64,
+    grid: (f64, f64, f64, usize, usize),
+    channels: Option<Vec<i64>>,
+    n_threads: Option<&Bound<'py, PyAny>>,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Csr<'py>> {
+    let threads = threads_arg(n_threads)?;
+    let ch = channel_indices(design, channels)?;
+    let g = checked_grid(grid)?;
+    let d = design.inner.clone();
+    let done = Arc::new(AtomicUsize::new(0));
+    let total: usize = ch
+        .iter()
+        .map(|&i| splitlf_core::render::raw_shape(&d.channels[i]).0)
+        .sum();
+    let report = progress.map(|callback| Progress {
+        callback,
+        done: Arc::clone(&done),
+        total,
+    });
+    let counter = Arc::clone(&done);
+    let sys = run_reporting(py, "z", report, move || {
+        system::build(&d, &ch, z, &g, threads, &counter)
+    })?;
+    Ok((
+        sys.channel.into_pyarray(py),
+        sys.pixel.into_pyarray(py),
+        sys.indptr.into_pyarray(py),
+        sys.indices.into_pyarray(py),
+        sys.data.into_pyarray(py),
+    ))
+}
+
+type Axis<'py> = (
+    Bound<'py, PyArray1<u64>>,
+    Bound<'py, PyArray1<u32>>,
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<f64>>,
+);
+
+type FactorTuple<'py> = (
+    f64,
+    Bound<'py, numpy::PyArray2<u8>>,
+    Vec<Axis<'py>>,
+    Vec<Axis<'py>>,
+);
+
+/// The factors of channel `channel`'s map (numbered from 1) for the fronto-parallel plane
+/// at depth z over the grid (X0, Y1, step, nx, ny): (norm, the pixels' lens types, per type
+/// the x profiles (raw column → grid column) and the y profiles (raw row → grid row from
+/// the top), each as (indptr, indices, data, total area)). Pixel (b, a) of type t reads
+/// norm · Σ y[t][b, r] x[t][a, c] T[r, c].
+#[pyfunction]
+pub(crate) fn reconstruction_factors<'py>(
+    py: Python<'py>,
+    design: &DesignCore,
+    z: f64,
+    grid: (f64, f64, f64, usize, usize),
+    channel: i64,
+) -> PyResult<FactorTuple<'py>> {
+    let ch = channel_indices(design, Some(vec![channel]))?[0];
+    let g = checked_grid(grid)?;
+    let d = design.inner.clone();
+    let f = py
+        .detach(move || system::factors(&d, ch, z, &g))
+        .map_err(to_py)?;
+    let types = numpy::ndarray::Array2::from_shape_vec((f.rows, f.cols), f.types)
+        .map_err(crate::errors::internal)?;
+    let axis = |a: system::AxisProfiles| -> Axis<'py> {
+        (
+            a.indptr.into_pyarray(py),
+            a.indices.into_pyarray(py),
+            a.data.into_pyarray(py),
+            a.total.into_pyarray(py),
+        )
+    };
+    Ok((
+        f.norm,
+        types.into_pyarray(py),
+        f.x.into_iter().map(axis).collect(),
+        f.y.into_iter().map(axis).collect(),
+    ))
+}
+
+/// The scene's texture averaged over each cell of the grid (X0, Y1, step, nx, ny): an
+/// (ny, nx) array, row 0 at the top (the truth a reconstruction is measured against).
+#[pyfunction]
+pub(crate) fn cell_averages<'py>(
+    py: Python<'py>,
+    scene: &crate::render::RenderScene,
+    grid: (f64, f64, f64, usize, usize),
+) -> PyResult<Bound<'py, numpy::PyArray2<f64>>> {
+    let g = checked_grid(grid)?;
+    splitlf_core::memory::check(
+        "the cell averages",
+        splitlf_core::memory::bytes_of::<f64>(g.cells() as u128),
+    )
+    .map_err(to_py)?;
+    let sc = Arc::clone(&scene.inner);
+    let values = py.detach(move || system::cell_averages(&sc.texture, &g));
+    let a = numpy::ndarray::Array2::from_shape_vec((g.ny, g.nx), values)
+        .map_err(crate::errors::internal)?;
+    Ok(a.into_pyarray(py))
+}
