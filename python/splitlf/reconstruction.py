@@ -38,7 +38,7 @@ NOISE_FLOOR = 1e-3
 DEFAULT_REGULARIZATION = 4.0
 #: Conjugate-gradient stop: the residual of the normal equations relative to their
 #: right-hand side.
-CG_RTOL = 1e-6
+CG_RTOL = 1e-10
 #: At most this many iterations.
 CG_MAX_ITER = 2000
 
