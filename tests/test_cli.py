@@ -140,7 +140,7 @@ def _subparsers():
 def test_every_option_has_help_text(capsys):
     subs = _subparsers()
     assert set(subs) == {"report", "figures", "trace", "sweep", "simulate", "optimise",
-                         "compare", "explore", "render"}
+                         "compare", "explore", "render", "reconstruct"}
     for name, sub in subs.items():
         for action in sub._actions:
             assert action.help and action.help.strip(), (name, action.option_strings)
@@ -299,3 +299,26 @@ def test_written_files_get_the_usual_permissions(tmp_path, capsys):
     out.chmod(0o640)
     assert main(["trace", "--out", str(out), "--force"]) == 0
     assert out.stat().st_mode & 0o777 == 0o640  # a replaced file keeps its permissions
+
+
+def test_reconstruct_cli_matches_api(tmp_path, capsys):
+    """render -> reconstruct on the command line gives the API's image (the .npy beside
+    the .png), and refuses to overwrite without --force."""
+    d = splitlf.Design.preset("seed")
+    d = d.replace(channels=tuple(c.replace(Kx=16, Ky=12) for c in d.channels))
+    toml = tmp_path / "d.toml"
+    toml.write_text(d.to_toml())
+    raw_path, png = tmp_path / "r.npz", tmp_path / "img.png"
+    assert run(["render", str(toml), "--texture", "sinusoid:1", "--depth", "800",
+                "-o", str(raw_path)], capsys)[0] == 0
+    args = ["reconstruct", str(raw_path), "--depth", "800", "--region=-1.5,1.5,-1,1",
+            "--channels", "1,2", "-o", str(png), "--npy", "--json"]
+    code, out, _ = run(args, capsys)
+    assert code == 0
+    summary = json.loads(out)
+    image = np.load(tmp_path / "img.npy")
+    rec = splitlf.reconstruct(splitlf.Raw.load(raw_path), 800.0, region=(-1.5, 1.5, -1.0, 1.0))
+    assert np.array_equal(image, rec.image)
+    assert summary["shape"] == list(rec.image.shape) and png.stat().st_size > 0
+    code, _, err = run(args, capsys)
+    assert code != 0 and "--force" in err

@@ -772,6 +772,65 @@ def _cmd_render(args: argparse.Namespace) -> int:
     return 0
 
 
+# -- reconstruct -------------------------------------------------------------------------
+
+def _floats(text: str, n: int, option: str) -> tuple[float, ...]:
+    parts = text.split(",")
+    try:
+        values = tuple(float(p) for p in parts)
+    except ValueError:
+        values = ()
+    if len(values) != n:
+        raise CliError(f"{option} {text}: give {n} comma-separated numbers")
+    return values
+
+
+def _cmd_reconstruct(args: argparse.Namespace) -> int:
+    import contextlib
+
+    import numpy as np
+
+    from .reconstruction import reconstruct
+    from .rendering import Raw
+
+    out = Path(args.out)
+    _check_suffix("--out", out, (".png", ".npy"))
+    npy = out.with_suffix(".npy") if args.npy and out.suffix == ".png" else None
+    if out.suffix == ".png":
+        _need("matplotlib", "reconstruct to a PNG", "plot")
+    for target in (out, npy):
+        if target is not None:
+            check_new(target, args.force, FORCE_HINT)
+    raw = Raw.load(args.raw)
+    depth = parse_render_depth(args.depth, None)
+    region = None if args.region is None else _floats(args.region, 4, "--region")
+    channels = None if args.channels is None else tuple(
+        int(c) for c in _floats(args.channels, len(args.channels.split(",")), "--channels"))
+    rec = reconstruct(raw, depth, region=region, step=args.step, channels=channels,
+                      noise=args.noise, regularization=args.regularization,
+                      n_threads=args.threads, progress=None)
+    with contextlib.ExitStack() as stack:
+        if npy is not None:
+            with atomic_output(npy, force=args.force, hint=FORCE_HINT) as tmp:
+                np.save(tmp, rec.image)
+        if out.suffix == ".npy":
+            tmp = stack.enter_context(atomic_output(out, force=args.force, hint=FORCE_HINT))
+            np.save(tmp, rec.image)
+        else:
+            from .plot._mpl import pyplot
+
+            tmp = stack.enter_context(atomic_output(out, force=args.force, hint=FORCE_HINT))
+            pyplot().imsave(tmp, rec.image, cmap="gray", format="png",
+                            vmin=0.0, vmax=max(1.0, float(rec.image.max())))
+    summary = {"path": str(out), "npy": None if npy is None else str(npy),
+               "shape": list(rec.image.shape), "extent": list(rec.extent), "step": rec.step,
+               "depth": rec.depth, "channels": list(rec.channels), "rows": rec.rows,
+               "iterations": rec.iterations, "residual": rec.residual,
+               "regularization": rec.regularization, "noise": rec.noise}
+    sys.stdout.write(json_text(summary) if args.json else f"{out}\n")
+    return 0
+
+
 # -- optimise ----------------------------------------------------------------------------
 
 def parse_free(spec: str) -> tuple[str, tuple[float, float]]:
@@ -1340,6 +1399,35 @@ def _add_render(sub: Any) -> None:
     p.set_defaults(func=_cmd_render)
 
 
+def _add_reconstruct(sub: Any) -> None:
+    p = sub.add_parser("reconstruct", help="a super-resolved image from a raw file",
+                       description="Reconstruct the albedo on a grid of cells over a region "
+                       "of a known fronto-parallel plane from a raw file (docs/model.md §11, "
+                       "docs/reconstruct.md) and write it as a picture or an array.")
+    p.add_argument("raw", metavar="RAW.npz", help="a raw file (splitlf render, Raw.save)")
+    p.add_argument("--depth", required=True, metavar="SPEC",
+                   help="the plane's depth in mm (or plane:Z0,0,0)")
+    p.add_argument("--region", default=None, metavar="X0,X1,Y0,Y1",
+                   help="the region [mm] (default: what every channel sees through half its "
+                   "aperture; with a negative X0: --region=X0,X1,Y0,Y1)")
+    p.add_argument("--step", type=_real_type("step", 0.0, "a finite step > 0 (mm)"),
+                   default=None, metavar="MM",
+                   help="the cell pitch (default: the sensor step mu_1 z / L_1)")
+    p.add_argument("--channels", default=None, metavar="I[,J...]",
+                   help="channel numbers from 1 (default: all)")
+    p.add_argument("--noise", type=_render_noise, default=None, metavar="N[,READ]",
+                   help="the raw's noise, as given to render (default: noise-free)")
+    p.add_argument("--regularization", type=_real_type(
+        "regularization", 0.0, "a finite weight > 0"), default=None, metavar="LAMBDA",
+        help="the smoothness prior's weight (default 4)")
+    _threads_option(p, "threads of the core")
+    g = _output(p, "the image to write (.png, or .npy for the array)", "IMAGE.png",
+                required=True, json_help="print a JSON summary instead of the path")
+    g.add_argument("--npy", action="store_true",
+                   help="with a .png output, also write the array beside it (.npy)")
+    p.set_defaults(func=_cmd_reconstruct)
+
+
 def _add_optimise(sub: Any) -> None:
     p = sub.add_parser("optimise", help="the best design for an objective (inverse design)",
                        description="Search the free fields of the camera (the seed design "
@@ -1463,7 +1551,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
                                 help="what to do (COMMAND --help for its options)")
     for add in (_add_report, _add_figures, _add_trace, _add_sweep, _add_simulate,
-                _add_render, _add_optimise, _add_compare, _add_explore):
+                _add_render, _add_reconstruct, _add_optimise, _add_compare, _add_explore):
         add(sub)
     return parser
 
