@@ -70,6 +70,21 @@ pub(crate) struct Progress {
     pub total: usize,
 }
 
+/// A progress report of `total` items to `progress` (if any) and the counter the core's
+/// workers add to.
+pub(crate) fn counted(
+    progress: Option<Py<PyAny>>,
+    total: usize,
+) -> (Option<Progress>, Arc<std::sync::atomic::AtomicUsize>) {
+    let done = Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let report = progress.map(|callback| Progress {
+        callback,
+        done: Arc::clone(&done),
+        total,
+    });
+    (report, done)
+}
+
 /// [`run_as`] with an optional progress report (main thread only: elsewhere the report
 /// would have to take the GIL).
 pub(crate) fn run_reporting<R: Send>(

@@ -1,7 +1,6 @@
 //! The linear map of a reconstruction (docs/model.md §11, docs/reconstruct.md): built in
 //! the core with the forward model's integration, handed to Python as CSR arrays.
 
-use std::sync::atomic::AtomicUsize;
 use std::sync::Arc;
 
 use numpy::{IntoPyArray, PyArray1};
@@ -12,7 +11,7 @@ use splitlf_core::system::{self, CellGrid};
 use crate::args::threads_arg;
 use crate::design::DesignCore;
 use crate::errors::to_py;
-use crate::interrupt::{run_reporting, Progress};
+use crate::interrupt::{counted, run_reporting};
 
 /// Channels numbered from 1 (Python) to indices from 0, every channel when None.
 fn channel_indices(design: &DesignCore, channels: Option<Vec<i64>>) -> PyResult<Vec<usize>> {
@@ -114,17 +113,11 @@ pub(crate) fn reconstruction_system<'py>(
     let ch = channel_indices(design, channels)?;
     let g = checked_grid(grid)?;
     let d = design.inner.clone();
-    let done = Arc::new(AtomicUsize::new(0));
     let total: usize = ch
         .iter()
         .map(|&i| splitlf_core::render::raw_shape(&d.channels[i]).0)
         .sum();
-    let report = progress.map(|callback| Progress {
-        callback,
-        done: Arc::clone(&done),
-        total,
-    });
-    let counter = Arc::clone(&done);
+    let (report, counter) = counted(progress, total);
     let sys = run_reporting(py, "z", report, move || {
         system::build(&d, &ch, z, &g, threads, &counter)
     })?;

@@ -1,7 +1,6 @@
 //! The 2-D forward model: a scene (texture, surface, background) and the raws of every
 //! channel of a design (docs/render.md).
 
-use std::sync::atomic::AtomicUsize;
 use std::sync::Arc;
 
 use numpy::{PyArray2, PyArrayMethods, PyReadonlyArray2};
@@ -15,7 +14,7 @@ use crate::args::threads_arg;
 use crate::arrays::empty;
 use crate::design::DesignCore;
 use crate::errors::{internal, to_py};
-use crate::interrupt::{run_reporting, Progress};
+use crate::interrupt::{counted, run_reporting};
 
 /// A validated scene of the forward model.
 #[pyclass(frozen, module = "splitlf._native")]
@@ -88,18 +87,12 @@ pub(crate) fn render<'py>(
     let threads = threads_arg(n_threads)?;
     let d = design.inner.clone();
     let sc = Arc::clone(&scene.inner);
-    let done = Arc::new(AtomicUsize::new(0));
     let total: usize = d
         .channels
         .iter()
         .map(|ch| core_render::raw_shape(ch).0)
         .sum();
-    let report = progress.map(|callback| Progress {
-        callback,
-        done: Arc::clone(&done),
-        total,
-    });
-    let counter = Arc::clone(&done);
+    let (report, counter) = counted(progress, total);
     let opts = RenderOptions { tol };
     core_render::check_render(&d, &sc, opts).map_err(to_py)?;
     let bytes = core_render::render_bytes(&d);
