@@ -65,8 +65,12 @@ __all__ = [
 #: used to set the regularisation weight with noise (docs/simulate.md): that of the
 #: default random albedo, sqrt(2/12) = 0.41 for i.i.d. uniform [0, 1] cells.
 PRIOR_STEP = 0.4
-#: Relative regularisation weight without noise (times the mean diagonal of A^T A).
-NOISE_FREE_WEIGHT = 1e-6
+#: The noise assumed for a noise-free image (1 sigma, a fraction of a fully lit white
+#: pixel) in setting the regularisation weight: a fixed floor, so that the weight never
+#: depends on the number of pixels, and far below any real noise (the 1-D forward model
+#: is exact), so that it only selects the smoothest solution in a null space
+#: (docs/simulate.md).
+NOISE_FREE_SIGMA = 1e-5
 #: Normal equations up to this many cells are solved by dense Cholesky, larger by sparse LU.
 DENSE_CELLS = 6000
 #: Largest ``photons`` of the noise model (a full-aperture pixel's photo-electrons; real
@@ -549,13 +553,17 @@ def _image_systems(core: Any, z: float, sources: Mapping[str, str],
     return images, mats, cells
 
 
-def _weight(AtA: Any, y: np.ndarray, user: float | None,
+def _weight(row_sums: np.ndarray, y: np.ndarray, user: float | None,
             noise: dict[str, float] | None) -> float:
     """The weight lambda of the first-difference penalty (docs/simulate.md)."""
     if user is not None:
         return user
     if noise is None:
-        return NOISE_FREE_WEIGHT * float(AtA.diagonal().mean())
+        # A fixed noise floor (never a function of the number of rows: more data must
+        # never hurt): the pixel's white value (its row sum at full light) times
+        # NOISE_FREE_SIGMA, over the prior step.
+        white = float(np.max(row_sums)) if row_sums.size else 1.0
+        return (NOISE_FREE_SIGMA * white) ** 2 / PRIOR_STEP**2
     # MAP weight: pixel noise variance over the prior variance of a cell step.
     mean_signal = float(np.mean(np.maximum(y[0], 0.0)))
     var = mean_signal / noise["photons"] + (noise["read_noise"] / noise["photons"]) ** 2
@@ -576,7 +584,7 @@ def _solve(A: Any, y: np.ndarray, user: float | None,
     else:
         AtA = (A.T @ A).tocsc()
     D = sp.diags([-np.ones(n - 1), np.ones(n - 1)], [0, 1], shape=(n - 1, n))
-    lam = _weight(AtA, y, user, noise)
+    lam = _weight(np.asarray(A.sum(axis=1)).ravel(), y, user, noise)
     rhs = np.asarray(A.T @ y.T)
     if dense:
         normal = AtA + lam * (D.T @ D).toarray()
