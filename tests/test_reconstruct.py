@@ -195,3 +195,28 @@ def test_bad_input() -> None:
     r12 = splitlf.Design.preset("raytrix-r12")
     with pytest.raises(splitlf.InvalidParameter, match="design"):
         _native.reconstruction_system(r12.core, 1000.0, _native.cell_grid(region, 0.1))
+
+
+def test_mtf50_of_a_gaussian_edge() -> None:
+    """measure.mtf50 on an image of a slanted edge blurred by a Gaussian of sigma (sampled
+    at the cell centres) gives the Gaussian's MTF50, sqrt(ln 2 / 2) / (pi sigma), within 3 %;
+    and psnr/ssim of the truth against itself are infinite and 1."""
+    from math import erf, log, pi, sqrt
+
+    h, n, sigma = 0.05, 160, 0.2
+    edge = splitlf.SlantedEdge(5.0, 0.2, 0.8)
+    xs = -n * h / 2 + (np.arange(n) + 0.5) * h
+    X, Y = np.meshgrid(xs, -xs)
+    a = np.radians(edge.angle)
+    dist = X * np.cos(a) - Y * np.sin(a)
+    image = 0.2 + 0.6 * 0.5 * (1 + np.vectorize(erf)(dist / (sigma * sqrt(2))))
+    rec = splitlf.Reconstruction(image=image, extent=(xs[0] - h / 2, xs[-1] + h / 2,
+                                                      xs[0] - h / 2, xs[-1] + h / 2),
+                                 step=h, design=seed_small(), depth=1000.0, channels=(1,),
+                                 rows=0, iterations=0, residual=0.0, regularization=1.0,
+                                 noise="")
+    want = sqrt(log(2) / 2) / (pi * sigma)
+    got = measure.mtf50(rec, edge)
+    assert abs(got - want) <= 0.03 * want, (got, want)
+    assert measure.ssim(rec, image) == pytest.approx(1.0)
+    assert np.isinf(measure.psnr(rec, image))

@@ -56,11 +56,12 @@ def truth(rec: Reconstruction, texture: Any) -> np.ndarray:
 
 def psnr(rec: Reconstruction, texture: Any) -> float:
     """Peak signal-to-noise ratio (dB, peak 1) of the reconstruction against the truth
-    (``skimage.metrics.peak_signal_noise_ratio``)."""
+    (``skimage.metrics.peak_signal_noise_ratio``); +inf when they are equal."""
     from skimage.metrics import peak_signal_noise_ratio
 
     t = truth(rec, texture)
-    return float(peak_signal_noise_ratio(t, rec.image, data_range=DATA_RANGE))
+    with np.errstate(divide="ignore"):  # identical images: +inf, not a warning
+        return float(peak_signal_noise_ratio(t, rec.image, data_range=DATA_RANGE))
 
 
 def ssim(rec: Reconstruction, texture: Any) -> float:
