@@ -1,0 +1,178 @@
+"""W10 reconstruct (issue 22): the seed's raw at 1 m, a region of cells of delta(z), known
+depth, photon noise N = 2000.
+
+- **Full size**: 512 x 512 cells with `splitlf.reconstruct` (the core's factored map, SciPy
+  CG): wall time, iterations, peak memory of the call (tracemalloc: NumPy's and SciPy's
+  buffers; the core's factor arrays are NumPy arrays too).
+- **Ratio** at a size the NumPy reference can hold: the reference assembles the explicit
+  map in NumPy (tests/exact_render.py's per-axis clipping weights, every kept pixel's row
+  y (x) x as a CSR matrix) and solves the same normal equations with the same SciPy CG,
+  preconditioner and start; both are timed in the same process, alternating, medians.
+
+    python benches/w10_reconstruct.py [--quick]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import sys
+import time
+import tracemalloc
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+sys.path.insert(0, str(HERE.parent / "tests"))
+
+from exact_render import axis_weights  # noqa: E402
+
+import splitlf  # noqa: E402
+from splitlf import _native  # noqa: E402
+from splitlf.reconstruction import (  # noqa: E402
+    CG_MAX_ITER,
+    CG_RTOL,
+    DEFAULT_REGULARIZATION,
+    _neighbours,
+    _sigma,
+    _smoothness,
+)
+
+Z = 1000.0
+NOISE = {"photons": 2000.0, "read_noise": 0.0}
+
+
+def scene_raw(cells: int) -> tuple[splitlf.Raw, tuple[float, float, float, float]]:
+    """The full seed's raw of a random albedo at 1 m with photon noise, and a centred
+    region of cells x cells delta(z) cells."""
+    d = splitlf.Design.preset("seed")
+    raw = splitlf.render(d, splitlf.Scene("random", Z), noise=NOISE, seed=1)
+    h = d.resolution_step(Z)
+    half = cells * h / 2.0 * (1.0 - 1e-9)
+    return raw, (-half, half, -half, half)
+
+
+def _kron_rows(iy: Any, ix: Any, b_idx: np.ndarray, a_idx: np.ndarray, norm: float,
+               gnx: int, n_cells: int) -> Any:
+    """CSR rows norm (iy row b) (x) (ix row a) for every kept pixel (b, a), vectorised."""
+    from scipy import sparse
+
+    ny_nz = np.diff(iy.indptr)[b_idx]
+    nx_nz = np.diff(ix.indptr)[a_idx]
+    counts = ny_nz * nx_nz
+    starts = np.concatenate([[0], np.cumsum(counts)])
+    local = np.arange(starts[-1]) - np.repeat(starts[:-1], counts)
+    per_x = np.repeat(nx_nz, counts)
+    ypos = np.repeat(iy.indptr[b_idx], counts) + local // per_x
+    xpos = np.repeat(ix.indptr[a_idx], counts) + local % per_x
+    cols = iy.indices[ypos].astype(np.int64) * gnx + ix.indices[xpos]
+    vals = norm * iy.data[ypos] * ix.data[xpos]
+    return sparse.csr_matrix((vals, cols, starts), shape=(len(b_idx), n_cells))
+
+
+def numpy_reference(raw: splitlf.Raw, region: tuple[float, ...]) -> tuple[np.ndarray, int]:
+    """The same solve with the map assembled explicitly in NumPy (module doc)."""
+    from scipy import sparse
+    from scipy.sparse.linalg import LinearOperator, cg
+
+    d = raw.design
+    h = d.resolution_step(Z)
+    x0, y1, h, nx, ny = _native.cell_grid(region, h)
+    pad = int(np.ceil(_native.pixel_span(d.core, Z, None) / h))
+    gx0, gy1, _, gnx, gny = _native.cell_grid(
+        (x0 - pad * h, x0 + (nx + pad) * h, y1 - (ny + pad) * h, y1 + pad * h), h)
+    chs = d.resolved()
+    L1, mu1 = chs[0]["L"], chs[0]["mu"]
+    mats, ys, whites = [], [], []
+    for c, ch in enumerate(chs):
+        f = ch["f"][0]
+        xe = gx0 + h * np.arange(gnx + 1)
+        ye = (gy1 - gny * h) + h * np.arange(gny + 1)
+        ix, tx = axis_weights(d.F, d.D, L1, ch, ch["Kx"], f, Z, xe)
+        iy, ty = axis_weights(d.F, d.D, L1, ch, ch["Ky"], f, Z, ye)
+        iy = iy[:, ::-1]
+        sx, sy = ix.sum(axis=1), iy.sum(axis=1)
+        total, inside = np.outer(ty, tx), np.outer(sy, sx)
+        kept = (total > 0) & (inside > 0) & (total - inside <= _native.OUTSIDE_SHARE * total)
+        b_idx, a_idx = np.nonzero(kept)
+        norm = ch["share"] / (mu1 ** 2 * d.D ** 2)
+        mats.append(_kron_rows(sparse.csr_matrix(iy), sparse.csr_matrix(ix), b_idx, a_idx,
+                               norm, gnx, gnx * gny))
+        ys.append(np.asarray(raw.images[c])[b_idx, a_idx])
+        whites.append(np.full(len(b_idx), ch["share"]))
+    A = sparse.vstack(mats, format="csr")
+    y = np.concatenate(ys)
+    sigma, _ = _sigma(y, NOISE, np.concatenate(whites))
+    w = 1.0 / sigma ** 2
+    shape = (gny, gnx)
+    lam = DEFAULT_REGULARIZATION
+    AtW = (A.T @ sparse.diags(w)).tocsr()
+
+    def normal(v: np.ndarray) -> np.ndarray:
+        return (AtW @ (A @ v)) + lam * _smoothness(v.reshape(shape)).ravel()
+
+    n = gnx * gny
+    rhs = AtW @ y
+    diag = np.asarray(AtW.multiply(A.T).sum(axis=1)).ravel() + lam * _neighbours(*shape).ravel()
+    seen = AtW @ (A @ np.ones(n))
+    guess = np.full(n, float(rhs.sum() / seen.sum()))
+    ok = seen > 0
+    guess[ok] = rhs[ok] / seen[ok]
+    it = [0]
+
+    def count(_: np.ndarray) -> None:
+        it[0] += 1
+
+    t, _info = cg(LinearOperator((n, n), matvec=normal, dtype=np.float64), rhs, x0=guess,
+                  rtol=CG_RTOL, maxiter=CG_MAX_ITER, callback=count,
+                  M=LinearOperator((n, n), dtype=np.float64,
+                                   matvec=lambda v: v / np.where(diag > 0, diag, 1.0)))
+    return t.reshape(shape)[pad:pad + ny, pad:pad + nx], it[0]
+
+
+def timed(fn: Any, *args: Any) -> tuple[float, Any]:
+    t0 = time.perf_counter()
+    r = fn(*args)
+    return time.perf_counter() - t0, r
+
+
+def run(quick: bool) -> dict[str, Any]:
+    full = 128 if quick else 512
+    ratio_cells = 32
+    raw, region = scene_raw(full)
+    tracemalloc.start()
+    t_full, rec = timed(lambda: splitlf.reconstruct(raw, Z, region=region, noise=NOISE))
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    out: dict[str, Any] = {
+        "full": {"cells": list(rec.image.shape), "seconds": t_full, "rows": rec.rows,
+                 "iterations": rec.iterations, "residual": rec.residual,
+                 "peak_mib": peak / 2 ** 20},
+    }
+    _, small = scene_raw(ratio_cells)
+    ours, ref = [], []
+    for _ in range(3):
+        t, r = timed(lambda: splitlf.reconstruct(raw, Z, region=small, noise=NOISE))
+        ours.append(t)
+        t, (img, its) = timed(numpy_reference, raw, small)
+        ref.append(t)
+    diff = float(np.max(np.abs(img - r.image)))
+    out["ratio"] = {"cells": list(r.image.shape), "native_s": statistics.median(ours),
+                    "numpy_s": statistics.median(ref),
+                    "numpy_over_native": statistics.median(ref) / statistics.median(ours),
+                    "iterations": [r.iterations, its], "max_diff": diff}
+    return out
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__)
+    p.add_argument("--quick", action="store_true")
+    print(json.dumps(run(p.parse_args().quick), indent=1))
+
+
+if __name__ == "__main__":
+    main()
