@@ -8,11 +8,14 @@ from collections.abc import Callable
 from typing import Any
 
 
-def timed(fn: Callable[..., Any], *args: Any) -> float:
-    """Seconds of one call of ``fn(*args)``, after a garbage collection, its result dropped."""
+def timed_call(fn: Callable[..., Any], *args: Any) -> tuple[float, Any]:
+    """Seconds of one call of ``fn(*args)``, after a garbage collection, and its result."""
     gc.collect()
     t0 = time.perf_counter()
     r = fn(*args)
-    dt = time.perf_counter() - t0
-    del r
-    return dt
+    return time.perf_counter() - t0, r
+
+
+def timed(fn: Callable[..., Any], *args: Any) -> float:
+    """Seconds of one call of ``fn(*args)``, after a garbage collection, its result dropped."""
+    return timed_call(fn, *args)[0]

@@ -18,7 +18,6 @@ import argparse
 import json
 import statistics
 import sys
-import time
 import tracemalloc
 from pathlib import Path
 from typing import Any
@@ -30,6 +29,7 @@ sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parent / "tests"))
 
 from exact_render import axis_weights  # noqa: E402
+from timing import timed_call  # noqa: E402
 
 import splitlf  # noqa: E402
 from splitlf import _native  # noqa: E402
@@ -134,18 +134,12 @@ def numpy_reference(raw: splitlf.Raw, region: tuple[float, ...]) -> tuple[np.nda
     return t.reshape(shape)[pad:pad + ny, pad:pad + nx], it[0]
 
 
-def timed(fn: Any, *args: Any) -> tuple[float, Any]:
-    t0 = time.perf_counter()
-    r = fn(*args)
-    return time.perf_counter() - t0, r
-
-
 def run(quick: bool) -> dict[str, Any]:
     full = 128 if quick else 512
     ratio_cells = 32
     raw, region = scene_raw(full)
     tracemalloc.start()
-    t_full, rec = timed(lambda: splitlf.reconstruct(raw, Z, region=region, noise=NOISE))
+    t_full, rec = timed_call(lambda: splitlf.reconstruct(raw, Z, region=region, noise=NOISE))
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     out: dict[str, Any] = {
@@ -156,9 +150,9 @@ def run(quick: bool) -> dict[str, Any]:
     _, small = scene_raw(ratio_cells)
     ours, ref = [], []
     for _ in range(3):
-        t, r = timed(lambda: splitlf.reconstruct(raw, Z, region=small, noise=NOISE))
+        t, r = timed_call(lambda: splitlf.reconstruct(raw, Z, region=small, noise=NOISE))
         ours.append(t)
-        t, (img, its) = timed(numpy_reference, raw, small)
+        t, (img, its) = timed_call(numpy_reference, raw, small)
         ref.append(t)
     diff = float(np.max(np.abs(img - r.image)))
     out["ratio"] = {"cells": list(r.image.shape), "native_s": statistics.median(ours),

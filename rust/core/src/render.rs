@@ -39,8 +39,6 @@ use crate::polygon::{angular_span, bounds, clip_box, clip_into, signed_area, Pt}
 use crate::scene::{Scene, Surface};
 use crate::texture::{Scratch, Texture};
 
-/// Sides of the polygon standing for a circular aperture's preimage (radius scaled so that
-/// its area equals the disc's).
 /// Fewest and most sides of the equal-area polygon that stands for a circular aperture.
 pub const MIN_CIRCLE_SIDES: usize = 32;
 pub const MAX_CIRCLE_SIDES: usize = 1024;
@@ -305,12 +303,18 @@ fn texture_kinks(
     false
 }
 
-/// Is the scene's texture constant between its lines ([`texture_lines`])?
-fn piecewise(scene: &Scene) -> bool {
-    matches!(
-        scene.texture,
-        Texture::Image(_) | Texture::Bars { .. } | Texture::Constant(_)
-    )
+/// Is the outer integrand bilinear between the cuts? So it is when the polygon is a product
+/// of intervals with linearly moving ends (`separable`), the cuts hold every texture kink
+/// (`complete`), the plane is fronto-parallel (the map to the scene is affine) and the
+/// texture is constant between its lines ([`texture_lines`]).
+fn bilinear(scene: &Scene, separable: bool, complete: bool) -> bool {
+    separable
+        && complete
+        && scene.surface.fronto().is_some()
+        && matches!(
+            scene.texture,
+            Texture::Image(_) | Texture::Bars { .. } | Texture::Constant(_)
+        )
 }
 
 /// The cuts of a lens's outer box [x0, x1] × [y0, y1] from its candidate breakpoints per
@@ -563,10 +567,9 @@ fn outer_w(
         );
     }
     let (cx, cy) = box_cuts(wk, (x0, x1), (y0, y1), &kx, &ky);
-    // Between complete cuts of a piecewise-constant texture on a fronto-parallel plane, the
-    // rect cell's polygon (a product of intervals with linearly moving ends) gives a
-    // bilinear integrand.
-    let bilinear = complete && !circle && scene.surface.fronto().is_some() && piecewise(scene);
+    // The rect cell clipped by the pixel's square preimage: a product of intervals (a
+    // circle's outer domain is parametrised by φ instead).
+    let bilinear = bilinear(scene, separable && !circle, complete);
     // A box is rough when a vertex of the polygon's scene image, moving over the box,
     // meets a discontinuity of the texture that no cut follows (a line through the
     // polygon's interior throughout leaves the integrand smooth).
@@ -774,9 +777,8 @@ fn outer_s(
         );
     }
     let (cx, cy) = box_cuts(wk, (x0, x1), (y0, y1), &kx, &ky);
-    // As in outer_w: the cell clipped by the square aperture's preimage is a product of
-    // intervals with linearly moving ends.
-    let bilinear = separable && complete && scene.surface.fronto().is_some() && piecewise(scene);
+    // The rect cell clipped by the square aperture's preimage: a product of intervals.
+    let bilinear = bilinear(scene, separable, complete);
     let lv = 1.0 / chan.vl;
     let mut f = |sx: f64, sy: f64, wk: &mut Work| node_s(chan, scene, c, alpha, [sx, sy], wk);
     // Rough boxes (see outer_w): P = B w(ξ) − (z/L)(c + ξ), w(ξ) = (L/v)(α ξ − σ); a vertex
