@@ -68,6 +68,7 @@ __all__ = [
     "render_extent",
     "samples_2d",
     "seen_region",
+    "surface_system",
 ]
 
 __version__: str
@@ -426,6 +427,20 @@ def pixel_span(design: DesignCore, z: float, channels: list[int] | None = None) 
 def cell_grid(
     extent: tuple[float, float, float, float], step: float
 ) -> tuple[float, float, float, int, int]: ...
+def surface_system(
+    design: DesignCore,
+    scene: RenderScene,
+    grid: tuple[float, float, float, int, int],
+    channels: list[int] | None = None,
+    n_threads: int | None = None,
+    progress: Callable[[int, int], object] | None = None,
+) -> tuple[
+    npt.NDArray[np.uint32],
+    npt.NDArray[np.uint64],
+    npt.NDArray[np.uint64],
+    npt.NDArray[np.uint32],
+    npt.NDArray[np.float64],
+]: ...
 def reconstruction_system(
     design: DesignCore,
     z: float,

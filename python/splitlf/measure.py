@@ -49,8 +49,8 @@ def truth(rec: Reconstruction, texture: Any) -> np.ndarray:
     if seam is None:
         raise TypeError(f"truth must be a texture or an array, got {type(texture).__name__}")
     kind, params, image = seam()
-    scene = _native.RenderScene(kind, params, image, "plane", [rec.depth, 0.0, 0.0], None,
-                                0.0)
+    # Cell averages are the texture's alone: any surface will do.
+    scene = _native.RenderScene(kind, params, image, "plane", [1000.0, 0.0, 0.0], None, 0.0)
     return _native.cell_averages(scene, _grid(rec))
 
 

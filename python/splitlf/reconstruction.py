@@ -2,9 +2,13 @@
 
 :func:`reconstruct` solves for the albedo on a uniform grid of cells over a region of a
 known surface: the core builds the sparse linear map A (row = raw pixel, column = cell,
-entry = what the pixel records when the cell alone is white; ``_native.reconstruction_system``,
-with the forward model's own integration, so that ``A t`` is ``render``'s raw of the image
-texture t), and SciPy's conjugate gradients solve the regularised least squares
+entry = what the pixel records when the cell alone is white), with the forward model's own
+integration, so that ``A t`` is ``render``'s raw of the image texture t: on the exact route
+(a fronto-parallel plane, rect cells, a square aperture, the ideal layout) as per-axis
+factors (``_native.reconstruction_factors``), otherwise (slanted planes, depth maps, hex
+arrays, circular apertures, sensor layouts) as explicit rows from the general route in
+record mode (``_native.surface_system``). SciPy's conjugate gradients solve the
+regularised least squares
 
     min_t  sum_rows ((A t - raw) / sigma)^2  +  lambda * |D t|^2
 
@@ -18,14 +22,14 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
 from . import _native, _validate
 from .design import Design
 from .errors import InvalidParameter
-from .rendering import Plane, Raw, _extent, _progress_flag
+from .rendering import DepthMap, Plane, Raw, _extent, _progress_flag
 from .simulation import _noise
 
 Extent = tuple[float, float, float, float]
@@ -47,7 +51,9 @@ CG_MAX_ITER = 2000
 class Reconstruction:
     """A reconstructed albedo image: ``image`` (2-D float64, row 0 at the top = largest Y,
     column 0 at the left, like a texture) of cells of pitch ``step`` (mm) uniform over
-    ``extent`` = (X0, X1, Y0, Y1) in object-space mm, on the surface ``depth``, from
+    ``extent`` = (X0, X1, Y0, Y1) in object-space mm, on the surface ``depth`` (a depth in
+    mm for a fronto-parallel plane, else the :class:`~splitlf.Plane` or
+    :class:`~splitlf.DepthMap` given), from
     ``channels`` (numbered from 1) of ``design``; and what the solve did: ``rows`` (raw
     pixels used), ``iterations``, ``residual`` (the normal equations' relative residual),
     ``regularization`` (lambda) and ``noise`` (the per-pixel sigma model used)."""
@@ -56,7 +62,7 @@ class Reconstruction:
     extent: Extent
     step: float
     design: Design
-    depth: float
+    depth: float | Plane | DepthMap
     channels: tuple[int, ...]
     rows: int
     iterations: int
@@ -68,21 +74,48 @@ class Reconstruction:
         self.image.setflags(write=False)
 
 
-def _depth(depth: Any) -> float:
+def _depth(depth: Any) -> float | Plane | DepthMap:
+    """A fronto-parallel plane as its depth (mm); a slanted Plane or a DepthMap as given."""
     if isinstance(depth, Plane):
-        if depth.gx != 0.0 or depth.gy != 0.0:
-            raise InvalidParameter.of(
-                "depth", f"Plane({depth.z0}, {depth.gx}, {depth.gy})",
-                "a fronto-parallel plane (a number, or a Plane with gx = gy = 0): slanted "
-                "planes and depth maps are not reconstructed yet (docs/reconstruct.md)")
-        return float(depth.z0)
+        if depth.gx == 0.0 and depth.gy == 0.0:
+            return float(depth.z0)
+        return depth
+    if isinstance(depth, DepthMap):
+        return depth
     if isinstance(depth, bool) or not isinstance(depth, (int, float, np.integer, np.floating)):
-        raise TypeError("depth must be a number (mm) or a splitlf.Plane, got "
-                        f"{type(depth).__name__}")
+        raise TypeError("depth must be a number (mm), a splitlf.Plane or a splitlf.DepthMap, "
+                        f"got {type(depth).__name__}")
     z = float(depth)
     if not math.isfinite(z):
         raise InvalidParameter.of("depth", z, "a finite depth > F (mm)")
     return z
+
+
+def _depth_range(surface: float | Plane | DepthMap, ext: Extent) -> tuple[float, float]:
+    """The least and greatest depth of the surface over the rectangle ``ext``."""
+    if isinstance(surface, float):
+        return surface, surface
+    if isinstance(surface, Plane):
+        return surface.depths(ext)
+    return float(surface.depth.min()), float(surface.depth.max())
+
+
+def _reference_depth(surface: float | Plane | DepthMap) -> float:
+    """The depth that sizes the defaults: a plane's depth on the axis (X = Y = 0), a depth
+    map's median."""
+    if isinstance(surface, float):
+        return surface
+    if isinstance(surface, Plane):
+        return surface.z0
+    return float(np.median(surface.depth))
+
+
+def _exact(design: Design, surface: float | Plane | DepthMap, chans: tuple[int, ...]) -> bool:
+    """Whether the map can be built in factored form (the forward model's exact route)."""
+    if not isinstance(surface, float) or design.aperture != "square":
+        return False
+    res = design.resolved()
+    return all(res[c - 1]["grid"] == "rect" and res[c - 1]["layout"] == "ideal" for c in chans)
 
 
 def _channels(design: Design, channels: Any) -> tuple[int, ...]:
@@ -169,6 +202,66 @@ class _Part:
         return self.norm ** 2 * (py2.T @ (px2.T @ full.T).T)
 
 
+class _Block(Protocol):
+    """A block of the map's rows: its raw values ``y``, white value(s) ``white``, the rows'
+    mask, and A, A^T and diag(A^T W A) on the padded grid."""
+
+    y: np.ndarray
+    white: Any
+
+    @property
+    def mask(self) -> np.ndarray: ...
+    def forward(self, t: np.ndarray) -> np.ndarray: ...
+    def adjoint(self, r: np.ndarray) -> np.ndarray: ...
+    def diagonal(self, w: np.ndarray) -> np.ndarray: ...
+
+
+@dataclasses.dataclass
+class _Rows:
+    """Explicit rows of the map (any surface, any design): A as SciPy CSR over the padded
+    grid's cells, the raw values of its rows and each row's fully lit white value."""
+
+    A: Any
+    shape: tuple[int, int]
+    y: np.ndarray
+    white: np.ndarray
+
+    @property
+    def mask(self) -> np.ndarray:
+        return np.ones(self.y.shape, dtype=bool)
+
+    def forward(self, t: np.ndarray) -> np.ndarray:
+        return np.asarray(self.A @ t.ravel())
+
+    def adjoint(self, r: np.ndarray) -> np.ndarray:
+        return np.asarray(self.A.T @ r).reshape(self.shape)
+
+    def diagonal(self, w: np.ndarray) -> np.ndarray:
+        return np.asarray(self.A.multiply(self.A).T @ w).reshape(self.shape)
+
+
+def _rows(raw: Raw, chans: tuple[int, ...], surface: Plane | DepthMap | float, grid: tuple,
+          n_threads: int | None, progress: Any) -> list[_Rows]:
+    from scipy import sparse
+
+    design = raw.design
+    plane = surface if not isinstance(surface, float) else Plane(surface)
+    kind, params, depth_map = plane.seam()
+    scene = _native.RenderScene("constant", [0.0], None, kind, params, depth_map, 0.0)
+    chan, pix, indptr, indices, data = _native.surface_system(
+        design.core, scene, grid, list(chans), n_threads, progress)
+    if chan.size == 0:
+        return []
+    shares = np.array([c["share"] for c in design.resolved()])
+    y = np.concatenate([raw.images[c].ravel() for c in range(len(design.channels))])
+    offsets = np.cumsum([0] + [raw.images[c].size for c in range(len(design.channels))])
+    A = sparse.csr_matrix((data, indices.astype(np.int64), indptr.astype(np.int64)),
+                          shape=(chan.size, grid[3] * grid[4]))
+    ch = chan.astype(np.int64)
+    return [_Rows(A=A, shape=(grid[4], grid[3]), y=y[offsets[ch] + pix.astype(np.int64)],
+                  white=shares[ch])]
+
+
 def _parts(raw: Raw, chans: tuple[int, ...], z: float, grid: tuple) -> list[_Part]:
     from scipy import sparse
 
@@ -209,18 +302,20 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
     (docs/model.md §11, docs/reconstruct.md).
 
     - ``raw``: a :class:`splitlf.Raw` (rendered, loaded or wrapped)
-    - ``depth``: the surface: a depth (mm) or a fronto-parallel :class:`splitlf.Plane`
-      (slanted planes and depth maps: not yet)
+    - ``depth``: the surface: a depth (mm), a :class:`splitlf.Plane` (slanted or not) or a
+      :class:`splitlf.DepthMap`
     - ``region``: (X0, X1, Y0, Y1) mm (None: what each chosen channel sees through at
-      least half its aperture, ``_native.seen_region``); rounded out to whole cells
-    - ``step``: the cell pitch, mm (None: delta(z) = mu_1 z / L_1, the sensor's step)
+      least half its aperture at the reference depth, ``_native.seen_region``; for a
+      depth map, within its extent); rounded out to whole cells
+    - ``step``: the cell pitch, mm (None: delta(z) = mu_1 z / L_1, the sensor's step, at
+      the reference depth: a plane's depth on the axis, a depth map's median)
     - ``regularization``: lambda, the smoothness prior's weight (None:
       ``DEFAULT_REGULARIZATION``); it does not depend on the number of pixels
     - ``channels``: channel numbers from 1 (None: every channel)
     - ``noise``: the raw's noise, as for :func:`splitlf.render` (``{"photons": N,
       "read_noise": r}``); None: noise-free, weighted as ``NOISE_FLOOR`` of white
-    - ``n_threads``: checked and accepted for symmetry with ``render``; the map's factors
-      are built in the core in well under a second and the solve runs in SciPy
+    - ``n_threads``: threads of the general route's map (the factored map of the exact
+      route is built in well under a second; the solve runs in SciPy)
     - ``progress``: a tqdm bar (None: only when stderr is a terminal)
 
     Cells within one pixel's span (``_native.pixel_span``) beyond the region are solved
@@ -234,29 +329,50 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
     if not isinstance(raw, Raw):
         raise TypeError(f"raw must be a splitlf.Raw, got {type(raw).__name__}")
     design = raw.design
-    z = _depth(depth)
+    surface = _depth(depth)
     chans = _channels(design, channels)
     noise_ = _noise(noise)
     lam = DEFAULT_REGULARIZATION if regularization is None else _validate.real(
         regularization, "regularization")
     if not (math.isfinite(lam) and lam > 0.0):
         raise InvalidParameter.of("regularization", lam, "a finite value > 0")
-    _validate.n_threads(n_threads)  # checked; see the docstring
+    _validate.n_threads(n_threads)
     show = _progress_flag(progress)
     core = design.core
+    z_ref = _reference_depth(surface)
     if step is None:
-        step_ = design.resolution_step(z)
+        step_ = design.resolution_step(z_ref)
     else:
         step_ = _validate.real(step, "step")
         if not (math.isfinite(step_) and step_ > 0.0):
             raise InvalidParameter.of("step", step_, "a finite value > 0 (mm)")
-    ext = (_native.seen_region(core, z, list(chans)) if region is None
-           else _extent(region, "region"))
+    if region is not None:
+        ext = _extent(region, "region")
+    else:
+        ext = _native.seen_region(core, z_ref, list(chans))
+        if isinstance(surface, DepthMap):
+            m = surface.extent
+            ext = (max(ext[0], m[0]), min(ext[1], m[1]), max(ext[2], m[2]), min(ext[3], m[3]))
+            if not (ext[0] < ext[1] and ext[2] < ext[3]):
+                raise InvalidParameter.of("region", "none", "a region: the depth map's extent "
+                                          "lies outside what the channels see; give one")
     x0, y1, h, nx, ny = _native.cell_grid(ext, step_)
     inner: Extent = (x0, x0 + nx * h, y1 - ny * h, y1)
-    pad = math.ceil(_native.pixel_span(core, z, list(chans)) / h)
-    gx0, gy1, _, gnx, gny = _native.cell_grid(
-        (inner[0] - pad * h, inner[1] + pad * h, inner[2] - pad * h, inner[3] + pad * h), h)
+    # Pad by the widest pixel span over the surface's depths there (twice: the padded
+    # region's depth range can be wider).
+    padded = inner
+    pad = 0
+    for _ in range(2):
+        zlo, zhi = _depth_range(surface, padded)
+        if zlo <= design.F:
+            raise InvalidParameter.of(
+                "depth", f"{zlo:.6g} mm (least depth over the region)",
+                f"depths > F = {design.F:g} mm everywhere in the region")
+        pad = math.ceil(max(_native.pixel_span(core, zlo, list(chans)),
+                            _native.pixel_span(core, zhi, list(chans))) / h)
+        padded = (inner[0] - pad * h, inner[1] + pad * h, inner[2] - pad * h, inner[3] + pad * h)
+    gx0, gy1, _, gnx, gny = _native.cell_grid(padded, h)
+    exact = _exact(design, surface, chans)
     bar = None
     if show:
         try:
@@ -266,37 +382,51 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
         except ImportError:
             pass
     try:
-        parts = _parts(raw, chans, z, (gx0, gy1, h, gnx, gny))
+        parts: Sequence[_Block]
+        if exact:
+            assert isinstance(surface, float)
+            parts = _parts(raw, chans, surface, (gx0, gy1, h, gnx, gny))
+        else:
+            report = None
+            if bar is not None:
+                bar.reset(total=1)
+                bar.set_description("splitlf reconstruct (map)")
+
+                def report(done: int, total: int) -> None:
+                    bar.total = total
+                    bar.n = done
+                    bar.refresh()
+            parts = _rows(raw, chans, surface, (gx0, gy1, h, gnx, gny), n_threads, report)
         rows = sum(int(p.mask.sum()) for p in parts)
         if rows == 0:
             raise InvalidParameter.of(
                 "region", f"({inner[0]:.6g}, {inner[1]:.6g}, {inner[2]:.6g}, {inner[3]:.6g})",
                 "a region some pixel of the chosen channels sees")
-        weights = []
+        weights: list[np.ndarray] = []
         for p in parts:
-            sigma, noise_text = _sigma(p.y, noise_, np.full(p.y.shape, p.white))
+            sigma, noise_text = _sigma(p.y, noise_, np.broadcast_to(p.white, p.y.shape))
             weights.append(1.0 / sigma ** 2)
+        pairs: list[tuple[_Block, np.ndarray]] = list(zip(parts, weights, strict=True))
         shape = (gny, gnx)
         n_cells = gny * gnx
 
         def normal(v: np.ndarray) -> np.ndarray:
             t = v.reshape(shape)
             out = lam * _smoothness(t)
-            for p, w in zip(parts, weights, strict=True):
-                out += p.adjoint(w * p.forward(t))
+            for b, w in pairs:
+                out += b.adjoint(w * b.forward(t))
             return out.ravel()
 
         M = LinearOperator((n_cells, n_cells), matvec=normal, dtype=np.float64)
-        pairs = list(zip(parts, weights, strict=True))
-        rhs = np.sum([p.adjoint(w * p.y) for p, w in pairs], axis=0).ravel()
+        rhs = np.sum([b.adjoint(w * b.y) for b, w in pairs], axis=0).ravel()
         diag = lam * _neighbours(*shape)
-        for p, w in zip(parts, weights, strict=True):
-            diag += p.diagonal(w)
+        for b, w in pairs:
+            diag += b.diagonal(w)
         diag = diag.ravel()
         # Start from the normalised back-projection (A^T W y / A^T W A 1); cells no
         # pixel sees start at the weighted mean.
         ones = np.ones(shape)
-        seen = np.sum([p.adjoint(w * p.forward(ones)) for p, w in pairs], axis=0).ravel()
+        seen = np.sum([b.adjoint(w * b.forward(ones)) for b, w in pairs], axis=0).ravel()
         guess = np.full(n_cells, float(np.sum(rhs) / max(float(np.sum(seen)), 1e-300)))
         ok = seen > 0.0
         guess[ok] = rhs[ok] / seen[ok]
@@ -320,6 +450,6 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
     norm_rhs = float(np.linalg.norm(rhs))
     resid = float(np.linalg.norm(normal(t) - rhs)) / norm_rhs if norm_rhs > 0 else 0.0
     img = t.reshape(gny, gnx)[pad:pad + ny, pad:pad + nx].copy()
-    return Reconstruction(image=img, extent=inner, step=h, design=design, depth=z,
+    return Reconstruction(image=img, extent=inner, step=h, design=design, depth=surface,
                           channels=chans, rows=rows, iterations=it[0], residual=resid,
                           regularization=lam, noise=noise_text)

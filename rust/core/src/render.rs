@@ -60,6 +60,12 @@ pub const MIN_TOL: f64 = 1e-10;
 const PIECE_DEPTH_RTOL: f64 = 2e-4;
 /// Most pieces per axis a polygon is cut into.
 const MAX_PIECES: usize = 24;
+/// On a plane: the relative depth span of one strip of a polygon (along the depth's level
+/// lines), where the ray map's density is treated as constant (it varies as the cube of
+/// depth: an error of at most about 1.5 × this × the albedo's range within the strip).
+const STRIP_DEPTH_RTOL: f64 = 5e-4;
+/// Most strips a polygon is cut into.
+const MAX_STRIPS: usize = 64;
 /// Relative accuracy assumed of one evaluation of the integrand on a slanted plane or a
 /// depth map (its pieces' count changes with the node, so it is not smooth at that level):
 /// the adaptive rule accepts a box when its two rules agree to tol plus this fraction of
@@ -170,7 +176,7 @@ impl<'a> Chan<'a> {
     }
 
     /// Largest reach of a lens's light from its image centre on the sensor, per axis.
-    fn reach(&self) -> [f64; 2] {
+    pub(crate) fn reach(&self) -> [f64; 2] {
         let amax = self.types.iter().map(|t| t.0.abs()).fold(0.0, f64::max);
         let ap = self.vl * self.r_ap;
         [amax * self.hx + ap, amax * self.hy + ap]
@@ -192,9 +198,13 @@ impl<'a> Chan<'a> {
 
 /// Per-worker buffers.
 #[derive(Default)]
-struct Work {
+pub(crate) struct Work {
     /// Relative accuracy of one evaluation of the integrand (0: exact; see `PIECE_NOISE`).
     rel_floor: f64,
+    /// When set, the integration records each grid cell's share of the pixel's rays
+    /// instead of averaging the texture (the map of docs/model.md §11; see
+    /// [`crate::system::Recorder`]), and the adaptive rule is a fixed one ([`fixed_rule`]).
+    pub(crate) rec: Option<Box<crate::system::Recorder>>,
     tex: Scratch,
     poly: Vec<Pt>,
     tmp: Vec<Pt>,
@@ -202,6 +212,20 @@ struct Work {
     mapped: Vec<Pt>,
     cuts_a: Vec<f64>,
     cuts_b: Vec<f64>,
+    zs: Vec<f64>,
+    /// Record mode: the current lens's cuts hold every kink of the grid's lines.
+    kinks_cut: bool,
+}
+
+impl Work {
+    /// A worker in record mode (`fronto`: the surface is a fronto-parallel plane).
+    pub(crate) fn recording(rec: Box<crate::system::Recorder>, fronto: bool) -> Work {
+        Work {
+            rec: Some(rec),
+            rel_floor: if fronto { 0.0 } else { PIECE_NOISE },
+            ..Work::default()
+        }
+    }
 }
 
 /// The lines along one axis (0: X, 1: Y) where a texture's albedo jumps, as (origin,
@@ -236,11 +260,16 @@ const MAX_KINKS: usize = 40;
 const MOTION_CELLS: f64 = 4.0;
 /// ... in at most this many parts.
 const MAX_SPLITS: usize = 16;
+/// The same two when a map is recorded: each cell's weight (not only their sum, the
+/// texture's average) must come out right, so the parts are shorter.
+const RECORD_MOTION_CELLS: f64 = 1.0;
+const RECORD_SPLITS: usize = 48;
 
 /// Add to `out` the values of the outer variable t in [t0, t1] where a moving line
 /// P = slope t + intercept of the polygon crosses one of the texture's lines along `axis`
 /// (`extent`: the width of the polygon's scene image). When they are too many, `out` gets
 /// uniform splits instead. True when the cuts are every kink (or the texture has none).
+#[allow(clippy::too_many_arguments)]
 fn texture_kinks(
     texture: &Texture,
     axis: usize,
@@ -248,6 +277,7 @@ fn texture_kinks(
     moving: &[(f64, f64)],
     (t0, t1): (f64, f64),
     separable: bool,
+    record: bool,
     out: &mut Vec<f64>,
 ) -> bool {
     let Some((o, h, first, last)) = texture_lines(texture, axis) else {
@@ -295,8 +325,13 @@ fn texture_kinks(
         return true;
     }
     out.truncate(start);
-    let per_part = MOTION_CELLS * (extent / h / KINK_CELLS).max(1.0).sqrt();
-    let n = ((motion / per_part).ceil() as usize).clamp(1, MAX_SPLITS);
+    let (cells, most) = if record {
+        (RECORD_MOTION_CELLS, RECORD_SPLITS)
+    } else {
+        (MOTION_CELLS, MAX_SPLITS)
+    };
+    let per_part = cells * (extent / h / KINK_CELLS).max(1.0).sqrt();
+    let n = ((motion / per_part).ceil() as usize).clamp(1, most);
     for k in 1..n {
         out.push(t0 + (t1 - t0) * k as f64 / n as f64);
     }
@@ -396,6 +431,10 @@ fn adaptive(
         0.5 * (y0 + y1),
         0.5 * (y1 - y0),
     );
+    if wk.rec.is_some() {
+        fixed_rule(f, x0, x1, y0, y1, wk);
+        return 0.0;
+    }
     let area = 4.0 * xh * yh;
     let t = 0.25 * tol;
     if depth < ROUGH_DEPTH && rough(x0, x1, y0, y1, wk) {
@@ -436,6 +475,53 @@ fn adaptive(
         + adaptive(f, rough, xm, x1, ym, y1, t, depth + 1, wk)
 }
 
+/// The record-mode rule on a box (its decisions cannot depend on one texture's values):
+/// when the box lies between every kink of the grid's lines (`wk.kinks_cut`: the integrand
+/// is smooth there, bilinear on fronto planes), the 2 × 2 Gauss–Legendre rule, exact for
+/// bicubics; otherwise 3 × 3 Gauss–Legendre on each of FIXED_SPLITS² sub-boxes. Each node's
+/// weight is handed to the recorder before the integrand runs.
+fn fixed_rule(
+    f: &mut impl FnMut(f64, f64, &mut Work) -> f64,
+    x0: f64,
+    x1: f64,
+    y0: f64,
+    y1: f64,
+    wk: &mut Work,
+) {
+    const G2: ([f64; 2], [f64; 2]) = (
+        [-0.577_350_269_189_625_8, 0.577_350_269_189_625_8],
+        [0.5, 0.5],
+    );
+    const G3: ([f64; 3], [f64; 3]) = (
+        [-0.774_596_669_241_483_4, 0.0, 0.774_596_669_241_483_4],
+        [5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0],
+    );
+    let (nodes, weights, k): (&[f64], &[f64], usize) = match (wk.kinks_cut, wk.rel_floor == 0.0) {
+        (true, true) => (&G2.0, &G2.1, 1),
+        (true, false) => (&G3.0, &G3.1, 1),
+        (false, _) => (&G3.0, &G3.1, FIXED_SPLITS),
+    };
+    let kf = k as f64;
+    let (hx, hy) = ((x1 - x0) / kf, (y1 - y0) / kf);
+    let area = hx * hy;
+    for i in 0..k {
+        for j in 0..k {
+            let (xm, ym) = (x0 + (i as f64 + 0.5) * hx, y0 + (j as f64 + 0.5) * hy);
+            for (a, &sx) in nodes.iter().enumerate() {
+                for (b, &sy) in nodes.iter().enumerate() {
+                    if let Some(r) = wk.rec.as_deref_mut() {
+                        r.node = area * weights[a] * weights[b];
+                    }
+                    f(xm + 0.5 * sx * hx, ym + 0.5 * sy * hy, wk);
+                }
+            }
+        }
+    }
+}
+
+/// Sub-boxes per axis of the record-mode rule where the grid's kinks are not all cut.
+pub(crate) const FIXED_SPLITS: usize = 2;
+
 /// Halvings forced on a box that a texture discontinuity sweeps (a feature the 2- and
 /// 3-point rules could both miss is then at most 1/64 of the box).
 const ROUGH_DEPTH: u32 = 3;
@@ -463,6 +549,9 @@ fn over_boxes(
             if bilinear {
                 // Bilinear between the cuts: the midpoint rule is exact.
                 let (xm, ym) = (0.5 * (cx[i - 1] + cx[i]), 0.5 * (cy[j - 1] + cy[j]));
+                if let Some(r) = wk.rec.as_deref_mut() {
+                    r.node = a;
+                }
                 s += a * f(xm, ym, wk);
                 continue;
             }
@@ -496,6 +585,10 @@ fn outer_w(
 ) -> f64 {
     let lv = 1.0 / chan.vl;
     let aa = alpha.abs();
+    if let Some(r) = wk.rec.as_deref_mut() {
+        r.outer = 1.0;
+        r.jac = 1.0;
+    }
     // w-range per axis and the kinks of the integrand inside it (in w units).
     let range = |e: f64, h: f64| -> (f64, f64) {
         (lv * (e - aa * h - mu / 2.0), lv * (e + aa * h + mu / 2.0))
@@ -563,10 +656,12 @@ fn outer_w(
             &moving,
             (t0, t1),
             separable,
+            wk.rec.is_some(),
             target,
         );
     }
     let (cx, cy) = box_cuts(wk, (x0, x1), (y0, y1), &kx, &ky);
+    wk.kinks_cut = complete;
     // The rect cell clipped by the pixel's square preimage: a product of intervals (a
     // circle's outer domain is parametrised by φ instead).
     let bilinear = bilinear(scene, separable && !circle, complete);
@@ -606,6 +701,9 @@ fn outer_w(
             let clipped = -q > y0 || q < y1;
             if !clipped {
                 let mut f = |p: f64, wy: f64, wk: &mut Work| {
+                    if let Some(rec) = wk.rec.as_deref_mut() {
+                        rec.jac = r * p.cos();
+                    }
                     r * p.cos() * node_w(chan, scene, c, alpha, e, mu, [r * p.sin(), wy], wk)
                 };
                 let rough_p = |p0: f64, p1: f64, b0: f64, b1: f64, wk: &mut Work| {
@@ -622,6 +720,9 @@ fn outer_w(
                         return 0.0;
                     }
                     let wy = lo + u * (hi - lo);
+                    if let Some(rec) = wk.rec.as_deref_mut() {
+                        rec.jac = r * p.cos() * (hi - lo);
+                    }
                     r * p.cos() * (hi - lo) * node_w(chan, scene, c, alpha, e, mu, [wx, wy], wk)
                 };
                 let rough_p = |p0: f64, p1: f64, _: f64, _: f64, wk: &mut Work| {
@@ -719,6 +820,10 @@ fn outer_s(
     // Offsets σ = s − img (img = (1 + v/L) c): the pixel is σ ∈ −e ± μ/2; the lens's
     // light reaches |σ| ≤ |α| h + (v/L) r_ap per axis.
     let aa = alpha.abs();
+    if let Some(r) = wk.rec.as_deref_mut() {
+        r.outer = (1.0 / chan.vl).powi(2);
+        r.jac = 1.0;
+    }
     let rho = chan.vl * chan.r_ap; // (v/L) r_ap; the preimage radius is rho / |α|
     let reach = [aa * chan.hx + rho, aa * chan.hy + rho];
     let (x0, x1) = (
@@ -773,10 +878,12 @@ fn outer_s(
             &moving,
             (t0, t1),
             separable,
+            wk.rec.is_some(),
             target,
         );
     }
     let (cx, cy) = box_cuts(wk, (x0, x1), (y0, y1), &kx, &ky);
+    wk.kinks_cut = complete;
     // The rect cell clipped by the square aperture's preimage: a product of intervals.
     let bilinear = bilinear(scene, separable, complete);
     let lv = 1.0 / chan.vl;
@@ -913,6 +1020,10 @@ fn scene_mean(chan: &Chan, scene: &Scene, c: Pt, w_of: impl Fn(Pt) -> Pt, wk: &m
             let a = a_of(xi, w);
             wk.mapped.push([w[0] - z * a[0], w[1] - z * a[1]]);
         }
+        if let Some(r) = wk.rec.as_deref_mut() {
+            r.add(&wk.mapped, signed_area(&wk.poly));
+            return 0.0;
+        }
         return scene.texture.average(&wk.mapped, &mut wk.tex);
     }
     // Slanted or curved: hits at the vertices decide how finely to cut.
@@ -921,10 +1032,12 @@ fn scene_mean(chan: &Chan, scene: &Scene, c: Pt, w_of: impl Fn(Pt) -> Pt, wk: &m
     let mut misses = 0;
     let mut pmin = [f64::INFINITY; 2];
     let mut pmax = [f64::NEG_INFINITY; 2];
+    wk.zs.clear();
     for &xi in &wk.poly {
         let w = w_of(xi);
         match scene.surface.hit(w, a_of(xi, w)) {
             Some((z, p)) => {
+                wk.zs.push(z);
                 zmin = zmin.min(z);
                 zmax = zmax.max(z);
                 for k in 0..2 {
@@ -940,8 +1053,43 @@ fn scene_mean(chan: &Chan, scene: &Scene, c: Pt, w_of: impl Fn(Pt) -> Pt, wk: &m
         let ctr = crate::polygon::centroid(&wk.poly);
         let w = w_of(ctr);
         if scene.surface.hit(w, a_of(ctr, w)).is_none() {
+            if let Some(r) = wk.rec.as_deref_mut() {
+                r.add_background(signed_area(&wk.poly));
+                return 0.0;
+            }
             return scene.background;
         }
+    }
+    let total_area = signed_area(&wk.poly);
+    let src = std::mem::take(&mut wk.poly);
+    let mut acc = 0.0;
+    if matches!(scene.surface, Surface::Plane { .. }) && misses == 0 && zmax > zmin {
+        // A plane: the depth's level lines over the polygon are (nearly: exactly for a
+        // fixed main-lens point) parallel, and the ray map's density varies across them
+        // only. Strips along them, each of relative depth span STRIP_DEPTH_RTOL at most.
+        let n = ((zmax - zmin) / zmin / STRIP_DEPTH_RTOL).ceil() as usize;
+        let n = n.clamp(1, MAX_STRIPS);
+        let g = depth_gradient(&src, &wk.zs);
+        let proj = |p: Pt| g[0] * p[0] + g[1] * p[1];
+        let (t0, t1) = src
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &p| {
+                (a.min(proj(p)), b.max(proj(p)))
+            });
+        for k in 0..n {
+            let lo = t0 + (t1 - t0) * k as f64 / n as f64;
+            let hi = t0 + (t1 - t0) * (k + 1) as f64 / n as f64;
+            if n > 1 {
+                clip_into(&src, &mut wk.tmp, |p| proj(p) - lo);
+                clip_into(&wk.tmp, &mut wk.piece, |p| hi - proj(p));
+            } else {
+                wk.piece.clear();
+                wk.piece.extend_from_slice(&src);
+            }
+            acc += piece_value(scene, &w_of, &a_of, wk);
+        }
+        wk.poly = src;
+        return acc / total_area;
     }
     let mut n = if zmin.is_finite() {
         ((zmax - zmin) / zmin / PIECE_DEPTH_RTOL).sqrt().ceil() as usize
@@ -959,10 +1107,7 @@ fn scene_mean(chan: &Chan, scene: &Scene, c: Pt, w_of: impl Fn(Pt) -> Pt, wk: &m
         n = n.max(4);
     }
     let n = n.clamp(1, MAX_PIECES);
-    let (x0, x1, y0, y1) = bounds(&wk.poly);
-    let total_area = signed_area(&wk.poly);
-    let mut acc = 0.0;
-    let src = std::mem::take(&mut wk.poly);
+    let (x0, x1, y0, y1) = bounds(&src);
     for i in 0..n {
         for j in 0..n {
             let (px0, px1) = (
@@ -978,37 +1123,92 @@ fn scene_mean(chan: &Chan, scene: &Scene, c: Pt, w_of: impl Fn(Pt) -> Pt, wk: &m
             if n > 1 {
                 clip_box(&mut wk.piece, &mut wk.tmp, px0, px1, py0, py1);
             }
-            let area = signed_area(&wk.piece);
-            if area <= 0.0 {
-                continue;
-            }
-            wk.mapped.clear();
-            let mut miss = false;
-            for &xi in &wk.piece {
-                let w = w_of(xi);
-                match scene.surface.hit(w, a_of(xi, w)) {
-                    Some((_, p)) => wk.mapped.push(p),
-                    None => {
-                        miss = true;
-                        break;
-                    }
-                }
-            }
-            let v = if miss {
-                let ctr = crate::polygon::centroid(&wk.piece);
-                let w = w_of(ctr);
-                match scene.surface.hit(w, a_of(ctr, w)) {
-                    Some((_, p)) => scene.texture.at(p),
-                    None => scene.background,
-                }
-            } else {
-                scene.texture.average(&wk.mapped, &mut wk.tex)
-            };
-            acc += area * v;
+            acc += piece_value(scene, &w_of, &a_of, wk);
         }
     }
     wk.poly = src;
     acc / total_area
+}
+
+/// ∫ T over the ray set `wk.piece` (cell coordinates ξ) of one node, the piece's image
+/// treated as the polygon of its vertices' hits (in record mode: recorded, 0 returned).
+fn piece_value(
+    scene: &Scene,
+    w_of: &impl Fn(Pt) -> Pt,
+    a_of: &impl Fn(Pt, Pt) -> Pt,
+    wk: &mut Work,
+) -> f64 {
+    let area = signed_area(&wk.piece);
+    if area <= 0.0 {
+        return 0.0;
+    }
+    wk.mapped.clear();
+    let mut miss = false;
+    for &xi in &wk.piece {
+        let w = w_of(xi);
+        match scene.surface.hit(w, a_of(xi, w)) {
+            Some((_, p)) => wk.mapped.push(p),
+            None => {
+                miss = true;
+                break;
+            }
+        }
+    }
+    if let Some(r) = wk.rec.as_deref_mut() {
+        if !miss {
+            r.add(&wk.mapped, area);
+        } else {
+            let ctr = crate::polygon::centroid(&wk.piece);
+            let w = w_of(ctr);
+            match scene.surface.hit(w, a_of(ctr, w)) {
+                Some((_, p)) => r.add_point(p, area),
+                None => r.add_background(area),
+            }
+        }
+        return 0.0;
+    }
+    let v = if miss {
+        let ctr = crate::polygon::centroid(&wk.piece);
+        let w = w_of(ctr);
+        match scene.surface.hit(w, a_of(ctr, w)) {
+            Some((_, p)) => scene.texture.at(p),
+            None => scene.background,
+        }
+    } else {
+        scene.texture.average(&wk.mapped, &mut wk.tex)
+    };
+    area * v
+}
+
+/// The direction of steepest depth increase over a polygon (least squares through its
+/// vertices' hit depths `zs`); any unit vector when they are flat.
+fn depth_gradient(poly: &[Pt], zs: &[f64]) -> Pt {
+    let n = poly.len() as f64;
+    let m = poly
+        .iter()
+        .fold([0.0, 0.0], |s, p| [s[0] + p[0] / n, s[1] + p[1] / n]);
+    let zm = zs.iter().sum::<f64>() / n;
+    let (mut sxx, mut sxy, mut syy, mut sxz, mut syz) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for (p, &z) in poly.iter().zip(zs) {
+        let (dx, dy, dz) = (p[0] - m[0], p[1] - m[1], z - zm);
+        sxx += dx * dx;
+        sxy += dx * dy;
+        syy += dy * dy;
+        sxz += dx * dz;
+        syz += dy * dz;
+    }
+    let det = sxx * syy - sxy * sxy;
+    let g = if det.abs() > 1e-300 {
+        [(syy * sxz - sxy * syz) / det, (sxx * syz - sxy * sxz) / det]
+    } else {
+        [sxz, syz]
+    };
+    let norm = (g[0] * g[0] + g[1] * g[1]).sqrt();
+    if norm > 0.0 && norm.is_finite() {
+        [g[0] / norm, g[1] / norm]
+    } else {
+        [1.0, 0.0]
+    }
 }
 
 /// The raw shape (rows, cols) of a channel.
@@ -1049,7 +1249,7 @@ pub fn view_extent(design: &Design, z: f64) -> Result<[f64; 4]> {
 
 /// Check that the surface is in front of the main lens's focal plane wherever the design
 /// looks (z > F at every point of the view over the surface's depth range).
-fn check_surface(design: &Design, surface: &Surface) -> Result<()> {
+pub(crate) fn check_surface(design: &Design, surface: &Surface) -> Result<()> {
     let f = design.f_main;
     match surface {
         Surface::Plane { z0, g } => {
@@ -1059,35 +1259,69 @@ fn check_surface(design: &Design, surface: &Surface) -> Result<()> {
                 }
                 return Ok(());
             }
-            // The view grows with depth: iterate the extent at the plane's deepest point
-            // inside it (a few rounds converge for any slope that stays in front of F).
+            // A ray P(z) = w − z a (w on the main lens, a = w/F + (x − w)/L for x on a
+            // channel's array) meets the plane at z = N/D, N = z0 + g·w, D = 1 + g·a (a hit
+            // when N, D > 0). N and D are affine in (w, x): over the box of w (|w| ≤ r, a
+            // circle inside it) and x (the array's box) the least hit depth is at a vertex,
+            // or 0 where N changes sign on an edge with D > 0 (the plane passes through
+            // the lens's own plane inside the ray bundle).
             if *z0 <= f {
                 return Err(Error::param("z0", *z0, format!("a depth > F = {f} mm")));
             }
-            let mut zt = *z0;
-            for _ in 0..8 {
-                let e = view_extent(design, zt.max(f * 1.0001))?;
-                let corners = [[e[0], e[2]], [e[0], e[3]], [e[1], e[2]], [e[1], e[3]]];
-                let depths: Vec<f64> = corners
-                    .iter()
-                    .map(|p| z0 + g[0] * p[0] + g[1] * p[1])
-                    .collect();
-                let lo = depths.iter().cloned().fold(f64::INFINITY, f64::min);
-                let hi = depths.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-                if lo <= f {
-                    return Err(Error::param(
-                        "plane",
-                        format!("Z = {z0} + {} X + {} Y", g[0], g[1]),
-                        format!(
-                            "a plane deeper than F = {f} mm everywhere in view (it reaches {} mm at a corner of the view)",
-                            crate::error::short_number(lo)
-                        ),
-                    ));
+            let r = design.aperture / 2.0;
+            let mut least = f64::INFINITY;
+            for ch in &design.channels {
+                let (w, h) = ch.array_extent();
+                let half = [[r, r], [w / 2.0, h / 2.0]];
+                let nd = |v: [f64; 4]| {
+                    let (wv, xv) = ([v[0], v[1]], [v[2], v[3]]);
+                    let a = [
+                        wv[0] / f + (xv[0] - wv[0]) / ch.l,
+                        wv[1] / f + (xv[1] - wv[1]) / ch.l,
+                    ];
+                    (
+                        z0 + g[0] * wv[0] + g[1] * wv[1],
+                        1.0 + g[0] * a[0] + g[1] * a[1],
+                    )
+                };
+                let vertex = |k: usize| -> [f64; 4] {
+                    let mut v = [0.0; 4];
+                    for (i, vi) in v.iter_mut().enumerate() {
+                        let s = if k >> i & 1 == 1 { 1.0 } else { -1.0 };
+                        *vi = s * half[i / 2][i % 2];
+                    }
+                    v
+                };
+                for k in 0..16usize {
+                    let (n, d) = nd(vertex(k));
+                    if n > 0.0 && d > 0.0 {
+                        least = least.min(n / d);
+                    }
+                    for i in 0..4 {
+                        let k2 = k | 1 << i;
+                        if k2 == k {
+                            continue;
+                        }
+                        let (n2, d2) = nd(vertex(k2));
+                        if (n > 0.0) != (n2 > 0.0) {
+                            let t = n / (n - n2);
+                            if d + t * (d2 - d) > 0.0 {
+                                least = 0.0;
+                            }
+                        }
+                    }
                 }
-                if hi <= zt * (1.0 + 1e-9) {
-                    break;
-                }
-                zt = hi;
+            }
+            if least <= f {
+                return Err(Error::param(
+                    "plane",
+                    format!("Z = {z0} + {} X + {} Y", g[0], g[1]),
+                    format!(
+                        "a plane deeper than F = {f} mm wherever a ray of the design meets it \
+                         (some ray meets it at {} mm)",
+                        crate::error::short_number(least)
+                    ),
+                ));
             }
             Ok(())
         }
@@ -1256,7 +1490,7 @@ impl SendPtr {
 
 /// One pixel (column a, row b of the channel's raw).
 #[allow(clippy::too_many_arguments)]
-fn pixel_value(
+pub(crate) fn pixel_value(
     design: &Design,
     chan: &Chan,
     scene: &Scene,

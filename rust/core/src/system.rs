@@ -17,8 +17,11 @@ use crate::design::{Aperture, Channel, Design, Grid, Layout};
 use crate::error::{Error, Result};
 use crate::memory;
 use crate::parallel::{checkpoint, for_chunks};
+use crate::polygon::{bounds, centroid, clip_box, signed_area, Pt};
 use crate::render::exact::{profile, Profile};
-use crate::render::Chan;
+use crate::render::{Chan, Work};
+use crate::scene::{Scene, Surface};
+use crate::texture::Texture;
 
 /// A uniform grid of square cells over [x0, x0 + nx h] × [y1 − ny h, y1]; cell (r, c) (row
 /// r from the top, column c from the left, like a texture) is unknown r nx + c.
@@ -431,6 +434,385 @@ pub fn build(
                     done.fetch_add(1, Ordering::Relaxed);
                     Ok(s)
                 })
+                .collect();
+            let chunk = chunk?;
+            parts
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner)
+                .push((range.start, chunk));
+            Ok(())
+        })?;
+        let mut parts = parts
+            .into_inner()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        parts.sort_by_key(|p| p.0);
+        for (_, chunk) in parts {
+            for s in chunk {
+                let base = out.data.len() as u64;
+                out.channel.extend_from_slice(&s.channel);
+                out.pixel.extend_from_slice(&s.pixel);
+                out.indptr.extend(s.indptr.iter().map(|&p| base + p));
+                out.indices.extend_from_slice(&s.indices);
+                out.data.extend_from_slice(&s.data);
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// The recorder that turns the forward model's integration into a row of the map: where the
+/// render averages the texture over a node's polygon image on the surface, the recorder
+/// adds the node's weight to each grid cell in proportion to the image's area inside it
+/// (the image of a polygon under the ray map, clipped by the cell: exact for cell-constant
+/// albedo); the adaptive rule is replaced by a fixed one (`render::fixed_rule`), since its
+/// decisions must not depend on one texture's values. Rays outside the grid (or missing
+/// the surface) add to `outside`.
+pub(crate) struct Recorder {
+    grid: CellGrid,
+    vals: Vec<f64>,
+    mark: Vec<bool>,
+    touched: Vec<u32>,
+    pub(crate) outside: f64,
+    pub(crate) total: f64,
+    /// The current node's weight: channel norm × the outer variable's Jacobian (outer s:
+    /// (L/v)²) × the circle parametrisation's Jacobian × the quadrature weight.
+    pub(crate) norm: f64,
+    pub(crate) outer: f64,
+    pub(crate) jac: f64,
+    pub(crate) node: f64,
+    strip: Vec<Pt>,
+    cell: Vec<Pt>,
+    tmp: Vec<Pt>,
+}
+
+impl Recorder {
+    pub(crate) fn new(grid: CellGrid) -> Result<Recorder> {
+        let n = grid.cells();
+        Ok(Recorder {
+            grid,
+            vals: memory::try_vec("a map row's accumulator", n, 0.0)?,
+            mark: memory::try_vec("a map row's accumulator", n, false)?,
+            touched: Vec::new(),
+            outside: 0.0,
+            total: 0.0,
+            norm: 1.0,
+            outer: 1.0,
+            jac: 1.0,
+            node: 1.0,
+            strip: Vec::new(),
+            cell: Vec::new(),
+            tmp: Vec::new(),
+        })
+    }
+
+    fn weight(&self, area: f64) -> f64 {
+        self.norm * self.outer * self.jac * self.node * area
+    }
+
+    #[inline]
+    fn put(&mut self, k: usize, w: f64) {
+        if !self.mark[k] {
+            self.mark[k] = true;
+            self.touched.push(k as u32);
+        }
+        self.vals[k] += w;
+    }
+
+    /// The cell holding point p, if on the grid.
+    fn cell_of(&self, p: Pt) -> Option<usize> {
+        let g = &self.grid;
+        let c = ((p[0] - g.x0) / g.step).floor();
+        let r = ((g.y1 - p[1]) / g.step).floor();
+        (c >= 0.0 && r >= 0.0 && c < g.nx as f64 && r < g.ny as f64)
+            .then(|| r as usize * g.nx + c as usize)
+    }
+
+    /// A node's polygon of ray measure `area` whose image on the surface is `mapped`.
+    pub(crate) fn add(&mut self, mapped: &[Pt], area: f64) {
+        let w = self.weight(area);
+        if w == 0.0 {
+            return;
+        }
+        let am = signed_area(mapped);
+        let (x0, x1, y0, y1) = bounds(mapped);
+        let scale = (x1 - x0).max(y1 - y0);
+        if am.abs() <= 1e-12 * scale * scale || !am.is_finite() {
+            // A point image (the pixel in focus on the surface): the centroid's cell.
+            self.total += w;
+            match self.cell_of(centroid(mapped)) {
+                Some(k) => self.put(k, w),
+                None => self.outside += w,
+            }
+            return;
+        }
+        self.total += w;
+        let g = self.grid;
+        let h = g.step;
+        let [gx0, gx1, gy0, gy1] = g.extent();
+        if x1 <= gx0 || x0 >= gx1 || y1 <= gy0 || y0 >= gy1 {
+            self.outside += w;
+            return;
+        }
+        let col = |x: f64| (((x - gx0) / h).floor().max(0.0) as usize).min(g.nx - 1);
+        let row = |y: f64| (((gy1 - y) / h).floor().max(0.0) as usize).min(g.ny - 1);
+        let (c0, c1, r0, r1) = (col(x0), col(x1), row(y1), row(y0));
+        let inside_grid = x0 >= gx0 && x1 <= gx1 && y0 >= gy0 && y1 <= gy1;
+        if c0 == c1 && r0 == r1 && inside_grid {
+            self.put(r0 * g.nx + c0, w);
+            return;
+        }
+        let mut share = 0.0;
+        for c in c0..=c1 {
+            let (sx0, sx1) = (gx0 + c as f64 * h, gx0 + (c + 1) as f64 * h);
+            self.strip.clear();
+            self.strip.extend_from_slice(mapped);
+            if c0 != c1 || x0 < gx0 || x1 > gx1 {
+                clip_box(&mut self.strip, &mut self.tmp, sx0, sx1, y0 - 1.0, y1 + 1.0);
+            }
+            if self.strip.len() < 3 {
+                continue;
+            }
+            let (_, _, sy0, sy1) = bounds(&self.strip);
+            if sy1 <= gy0 || sy0 >= gy1 {
+                continue;
+            }
+            for r in row(sy1)..=row(sy0) {
+                let (ry0, ry1) = (gy1 - (r + 1) as f64 * h, gy1 - r as f64 * h);
+                self.cell.clear();
+                self.cell.extend_from_slice(&self.strip);
+                clip_box(
+                    &mut self.cell,
+                    &mut self.tmp,
+                    sx0 - 1.0,
+                    sx1 + 1.0,
+                    ry0,
+                    ry1,
+                );
+                let a = signed_area(&self.cell) / am;
+                if a > 0.0 {
+                    share += a;
+                    self.put(r * g.nx + c, w * a);
+                }
+            }
+        }
+        self.outside += w * (1.0 - share).max(0.0);
+    }
+
+    /// A node's piece of ray measure `area` seen as one surface point p.
+    pub(crate) fn add_point(&mut self, p: Pt, area: f64) {
+        let w = self.weight(area);
+        self.total += w;
+        match self.cell_of(p) {
+            Some(k) => self.put(k, w),
+            None => self.outside += w,
+        }
+    }
+
+    /// A node's piece of ray measure `area` that misses the surface.
+    pub(crate) fn add_background(&mut self, area: f64) {
+        let w = self.weight(area);
+        self.total += w;
+        self.outside += w;
+    }
+
+    fn reset(&mut self, norm: f64) {
+        for &k in &self.touched {
+            self.vals[k as usize] = 0.0;
+            self.mark[k as usize] = false;
+        }
+        self.touched.clear();
+        (self.outside, self.total, self.norm) = (0.0, 0.0, norm);
+    }
+
+    /// The recorded row (sorted cells, values) into `s`, when the pixel is lit and sees
+    /// only the grid; whether it was kept.
+    fn take(&mut self, s: &mut System) -> bool {
+        let inside = self.total - self.outside;
+        if !(self.total > 0.0 && inside > 0.0 && self.outside <= OUTSIDE_SHARE * self.total) {
+            return false;
+        }
+        self.touched.sort_unstable();
+        for &k in &self.touched {
+            let v = self.vals[k as usize];
+            if v != 0.0 {
+                s.indices.push(k);
+                s.data.push(v);
+            }
+        }
+        true
+    }
+}
+
+/// Bytes of the per-worker buffers of [`build_surface`] (a grid-sized accumulator each).
+fn recorder_bytes(grid: &CellGrid, workers: usize) -> u128 {
+    (grid.cells() as u128) * 9 * workers as u128
+}
+
+/// The depths at which a ray can meet the surface over the grid: a plane's range over the
+/// grid's extent, a depth map's whole range.
+fn depth_range(surface: &Surface, grid: &CellGrid) -> (f64, f64) {
+    match surface {
+        Surface::Plane { z0, g } => {
+            let [x0, x1, y0, y1] = grid.extent();
+            let d =
+                [[x0, y0], [x0, y1], [x1, y0], [x1, y1]].map(|p| z0 + g[0] * p[0] + g[1] * p[1]);
+            (
+                d.iter().copied().fold(f64::INFINITY, f64::min),
+                d.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            )
+        }
+        Surface::Map(m) => (m.zmin, m.zmax),
+    }
+}
+
+/// Per lens (row-major, k kx + j): can a ray through it meet the surface on the grid? A
+/// ray P(z) = B(z) w − (z/L) x is affine in z, so between depths zlo and zhi it stays in
+/// the bounding box of its points at the two; over the aperture's box of w and the lens
+/// cell's box of x that is a box per depth.
+fn lenses_seeing(design: &Design, ch: &Channel, surface: &Surface, grid: &CellGrid) -> Vec<bool> {
+    let (zlo, zhi) = depth_range(surface, grid);
+    let r = design.aperture / 2.0;
+    let h = match ch.grid {
+        Grid::Rect => [ch.d / 2.0, ch.d / 2.0],
+        Grid::Hex => [ch.d / 2.0, ch.d / 3f64.sqrt()],
+    };
+    let [gx0, gx1, gy0, gy1] = grid.extent();
+    let mut out = Vec::with_capacity((ch.kx * ch.ky) as usize);
+    for k in 0..ch.ky {
+        for j in 0..ch.kx {
+            let c = ch.lens_center(j, k);
+            let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+            for z in [zlo, zhi] {
+                let b = (1.0 - z / design.f_main + z / ch.l).abs() * r;
+                for i in 0..2 {
+                    let m = z / ch.l;
+                    lo[i] = lo[i].min(-m * c[i] - m * h[i] - b);
+                    hi[i] = hi[i].max(-m * c[i] + m * h[i] + b);
+                }
+            }
+            out.push(hi[0] >= gx0 && lo[0] <= gx1 && hi[1] >= gy0 && lo[1] <= gy1);
+        }
+    }
+    out
+}
+
+/// Can the pixel (column a, row b) see the grid: does any lens that can light it see it?
+fn pixel_may_see(design: &Design, chan: &Chan, sees: &[bool], a: u32, b: u32) -> bool {
+    let ch = chan.ch;
+    match ch.layout {
+        Layout::Ideal { .. } => {
+            let px = design.pixel(ch, a, b);
+            sees[(px.k * ch.kx + px.j) as usize]
+        }
+        Layout::Sensor { mx, my } => {
+            let s = [
+                ch.mu * (a as f64 - (mx as f64 - 1.0) / 2.0),
+                ch.mu * (b as f64 - (my as f64 - 1.0) / 2.0),
+            ];
+            let (j0, k0) = ch.nearest_lens(s);
+            let reach = chan.reach();
+            let p = ch.image_pitch();
+            let row = match ch.grid {
+                Grid::Rect => p,
+                Grid::Hex => p * 3f64.sqrt() / 2.0,
+            };
+            let dj = (reach[0] / p).ceil() as i64 + 1;
+            let dk = (reach[1] / row).ceil() as i64 + 1;
+            let ks = (k0 as i64 - dk).max(0)..=(k0 as i64 + dk).min(ch.ky as i64 - 1);
+            ks.into_iter().any(|k| {
+                let js = (j0 as i64 - dj).max(0)..=(j0 as i64 + dj).min(ch.kx as i64 - 1);
+                js.into_iter()
+                    .any(|j| sees[(k * ch.kx as i64 + j) as usize])
+            })
+        }
+    }
+}
+
+/// The map for any surface (slanted plane, depth map) and any design (hex grids, circular
+/// apertures, sensor layouts): the forward model's general route in record mode
+/// ([`Recorder`]). The node polygons' images are clipped by the cells exactly; the outer
+/// integral is the render's cuts (the lens's kinks and the grid's lines) with the fixed
+/// rule. `done` counts the raw rows handled.
+pub fn build_surface(
+    design: &Design,
+    channels: &[usize],
+    surface: &Surface,
+    grid: &CellGrid,
+    n_threads: Option<usize>,
+    done: &AtomicUsize,
+) -> Result<System> {
+    if channels.is_empty() {
+        return Err(Error::param("channels", "none", "at least one channel"));
+    }
+    for &i in channels {
+        channel(design, i)?;
+    }
+    if grid.cells() > u32::MAX as usize {
+        return Err(Error::param(
+            "region",
+            grid.cells(),
+            "fewer than 2^32 cells (a smaller region or a coarser step)",
+        ));
+    }
+    crate::render::check_surface(design, surface)?;
+    let workers = crate::parallel::threads(n_threads);
+    memory::check(
+        "the reconstruction map's grid texture and row accumulators",
+        recorder_bytes(grid, workers + 1) + memory::bytes_of::<f64>(grid.cells() as u128),
+    )?;
+    let ext = grid.extent();
+    let lines = crate::texture::ImageTexture::new(&vec![0.0; grid.cells()], grid.ny, grid.nx, ext)?;
+    let scene = Scene::new(Texture::Image(Box::new(lines)), surface.clone(), 0.0)?;
+    let fronto = surface.fronto().is_some();
+    let mut out = System {
+        indptr: vec![0],
+        ..System::default()
+    };
+    for &i in channels {
+        let ch = &design.channels[i];
+        let chan = Chan::new(design, ch, crate::render::DEFAULT_TOL);
+        let (rows, cols) = crate::render::raw_shape(ch);
+        let reach = chan.reach();
+        let sees = lenses_seeing(design, ch, surface, grid);
+        let step = crate::parallel::chunk_items(n_threads, (cols as u128) * 4000);
+        let parts = std::sync::Mutex::new(Vec::new());
+        let bytes = std::sync::atomic::AtomicU64::new((out.data.len() * 12) as u64);
+        for_chunks(n_threads, rows, step, |range| {
+            let chunk: Result<Vec<System>> = range
+                .clone()
+                .into_par_iter()
+                .map_init(
+                    || Recorder::new(*grid).map(|r| Work::recording(Box::new(r), fronto)),
+                    |wk, b| -> Result<System> {
+                        let wk = wk.as_mut().map_err(|e| e.clone())?;
+                        let mut s = System::default();
+                        for a in 0..cols {
+                            checkpoint()?;
+                            if !pixel_may_see(design, &chan, &sees, a as u32, b as u32) {
+                                continue;
+                            }
+                            if let Some(r) = wk.rec.as_deref_mut() {
+                                r.reset(chan.norm);
+                            }
+                            crate::render::pixel_value(
+                                design, &chan, &scene, 1.0, a as u32, b as u32, reach, wk,
+                            );
+                            if wk.rec.as_deref_mut().is_some_and(|r| r.take(&mut s)) {
+                                s.channel.push(i as u32);
+                                s.pixel.push((b * cols + a) as u64);
+                                s.indptr.push(s.data.len() as u64);
+                            }
+                        }
+                        let have =
+                            bytes.fetch_add((s.data.len() * 12) as u64, Ordering::Relaxed) as u128;
+                        memory::check(
+                            "the reconstruction's system matrix",
+                            have + (s.data.len() * 12) as u128,
+                        )?;
+                        done.fetch_add(1, Ordering::Relaxed);
+                        Ok(s)
+                    },
+                )
                 .collect();
             let chunk = chunk?;
             parts

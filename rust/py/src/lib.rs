@@ -106,6 +106,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
         reconstruct::pixel_span,
         reconstruct::cell_grid,
         reconstruct::reconstruction_system,
+        reconstruct::surface_system,
         reconstruct::reconstruction_factors,
         reconstruct::cell_averages,
         arrays::available_memory,

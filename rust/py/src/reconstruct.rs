@@ -130,6 +130,42 @@ pub(crate) fn reconstruction_system<'py>(
     ))
 }
 
+/// The map for any surface over the grid (X0, Y1, step, nx, ny): the scene's surface (its
+/// texture is not used), any design; the forward model's general route in record mode.
+/// Returns what [`reconstruction_system`] returns.
+#[pyfunction]
+#[pyo3(signature = (design, scene, grid, channels=None, n_threads=None, progress=None))]
+pub(crate) fn surface_system<'py>(
+    py: Python<'py>,
+    design: &DesignCore,
+    scene: &crate::render::RenderScene,
+    grid: (f64, f64, f64, usize, usize),
+    channels: Option<Vec<i64>>,
+    n_threads: Option<&Bound<'py, PyAny>>,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Csr<'py>> {
+    let threads = threads_arg(n_threads)?;
+    let ch = channel_indices(design, channels)?;
+    let g = checked_grid(grid)?;
+    let d = design.inner.clone();
+    let sc = Arc::clone(&scene.inner);
+    let total: usize = ch
+        .iter()
+        .map(|&i| splitlf_core::render::raw_shape(&d.channels[i]).0)
+        .sum();
+    let (report, counter) = counted(progress, total);
+    let sys = run_reporting(py, "depth", report, move || {
+        system::build_surface(&d, &ch, &sc.surface, &g, threads, &counter)
+    })?;
+    Ok((
+        sys.channel.into_pyarray(py),
+        sys.pixel.into_pyarray(py),
+        sys.indptr.into_pyarray(py),
+        sys.indices.into_pyarray(py),
+        sys.data.into_pyarray(py),
+    ))
+}
+
 type Axis<'py> = (
     Bound<'py, PyArray1<u64>>,
     Bound<'py, PyArray1<u32>>,
