@@ -520,7 +520,7 @@ fn fixed_rule(
 }
 
 /// Sub-boxes per axis of the record-mode rule where the grid's kinks are not all cut.
-pub(crate) const FIXED_SPLITS: usize = 2;
+pub(crate) const FIXED_SPLITS: usize = 1;
 
 /// Halvings forced on a box that a texture discontinuity sweeps (a feature the 2- and
 /// 3-point rules could both miss is then at most 1/64 of the box).
