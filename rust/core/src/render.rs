@@ -182,6 +182,30 @@ impl<'a> Chan<'a> {
         [amax * self.hx + ap, amax * self.hy + ap]
     }
 
+    /// The lenses (rows k, columns j) whose light can reach the sensor point s (sensor
+    /// layout): those around the nearest lens within `reach` (per axis) of their images.
+    pub(crate) fn lens_window(
+        &self,
+        s: Pt,
+        reach: [f64; 2],
+    ) -> (std::ops::RangeInclusive<u32>, std::ops::RangeInclusive<u32>) {
+        let ch = self.ch;
+        let (j0, k0) = ch.nearest_lens(s);
+        let p = ch.image_pitch();
+        let row = match ch.grid {
+            Grid::Rect => p,
+            Grid::Hex => p * 3f64.sqrt() / 2.0,
+        };
+        let dj = (reach[0] / p).ceil() as i64 + 1;
+        let dk = (reach[1] / row).ceil() as i64 + 1;
+        let span = |c: u32, d: i64, n: u32| {
+            let lo = (c as i64 - d).max(0) as u32;
+            let hi = (c as i64 + d).min(n as i64 - 1).max(0) as u32;
+            lo..=hi
+        };
+        (span(k0, dk, ch.ky), span(j0, dj, ch.kx))
+    }
+
     /// The coordinates along `axis` of the cell's vertices (relative to its centre).
     fn vertex_coords(&self, axis: usize) -> Vec<f64> {
         let mut v: Vec<f64> = self.cell.iter().map(|p| p[axis]).collect();
@@ -1515,18 +1539,10 @@ pub(crate) fn pixel_value(
                 mu * (a as f64 - (mx as f64 - 1.0) / 2.0),
                 mu * (b as f64 - (my as f64 - 1.0) / 2.0),
             ];
-            let (j0, k0) = ch.nearest_lens(s);
-            let p = ch.image_pitch();
-            let row = match ch.grid {
-                Grid::Rect => p,
-                Grid::Hex => p * 3f64.sqrt() / 2.0,
-            };
-            let dj = (reach[0] / p).ceil() as i64 + 1;
-            let dk = (reach[1] / row).ceil() as i64 + 1;
+            let (ks, js) = chan.lens_window(s, reach);
             let mut v = 0.0;
-            for k in (k0 as i64 - dk).max(0)..=(k0 as i64 + dk).min(ch.ky as i64 - 1) {
-                for j in (j0 as i64 - dj).max(0)..=(j0 as i64 + dj).min(ch.kx as i64 - 1) {
-                    let (j, k) = (j as u32, k as u32);
+            for k in ks {
+                for j in js.clone() {
                     let c = ch.lens_center(j, k);
                     let img = [chan.m * c[0], chan.m * c[1]];
                     if (s[0] - img[0]).abs() > reach[0] + mu

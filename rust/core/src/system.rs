@@ -99,6 +99,23 @@ pub struct System {
     pub data: Vec<f64>,
 }
 
+impl System {
+    /// Append row chunks (each tagged with its first raw row) in raw-row order.
+    fn append_chunks(&mut self, mut parts: Vec<(usize, Vec<System>)>) {
+        parts.sort_by_key(|p| p.0);
+        for (_, chunk) in parts {
+            for s in chunk {
+                let base = self.data.len() as u64;
+                self.channel.extend_from_slice(&s.channel);
+                self.pixel.extend_from_slice(&s.pixel);
+                self.indptr.extend(s.indptr.iter().map(|&p| base + p));
+                self.indices.extend_from_slice(&s.indices);
+                self.data.extend_from_slice(&s.data);
+            }
+        }
+    }
+}
+
 /// Can the map be built for this channel (the exact route)? The reason when not.
 fn supported(design: &Design, ch: &Channel) -> std::result::Result<(), &'static str> {
     if ch.grid != Grid::Rect {
@@ -442,20 +459,11 @@ pub fn build(
                 .push((range.start, chunk));
             Ok(())
         })?;
-        let mut parts = parts
-            .into_inner()
-            .unwrap_or_else(std::sync::PoisonError::into_inner);
-        parts.sort_by_key(|p| p.0);
-        for (_, chunk) in parts {
-            for s in chunk {
-                let base = out.data.len() as u64;
-                out.channel.extend_from_slice(&s.channel);
-                out.pixel.extend_from_slice(&s.pixel);
-                out.indptr.extend(s.indptr.iter().map(|&p| base + p));
-                out.indices.extend_from_slice(&s.indices);
-                out.data.extend_from_slice(&s.data);
-            }
-        }
+        out.append_chunks(
+            parts
+                .into_inner()
+                .unwrap_or_else(std::sync::PoisonError::into_inner),
+        );
     }
     Ok(out)
 }
@@ -709,21 +717,9 @@ fn pixel_may_see(design: &Design, chan: &Chan, sees: &[bool], a: u32, b: u32) ->
                 ch.mu * (a as f64 - (mx as f64 - 1.0) / 2.0),
                 ch.mu * (b as f64 - (my as f64 - 1.0) / 2.0),
             ];
-            let (j0, k0) = ch.nearest_lens(s);
-            let reach = chan.reach();
-            let p = ch.image_pitch();
-            let row = match ch.grid {
-                Grid::Rect => p,
-                Grid::Hex => p * 3f64.sqrt() / 2.0,
-            };
-            let dj = (reach[0] / p).ceil() as i64 + 1;
-            let dk = (reach[1] / row).ceil() as i64 + 1;
-            let ks = (k0 as i64 - dk).max(0)..=(k0 as i64 + dk).min(ch.ky as i64 - 1);
-            ks.into_iter().any(|k| {
-                let js = (j0 as i64 - dj).max(0)..=(j0 as i64 + dj).min(ch.kx as i64 - 1);
-                js.into_iter()
-                    .any(|j| sees[(k * ch.kx as i64 + j) as usize])
-            })
+            let (ks, js) = chan.lens_window(s, chan.reach());
+            ks.into_iter()
+                .any(|k| js.clone().any(|j| sees[(k * ch.kx + j) as usize]))
         }
     }
 }
@@ -821,20 +817,11 @@ pub fn build_surface(
                 .push((range.start, chunk));
             Ok(())
         })?;
-        let mut parts = parts
-            .into_inner()
-            .unwrap_or_else(std::sync::PoisonError::into_inner);
-        parts.sort_by_key(|p| p.0);
-        for (_, chunk) in parts {
-            for s in chunk {
-                let base = out.data.len() as u64;
-                out.channel.extend_from_slice(&s.channel);
-                out.pixel.extend_from_slice(&s.pixel);
-                out.indptr.extend(s.indptr.iter().map(|&p| base + p));
-                out.indices.extend_from_slice(&s.indices);
-                out.data.extend_from_slice(&s.data);
-            }
-        }
+        out.append_chunks(
+            parts
+                .into_inner()
+                .unwrap_or_else(std::sync::PoisonError::into_inner),
+        );
     }
     Ok(out)
 }

@@ -95,6 +95,25 @@ type Csr<'py> = (
     Bound<'py, PyArray1<f64>>,
 );
 
+/// The map's arrays for Python: (channel from 0, pixel flat index, indptr, indices, data).
+fn csr(py: Python<'_>, sys: system::System) -> Csr<'_> {
+    (
+        sys.channel.into_pyarray(py),
+        sys.pixel.into_pyarray(py),
+        sys.indptr.into_pyarray(py),
+        sys.indices.into_pyarray(py),
+        sys.data.into_pyarray(py),
+    )
+}
+
+/// Raw rows over the chosen channels (the unit of a map build's progress).
+fn raw_rows(d: &splitlf_core::Design, channels: &[usize]) -> usize {
+    channels
+        .iter()
+        .map(|&i| splitlf_core::render::raw_shape(&d.channels[i]).0)
+        .sum()
+}
+
 /// The map for the fronto-parallel plane at depth z over the grid (X0, Y1, step, nx, ny):
 /// (channel from 0, pixel flat index, indptr, indices, data) per kept row.
 /// `progress(done, total)` counts raw rows.
@@ -113,21 +132,11 @@ pub(crate) fn reconstruction_system<'py>(
     let ch = channel_indices(design, channels)?;
     let g = checked_grid(grid)?;
     let d = design.inner.clone();
-    let total: usize = ch
-        .iter()
-        .map(|&i| splitlf_core::render::raw_shape(&d.channels[i]).0)
-        .sum();
-    let (report, counter) = counted(progress, total);
+    let (report, counter) = counted(progress, raw_rows(&d, &ch));
     let sys = run_reporting(py, "z", report, move || {
         system::build(&d, &ch, z, &g, threads, &counter)
     })?;
-    Ok((
-        sys.channel.into_pyarray(py),
-        sys.pixel.into_pyarray(py),
-        sys.indptr.into_pyarray(py),
-        sys.indices.into_pyarray(py),
-        sys.data.into_pyarray(py),
-    ))
+    Ok(csr(py, sys))
 }
 
 /// The map for any surface over the grid (X0, Y1, step, nx, ny): the scene's surface (its
@@ -149,21 +158,11 @@ pub(crate) fn surface_system<'py>(
     let g = checked_grid(grid)?;
     let d = design.inner.clone();
     let sc = Arc::clone(&scene.inner);
-    let total: usize = ch
-        .iter()
-        .map(|&i| splitlf_core::render::raw_shape(&d.channels[i]).0)
-        .sum();
-    let (report, counter) = counted(progress, total);
+    let (report, counter) = counted(progress, raw_rows(&d, &ch));
     let sys = run_reporting(py, "depth", report, move || {
         system::build_surface(&d, &ch, &sc.surface, &g, threads, &counter)
     })?;
-    Ok((
-        sys.channel.into_pyarray(py),
-        sys.pixel.into_pyarray(py),
-        sys.indptr.into_pyarray(py),
-        sys.indices.into_pyarray(py),
-        sys.data.into_pyarray(py),
-    ))
+    Ok(csr(py, sys))
 }
 
 type Axis<'py> = (
