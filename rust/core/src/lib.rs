@@ -17,6 +17,7 @@
 //! Every parallel entry point takes `n_threads` (see [`parallel`]).
 
 pub mod camera;
+pub mod cells;
 pub mod design;
 pub mod error;
 pub mod lens;

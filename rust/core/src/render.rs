@@ -227,8 +227,8 @@ pub(crate) struct Work {
     rel_floor: f64,
     /// When set, the integration records each grid cell's share of the pixel's rays
     /// instead of averaging the texture (the map of docs/model.md §11; see
-    /// [`crate::system::Recorder`]), and the adaptive rule is a fixed one ([`fixed_rule`]).
-    pub(crate) rec: Option<Box<crate::system::Recorder>>,
+    /// [`crate::cells::Recorder`]), and the adaptive rule is a fixed one ([`fixed_rule`]).
+    pub(crate) rec: Option<Box<crate::cells::Recorder>>,
     tex: Scratch,
     poly: Vec<Pt>,
     tmp: Vec<Pt>,
@@ -243,7 +243,7 @@ pub(crate) struct Work {
 
 impl Work {
     /// A worker in record mode (`fronto`: the surface is a fronto-parallel plane).
-    pub(crate) fn recording(rec: Box<crate::system::Recorder>, fronto: bool) -> Work {
+    pub(crate) fn recording(rec: Box<crate::cells::Recorder>, fronto: bool) -> Work {
         Work {
             rec: Some(rec),
             rel_floor: if fronto { 0.0 } else { PIECE_NOISE },

@@ -1,0 +1,284 @@
+//! The reconstruction's cell grid, the map's rows, and the recorder that builds a row from
+//! the forward model's integration (docs/model.md §11, docs/reconstruct.md). Kept apart
+//! from [`crate::system`] (which builds maps from [`crate::render`]) so that the renderer
+//! can hold a recorder without the two modules depending on each other.
+
+use crate::error::{Error, Result};
+use crate::memory;
+use crate::polygon::{bounds, centroid, clip_box, signed_area, Pt};
+
+/// A uniform grid of square cells over [x0, x0 + nx h] × [y1 − ny h, y1]; cell (r, c) (row
+/// r from the top, column c from the left, like a texture) is unknown r nx + c.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CellGrid {
+    pub x0: f64,
+    pub y1: f64,
+    pub step: f64,
+    pub nx: usize,
+    pub ny: usize,
+}
+
+impl CellGrid {
+    /// The grid of pitch `step` covering `extent` = [X0, X1, Y0, Y1] (the extent rounded
+    /// out to whole cells, centred on the asked one).
+    pub fn covering(extent: [f64; 4], step: f64) -> Result<CellGrid> {
+        if !(step.is_finite() && step > 0.0) {
+            return Err(Error::param("step", step, "a finite value > 0 (mm)"));
+        }
+        let [x0, x1, y0, y1] = extent;
+        if !(extent.iter().all(|v| v.is_finite()) && x1 > x0 && y1 > y0) {
+            return Err(Error::param(
+                "region",
+                format!("({x0}, {x1}, {y0}, {y1})"),
+                "finite (X0, X1, Y0, Y1) with X0 < X1 and Y0 < Y1 (mm)",
+            ));
+        }
+        let cells = |a: f64, b: f64| ((b - a) / step * (1.0 - 1e-12)).ceil().max(1.0);
+        let (fx, fy) = (cells(x0, x1), cells(y0, y1));
+        if fx * fy > 1e12 {
+            return Err(Error::param(
+                "step",
+                step,
+                "a pitch giving fewer than 1e12 cells over the region",
+            ));
+        }
+        let (nx, ny) = (fx as usize, fy as usize);
+        let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
+        Ok(CellGrid {
+            x0: cx - 0.5 * nx as f64 * step,
+            y1: cy + 0.5 * ny as f64 * step,
+            step,
+            nx,
+            ny,
+        })
+    }
+
+    /// [X0, X1, Y0, Y1] of the grid.
+    pub fn extent(&self) -> [f64; 4] {
+        [
+            self.x0,
+            self.x0 + self.nx as f64 * self.step,
+            self.y1 - self.ny as f64 * self.step,
+            self.y1,
+        ]
+    }
+
+    pub fn cells(&self) -> usize {
+        self.nx * self.ny
+    }
+}
+
+/// A pixel's row is kept when at most this share of its ray measure falls outside the
+/// grid (its value must be explained by the grid's cells alone).
+pub const OUTSIDE_SHARE: f64 = 1e-9;
+
+/// The map as compressed sparse rows, one row per kept pixel.
+#[derive(Debug, Default, Clone)]
+pub struct System {
+    /// Per row: the channel (from 0) and the pixel's flat index b · cols + a in its raw.
+    pub channel: Vec<u32>,
+    pub pixel: Vec<u64>,
+    pub indptr: Vec<u64>,
+    pub indices: Vec<u32>,
+    pub data: Vec<f64>,
+}
+
+impl System {
+    /// Append row chunks (each tagged with its first raw row) in raw-row order.
+    pub(crate) fn append_chunks(&mut self, mut parts: Vec<(usize, Vec<System>)>) {
+        parts.sort_by_key(|p| p.0);
+        for (_, chunk) in parts {
+            for s in chunk {
+                let base = self.data.len() as u64;
+                self.channel.extend_from_slice(&s.channel);
+                self.pixel.extend_from_slice(&s.pixel);
+                self.indptr.extend(s.indptr.iter().map(|&p| base + p));
+                self.indices.extend_from_slice(&s.indices);
+                self.data.extend_from_slice(&s.data);
+            }
+        }
+    }
+}
+
+/// The recorder that turns the forward model's integration into a row of the map: where the
+/// render averages the texture over a node's polygon image on the surface, the recorder
+/// adds the node's weight to each grid cell in proportion to the image's area inside it
+/// (the image of a polygon under the ray map, clipped by the cell: exact for cell-constant
+/// albedo); the adaptive rule is replaced by a fixed one (the renderer's `fixed_rule`), since its
+/// decisions must not depend on one texture's values. Rays outside the grid (or missing
+/// the surface) add to `outside`.
+pub(crate) struct Recorder {
+    grid: CellGrid,
+    vals: Vec<f64>,
+    mark: Vec<bool>,
+    touched: Vec<u32>,
+    pub(crate) outside: f64,
+    pub(crate) total: f64,
+    /// The current node's weight: channel norm × the outer variable's Jacobian (outer s:
+    /// (L/v)²) × the circle parametrisation's Jacobian × the quadrature weight.
+    pub(crate) norm: f64,
+    pub(crate) outer: f64,
+    pub(crate) jac: f64,
+    pub(crate) node: f64,
+    strip: Vec<Pt>,
+    cell: Vec<Pt>,
+    tmp: Vec<Pt>,
+}
+
+impl Recorder {
+    pub(crate) fn new(grid: CellGrid) -> Result<Recorder> {
+        let n = grid.cells();
+        Ok(Recorder {
+            grid,
+            vals: memory::try_vec("a map row's accumulator", n, 0.0)?,
+            mark: memory::try_vec("a map row's accumulator", n, false)?,
+            touched: Vec::new(),
+            outside: 0.0,
+            total: 0.0,
+            norm: 1.0,
+            outer: 1.0,
+            jac: 1.0,
+            node: 1.0,
+            strip: Vec::new(),
+            cell: Vec::new(),
+            tmp: Vec::new(),
+        })
+    }
+
+    fn weight(&self, area: f64) -> f64 {
+        self.norm * self.outer * self.jac * self.node * area
+    }
+
+    #[inline]
+    fn put(&mut self, k: usize, w: f64) {
+        if !self.mark[k] {
+            self.mark[k] = true;
+            self.touched.push(k as u32);
+        }
+        self.vals[k] += w;
+    }
+
+    /// The cell holding point p, if on the grid.
+    fn cell_of(&self, p: Pt) -> Option<usize> {
+        let g = &self.grid;
+        let c = ((p[0] - g.x0) / g.step).floor();
+        let r = ((g.y1 - p[1]) / g.step).floor();
+        (c >= 0.0 && r >= 0.0 && c < g.nx as f64 && r < g.ny as f64)
+            .then(|| r as usize * g.nx + c as usize)
+    }
+
+    /// A node's polygon of ray measure `area` whose image on the surface is `mapped`.
+    pub(crate) fn add(&mut self, mapped: &[Pt], area: f64) {
+        let w = self.weight(area);
+        if w == 0.0 {
+            return;
+        }
+        let am = signed_area(mapped);
+        let (x0, x1, y0, y1) = bounds(mapped);
+        let scale = (x1 - x0).max(y1 - y0);
+        if am.abs() <= 1e-12 * scale * scale || !am.is_finite() {
+            // A point image (the pixel in focus on the surface): the centroid's cell.
+            self.total += w;
+            match self.cell_of(centroid(mapped)) {
+                Some(k) => self.put(k, w),
+                None => self.outside += w,
+            }
+            return;
+        }
+        self.total += w;
+        let g = self.grid;
+        let h = g.step;
+        let [gx0, gx1, gy0, gy1] = g.extent();
+        if x1 <= gx0 || x0 >= gx1 || y1 <= gy0 || y0 >= gy1 {
+            self.outside += w;
+            return;
+        }
+        let col = |x: f64| (((x - gx0) / h).floor().max(0.0) as usize).min(g.nx - 1);
+        let row = |y: f64| (((gy1 - y) / h).floor().max(0.0) as usize).min(g.ny - 1);
+        let (c0, c1, r0, r1) = (col(x0), col(x1), row(y1), row(y0));
+        let inside_grid = x0 >= gx0 && x1 <= gx1 && y0 >= gy0 && y1 <= gy1;
+        if c0 == c1 && r0 == r1 && inside_grid {
+            self.put(r0 * g.nx + c0, w);
+            return;
+        }
+        let mut share = 0.0;
+        for c in c0..=c1 {
+            let (sx0, sx1) = (gx0 + c as f64 * h, gx0 + (c + 1) as f64 * h);
+            self.strip.clear();
+            self.strip.extend_from_slice(mapped);
+            if c0 != c1 || x0 < gx0 || x1 > gx1 {
+                clip_box(&mut self.strip, &mut self.tmp, sx0, sx1, y0 - 1.0, y1 + 1.0);
+            }
+            if self.strip.len() < 3 {
+                continue;
+            }
+            let (_, _, sy0, sy1) = bounds(&self.strip);
+            if sy1 <= gy0 || sy0 >= gy1 {
+                continue;
+            }
+            for r in row(sy1)..=row(sy0) {
+                let (ry0, ry1) = (gy1 - (r + 1) as f64 * h, gy1 - r as f64 * h);
+                self.cell.clear();
+                self.cell.extend_from_slice(&self.strip);
+                clip_box(
+                    &mut self.cell,
+                    &mut self.tmp,
+                    sx0 - 1.0,
+                    sx1 + 1.0,
+                    ry0,
+                    ry1,
+                );
+                let a = signed_area(&self.cell) / am;
+                if a > 0.0 {
+                    share += a;
+                    self.put(r * g.nx + c, w * a);
+                }
+            }
+        }
+        self.outside += w * (1.0 - share).max(0.0);
+    }
+
+    /// A node's piece of ray measure `area` seen as one surface point p.
+    pub(crate) fn add_point(&mut self, p: Pt, area: f64) {
+        let w = self.weight(area);
+        self.total += w;
+        match self.cell_of(p) {
+            Some(k) => self.put(k, w),
+            None => self.outside += w,
+        }
+    }
+
+    /// A node's piece of ray measure `area` that misses the surface.
+    pub(crate) fn add_background(&mut self, area: f64) {
+        let w = self.weight(area);
+        self.total += w;
+        self.outside += w;
+    }
+
+    pub(crate) fn reset(&mut self, norm: f64) {
+        for &k in &self.touched {
+            self.vals[k as usize] = 0.0;
+            self.mark[k as usize] = false;
+        }
+        self.touched.clear();
+        (self.outside, self.total, self.norm) = (0.0, 0.0, norm);
+    }
+
+    /// The recorded row (sorted cells, values) into `s`, when the pixel is lit and sees
+    /// only the grid; whether it was kept.
+    pub(crate) fn take(&mut self, s: &mut System) -> bool {
+        let inside = self.total - self.outside;
+        if !(self.total > 0.0 && inside > 0.0 && self.outside <= OUTSIDE_SHARE * self.total) {
+            return false;
+        }
+        self.touched.sort_unstable();
+        for &k in &self.touched {
+            let v = self.vals[k as usize];
+            if v != 0.0 {
+                s.indices.push(k);
+                s.data.push(v);
+            }
+        }
+        true
+    }
+}
