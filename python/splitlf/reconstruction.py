@@ -29,7 +29,7 @@ import numpy as np
 from . import _native, _validate
 from .design import Design
 from .errors import InvalidParameter
-from .rendering import DepthMap, Plane, Raw, _extent, _progress_flag
+from .rendering import DepthMap, Plane, Raw, _extent, _progress, _progress_flag
 from .simulation import _noise
 
 Extent = tuple[float, float, float, float]
@@ -374,29 +374,17 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
     gx0, gy1, _, gnx, gny = _native.cell_grid(padded, h)
     exact = _exact(design, surface, chans)
     bar = None
-    if show:
-        try:
-            from tqdm.auto import tqdm
-
-            bar = tqdm(total=CG_MAX_ITER, desc="splitlf reconstruct", unit="step")
-        except ImportError:
-            pass
     try:
         parts: Sequence[_Block]
         if exact:
             assert isinstance(surface, float)
             parts = _parts(raw, chans, surface, (gx0, gy1, h, gnx, gny))
         else:
-            report = None
-            if bar is not None:
-                bar.reset(total=1)
-                bar.set_description("splitlf reconstruct (map)")
-
-                def report(done: int, total: int) -> None:
-                    bar.total = total
-                    bar.n = done
-                    bar.refresh()
+            bar, report = _progress(show, "splitlf reconstruct (map)", "block")
             parts = _rows(raw, chans, surface, (gx0, gy1, h, gnx, gny), n_threads, report)
+            if bar is not None:
+                bar.close()
+                bar = None
         rows = sum(int(p.mask.sum()) for p in parts)
         if rows == 0:
             raise InvalidParameter.of(
@@ -433,9 +421,9 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
         pre = LinearOperator((n_cells, n_cells), dtype=np.float64,
                              matvec=lambda v: v / np.where(diag > 0.0, diag, 1.0))
         it = [0]
+        bar, _ = _progress(show, "splitlf reconstruct (CG)", "step")
         if bar is not None:
             bar.reset(total=CG_MAX_ITER)
-            bar.set_description("splitlf reconstruct (CG)")
 
         def count(_: np.ndarray) -> None:
             it[0] += 1

@@ -422,15 +422,16 @@ def _progress_flag(progress: Any) -> bool:
     return sys.stderr.isatty() if progress is None else progress
 
 
-def _progress(show: bool) -> tuple[Any, Callable[[int, int], None] | None]:
-    """A tqdm bar and the core's callback for it (without tqdm, no bar)."""
+def _progress(show: bool, desc: str = "splitlf render", unit: str = "block"
+              ) -> tuple[Any, Callable[[int, int], None] | None]:
+    """A tqdm bar and the core's callback (done, total) for it (without tqdm, no bar)."""
     if not show:
         return None, None
     try:
         from tqdm.auto import tqdm
     except ImportError:
         return None, None
-    bar = tqdm(total=1, desc="splitlf render", unit="block")
+    bar = tqdm(total=1, desc=desc, unit=unit)
 
     def update(done: int, total: int) -> None:
         if bar.total != total:

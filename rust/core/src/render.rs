@@ -223,6 +223,8 @@ impl<'a> Chan<'a> {
 /// Per-worker buffers.
 #[derive(Default)]
 pub(crate) struct Work {
+    /// The surface is a fronto-parallel plane (the integrand is bilinear between kinks).
+    fronto: bool,
     /// Relative accuracy of one evaluation of the integrand (0: exact; see `PIECE_NOISE`).
     rel_floor: f64,
     /// When set, the integration records each grid cell's share of the pixel's rays
@@ -242,12 +244,20 @@ pub(crate) struct Work {
 }
 
 impl Work {
+    /// A worker that averages the texture (`fronto`: the surface is a fronto-parallel plane).
+    fn new(fronto: bool) -> Work {
+        Work {
+            fronto,
+            rel_floor: if fronto { 0.0 } else { PIECE_NOISE },
+            ..Work::default()
+        }
+    }
+
     /// A worker in record mode (`fronto`: the surface is a fronto-parallel plane).
     pub(crate) fn recording(rec: Box<crate::cells::Recorder>, fronto: bool) -> Work {
         Work {
             rec: Some(rec),
-            rel_floor: if fronto { 0.0 } else { PIECE_NOISE },
-            ..Work::default()
+            ..Work::new(fronto)
         }
     }
 }
@@ -470,26 +480,8 @@ fn adaptive(
     }
     // 2 × 2 and 3 × 3 Gauss–Legendre: the difference bounds the 2-point rule's error
     // and, far more pessimistically, the 3-point rule's, which is returned.
-    let g = 0.577_350_269_189_625_8; // 1/√3
-    let mut g1 = 0.0;
-    for sx in [-g, g] {
-        for sy in [-g, g] {
-            g1 += f(xm + sx * xh, ym + sy * yh, wk);
-        }
-    }
-    g1 *= 0.25 * area;
-    let (n3, w3) = (
-        0.774_596_669_241_483_4,
-        [5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0],
-    );
-    let nodes = [-n3, 0.0, n3];
-    let mut g2 = 0.0;
-    for (i, &sx) in nodes.iter().enumerate() {
-        for (j, &sy) in nodes.iter().enumerate() {
-            g2 += w3[i] * w3[j] * f(xm + sx * xh, ym + sy * yh, wk);
-        }
-    }
-    g2 *= area;
+    let g1 = area * gauss(G2, f, xm, xh, ym, yh, wk);
+    let g2 = area * gauss(G3, f, xm, xh, ym, yh, wk);
     if (g2 - g1).abs() <= tol + wk.rel_floor * g2.abs() || depth >= MAX_DEPTH {
         return g2;
     }
@@ -499,11 +491,44 @@ fn adaptive(
         + adaptive(f, rough, xm, x1, ym, y1, t, depth + 1, wk)
 }
 
+/// A Gauss–Legendre rule on [-1, 1]: nodes and weights (the weights sum to 1, the mean).
+type Rule = (&'static [f64], &'static [f64]);
+/// 2-point Gauss–Legendre (exact for cubics).
+const G2: Rule = (
+    &[-0.577_350_269_189_625_8, 0.577_350_269_189_625_8],
+    &[0.5, 0.5],
+);
+/// 3-point Gauss–Legendre (exact for quintics).
+const G3: Rule = (
+    &[-0.774_596_669_241_483_4, 0.0, 0.774_596_669_241_483_4],
+    &[5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0],
+);
+
+/// The mean of `f` over the box centred on (xm, ym) with half-sides (xh, yh) by `rule`
+/// along both axes.
+fn gauss(
+    rule: Rule,
+    f: &mut impl FnMut(f64, f64, &mut Work) -> f64,
+    xm: f64,
+    xh: f64,
+    ym: f64,
+    yh: f64,
+    wk: &mut Work,
+) -> f64 {
+    let mut sum = 0.0;
+    for (&sx, &wx) in rule.0.iter().zip(rule.1) {
+        for (&sy, &wy) in rule.0.iter().zip(rule.1) {
+            sum += wx * wy * f(xm + sx * xh, ym + sy * yh, wk);
+        }
+    }
+    sum
+}
+
 /// The record-mode rule on a box (its decisions cannot depend on one texture's values):
-/// when the box lies between every kink of the grid's lines (`wk.kinks_cut`: the integrand
-/// is smooth there, bilinear on fronto planes), the 2 × 2 Gauss–Legendre rule, exact for
-/// bicubics; otherwise 3 × 3 Gauss–Legendre on each of FIXED_SPLITS² sub-boxes. Each node's
-/// weight is handed to the recorder before the integrand runs.
+/// when the box lies between every kink of the grid's lines (`wk.kinks_cut`) on a
+/// fronto-parallel plane (the integrand is bilinear there), the 2 × 2 Gauss–Legendre
+/// rule, exact for bicubics; otherwise 3 × 3 Gauss–Legendre. Each node's weight is handed
+/// to the recorder before the integrand runs.
 fn fixed_rule(
     f: &mut impl FnMut(f64, f64, &mut Work) -> f64,
     x0: f64,
@@ -512,39 +537,19 @@ fn fixed_rule(
     y1: f64,
     wk: &mut Work,
 ) {
-    const G2: ([f64; 2], [f64; 2]) = (
-        [-0.577_350_269_189_625_8, 0.577_350_269_189_625_8],
-        [0.5, 0.5],
-    );
-    const G3: ([f64; 3], [f64; 3]) = (
-        [-0.774_596_669_241_483_4, 0.0, 0.774_596_669_241_483_4],
-        [5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0],
-    );
-    let (nodes, weights, k): (&[f64], &[f64], usize) = match (wk.kinks_cut, wk.rel_floor == 0.0) {
-        (true, true) => (&G2.0, &G2.1, 1),
-        (true, false) => (&G3.0, &G3.1, 1),
-        (false, _) => (&G3.0, &G3.1, FIXED_SPLITS),
-    };
-    let kf = k as f64;
-    let (hx, hy) = ((x1 - x0) / kf, (y1 - y0) / kf);
-    let area = hx * hy;
-    for i in 0..k {
-        for j in 0..k {
-            let (xm, ym) = (x0 + (i as f64 + 0.5) * hx, y0 + (j as f64 + 0.5) * hy);
-            for (a, &sx) in nodes.iter().enumerate() {
-                for (b, &sy) in nodes.iter().enumerate() {
-                    if let Some(r) = wk.rec.as_deref_mut() {
-                        r.node = area * weights[a] * weights[b];
-                    }
-                    f(xm + 0.5 * sx * hx, ym + 0.5 * sy * hy, wk);
-                }
+    let (nodes, weights) = if wk.kinks_cut && wk.fronto { G2 } else { G3 };
+    let (hx, hy) = (0.5 * (x1 - x0), 0.5 * (y1 - y0));
+    let (xm, ym) = (x0 + hx, y0 + hy);
+    let area = 4.0 * hx * hy;
+    for (&sx, &wx) in nodes.iter().zip(weights) {
+        for (&sy, &wy) in nodes.iter().zip(weights) {
+            if let Some(r) = wk.rec.as_deref_mut() {
+                r.node = area * wx * wy;
             }
+            f(xm + sx * hx, ym + sy * hy, wk);
         }
     }
 }
-
-/// Sub-boxes per axis of the record-mode rule where the grid's kinks are not all cut.
-pub(crate) const FIXED_SPLITS: usize = 1;
 
 /// Halvings forced on a box that a texture discontinuity sweeps (a feature the 2- and
 /// 3-point rules could both miss is then at most 1/64 of the box).
@@ -1478,14 +1483,7 @@ fn general_channel(
             std::slice::from_raw_parts_mut(raw_ptr.get().add(start * cols), range.len() * cols)
         };
         chunk.par_chunks_mut(cols).enumerate().try_for_each_init(
-            || Work {
-                rel_floor: if scene.surface.fronto().is_some() {
-                    0.0
-                } else {
-                    PIECE_NOISE
-                },
-                ..Work::default()
-            },
+            || Work::new(scene.surface.fronto().is_some()),
             |wk, (i, row)| -> Result<()> {
                 checkpoint()?;
                 let b = (start + i) as u32;

@@ -114,6 +114,37 @@ fn raw_rows(d: &splitlf_core::Design, channels: &[usize]) -> usize {
         .sum()
 }
 
+/// A map build's shared hand-off: the threads, channels and grid checked, `build` run
+/// without the GIL (progress counting raw rows, Ctrl-C polled), the map as CSR arrays.
+#[allow(clippy::too_many_arguments)]
+fn build_map<'py>(
+    py: Python<'py>,
+    design: &DesignCore,
+    grid: (f64, f64, f64, usize, usize),
+    channels: Option<Vec<i64>>,
+    n_threads: Option<&Bound<'py, PyAny>>,
+    progress: Option<Py<PyAny>>,
+    field: &'static str,
+    build: impl FnOnce(
+            &splitlf_core::Design,
+            &[usize],
+            &CellGrid,
+            Option<usize>,
+            &std::sync::atomic::AtomicUsize,
+        ) -> splitlf_core::Result<system::System>
+        + Send,
+) -> PyResult<Csr<'py>> {
+    let threads = threads_arg(n_threads)?;
+    let ch = channel_indices(design, channels)?;
+    let g = checked_grid(grid)?;
+    let d = design.inner.clone();
+    let (report, counter) = counted(progress, raw_rows(&d, &ch));
+    let sys = run_reporting(py, field, report, move || {
+        build(&d, &ch, &g, threads, &counter)
+    })?;
+    Ok(csr(py, sys))
+}
+
 /// The map for the fronto-parallel plane at depth z over the grid (X0, Y1, step, nx, ny):
 /// (channel from 0, pixel flat index, indptr, indices, data) per kept row.
 /// `progress(done, total)` counts raw rows.
@@ -128,15 +159,16 @@ pub(crate) fn reconstruction_system<'py>(
     n_threads: Option<&Bound<'py, PyAny>>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Csr<'py>> {
-    let threads = threads_arg(n_threads)?;
-    let ch = channel_indices(design, channels)?;
-    let g = checked_grid(grid)?;
-    let d = design.inner.clone();
-    let (report, counter) = counted(progress, raw_rows(&d, &ch));
-    let sys = run_reporting(py, "z", report, move || {
-        system::build(&d, &ch, z, &g, threads, &counter)
-    })?;
-    Ok(csr(py, sys))
+    build_map(
+        py,
+        design,
+        grid,
+        channels,
+        n_threads,
+        progress,
+        "z",
+        move |d, ch, g, t, c| system::build(d, ch, z, g, t, c),
+    )
 }
 
 /// The map for any surface over the grid (X0, Y1, step, nx, ny): the scene's surface (its
@@ -153,16 +185,17 @@ pub(crate) fn surface_system<'py>(
     n_threads: Option<&Bound<'py, PyAny>>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Csr<'py>> {
-    let threads = threads_arg(n_threads)?;
-    let ch = channel_indices(design, channels)?;
-    let g = checked_grid(grid)?;
-    let d = design.inner.clone();
     let sc = Arc::clone(&scene.inner);
-    let (report, counter) = counted(progress, raw_rows(&d, &ch));
-    let sys = run_reporting(py, "depth", report, move || {
-        system::build_surface(&d, &ch, &sc.surface, &g, threads, &counter)
-    })?;
-    Ok(csr(py, sys))
+    build_map(
+        py,
+        design,
+        grid,
+        channels,
+        n_threads,
+        progress,
+        "depth",
+        move |d, ch, g, t, c| system::build_surface(d, ch, &sc.surface, g, t, c),
+    )
 }
 
 type Axis<'py> = (
