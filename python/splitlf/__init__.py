@@ -9,6 +9,7 @@ from . import measure
 from ._native import __version__
 from .camera import Camera
 from .coverage import ChiefSamples, Coverage, Samples2D, chief_samples, coverage, samples_2d
+from .depth_estimation import DepthSweep, estimate_depth
 from .design import Channel, Design
 from .errors import InvalidParameter, SplitlfError, TooLargeError
 from .merits import Merits, evaluate
@@ -55,6 +56,7 @@ __all__ = [
     "Curves",
     "DepthMap",
     "DepthOfField",
+    "DepthSweep",
     "Design",
     "Footprints",
     "Image",
@@ -81,6 +83,7 @@ __all__ = [
     "coverage",
     "curves",
     "depth_of_field",
+    "estimate_depth",
     "evaluate",
     "explore",
     "footprints",

@@ -69,6 +69,7 @@ __all__ = [
     "samples_2d",
     "seen_region",
     "surface_system",
+    "depth_sweep",
 ]
 
 __version__: str
@@ -464,3 +465,25 @@ def reconstruction_factors(
     list[tuple[npt.NDArray[np.uint64], npt.NDArray[np.uint32], _F64, _F64]],
 ]: ...
 def cell_averages(scene: RenderScene, grid: tuple[float, float, float, int, int]) -> _F64: ...
+
+
+def depth_sweep(
+    design: DesignCore,
+    raws: list[npt.NDArray[np.float64]],
+    whites: list[npt.NDArray[np.float64]],
+    grid: tuple[float, float, float, int, int],
+    candidates: list[float],
+    channels: list[int] | None = None,
+    radius: int = 3,
+    keep_volume: bool = False,
+    n_threads: int | None = None,
+    progress: Callable[[int, int], object] | None = None,
+) -> tuple[
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    int,
+    npt.NDArray[np.float64] | None,
+]: ...

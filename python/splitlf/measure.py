@@ -127,3 +127,54 @@ def mtf50(rec: Reconstruction, edge: SlantedEdge) -> float:
         return 0.0
     f0, f1, m0, m1 = freq[k - 1], freq[k], mtf[k - 1], mtf[k]
     return float(f0 + (0.5 - m0) * (f1 - f0) / (m1 - m0))
+
+
+#: BadPix's threshold: a confident cell whose relative depth error exceeds this is bad.
+BADPIX_THRESHOLD = 0.01
+
+
+def depth_errors(estimate: Any, truth: Any) -> dict[str, float]:
+    """The errors of a depth estimate (docs/depth.md): over its confident cells, the
+    ``median`` and 90th percentile (``p90``) of the relative error |z_est - z| / z, and
+    ``badpix`` (the share of confident cells above 1 % relative error, the HCI benchmark's
+    BadPix with a relative threshold); ``confident`` (the share of confident cells). The
+    errors are NaN when no cell is confident.
+
+    ``estimate`` is a :class:`~splitlf.DepthMap` (from :func:`~splitlf.estimate_depth`:
+    cells without a ``confident`` mask count as confident); ``truth`` a depth (mm, a
+    fronto-parallel plane), a :class:`~splitlf.Plane` (evaluated at the cell centres) or an
+    array of the estimate's shape."""
+    from .rendering import DepthMap, Plane
+
+    if not isinstance(estimate, DepthMap):
+        raise TypeError(f"estimate must be a splitlf.DepthMap, got {type(estimate).__name__}")
+    z = estimate.depth
+    ny, nx = z.shape
+    x0, x1, y0, y1 = estimate.extent
+    if isinstance(truth, Plane):
+        xs = x0 + (np.arange(nx) + 0.5) * (x1 - x0) / nx
+        ys = y1 - (np.arange(ny) + 0.5) * (y1 - y0) / ny
+        true = truth.z0 + truth.gx * xs[None, :] + truth.gy * ys[:, None]
+    elif isinstance(truth, np.ndarray):
+        if truth.shape != z.shape:
+            raise InvalidParameter.of("truth", f"shape {truth.shape}",
+                                      f"the estimate's shape {z.shape}")
+        true = np.asarray(truth, dtype=np.float64)
+    elif isinstance(truth, int | float | np.integer | np.floating) and not isinstance(
+            truth, bool):
+        true = np.full(z.shape, float(truth))
+    else:
+        raise TypeError("truth must be a depth (mm), a splitlf.Plane or an array, got "
+                        f"{type(truth).__name__}")
+    if not np.all(np.isfinite(true) & (true > 0)):
+        raise InvalidParameter.of("truth", "non-finite or non-positive depths",
+                                  "finite depths > 0 mm")
+    conf = np.ones(z.shape, bool) if estimate.confident is None else estimate.confident
+    rel = np.abs(z - true)[conf] / true[conf]
+    nan = float("nan")
+    return {
+        "median": float(np.median(rel)) if rel.size else nan,
+        "p90": float(np.percentile(rel, 90)) if rel.size else nan,
+        "badpix": float(np.mean(rel > BADPIX_THRESHOLD)) if rel.size else nan,
+        "confident": float(conf.mean()),
+    }

@@ -127,7 +127,9 @@ class DepthMap:
 
     ``depth`` a non-empty 2-D array of finite depths > 0; ``extent`` finite with X0 < X1,
     Y0 < Y1; ``confidence`` (a per-sample weight, e.g. of a depth estimate) and
-    ``confident`` (a per-sample bool) optional arrays of the same shape, carried along.
+    ``confident`` (a per-sample bool) optional arrays of the same shape, carried along;
+    ``sweep`` what :func:`~splitlf.estimate_depth` saw (a
+    :class:`~splitlf.depth_estimation.DepthSweep`), carried along.
     The arrays are kept as read-only float64 (bool) copies. Raises ``TypeError`` and
     :class:`~splitlf.errors.InvalidParameter` naming the field (and the element)."""
 
@@ -135,6 +137,7 @@ class DepthMap:
     extent: Extent
     confidence: np.ndarray | None = None
     confident: np.ndarray | None = None
+    sweep: Any = None
 
     def __post_init__(self) -> None:
         z = _real_array(self.depth, "depth")

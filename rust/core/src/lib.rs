@@ -13,11 +13,13 @@
 //! [`merit`] the figures of merit of one design that sweeps compare,
 //! [`simulate`] the forward model and system matrix of the super-resolution simulation,
 //! [`render`] the 2-D forward model (raw images, §10) with [`scene`], [`texture`] and
-//! [`polygon`].
+//! [`polygon`]; [`system`] the linear map a reconstruction inverts, and [`depth`] the
+//! plane sweep that estimates depth from a raw.
 //! Every parallel entry point takes `n_threads` (see [`parallel`]).
 
 pub mod camera;
 pub mod cells;
+pub mod depth;
 pub mod design;
 pub mod error;
 pub mod lens;

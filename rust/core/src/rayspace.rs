@@ -828,7 +828,7 @@ pub fn weight_profile(p: &Polygon, sigma: f64) -> ([f64; MAX_VERTICES], [f64; MA
 
 /// Per-axis sample positions of one line on the plane at depth z: object-space position
 /// of every pixel along the axis (NaN where it yields no sample).
-fn axis_samples(line: &Line, sample: Sample, z: f64) -> Result<Vec<f64>> {
+pub(crate) fn axis_samples(line: &Line, sample: Sample, z: f64) -> Result<Vec<f64>> {
     let zc = conjugate(line.f_main, z);
     let sigma = line.slope(zc);
     let n = line.pixel_count() as usize;

@@ -9,6 +9,7 @@
 mod args;
 mod arrays;
 mod coverage;
+mod depth;
 mod design;
 mod errors;
 mod interrupt;
@@ -109,6 +110,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
         reconstruct::surface_system,
         reconstruct::reconstruction_factors,
         reconstruct::cell_averages,
+        depth::depth_sweep,
         arrays::available_memory,
     );
     Ok(())

@@ -14,7 +14,10 @@ use crate::errors::to_py;
 use crate::interrupt::{counted, run_reporting};
 
 /// Channels numbered from 1 (Python) to indices from 0, every channel when None.
-fn channel_indices(design: &DesignCore, channels: Option<Vec<i64>>) -> PyResult<Vec<usize>> {
+pub(crate) fn channel_indices(
+    design: &DesignCore,
+    channels: Option<Vec<i64>>,
+) -> PyResult<Vec<usize>> {
     let n = design.inner.channels.len();
     match channels {
         None => Ok((0..n).collect()),
@@ -68,7 +71,7 @@ pub(crate) fn cell_grid(
 }
 
 /// A grid tuple (X0, Y1, step, nx, ny), checked by re-deriving it from its extent.
-fn checked_grid(grid: (f64, f64, f64, usize, usize)) -> PyResult<CellGrid> {
+pub(crate) fn checked_grid(grid: (f64, f64, f64, usize, usize)) -> PyResult<CellGrid> {
     let g = CellGrid {
         x0: grid.0,
         y1: grid.1,

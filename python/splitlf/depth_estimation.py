@@ -1,0 +1,200 @@
+"""Depth from the raw (docs/model.md §11, docs/depth.md).
+
+:func:`estimate_depth` runs the core's plane sweep (``_native.depth_sweep``): for each
+candidate depth every pixel's value, divided by its white (the design's raw under a white
+albedo, rendered once per design and kept), is placed where its chief ray meets the plane
+at that depth and splatted onto a grid of cells; the cost is the pooled within-cell variance
+of these samples over a window of cells (photo-consistency: at the true depth the samples
+that gather in a cell, from several lenses and channels, saw the same patch). The least
+cost per cell, refined by a parabola, is the depth; the contrast of the cost curve,
+1 - min / mean, is the confidence.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Any
+
+import numpy as np
+
+from . import _native, _validate
+from .design import Design
+from .errors import InvalidParameter
+from .rendering import DepthMap, Raw, Scene, _extent, _progress, _progress_flag, render
+from .textures import Sinusoid
+
+Extent = tuple[float, float, float, float]
+
+#: Candidates of a (zmin, zmax) range, uniform in 1/z.
+DEFAULT_CANDIDATES = 64
+#: The default window radius (cells): costs are pooled over (2 r + 1)^2 cells.
+DEFAULT_WINDOW = 6
+#: The default grid pitch, in delta(z) (docs/model.md §9) at the reference depth.
+DEFAULT_STEP = 3.0
+#: Cells whose confidence (1 - min / mean of the cost curve) is at least this are confident.
+DEFAULT_MIN_CONFIDENCE = 0.5
+
+_WHITES: dict[int, tuple[Design, tuple[np.ndarray, ...]]] = {}
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class DepthSweep:
+    """What the plane sweep saw, per cell of the estimate's grid (row 0 at the top):
+    ``candidates`` (mm, increasing), ``index`` (the refined candidate index, fractional;
+    NaN where no candidate had a cost), ``min_cost`` and ``mean_cost`` (the cost curve's
+    least and mean value, in squared albedo; NaN where none), ``estimate`` (the refined
+    depth before the unconfident cells were filled; NaN where none), ``window`` (radius,
+    cells), ``channels`` (numbered from 1) and ``samples`` (pixels that took part)."""
+
+    candidates: np.ndarray
+    index: np.ndarray
+    min_cost: np.ndarray
+    mean_cost: np.ndarray
+    estimate: np.ndarray
+    window: int
+    channels: tuple[int, ...]
+    samples: int
+
+
+def _white(design: Design) -> tuple[np.ndarray, ...]:
+    """The design's raws under a white albedo (depth-independent: every ray a pixel
+    collects meets a fronto-parallel plane), rendered once per design."""
+    hit = _WHITES.get(id(design))
+    if hit is not None and hit[0] is design:
+        return hit[1]
+    z = 2.0 * design.F + 1000.0
+    raw = render(design, Scene(Sinusoid(1.0, 1.0, 0.0), z, background=1.0), progress=False)
+    if len(_WHITES) >= 4:
+        _WHITES.pop(next(iter(_WHITES)))
+    _WHITES[id(design)] = (design, raw.images)
+    return raw.images
+
+
+def _candidates(design: Design, depths: Any, n: Any) -> np.ndarray:
+    arr = np.asarray(depths, dtype=np.float64) if not isinstance(depths, str) else None
+    if arr is None or arr.ndim != 1:
+        raise TypeError("depths must be (zmin, zmax) or a 1-D array of candidate depths "
+                        f"(mm), got {depths!r}"[:300])
+    if arr.size == 2:
+        zmin, zmax = float(arr[0]), float(arr[1])
+        if not (math.isfinite(zmin) and math.isfinite(zmax)):
+            raise InvalidParameter.of("depths", f"({zmin}, {zmax})", "finite depths (mm)")
+        if not zmin < zmax:
+            raise InvalidParameter.of("depths", f"({zmin}, {zmax})",
+                                      "a range zmin < zmax (mm)")
+        if zmin <= design.F:
+            raise InvalidParameter.of("depths", f"zmin = {zmin}",
+                                      f"depths > F = {design.F:g} mm")
+        if isinstance(n, bool) or not isinstance(n, int | np.integer) or not 3 <= n <= 4096:
+            raise InvalidParameter.of("candidates", n, "an integer in [3, 4096]")
+        return 1.0 / np.linspace(1.0 / zmin, 1.0 / zmax, int(n))
+    if arr.size < 3:
+        raise InvalidParameter.of("depths", f"{arr.size} candidates",
+                                  "(zmin, zmax) or at least 3 candidate depths")
+    bad = np.flatnonzero(~(np.isfinite(arr) & (arr > design.F)))
+    if bad.size:
+        i = int(bad[0])
+        raise InvalidParameter.of("depths", f"{arr[i]!r} (candidate {i})",
+                                  f"finite depths > F = {design.F:g} mm")
+    if np.any(np.diff(arr) <= 0.0):
+        i = int(np.flatnonzero(np.diff(arr) <= 0.0)[0]) + 1
+        raise InvalidParameter.of("depths", f"{arr[i]!r} after {arr[i - 1]!r} (candidate {i})",
+                                  "strictly increasing candidate depths")
+    return arr
+
+
+def estimate_depth(raw: Raw, *, depths: Any, region: Any = None, step: float | None = None,
+                   candidates: int = DEFAULT_CANDIDATES, window: int = DEFAULT_WINDOW,
+                   min_confidence: float = DEFAULT_MIN_CONFIDENCE, channels: Any = None,
+                   n_threads: int | None = None, progress: bool | None = None) -> DepthMap:
+    """The depth of the scene over a region, from the raw alone (docs/depth.md).
+
+    - ``raw``: a :class:`~splitlf.Raw` (rendered or wrapped)
+    - ``depths``: ``(zmin, zmax)`` (``candidates`` depths uniform in 1/z between them) or
+      a 1-D array of at least 3 increasing candidate depths, all finite and > F (mm)
+    - ``region``: (X0, X1, Y0, Y1) mm (default: what every chosen channel sees through at
+      least half its aperture at the reference depth, the middle candidate in 1/z; when
+      there is no such point, what the first chosen channel sees so)
+    - ``step``: the grid's pitch in mm (default: delta(z) of docs/model.md §9 at the
+      reference depth)
+    - ``window``: costs are pooled over (2 window + 1)^2 cells (0 to 64)
+    - ``min_confidence``: the least confidence of a confident cell, in [0, 1]
+    - ``channels``: the channels used (numbered from 1; default all)
+    - ``progress``: a tqdm bar over the candidates (None: only when stderr is a terminal)
+
+    Returns a :class:`~splitlf.DepthMap` with ``depth`` (mm, row 0 at the top; cells
+    that are not confident take the depth of the nearest confident cell, so the map can
+    be handed to :func:`~splitlf.reconstruct`), ``confidence`` (1 - min / mean of the
+    cost curve, in [0, 1]), ``confident`` (bool) and ``sweep`` (a :class:`DepthSweep`).
+    A raw without texture (all zeros, a uniform albedo) gives no confident cell.
+    """
+    if not isinstance(raw, Raw):
+        raise TypeError(f"raw must be a splitlf.Raw, got {type(raw).__name__}")
+    design = raw.design
+    from .reconstruction import _channels
+
+    chans = _channels(design, channels)
+    cand = _candidates(design, depths, candidates)
+    if isinstance(window, bool) or not isinstance(window, int | np.integer):
+        raise TypeError(f"window must be an integer number of cells, got {window!r}")
+    mc = _validate.real(min_confidence, "min_confidence")
+    if not 0.0 <= mc <= 1.0:
+        raise InvalidParameter.of("min_confidence", mc, "a value in [0, 1]")
+    _validate.n_threads(n_threads)
+    show = _progress_flag(progress)
+    z_ref = float(1.0 / np.median(1.0 / cand))
+    if step is None:
+        step_ = DEFAULT_STEP * design.resolution_step(z_ref)
+    else:
+        step_ = _validate.real(step, "step")
+        if not (math.isfinite(step_) and step_ > 0.0):
+            raise InvalidParameter.of("step", step_, "a finite value > 0 (mm)")
+    if region is not None:
+        ext = _extent(region, "region")
+    else:
+        try:
+            ext = _native.seen_region(design.core, z_ref, list(chans))
+        except InvalidParameter:
+            # Far from its focus a channel may see no point through half its aperture:
+            # then the first chosen channel's region.
+            ext = _native.seen_region(design.core, z_ref, [chans[0]])
+    grid = _native.cell_grid(ext, step_)
+    x0, y1, h, nx, ny = grid
+    whites = _white(design)
+    raws = [np.ascontiguousarray(raw.images[c - 1]) for c in chans]
+    wh = [np.ascontiguousarray(whites[c - 1]) for c in chans]
+    bar, report = _progress(show, "splitlf depth", "depth")
+    try:
+        depth, index, conf, cmin, cmean, samples, _ = _native.depth_sweep(
+            design.core, raws, wh, grid, [float(z) for z in cand], list(chans), int(window),
+            False, n_threads, report)
+    finally:
+        if bar is not None:
+            bar.close()
+    ok = np.isfinite(depth)
+    if not ok.any():
+        raise InvalidParameter.of(
+            "region", f"({x0:.6g}, {x0 + nx * h:.6g}, {y1 - ny * h:.6g}, {y1:.6g})",
+            "a region the chosen channels' pixels see at the candidate depths")
+    confident = ok & (conf >= mc) & (conf > 0.0)
+    filled = _fill(depth, confident, ok, cand)
+    sweep = DepthSweep(candidates=cand, index=index, min_cost=cmin, mean_cost=cmean,
+                       estimate=depth, window=int(window), channels=chans,
+                       samples=int(samples))
+    return DepthMap(filled, (x0, x0 + nx * h, y1 - ny * h, y1), confidence=conf,
+                    confident=confident, sweep=sweep)
+
+
+def _fill(depth: np.ndarray, confident: np.ndarray, ok: np.ndarray,
+          cand: np.ndarray) -> np.ndarray:
+    """Every cell's depth: its own where confident, else the nearest confident cell's
+    (Euclidean, scipy.ndimage's distance transform); with no confident cell, its own
+    estimate where it has one, else the middle candidate in 1/z."""
+    if confident.any():
+        from scipy.ndimage import distance_transform_edt
+
+        _, (ri, ci) = distance_transform_edt(~confident, return_indices=True)
+        return depth[ri, ci]
+    mid = float(1.0 / np.median(1.0 / cand))
+    return np.where(ok, depth, mid)
