@@ -140,7 +140,7 @@ def _subparsers():
 def test_every_option_has_help_text(capsys):
     subs = _subparsers()
     assert set(subs) == {"report", "figures", "trace", "sweep", "simulate", "optimise",
-                         "compare", "explore", "render", "reconstruct"}
+                         "compare", "explore", "render", "reconstruct", "depth"}
     for name, sub in subs.items():
         for action in sub._actions:
             assert action.help and action.help.strip(), (name, action.option_strings)
@@ -322,3 +322,38 @@ def test_reconstruct_cli_matches_api(tmp_path, capsys):
     assert summary["shape"] == list(rec.image.shape) and png.stat().st_size > 0
     code, _, err = run(args, capsys)
     assert code != 0 and "--force" in err
+
+
+def test_depth_cli_matches_api(tmp_path, capsys):
+    """render -> depth on the command line gives the API's map (the .npy beside the
+    .png), and a reconstruct from that map's .npy and printed extent runs."""
+    d = splitlf.Design.preset("seed")
+    d = d.replace(channels=tuple(c.replace(Kx=10, Ky=8) for c in d.channels))
+    toml = tmp_path / "d.toml"
+    toml.write_text(d.to_toml())
+    raw_path, png = tmp_path / "r.npz", tmp_path / "depth.png"
+    assert run(["render", str(toml), "--texture", "random:1", "--depth", "1000",
+                "--noise", "2000", "-o", str(raw_path)], capsys)[0] == 0
+    args = ["depth", str(raw_path), "--depths", "250:4000", "--region=-3,3,-2,2",
+            "-o", str(png), "--npy", "--json"]
+    code, out, _ = run(args, capsys)
+    assert code == 0, out
+    summary = json.loads(out)
+    depth = np.load(tmp_path / "depth.npy")
+    est = splitlf.estimate_depth(splitlf.Raw.load(raw_path), depths=(250.0, 4000.0),
+                                 region=(-3.0, 3.0, -2.0, 2.0))
+    assert np.array_equal(depth, est.depth)
+    assert summary["shape"] == list(depth.shape) and png.stat().st_size > 0
+    assert summary["confident"] == pytest.approx(float(est.confident.mean()))
+    assert abs(summary["median_depth"] - 1000.0) < 30.0
+    code, _, err = run(args, capsys)
+    assert code != 0 and "--force" in err
+    code, _, err = run(["depth", str(raw_path), "--depths", "50:4000", "-o",
+                        str(tmp_path / "x.npy")], capsys)
+    assert code != 0 and "depths" in err
+    ext = ",".join(str(v) for v in summary["extent"])
+    code, out, err = run(["reconstruct", str(raw_path), "--depth", str(tmp_path / "depth.npy"),
+                          f"--extent={ext}", "--region=-0.3,0.3,-0.2,0.2", "--channels", "1",
+                          "--step", "0.2", "-o", str(tmp_path / "img.npy")], capsys)
+    assert code == 0, err
+    assert np.all(np.isfinite(np.load(tmp_path / "img.npy")))

@@ -607,20 +607,20 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 # -- render ------------------------------------------------------------------------------
 
 def parse_render_texture(spec: str, width: float | None) -> Any:
-    """The texture of ``render --texture``: random | sinusoid:F | bars:F (F in cycles/mm
-    on the object) | edge[:ANGLE] (degrees) | star[:SPOKES] | an image file (.png or
+    """The texture of ``render --texture``: random[:CELL] (CELL in mm; default delta(z))
+    | sinusoid:F | bars:F (F in cycles/mm on the object) | edge[:ANGLE] (degrees) | star[:SPOKES] | an image file (.png or
     .npy; needs ``width`` [mm]). Raises :class:`CliError` for anything else."""
     from .textures import BarChart, RandomAlbedo, SiemensStar, Sinusoid, SlantedEdge
 
     kind, colon, rest = spec.partition(":")
     known = {"random", "sinusoid", "bars", "edge", "star"}
-    if kind not in known or (kind == "random" and colon):
+    if kind not in known:
         return _image_texture(spec, width)
     if width is not None:
         raise CliError("--width: only with an image file as --texture")
     try:
         if kind == "random":
-            return RandomAlbedo()
+            return RandomAlbedo(float(rest)) if colon else RandomAlbedo()
         if kind in ("sinusoid", "bars"):
             return (Sinusoid if kind == "sinusoid" else BarChart)(float(rest))
         if kind == "edge":
@@ -630,7 +630,7 @@ def parse_render_texture(spec: str, width: float | None) -> Any:
         raise CliError(f"--texture {spec}: {e}") from None
 
 
-TEXTURE_FORMS = ("random, sinusoid:F, bars:F (cycles/mm), edge[:ANGLE], star[:SPOKES] or "
+TEXTURE_FORMS = ("random[:CELL] (mm), sinusoid:F, bars:F (cycles/mm), edge[:ANGLE], star[:SPOKES] or "
                  "an image file (.png, .npy) with --width")
 
 
@@ -802,7 +802,7 @@ def _cmd_reconstruct(args: argparse.Namespace) -> int:
         if target is not None:
             check_new(target, args.force, FORCE_HINT)
     raw = Raw.load(args.raw)
-    depth = parse_render_depth(args.depth, None)
+    depth = parse_render_depth(args.depth, args.extent)
     region = None if args.region is None else _floats(args.region, 4, "--region")
     channels = None if args.channels is None else tuple(
         int(c) for c in _floats(args.channels, len(args.channels.split(",")), "--channels"))
@@ -827,6 +827,70 @@ def _cmd_reconstruct(args: argparse.Namespace) -> int:
                "depth": rec.depth, "channels": list(rec.channels), "rows": rec.rows,
                "iterations": rec.iterations, "residual": rec.residual,
                "regularization": rec.regularization, "noise": rec.noise}
+    sys.stdout.write(json_text(summary) if args.json else f"{out}\n")
+    return 0
+
+
+# -- depth -------------------------------------------------------------------------------
+
+def _depth_range(text: str) -> Any:
+    """``--depths ZMIN:ZMAX`` -> (zmin, zmax); ``Z1,Z2,...`` -> the candidates."""
+    if ":" in text:
+        lo, _, hi = text.partition(":")
+        return _numbers("--depths", f"{lo},{hi}", 2)
+    return _numbers("--depths", text, len(text.split(",")))
+
+
+def _cmd_depth(args: argparse.Namespace) -> int:
+    import contextlib
+
+    import numpy as np
+
+    from .depth_estimation import estimate_depth
+    from .rendering import Raw
+
+    out = Path(args.out)
+    _check_suffix("--out", out, (".png", ".npy"))
+    npy = out.with_suffix(".npy") if args.npy and out.suffix == ".png" else None
+    if out.suffix == ".png":
+        _need("matplotlib", "a depth map to a PNG", "plot")
+    for target in (out, npy):
+        if target is not None:
+            check_new(target, args.force, FORCE_HINT)
+    raw = Raw.load(args.raw)
+    depths = _depth_range(args.depths)
+    region = None if args.region is None else _floats(args.region, 4, "--region")
+    channels = None if args.channels is None else tuple(
+        int(c) for c in _floats(args.channels, len(args.channels.split(",")), "--channels"))
+    kw: dict[str, Any] = {} if args.candidates is None else {"candidates": args.candidates}
+    est = estimate_depth(raw, depths=depths, region=region, step=args.step,
+                         channels=channels, n_threads=args.threads, progress=None, **kw)
+    assert est.confident is not None and est.sweep is not None
+    with contextlib.ExitStack() as stack:
+        if npy is not None:
+            with atomic_output(npy, force=args.force, hint=FORCE_HINT) as tmp:
+                np.save(tmp, est.depth)
+        if out.suffix == ".npy":
+            tmp = stack.enter_context(atomic_output(out, force=args.force, hint=FORCE_HINT))
+            np.save(tmp, est.depth)
+        else:
+            from .plot._mpl import pyplot
+            from .plot.depth import depth as depth_plot
+
+            fig, ax = pyplot().subplots(figsize=(7.5, 5.0), layout="constrained")
+            depth_plot(est, ax)
+            tmp = stack.enter_context(atomic_output(out, force=args.force, hint=FORCE_HINT))
+            fig.savefig(tmp, format="png", dpi=110)
+            pyplot().close(fig)
+    conf = est.confident
+    z = est.depth[conf]
+    summary = {"path": str(out), "npy": None if npy is None else str(npy),
+               "shape": list(est.depth.shape), "extent": list(est.extent),
+               "candidates": [float(est.sweep.candidates[0]), float(est.sweep.candidates[-1]),
+                              int(est.sweep.candidates.size)],
+               "channels": list(est.sweep.channels), "samples": est.sweep.samples,
+               "confident": float(conf.mean()),
+               "median_depth": float(np.median(z)) if z.size else None}
     sys.stdout.write(json_text(summary) if args.json else f"{out}\n")
     return 0
 
@@ -1399,14 +1463,46 @@ def _add_render(sub: Any) -> None:
     p.set_defaults(func=_cmd_render)
 
 
+def _add_depth(sub: Any) -> None:
+    p = sub.add_parser("depth", help="a depth map from a raw file",
+                       description="Estimate the scene's depth from a raw file alone (a plane "
+                       "sweep: docs/model.md §11, docs/depth.md) and write it as a colour map "
+                       "(cells the method does not stand behind in grey) or an array.")
+    p.add_argument("raw", metavar="RAW.npz", help="a raw file (splitlf render, Raw.save)")
+    p.add_argument("--depths", required=True, metavar="ZMIN:ZMAX",
+                   help="the candidate range in mm (uniform in 1/z), or Z1,Z2,... the "
+                   "candidates themselves")
+    p.add_argument("--candidates", type=int, default=None, metavar="N",
+                   help="candidates of a ZMIN:ZMAX range (default 64)")
+    p.add_argument("--region", default=None, metavar="X0,X1,Y0,Y1",
+                   help="the region [mm] (default: what the channels see at the middle "
+                   "candidate; with a negative X0: --region=X0,X1,Y0,Y1)")
+    p.add_argument("--step", type=_real_type("step", 0.0, "a finite step > 0 (mm)"),
+                   default=None, metavar="MM",
+                   help="the cell pitch (default: 3 sensor steps mu_1 z / L_1 at the middle "
+                   "candidate)")
+    p.add_argument("--channels", default=None, metavar="I[,J...]",
+                   help="channel numbers from 1 (default: all)")
+    _threads_option(p, "threads of the core")
+    g = _output(p, "the depth map to write (.png, or .npy for the array in mm)", "DEPTH.png",
+                required=True, json_help="print a JSON summary instead of the path")
+    g.add_argument("--npy", action="store_true",
+                   help="with a .png output, also write the array beside it (.npy)")
+    p.set_defaults(func=_cmd_depth)
+
+
 def _add_reconstruct(sub: Any) -> None:
     p = sub.add_parser("reconstruct", help="a super-resolved image from a raw file",
                        description="Reconstruct the albedo on a grid of cells over a region "
-                       "of a known fronto-parallel plane from a raw file (docs/model.md §11, "
+                       "of a known surface from a raw file (docs/model.md §11, "
                        "docs/reconstruct.md) and write it as a picture or an array.")
     p.add_argument("raw", metavar="RAW.npz", help="a raw file (splitlf render, Raw.save)")
     p.add_argument("--depth", required=True, metavar="SPEC",
-                   help="the plane's depth in mm (or plane:Z0,0,0)")
+                   help="the surface: a depth in mm (a fronto-parallel plane), "
+                   "plane:Z0,GX,GY (Z = Z0 + GX X + GY Y), or a .npy depth map (with "
+                   "--extent; e.g. from splitlf depth --npy)")
+    p.add_argument("--extent", default=None, metavar="X0,X1,Y0,Y1",
+                   help="a .npy depth map's extent [mm] (splitlf depth prints it)")
     p.add_argument("--region", default=None, metavar="X0,X1,Y0,Y1",
                    help="the region [mm] (default: what every channel sees through half its "
                    "aperture; with a negative X0: --region=X0,X1,Y0,Y1)")
@@ -1551,7 +1647,8 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
                                 help="what to do (COMMAND --help for its options)")
     for add in (_add_report, _add_figures, _add_trace, _add_sweep, _add_simulate,
-                _add_render, _add_reconstruct, _add_optimise, _add_compare, _add_explore):
+                _add_render, _add_reconstruct, _add_depth, _add_optimise, _add_compare,
+                _add_explore):
         add(sub)
     return parser
 

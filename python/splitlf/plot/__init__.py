@@ -6,6 +6,7 @@ selects a backend."""
 from .architecture import microlens_images, sample_map
 from .compare import compare
 from .curves import blur, repetitions
+from .depth import depth
 from .raw import raw
 from .rayspace import ray_space
 from .resolution import resolution
@@ -17,6 +18,7 @@ __all__ = [
     "RECT_ONLY",
     "blur",
     "compare",
+    "depth",
     "microlens_images",
     "raw",
     "ray_space",
