@@ -225,23 +225,25 @@ def test_bad_input(design: splitlf.Design) -> None:
 def test_end_to_end_image_at_1m(design: splitlf.Design) -> None:
     """raw -> estimated depth -> super-resolved image, no truth given: the image from the
     estimated depth map (reconstruct's general route) is within 1.5x the RMSE of the one
-    from the true depth. Monte-Carlo raw, N = 2000."""
+    from the true depth. Monte-Carlo raw, N = 2000; half 1 (the general route's map on a
+    depth map costs tens of milliseconds a pixel: this test takes about 5 minutes).
+    Measured: RMSE 0.199 against 0.188 with the true depth (1.06x)."""
     z = 1000.0
     cell = 10 * design.resolution_step(z)
     tex, mct = random_image(design, z, cell, seed=11)
     raw = mc_raw(design, mct, ("plane", [z, 0.0, 0.0]), seed=12)
     est = splitlf.estimate_depth(raw, depths=DEPTHS,
                                  region=_native.seen_region(design.core, z, [1]))
-    region = (-0.6, 0.6, -0.4, 0.4)
+    region = (-0.4, 0.4, -0.3, 0.3)
     noise = {"photons": PHOTONS, "read_noise": 0.0}
     step = 0.2
-    known = splitlf.reconstruct(raw, z, region=region, step=step, noise=noise)
-    found = splitlf.reconstruct(raw, est, region=region, step=step, noise=noise)
+    kw = {"region": region, "step": step, "noise": noise, "channels": (1,)}
+    known = splitlf.reconstruct(raw, z, **kw)  # type: ignore[arg-type]
+    found = splitlf.reconstruct(raw, est, **kw)  # type: ignore[arg-type]
     assert isinstance(found.depth, splitlf.DepthMap)
     truth = measure.truth(known, tex)
     rmse_known = float(np.sqrt(np.mean((known.image - truth) ** 2)))
     rmse_found = float(np.sqrt(np.mean((found.image - truth) ** 2)))
     flat = float(np.sqrt(np.mean((truth - truth.mean()) ** 2)))
-    print("end to end rmse", rmse_known, rmse_found, flat)
     assert rmse_found <= 1.5 * rmse_known, (rmse_known, rmse_found)
     assert rmse_known < 0.8 * flat

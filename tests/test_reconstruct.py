@@ -346,3 +346,16 @@ def test_reconstruct_a_monte_carlo_raw_of_a_slanted_plane() -> None:
     flat = 10.0 * np.log10(1.0 / np.mean((measure.truth(rec, tex) - 0.5) ** 2))
     assert float(np.median(se)) < 0.5 * np.sqrt(0.25 / 2000.0)
     assert p > flat + 5.0, (p, flat)
+
+
+def test_too_large_suggests_tiles() -> None:
+    """A map that does not fit is reported with a tile size that would: the region's
+    padded side scaled by sqrt(0.8 limit / need), less the padding."""
+    from splitlf.errors import TooLargeError
+    from splitlf.reconstruction import _tiles_hint
+
+    e = TooLargeError("too large.", what="the map", nbytes=400 * 2**20, limit=100 * 2**20)
+    hint = _tiles_hint(e, 1000, 1000, 10)
+    side = int(1020 * np.sqrt(0.8 * 100 / 400)) - 20
+    assert isinstance(hint, TooLargeError) and hint.bytes == e.bytes
+    assert f"tiles of about {side} x {side} cells" in str(hint) and "1000 x 1000" in str(hint)

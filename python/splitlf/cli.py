@@ -608,8 +608,9 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 
 def parse_render_texture(spec: str, width: float | None) -> Any:
     """The texture of ``render --texture``: random[:CELL] (CELL in mm; default delta(z))
-    | sinusoid:F | bars:F (F in cycles/mm on the object) | edge[:ANGLE] (degrees) | star[:SPOKES] | an image file (.png or
-    .npy; needs ``width`` [mm]). Raises :class:`CliError` for anything else."""
+    | sinusoid:F | bars:F (F in cycles/mm on the object) | edge[:ANGLE] (degrees) |
+    star[:SPOKES] | an image file (.png or .npy; needs ``width`` [mm]). Raises
+    :class:`CliError` for anything else."""
     from .textures import BarChart, RandomAlbedo, SiemensStar, Sinusoid, SlantedEdge
 
     kind, colon, rest = spec.partition(":")
@@ -630,8 +631,8 @@ def parse_render_texture(spec: str, width: float | None) -> Any:
         raise CliError(f"--texture {spec}: {e}") from None
 
 
-TEXTURE_FORMS = ("random[:CELL] (mm), sinusoid:F, bars:F (cycles/mm), edge[:ANGLE], star[:SPOKES] or "
-                 "an image file (.png, .npy) with --width")
+TEXTURE_FORMS = ("random[:CELL] (mm), sinusoid:F, bars:F (cycles/mm), edge[:ANGLE], "
+                 "star[:SPOKES] or an image file (.png, .npy) with --width")
 
 
 def _image_texture(path: str, width: float | None) -> Any:

@@ -28,7 +28,7 @@ import numpy as np
 
 from . import _native, _validate
 from .design import Design
-from .errors import InvalidParameter
+from .errors import InvalidParameter, TooLargeError
 from .rendering import DepthMap, Plane, Raw, _extent, _progress, _progress_flag
 from .simulation import _noise
 
@@ -240,6 +240,19 @@ class _Rows:
         return np.asarray(self.A.multiply(self.A).T @ w).reshape(self.shape)
 
 
+def _tiles_hint(e: TooLargeError, nx: int, ny: int, pad: int) -> TooLargeError:
+    """``e`` with a suggested tile: the region's cells scaled by the share of the need
+    that fits (each tile is padded by ``pad`` cells of its own, so tiles overlap by that)."""
+    if not (e.bytes and e.limit) or e.bytes <= 0:
+        return e
+    scale = math.sqrt(0.8 * e.limit / e.bytes)
+    side = max(1, int(math.sqrt((nx + 2 * pad) * (ny + 2 * pad)) * scale) - 2 * pad)
+    msg = (f"{e} The region is {nx} x {ny} cells (padded by {pad} per side): reconstruct "
+           f"it in tiles of about {side} x {side} cells (region=... per tile; each tile "
+           "pads itself, so neighbouring tiles need no overlap of their own).")
+    return TooLargeError(msg, what=e.what, nbytes=e.bytes, limit=e.limit)
+
+
 def _rows(raw: Raw, chans: tuple[int, ...], surface: Plane | DepthMap | float, grid: tuple,
           n_threads: int | None, progress: Any) -> list[_Rows]:
     from scipy import sparse
@@ -376,15 +389,19 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
     bar = None
     try:
         parts: Sequence[_Block]
-        if exact:
-            assert isinstance(surface, float)
-            parts = _parts(raw, chans, surface, (gx0, gy1, h, gnx, gny))
-        else:
-            bar, report = _progress(show, "splitlf reconstruct (map)", "block")
-            parts = _rows(raw, chans, surface, (gx0, gy1, h, gnx, gny), n_threads, report)
-            if bar is not None:
-                bar.close()
-                bar = None
+        try:
+            if exact:
+                assert isinstance(surface, float)
+                parts = _parts(raw, chans, surface, (gx0, gy1, h, gnx, gny))
+            else:
+                bar, report = _progress(show, "splitlf reconstruct (map)", "block")
+                parts = _rows(raw, chans, surface, (gx0, gy1, h, gnx, gny), n_threads,
+                              report)
+                if bar is not None:
+                    bar.close()
+                    bar = None
+        except TooLargeError as e:
+            raise _tiles_hint(e, nx, ny, pad) from None
         rows = sum(int(p.mask.sum()) for p in parts)
         if rows == 0:
             raise InvalidParameter.of(
