@@ -71,7 +71,7 @@ def numpy_reference(raw: splitlf.Raw, region: tuple[float, ...], step: float) ->
     enx, eny = nx + 2 * r, ny + 2 * r
     ex0, ey1 = x0 - r * h, y1 + r * h
     whites = _white(d)
-    ps, qs, vs, ws = [], [], [], []
+    ps, qs, vs, ws, cs = [], [], [], [], []
     z0, z1 = cand[0], cand[-1]
     for c, ch in enumerate(d.channels, start=1):
         g0 = splitlf.sample_grid(d, z0, channel=c, sample="centroid")
@@ -91,7 +91,9 @@ def numpy_reference(raw: splitlf.Raw, region: tuple[float, ...], step: float) ->
         qs.append(np.c_[qx, qy][keep])
         vs.append((raw.images[c - 1].ravel()[ok] / whites[c - 1].ravel()[ok])[keep])
         ws.append(wt[ok][keep])
-    p, q, v, w = (np.concatenate(a) for a in (ps, qs, vs, ws))
+        cs.append(np.full(int(keep.sum()), c - 1))
+    p, q, v, w, chan = (np.concatenate(a) for a in (ps, qs, vs, ws, cs))
+    nch = len(d.channels)
     n_e = eny * enx
     best = np.full(ny * nx, np.inf)
     arg = np.full(ny * nx, -1)
@@ -102,21 +104,23 @@ def numpy_reference(raw: splitlf.Raw, region: tuple[float, ...], step: float) ->
         ix, iy = np.floor(fx), np.floor(fy)
         tx, ty = fx - ix, fy - iy
         ix, iy = ix.astype(np.int64), iy.astype(np.int64)
-        s = np.zeros((4, n_e))
+        s = np.zeros((4, n_e * nch))  # per cell and channel (channels pooled apart)
         for dx, ax in ((0, 1 - tx), (1, tx)):
             for dy, ay in ((0, 1 - ty), (1, ty)):
                 cx, cy = ix + dx, iy + dy
                 inside = (cx >= 0) & (cx < enx) & (cy >= 0) & (cy < eny)
-                k = (cy * enx + cx)[inside]
+                k = ((cy * enx + cx) * nch + chan)[inside]
                 a = (w * ax * ay)[inside]
                 vv = v[inside]
-                s[0] += np.bincount(k, a, n_e)
-                s[1] += np.bincount(k, a * vv, n_e)
-                s[2] += np.bincount(k, a * vv * vv, n_e)
-                s[3] += np.bincount(k, a * a, n_e)
+                s[0] += np.bincount(k, a, n_e * nch)
+                s[1] += np.bincount(k, a * vv, n_e * nch)
+                s[2] += np.bincount(k, a * vv * vv, n_e * nch)
+                s[3] += np.bincount(k, a * a, n_e * nch)
         with np.errstate(invalid="ignore", divide="ignore"):
             ssd = np.where(s[0] > 0, np.maximum(s[2] - s[1] ** 2 / s[0], 0.0), 0.0)
             dof = np.where(s[0] > 0, np.maximum(s[0] - s[3] / s[0], 0.0), 0.0)
+        ssd = ssd.reshape(n_e, nch).sum(axis=1)
+        dof = dof.reshape(n_e, nch).sum(axis=1)
 
         def box(a: np.ndarray) -> np.ndarray:
             c = np.zeros((eny + 1, enx + 1))

@@ -15,11 +15,12 @@
 //! photon-noise weight). At the true depth the samples one cell gathers — from several
 //! lenses and channels — saw the same patch and agree; at a wrong depth they saw
 //! different patches. The cost of a cell at z is the pooled within-cell variance over a
-//! (2r + 1)² window of cells,
+//! (2r + 1)² window of cells, each channel's samples pooled apart (the channels' blurs
+//! differ, so their samples of one patch need not agree: they are never compared),
 //!
-//!   C(z) = Σ_window Σ_i b_i (v_i − v̄_cell)² / Σ_window (B_cell − Σ_i b_i² / B_cell),
+//!   C(z) = Σ_window Σ_ch Σ_i b_i (v_i − v̄)² / Σ_window Σ_ch (B − Σ_i b_i² / B),
 //!
-//! (B_cell = Σ_i b_i, v̄_cell the cell's weighted mean): the denominator is the cells'
+//! (per cell and channel: B = Σ_i b_i, v̄ the weighted mean): the denominator is the cells'
 //! degrees of freedom, so that samples of one variance cost that variance however sparse
 //! they are (a lone sample in a cell tells nothing). The cost is missing where the window
 //! holds less than [`MIN_WEIGHT`] degrees of freedom.
@@ -67,6 +68,10 @@ struct Samples {
     q: Vec<[f64; 2]>,
     v: Vec<f64>,
     w: Vec<f64>,
+    /// The sample's channel, as its index among the chosen channels.
+    ch: Vec<u8>,
+    /// The chosen channels' count.
+    channels: usize,
 }
 
 /// The result of a sweep, row-major over the grid (row 0 at the top, Y1).
@@ -133,7 +138,10 @@ fn collect(
     let [gx0, gx1, gy0, gy1] = grid.extent();
     let (lo, hi) = ([gx0 - pad, gy0 - pad], [gx1 + pad, gy1 + pad]);
     let inv_f = 1.0 / design.f_main;
-    let mut out = Samples::default();
+    let mut out = Samples {
+        channels: channels.len(),
+        ..Samples::default()
+    };
     for (n, &i) in channels.iter().enumerate() {
         let ch = &design.channels[i];
         let (rows, cols) = crate::render::raw_shape(ch);
@@ -197,6 +205,7 @@ fn collect(
                     s.q.push(q);
                     s.v.push(raw[k] / white[k]);
                     s.w.push(wt);
+                    s.ch.push(n as u8);
                 }
             }
             s
@@ -207,13 +216,14 @@ fn collect(
             let n_new: usize = parts.iter().map(|s| s.v.len()).sum();
             memory::check(
                 "the depth sweep's samples",
-                ((out.v.len() + n_new) as u128) * 48,
+                ((out.v.len() + n_new) as u128) * 49,
             )?;
             for s in parts {
                 out.p.extend(s.p);
                 out.q.extend(s.q);
                 out.v.extend(s.v);
                 out.w.extend(s.w);
+                out.ch.extend(s.ch);
             }
             Ok(())
         })?;
@@ -234,8 +244,8 @@ struct Layer {
 }
 
 impl Layer {
-    fn new(ex: (usize, usize)) -> Layer {
-        let n = ex.0 * ex.1;
+    fn new(ex: (usize, usize), channels: usize) -> Layer {
+        let n = ex.0 * ex.1 * channels;
         let np = (ex.0 + 1) * (ex.1 + 1);
         Layer {
             s0: vec![0.0; n],
@@ -270,7 +280,8 @@ fn layer(smp: &Samples, grid: &CellGrid, radius: usize, z: f64, buf: &mut Layer,
         let (ix, iy) = (fx.floor(), fy.floor());
         let (tx, ty) = (fx - ix, fy - iy);
         let (ix, iy) = (ix as isize, iy as isize);
-        let (v, w) = (smp.v[i], smp.w[i]);
+        let (v, w, ch) = (smp.v[i], smp.w[i], smp.ch[i] as usize);
+        let nch = smp.channels;
         for (dy, wy) in [(0isize, 1.0 - ty), (1, ty)] {
             let y = iy + dy;
             if y < 0 || y >= eny as isize {
@@ -281,7 +292,7 @@ fn layer(smp: &Samples, grid: &CellGrid, radius: usize, z: f64, buf: &mut Layer,
                 if x < 0 || x >= enx as isize {
                     continue;
                 }
-                let k = y as usize * enx + x as usize;
+                let k = (y as usize * enx + x as usize) * nch + ch;
                 let a = w * wx * wy;
                 buf.s0[k] += a;
                 buf.s1[k] += a * v;
@@ -299,10 +310,12 @@ fn layer(smp: &Samples, grid: &CellGrid, radius: usize, z: f64, buf: &mut Layer,
         let (mut rs, mut rw) = (0.0, 0.0);
         for x in 0..enx {
             let k = y * enx + x;
-            let s0 = buf.s0[k];
-            if s0 > 0.0 {
-                rs += (buf.s2[k] - buf.s1[k] * buf.s1[k] / s0).max(0.0);
-                rw += (s0 - buf.s3[k] / s0).max(0.0);
+            for k in k * smp.channels..(k + 1) * smp.channels {
+                let s0 = buf.s0[k];
+                if s0 > 0.0 {
+                    rs += (buf.s2[k] - buf.s1[k] * buf.s1[k] / s0).max(0.0);
+                    rw += (s0 - buf.s3[k] / s0).max(0.0);
+                }
             }
             buf.ps[(y + 1) * pc + x + 1] = buf.ps[y * pc + x + 1] + rs;
             buf.pw[(y + 1) * pc + x + 1] = buf.pw[y * pc + x + 1] + rw;
@@ -429,12 +442,13 @@ fn sweep_bytes(
     workers: usize,
     n_cand: usize,
     keep: bool,
+    channels: usize,
 ) -> u128 {
     let ex = ((grid.nx + 2 * radius + 1) * (grid.ny + 2 * radius + 1)) as u128;
     let cells = grid.cells() as u128;
     let volume = if keep { cells * n_cand as u128 * 8 } else { 0 };
-    samples as u128 * 48
-        + workers as u128 * (ex * 48 + cells * 8)
+    samples as u128 * 49
+        + workers as u128 * (ex * (16 + 32 * channels as u128) + cells * 8)
         + cells * (80 + 12 * KEEP_MINIMA as u128)
         + volume
 }
@@ -457,8 +471,12 @@ pub fn sweep(
 ) -> Result<Sweep> {
     crate::parallel::check_threads(n_threads)?;
     check_candidates(design, candidates)?;
-    if channels.is_empty() {
-        return Err(Error::param("channels", "none", "at least one channel"));
+    if channels.is_empty() || channels.len() > u8::MAX as usize {
+        return Err(Error::param(
+            "channels",
+            channels.len(),
+            "1 to 255 channels",
+        ));
     }
     if radius > MAX_RADIUS {
         return Err(Error::param(
@@ -504,7 +522,15 @@ pub fn sweep(
     let workers = threads(n_threads);
     memory::check(
         "the depth sweep",
-        sweep_bytes(0, grid, radius, workers, candidates.len(), keep_volume),
+        sweep_bytes(
+            0,
+            grid,
+            radius,
+            workers,
+            candidates.len(),
+            keep_volume,
+            channels.len(),
+        ),
     )?;
     let zs = (candidates[0], candidates[candidates.len() - 1]);
     let smp = collect(design, channels, raws, whites, grid, radius, zs, n_threads)?;
@@ -517,6 +543,7 @@ pub fn sweep(
             workers,
             candidates.len(),
             keep_volume,
+            channels.len(),
         ),
     )?;
     let mut fold = Fold::new(cells);
@@ -537,7 +564,7 @@ pub fn sweep(
                     .lock()
                     .map_err(|_| Error::param("n_threads", 1, "a worker that does not panic"))?
                     .pop()
-                    .unwrap_or_else(|| Layer::new(ex));
+                    .unwrap_or_else(|| Layer::new(ex, smp.channels));
                 let mut out = vec![0.0; cells];
                 layer(&smp, grid, radius, candidates[k], &mut buf, &mut out);
                 if let Ok(mut p) = pool.lock() {
