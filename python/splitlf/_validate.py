@@ -7,6 +7,7 @@ Wrong types raise ``TypeError`` naming the parameter; values outside their range
 
 from __future__ import annotations
 
+import math
 import numbers
 from typing import Any
 
@@ -122,3 +123,11 @@ def real(value: Any, name: str) -> float:
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise TypeError(f"{name} must be a real number, got {value!r}")
     return float(value)
+
+
+def positive_length(value: Any, name: str) -> float:
+    """A finite length > 0 (mm): a grid's step, a cell."""
+    v = real(value, name)
+    if not (math.isfinite(v) and v > 0.0):
+        raise InvalidParameter.of(name, v, "a finite value > 0 (mm)")
+    return v

@@ -786,43 +786,67 @@ def _floats(text: str, n: int, option: str) -> tuple[float, ...]:
     return values
 
 
-def _cmd_reconstruct(args: argparse.Namespace) -> int:
-    import contextlib
-
-    import numpy as np
-
-    from .reconstruction import reconstruct
-    from .rendering import Raw
-
+def _array_targets(args: argparse.Namespace, what: str) -> tuple[Path, Path | None]:
+    """``--out`` (.png or .npy) and, with ``--npy`` beside a .png, the array's path; both
+    checked as new (or ``--force``), matplotlib checked for a .png."""
     out = Path(args.out)
     _check_suffix("--out", out, (".png", ".npy"))
     npy = out.with_suffix(".npy") if args.npy and out.suffix == ".png" else None
     if out.suffix == ".png":
-        _need("matplotlib", "reconstruct to a PNG", "plot")
+        _need("matplotlib", f"{what} to a PNG", "plot")
     for target in (out, npy):
         if target is not None:
             check_new(target, args.force, FORCE_HINT)
-    raw = Raw.load(args.raw)
-    depth = parse_render_depth(args.depth, args.extent)
-    region = None if args.region is None else _floats(args.region, 4, "--region")
-    channels = None if args.channels is None else tuple(
-        int(c) for c in _floats(args.channels, len(args.channels.split(",")), "--channels"))
-    rec = reconstruct(raw, depth, region=region, step=args.step, channels=channels,
-                      noise=args.noise, regularization=args.regularization,
-                      n_threads=args.threads, progress=None)
+    return out, npy
+
+
+def _write_array(args: argparse.Namespace, out: Path, npy: Path | None, array: Any,
+                 picture: Callable[[Any], None]) -> None:
+    """The array as ``out`` (.npy) or as the picture ``picture(file)`` draws (.png), and
+    beside it ``npy``: each written atomically."""
+    import contextlib
+
+    import numpy as np
+
     with contextlib.ExitStack() as stack:
         if npy is not None:
             with atomic_output(npy, force=args.force, hint=FORCE_HINT) as tmp:
-                np.save(tmp, rec.image)
+                np.save(tmp, array)
+        tmp = stack.enter_context(atomic_output(out, force=args.force, hint=FORCE_HINT))
         if out.suffix == ".npy":
-            tmp = stack.enter_context(atomic_output(out, force=args.force, hint=FORCE_HINT))
-            np.save(tmp, rec.image)
+            np.save(tmp, array)
         else:
-            from .plot._mpl import pyplot
+            picture(tmp)
 
-            tmp = stack.enter_context(atomic_output(out, force=args.force, hint=FORCE_HINT))
-            pyplot().imsave(tmp, rec.image, cmap="gray", format="png",
-                            vmin=0.0, vmax=max(1.0, float(rec.image.max())))
+
+def _channels_option(args: argparse.Namespace) -> tuple[int, ...] | None:
+    """``--channels I[,J...]`` as channel numbers (None: all)."""
+    if args.channels is None:
+        return None
+    return tuple(int(c) for c in _floats(args.channels, len(args.channels.split(",")),
+                                         "--channels"))
+
+
+def _cmd_reconstruct(args: argparse.Namespace) -> int:
+    from .reconstruction import reconstruct
+    from .rendering import Raw
+
+    out, npy = _array_targets(args, "reconstruct")
+    raw = Raw.load(args.raw)
+    depth = parse_render_depth(args.depth, args.extent)
+    region = None if args.region is None else _floats(args.region, 4, "--region")
+    rec = reconstruct(raw, depth, region=region, step=args.step,
+                      channels=_channels_option(args), noise=args.noise,
+                      regularization=args.regularization, n_threads=args.threads,
+                      progress=None)
+
+    def picture(tmp: Any) -> None:
+        from .plot._mpl import pyplot
+
+        pyplot().imsave(tmp, rec.image, cmap="gray", format="png",
+                        vmin=0.0, vmax=max(1.0, float(rec.image.max())))
+
+    _write_array(args, out, npy, rec.image, picture)
     summary = {"path": str(out), "npy": None if npy is None else str(npy),
                "shape": list(rec.image.shape), "extent": list(rec.extent), "step": rec.step,
                "depth": rec.depth, "channels": list(rec.channels), "rows": rec.rows,
@@ -843,46 +867,31 @@ def _depth_range(text: str) -> Any:
 
 
 def _cmd_depth(args: argparse.Namespace) -> int:
-    import contextlib
-
     import numpy as np
 
     from .depth_estimation import estimate_depth
     from .rendering import Raw
 
-    out = Path(args.out)
-    _check_suffix("--out", out, (".png", ".npy"))
-    npy = out.with_suffix(".npy") if args.npy and out.suffix == ".png" else None
-    if out.suffix == ".png":
-        _need("matplotlib", "a depth map to a PNG", "plot")
-    for target in (out, npy):
-        if target is not None:
-            check_new(target, args.force, FORCE_HINT)
+    out, npy = _array_targets(args, "a depth map")
     raw = Raw.load(args.raw)
     depths = _depth_range(args.depths)
     region = None if args.region is None else _floats(args.region, 4, "--region")
-    channels = None if args.channels is None else tuple(
-        int(c) for c in _floats(args.channels, len(args.channels.split(",")), "--channels"))
     kw: dict[str, Any] = {} if args.candidates is None else {"candidates": args.candidates}
     est = estimate_depth(raw, depths=depths, region=region, step=args.step,
-                         channels=channels, n_threads=args.threads, progress=None, **kw)
+                         channels=_channels_option(args), n_threads=args.threads,
+                         progress=None, **kw)
     assert est.confident is not None and est.sweep is not None
-    with contextlib.ExitStack() as stack:
-        if npy is not None:
-            with atomic_output(npy, force=args.force, hint=FORCE_HINT) as tmp:
-                np.save(tmp, est.depth)
-        if out.suffix == ".npy":
-            tmp = stack.enter_context(atomic_output(out, force=args.force, hint=FORCE_HINT))
-            np.save(tmp, est.depth)
-        else:
-            from .plot._mpl import pyplot
-            from .plot.depth import depth as depth_plot
 
-            fig, ax = pyplot().subplots(figsize=(7.5, 5.0), layout="constrained")
-            depth_plot(est, ax)
-            tmp = stack.enter_context(atomic_output(out, force=args.force, hint=FORCE_HINT))
-            fig.savefig(tmp, format="png", dpi=110)
-            pyplot().close(fig)
+    def picture(tmp: Any) -> None:
+        from .plot._mpl import pyplot
+        from .plot.depth import depth as depth_plot
+
+        fig, ax = pyplot().subplots(figsize=(7.5, 5.0), layout="constrained")
+        depth_plot(est, ax)
+        fig.savefig(tmp, format="png", dpi=110)
+        pyplot().close(fig)
+
+    _write_array(args, out, npy, est.depth, picture)
     conf = est.confident
     z = est.depth[conf]
     summary = {"path": str(out), "npy": None if npy is None else str(npy),

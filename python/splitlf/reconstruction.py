@@ -356,9 +356,7 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
     if step is None:
         step_ = design.resolution_step(z_ref)
     else:
-        step_ = _validate.real(step, "step")
-        if not (math.isfinite(step_) and step_ > 0.0):
-            raise InvalidParameter.of("step", step_, "a finite value > 0 (mm)")
+        step_ = _validate.positive_length(step, "step")
     if region is not None:
         ext = _extent(region, "region")
     else:

@@ -520,32 +520,23 @@ pub fn sweep(
     }
     let cells = grid.cells();
     let workers = threads(n_threads);
-    memory::check(
-        "the depth sweep",
-        sweep_bytes(
-            0,
+    // The memory without the samples first, then with them once counted.
+    let need = |samples: usize| {
+        let bytes = sweep_bytes(
+            samples,
             grid,
             radius,
             workers,
             candidates.len(),
             keep_volume,
             channels.len(),
-        ),
-    )?;
+        );
+        memory::check("the depth sweep", bytes)
+    };
+    need(0)?;
     let zs = (candidates[0], candidates[candidates.len() - 1]);
     let smp = collect(design, channels, raws, whites, grid, radius, zs, n_threads)?;
-    memory::check(
-        "the depth sweep",
-        sweep_bytes(
-            smp.v.len(),
-            grid,
-            radius,
-            workers,
-            candidates.len(),
-            keep_volume,
-            channels.len(),
-        ),
-    )?;
+    need(smp.v.len())?;
     let mut fold = Fold::new(cells);
     let mut volume = if keep_volume {
         Some(Vec::with_capacity(cells * candidates.len()))
