@@ -40,6 +40,11 @@ LONG_CALLS = {
                      "splitlf.simulation.system_matrix(P, 800.0, 'half1', -2.0, 1e-4, 40_000)",
     "sweep": "splitlf.sweep.sweep(P, {'D': np.linspace(10, 25, 400)}, "
              "np.geomspace(150, 1e4, 20_000))",
+    "estimate_depth": "E = S.replace(channels=tuple(c.replace(Kx=10, Ky=8) for c in "
+                      "S.channels)); R = splitlf.render(E, splitlf.Scene("
+                      "splitlf.RandomAlbedo(1.0), 1000.0)); splitlf.estimate_depth(R, "
+                      "depths=(250, 4000), candidates=4096, region=(-4, 4, -3, 3), "
+                      "step=0.01)",
 }
 
 SETUP = """

@@ -575,13 +575,14 @@ def test_cli_render_with_a_preset_noise_png_and_json(native, tmp_path, capsys, m
 
 
 @pytest.mark.parametrize("args, message", [
-    (["--texture", "noise"], "--texture noise: allowed random, sinusoid:F"),
+    (["--texture", "noise"], "--texture noise: allowed random[:CELL] (mm), sinusoid:F"),
     (["--texture", "sinusoid:x"], "--texture sinusoid:x:"),
     (["--texture", "sinusoid:-1"], "invalid frequency = -1.0"),
     (["--texture", "star:2.5"], "--texture star:2.5:"),
     (["--texture", "star:0"], "invalid spokes = 0"),
     (["--texture", "edge:nan"], "invalid angle = nan"),
-    (["--texture", "random:3"], "--texture random:3: allowed"),
+    (["--texture", "random:x"], "--texture random:x:"),
+    (["--texture", "random:-1"], "invalid cell = -1.0"),
     (["--texture", "{tmp}/img.npy"], "an image needs --width"),
     (["--texture", "{tmp}/nope.npy", "--width", "5"], "no such file: "),
     (["--texture", "{tmp}/small.toml.png", "--width", "5"], "no such file: "),

@@ -168,9 +168,24 @@ fn collect(
             None
         };
         let dz = zs.1 - zs.0;
+        // Centroid samples are separable (X from the column, Y from the row): the columns
+        // and rows whose samples can meet the widened grid, found once.
+        let within = |v0: f64, v1: f64, ax: usize| {
+            v0.is_finite() && v1.is_finite() && v0.max(v1) >= lo[ax] && v0.min(v1) <= hi[ax]
+        };
+        let (col_list, row_ok): (Vec<usize>, Vec<bool>) = match &centroids {
+            Some([x0, x1, y0, y1]) => (
+                (0..cols).filter(|&a| within(x0[a], x1[a], 0)).collect(),
+                (0..rows).map(|b| within(y0[b], y1[b], 1)).collect(),
+            ),
+            None => ((0..cols).collect(), vec![true; rows]),
+        };
         let row = |b: usize| {
             let mut s = Samples::default();
-            for a in 0..cols {
+            if !row_ok[b] {
+                return s;
+            }
+            for &a in &col_list {
                 let k = b * cols + a;
                 let wt = white[k] / share;
                 if wt < MIN_WHITE {
