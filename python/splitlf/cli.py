@@ -1473,6 +1473,25 @@ def _add_render(sub: Any) -> None:
     p.set_defaults(func=_cmd_render)
 
 
+def _grid_options(p: Any, region_default: str, step_default: str) -> None:
+    """--region, --step and --channels of the commands that solve on a grid of cells."""
+    p.add_argument("--region", default=None, metavar="X0,X1,Y0,Y1",
+                   help=f"the region [mm] (default: {region_default}; with a negative X0: "
+                   "--region=X0,X1,Y0,Y1)")
+    p.add_argument("--step", type=_real_type("step", 0.0, "a finite step > 0 (mm)"),
+                   default=None, metavar="MM", help=f"the cell pitch (default: {step_default})")
+    p.add_argument("--channels", default=None, metavar="I[,J...]",
+                   help="channel numbers from 1 (default: all)")
+
+
+def _array_output(p: Any, what: str, metavar: str) -> None:
+    """-o (.png or .npy), --json and --npy of the commands that write an array."""
+    g = _output(p, what, metavar, required=True,
+                json_help="print a JSON summary instead of the path")
+    g.add_argument("--npy", action="store_true",
+                   help="with a .png output, also write the array beside it (.npy)")
+
+
 def _add_depth(sub: Any) -> None:
     p = sub.add_parser("depth", help="a depth map from a raw file",
                        description="Estimate the scene's depth from a raw file alone (a plane "
@@ -1484,20 +1503,10 @@ def _add_depth(sub: Any) -> None:
                    "candidates themselves")
     p.add_argument("--candidates", type=int, default=None, metavar="N",
                    help="candidates of a ZMIN:ZMAX range (default 64)")
-    p.add_argument("--region", default=None, metavar="X0,X1,Y0,Y1",
-                   help="the region [mm] (default: what the channels see at the middle "
-                   "candidate; with a negative X0: --region=X0,X1,Y0,Y1)")
-    p.add_argument("--step", type=_real_type("step", 0.0, "a finite step > 0 (mm)"),
-                   default=None, metavar="MM",
-                   help="the cell pitch (default: 3 sensor steps mu_1 z / L_1 at the middle "
-                   "candidate)")
-    p.add_argument("--channels", default=None, metavar="I[,J...]",
-                   help="channel numbers from 1 (default: all)")
+    _grid_options(p, "what the channels see at the middle candidate",
+                  "3 sensor steps mu_1 z / L_1 at the middle candidate")
     _threads_option(p, "threads of the core")
-    g = _output(p, "the depth map to write (.png, or .npy for the array in mm)", "DEPTH.png",
-                required=True, json_help="print a JSON summary instead of the path")
-    g.add_argument("--npy", action="store_true",
-                   help="with a .png output, also write the array beside it (.npy)")
+    _array_output(p, "the depth map to write (.png, or .npy for the array in mm)", "DEPTH.png")
     p.set_defaults(func=_cmd_depth)
 
 
@@ -1513,24 +1522,15 @@ def _add_reconstruct(sub: Any) -> None:
                    "--extent; e.g. from splitlf depth --npy)")
     p.add_argument("--extent", default=None, metavar="X0,X1,Y0,Y1",
                    help="a .npy depth map's extent [mm] (splitlf depth prints it)")
-    p.add_argument("--region", default=None, metavar="X0,X1,Y0,Y1",
-                   help="the region [mm] (default: what every channel sees through half its "
-                   "aperture; with a negative X0: --region=X0,X1,Y0,Y1)")
-    p.add_argument("--step", type=_real_type("step", 0.0, "a finite step > 0 (mm)"),
-                   default=None, metavar="MM",
-                   help="the cell pitch (default: the sensor step mu_1 z / L_1)")
-    p.add_argument("--channels", default=None, metavar="I[,J...]",
-                   help="channel numbers from 1 (default: all)")
+    _grid_options(p, "what every channel sees through half its aperture",
+                  "the sensor step mu_1 z / L_1")
     p.add_argument("--noise", type=_render_noise, default=None, metavar="N[,READ]",
                    help="the raw's noise, as given to render (default: noise-free)")
     p.add_argument("--regularization", type=_real_type(
         "regularization", 0.0, "a finite weight > 0"), default=None, metavar="LAMBDA",
         help="the smoothness prior's weight (default 4)")
     _threads_option(p, "threads of the core")
-    g = _output(p, "the image to write (.png, or .npy for the array)", "IMAGE.png",
-                required=True, json_help="print a JSON summary instead of the path")
-    g.add_argument("--npy", action="store_true",
-                   help="with a .png output, also write the array beside it (.npy)")
+    _array_output(p, "the image to write (.png, or .npy for the array)", "IMAGE.png")
     p.set_defaults(func=_cmd_reconstruct)
 
 

@@ -21,6 +21,7 @@ import numpy as np
 from . import _native, _validate
 from .design import Design
 from .errors import InvalidParameter
+from .reconstruction import _channels
 from .rendering import DepthMap, Raw, Scene, _extent, _progress, _progress_flag, render
 from .textures import Sinusoid
 
@@ -132,8 +133,6 @@ def estimate_depth(raw: Raw, *, depths: Any, region: Any = None, step: float | N
     if not isinstance(raw, Raw):
         raise TypeError(f"raw must be a splitlf.Raw, got {type(raw).__name__}")
     design = raw.design
-    from .reconstruction import _channels
-
     chans = _channels(design, channels)
     cand = _candidates(design, depths, candidates)
     if isinstance(window, bool) or not isinstance(window, int | np.integer):

@@ -92,7 +92,8 @@ def _depth(depth: Any) -> float | Plane | DepthMap:
 
 
 def _depth_range(surface: float | Plane | DepthMap, ext: Extent) -> tuple[float, float]:
-    """The least and greatest depth of the surface over the rectangle ``ext``."""
+    """The least and greatest depth of the surface over the rectangle ``ext`` (a depth
+    map's over its whole extent: a bound)."""
     if isinstance(surface, float):
         return surface, surface
     if isinstance(surface, Plane):
@@ -266,13 +267,15 @@ def _rows(raw: Raw, chans: tuple[int, ...], surface: Plane | DepthMap | float, g
     if chan.size == 0:
         return []
     shares = np.array([c["share"] for c in design.resolved()])
-    y = np.concatenate([raw.images[c].ravel() for c in range(len(design.channels))])
-    offsets = np.cumsum([0] + [raw.images[c].size for c in range(len(design.channels))])
     A = sparse.csr_matrix((data, indices.astype(np.int64), indptr.astype(np.int64)),
                           shape=(chan.size, grid[3] * grid[4]))
     ch = chan.astype(np.int64)
-    return [_Rows(A=A, shape=(grid[4], grid[3]), y=y[offsets[ch] + pix.astype(np.int64)],
-                  white=shares[ch])]
+    # Each row's raw value, read from its own channel's image (no copy of whole raws).
+    y = np.empty(chan.size)
+    for c in np.unique(ch):
+        sel = ch == c
+        y[sel] = raw.images[c].ravel()[pix[sel].astype(np.int64)]
+    return [_Rows(A=A, shape=(grid[4], grid[3]), y=y, white=shares[ch])]
 
 
 def _parts(raw: Raw, chans: tuple[int, ...], z: float, grid: tuple) -> list[_Part]:

@@ -83,9 +83,33 @@ pub struct System {
     pub data: Vec<f64>,
 }
 
+/// Row chunks handed in by parallel workers, each tagged with its first raw row.
+#[derive(Default)]
+pub(crate) struct Chunks(std::sync::Mutex<Vec<(usize, Vec<System>)>>);
+
+impl Chunks {
+    pub(crate) fn push(&self, start: usize, chunk: Vec<System>) {
+        self.0
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .push((start, chunk));
+    }
+}
+
 impl System {
-    /// Append row chunks (each tagged with its first raw row) in raw-row order.
-    pub(crate) fn append_chunks(&mut self, mut parts: Vec<(usize, Vec<System>)>) {
+    /// Close the row being written: pixel `pixel` (flat index) of channel `channel`.
+    pub(crate) fn end_row(&mut self, channel: usize, pixel: usize) {
+        self.channel.push(channel as u32);
+        self.pixel.push(pixel as u64);
+        self.indptr.push(self.data.len() as u64);
+    }
+
+    /// Append the row chunks in raw-row order.
+    pub(crate) fn append_chunks(&mut self, parts: Chunks) {
+        let mut parts = parts
+            .0
+            .into_inner()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
         parts.sort_by_key(|p| p.0);
         for (_, chunk) in parts {
             for s in chunk {

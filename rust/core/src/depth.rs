@@ -80,13 +80,14 @@ pub struct Sweep {
     pub depth: Vec<f64>,
     /// The refined candidate index (fractional); NaN where no candidate had a cost.
     pub index: Vec<f64>,
-    /// 1 − min / mean of the cost curve, in [0, 1]; 0 where no candidate had a cost.
+    /// 1 − min / min(mean, rival minimum) of the cost curve (see the module's doc), in
+    /// [0, 1]; 0 where no candidate had a cost.
     pub confidence: Vec<f64>,
     /// The least cost; NaN where no candidate had a cost.
     pub min_cost: Vec<f64>,
     /// The mean cost over the candidates that had one; NaN where none had.
     pub mean_cost: Vec<f64>,
-    /// Samples used (pixels of the chosen channels whose chief rays can meet the grid).
+    /// Samples used (pixels of the chosen channels whose mean rays can meet the grid).
     pub samples: usize,
     /// The whole cost volume (candidate-major), when asked for; NaN where missing.
     pub volume: Option<Vec<f64>>,

@@ -13,6 +13,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use rayon::prelude::*;
 
+use crate::cells::Chunks;
 use crate::cells::Recorder;
 pub use crate::cells::{CellGrid, System, OUTSIDE_SHARE};
 use crate::design::{Aperture, Channel, Design, Grid, Layout};
@@ -318,7 +319,7 @@ pub fn build(
         )?;
         // Rows in parallel chunks, each chunk's entries in its own buffers, then appended.
         let step = crate::parallel::chunk_items(n_threads, (cols as u128) * 64);
-        let parts = std::sync::Mutex::new(Vec::new());
+        let parts = Chunks::default();
         let norm = chan.norm;
         let nx = grid.nx;
         for_chunks(n_threads, rows, step, |range| {
@@ -352,26 +353,17 @@ pub fn build(
                                 }
                             }
                         }
-                        s.channel.push(i as u32);
-                        s.pixel.push((b * cols + a) as u64);
-                        s.indptr.push(s.data.len() as u64);
+                        s.end_row(i, b * cols + a);
                     }
                     done.fetch_add(1, Ordering::Relaxed);
                     Ok(s)
                 })
                 .collect();
             let chunk = chunk?;
-            parts
-                .lock()
-                .unwrap_or_else(std::sync::PoisonError::into_inner)
-                .push((range.start, chunk));
+            parts.push(range.start, chunk);
             Ok(())
         })?;
-        out.append_chunks(
-            parts
-                .into_inner()
-                .unwrap_or_else(std::sync::PoisonError::into_inner),
-        );
+        out.append_chunks(parts);
     }
     Ok(out)
 }
@@ -496,7 +488,7 @@ pub fn build_surface(
         let reach = chan.reach();
         let sees = lenses_seeing(design, ch, surface, grid);
         let step = crate::parallel::chunk_items(n_threads, (cols as u128) * 4000);
-        let parts = std::sync::Mutex::new(Vec::new());
+        let parts = Chunks::default();
         let bytes = std::sync::atomic::AtomicU64::new((out.data.len() * 12) as u64);
         for_chunks(n_threads, rows, step, |range| {
             let chunk: Result<Vec<System>> = range
@@ -519,9 +511,7 @@ pub fn build_surface(
                                 design, &chan, &scene, 1.0, a as u32, b as u32, reach, wk,
                             );
                             if wk.rec.as_deref_mut().is_some_and(|r| r.take(&mut s)) {
-                                s.channel.push(i as u32);
-                                s.pixel.push((b * cols + a) as u64);
-                                s.indptr.push(s.data.len() as u64);
+                                s.end_row(i, b * cols + a);
                             }
                         }
                         let have =
@@ -536,17 +526,10 @@ pub fn build_surface(
                 )
                 .collect();
             let chunk = chunk?;
-            parts
-                .lock()
-                .unwrap_or_else(std::sync::PoisonError::into_inner)
-                .push((range.start, chunk));
+            parts.push(range.start, chunk);
             Ok(())
         })?;
-        out.append_chunks(
-            parts
-                .into_inner()
-                .unwrap_or_else(std::sync::PoisonError::into_inner),
-        );
+        out.append_chunks(parts);
     }
     Ok(out)
 }
