@@ -484,6 +484,7 @@ def depth_sweep(
     npt.NDArray[np.float64],
     npt.NDArray[np.float64],
     npt.NDArray[np.float64],
+    npt.NDArray[np.int64],
     int,
     npt.NDArray[np.float64] | None,
 ]: ...

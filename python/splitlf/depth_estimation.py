@@ -1,13 +1,13 @@
 """Depth from the raw (docs/model.md §11, docs/depth.md).
 
-:func:`estimate_depth` runs the core's plane sweep (``_native.depth_sweep``): for each
-candidate depth every pixel's value, divided by its white (the design's raw under a white
-albedo, rendered once per design and kept), is placed where its chief ray meets the plane
-at that depth and splatted onto a grid of cells; the cost is the pooled within-cell variance
-of these samples over a window of cells (photo-consistency: at the true depth the samples
-that gather in a cell, from several lenses and channels, saw the same patch). The least
-cost per cell, refined by a parabola, is the depth; the contrast of the cost curve,
-1 - min / mean, is the confidence.
+:func:`estimate_depth` runs the core's plane sweep (``_native.depth_sweep``): at each
+candidate depth every lens's micro-image (its pixels' values divided by their whites, the
+design's raw under a white albedo, rendered once per design and kept) is resampled at the
+centres of a grid of cells, where its pixels' mean rays meet the plane at that depth; the
+cost is the spread of the lenses' values within each cell, pooled over a window of cells,
+per channel (at the true depth the lenses that see a cell saw the same patch). Each
+channel's least cost per cell, refined by a V-fit, is its depth; the contrast of its cost
+curve is its confidence, and each cell takes the most confident channel's depth.
 """
 
 from __future__ import annotations
@@ -44,14 +44,17 @@ class DepthSweep:
     """What the plane sweep saw, per cell of the estimate's grid (row 0 at the top):
     ``candidates`` (mm, increasing), ``index`` (the refined candidate index, fractional;
     NaN where no candidate had a cost), ``min_cost`` and ``mean_cost`` (the cost curve's
-    least and mean value, in squared albedo; NaN where none), ``estimate`` (the refined
-    depth before the unconfident cells were filled; NaN where none), ``window`` (radius,
-    cells), ``channels`` (numbered from 1) and ``samples`` (pixels that took part)."""
+    least and mean value, relative to the spread of all the channel's lens values at each
+    depth; NaN where none), ``channel`` (the channel, numbered from 1, whose curve gave the
+    estimate: the most confident), ``estimate`` (the refined depth before the unconfident
+    cells were filled; NaN where none), ``window`` (radius, cells), ``channels`` (numbered
+    from 1) and ``samples`` (pixels of the lenses that took part)."""
 
     candidates: np.ndarray
     index: np.ndarray
     min_cost: np.ndarray
     mean_cost: np.ndarray
+    channel: np.ndarray
     estimate: np.ndarray
     window: int
     channels: tuple[int, ...]
@@ -126,8 +129,9 @@ def estimate_depth(raw: Raw, *, depths: Any, region: Any = None, step: float | N
 
     Returns a :class:`~splitlf.DepthMap` with ``depth`` (mm, row 0 at the top; cells
     that are not confident take the depth of the nearest confident cell, so the map can
-    be handed to :func:`~splitlf.reconstruct`), ``confidence`` (1 - min / mean of the
-    cost curve, in [0, 1]), ``confident`` (bool) and ``sweep`` (a :class:`DepthSweep`).
+    be handed to :func:`~splitlf.reconstruct`), ``confidence`` (1 - min / min(mean,
+    rival minimum) of the most confident channel's cost curve, in [0, 1]), ``confident``
+    (bool) and ``sweep`` (a :class:`DepthSweep`).
     A raw without texture (all zeros, a uniform albedo) gives no confident cell.
     """
     if not isinstance(raw, Raw):
@@ -163,7 +167,7 @@ def estimate_depth(raw: Raw, *, depths: Any, region: Any = None, step: float | N
     wh = [np.ascontiguousarray(whites[c - 1]) for c in chans]
     bar, report = _progress(show, "splitlf depth", "depth")
     try:
-        depth, index, conf, cmin, cmean, samples, _ = _native.depth_sweep(
+        depth, index, conf, cmin, cmean, chan, samples, _ = _native.depth_sweep(
             design.core, raws, wh, grid, [float(z) for z in cand], list(chans), int(window),
             False, n_threads, report)
     finally:
@@ -177,6 +181,7 @@ def estimate_depth(raw: Raw, *, depths: Any, region: Any = None, step: float | N
     confident = ok & (conf >= mc) & (conf > 0.0)
     filled = _fill(depth, confident, ok, cand)
     sweep = DepthSweep(candidates=cand, index=index, min_cost=cmin, mean_cost=cmean,
+                       channel=chan,
                        estimate=depth, window=int(window), channels=chans,
                        samples=int(samples))
     return DepthMap(filled, (x0, x0 + nx * h, y1 - ny * h, y1), confidence=conf,

@@ -1,5 +1,5 @@
 //! Depth from the raw (docs/model.md §11, docs/depth.md): a plane sweep over candidate
-//! depths.
+//! depths that compares the lenses' micro-images.
 //!
 //! Each pixel's value divided by its white (its value under a white albedo: vignetting and
 //! the channel's share removed) is a sample of the albedo near the point where the pixel's
@@ -7,29 +7,50 @@
 //! centroid ray of its 4-D ray set (the product of its x and y polygons, §4: the
 //! `centroid` sample of `rayspace`); elsewhere (hexagonal lattices, circular apertures)
 //! the chief ray, X(z) = B(z) w − (z/L) c, B(z) = 1 − z/F + z/L (c: the lens centre, w:
-//! the chief ray's main-lens height). Either is affine in z, X(z) = p + z q, so two depths
-//! fix it for all.
+//! the chief ray's main-lens height). Either is affine in z, X(z) = p + z q, and within
+//! one lens X depends on the pixel's column alone and Y on its row alone.
 //!
-//! For each candidate z every sample is splatted bilinearly onto a grid of cells (weight
-//! b = a ω, a the bilinear weight, ω the pixel's white relative to a fully lit pixel: its
-//! photon-noise weight). At the true depth the samples one cell gathers — from several
-//! lenses and channels — saw the same patch and agree; at a wrong depth they saw
-//! different patches. The cost of a cell at z is the pooled within-cell variance over a
-//! (2r + 1)² window of cells, each channel's samples pooled apart (the channels' blurs
-//! differ, so their samples of one patch need not agree: they are never compared),
+//! **One lens, one value per cell.** At a candidate z each lens's micro-image is
+//! resampled at the centres of a grid of cells: per axis a tent t of half-width
+//! H = max(h, s) in object space around each of the lens's column (row) positions (h the
+//! cell pitch, s the lens's mean column spacing at z). Where the lens's pixels are sparser
+//! than the cells (s ≥ h) that is linear interpolation between its pixels; where they are
+//! denser, the average of those within about a cell. The lens's value in the cell is the
+//! mean m = Σ t ω v / Σ t ω over its own valid pixels (ω the pixel's white relative to a
+//! fully lit pixel, its photon-noise weight) with weight Ω = (Σ t ω)² / Σ t² ω (the weight
+//! of a pixel of m's variance); cells where Ω < [`MIN_WHITE`] take nothing from the lens.
 //!
-//!   C(z) = Σ_window Σ_ch Σ_i b_i (v_i − v̄)² / Σ_window Σ_ch (B − Σ_i b_i² / B),
+//! **Cost.** At the true depth the lenses that see a cell agree (up to noise and
+//! interpolation); at a wrong depth they saw different patches. Per channel and cell the
+//! spread of the lenses' values is pooled over a (2r + 1)² window,
 //!
-//! (per cell and channel: B = Σ_i b_i, v̄ the weighted mean): the denominator is the cells'
-//! degrees of freedom, so that samples of one variance cost that variance however sparse
-//! they are (a lone sample in a cell tells nothing). The cost is missing where the window
-//! holds less than [`MIN_WEIGHT`] degrees of freedom.
+//!   C(z) = Σ_window Σ_lens Ω (m − m̄)² / Σ_window (S0 − Σ Ω² / S0) / V(z),
 //!
-//! The estimate per cell is the candidate of least cost, refined by the vertex of the
-//! symmetric V through it and its two neighbours ([`vertex`]), and its confidence the
-//! contrast 1 − min / m', m' the least of the curve's mean and of its least local minimum
-//! more than n/16 candidates away (a second dip of the same depth makes a cell ambiguous).
-//! A textureless patch costs the same (its noise) at every depth: its contrast is small.
+//! (S0 = Σ Ω per cell, m̄ the Ω-weighted mean; Ω = (Σ t ω)² / Σ t² ω, the weight of a
+//! pixel of the value's variance): the denominator is the cells' degrees of freedom, so a
+//! lone lens tells nothing, and V(z), the same spread of all the channel's lens values over
+//! the grid at z, is the scale of a mismatch at that depth (resampled micro-images are
+//! smoother where the pixels lie far apart). A channel's cost is missing where its window
+//! holds less than [`MIN_WEIGHT`] degrees of freedom. Comparing lens with lens, never
+//! pixel with pixel, keeps the pairs compared the same at every candidate: pooling single
+//! pixels that happen to fall into one cell compared, at some candidates, mostly pixels
+//! that see nearly the same ray, whose agreement says nothing of the depth, and the cost
+//! curves dipped there.
+//!
+//! **Thinning.** Far from a channel's focus hundreds of its lenses see each cell. Where
+//! more than [`M_CAP`] do on average (the summed areas of their footprints over the grid's
+//! area), each lens is kept with probability M_CAP / M(z), by a fixed pseudo-random number
+//! per lens, so the kept sets are nested as z varies.
+//!
+//! Each channel's estimate per cell is the candidate of least cost, refined by the vertex
+//! of the symmetric V through it and its two neighbours ([`vertex`]), and its confidence
+//! the contrast 1 − min / m', m' the least of the curve's mean and of its least local
+//! minimum more than n/16 candidates away (a second dip of the same depth makes a cell
+//! ambiguous). A textureless patch costs the same (its noise) at every depth: its contrast
+//! is small. Each cell takes the estimate of its most confident channel: the channels'
+//! blurs differ, so their values of one patch are never compared, and a channel that sees
+//! no texture at some depth has a shallow, sloping curve that would add rival minima to a
+//! sum.
 //!
 //! The candidates are swept in parallel, each layer of costs folded in candidate order
 //! into running minima, so the cost volume is never held whole (unless asked for).
@@ -40,19 +61,21 @@ use std::sync::Mutex;
 use rayon::prelude::*;
 
 use crate::cells::CellGrid;
-use crate::design::{Aperture, Design, Grid};
+use crate::design::{Aperture, Design, Grid, Layout};
 use crate::error::{Error, Result};
 use crate::line::{Axis, Line};
 use crate::memory;
 use crate::parallel::{checkpoint, for_chunks, threads};
 use crate::rayspace::{axis_samples, Sample};
 
-/// Least degrees of freedom (in fully lit pixels) a window must hold for its cost to
-/// count.
+/// Least degrees of freedom (in fully lit lenses) a channel's window must hold for its cost
+/// to count.
 pub const MIN_WEIGHT: f64 = 2.0;
 /// Pixels whose white is below this fraction of a fully lit pixel's are left out (their
-/// values are mostly noise).
+/// values are mostly noise); a lens's value in a cell needs this much weight.
 pub const MIN_WHITE: f64 = 0.05;
+/// Lenses of a channel that see a cell, on average, beyond which the sweep thins them.
+pub const M_CAP: f64 = 48.0;
 /// Local minima kept per cell (for the confidence's rival minimum).
 const KEEP_MINIMA: usize = 4;
 /// A rival minimum lies more than n / RIVAL_SEPARATION (at least 2) candidates from the
@@ -60,18 +83,71 @@ const KEEP_MINIMA: usize = 4;
 const RIVAL_SEPARATION: u32 = 16;
 /// Largest window radius, in cells.
 pub const MAX_RADIUS: usize = 64;
+/// Bytes held per pixel of a lens's box (its ω and ω v).
+const BYTES_PER_PIXEL: u128 = 16;
 
-/// Samples of the sweep: X(z) = p + z q per axis, the value v and the weight ω.
+/// One lens's micro-image: its box of pixels and its columns' and rows' sample positions.
+struct Lens {
+    /// The lens's channel, as its index among the chosen channels.
+    ch: usize,
+    /// A fixed pseudo-random number in [0, 1): the lens is kept where it is below the
+    /// layer's keep rate.
+    u: f64,
+    /// Per column of its box: (p, q) of its X(z) = p + z q; NaN where the column has no
+    /// valid pixel of the lens.
+    x: Vec<[f64; 2]>,
+    /// Per row of its box: (p, q) of Y(z).
+    y: Vec<[f64; 2]>,
+    /// Per box pixel, row-major: (ω, ω v) = (white, raw) / share; zeros where the pixel is
+    /// not the lens's or not valid.
+    block: Vec<[f64; 2]>,
+}
+
+/// The micro-images of the chosen channels' lenses that can see the widened grid.
 #[derive(Default)]
-struct Samples {
-    p: Vec<[f64; 2]>,
-    q: Vec<[f64; 2]>,
-    v: Vec<f64>,
-    w: Vec<f64>,
-    /// The sample's channel, as its index among the chosen channels.
-    ch: Vec<u8>,
-    /// The chosen channels' count.
+struct Micro {
+    lenses: Vec<Lens>,
+    /// Valid pixels of the kept lenses, and the pixels of their boxes.
+    pixels: usize,
+    boxed: usize,
     channels: usize,
+}
+
+/// SplitMix64's finaliser: a fixed pseudo-random number per lens.
+fn splitmix(mut x: u64) -> u64 {
+    x = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    x ^ (x >> 31)
+}
+
+/// The lens's number in [0, 1): SplitMix64 of j | k << 24 | channel << 48.
+fn lens_u(channel: usize, j: u32, k: u32) -> f64 {
+    let key = j as u64 | (k as u64) << 24 | (channel as u64) << 48;
+    (splitmix(key) >> 11) as f64 / (1u64 << 53) as f64
+}
+
+/// A lens's extent along one axis at depth z: (min, max) of its finite positions and its
+/// mean spacing (0 with fewer than two); None without a finite position.
+fn axis_extent(pos: &[[f64; 2]], z: f64) -> Option<(f64, f64, f64)> {
+    let (mut lo, mut hi, mut n) = (f64::INFINITY, f64::NEG_INFINITY, 0usize);
+    for pq in pos {
+        let x = pq[0] + z * pq[1];
+        if x.is_finite() {
+            lo = lo.min(x);
+            hi = hi.max(x);
+            n += 1;
+        }
+    }
+    if n == 0 {
+        return None;
+    }
+    let s = if n > 1 {
+        (hi - lo) / (n - 1) as f64
+    } else {
+        0.0
+    };
+    Some((lo, hi, s))
 }
 
 /// The result of a sweep, row-major over the grid (row 0 at the top, Y1).
@@ -87,9 +163,12 @@ pub struct Sweep {
     pub min_cost: Vec<f64>,
     /// The mean cost over the candidates that had one; NaN where none had.
     pub mean_cost: Vec<f64>,
-    /// Samples used (pixels of the chosen channels whose mean rays can meet the grid).
+    /// The channel whose curve gave the estimate, as its index among the chosen channels.
+    pub channel: Vec<u8>,
+    /// Valid pixels of the lenses whose footprints can meet the grid.
     pub samples: usize,
-    /// The whole cost volume (candidate-major), when asked for; NaN where missing.
+    /// The whole cost volume (candidate, then chosen channel, then cell), when asked for;
+    /// NaN where missing.
     pub volume: Option<Vec<f64>>,
 }
 
@@ -122,8 +201,9 @@ pub fn check_candidates(design: &Design, candidates: &[f64]) -> Result<()> {
     Ok(())
 }
 
-/// The samples of the chosen channels whose rays meet the expanded grid somewhere between
-/// the first and the last candidate.
+/// The micro-images of the chosen channels' lenses whose footprints (their pixels'
+/// positions widened by the tent) meet the widened grid somewhere between the first and
+/// the last candidate.
 #[allow(clippy::too_many_arguments)]
 fn collect(
     design: &Design,
@@ -134,14 +214,15 @@ fn collect(
     radius: usize,
     zs: (f64, f64),
     n_threads: Option<usize>,
-) -> Result<Samples> {
-    let pad = (radius + 1) as f64 * grid.step;
+) -> Result<Micro> {
+    let r = radius as f64 * grid.step;
     let [gx0, gx1, gy0, gy1] = grid.extent();
-    let (lo, hi) = ([gx0 - pad, gy0 - pad], [gx1 + pad, gy1 + pad]);
+    let (lo, hi) = ([gx0 - r, gy0 - r], [gx1 + r, gy1 + r]);
+    let h = grid.step;
     let inv_f = 1.0 / design.f_main;
-    let mut out = Samples {
+    let mut out = Micro {
         channels: channels.len(),
-        ..Samples::default()
+        ..Micro::default()
     };
     for (n, &i) in channels.iter().enumerate() {
         let ch = &design.channels[i];
@@ -149,9 +230,9 @@ fn collect(
         let (raw, white) = (raws[n], whites[n]);
         let share = ch.share;
         let inv_l = 1.0 / ch.l;
-        // Rect lattice, square aperture: each pixel's centroid ray (the mean of the rays it
-        // collects, per axis: the 4-D region is the product of its x and y polygons), as
-        // its sample at the first and the last candidate (affine in z between).
+        let dz = zs.1 - zs.0;
+        // Rect lattice, square aperture: each pixel's centroid ray (per axis: X from its
+        // column, Y from its row), from its samples at the first and the last candidate.
         let centroids = if design.shape == Aperture::Square && ch.grid == Grid::Rect {
             let number = i as i64 + 1;
             let (lx, ly) = (
@@ -159,87 +240,165 @@ fn collect(
                 Line::of_channel(design, number, Axis::Y)?,
             );
             let at = |l: &Line, z| axis_samples(l, Sample::Centroid, z);
-            Some([
-                at(&lx, zs.0)?,
-                at(&lx, zs.1)?,
-                at(&ly, zs.0)?,
-                at(&ly, zs.1)?,
-            ])
+            let pq = |l: &Line| -> Result<Vec<[f64; 2]>> {
+                let (s0, s1) = rayon::join(|| at(l, zs.0), || at(l, zs.1));
+                Ok(s0?
+                    .iter()
+                    .zip(&s1?)
+                    .map(|(&a, &b)| {
+                        let q = (b - a) / dz;
+                        [a - zs.0 * q, q]
+                    })
+                    .collect())
+            };
+            let (xs, ys) =
+                crate::parallel::with_threads(n_threads, || rayon::join(|| pq(&lx), || pq(&ly)))?;
+            Some((xs?, ys?))
         } else {
             None
         };
-        let dz = zs.1 - zs.0;
-        // Centroid samples are separable (X from the column, Y from the row): the columns
-        // and rows whose samples can meet the widened grid, found once.
-        let within = |v0: f64, v1: f64, ax: usize| {
-            v0.is_finite() && v1.is_finite() && v0.max(v1) >= lo[ax] && v0.min(v1) <= hi[ax]
-        };
-        let (col_list, row_ok): (Vec<usize>, Vec<bool>) = match &centroids {
-            Some([x0, x1, y0, y1]) => (
-                (0..cols).filter(|&a| within(x0[a], x1[a], 0)).collect(),
-                (0..rows).map(|b| within(y0[b], y1[b], 1)).collect(),
-            ),
-            None => ((0..cols).collect(), vec![true; rows]),
-        };
-        let row = |b: usize| {
-            let mut s = Samples::default();
-            if !row_ok[b] {
-                return s;
+        // The pixel's lens and its mean ray (p, q) per axis; None where it is not valid.
+        let ray = |a: usize, b: usize| -> (u32, u32, Option<[[f64; 2]; 2]>) {
+            let px = design.pixel(ch, a as u32, b as u32);
+            let k = b * cols + a;
+            if white[k] / share < MIN_WHITE {
+                return (px.j, px.k, None);
             }
-            for &a in &col_list {
-                let k = b * cols + a;
-                let wt = white[k] / share;
-                if wt < MIN_WHITE {
-                    continue;
-                }
-                let (w, q) = if let Some([x0, x1, y0, y1]) = &centroids {
-                    let (p0, p1) = ([x0[a], y0[b]], [x1[a], y1[b]]);
-                    if !(p0.iter().chain(&p1).all(|v| v.is_finite())) {
-                        continue;
-                    }
-                    let q = [(p1[0] - p0[0]) / dz, (p1[1] - p0[1]) / dz];
-                    ([p0[0] - zs.0 * q[0], p0[1] - zs.0 * q[1]], q)
-                } else {
-                    let px = design.pixel(ch, a as u32, b as u32);
+            let rays = match &centroids {
+                Some((xs, ys)) => [xs[a], ys[b]],
+                None => {
                     if !px.lit {
-                        continue;
+                        return (px.j, px.k, None);
                     }
                     let c = ch.lens_center(px.j, px.k);
                     let w = ch.chief_w(px.theta);
-                    let q = [
-                        w[0] * (inv_l - inv_f) - c[0] * inv_l,
-                        w[1] * (inv_l - inv_f) - c[1] * inv_l,
-                    ];
-                    (w, q)
-                };
-                let meets = (0..2).all(|ax| {
-                    let (x0, x1) = (w[ax] + zs.0 * q[ax], w[ax] + zs.1 * q[ax]);
-                    x0.max(x1) >= lo[ax] && x0.min(x1) <= hi[ax]
-                });
-                if meets {
-                    s.p.push(w);
-                    s.q.push(q);
-                    s.v.push(raw[k] / white[k]);
-                    s.w.push(wt);
-                    s.ch.push(n as u8);
+                    [
+                        [w[0], w[0] * (inv_l - inv_f) - c[0] * inv_l],
+                        [w[1], w[1] * (inv_l - inv_f) - c[1] * inv_l],
+                    ]
+                }
+            };
+            let ok = rays.iter().flatten().all(|v| v.is_finite());
+            (px.j, px.k, ok.then_some(rays))
+        };
+        // Each lens's box of pixels: the Q × Q block of an ideal layout; on a sensor
+        // layout the bounds of the pixels nearest to it, from one scan.
+        let (kx, ky) = (ch.kx as usize, ch.ky as usize);
+        let boxes: Vec<[usize; 4]> = match ch.layout {
+            Layout::Ideal { q } => {
+                let q = q as usize;
+                (0..kx * ky)
+                    .map(|l| {
+                        let (j, k) = (l % kx, l / kx);
+                        [j * q, (j + 1) * q, k * q, (k + 1) * q]
+                    })
+                    .collect()
+            }
+            Layout::Sensor { .. } => {
+                memory::check("the depth sweep's lens boxes", (kx * ky) as u128 * 32)?;
+                let mut b = vec![[usize::MAX, 0, usize::MAX, 0]; kx * ky];
+                let step = crate::parallel::chunk_items(n_threads, cols as u128 * 8);
+                for_chunks(n_threads, rows, step, |range| {
+                    let parts: Vec<Vec<(usize, usize, usize)>> = range
+                        .into_par_iter()
+                        .map(|row| {
+                            (0..cols)
+                                .map(|a| {
+                                    let px = design.pixel(ch, a as u32, row as u32);
+                                    (px.k as usize * kx + px.j as usize, a, row)
+                                })
+                                .collect()
+                        })
+                        .collect();
+                    for (l, a, row) in parts.into_iter().flatten() {
+                        let e = &mut b[l];
+                        e[0] = e[0].min(a);
+                        e[1] = e[1].max(a + 1);
+                        e[2] = e[2].min(row);
+                        e[3] = e[3].max(row + 1);
+                    }
+                    Ok(())
+                })?;
+                b
+            }
+        };
+        // Per lens: its columns' and rows' rays (from the first valid pixel of each), its
+        // box, whether it can meet the grid, and its sums for G.
+        let lens = |l: usize| -> Option<(Lens, usize)> {
+            let [a0, a1, b0, b1] = boxes[l];
+            if a0 >= a1 || b0 >= b1 {
+                return None;
+            }
+            let (j, k) = ((l % kx) as u32, (l / kx) as u32);
+            let (na, nb) = (a1 - a0, b1 - b0);
+            let mut x = vec![[f64::NAN; 2]; na];
+            let mut y = vec![[f64::NAN; 2]; nb];
+            let mut block = vec![[0.0; 2]; na * nb];
+            let mut pixels = 0;
+            for b in b0..b1 {
+                for a in a0..a1 {
+                    let (pj, pk, rays) = ray(a, b);
+                    let Some([rx, ry]) = rays.filter(|_| (pj, pk) == (j, k)) else {
+                        continue;
+                    };
+                    if x[a - a0][0].is_nan() {
+                        x[a - a0] = rx;
+                    }
+                    if y[b - b0][0].is_nan() {
+                        y[b - b0] = ry;
+                    }
+                    let p = b * cols + a;
+                    let (w, wv) = (white[p] / share, raw[p] / share);
+                    block[(b - b0) * na + a - a0] = [w, wv];
+                    pixels += 1;
                 }
             }
-            s
+            if pixels == 0 {
+                return None;
+            }
+            // The footprint's hull over the candidates (positions affine in z: the
+            // extremes are at the ends), widened by the tent.
+            let meets = |pos: &[[f64; 2]], ax: usize| {
+                let (mut l0, mut h0) = (f64::INFINITY, f64::NEG_INFINITY);
+                for z in [zs.0, zs.1] {
+                    if let Some((a, b, s)) = axis_extent(pos, z) {
+                        let w = h.max(s);
+                        l0 = l0.min(a - w);
+                        h0 = h0.max(b + w);
+                    }
+                }
+                h0 >= lo[ax] && l0 <= hi[ax]
+            };
+            if !(meets(&x, 0) && meets(&y, 1)) {
+                return None;
+            }
+            Some((
+                Lens {
+                    ch: n,
+                    u: lens_u(i, j, k),
+                    x,
+                    y,
+                    block,
+                },
+                pixels,
+            ))
         };
-        let step = crate::parallel::chunk_items(n_threads, cols as u128 * 32);
-        for_chunks(n_threads, rows, step, |range| {
-            let parts: Vec<Samples> = range.into_par_iter().map(row).collect();
-            let n_new: usize = parts.iter().map(|s| s.v.len()).sum();
+        let step = crate::parallel::chunk_items(n_threads, 64 * 64);
+        for_chunks(n_threads, kx * ky, step, |range| {
+            let found: Vec<Option<(Lens, usize)>> = range.into_par_iter().map(lens).collect();
+            let bytes: u128 = found
+                .iter()
+                .flatten()
+                .map(|f| f.0.block.len() as u128 * BYTES_PER_PIXEL)
+                .sum();
             memory::check(
-                "the depth sweep's samples",
-                ((out.v.len() + n_new) as u128) * 49,
+                "the depth sweep's micro-images",
+                out.boxed as u128 * BYTES_PER_PIXEL + bytes,
             )?;
-            for s in parts {
-                out.p.extend(s.p);
-                out.q.extend(s.q);
-                out.v.extend(s.v);
-                out.w.extend(s.w);
-                out.ch.extend(s.ch);
+            for (lens, pixels) in found.into_iter().flatten() {
+                out.boxed += lens.block.len();
+                out.pixels += pixels;
+                out.lenses.push(lens);
             }
             Ok(())
         })?;
@@ -249,20 +408,31 @@ fn collect(
 
 /// Per-worker buffers of one candidate's layer.
 struct Layer {
-    /// The cell's Σ b, Σ b v, Σ b v² and Σ b² (b = a ω).
+    /// Per cell and channel: Σ Ω, Σ Ω m, Σ Ω m² and Σ Ω² over the lenses.
     s0: Vec<f64>,
     s1: Vec<f64>,
     s2: Vec<f64>,
     s3: Vec<f64>,
-    /// Prefix sums (one row and column of zeros first) of the cells' SSD and weight.
+    /// Per channel, prefix sums (one row and column of zeros first) of the cells' spread
+    /// and degrees of freedom.
     ps: Vec<f64>,
     pw: Vec<f64>,
+    /// Per channel, prefix sums of S0, S1, S2 and S3 (the window's totals).
+    pt: [Vec<f64>; 4],
+    /// One lens's tents per axis: (pixel index in the box, weight) for each cell of its
+    /// range, and each cell's start in it.
+    tx: Vec<(u32, f64)>,
+    txs: Vec<usize>,
+    ty: Vec<(u32, f64)>,
+    tys: Vec<usize>,
+    /// The axis's finite positions of one lens, sorted, with their indices.
+    sorted: Vec<(f64, u32)>,
 }
 
 impl Layer {
     fn new(ex: (usize, usize), channels: usize) -> Layer {
         let n = ex.0 * ex.1 * channels;
-        let np = (ex.0 + 1) * (ex.1 + 1);
+        let np = (ex.0 + 1) * (ex.1 + 1) * channels;
         Layer {
             s0: vec![0.0; n],
             s1: vec![0.0; n],
@@ -270,85 +440,243 @@ impl Layer {
             s3: vec![0.0; n],
             ps: vec![0.0; np],
             pw: vec![0.0; np],
+            pt: std::array::from_fn(|_| vec![0.0; np]),
+            tx: Vec::new(),
+            txs: Vec::new(),
+            ty: Vec::new(),
+            tys: Vec::new(),
+            sorted: Vec::new(),
         }
     }
 }
 
-/// The layer of costs at depth z over the grid (row-major, NaN where missing).
-fn layer(smp: &Samples, grid: &CellGrid, radius: usize, z: f64, buf: &mut Layer, out: &mut [f64]) {
+/// The tents of one lens along one axis at depth z over the cells whose centres are
+/// c0 + (i + 0.5) h · dir for i in 0..n (dir = ±1): into `t` the (index, weight) pairs of
+/// each cell of the returned range, `starts` each cell's first pair (and one past the
+/// last). Weights t = max(0, 1 − |x − X|/H), H = max(h, spacing).
+#[allow(clippy::too_many_arguments)]
+fn tents(
+    pos: &[[f64; 2]],
+    z: f64,
+    (c0, dir, h, n): (f64, f64, f64, usize),
+    (lo, hi, s): (f64, f64, f64),
+    sorted: &mut Vec<(f64, u32)>,
+    t: &mut Vec<(u32, f64)>,
+    starts: &mut Vec<usize>,
+) -> std::ops::Range<usize> {
+    t.clear();
+    starts.clear();
+    let hw = h.max(s);
+    // The cells whose centres lie strictly within (lo − H, hi + H).
+    let f = |x: f64| (x - c0) * dir / h - 0.5;
+    let (e0, e1) = if dir > 0.0 {
+        (f(lo - hw), f(hi + hw))
+    } else {
+        (f(hi + hw), f(lo - hw))
+    };
+    let first = (e0.floor() + 1.0).max(0.0);
+    let last = (e1.ceil() - 1.0).min(n as f64 - 1.0);
+    if first.is_nan() || last.is_nan() || first > last {
+        return 0..0;
+    }
+    let (first, last) = (first as usize, last as usize);
+    sorted.clear();
+    sorted.extend(pos.iter().enumerate().filter_map(|(i, pq)| {
+        let x = pq[0] + z * pq[1];
+        x.is_finite().then_some((x, i as u32))
+    }));
+    sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
+    for i in first..=last {
+        let x = c0 + dir * (i as f64 + 0.5) * h;
+        starts.push(t.len());
+        let start = sorted.partition_point(|e| e.0 <= x - hw);
+        for &(xp, idx) in &sorted[start..] {
+            if xp >= x + hw {
+                break;
+            }
+            let w = 1.0 - (x - xp).abs() / hw;
+            if w > 0.0 {
+                t.push((idx, w));
+            }
+        }
+    }
+    starts.push(t.len());
+    first..last + 1
+}
+
+/// The layer of costs at depth z: per chosen channel, over the grid (row-major, NaN where
+/// missing).
+fn layer(mi: &Micro, grid: &CellGrid, radius: usize, z: f64, buf: &mut Layer, out: &mut [f64]) {
     let r = radius;
     let (enx, eny) = (grid.nx + 2 * r, grid.ny + 2 * r);
     let h = grid.step;
     let ex0 = grid.x0 - r as f64 * h;
     let ey1 = grid.y1 + r as f64 * h;
+    let nch = mi.channels;
     buf.s0.fill(0.0);
     buf.s1.fill(0.0);
     buf.s2.fill(0.0);
     buf.s3.fill(0.0);
-    let inv_h = 1.0 / h;
-    for i in 0..smp.v.len() {
-        let (p, q) = (smp.p[i], smp.q[i]);
-        let fx = (p[0] + z * q[0] - ex0) * inv_h - 0.5;
-        let fy = (ey1 - (p[1] + z * q[1])) * inv_h - 0.5;
-        if !(fx > -1.0 && fy > -1.0 && fx < enx as f64 && fy < eny as f64) {
+    // Per channel the keep rate: M_CAP over the mean number of its lenses whose
+    // footprints (clipped to the widened grid) cover a cell.
+    let (wx0, wx1, wy0, wy1) = (ex0, ex0 + enx as f64 * h, ey1 - eny as f64 * h, ey1);
+    let clip = |a: f64, b: f64, c: f64, d: f64| (b.min(d) - a.max(c)).max(0.0);
+    let mut area = vec![0.0; nch];
+    for l in &mi.lenses {
+        let ex = axis_extent(&l.x, z);
+        let ey = axis_extent(&l.y, z);
+        if let (Some((x0, x1, sx)), Some((y0, y1, sy))) = (ex, ey) {
+            let (hx, hy) = (h.max(sx), h.max(sy));
+            area[l.ch] += clip(x0 - hx, x1 + hx, wx0, wx1) * clip(y0 - hy, y1 + hy, wy0, wy1);
+        }
+    }
+    let grid_area = (wx1 - wx0) * (wy1 - wy0);
+    let keep: Vec<f64> = area
+        .iter()
+        .map(|&a| {
+            if a > 0.0 {
+                (M_CAP * grid_area / a).min(1.0)
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    for l in &mi.lenses {
+        if l.u >= keep[l.ch] {
             continue;
         }
-        let (ix, iy) = (fx.floor(), fy.floor());
-        let (tx, ty) = (fx - ix, fy - iy);
-        let (ix, iy) = (ix as isize, iy as isize);
-        let (v, w, ch) = (smp.v[i], smp.w[i], smp.ch[i] as usize);
-        let nch = smp.channels;
-        for (dy, wy) in [(0isize, 1.0 - ty), (1, ty)] {
-            let y = iy + dy;
-            if y < 0 || y >= eny as isize {
+        let (xs, ys) = (&l.x, &l.y);
+        let (Some(ex), Some(ey)) = (axis_extent(xs, z), axis_extent(ys, z)) else {
+            continue;
+        };
+        let cols = tents(
+            xs,
+            z,
+            (ex0, 1.0, h, enx),
+            ex,
+            &mut buf.sorted,
+            &mut buf.tx,
+            &mut buf.txs,
+        );
+        if cols.is_empty() {
+            continue;
+        }
+        let rows = tents(
+            ys,
+            z,
+            (ey1, -1.0, h, eny),
+            ey,
+            &mut buf.sorted,
+            &mut buf.ty,
+            &mut buf.tys,
+        );
+        let (block, na) = (&l.block, l.x.len());
+        for (iy, cy) in rows.clone().enumerate() {
+            let ty = &buf.ty[buf.tys[iy]..buf.tys[iy + 1]];
+            if ty.is_empty() {
                 continue;
             }
-            for (dx, wx) in [(0isize, 1.0 - tx), (1, tx)] {
-                let x = ix + dx;
-                if x < 0 || x >= enx as isize {
-                    continue;
+            for (ix, cx) in cols.clone().enumerate() {
+                let tx = &buf.tx[buf.txs[ix]..buf.txs[ix + 1]];
+                let (mut tw, mut ttw, mut twv) = (0.0, 0.0, 0.0);
+                for &(b, wb) in ty {
+                    let row = &block[b as usize * na..(b as usize + 1) * na];
+                    for &(a, wa) in tx {
+                        let [w, wv] = row[a as usize];
+                        let t = wb * wa;
+                        tw += t * w;
+                        ttw += t * t * w;
+                        twv += t * wv;
+                    }
                 }
-                let k = (y as usize * enx + x as usize) * nch + ch;
-                let a = w * wx * wy;
-                buf.s0[k] += a;
-                buf.s1[k] += a * v;
-                buf.s2[k] += a * v * v;
-                buf.s3[k] += a * a;
+                if ttw > 0.0 {
+                    // The value m = Σ t ω v / Σ t ω has the variance of a pixel of weight
+                    // Ω = (Σ t ω)² / Σ t² ω (each pixel's variance ∝ 1 / ω).
+                    let om = tw * tw / ttw;
+                    if om >= MIN_WHITE {
+                        let m = twv / tw;
+                        let k = (cy * enx + cx) * nch + l.ch;
+                        buf.s0[k] += om;
+                        buf.s1[k] += om * m;
+                        buf.s2[k] += om * m * m;
+                        buf.s3[k] += om * om;
+                    }
+                }
             }
         }
     }
-    // Prefix sums of the cells' weighted SSD about their mean, and of their degrees of
-    // freedom: for independent samples of variance σ² per unit weight,
-    // E[SSD] = σ² (S0 − Σ b² / S0), so the pooled ratio is unbiased however sparse the
-    // samples (a lone sample adds 0 to both).
+    // Per channel, prefix sums of the cells' weighted spread about their mean and of
+    // their degrees of freedom: for independent values of variance σ² per unit weight,
+    // E[spread] = σ² (S0 − Σ Ω² / S0), so the pooled ratio is unbiased however few
+    // lenses a cell has (a lone lens adds 0 to both).
     let pc = enx + 1;
-    for y in 0..eny {
-        let (mut rs, mut rw) = (0.0, 0.0);
-        for x in 0..enx {
-            let k = y * enx + x;
-            for k in k * smp.channels..(k + 1) * smp.channels {
+    let plane = pc * (eny + 1);
+    for c in 0..nch {
+        let (ps, pw) = (
+            &mut buf.ps[c * plane..(c + 1) * plane],
+            &mut buf.pw[c * plane..(c + 1) * plane],
+        );
+        for y in 0..eny {
+            let (mut rs, mut rw) = (0.0, 0.0);
+            let mut rt = [0.0; 4];
+            for x in 0..enx {
+                let k = (y * enx + x) * nch + c;
                 let s0 = buf.s0[k];
                 if s0 > 0.0 {
                     rs += (buf.s2[k] - buf.s1[k] * buf.s1[k] / s0).max(0.0);
                     rw += (s0 - buf.s3[k] / s0).max(0.0);
                 }
+                let at = (y + 1) * pc + x + 1;
+                ps[at] = ps[y * pc + x + 1] + rs;
+                pw[at] = pw[y * pc + x + 1] + rw;
+                for (j, v) in [buf.s0[k], buf.s1[k], buf.s2[k], buf.s3[k]]
+                    .into_iter()
+                    .enumerate()
+                {
+                    rt[j] += v;
+                    let p = &mut buf.pt[j][c * plane..(c + 1) * plane];
+                    p[at] = p[y * pc + x + 1] + rt[j];
+                }
             }
-            buf.ps[(y + 1) * pc + x + 1] = buf.ps[y * pc + x + 1] + rs;
-            buf.pw[(y + 1) * pc + x + 1] = buf.pw[y * pc + x + 1] + rw;
         }
     }
+    // Per channel the spread of all its lens values over the widened grid at this depth:
+    // the scale of a mismatch, which shrinks where the lenses' pixels are far apart (their
+    // resampled micro-images are smooth) or averaged.
+    let scale: Vec<f64> = (0..nch)
+        .map(|c| {
+            let last = (c + 1) * plane - 1;
+            let [t0, t1, t2, t3] = [0, 1, 2, 3].map(|j| buf.pt[j][last]);
+            let mean = if t0 > 0.0 { t1 / t0 } else { 0.0 };
+            let dof = if t0 > 0.0 { t0 - t3 / t0 } else { 0.0 };
+            let total = if dof > 0.0 {
+                (t2 - t1 * mean).max(0.0) / dof
+            } else {
+                0.0
+            };
+            if total > 1e-12 * (mean * mean).max(1e-300) {
+                1.0 / total
+            } else {
+                0.0
+            }
+        })
+        .collect();
     let d = 2 * r + 1;
+    let cells = grid.cells();
     for y in 0..grid.ny {
         for x in 0..grid.nx {
             let rect = |p: &[f64]| {
                 p[(y + d) * pc + x + d] - p[y * pc + x + d] - p[(y + d) * pc + x] + p[y * pc + x]
             };
-            let w = rect(&buf.pw);
-            out[y * grid.nx + x] = if w >= MIN_WEIGHT {
-                rect(&buf.ps).max(0.0) / w
-            } else {
-                f64::NAN
-            };
+            for c in 0..nch {
+                let sl = |v: &[f64]| rect(&v[c * plane..(c + 1) * plane]);
+                let w = sl(&buf.pw);
+                out[c * cells + y * grid.nx + x] = if w >= MIN_WEIGHT {
+                    sl(&buf.ps).max(0.0) / w * scale[c]
+                } else {
+                    f64::NAN
+                };
+            }
         }
     }
 }
@@ -450,9 +778,9 @@ impl Fold {
     }
 }
 
-/// The sweep's bytes: samples, per-worker layers, the fold and the outputs.
+/// The sweep's bytes: the micro-images, per-worker layers, the fold and the outputs.
 fn sweep_bytes(
-    samples: usize,
+    pixels: u128,
     grid: &CellGrid,
     radius: usize,
     workers: usize,
@@ -461,11 +789,16 @@ fn sweep_bytes(
     channels: usize,
 ) -> u128 {
     let ex = ((grid.nx + 2 * radius + 1) * (grid.ny + 2 * radius + 1)) as u128;
-    let cells = grid.cells() as u128;
-    let volume = if keep { cells * n_cand as u128 * 8 } else { 0 };
-    samples as u128 * 49
-        + workers as u128 * (ex * (16 + 32 * channels as u128) + cells * 8)
-        + cells * (80 + 12 * KEEP_MINIMA as u128)
+    let entries = grid.cells() as u128 * channels as u128;
+    let volume = if keep {
+        entries * n_cand as u128 * 8
+    } else {
+        0
+    };
+    pixels * BYTES_PER_PIXEL
+        + workers as u128 * (ex * 80 * channels as u128 + entries * 8)
+        + entries * (80 + 12 * KEEP_MINIMA as u128)
+        + grid.cells() as u128 * 41
         + volume
 }
 
@@ -537,9 +870,9 @@ pub fn sweep(
     let cells = grid.cells();
     let workers = threads(n_threads);
     // The memory without the samples first, then with them once counted.
-    let need = |samples: usize| {
+    let need = |pixels: u128| {
         let bytes = sweep_bytes(
-            samples,
+            pixels,
             grid,
             radius,
             workers,
@@ -551,17 +884,19 @@ pub fn sweep(
     };
     need(0)?;
     let zs = (candidates[0], candidates[candidates.len() - 1]);
-    let smp = collect(design, channels, raws, whites, grid, radius, zs, n_threads)?;
-    need(smp.v.len())?;
-    let mut fold = Fold::new(cells);
+    let mi = collect(design, channels, raws, whites, grid, radius, zs, n_threads)?;
+    need(mi.boxed as u128)?;
+    let entries = cells * channels.len();
+    let mut fold = Fold::new(entries);
     let mut volume = if keep_volume {
-        Some(Vec::with_capacity(cells * candidates.len()))
+        Some(Vec::with_capacity(entries * candidates.len()))
     } else {
         None
     };
     let ex = (grid.nx + 2 * radius, grid.ny + 2 * radius);
     let pool: Mutex<Vec<Layer>> = Mutex::new(Vec::new());
-    for_chunks(n_threads, candidates.len(), workers, |range| {
+    // Chunks of several candidates per worker: the layers' costs differ with depth.
+    for_chunks(n_threads, candidates.len(), 8 * workers, |range| {
         let start = range.start;
         let layers: Vec<Result<Vec<f64>>> = range
             .into_par_iter()
@@ -571,9 +906,9 @@ pub fn sweep(
                     .lock()
                     .map_err(|_| Error::param("n_threads", 1, "a worker that does not panic"))?
                     .pop()
-                    .unwrap_or_else(|| Layer::new(ex, smp.channels));
-                let mut out = vec![0.0; cells];
-                layer(&smp, grid, radius, candidates[k], &mut buf, &mut out);
+                    .unwrap_or_else(|| Layer::new(ex, mi.channels));
+                let mut out = vec![0.0; entries];
+                layer(&mi, grid, radius, candidates[k], &mut buf, &mut out);
                 if let Ok(mut p) = pool.lock() {
                     p.push(buf);
                 }
@@ -591,12 +926,19 @@ pub fn sweep(
         Ok(())
     })?;
     fold.end(candidates.len() as u32);
-    Ok(finish(fold, candidates, smp.v.len(), volume))
+    Ok(finish(fold, channels.len(), candidates, mi.pixels, volume))
 }
 
-/// Refine each cell's minimum and derive its depth and confidence.
-fn finish(fold: Fold, candidates: &[f64], samples: usize, volume: Option<Vec<f64>>) -> Sweep {
-    let cells = fold.min.len();
+/// Refine each channel's minimum in each cell, derive its depth and confidence, and keep
+/// per cell the channel of highest confidence (the first on a tie).
+fn finish(
+    fold: Fold,
+    channels: usize,
+    candidates: &[f64],
+    samples: usize,
+    volume: Option<Vec<f64>>,
+) -> Sweep {
+    let cells = fold.min.len() / channels;
     let n = candidates.len();
     let mut s = Sweep {
         depth: vec![f64::NAN; cells],
@@ -604,34 +946,48 @@ fn finish(fold: Fold, candidates: &[f64], samples: usize, volume: Option<Vec<f64
         confidence: vec![0.0; cells],
         min_cost: vec![f64::NAN; cells],
         mean_cost: vec![f64::NAN; cells],
+        channel: vec![0; cells],
         samples,
         volume,
     };
-    for c in 0..cells {
-        let k = fold.arg[c];
-        if k == u32::MAX {
+    let sep = (n as u32 / RIVAL_SEPARATION).max(2);
+    for cell in 0..cells {
+        let mut best: Option<(f64, usize)> = None;
+        for ch in 0..channels {
+            let e = ch * cells + cell;
+            if fold.arg[e] == u32::MAX {
+                continue;
+            }
+            // The contrast against the curve's mean and against its least local minimum
+            // away from the best (a curve with two dips of one depth is ambiguous).
+            let mean = fold.sum[e] / fold.count[e] as f64;
+            let against = mean.min(fold.rival(e, sep));
+            let conf = if against > 0.0 && against.is_finite() {
+                (1.0 - fold.min[e] / against).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            if best.map_or(true, |(c, _)| conf > c) {
+                best = Some((conf, ch));
+            }
+        }
+        let Some((conf, ch)) = best else {
             continue;
-        }
-        let (m, l, r) = (fold.min[c], fold.left[c], fold.right[c]);
-        let mean = fold.sum[c] / fold.count[c] as f64;
-        let mut off = 0.0;
-        if l.is_finite() && r.is_finite() {
-            off = vertex(l, m, r);
-        }
-        let kf = k as f64 + off;
-        s.index[c] = kf;
-        s.depth[c] = depth_at(candidates, kf, n);
-        s.min_cost[c] = m;
-        s.mean_cost[c] = mean;
-        // The contrast against the curve's mean and against its least local minimum away
-        // from the best (a curve with two dips of one depth is ambiguous).
-        let sep = (n as u32 / RIVAL_SEPARATION).max(2);
-        let against = mean.min(fold.rival(c, sep));
-        s.confidence[c] = if against > 0.0 && against.is_finite() {
-            (1.0 - m / against).clamp(0.0, 1.0)
+        };
+        let e = ch * cells + cell;
+        let (k, m, l, r) = (fold.arg[e], fold.min[e], fold.left[e], fold.right[e]);
+        let off = if l.is_finite() && r.is_finite() {
+            vertex(l, m, r)
         } else {
             0.0
         };
+        let kf = k as f64 + off;
+        s.index[cell] = kf;
+        s.depth[cell] = depth_at(candidates, kf, n);
+        s.min_cost[cell] = m;
+        s.mean_cost[cell] = fold.sum[e] / fold.count[e] as f64;
+        s.confidence[cell] = conf;
+        s.channel[cell] = ch as u8;
     }
     s
 }

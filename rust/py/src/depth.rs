@@ -1,6 +1,6 @@
 //! Depth from the raw: the core's plane sweep (docs/model.md §11, docs/depth.md).
 
-use numpy::{PyArray2, PyArray3, PyReadonlyArray2};
+use numpy::{PyArray2, PyArray4, PyReadonlyArray2};
 use pyo3::prelude::*;
 
 use splitlf_core::depth;
@@ -18,16 +18,18 @@ type SweepTuple<'py> = (
     Bound<'py, PyArray2<f64>>,
     Bound<'py, PyArray2<f64>>,
     Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray2<i64>>,
     usize,
-    Option<Bound<'py, PyArray3<f64>>>,
+    Option<Bound<'py, PyArray4<f64>>>,
 );
 
 /// The plane sweep of `raws` (one C-contiguous image per chosen channel) with `whites`
 /// (the same channels' raws under a white albedo) over the increasing `candidates` on the
 /// grid (X0, Y1, step, nx, ny), windows of (2 radius + 1)^2 cells: (depth, fractional
-/// candidate index, confidence, least cost, mean cost) per cell (ny, nx), the samples used,
-/// and the cost volume (candidates, ny, nx) when `keep_volume`. `progress(done, total)`
-/// counts candidates.
+/// candidate index, confidence, least cost, mean cost, the channel (numbered from 1) whose
+/// curve gave the estimate) per cell (ny, nx), the pixels used, and the cost volume
+/// (candidates, chosen channels, ny, nx) when `keep_volume`. `progress(done, total)` counts
+/// candidates.
 #[pyfunction]
 #[pyo3(signature = (design, raws, whites, grid, candidates, channels=None, radius=3, keep_volume=false, n_threads=None, progress=None))]
 #[allow(clippy::too_many_arguments)]
@@ -57,6 +59,7 @@ pub(crate) fn depth_sweep<'py>(
         white_s.push(a.as_slice().map_err(internal)?);
     }
     let (report, counter) = counted(progress, candidates.len());
+    let chosen = ch.clone();
     let s = run_reporting(py, "depths", report, move || {
         depth::sweep(
             &d,
@@ -73,12 +76,13 @@ pub(crate) fn depth_sweep<'py>(
     })?;
     let shape = [g.ny, g.nx];
     let arr = |v: Vec<f64>, what: &str| filled::<f64, numpy::Ix2>(py, &shape, what, v.into_iter());
+    let nch = chosen.len();
     let volume = match s.volume {
         Some(v) => {
-            let n = v.len() / (g.ny * g.nx).max(1);
-            Some(filled::<f64, numpy::Ix3>(
+            let n = v.len() / (nch * g.ny * g.nx).max(1);
+            Some(filled::<f64, numpy::Ix4>(
                 py,
-                &[n, g.ny, g.nx],
+                &[n, nch, g.ny, g.nx],
                 "the depth sweep's cost volume",
                 v.into_iter(),
             )?)
@@ -91,6 +95,12 @@ pub(crate) fn depth_sweep<'py>(
         arr(s.confidence, "the depth estimate's confidence")?,
         arr(s.min_cost, "the depth estimate's least cost")?,
         arr(s.mean_cost, "the depth estimate's mean cost")?,
+        filled::<i64, numpy::Ix2>(
+            py,
+            &shape,
+            "the depth estimate's channel",
+            s.channel.iter().map(|&c| chosen[c as usize] as i64 + 1),
+        )?,
         s.samples,
         volume,
     ))
