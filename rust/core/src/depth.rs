@@ -101,6 +101,48 @@ struct Lens {
     /// Per box pixel, row-major: (ω, ω v) = (white, raw) / share; zeros where the pixel is
     /// not the lens's or not valid.
     block: Vec<[f64; 2]>,
+    /// Per axis, when its finite positions are monotone at every candidate: the first and
+    /// the last finite one and their count (the extent from two positions).
+    ends: [Option<(usize, usize, usize)>; 2],
+}
+
+impl Lens {
+    /// [`axis_extent`] of the lens's columns (axis 0) or rows (axis 1) at depth z.
+    fn extent(&self, axis: usize, z: f64) -> Option<(f64, f64, f64)> {
+        let pos = if axis == 0 { &self.x } else { &self.y };
+        match self.ends[axis] {
+            Some((i, j, n)) => {
+                let (a, b) = (pos[i][0] + z * pos[i][1], pos[j][0] + z * pos[j][1]);
+                let (lo, hi) = if a <= b { (a, b) } else { (b, a) };
+                let s = if n > 1 {
+                    (hi - lo) / (n - 1) as f64
+                } else {
+                    0.0
+                };
+                Some((lo, hi, s))
+            }
+            None => axis_extent(pos, z),
+        }
+    }
+}
+
+/// The first and last finite positions of an axis and their count, when the finite
+/// positions are monotone at both ends of the candidates (then at every candidate: each
+/// difference is affine in z).
+fn monotone_ends(pos: &[[f64; 2]], zs: (f64, f64)) -> Option<(usize, usize, usize)> {
+    let idx: Vec<usize> = (0..pos.len())
+        .filter(|&i| (pos[i][0] + zs.0 * pos[i][1]).is_finite())
+        .collect();
+    let (&first, &last) = (idx.first()?, idx.last()?);
+    for z in [zs.0, zs.1] {
+        let x: Vec<f64> = idx.iter().map(|&i| pos[i][0] + z * pos[i][1]).collect();
+        let up = x.windows(2).all(|w| w[0] <= w[1]);
+        let down = x.windows(2).all(|w| w[0] >= w[1]);
+        if !(up || down) || x.iter().any(|v| !v.is_finite()) {
+            return None;
+        }
+    }
+    Some((first, last, idx.len()))
 }
 
 /// The micro-images of the chosen channels' lenses that can see the widened grid.
@@ -372,6 +414,7 @@ fn collect(
             if !(meets(&x, 0) && meets(&y, 1)) {
                 return None;
             }
+            let ends = [monotone_ends(&x, zs), monotone_ends(&y, zs)];
             Some((
                 Lens {
                     ch: n,
@@ -379,6 +422,7 @@ fn collect(
                     x,
                     y,
                     block,
+                    ends,
                 },
                 pixels,
             ))
@@ -408,7 +452,7 @@ fn collect(
 
 /// Per-worker buffers of one candidate's layer.
 struct Layer {
-    /// Per cell and channel: Σ Ω, Σ Ω m, Σ Ω m² and Σ Ω² over the lenses.
+    /// Per channel (planes of cells): Σ Ω, Σ Ω m, Σ Ω m² and Σ Ω² over the lenses.
     s0: Vec<f64>,
     s1: Vec<f64>,
     s2: Vec<f64>,
@@ -417,8 +461,10 @@ struct Layer {
     /// and degrees of freedom.
     ps: Vec<f64>,
     pw: Vec<f64>,
-    /// Per channel, prefix sums of S0, S1, S2 and S3 (the window's totals).
-    pt: [Vec<f64>; 4],
+    /// One lens's box resampled along its rows (3 arrays of rows × cells), and one cell
+    /// row's sums (3 × cells).
+    a: Vec<f64>,
+    row: Vec<f64>,
     /// One lens's tents per axis: (pixel index in the box, weight) for each cell of its
     /// range, and each cell's start in it.
     tx: Vec<(u32, f64)>,
@@ -440,7 +486,8 @@ impl Layer {
             s3: vec![0.0; n],
             ps: vec![0.0; np],
             pw: vec![0.0; np],
-            pt: std::array::from_fn(|_| vec![0.0; np]),
+            a: Vec::new(),
+            row: Vec::new(),
             tx: Vec::new(),
             txs: Vec::new(),
             ty: Vec::new(),
@@ -485,7 +532,12 @@ fn tents(
         let x = pq[0] + z * pq[1];
         x.is_finite().then_some((x, i as u32))
     }));
-    sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
+    // Within a lens the positions are affine in the column: sorted one way or the other.
+    if sorted.windows(2).all(|w| w[0].0 >= w[1].0) {
+        sorted.reverse();
+    } else if !sorted.windows(2).all(|w| w[0].0 <= w[1].0) {
+        sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
+    }
     for i in first..=last {
         let x = c0 + dir * (i as f64 + 0.5) * h;
         starts.push(t.len());
@@ -523,8 +575,8 @@ fn layer(mi: &Micro, grid: &CellGrid, radius: usize, z: f64, buf: &mut Layer, ou
     let clip = |a: f64, b: f64, c: f64, d: f64| (b.min(d) - a.max(c)).max(0.0);
     let mut area = vec![0.0; nch];
     for l in &mi.lenses {
-        let ex = axis_extent(&l.x, z);
-        let ey = axis_extent(&l.y, z);
+        let ex = l.extent(0, z);
+        let ey = l.extent(1, z);
         if let (Some((x0, x1, sx)), Some((y0, y1, sy))) = (ex, ey) {
             let (hx, hy) = (h.max(sx), h.max(sy));
             area[l.ch] += clip(x0 - hx, x1 + hx, wx0, wx1) * clip(y0 - hy, y1 + hy, wy0, wy1);
@@ -546,7 +598,7 @@ fn layer(mi: &Micro, grid: &CellGrid, radius: usize, z: f64, buf: &mut Layer, ou
             continue;
         }
         let (xs, ys) = (&l.x, &l.y);
-        let (Some(ex), Some(ey)) = (axis_extent(xs, z), axis_extent(ys, z)) else {
+        let (Some(ex), Some(ey)) = (l.extent(0, z), l.extent(1, z)) else {
             continue;
         };
         let cols = tents(
@@ -570,83 +622,122 @@ fn layer(mi: &Micro, grid: &CellGrid, radius: usize, z: f64, buf: &mut Layer, ou
             &mut buf.ty,
             &mut buf.tys,
         );
-        let (block, na) = (&l.block, l.x.len());
+        // Separably: first along the rows of the box, A[b][ix] = Σ_a t_a ω[b][a] (and
+        // with t², and with ω v), then down the columns for each cell row.
+        let (block, na, nb, lx) = (&l.block, l.x.len(), l.y.len(), cols.len());
+        buf.a.clear();
+        buf.a.resize(3 * nb * lx, 0.0);
+        let (a1, rest) = buf.a.split_at_mut(nb * lx);
+        let (a2, a3) = rest.split_at_mut(nb * lx);
+        for b in 0..nb {
+            let row = &block[b * na..(b + 1) * na];
+            let o = b * lx;
+            for (ix, w) in buf.txs.windows(2).enumerate() {
+                let (mut s1, mut s2, mut s3) = (0.0, 0.0, 0.0);
+                for &(a, wa) in &buf.tx[w[0]..w[1]] {
+                    let [w, wv] = row[a as usize];
+                    s1 += wa * w;
+                    s2 += wa * wa * w;
+                    s3 += wa * wv;
+                }
+                a1[o + ix] = s1;
+                a2[o + ix] = s2;
+                a3[o + ix] = s3;
+            }
+        }
+        let plane = l.ch * enx * eny;
+        buf.row.clear();
+        buf.row.resize(3 * lx, 0.0);
         for (iy, cy) in rows.clone().enumerate() {
             let ty = &buf.ty[buf.tys[iy]..buf.tys[iy + 1]];
             if ty.is_empty() {
                 continue;
             }
-            for (ix, cx) in cols.clone().enumerate() {
-                let tx = &buf.tx[buf.txs[ix]..buf.txs[ix + 1]];
-                let (mut tw, mut ttw, mut twv) = (0.0, 0.0, 0.0);
-                for &(b, wb) in ty {
-                    let row = &block[b as usize * na..(b as usize + 1) * na];
-                    for &(a, wa) in tx {
-                        let [w, wv] = row[a as usize];
-                        let t = wb * wa;
-                        tw += t * w;
-                        ttw += t * t * w;
-                        twv += t * wv;
-                    }
+            let (tw, rest) = buf.row.split_at_mut(lx);
+            let (ttw, twv) = rest.split_at_mut(lx);
+            tw.fill(0.0);
+            ttw.fill(0.0);
+            twv.fill(0.0);
+            for &(b, wb) in ty {
+                let o = b as usize * lx;
+                let wb2 = wb * wb;
+                let rows3 = (&a1[o..o + lx], &a2[o..o + lx], &a3[o..o + lx]);
+                for (((t1, t2), t3), ((r1, r2), r3)) in tw
+                    .iter_mut()
+                    .zip(ttw.iter_mut())
+                    .zip(twv.iter_mut())
+                    .zip(rows3.0.iter().zip(rows3.1).zip(rows3.2))
+                {
+                    *t1 += wb * r1;
+                    *t2 += wb2 * r2;
+                    *t3 += wb * r3;
                 }
-                if ttw > 0.0 {
-                    // The value m = Σ t ω v / Σ t ω has the variance of a pixel of weight
-                    // Ω = (Σ t ω)² / Σ t² ω (each pixel's variance ∝ 1 / ω).
-                    let om = tw * tw / ttw;
-                    if om >= MIN_WHITE {
-                        let m = twv / tw;
-                        let k = (cy * enx + cx) * nch + l.ch;
-                        buf.s0[k] += om;
-                        buf.s1[k] += om * m;
-                        buf.s2[k] += om * m * m;
-                        buf.s3[k] += om * om;
-                    }
-                }
+            }
+            let k0 = plane + cy * enx + cols.start;
+            let (d0, d1, d2, d3) = (
+                &mut buf.s0[k0..k0 + lx],
+                &mut buf.s1[k0..k0 + lx],
+                &mut buf.s2[k0..k0 + lx],
+                &mut buf.s3[k0..k0 + lx],
+            );
+            for ix in 0..lx {
+                let (w1, w2, w3) = (tw[ix], ttw[ix], twv[ix]);
+                // The value m = Σ t ω v / Σ t ω has the variance of a pixel of weight
+                // Ω = (Σ t ω)² / Σ t² ω (each pixel's variance ∝ 1 / ω). Branch-free: a
+                // cell the lens gives too little weight adds zeros.
+                let inv = 1.0 / w2.max(f64::MIN_POSITIVE);
+                let om = w1 * w1 * inv;
+                let keep = if w2 > 0.0 && om >= MIN_WHITE {
+                    inv
+                } else {
+                    0.0
+                };
+                let omk = w1 * w1 * keep;
+                d0[ix] += omk;
+                d1[ix] += w1 * w3 * keep;
+                d2[ix] += w3 * w3 * keep;
+                d3[ix] += omk * om;
             }
         }
     }
     // Per channel, prefix sums of the cells' weighted spread about their mean and of
     // their degrees of freedom: for independent values of variance σ² per unit weight,
     // E[spread] = σ² (S0 − Σ Ω² / S0), so the pooled ratio is unbiased however few
-    // lenses a cell has (a lone lens adds 0 to both).
+    // lenses a cell has (a lone lens adds 0 to both); and the totals over the grid.
     let pc = enx + 1;
     let plane = pc * (eny + 1);
-    for c in 0..nch {
+    let mut totals = vec![[0.0; 4]; nch];
+    for (c, tot) in totals.iter_mut().enumerate() {
         let (ps, pw) = (
             &mut buf.ps[c * plane..(c + 1) * plane],
             &mut buf.pw[c * plane..(c + 1) * plane],
         );
+        let base = c * enx * eny;
         for y in 0..eny {
             let (mut rs, mut rw) = (0.0, 0.0);
-            let mut rt = [0.0; 4];
             for x in 0..enx {
-                let k = (y * enx + x) * nch + c;
+                let k = base + y * enx + x;
                 let s0 = buf.s0[k];
                 if s0 > 0.0 {
                     rs += (buf.s2[k] - buf.s1[k] * buf.s1[k] / s0).max(0.0);
                     rw += (s0 - buf.s3[k] / s0).max(0.0);
+                    tot[0] += s0;
+                    tot[1] += buf.s1[k];
+                    tot[2] += buf.s2[k];
+                    tot[3] += buf.s3[k];
                 }
                 let at = (y + 1) * pc + x + 1;
                 ps[at] = ps[y * pc + x + 1] + rs;
                 pw[at] = pw[y * pc + x + 1] + rw;
-                for (j, v) in [buf.s0[k], buf.s1[k], buf.s2[k], buf.s3[k]]
-                    .into_iter()
-                    .enumerate()
-                {
-                    rt[j] += v;
-                    let p = &mut buf.pt[j][c * plane..(c + 1) * plane];
-                    p[at] = p[y * pc + x + 1] + rt[j];
-                }
             }
         }
     }
     // Per channel the spread of all its lens values over the widened grid at this depth:
     // the scale of a mismatch, which shrinks where the lenses' pixels are far apart (their
     // resampled micro-images are smooth) or averaged.
-    let scale: Vec<f64> = (0..nch)
-        .map(|c| {
-            let last = (c + 1) * plane - 1;
-            let [t0, t1, t2, t3] = [0, 1, 2, 3].map(|j| buf.pt[j][last]);
+    let scale: Vec<f64> = totals
+        .iter()
+        .map(|&[t0, t1, t2, t3]| {
             let mean = if t0 > 0.0 { t1 / t0 } else { 0.0 };
             let dof = if t0 > 0.0 { t0 - t3 / t0 } else { 0.0 };
             let total = if dof > 0.0 {
@@ -887,44 +978,62 @@ pub fn sweep(
     let mi = collect(design, channels, raws, whites, grid, radius, zs, n_threads)?;
     need(mi.boxed as u128)?;
     let entries = cells * channels.len();
-    let mut fold = Fold::new(entries);
-    let mut volume = if keep_volume {
+    let fold = Fold::new(entries);
+    let volume = if keep_volume {
         Some(Vec::with_capacity(entries * candidates.len()))
     } else {
         None
     };
     let ex = (grid.nx + 2 * radius, grid.ny + 2 * radius);
-    let pool: Mutex<Vec<Layer>> = Mutex::new(Vec::new());
-    // Chunks of several candidates per worker: the layers' costs differ with depth.
-    for_chunks(n_threads, candidates.len(), 8 * workers, |range| {
-        let start = range.start;
-        let layers: Vec<Result<Vec<f64>>> = range
-            .into_par_iter()
-            .map(|k| {
+    // Each worker takes the next candidate in turn and folds, under the lock, every layer
+    // that is next in order (the others keep computing meanwhile): at most a few layers
+    // wait, and no worker idles at the end of a chunk.
+    struct Folding {
+        fold: Fold,
+        volume: Option<Vec<f64>>,
+        pending: std::collections::BTreeMap<usize, Vec<f64>>,
+        next: usize,
+    }
+    let state = Mutex::new(Folding {
+        fold,
+        volume,
+        pending: std::collections::BTreeMap::new(),
+        next: 0,
+    });
+    let next = AtomicUsize::new(0);
+    let n = candidates.len();
+    let poisoned = || Error::param("n_threads", 1, "a worker that does not panic");
+    for_chunks(n_threads, workers, workers, |range| {
+        range.into_par_iter().try_for_each(|_| -> Result<()> {
+            let mut buf = Layer::new(ex, mi.channels);
+            loop {
+                let k = next.fetch_add(1, Ordering::Relaxed);
+                if k >= n {
+                    return Ok(());
+                }
                 checkpoint()?;
-                let mut buf = pool
-                    .lock()
-                    .map_err(|_| Error::param("n_threads", 1, "a worker that does not panic"))?
-                    .pop()
-                    .unwrap_or_else(|| Layer::new(ex, mi.channels));
                 let mut out = vec![0.0; entries];
                 layer(&mi, grid, radius, candidates[k], &mut buf, &mut out);
-                if let Ok(mut p) = pool.lock() {
-                    p.push(buf);
-                }
                 done.fetch_add(1, Ordering::Relaxed);
-                Ok(out)
-            })
-            .collect();
-        for (i, l) in layers.into_iter().enumerate() {
-            let l = l?;
-            fold.add((start + i) as u32, &l);
-            if let Some(v) = volume.as_mut() {
-                v.extend_from_slice(&l);
+                let mut st = state.lock().map_err(|_| poisoned())?;
+                st.pending.insert(k, out);
+                loop {
+                    let at = st.next;
+                    let Some(l) = st.pending.remove(&at) else {
+                        break;
+                    };
+                    st.fold.add(at as u32, &l);
+                    if let Some(v) = st.volume.as_mut() {
+                        v.extend_from_slice(&l);
+                    }
+                    st.next += 1;
+                }
             }
-        }
-        Ok(())
+        })
     })?;
+    let Folding {
+        mut fold, volume, ..
+    } = state.into_inner().map_err(|_| poisoned())?;
     fold.end(candidates.len() as u32);
     Ok(finish(fold, channels.len(), candidates, mi.pixels, volume))
 }
