@@ -137,12 +137,12 @@ def numpy_reference(raw: splitlf.Raw, region: tuple[float, ...], step: float) ->
                 lo, hi = np.nanmin(np.where(cnt[..., None] > 0, x, 0.0), -1), \
                     np.nanmax(np.where(cnt[..., None] > 0, x, 0.0), -1)
             s = np.where(cnt > 1, (hi - lo) / np.maximum(cnt - 1, 1), 0.0)
-            return x, lo, hi, np.maximum(h, s), cnt
+            return x, lo, hi, np.maximum(h, s), cnt, s
 
         has = colv.any(-1)
         reach = np.ones_like(has)
         for p_, q_, lo_b, hi_b in ((pxl, qxl, ex0, wx1), (pyl, qyl, wy0, ey1)):
-            e = [extent(p_, q_, z) for z in (z0, z1)]
+            e = [extent(p_, q_, z)[:5] for z in (z0, z1)]
             lo = np.minimum(e[0][1] - e[0][3], e[1][1] - e[1][3])
             hi = np.maximum(e[0][2] + e[0][3], e[1][2] + e[1][3])
             reach &= (hi >= lo_b) & (lo <= hi_b)
@@ -164,8 +164,8 @@ def numpy_reference(raw: splitlf.Raw, region: tuple[float, ...], step: float) ->
 
     for i, z in enumerate(cand):
         for c, (pxl, qxl, pyl, qyl, omb, ovb, u) in enumerate(chans):
-            X, xlo, xhi, hx, cx = extent(pxl, qxl, z)
-            Y, ylo, yhi, hy, cy = extent(pyl, qyl, z)
+            X, xlo, xhi, hx, cx, sx = extent(pxl, qxl, z)
+            Y, ylo, yhi, hy, cy, sy = extent(pyl, qyl, z)
             fin = (cx > 0) & (cy > 0)
             clip = lambda a, b, lo, hi: np.maximum(0.0, np.minimum(b, hi) - np.maximum(a, lo))  # noqa: E731
             area = np.where(fin, clip(xlo - hx, xhi + hx, ex0, wx1)
@@ -175,6 +175,7 @@ def numpy_reference(raw: splitlf.Raw, region: tuple[float, ...], step: float) ->
             fy0, fy1 = _first_cells(ylo - hy, yhi + hy, ey1, -1.0, h, eny)
             sel = np.flatnonzero(fin & (u < keep) & (fx0 <= fx1) & (fy0 <= fy1))
             s = np.zeros((4, eny * enx))
+            own = np.zeros((2, eny * enx))
             for part in np.array_split(sel, max(1, sel.size // 2000)):
                 if part.size == 0:
                     continue
@@ -196,10 +197,29 @@ def numpy_reference(raw: splitlf.Raw, region: tuple[float, ...], step: float) ->
                 b, mm = big[inside], mv[inside]
                 for j, val in enumerate((b, b * mm, b * mm * mm, b * b)):
                     s[j] += np.bincount(k, val, eny * enx)
+                # the lenses' own pixels, weighted (1 - s/h) per axis (near the out-of-focus
+                # plane, where they are denser than the cells)
+                gate = np.maximum(0.0, 1 - sx[part] / h) * np.maximum(0.0, 1 - sy[part] / h)
+                on = gate > 0
+                if on.any():
+                    with np.errstate(invalid="ignore", divide="ignore"):
+                        ovv = np.where(omb[part][on] > 0, ovb[part][on] ** 2
+                                       / np.where(omb[part][on] > 0, omb[part][on], 1.0), 0.0)
+                    tv2 = tyt[on] @ ovv @ txt[on]
+                    tt = tyt[on] @ (omb[part][on] > 0) @ txt[on]
+                    with np.errstate(invalid="ignore", divide="ignore"):
+                        w1 = np.where(use[on], tw[on], 1.0)
+                        sp = np.maximum(tv2 - twv[on] ** 2 / w1, 0.0) * gate[on][:, None, None]
+                        df = np.maximum(tt - ttw[on] / w1, 0.0) * gate[on][:, None, None]
+                    ins = inside[on]
+                    kk = (np.broadcast_to(iy, inside.shape)[on] * enx
+                          + np.broadcast_to(ix, inside.shape)[on])[ins]
+                    own[0] += np.bincount(kk, sp[ins], eny * enx)
+                    own[1] += np.bincount(kk, df[ins], eny * enx)
             s0, s1, s2, s3 = s
             with np.errstate(invalid="ignore", divide="ignore"):
-                spread = np.where(s0 > 0, np.maximum(s2 - s1 * s1 / s0, 0.0), 0.0)
-                dof = np.where(s0 > 0, np.maximum(s0 - s3 / s0, 0.0), 0.0)
+                spread = np.where(s0 > 0, np.maximum(s2 - s1 * s1 / s0, 0.0) + own[0], 0.0)
+                dof = np.where(s0 > 0, np.maximum(s0 - s3 / s0, 0.0) + own[1], 0.0)
             t0, t1, t2, t3 = s.sum(axis=1)
             mean = t1 / t0 if t0 > 0 else 0.0
             tdof = t0 - t3 / t0 if t0 > 0 else 0.0

@@ -88,9 +88,10 @@ def reference_volume(design: splitlf.Design, raw: splitlf.Raw, grid: tuple, cand
     their centroid samples (splitlf.sample_grid at the first and the last candidate, affine
     between), resampled at the cell centres with tents of half-width max(h, the lens's
     spacing) per axis, each lens's value weighted by (sum t w)^2 / sum t^2 w; per channel the
-    lenses' spread within cells over (2r + 1)^2 cells, over its degrees of freedom, over the
-    spread of all the channel's lens values on the widened grid; the lenses thinned to
-    M_CAP per cell by their numbers."""
+    lenses' spread within cells (plus their own pixels' spread, weighted (1 - s/h) per axis)
+    over (2r + 1)^2 cells, over its degrees of freedom, over the spread of all the channel's
+    lens values on the widened grid; the lenses thinned to M_CAP per cell by their
+    numbers."""
     x0, y1, h, nx, ny = grid
     r = radius
     enx, eny = nx + 2 * r, ny + 2 * r
@@ -150,21 +151,32 @@ def reference_volume(design: splitlf.Design, raw: splitlf.Raw, grid: tuple, cand
                                                                           ey1 - eny * h)))
             keep = min(1.0, M_CAP * area / footprint) if footprint > 0 else 1.0
             s = np.zeros((4, eny, enx))
+            own = np.zeros((2, eny, enx))  # the lenses' own pixels: spread, dof
             for ((px, qx), (py, qy)), om, ov, u in lenses:
                 if not u < keep:
                     continue
-                tx, ty = tents(px + z * qx, xc, h), tents(py + z * qy, yc, h)
+                x_, y_ = px + z * qx, py + z * qy
+                tx, ty = tents(x_, xc, h), tents(y_, yc, h)
                 tw, ttw, twv = ty @ om @ tx.T, (ty**2) @ om @ (tx**2).T, ty @ ov @ tx.T
                 with np.errstate(invalid="ignore", divide="ignore"):
+                    ovv = np.where(om > 0, ov**2 / np.where(om > 0, om, 1.0), 0.0)
                     big = np.where(ttw > 0, tw**2 / ttw, 0.0)
                     m = np.where(ttw > 0, twv / tw, 0.0)
-                use = big >= MIN_WHITE
+                use = (ttw > 0) & (big >= MIN_WHITE)
                 big = np.where(use, big, 0.0)
                 s += [big, big * m, big * m * m, big**2]
+                # weighted (1 - s/h) per axis: only where the pixels are denser than cells
+                gate = max(0.0, 1 - spacing(x_) / h) * max(0.0, 1 - spacing(y_) / h)
+                if gate > 0:
+                    tv2, t1 = ty @ ovv @ tx.T, ty @ (om > 0) @ tx.T
+                    with np.errstate(invalid="ignore", divide="ignore"):
+                        sp = np.maximum(tv2 - twv**2 / np.where(use, tw, 1.0), 0.0)
+                        df = np.maximum(t1 - ttw / np.where(use, tw, 1.0), 0.0)
+                    own += [np.where(use, sp, 0.0) * gate, np.where(use, df, 0.0) * gate]
             s0, s1, s2, s3 = s
             with np.errstate(invalid="ignore", divide="ignore"):
-                spread = np.where(s0 > 0, np.maximum(s2 - s1 * s1 / s0, 0.0), 0.0)
-                dof = np.where(s0 > 0, np.maximum(s0 - s3 / s0, 0.0), 0.0)
+                spread = np.where(s0 > 0, np.maximum(s2 - s1 * s1 / s0, 0.0) + own[0], 0.0)
+                dof = np.where(s0 > 0, np.maximum(s0 - s3 / s0, 0.0) + own[1], 0.0)
             t0, t1, t2, t3 = s.sum(axis=(1, 2))
             mean = t1 / t0 if t0 > 0 else 0.0
             tdof = t0 - t3 / t0 if t0 > 0 else 0.0

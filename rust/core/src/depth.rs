@@ -457,6 +457,9 @@ struct Layer {
     s1: Vec<f64>,
     s2: Vec<f64>,
     s3: Vec<f64>,
+    /// Per channel: Σ over lenses of their own pixels' spread and its degrees of freedom.
+    s4: Vec<f64>,
+    s5: Vec<f64>,
     /// Per channel, prefix sums (one row and column of zeros first) of the cells' spread
     /// and degrees of freedom.
     ps: Vec<f64>,
@@ -484,6 +487,8 @@ impl Layer {
             s1: vec![0.0; n],
             s2: vec![0.0; n],
             s3: vec![0.0; n],
+            s4: vec![0.0; n],
+            s5: vec![0.0; n],
             ps: vec![0.0; np],
             pw: vec![0.0; np],
             a: Vec::new(),
@@ -569,6 +574,8 @@ fn layer(mi: &Micro, grid: &CellGrid, radius: usize, z: f64, buf: &mut Layer, ou
     buf.s1.fill(0.0);
     buf.s2.fill(0.0);
     buf.s3.fill(0.0);
+    buf.s4.fill(0.0);
+    buf.s5.fill(0.0);
     // Per channel the keep rate: M_CAP over the mean number of its lenses whose
     // footprints (clipped to the widened grid) cover a cell.
     let (wx0, wx1, wy0, wy1) = (ex0, ex0 + enx as f64 * h, ey1 - eny as f64 * h, ey1);
@@ -623,12 +630,17 @@ fn layer(mi: &Micro, grid: &CellGrid, radius: usize, z: f64, buf: &mut Layer, ou
             &mut buf.tys,
         );
         // Separably: first along the rows of the box, A[b][ix] = Σ_a t_a ω[b][a] (and
-        // with t², and with ω v), then down the columns for each cell row.
+        // with t², with ω v, with ω v², and the tents over valid pixels alone), then down
+        // the columns for each cell row.
         let (block, na, nb, lx) = (&l.block, l.x.len(), l.y.len(), cols.len());
-        buf.a.clear();
-        buf.a.resize(3 * nb * lx, 0.0);
-        let (a1, rest) = buf.a.split_at_mut(nb * lx);
-        let (a2, a3) = rest.split_at_mut(nb * lx);
+        let nl = nb * lx;
+        // The lens's own pixels count only where they are denser than the cells (near its
+        // channel's out-of-focus plane, where they see one point): weight (1 − s/h) per axis.
+        let gate = (1.0 - ex.2 / h).max(0.0) * (1.0 - ey.2 / h).max(0.0);
+        let sums = if gate > 0.0 { 5 } else { 3 };
+        if buf.a.len() < 5 * nl {
+            buf.a.resize(5 * nl, 0.0);
+        }
         for b in 0..nb {
             let row = &block[b * na..(b + 1) * na];
             let o = b * lx;
@@ -640,24 +652,41 @@ fn layer(mi: &Micro, grid: &CellGrid, radius: usize, z: f64, buf: &mut Layer, ou
                     s2 += wa * wa * w;
                     s3 += wa * wv;
                 }
-                a1[o + ix] = s1;
-                a2[o + ix] = s2;
-                a3[o + ix] = s3;
+                buf.a[o + ix] = s1;
+                buf.a[nl + o + ix] = s2;
+                buf.a[2 * nl + o + ix] = s3;
+                if sums == 5 {
+                    let (mut s4, mut s5) = (0.0, 0.0);
+                    for &(a, wa) in &buf.tx[w[0]..w[1]] {
+                        let [w, wv] = row[a as usize];
+                        if w > 0.0 {
+                            s4 += wa * wv * wv / w;
+                            s5 += wa;
+                        }
+                    }
+                    buf.a[3 * nl + o + ix] = s4;
+                    buf.a[4 * nl + o + ix] = s5;
+                }
             }
         }
         let plane = l.ch * enx * eny;
-        buf.row.clear();
-        buf.row.resize(3 * lx, 0.0);
+        if buf.row.len() < 5 * lx {
+            buf.row.resize(5 * lx, 0.0);
+        }
+        let (a1, rest) = buf.a.split_at(nl);
+        let (a2, rest) = rest.split_at(nl);
+        let (a3, rest) = rest.split_at(nl);
+        let (a4, a5) = rest.split_at(nl);
         for (iy, cy) in rows.clone().enumerate() {
             let ty = &buf.ty[buf.tys[iy]..buf.tys[iy + 1]];
             if ty.is_empty() {
                 continue;
             }
-            let (tw, rest) = buf.row.split_at_mut(lx);
-            let (ttw, twv) = rest.split_at_mut(lx);
-            tw.fill(0.0);
-            ttw.fill(0.0);
-            twv.fill(0.0);
+            buf.row[..sums * lx].fill(0.0);
+            let (tw, rest) = buf.row[..5 * lx].split_at_mut(lx);
+            let (ttw, rest) = rest.split_at_mut(lx);
+            let (twv, rest) = rest.split_at_mut(lx);
+            let (tv2, tt) = rest.split_at_mut(lx);
             for &(b, wb) in ty {
                 let o = b as usize * lx;
                 let wb2 = wb * wb;
@@ -671,6 +700,16 @@ fn layer(mi: &Micro, grid: &CellGrid, radius: usize, z: f64, buf: &mut Layer, ou
                     *t1 += wb * r1;
                     *t2 += wb2 * r2;
                     *t3 += wb * r3;
+                }
+                if sums == 5 {
+                    for ((t4, t5), (r4, r5)) in tv2
+                        .iter_mut()
+                        .zip(tt.iter_mut())
+                        .zip(a4[o..o + lx].iter().zip(&a5[o..o + lx]))
+                    {
+                        *t4 += wb * r4;
+                        *t5 += wb * r5;
+                    }
                 }
             }
             let k0 = plane + cy * enx + cols.start;
@@ -698,6 +737,19 @@ fn layer(mi: &Micro, grid: &CellGrid, radius: usize, z: f64, buf: &mut Layer, ou
                 d2[ix] += w3 * w3 * keep;
                 d3[ix] += omk * om;
             }
+            if sums == 5 {
+                // The spread of the lens's own pixels about m, Σ t ω (v − m)², and its
+                // degrees of freedom Σ t − Σ t² ω / Σ t ω: a lens whose pixels see one
+                // point (near its channel's out-of-focus plane) agrees with itself.
+                let (d4, d5) = (&mut buf.s4[k0..k0 + lx], &mut buf.s5[k0..k0 + lx]);
+                for ix in 0..lx {
+                    let (w1, w2, w3) = (tw[ix], ttw[ix], twv[ix]);
+                    if w2 > 0.0 && w1 * w1 / w2 >= MIN_WHITE {
+                        d4[ix] += (tv2[ix] - w3 * w3 / w1).max(0.0) * gate;
+                        d5[ix] += (tt[ix] - w2 / w1).max(0.0) * gate;
+                    }
+                }
+            }
         }
     }
     // Per channel, prefix sums of the cells' weighted spread about their mean and of
@@ -719,8 +771,8 @@ fn layer(mi: &Micro, grid: &CellGrid, radius: usize, z: f64, buf: &mut Layer, ou
                 let k = base + y * enx + x;
                 let s0 = buf.s0[k];
                 if s0 > 0.0 {
-                    rs += (buf.s2[k] - buf.s1[k] * buf.s1[k] / s0).max(0.0);
-                    rw += (s0 - buf.s3[k] / s0).max(0.0);
+                    rs += (buf.s2[k] - buf.s1[k] * buf.s1[k] / s0).max(0.0) + buf.s4[k];
+                    rw += (s0 - buf.s3[k] / s0).max(0.0) + buf.s5[k];
                     tot[0] += s0;
                     tot[1] += buf.s1[k];
                     tot[2] += buf.s2[k];
