@@ -113,13 +113,7 @@ impl Lens {
         match self.ends[axis] {
             Some((i, j, n)) => {
                 let (a, b) = (pos[i][0] + z * pos[i][1], pos[j][0] + z * pos[j][1]);
-                let (lo, hi) = if a <= b { (a, b) } else { (b, a) };
-                let s = if n > 1 {
-                    (hi - lo) / (n - 1) as f64
-                } else {
-                    0.0
-                };
-                Some((lo, hi, s))
+                Some(spaced(a.min(b), a.max(b), n))
             }
             None => axis_extent(pos, z),
         }
@@ -181,15 +175,17 @@ fn axis_extent(pos: &[[f64; 2]], z: f64) -> Option<(f64, f64, f64)> {
             n += 1;
         }
     }
-    if n == 0 {
-        return None;
-    }
+    (n > 0).then(|| spaced(lo, hi, n))
+}
+
+/// (lo, hi, mean spacing) of n positions spanning [lo, hi] (spacing 0 for one).
+fn spaced(lo: f64, hi: f64, n: usize) -> (f64, f64, f64) {
     let s = if n > 1 {
         (hi - lo) / (n - 1) as f64
     } else {
         0.0
     };
-    Some((lo, hi, s))
+    (lo, hi, s)
 }
 
 /// The result of a sweep, row-major over the grid (row 0 at the top, Y1).
@@ -365,7 +361,7 @@ fn collect(
             }
         };
         // Per lens: its columns' and rows' rays (from the first valid pixel of each), its
-        // box, whether it can meet the grid, and its sums for G.
+        // box of (ω, ω v), and whether it can meet the grid.
         let lens = |l: usize| -> Option<(Lens, usize)> {
             let [a0, a1, b0, b1] = boxes[l];
             if a0 >= a1 || b0 >= b1 {
@@ -464,8 +460,8 @@ struct Layer {
     /// and degrees of freedom.
     ps: Vec<f64>,
     pw: Vec<f64>,
-    /// One lens's box resampled along its rows (3 arrays of rows × cells), and one cell
-    /// row's sums (3 × cells).
+    /// One lens's box resampled along its rows (5 arrays of rows × cells: the last two
+    /// only near the out-of-focus plane), and one cell row's sums (5 × cells).
     a: Vec<f64>,
     row: Vec<f64>,
     /// One lens's tents per axis: (pixel index in the box, weight) for each cell of its
