@@ -1597,33 +1597,64 @@ pub(crate) mod exact {
         n: usize,
         edge: impl Fn(usize) -> f64,
     ) -> Profile {
+        tilted_profile(chan, alpha, c, theta, z, 0.0, n, edge)
+            .expect("a fronto-parallel plane at z > 0 is met by every ray")
+    }
+
+    /// The profile against the edges of the axis along which the plane Z = z0 + g Y tilts
+    /// (g = 0: the fronto-parallel plane at z0). A ray of this axis, P(Z) = w − Z a with
+    /// a = w/F + (c + ξ − w)/L, meets the plane at Y = (w − z0 a) / (1 + g a) when
+    /// 1 + g a > 0, and there Y ≤ e exactly when w − Z_e a ≤ e, Z_e = z0 + g e: the
+    /// fronto-parallel condition at the edge's own depth, a straight cut of the polygon. So
+    /// the areas between edges stay exact. None when some ray of the pixel runs parallel
+    /// to the plane or meets it behind the main lens (1 + g a ≤ 0 or Z ≤ 0 somewhere).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn tilted_profile(
+        chan: &Chan,
+        alpha: f64,
+        c: f64,
+        theta: f64,
+        z0: f64,
+        g: f64,
+        n: usize,
+        edge: impl Fn(usize) -> f64,
+    ) -> Option<Profile> {
         let poly = polygon(chan, alpha, theta);
         let total = signed_area(&poly);
-        let l = chan.ch.l;
-        let bb = 1.0 - z / chan.f_main + z / l;
-        let xs = |q: Pt| bb * q[1] - z / l * (c + q[0]);
         if total <= 0.0 {
-            return Profile {
+            return Some(Profile {
                 first: 0,
                 areas: Vec::new(),
                 total: 0.0,
-            };
+            });
         }
-        let lo = poly.iter().map(|&q| xs(q)).fold(f64::INFINITY, f64::min);
-        let hi = poly
-            .iter()
-            .map(|&q| xs(q))
-            .fold(f64::NEG_INFINITY, f64::max);
+        let (l, f) = (chan.ch.l, chan.f_main);
+        let slope = |q: Pt| q[1] / f + (c + q[0] - q[1]) / l;
+        // The scene coordinate of the fronto-parallel plane at depth z.
+        let xs = |q: Pt, z: f64| q[1] - z * slope(q);
+        // Y is a linear-fractional function of (ξ, w): extreme at the polygon's vertices.
+        let mut lo = f64::INFINITY;
+        let mut hi = f64::NEG_INFINITY;
+        for &q in &poly {
+            let den = 1.0 + g * slope(q);
+            let y = (q[1] - z0 * slope(q)) / den;
+            if !(den > 0.0 && z0 + g * y > 0.0 && y.is_finite()) {
+                return None;
+            }
+            lo = lo.min(y);
+            hi = hi.max(y);
+        }
         let mut tmp = Vec::new();
-        // A(X): the area of the polygon where the scene coordinate is ≤ X.
-        let below = |x: f64, tmp: &mut Vec<Pt>| -> f64 {
-            if x <= lo {
+        // A(e): the area of the polygon whose rays meet the plane at Y ≤ e.
+        let below = |e: f64, tmp: &mut Vec<Pt>| -> f64 {
+            if e <= lo {
                 return 0.0;
             }
-            if x >= hi {
+            if e >= hi {
                 return total;
             }
-            clip_into(&poly, tmp, |q| x - xs(q));
+            let z = z0 + g * e;
+            clip_into(&poly, tmp, |q| e - xs(q, z));
             signed_area(tmp)
         };
         // Cells i whose [edge(i), edge(i+1)] meets [lo, hi].
@@ -1633,19 +1664,16 @@ pub(crate) mod exact {
         let i1 = (((hi - e0) / step).ceil().max(0.0) as usize).min(n);
         let mut areas = Vec::with_capacity(i1.saturating_sub(i0));
         let mut prev = below(edge(i0), &mut tmp);
-        let before = prev;
         for i in i0..i1 {
             let a = below(edge(i + 1), &mut tmp);
             areas.push(a - prev);
             prev = a;
         }
-        let _ = (before, prev);
-        let _ = en;
-        Profile {
+        Some(Profile {
             first: i0,
             areas,
             total,
-        }
+        })
     }
 
     pub(super) fn render_channel(

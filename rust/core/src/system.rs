@@ -20,7 +20,7 @@ use crate::design::{Aperture, Channel, Design, Grid, Layout};
 use crate::error::{Error, Result};
 use crate::memory;
 use crate::parallel::{checkpoint, for_chunks};
-use crate::render::exact::{profile, Profile};
+use crate::render::exact::{profile, tilted_profile, Profile};
 use crate::render::{Chan, Work};
 use crate::scene::{Scene, Surface};
 use crate::texture::Texture;
@@ -468,6 +468,18 @@ pub fn build_surface(
         ));
     }
     crate::render::check_surface(design, surface)?;
+    if let Surface::Plane { z0, g } = surface {
+        let exact = channels
+            .iter()
+            .all(|&i| supported(design, &design.channels[i]).is_ok());
+        if exact && g[0] == 0.0 && g[1] != 0.0 {
+            let before = done.load(Ordering::Relaxed);
+            if let Some(s) = build_tilted(design, channels, *z0, g[1], grid, n_threads, done)? {
+                return Ok(s);
+            }
+            done.store(before, Ordering::Relaxed);
+        }
+    }
     let workers = crate::parallel::threads(n_threads);
     memory::check(
         "the reconstruction map's grid texture and row accumulators",
@@ -532,6 +544,197 @@ pub fn build_surface(
         out.append_chunks(parts);
     }
     Ok(out)
+}
+
+/// Sub-slabs of a grid row on the tilted route: enough that a slab spans at most
+/// [`SLAB_DEPTH`] of its depth (the x profile is taken at the slab's middle depth).
+const SLAB_DEPTH: f64 = 2e-4;
+/// The most sub-slabs a grid row is cut into.
+const MAX_SLABS: usize = 64;
+
+/// The map for the plane Z = z0 + g Y (tilted about the X axis) on the exact route's
+/// designs (rect grid, square aperture, ideal layout), or None when some pixel's rays run
+/// parallel to the plane or meet it behind the main lens (the caller then takes the
+/// general route). A pixel's ray set is the product of its x and y polygons; the y
+/// polygon's areas between the grid's row edges are exact ([`tilted_profile`]: the cut
+/// at an edge is the fronto-parallel cut at the edge's depth), and each row is cut into
+/// slabs of at most [`SLAB_DEPTH`] relative depth, each slab's y area times the x areas at
+/// its middle depth (the x polygon's areas move with the depth of the rays' y part only).
+fn build_tilted(
+    design: &Design,
+    channels: &[usize],
+    z0: f64,
+    g: f64,
+    grid: &CellGrid,
+    n_threads: Option<usize>,
+    done: &AtomicUsize,
+) -> Result<Option<System>> {
+    let [_, _, gy0, gy1] = grid.extent();
+    let (za, zb) = (z0 + g * gy0, z0 + g * gy1);
+    if !(za > 0.0 && zb > 0.0) {
+        return Ok(None);
+    }
+    let h = grid.step;
+    let slabs = ((g.abs() * h / (SLAB_DEPTH * za.min(zb))).ceil() as usize).clamp(1, MAX_SLABS);
+    let hs = h / slabs as f64;
+    let ns = grid.ny * slabs;
+    let slab_z = |k: usize| z0 + g * (gy0 + (k as f64 + 0.5) * hs);
+    let [gx0, ..] = grid.extent();
+    let mut out = System {
+        indptr: vec![0],
+        ..System::default()
+    };
+    for &i in channels {
+        let ch = &design.channels[i];
+        let Layout::Ideal { q } = ch.layout else {
+            return Ok(None);
+        };
+        let chan = Chan::new(design, ch, crate::render::DEFAULT_TOL);
+        let (rows, cols) = crate::render::raw_shape(ch);
+        let theta = |i: u32| ch.mu * ((i % q) as f64 - (q as f64 - 1.0) / 2.0);
+        let nt = chan.types.len();
+        // y profiles per type and raw row, against the slab edges (bottom-up); None where
+        // some of the row's rays miss the plane (its pixels are then not kept, as on the
+        // general route: part of their light is not on the grid).
+        let mut py: Vec<Vec<Option<Profile>>> = Vec::with_capacity(nt);
+        for t in 0..nt {
+            py.push(
+                (0..rows as u32)
+                    .into_par_iter()
+                    .map(|b| {
+                        let c = ch.lens_center(0, b / q)[1];
+                        tilted_profile(&chan, chan.types[t].0, c, theta(b), z0, g, ns, |k| {
+                            gy0 + k as f64 * hs
+                        })
+                    })
+                    .collect(),
+            );
+            checkpoint()?;
+        }
+        // The slabs some kept pixel's rays reach, and the x profiles at their depths.
+        let mut used = vec![false; ns];
+        for p in py.iter().flatten().flatten() {
+            for (m, &a) in p.areas.iter().enumerate() {
+                if a != 0.0 {
+                    used[p.first + m] = true;
+                }
+            }
+        }
+        memory::check(
+            "the tilted route's x profiles",
+            (used.iter().filter(|&&u| u).count() as u128) * (nt as u128) * (cols as u128) * 96,
+        )?;
+        let px: Vec<Vec<Option<Vec<Profile>>>> = (0..nt)
+            .map(|t| {
+                (0..ns)
+                    .into_par_iter()
+                    .map(|k| {
+                        used[k].then(|| {
+                            (0..cols as u32)
+                                .map(|a| {
+                                    let c = ch.lens_center(a / q, 0)[0];
+                                    profile(
+                                        &chan,
+                                        chan.types[t].0,
+                                        c,
+                                        theta(a),
+                                        slab_z(k),
+                                        grid.nx,
+                                        |n| gx0 + n as f64 * h,
+                                    )
+                                })
+                                .collect()
+                        })
+                    })
+                    .collect()
+            })
+            .collect();
+        // The x polygons' whole areas (the x profile at any depth has the same total).
+        let xtotal: Vec<Vec<f64>> = (0..nt)
+            .map(|t| {
+                (0..cols as u32)
+                    .map(|a| {
+                        let c = ch.lens_center(a / q, 0)[0];
+                        profile(&chan, chan.types[t].0, c, theta(a), za, 0, |_| 0.0).total
+                    })
+                    .collect()
+            })
+            .collect();
+        checkpoint()?;
+        let typ = |a: usize, b: usize| ch.lens_type(a as u32 / q, b as u32 / q);
+        let norm = chan.norm;
+        let nx = grid.nx;
+        let step = crate::parallel::chunk_items(n_threads, (cols as u128) * 256);
+        let parts = Chunks::default();
+        let bytes = std::sync::atomic::AtomicU64::new((out.data.len() * 12) as u64);
+        for_chunks(n_threads, rows, step, |range| {
+            let chunk: Result<Vec<System>> = range
+                .clone()
+                .into_par_iter()
+                .map(|b| -> Result<System> {
+                    checkpoint()?;
+                    let mut s = System::default();
+                    let mut entries: Vec<(u32, f64)> = Vec::new();
+                    for a in 0..cols {
+                        let t = typ(a, b);
+                        let Some(yp) = &py[t][b] else {
+                            continue;
+                        };
+                        let total = yp.total * xtotal[t][a];
+                        if total <= 0.0 {
+                            continue;
+                        }
+                        entries.clear();
+                        let mut inside = 0.0;
+                        for (m, &ay) in yp.areas.iter().enumerate() {
+                            if ay == 0.0 {
+                                continue;
+                            }
+                            let k = yp.first + m;
+                            let Some(xs) = px[t][k].as_ref() else {
+                                continue;
+                            };
+                            let xp = &xs[a];
+                            let row = grid.ny - 1 - k / slabs;
+                            for (n, &ax) in xp.areas.iter().enumerate() {
+                                if ax != 0.0 {
+                                    inside += ax * ay;
+                                    entries.push(((row * nx + xp.first + n) as u32, ay * ax));
+                                }
+                            }
+                        }
+                        if !(inside > 0.0 && total - inside <= OUTSIDE_SHARE * total) {
+                            continue;
+                        }
+                        entries.sort_unstable_by_key(|e| e.0);
+                        let mut last = u32::MAX;
+                        for &(idx, v) in &entries {
+                            if idx == last {
+                                *s.data.last_mut().expect("an entry was pushed") += norm * v;
+                            } else {
+                                s.indices.push(idx);
+                                s.data.push(norm * v);
+                                last = idx;
+                            }
+                        }
+                        s.end_row(i, b * cols + a);
+                    }
+                    let have =
+                        bytes.fetch_add((s.data.len() * 12) as u64, Ordering::Relaxed) as u128;
+                    memory::check(
+                        "the reconstruction's system matrix",
+                        have + (s.data.len() * 12) as u128,
+                    )?;
+                    done.fetch_add(1, Ordering::Relaxed);
+                    Ok(s)
+                })
+                .collect();
+            parts.push(range.start, chunk?);
+            Ok(())
+        })?;
+        out.append_chunks(parts);
+    }
+    Ok(Some(out))
 }
 
 /// The texture averaged over each cell of the grid, row-major from the top row.
