@@ -32,7 +32,7 @@ import math
 import numpy as np
 import pytest
 from exact_render import exact_raw, exact_white, view_extent
-from mc_render import mc_pixels, scene
+from mc_render import mc_channel, mc_pixels, scene
 from scipy import stats
 
 import splitlf
@@ -208,6 +208,32 @@ def test_mc_matches_exact_reference(z: float) -> None:
         assert n >= 20
         # honest errors: not inflated either (the lower tail of the same bound)
         assert stats["mean_z2"] >= 2 * 19 / 17 - stats["mean_z2_bound"], stats
+
+
+@pytest.mark.parametrize("z", [642.0, 1000.0])
+def test_mc_channel_matches_exact_reference(z: float) -> None:
+    """The whole-raw stratified MC (mc_channel, the docs' independent data route) against
+    the clipping sums: no bias (the mean residual within 4 of its standard errors) and a
+    residual as large as its own scatter (two independent draws differ by sqrt(2) times
+    it: the ratio of mean squares within [0.5, 2]), on both seed halves."""
+    design = seed_small()
+    rng = np.random.default_rng(int(z) + 7)
+    image = rng.random((18, 24))
+    width = 0.8 * view_width(design, z)
+    _, tex = image_texture(image, width)
+    ref_scene = scene(tex, ("plane", [z, 0.0, 0.0]), 0.3)
+    for i in (1, 2):
+        exact = exact_raw(design, i, z, image, tuple(tex[1]))
+        a = mc_channel(design, i, ref_scene, n_side=3, rng=np.random.default_rng(1))
+        b = mc_channel(design, i, ref_scene, n_side=3, rng=np.random.default_rng(2))
+        assert a.shape == exact.shape
+        lit = exact > 0.05
+        res = (a - exact)[lit]
+        spread = np.mean(((a - b)[lit]) ** 2) / 2.0
+        assert spread > 0
+        assert abs(res.mean()) <= 4.0 * math.sqrt(spread / res.size), (i, res.mean())
+        assert 0.5 <= np.mean(res ** 2) / spread <= 2.0, (i, np.mean(res ** 2), spread)
+        assert np.sqrt(spread) < 0.02  # stratified: about a percent of white at 81 rays
 
 
 def test_mc_white_is_exact_measure() -> None:
