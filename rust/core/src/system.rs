@@ -624,31 +624,33 @@ fn build_tilted(
             "the tilted route's x profiles",
             (used.iter().filter(|&&u| u).count() as u128) * (nt as u128) * (cols as u128) * 96,
         )?;
-        let px: Vec<Vec<Option<Vec<Profile>>>> = (0..nt)
-            .map(|t| {
-                (0..ns)
-                    .into_par_iter()
-                    .map(|k| {
-                        used[k].then(|| {
-                            (0..cols as u32)
-                                .map(|a| {
-                                    let c = ch.lens_center(a / q, 0)[0];
-                                    profile(
-                                        &chan,
-                                        chan.types[t].0,
-                                        c,
-                                        theta(a),
-                                        slab_z(k),
-                                        grid.nx,
-                                        |n| gx0 + n as f64 * h,
-                                    )
-                                })
-                                .collect()
-                        })
+        // In blocks of slabs, with a check for Ctrl-C between them.
+        let mut px: Vec<Vec<Option<Vec<Profile>>>> = Vec::with_capacity(nt);
+        for t in 0..nt {
+            let mut v = Vec::with_capacity(ns);
+            for start in (0..ns).step_by(64) {
+                checkpoint()?;
+                v.par_extend((start..(start + 64).min(ns)).into_par_iter().map(|k| {
+                    used[k].then(|| {
+                        (0..cols as u32)
+                            .map(|a| {
+                                let c = ch.lens_center(a / q, 0)[0];
+                                profile(
+                                    &chan,
+                                    chan.types[t].0,
+                                    c,
+                                    theta(a),
+                                    slab_z(k),
+                                    grid.nx,
+                                    |n| gx0 + n as f64 * h,
+                                )
+                            })
+                            .collect()
                     })
-                    .collect()
-            })
-            .collect();
+                }));
+            }
+            px.push(v);
+        }
         // The x polygons' whole areas (the x profile at any depth has the same total).
         let xtotal: Vec<Vec<f64>> = (0..nt)
             .map(|t| {
