@@ -239,6 +239,21 @@ def candidate_lenses(design: Any, ch: dict, s: np.ndarray) -> list[tuple[int, in
     return [(int(j), int(k)) for j, k in zip(js, ks, strict=True)]
 
 
+def ray_albedo(sc: Scene, F: float, L: float, L1: float, x: np.ndarray,
+               w: np.ndarray) -> np.ndarray:
+    """The albedo seen by the rays through array point x (a channel at L) and main-lens
+    point w (both (n, 2)): the scene's texture where the ray first meets its surface, the
+    background where it meets none."""
+    u = (L1 / L) * (x - (1.0 - L / L1) * w)  # on channel 1's array plane
+    a = w / F + (u - w) / L1  # P(z) = w - z a
+    z, hit = hit_depth(sc["surface"], F, w, a)
+    t = np.full(z.shape, sc["background"])
+    if hit.any():
+        P = w[hit] - z[hit, None] * a[hit]
+        t[hit] = albedo(sc["texture"], P[:, 0], P[:, 1])
+    return t
+
+
 def _lens_rays(design: Any, ch: dict, L1: float, j: int, k: int, s: np.ndarray,
                sc: Scene, n: int, rng: np.random.Generator, chunk: int) -> np.ndarray:
     """n weighted samples (weights |B| (mu L/v)^2 (L_1/L)^2 1_cell 1_aperture T) of the
@@ -274,15 +289,7 @@ def _lens_rays(design: Any, ch: dict, L1: float, j: int, k: int, s: np.ndarray,
         keep = _in_cell(ch, x - c) & _in_aperture(design, w)
         val = np.zeros(m)
         if keep.any():
-            xk, wk = x[keep], w[keep]
-            u = (L1 / L) * (xk - (1.0 - L / L1) * wk)  # on channel 1's array plane
-            a = wk / F + (u - wk) / L1  # P(z) = w - z a
-            z, hit = hit_depth(sc["surface"], F, wk, a)
-            t = np.full(z.shape, sc["background"])
-            if hit.any():
-                P = wk[hit] - z[hit, None] * a[hit]
-                t[hit] = albedo(sc["texture"], P[:, 0], P[:, 1])
-            val[keep] = t
+            val[keep] = ray_albedo(sc, F, L, L1, x[keep], w[keep])
         out[start:start + m] = val * scale
     return out
 
@@ -335,7 +342,7 @@ def mc_channel(design: Any, channel: int, sc: Scene, n_side: int = 4,
         raise ValueError("mc_channel draws the ideal layout only")
     area = design.D ** 2 if design.aperture == "square" else math.pi * design.D ** 2 / 4.0
     norm = ch["share"] / (mu1 ** 2 * area)
-    L, v, mu, F, D, Q = ch["L"], ch["v"], ch["mu"], design.F, design.D, ch["Q"]
+    L, v, mu, D, Q = ch["L"], ch["v"], ch["mu"], design.D, ch["Q"]
     centres = lens_centres(ch)  # (Ky, Kx, 2)
     focal = np.asarray(ch["f"], dtype=np.float64)[lens_types(ch)]  # (Ky, Kx)
     ky, kx = centres.shape[:2]
@@ -380,15 +387,7 @@ def mc_channel(design: Any, channel: int, sc: Scene, n_side: int = 4,
         keep = _in_cell(ch, x2 - np.repeat(c, n, axis=0)) & _in_aperture(design, w2)
         val = np.zeros(m * n)
         if keep.any():
-            xk, wk = x2[keep], w2[keep]
-            u = (L1 / L) * (xk - (1.0 - L / L1) * wk)
-            a = wk / F + (u - wk) / L1
-            z, hit = hit_depth(sc["surface"], F, wk, a)
-            t = np.full(z.shape, sc["background"])
-            if hit.any():
-                P = wk[hit] - z[hit, None] * a[hit]
-                t[hit] = albedo(sc["texture"], P[:, 0], P[:, 1])
-            val[keep] = t
+            val[keep] = ray_albedo(sc, design.F, L, L1, x2[keep], w2[keep])
         out[sl] = val.reshape(m, n).mean(axis=1) * scale * norm
         if stop is not None:
             stop(sl.stop, rows * cols)

@@ -187,17 +187,22 @@ def check_mc(design: splitlf.Design, raws: tuple, ref_scene: dict, n_pixels: int
 # -- the references against each other (valid without the native render) ------------------
 
 
+def _random_image_scene(z: float, seed: int) -> tuple:
+    """(design, rng, image, texture, scene): the small seed looking at a random 18 x 24
+    image over 0.8 of its view on the fronto-parallel plane at z."""
+    design = seed_small()
+    rng = np.random.default_rng(seed)
+    image = rng.random((18, 24))
+    _, tex = image_texture(image, 0.8 * view_width(design, z))
+    return design, rng, image, tex, scene(tex, ("plane", [z, 0.0, 0.0]), 0.3)
+
+
 @pytest.mark.parametrize("z", [217.0, 642.0, 1000.0])
 def test_mc_matches_exact_reference(z: float) -> None:
     """The MC renderer and the clipping sums agree in z-score on the seed's exact route
     (vignetted pixels of half 2 included), and the MC's errors are honest (mean z^2 is
     neither much above nor much below 1)."""
-    design = seed_small()
-    rng = np.random.default_rng(int(z))
-    image = rng.random((18, 24))
-    width = 0.8 * view_width(design, z)
-    _, tex = image_texture(image, width)
-    ref_scene = scene(tex, ("plane", [z, 0.0, 0.0]), 0.3)
+    design, rng, image, tex, ref_scene = _random_image_scene(z, int(z))
     for i in (1, 2):
         exact = exact_raw(design, i, z, image, tuple(tex[1]))
         pixels = sample_pixels(exact.shape, 40, rng, exact)
@@ -216,12 +221,7 @@ def test_mc_channel_matches_exact_reference(z: float) -> None:
     the clipping sums: no bias (the mean residual within 4 of its standard errors) and a
     residual as large as its own scatter (two independent draws differ by sqrt(2) times
     it: the ratio of mean squares within [0.5, 2]), on both seed halves."""
-    design = seed_small()
-    rng = np.random.default_rng(int(z) + 7)
-    image = rng.random((18, 24))
-    width = 0.8 * view_width(design, z)
-    _, tex = image_texture(image, width)
-    ref_scene = scene(tex, ("plane", [z, 0.0, 0.0]), 0.3)
+    design, _, image, tex, ref_scene = _random_image_scene(z, int(z) + 7)
     for i in (1, 2):
         exact = exact_raw(design, i, z, image, tuple(tex[1]))
         a = mc_channel(design, i, ref_scene, n_side=3, rng=np.random.default_rng(1))

@@ -368,6 +368,16 @@ pub fn build(
     Ok(out)
 }
 
+/// A raw row's entries are done: count their bytes against the memory limit (`bytes`
+/// holds the map's so far) and the row for progress.
+fn row_done(s: &System, bytes: &std::sync::atomic::AtomicU64, done: &AtomicUsize) -> Result<()> {
+    let add = (s.data.len() * 12) as u64;
+    let have = bytes.fetch_add(add, Ordering::Relaxed) as u128;
+    memory::check("the reconstruction's system matrix", have + add as u128)?;
+    done.fetch_add(1, Ordering::Relaxed);
+    Ok(())
+}
+
 /// Bytes of the per-worker buffers of [`build_surface`] (a grid-sized accumulator each).
 fn recorder_bytes(grid: &CellGrid, workers: usize) -> u128 {
     (grid.cells() as u128) * 9 * workers as u128
@@ -526,13 +536,7 @@ pub fn build_surface(
                                 s.end_row(i, b * cols + a);
                             }
                         }
-                        let have =
-                            bytes.fetch_add((s.data.len() * 12) as u64, Ordering::Relaxed) as u128;
-                        memory::check(
-                            "the reconstruction's system matrix",
-                            have + (s.data.len() * 12) as u128,
-                        )?;
-                        done.fetch_add(1, Ordering::Relaxed);
+                        row_done(&s, &bytes, done)?;
                         Ok(s)
                     },
                 )
@@ -721,13 +725,7 @@ fn build_tilted(
                         }
                         s.end_row(i, b * cols + a);
                     }
-                    let have =
-                        bytes.fetch_add((s.data.len() * 12) as u64, Ordering::Relaxed) as u128;
-                    memory::check(
-                        "the reconstruction's system matrix",
-                        have + (s.data.len() * 12) as u128,
-                    )?;
-                    done.fetch_add(1, Ordering::Relaxed);
+                    row_done(&s, &bytes, done)?;
                     Ok(s)
                 })
                 .collect();
