@@ -1570,6 +1570,17 @@ pub(crate) mod exact {
         pub total: f64,
     }
 
+    /// The offset θ of raw column (or row) i from its lens image's centre, on the ideal
+    /// layout with q pixels a lens.
+    pub(crate) fn pixel_offset(mu: f64, q: u32, i: u32) -> f64 {
+        mu * ((i % q) as f64 - (q as f64 - 1.0) / 2.0)
+    }
+
+    /// The area of a pixel's 1-D ray set (the [`polygon`] below): its profile's total.
+    pub(crate) fn ray_set_area(chan: &Chan, alpha: f64, theta: f64) -> f64 {
+        signed_area(&polygon(chan, alpha, theta)).max(0.0)
+    }
+
     /// The 1-D ray-set polygon in (ξ, w) (ξ = x − c) of a pixel at offset θ from its lens
     /// image centre: |ξ| ≤ d/2, |w| ≤ D/2, |α ξ − (v/L) w − θ| ≤ μ/2.
     fn polygon(chan: &Chan, alpha: f64, theta: f64) -> Vec<Pt> {
@@ -1713,7 +1724,7 @@ pub(crate) mod exact {
         let (tr, tc) = tex.shape();
         let hx = (tx1 - tx0) / tc as f64;
         let hy = (ty1 - ty0) / tr as f64;
-        let theta = |i: u32| ch.mu * ((i % q) as f64 - (q as f64 - 1.0) / 2.0);
+        let theta = |i: u32| pixel_offset(ch.mu, q, i);
         // X profiles per type and column a; Y profiles (top-down texture rows: edge i at
         // Y1 − i hy, so flip: bottom-up row index) per type and row b.
         let nt = chan.types.len();

@@ -20,7 +20,7 @@ use crate::design::{Aperture, Channel, Design, Grid, Layout};
 use crate::error::{Error, Result};
 use crate::memory;
 use crate::parallel::{checkpoint, for_chunks};
-use crate::render::exact::{profile, tilted_profile, Profile};
+use crate::render::exact::{pixel_offset, profile, ray_set_area, tilted_profile, Profile};
 use crate::render::{Chan, Work};
 use crate::scene::{Scene, Surface};
 use crate::texture::Texture;
@@ -216,7 +216,7 @@ struct Profiles {
 fn profiles(chan: &Chan, z: f64, grid: &CellGrid, q: u32) -> Profiles {
     let ch = chan.ch;
     let (rows, cols) = crate::render::raw_shape(ch);
-    let theta = |i: u32| ch.mu * ((i % q) as f64 - (q as f64 - 1.0) / 2.0);
+    let theta = |i: u32| pixel_offset(ch.mu, q, i);
     let [gx0, _, gy0, _] = grid.extent();
     let h = grid.step;
     let nt = chan.types.len();
@@ -483,11 +483,10 @@ pub fn build_surface(
             .iter()
             .all(|&i| supported(design, &design.channels[i]).is_ok());
         if exact && g[0] == 0.0 && g[1] != 0.0 {
-            let before = done.load(Ordering::Relaxed);
+            // None comes before any row is counted: the general route starts afresh.
             if let Some(s) = build_tilted(design, channels, *z0, g[1], grid, n_threads, done)? {
                 return Ok(s);
             }
-            done.store(before, Ordering::Relaxed);
         }
     }
     let workers = crate::parallel::threads(n_threads);
@@ -557,9 +556,9 @@ const SLAB_DEPTH: f64 = 2e-4;
 const MAX_SLABS: usize = 64;
 
 /// The map for the plane Z = z0 + g Y (tilted about the X axis) on the exact route's
-/// designs (rect grid, square aperture, ideal layout), or None when some pixel's rays run
-/// parallel to the plane or meet it behind the main lens (the caller then takes the
-/// general route). A pixel's ray set is the product of its x and y polygons; the y
+/// designs (rect grid, square aperture, ideal layout), or None, before any work, when the
+/// plane is not in front of the lens over the grid (the caller then takes the general
+/// route); pixels with rays that miss the plane are not rows. A pixel's ray set is the product of its x and y polygons; the y
 /// polygon's areas between the grid's row edges are exact ([`tilted_profile`]: the cut
 /// at an edge is the fronto-parallel cut at the edge's depth), and each row is cut into
 /// slabs of at most [`SLAB_DEPTH`] relative depth, each slab's y area times the x areas at
@@ -591,11 +590,11 @@ fn build_tilted(
     for &i in channels {
         let ch = &design.channels[i];
         let Layout::Ideal { q } = ch.layout else {
-            return Ok(None);
+            unreachable!("checked by `supported` in the caller")
         };
         let chan = Chan::new(design, ch, crate::render::DEFAULT_TOL);
         let (rows, cols) = crate::render::raw_shape(ch);
-        let theta = |i: u32| ch.mu * ((i % q) as f64 - (q as f64 - 1.0) / 2.0);
+        let theta = |i: u32| pixel_offset(ch.mu, q, i);
         let nt = chan.types.len();
         // y profiles per type and raw row, against the slab edges (bottom-up); None where
         // some of the row's rays miss the plane (its pixels are then not kept, as on the
@@ -659,10 +658,7 @@ fn build_tilted(
         let xtotal: Vec<Vec<f64>> = (0..nt)
             .map(|t| {
                 (0..cols as u32)
-                    .map(|a| {
-                        let c = ch.lens_center(a / q, 0)[0];
-                        profile(&chan, chan.types[t].0, c, theta(a), za, 0, |_| 0.0).total
-                    })
+                    .map(|a| ray_set_area(&chan, chan.types[t].0, theta(a)))
                     .collect()
             })
             .collect();
