@@ -1,9 +1,11 @@
 """W10 reconstruct (issue 22): the seed's raw at 1 m, a region of cells of delta(z), known
 depth, photon noise N = 2000.
 
-- **Full size**: 512 x 512 cells with `splitlf.reconstruct` (the core's factored map, SciPy
-  CG): wall time, iterations, peak memory of the call (tracemalloc: NumPy's and SciPy's
-  buffers; the core's factor arrays are NumPy arrays too).
+- **Full size**: 512 x 512 cells with `splitlf.reconstruct` (the core's factored map and
+  its matrix-free CG): wall time at 1 thread and at all threads (alternating, medians),
+  iterations, the call's peak resident memory above what the process held before (VmHWM,
+  reset through /proc/self/clear_refs), against the bytes of the factored map and of the
+  explicit CSR map it stands for (never built).
 - **Ratio** at a size the NumPy reference can hold: the reference assembles the explicit
   map in NumPy (tests/exact_render.py's per-axis clipping weights, every kept pixel's row
   y (x) x as a CSR matrix) and solves the same normal equations with the same SciPy CG,
@@ -16,9 +18,9 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import statistics
 import sys
-import tracemalloc
 from pathlib import Path
 from typing import Any
 
@@ -37,9 +39,7 @@ from splitlf.reconstruction import (  # noqa: E402
     CG_MAX_ITER,
     CG_RTOL,
     DEFAULT_REGULARIZATION,
-    _neighbours,
     _sigma,
-    _smoothness,
 )
 
 Z = 1000.0
@@ -54,6 +54,28 @@ def scene_raw(cells: int) -> tuple[splitlf.Raw, tuple[float, float, float, float
     h = d.resolution_step(Z)
     half = cells * h / 2.0 * (1.0 - 1e-9)
     return raw, (-half, half, -half, half)
+
+
+def _smoothness(t: np.ndarray) -> np.ndarray:
+    """D^T D t for D the differences between horizontal and vertical neighbour cells."""
+    g = np.zeros_like(t)
+    dx = t[:, 1:] - t[:, :-1]
+    g[:, 1:] += dx
+    g[:, :-1] -= dx
+    dy = t[1:, :] - t[:-1, :]
+    g[1:, :] += dy
+    g[:-1, :] -= dy
+    return g
+
+
+def _neighbours(ny: int, nx: int) -> np.ndarray:
+    """The diagonal of D^T D: each cell's number of neighbours."""
+    n = np.zeros((ny, nx))
+    n[:, 1:] += 1
+    n[:, :-1] += 1
+    n[1:, :] += 1
+    n[:-1, :] += 1
+    return n
 
 
 def _kron_rows(iy: Any, ix: Any, b_idx: np.ndarray, a_idx: np.ndarray, norm: float,
@@ -134,23 +156,66 @@ def numpy_reference(raw: splitlf.Raw, region: tuple[float, ...]) -> tuple[np.nda
     return t.reshape(shape)[pad:pad + ny, pad:pad + nx], it[0]
 
 
+def _status_kib(field: str) -> int:
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith(field + ":"):
+            return int(line.split()[1])
+    raise KeyError(field)
+
+
+def peak_rss_mib(fn: Any) -> tuple[float, Any]:
+    """fn()'s result and the peak resident memory (MiB) it added to the process."""
+    Path("/proc/self/clear_refs").write_text("5")  # resets VmHWM to VmRSS
+    before = _status_kib("VmRSS")
+    r = fn()
+    return (_status_kib("VmHWM") - before) / 1024.0, r
+
+
+def map_bytes(raw: splitlf.Raw, region: tuple[float, ...]) -> tuple[int, int]:
+    """Bytes of the factored map the solve holds (its factors) and of the explicit CSR map
+    it stands for (8 B a value, 4 B a column, per kept pixel nnz_y x nnz_x)."""
+    from splitlf.reconstruction import _parts
+
+    d = raw.design
+    x0, y1, h, nx, ny = _native.cell_grid(region, d.resolution_step(Z))
+    pad = math.ceil(_native.pixel_span(d.core, Z, None) / h)
+    grid = _native.cell_grid((x0 - pad * h, x0 + (nx + pad) * h, y1 - (ny + pad) * h,
+                              y1 + pad * h), h)
+    factored = explicit = 0
+    for p in _parts(raw, (1, 2), Z, grid):
+        factored += 12 * (p.px.nnz + p.py.nnz) + 16 * p.mask.size
+        per = np.outer(np.diff(p.py.indptr), np.diff(p.px.indptr))[p.mask]
+        explicit += 12 * int(per.sum()) + 8 * int(p.mask.sum())
+    return factored, explicit
+
+
 def run(quick: bool) -> dict[str, Any]:
     full = 128 if quick else 512
     ratio_cells = 32
     raw, region = scene_raw(full)
-    tracemalloc.start()
-    t_full, rec = timed_call(lambda: splitlf.reconstruct(raw, Z, region=region, noise=NOISE))
-    peak = tracemalloc.get_traced_memory()[1]
-    tracemalloc.stop()
+    times: dict[str, list[float]] = {"1": [], "all": []}
+    peak = 0.0
+    for _ in range(1 if quick else 2):
+        for key, nt in (("1", 1), ("all", None)):
+            mib, (t, rec) = peak_rss_mib(lambda nt=nt: timed_call(
+                lambda: splitlf.reconstruct(raw, Z, region=region, noise=NOISE,
+                                            n_threads=nt, progress=False)))
+            times[key].append(t)
+            peak = max(peak, mib)
+    factored, explicit = map_bytes(raw, region)
+    t1, tall = statistics.median(times["1"]), statistics.median(times["all"])
     out: dict[str, Any] = {
-        "full": {"cells": list(rec.image.shape), "seconds": t_full, "rows": rec.rows,
-                 "iterations": rec.iterations, "residual": rec.residual,
-                 "peak_mib": peak / 2 ** 20},
+        "full": {"cells": list(rec.image.shape), "seconds_1_thread": t1,
+                 "seconds_all_threads": tall, "threads_speedup": t1 / tall,
+                 "rows": rec.rows, "iterations": rec.iterations, "residual": rec.residual,
+                 "peak_rss_mib": peak, "factored_map_mib": factored / 2 ** 20,
+                 "explicit_map_mib": explicit / 2 ** 20},
     }
     _, small = scene_raw(ratio_cells)
     ours, ref = [], []
     for _ in range(3):
-        t, r = timed_call(lambda: splitlf.reconstruct(raw, Z, region=small, noise=NOISE))
+        t, r = timed_call(lambda: splitlf.reconstruct(raw, Z, region=small, noise=NOISE,
+                                                      progress=False))
         ours.append(t)
         t, (img, its) = timed_call(numpy_reference, raw, small)
         ref.append(t)

@@ -45,6 +45,10 @@ LONG_CALLS = {
                       "splitlf.RandomAlbedo(1.0), 1000.0)); splitlf.estimate_depth(R, "
                       "depths=(250, 4000), candidates=4096, region=(-4, 4, -3, 3), "
                       "step=0.01)",
+    "reconstruct": "E = S.replace(channels=tuple(c.replace(Kx=10, Ky=8) for c in "
+                   "S.channels)); R = splitlf.render(E, splitlf.Scene("
+                   "splitlf.RandomAlbedo(1.0), 1000.0)); splitlf.reconstruct(R, 1000.0, "
+                   "region=(-1, 1, -1, 1), step=0.01, regularization=1e-9)",
 }
 
 SETUP = """

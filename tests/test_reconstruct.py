@@ -80,7 +80,8 @@ def test_factored_map_is_the_render() -> None:
     parts = _parts(raw, (1, 2), z, grid)
     assert len(parts) == 2
     for p in parts:
-        assert np.max(np.abs(p.forward(t) - p.y)) <= 1e-12
+        forward = p.norm * (p.px @ (p.py @ t).T).T[p.mask]
+        assert np.max(np.abs(forward - p.y)) <= 1e-12
     chan, pix, indptr, indices, data = _native.reconstruction_system(design.core, z, grid)
     assert sum(int(p.mask.sum()) for p in parts) == len(chan)
     flat_t = t.ravel()
@@ -88,6 +89,86 @@ def test_factored_map_is_the_render() -> None:
                          for r in range(len(chan))])
     want = np.array([raw.images[int(c)].ravel()[p] for c, p in zip(chan, pix, strict=True)])
     assert np.max(np.abs(explicit - want)) <= 1e-12
+
+
+def _dense_solution(design: splitlf.Design, z: float, grid: tuple, raw: splitlf.Raw,
+                    lam: float) -> np.ndarray:
+    """The regularised least squares solved directly: A from the independent reference map
+    (every kept pixel of both halves), W = 1/sigma^2 of render's photon noise (N = 2000),
+    D the differences between neighbour cells as dense matrices."""
+    nx, ny = grid[3], grid[4]
+    rows, ys, whites = [], [], []
+    for c in (1, 2):
+        A, kept = reference_map(design, c, z, grid)
+        rows.append(A[kept])
+        ys.append(raw.images[c - 1].ravel()[kept])
+        whites.append(np.full(int(kept.sum()), design.resolved()[c - 1]["share"]))
+    A, y, white = np.vstack(rows), np.concatenate(ys), np.concatenate(whites)
+    w = 1.0 / np.maximum(np.sqrt(np.maximum(y, 0.0) / 2000.0), 1e-3 * white) ** 2
+
+    def diff(n: int) -> np.ndarray:
+        return np.eye(n)[1:] - np.eye(n)[:-1]
+
+    D = np.vstack([np.kron(np.eye(ny), diff(nx)), np.kron(diff(ny), np.eye(nx))])
+    H = A.T @ (w[:, None] * A) + lam * D.T @ D
+    return np.linalg.solve(H, A.T @ (w * y)).reshape(ny, nx)
+
+
+def test_core_solve_is_the_direct_solution() -> None:
+    """The core's matrix-free conjugate gradients (factored blocks, and the same rows given
+    explicitly) reach the direct solution of the same least squares, and do not depend on
+    the thread count."""
+    design = seed_small(6, 5)
+    z = 400.0
+    grid = _native.cell_grid((-1.2, 1.2, -1.0, 1.0), 0.07)
+    nx, ny = grid[3], grid[4]
+    noise = {"photons": 2000.0, "read_noise": 0.0}
+    raw = splitlf.render(design, splitlf.Scene(splitlf.RandomAlbedo(0.3), z), noise=noise,
+                         seed=4)
+    lam = 0.5
+    want = _dense_solution(design, z, grid, raw, lam)
+    parts = _parts(raw, (1, 2), z, grid)
+    sig = [np.maximum(np.sqrt(np.maximum(p.y, 0.0) / 2000.0), 1e-3 * p.white) for p in parts]
+    factored = [p.seam(1.0 / s ** 2) for p, s in zip(parts, sig, strict=True)]
+    chan, pix, indptr, indices, data = _native.reconstruction_system(design.core, z, grid)
+    y = np.array([raw.images[int(c)].ravel()[q] for c, q in zip(chan, pix, strict=True)])
+    white = np.array([design.resolved()[int(c)]["share"] for c in chan])
+    w = 1.0 / np.maximum(np.sqrt(np.maximum(y, 0.0) / 2000.0), 1e-3 * white) ** 2
+    explicit = [((indptr, indices, data, nx * ny), w, y)]
+    scale = float(np.max(np.abs(want)))
+    for blocks in ((factored, []), ([], explicit)):
+        got, its, resid = _native.solve_normal((ny, nx), lam, *blocks, 1e-13, 20_000)
+        assert 0 < its < 20_000 and resid <= 1e-12
+        assert np.max(np.abs(got - want)) <= 1e-8 * scale, np.max(np.abs(got - want))
+        one, its1, _ = _native.solve_normal((ny, nx), lam, *blocks, 1e-13, 20_000, 1)
+        assert its1 == its and np.array_equal(one, got)
+
+
+def test_solve_refuses_bad_blocks() -> None:
+    """The core's solve names the field of an inconsistent block (never a panic)."""
+    ptr = np.array([0, 1, 2], dtype=np.uint64)
+    idx = np.array([0, 1], dtype=np.uint32)
+    val = np.array([1.0, 0.5])
+    one = np.ones(4)
+    good = (2.0, (ptr, idx, val, 2), (ptr, idx, val, 2), one, one)
+    got, _, _ = _native.solve_normal((2, 2), 1.0, [good], [], 1e-10, 100)
+    assert got.shape == (2, 2) and np.all(np.isfinite(got))
+    bad_cases = {
+        "px": (2.0, (ptr, np.array([0, 5], dtype=np.uint32), val, 2), good[2], one, one),
+        "py": (2.0, good[1], (ptr[::-1].copy(), idx, val, 2), one, one),
+        "weights": (2.0, good[1], good[2], -one, one),
+        "values": (2.0, good[1], good[2], one, np.full(4, np.nan)),
+        "factors": (2.0, good[1], (ptr, idx, val, 3), one, one),
+    }
+    for field, block in bad_cases.items():
+        with pytest.raises(splitlf.errors.InvalidParameter, match=field):
+            _native.solve_normal((2, 2), 1.0, [block], [], 1e-10, 100)
+    with pytest.raises(splitlf.errors.InvalidParameter, match="weights"):
+        _native.solve_normal((2, 2), 1.0, [], [((ptr, idx, val, 4), one, one[:2])], 1e-10, 100)
+    with pytest.raises(splitlf.errors.InvalidParameter, match="regularization"):
+        _native.solve_normal((2, 2), 0.0, [good], [], 1e-10, 100)
+    with pytest.raises(splitlf.errors.InvalidParameter, match="rtol"):
+        _native.solve_normal((2, 2), 1.0, [good], [], float("nan"), 100)
 
 
 def test_constant_albedo_reconstructs_constant() -> None:

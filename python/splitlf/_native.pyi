@@ -68,6 +68,7 @@ __all__ = [
     "render_extent",
     "samples_2d",
     "seen_region",
+    "solve_normal",
     "surface_system",
     "depth_sweep",
 ]
@@ -465,6 +466,19 @@ def reconstruction_factors(
     list[tuple[npt.NDArray[np.uint64], npt.NDArray[np.uint32], _F64, _F64]],
 ]: ...
 def cell_averages(scene: RenderScene, grid: tuple[float, float, float, int, int]) -> _F64: ...
+
+_CsrIn = tuple[npt.NDArray[np.uint64], npt.NDArray[np.uint32], _F64, int]
+
+def solve_normal(
+    shape: tuple[int, int],
+    regularization: float,
+    factored: list[tuple[float, _CsrIn, _CsrIn, _F64, _F64]],
+    rows: list[tuple[_CsrIn, _F64, _F64]],
+    rtol: float,
+    max_iter: int,
+    n_threads: int | None = None,
+    progress: Callable[[int, int], object] | None = None,
+) -> tuple[_F64, int, float]: ...
 
 
 def depth_sweep(

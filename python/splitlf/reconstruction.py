@@ -7,8 +7,9 @@ integration, so that ``A t`` is ``render``'s raw of the image texture t: on the 
 (a fronto-parallel plane, rect cells, a square aperture, the ideal layout) as per-axis
 factors (``_native.reconstruction_factors``), otherwise (slanted planes, depth maps, hex
 arrays, circular apertures, sensor layouts) as explicit rows from the general route in
-record mode (``_native.surface_system``). SciPy's conjugate gradients solve the
-regularised least squares
+record mode (``_native.surface_system``). The core's matrix-free conjugate gradients
+(``_native.solve_normal``, SciPy's ``cg`` iteration, in parallel) solve the regularised
+least squares
 
     min_t  sum_rows ((A t - raw) / sigma)^2  +  lambda * |D t|^2
 
@@ -22,7 +23,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Mapping, Sequence
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 
@@ -152,26 +153,11 @@ def _sigma(y: np.ndarray, noise: Mapping[str, float] | None, white: np.ndarray
     return np.maximum(np.sqrt(var), floor), f"photons {n:g}, read noise {r:g}"
 
 
-def _smoothness(t: np.ndarray) -> np.ndarray:
-    """D^T D t for D the differences between horizontal and vertical neighbour cells."""
-    g = np.zeros_like(t)
-    dx = t[:, 1:] - t[:, :-1]
-    g[:, 1:] += dx
-    g[:, :-1] -= dx
-    dy = t[1:, :] - t[:-1, :]
-    g[1:, :] += dy
-    g[:-1, :] -= dy
-    return g
-
-
-def _neighbours(ny: int, nx: int) -> np.ndarray:
-    """The diagonal of D^T D: each cell's number of neighbours."""
-    n = np.zeros((ny, nx))
-    n[:, 1:] += 1
-    n[:, :-1] += 1
-    n[1:, :] += 1
-    n[:-1, :] += 1
-    return n
+def _csr(m: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """A SciPy CSR matrix as the core's (indptr, indices, data, number of columns)."""
+    return (np.ascontiguousarray(m.indptr, dtype=np.uint64),
+            np.ascontiguousarray(m.indices, dtype=np.uint32),
+            np.ascontiguousarray(m.data, dtype=np.float64), int(m.shape[1]))
 
 
 @dataclasses.dataclass
@@ -186,44 +172,20 @@ class _Part:
     y: np.ndarray  # the raw values at the mask
     white: float  # the channel's share (a fully lit white pixel)
 
-    def forward(self, t: np.ndarray) -> np.ndarray:
-        v = (self.px @ (self.py @ t).T).T
-        return self.norm * v[self.mask]
-
-    def adjoint(self, r: np.ndarray) -> np.ndarray:
-        full = np.zeros(self.mask.shape)
-        full[self.mask] = r
-        return self.norm * (self.py.T @ (self.px.T @ full.T).T)
-
-    def diagonal(self, w: np.ndarray) -> np.ndarray:
-        """diag(A^T W A) for per-row weights w."""
-        full = np.zeros(self.mask.shape)
-        full[self.mask] = w
-        px2, py2 = self.px.multiply(self.px), self.py.multiply(self.py)
-        return self.norm ** 2 * (py2.T @ (px2.T @ full.T).T)
-
-
-class _Block(Protocol):
-    """A block of the map's rows: its raw values ``y``, white value(s) ``white``, the rows'
-    mask, and A, A^T and diag(A^T W A) on the padded grid."""
-
-    y: np.ndarray
-    white: Any
-
-    @property
-    def mask(self) -> np.ndarray: ...
-    def forward(self, t: np.ndarray) -> np.ndarray: ...
-    def adjoint(self, r: np.ndarray) -> np.ndarray: ...
-    def diagonal(self, w: np.ndarray) -> np.ndarray: ...
+    def seam(self, w: np.ndarray) -> tuple[Any, ...]:
+        """The core's factored block (norm, px, py, weights, values) for row weights w."""
+        wf, yf = np.zeros(self.mask.shape), np.zeros(self.mask.shape)
+        wf[self.mask], yf[self.mask] = w, self.y
+        return (self.norm, _csr(self.px), _csr(self.py), wf.ravel(), yf.ravel())
 
 
 @dataclasses.dataclass
 class _Rows:
-    """Explicit rows of the map (any surface, any design): A as SciPy CSR over the padded
-    grid's cells, the raw values of its rows and each row's fully lit white value."""
+    """Explicit rows of the map (any surface, any design) over the padded grid's cells, as
+    the core's CSR arrays, the raw values of its rows and each row's fully lit white
+    value."""
 
-    A: Any
-    shape: tuple[int, int]
+    csr: tuple[np.ndarray, np.ndarray, np.ndarray, int]
     y: np.ndarray
     white: np.ndarray
 
@@ -231,14 +193,9 @@ class _Rows:
     def mask(self) -> np.ndarray:
         return np.ones(self.y.shape, dtype=bool)
 
-    def forward(self, t: np.ndarray) -> np.ndarray:
-        return np.asarray(self.A @ t.ravel())
-
-    def adjoint(self, r: np.ndarray) -> np.ndarray:
-        return np.asarray(self.A.T @ r).reshape(self.shape)
-
-    def diagonal(self, w: np.ndarray) -> np.ndarray:
-        return np.asarray(self.A.multiply(self.A).T @ w).reshape(self.shape)
+    def seam(self, w: np.ndarray) -> tuple[Any, ...]:
+        """The core's block of explicit rows (A, weights, values)."""
+        return (self.csr, np.ascontiguousarray(w, dtype=np.float64), self.y)
 
 
 def _tiles_hint(e: TooLargeError, nx: int, ny: int, pad: int) -> TooLargeError:
@@ -256,8 +213,6 @@ def _tiles_hint(e: TooLargeError, nx: int, ny: int, pad: int) -> TooLargeError:
 
 def _rows(raw: Raw, chans: tuple[int, ...], surface: Plane | DepthMap | float, grid: tuple,
           n_threads: int | None, progress: Any) -> list[_Rows]:
-    from scipy import sparse
-
     design = raw.design
     plane = surface if not isinstance(surface, float) else Plane(surface)
     kind, params, depth_map = plane.seam()
@@ -267,15 +222,13 @@ def _rows(raw: Raw, chans: tuple[int, ...], surface: Plane | DepthMap | float, g
     if chan.size == 0:
         return []
     shares = np.array([c["share"] for c in design.resolved()])
-    A = sparse.csr_matrix((data, indices.astype(np.int64), indptr.astype(np.int64)),
-                          shape=(chan.size, grid[3] * grid[4]))
     ch = chan.astype(np.int64)
     # Each row's raw value, read from its own channel's image (no copy of whole raws).
     y = np.empty(chan.size)
     for c in np.unique(ch):
         sel = ch == c
         y[sel] = raw.images[c].ravel()[pix[sel].astype(np.int64)]
-    return [_Rows(A=A, shape=(grid[4], grid[3]), y=y, white=shares[ch])]
+    return [_Rows(csr=(indptr, indices, data, grid[3] * grid[4]), y=y, white=shares[ch])]
 
 
 def _parts(raw: Raw, chans: tuple[int, ...], z: float, grid: tuple) -> list[_Part]:
@@ -296,15 +249,19 @@ def _parts(raw: Raw, chans: tuple[int, ...], z: float, grid: tuple) -> list[_Par
                                    shape=(rows, gny))
             sx = np.asarray(px.sum(axis=1)).ravel()
             sy = np.asarray(py.sum(axis=1)).ravel()
-            total = ty[:, None] * tx[None, :]
-            inside = sy[:, None] * sx[None, :]
-            kept = ((types == t) & (total > 0.0) & (inside > 0.0)
+            # Only raw rows and columns whose rays reach the grid can hold rows of the map:
+            # the masks below are over those, not over the whole raw.
+            rows_in = np.flatnonzero((ty > 0.0) & (sy > 0.0))
+            cols_in = np.flatnonzero((tx > 0.0) & (sx > 0.0))
+            total = ty[rows_in, None] * tx[None, cols_in]
+            inside = sy[rows_in, None] * sx[None, cols_in]
+            kept = ((types[np.ix_(rows_in, cols_in)] == t)
                     & (total - inside <= _native.OUTSIDE_SHARE * total))
-            r_sel = np.flatnonzero(kept.any(axis=1))
-            c_sel = np.flatnonzero(kept.any(axis=0))
-            if r_sel.size == 0:
+            r_any, c_any = kept.any(axis=1), kept.any(axis=0)
+            if not r_any.any():
                 continue
-            mask = kept[np.ix_(r_sel, c_sel)]
+            r_sel, c_sel = rows_in[r_any], cols_in[c_any]
+            mask = kept[np.ix_(r_any, c_any)]
             parts.append(_Part(norm=norm, px=px[c_sel], py=py[r_sel], mask=mask,
                                y=img[np.ix_(r_sel, c_sel)][mask], white=shares[c - 1]))
     return parts
@@ -330,9 +287,10 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
     - ``channels``: channel numbers from 1 (None: every channel)
     - ``noise``: the raw's noise, as for :func:`splitlf.render` (``{"photons": N,
       "read_noise": r}``); None: noise-free, weighted as ``NOISE_FLOOR`` of white
-    - ``n_threads``: threads of the general route's map (the factored map of the exact
-      route is built in well under a second; the solve runs in SciPy)
-    - ``progress``: a tqdm bar (None: only when stderr is a terminal)
+    - ``n_threads``: threads of the general route's map and of the solve (None: all
+      cores; the result does not depend on it)
+    - ``progress``: tqdm bars of the map and of the solve's iterations (None: only when
+      stderr is a terminal)
 
     Cells within one pixel's span (``_native.pixel_span``) beyond the region are solved
     for too and cropped, so that every pixel that sees the region is explained. Raises
@@ -340,8 +298,6 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
     :class:`~splitlf.errors.TooLargeError` (the matrix would not fit: a smaller region,
     a coarser step or tiles) and ``KeyboardInterrupt``.
     """
-    from scipy.sparse.linalg import LinearOperator, cg
-
     if not isinstance(raw, Raw):
         raise TypeError(f"raw must be a splitlf.Raw, got {type(raw).__name__}")
     design = raw.design
@@ -389,7 +345,7 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
     exact = _exact(design, surface, chans)
     bar = None
     try:
-        parts: Sequence[_Block]
+        parts: Sequence[_Part | _Rows]
         try:
             if exact:
                 assert isinstance(surface, float)
@@ -408,54 +364,21 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
             raise InvalidParameter.of(
                 "region", f"({inner[0]:.6g}, {inner[1]:.6g}, {inner[2]:.6g}, {inner[3]:.6g})",
                 "a region some pixel of the chosen channels sees")
-        weights: list[np.ndarray] = []
+        factored: list[tuple[Any, ...]] = []
+        explicit: list[tuple[Any, ...]] = []
         for p in parts:
             sigma, noise_text = _sigma(p.y, noise_, np.broadcast_to(p.white, p.y.shape))
-            weights.append(1.0 / sigma ** 2)
-        pairs: list[tuple[_Block, np.ndarray]] = list(zip(parts, weights, strict=True))
-        shape = (gny, gnx)
-        n_cells = gny * gnx
-
-        def normal(v: np.ndarray) -> np.ndarray:
-            t = v.reshape(shape)
-            out = lam * _smoothness(t)
-            for b, w in pairs:
-                out += b.adjoint(w * b.forward(t))
-            return out.ravel()
-
-        M = LinearOperator((n_cells, n_cells), matvec=normal, dtype=np.float64)
-        rhs = np.sum([b.adjoint(w * b.y) for b, w in pairs], axis=0).ravel()
-        diag = lam * _neighbours(*shape)
-        for b, w in pairs:
-            diag += b.diagonal(w)
-        diag = diag.ravel()
-        # Start from the normalised back-projection (A^T W y / A^T W A 1); cells no
-        # pixel sees start at the weighted mean.
-        ones = np.ones(shape)
-        seen = np.sum([b.adjoint(w * b.forward(ones)) for b, w in pairs], axis=0).ravel()
-        guess = np.full(n_cells, float(np.sum(rhs) / max(float(np.sum(seen)), 1e-300)))
-        ok = seen > 0.0
-        guess[ok] = rhs[ok] / seen[ok]
-        pre = LinearOperator((n_cells, n_cells), dtype=np.float64,
-                             matvec=lambda v: v / np.where(diag > 0.0, diag, 1.0))
-        it = [0]
-        bar, _ = _progress(show, "splitlf reconstruct (CG)", "step")
-        if bar is not None:
-            bar.reset(total=CG_MAX_ITER)
-
-        def count(_: np.ndarray) -> None:
-            it[0] += 1
-            if bar is not None:
-                bar.update(1)
-
-        t, _info = cg(M, rhs, x0=guess, rtol=CG_RTOL, maxiter=CG_MAX_ITER, M=pre,
-                      callback=count)
+            (factored if isinstance(p, _Part) else explicit).append(p.seam(1.0 / sigma ** 2))
+        bar, report = _progress(show, "splitlf reconstruct (CG)", "step")
+        try:
+            t, iterations, resid = _native.solve_normal(
+                (gny, gnx), lam, factored, explicit, CG_RTOL, CG_MAX_ITER, n_threads, report)
+        except TooLargeError as e:
+            raise _tiles_hint(e, nx, ny, pad) from None
     finally:
         if bar is not None:
             bar.close()
-    norm_rhs = float(np.linalg.norm(rhs))
-    resid = float(np.linalg.norm(normal(t) - rhs)) / norm_rhs if norm_rhs > 0 else 0.0
-    img = t.reshape(gny, gnx)[pad:pad + ny, pad:pad + nx].copy()
+    img = t[pad:pad + ny, pad:pad + nx].copy()
     return Reconstruction(image=img, extent=inner, step=h, design=design, depth=surface,
-                          channels=chans, rows=rows, iterations=it[0], residual=resid,
+                          channels=chans, rows=rows, iterations=iterations, residual=resid,
                           regularization=lam, noise=noise_text)

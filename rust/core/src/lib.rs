@@ -13,7 +13,8 @@
 //! [`merit`] the figures of merit of one design that sweeps compare,
 //! [`simulate`] the forward model and system matrix of the super-resolution simulation,
 //! [`render`] the 2-D forward model (raw images, §10) with [`scene`], [`texture`] and
-//! [`polygon`]; [`system`] the linear map a reconstruction inverts, and [`depth`] the
+//! [`polygon`]; [`system`] the linear map a reconstruction inverts, [`solve`] its
+//! regularised least squares (matrix-free conjugate gradients), and [`depth`] the
 //! plane sweep that estimates depth from a raw.
 //! Every parallel entry point takes `n_threads` (see [`parallel`]).
 
@@ -36,6 +37,7 @@ pub mod samples;
 pub mod samples2d;
 pub mod scene;
 pub mod simulate;
+pub mod solve;
 pub mod system;
 pub mod texture;
 

@@ -194,6 +194,23 @@ pub fn for_chunks(
     Ok(())
 }
 
+/// Run `step` again and again inside the pool of `n_threads` until it returns `Ok(true)`,
+/// with a [`checkpoint`] on the calling thread between calls: for an iteration whose
+/// length is not known in advance (a solver that stops when it has converged).
+pub fn repeat_until(
+    n_threads: Option<usize>,
+    mut step: impl FnMut() -> Result<bool> + Send,
+) -> Result<()> {
+    check_threads(n_threads)?;
+    let pool = lease(threads(n_threads))?;
+    loop {
+        if watched(&pool, &mut step)? {
+            return Ok(());
+        }
+        checkpoint()?;
+    }
+}
+
 /// Items per chunk of [`for_chunks`] when one item costs about `cost` elementary steps: a
 /// chunk is about 2^22 steps per thread (tens of milliseconds), at least one item per thread.
 pub fn chunk_items(n_threads: Option<usize>, cost: u128) -> usize {

@@ -109,6 +109,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
         reconstruct::reconstruction_system,
         reconstruct::surface_system,
         reconstruct::reconstruction_factors,
+        reconstruct::solve_normal,
         reconstruct::cell_averages,
         depth::depth_sweep,
         arrays::available_memory,

@@ -6,6 +6,7 @@ use std::sync::Arc;
 use numpy::{IntoPyArray, PyArray1};
 use pyo3::prelude::*;
 
+use splitlf_core::solve;
 use splitlf_core::system::{self, CellGrid};
 
 use crate::args::threads_arg;
@@ -271,4 +272,120 @@ pub(crate) fn cell_averages<'py>(
     let a = numpy::ndarray::Array2::from_shape_vec((g.ny, g.nx), values)
         .map_err(crate::errors::internal)?;
     Ok(a.into_pyarray(py))
+}
+
+/// A CSR matrix from Python: (indptr, indices, data, number of columns).
+type CsrIn<'py> = (
+    numpy::PyReadonlyArray1<'py, u64>,
+    numpy::PyReadonlyArray1<'py, u32>,
+    numpy::PyReadonlyArray1<'py, f64>,
+    usize,
+);
+
+/// The rows of a factored block: (norm, px, py, weights, values), weights and values over
+/// the raw window row-major.
+type FactoredIn<'py> = (
+    f64,
+    CsrIn<'py>,
+    CsrIn<'py>,
+    numpy::PyReadonlyArray1<'py, f64>,
+    numpy::PyReadonlyArray1<'py, f64>,
+);
+
+/// Explicit rows: (A, weights, values).
+type RowsIn<'py> = (
+    CsrIn<'py>,
+    numpy::PyReadonlyArray1<'py, f64>,
+    numpy::PyReadonlyArray1<'py, f64>,
+);
+
+fn slice<'a, T: numpy::Element>(
+    a: &'a numpy::PyReadonlyArray1<'_, T>,
+    field: &'static str,
+) -> PyResult<&'a [T]> {
+    a.as_slice().map_err(|_| {
+        to_py(splitlf_core::Error::param(
+            field,
+            "a non-contiguous array",
+            "a C-contiguous array",
+        ))
+    })
+}
+
+fn csr_in(field: &'static str, c: &CsrIn<'_>) -> PyResult<solve::Csr> {
+    let indptr = slice(&c.0, field)?
+        .iter()
+        .map(|&v| {
+            usize::try_from(v).map_err(|_| splitlf_core::Error::param(field, v, "indptr < 2^64"))
+        })
+        .collect::<splitlf_core::Result<Vec<usize>>>()
+        .map_err(to_py)?;
+    if indptr.is_empty() {
+        return Err(to_py(splitlf_core::Error::param(
+            field,
+            "an empty indptr",
+            "at least one entry",
+        )));
+    }
+    solve::Csr::new(
+        field,
+        indptr,
+        slice(&c.1, field)?.to_vec(),
+        slice(&c.2, field)?.to_vec(),
+        c.3,
+    )
+    .map_err(to_py)
+}
+
+/// Solve the regularised least squares of a reconstruction over a grid of `shape` (ny, nx)
+/// cells: blocks of factored rows and of explicit rows (see `splitlf_core::solve`), prior
+/// weight `regularization`, conjugate gradients to `rtol` or `max_iter` steps. Returns
+/// (cells (ny, nx), iterations, the normal equations' relative residual).
+/// `progress(done, total)` counts iterations out of `max_iter`.
+#[pyfunction]
+#[pyo3(signature = (shape, regularization, factored, rows, rtol, max_iter, n_threads=None, progress=None))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn solve_normal<'py>(
+    py: Python<'py>,
+    shape: (usize, usize),
+    regularization: f64,
+    factored: Vec<FactoredIn<'py>>,
+    rows: Vec<RowsIn<'py>>,
+    rtol: f64,
+    max_iter: usize,
+    n_threads: Option<&Bound<'py, PyAny>>,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<(Bound<'py, numpy::PyArray2<f64>>, usize, f64)> {
+    let threads = threads_arg(n_threads)?;
+    let (ny, nx) = shape;
+    let mut blocks = Vec::with_capacity(factored.len() + rows.len());
+    for (norm, px, pyf, w, y) in &factored {
+        blocks.push(solve::Block::Factored {
+            norm: *norm,
+            px: csr_in("px", px)?,
+            py: csr_in("py", pyf)?,
+            w: slice(w, "weights")?.to_vec(),
+            y: slice(y, "values")?.to_vec(),
+        });
+    }
+    for (a, w, y) in &rows {
+        blocks.push(solve::Block::Rows {
+            a: csr_in("rows", a)?,
+            w: slice(w, "weights")?.to_vec(),
+            y: slice(y, "values")?.to_vec(),
+        });
+    }
+    drop((factored, rows));
+    let (report, counter) = counted(progress, max_iter);
+    let sol = run_reporting(py, "depth", report, move || {
+        let normal = solve::Normal::new(nx, ny, regularization, blocks)?;
+        solve::solve(&normal, rtol, max_iter, threads, &counter)
+    })?;
+    let cells = crate::arrays::filled::<f64, numpy::ndarray::Ix2>(
+        py,
+        &[ny, nx],
+        "the reconstruction",
+        sol.cells.into_iter(),
+    )?;
+    Ok((cells, sol.iterations, sol.residual))
 }
