@@ -320,8 +320,18 @@ def test_reconstruct_cli_matches_api(tmp_path, capsys):
     rec = splitlf.reconstruct(splitlf.Raw.load(raw_path), 800.0, region=(-1.5, 1.5, -1.0, 1.0))
     assert np.array_equal(image, rec.image)
     assert summary["shape"] == list(rec.image.shape) and png.stat().st_size > 0
+    assert summary["tiles"] == 1
     code, _, err = run(args, capsys)
     assert code != 0 and "--force" in err
+    # --tile: the API's tiled image; a tile below 16 cells is refused by name.
+    code, out, _ = run([*args, "--force", "--tile", "16"], capsys)
+    tiled = splitlf.reconstruct(splitlf.Raw.load(raw_path), 800.0,
+                                region=(-1.5, 1.5, -1.0, 1.0), tile=16)
+    assert code == 0 and json.loads(out)["tiles"] == tiled.tiles > 1
+    assert np.array_equal(np.load(tmp_path / "img.npy"), tiled.image)
+    with pytest.raises(SystemExit) as e:
+        main([*args, "--force", "--tile", "8"])
+    assert e.value.code == 2 and "invalid tile 8" in capsys.readouterr().err
 
 
 def test_depth_cli_matches_api(tmp_path, capsys):

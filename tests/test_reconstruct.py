@@ -467,4 +467,72 @@ def test_too_large_suggests_tiles() -> None:
     hint = _tiles_hint(e, 1000, 1000, 10)
     side = int(1020 * np.sqrt(0.8 * 100 / 400)) - 20
     assert isinstance(hint, TooLargeError) and hint.bytes == e.bytes
-    assert f"tiles of about {side} x {side} cells" in str(hint) and "1000 x 1000" in str(hint)
+    assert f"tiles of at most {side} x {side} cells (tile={side})" in str(hint)
+    assert "1000 x 1000" in str(hint) and hint.tile == side
+
+
+@pytest.fixture(scope="module")
+def tiled_scene() -> tuple[splitlf.Design, splitlf.Image, dict[str, float]]:
+    design = seed_small(24, 16)
+    tex = splitlf.Image(np.random.default_rng(5).random((200, 200)), 20.0)
+    return design, tex, {"photons": 2000.0, "read_noise": 0.0}
+
+
+@pytest.mark.parametrize("z", [642.0, 1000.0])
+def test_tiles_are_the_one_solve(tiled_scene: Any, z: float) -> None:
+    """A region solved in tiles of 16 cells (each reaching 8 cells into its neighbours)
+    differs from the one solve by far less than the photon noise moves either (two noise
+    draws), and is as close to the truth. Measured: 0.0079 / 0.0046 RMS against noise
+    0.057 / 0.046 at 642 / 1000 mm; RMSE against the truth equal to 4 digits."""
+    design, tex, noise = tiled_scene
+    scene = splitlf.Scene(tex, z, background=0.5)
+    raws = [splitlf.render(design, scene, noise=noise, seed=s) for s in (2, 3)]
+    kw: dict[str, Any] = {"region": (-2.0, 2.0, -1.5, 1.5), "noise": noise}
+    one, two = (splitlf.reconstruct(r, z, **kw) for r in raws)
+    tiled = splitlf.reconstruct(raws[0], z, tile=16, **kw)
+    ny, nx = one.image.shape
+    assert tiled.tiles == -(-nx // 16) * -(-ny // 16) > 4 and one.tiles == 1
+    assert tiled.image.shape == one.image.shape and tiled.extent == one.extent
+
+    def rms(a: np.ndarray) -> float:
+        return float(np.sqrt(np.mean(a ** 2)))
+
+    noise_rms = rms(one.image - two.image) / np.sqrt(2.0)
+    assert rms(tiled.image - one.image) <= 0.25 * noise_rms, (rms(tiled.image - one.image),
+                                                             noise_rms)
+    truth = measure.truth(one, tex)
+    assert rms(tiled.image - truth) <= 1.01 * rms(one.image - truth)
+
+
+def test_a_solve_too_large_falls_back_to_tiles(tiled_scene: Any,
+                                               monkeypatch: pytest.MonkeyPatch) -> None:
+    """When one solve would not fit, reconstruct takes the tiles its error suggests (and
+    with an explicit tile it raises instead)."""
+    from splitlf import reconstruction
+    from splitlf.errors import TooLargeError
+
+    design, tex, noise = tiled_scene
+    raw = splitlf.render(design, splitlf.Scene(tex, 1000.0, background=0.5), noise=noise)
+    real = _native.solve_normal
+    limit = 220 * 220  # cells of a padded grid that "fit" (the margin is 79 cells a side)
+
+    def solve(shape: tuple[int, int], *args: Any) -> Any:
+        need = shape[0] * shape[1]
+        if need > limit:
+            raise TooLargeError("too large.", what="the solve", nbytes=need, limit=limit)
+        return real(shape, *args)
+
+    monkeypatch.setattr(reconstruction._native, "solve_normal", solve)
+    kw: dict[str, Any] = {"region": (-4.0, 4.0, -3.0, 3.0), "noise": noise}
+    rec = splitlf.reconstruct(raw, 1000.0, **kw)
+    ny, nx = rec.image.shape
+    side = int(np.sqrt(0.8 * limit)) - 158  # the hint: 0.8 of the limit, less the margin
+    assert rec.tiles == -(-nx // side) * -(-ny // side) > 1, (rec.tiles, side, nx, ny)
+    with pytest.raises(TooLargeError, match="tile="):
+        splitlf.reconstruct(raw, 1000.0, tile=60, **kw)  # 60 + 8 + 158 > 220
+    monkeypatch.setattr(reconstruction._native, "solve_normal", real)
+    for bad in (0, 15):
+        with pytest.raises(splitlf.errors.InvalidParameter, match="tile"):
+            splitlf.reconstruct(raw, 1000.0, tile=bad, **kw)
+    with pytest.raises(TypeError, match="tile"):
+        splitlf.reconstruct(raw, 1000.0, tile=16.0, **kw)  # type: ignore[arg-type]

@@ -837,8 +837,8 @@ def _cmd_reconstruct(args: argparse.Namespace) -> int:
     region = None if args.region is None else _floats(args.region, 4, "--region")
     rec = reconstruct(raw, depth, region=region, step=args.step,
                       channels=_channels_option(args), noise=args.noise,
-                      regularization=args.regularization, n_threads=args.threads,
-                      progress=None)
+                      regularization=args.regularization, tile=args.tile,
+                      n_threads=args.threads, progress=None)
 
     def picture(tmp: Any) -> None:
         from .plot._mpl import pyplot
@@ -851,7 +851,7 @@ def _cmd_reconstruct(args: argparse.Namespace) -> int:
                "shape": list(rec.image.shape), "extent": list(rec.extent), "step": rec.step,
                "depth": rec.depth, "channels": list(rec.channels), "rows": rec.rows,
                "iterations": rec.iterations, "residual": rec.residual,
-               "regularization": rec.regularization, "noise": rec.noise}
+               "regularization": rec.regularization, "noise": rec.noise, "tiles": rec.tiles}
     sys.stdout.write(json_text(summary) if args.json else f"{out}\n")
     return 0
 
@@ -1529,6 +1529,10 @@ def _add_reconstruct(sub: Any) -> None:
     p.add_argument("--regularization", type=_real_type(
         "regularization", 0.0, "a finite weight > 0"), default=None, metavar="LAMBDA",
         help="the smoothness prior's weight (default 4)")
+    p.add_argument("--tile", type=_integer_type("tile", 16, 10**9), default=None,
+                   metavar="CELLS",
+                   help="at most this many cells per side in one solve (default: one "
+                   "solve, or tiles of the size that fits when one would not)")
     _threads_option(p, "threads of the core")
     _array_output(p, "the image to write (.png, or .npy for the array)", "IMAGE.png")
     p.set_defaults(func=_cmd_reconstruct)

@@ -46,6 +46,11 @@ DEFAULT_REGULARIZATION = 4.0
 CG_RTOL = 1e-10
 #: At most this many iterations.
 CG_MAX_ITER = 2000
+#: Cells by which a tile's solve reaches into its neighbours (cropped after): the prior
+#: couples a tile's edge cells to its margin, which fewer pixels see.
+TILE_OVERLAP = 8
+#: The least tile side (cells).
+MIN_TILE = 16
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -57,7 +62,9 @@ class Reconstruction:
     :class:`~splitlf.DepthMap` given), from
     ``channels`` (numbered from 1) of ``design``; and what the solve did: ``rows`` (raw
     pixels used), ``iterations``, ``residual`` (the normal equations' relative residual),
-    ``regularization`` (lambda) and ``noise`` (the per-pixel sigma model used)."""
+    ``regularization`` (lambda), ``noise`` (the per-pixel sigma model used) and ``tiles``
+    (the solves: 1, or the tiles of a tiled reconstruction, whose ``rows`` is then summed
+    over the tiles, ``iterations`` the most and ``residual`` the largest of any tile)."""
 
     image: np.ndarray
     extent: Extent
@@ -70,6 +77,7 @@ class Reconstruction:
     residual: float
     regularization: float
     noise: str
+    tiles: int = 1
 
     def __post_init__(self) -> None:
         self.image.setflags(write=False)
@@ -206,9 +214,10 @@ def _tiles_hint(e: TooLargeError, nx: int, ny: int, pad: int) -> TooLargeError:
     scale = math.sqrt(0.8 * e.limit / e.bytes)
     side = max(1, int(math.sqrt((nx + 2 * pad) * (ny + 2 * pad)) * scale) - 2 * pad)
     msg = (f"{e} The region is {nx} x {ny} cells (padded by {pad} per side): reconstruct "
-           f"it in tiles of about {side} x {side} cells (region=... per tile; each tile "
-           "pads itself, so neighbouring tiles need no overlap of their own).")
-    return TooLargeError(msg, what=e.what, nbytes=e.bytes, limit=e.limit)
+           f"it in tiles of at most {side} x {side} cells (tile={side}).")
+    out = TooLargeError(msg, what=e.what, nbytes=e.bytes, limit=e.limit)
+    out.tile = side  # type: ignore[attr-defined]
+    return out
 
 
 def _rows(raw: Raw, chans: tuple[int, ...], surface: Plane | DepthMap | float, grid: tuple,
@@ -267,10 +276,45 @@ def _parts(raw: Raw, chans: tuple[int, ...], z: float, grid: tuple) -> list[_Par
     return parts
 
 
+def _tiled(raw: Raw, surface: float | Plane | DepthMap, grid: tuple, tile: int, lam: float,
+           chans: tuple[int, ...], noise: Mapping[str, float] | None, n_threads: int | None,
+           progress: bool | None) -> Reconstruction:
+    """The grid (X0, Y1, step, nx, ny) solved in tiles of at most ``tile`` cells per side,
+    each solve reaching TILE_OVERLAP cells into its neighbours (cropped)."""
+    x0, y1, h, nx, ny = grid
+    out = np.empty((ny, nx))
+    rows = iterations = count = 0
+    resid = 0.0
+    noise_text = ""
+    for j0 in range(0, ny, tile):
+        for i0 in range(0, nx, tile):
+            j1, i1 = min(ny, j0 + tile), min(nx, i0 + tile)
+            e0, e1 = max(0, i0 - TILE_OVERLAP), min(nx, i1 + TILE_OVERLAP)
+            f0, f1 = max(0, j0 - TILE_OVERLAP), min(ny, j1 + TILE_OVERLAP)
+            sub = (x0 + e0 * h, x0 + e1 * h, y1 - f1 * h, y1 - f0 * h)
+            r = _reconstruct(raw, surface, region=sub, step=h, regularization=lam,
+                             channels=chans, noise=noise, tile=None, n_threads=n_threads,
+                             progress=progress)
+            if r.image.shape != (f1 - f0, e1 - e0):
+                raise RuntimeError(f"a tile's grid {r.image.shape} is not its cells "
+                                   f"{(f1 - f0, e1 - e0)}")
+            out[j0:j1, i0:i1] = r.image[j0 - f0:j1 - f0, i0 - e0:i1 - e0]
+            rows += r.rows
+            iterations = max(iterations, r.iterations)
+            resid = max(resid, r.residual)
+            noise_text = r.noise
+            count += 1
+    return Reconstruction(image=out, extent=(x0, x0 + nx * h, y1 - ny * h, y1), step=h,
+                          design=raw.design, depth=surface, channels=chans, rows=rows,
+                          iterations=iterations, residual=resid, regularization=lam,
+                          noise=noise_text, tiles=count)
+
+
 def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None = None,
                 regularization: float | None = None, channels: Any = None,
-                noise: Mapping[str, float] | None = None, n_threads: int | None = None,
-                progress: bool | None = None) -> Reconstruction:
+                noise: Mapping[str, float] | None = None, tile: int | None = None,
+                n_threads: int | None = None, progress: bool | None = None
+                ) -> Reconstruction:
     """The albedo on a grid of cells over ``region`` of the surface ``depth``, from the raw
     (docs/model.md §11, docs/reconstruct.md).
 
@@ -287,6 +331,10 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
     - ``channels``: channel numbers from 1 (None: every channel)
     - ``noise``: the raw's noise, as for :func:`splitlf.render` (``{"photons": N,
       "read_noise": r}``); None: noise-free, weighted as ``NOISE_FLOOR`` of white
+    - ``tile``: at most this many cells per side in one solve (at least ``MIN_TILE``): a
+      larger region is solved in tiles, each reaching ``TILE_OVERLAP`` cells into its
+      neighbours and padded by a pixel's span of its own, and the tiles' own cells put
+      together (None: one solve, or tiles of the size that fits when one would not)
     - ``n_threads``: threads of the general route's map and of the solve (None: all
       cores; the result does not depend on it)
     - ``progress``: tqdm bars of the map and of the solve's iterations (None: only when
@@ -295,9 +343,32 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
     Cells within one pixel's span (``_native.pixel_span``) beyond the region are solved
     for too and cropped, so that every pixel that sees the region is explained. Raises
     ``TypeError``, :class:`~splitlf.errors.InvalidParameter`,
-    :class:`~splitlf.errors.TooLargeError` (the matrix would not fit: a smaller region,
-    a coarser step or tiles) and ``KeyboardInterrupt``.
+    :class:`~splitlf.errors.TooLargeError` (not even a tile's solve would fit) and
+    ``KeyboardInterrupt``.
     """
+    if tile is not None and (isinstance(tile, bool) or not isinstance(tile, int | np.integer)):
+        raise TypeError(f"tile must be None or an integer number of cells, got {tile!r}")
+    if tile is not None and tile < MIN_TILE:
+        raise InvalidParameter.of("tile", tile, f"an integer >= {MIN_TILE} (cells) or None")
+    kw: dict[str, Any] = {"region": region, "step": step, "regularization": regularization,
+                          "channels": channels, "noise": noise, "n_threads": n_threads,
+                          "progress": progress}
+    try:
+        return _reconstruct(raw, depth, tile=None if tile is None else int(tile), **kw)
+    except TooLargeError as e:
+        side = getattr(e, "tile", None)
+        if tile is not None or side is None or side < MIN_TILE:
+            raise
+        # One solve would not fit: tiles of the size that does.
+        return _reconstruct(raw, depth, tile=int(side), **kw)
+
+
+def _reconstruct(raw: Raw, depth: Any, *, region: Any, step: float | None,
+                 regularization: float | None, channels: Any,
+                 noise: Mapping[str, float] | None, tile: int | None,
+                 n_threads: int | None, progress: bool | None) -> Reconstruction:
+    """:func:`reconstruct` over its region: one solve, or tiles of at most ``tile`` cells
+    per side."""
     if not isinstance(raw, Raw):
         raise TypeError(f"raw must be a splitlf.Raw, got {type(raw).__name__}")
     design = raw.design
@@ -328,6 +399,9 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
                                           "lies outside what the channels see; give one")
     x0, y1, h, nx, ny = _native.cell_grid(ext, step_)
     inner: Extent = (x0, x0 + nx * h, y1 - ny * h, y1)
+    if tile is not None and (nx > tile or ny > tile):
+        return _tiled(raw, surface, (x0, y1, h, nx, ny), tile, lam, chans, noise, n_threads,
+                      progress)
     # Pad by the widest pixel span over the surface's depths there (twice: the padded
     # region's depth range can be wider).
     padded = inner
