@@ -32,6 +32,7 @@ import sys
 import time
 from pathlib import Path
 from types import SimpleNamespace
+from typing import Any
 
 import matplotlib
 
@@ -138,6 +139,44 @@ def view(recs: list[splitlf.Reconstruction], p: splitlf.Plane, ty: np.ndarray,
     return out
 
 
+def display_grid(d: splitlf.Design, p: splitlf.Plane) -> tuple[np.ndarray, np.ndarray]:
+    """The view angles (ty from the top, tx) of the display: the bands' depth range in Y,
+    the central half of the arrays' field in X, square display pixels."""
+    tyb = (SHOWN[0] - p.z0) / p.gy / SHOWN[0]
+    tyt = (SHOWN[1] - p.z0) / p.gy / SHOWN[1]
+    txw = min(c["Kx"] * c["d"] / c["L"] for c in d.resolved()) / 4.0
+    ty = np.linspace(tyt, tyb, 900)
+    return ty, np.linspace(-txw, txw, int(900 * 2 * txw / (tyt - tyb)))
+
+
+def show_view(ax: Any, image: np.ndarray, ty: np.ndarray, tx: np.ndarray, p: splitlf.Plane,
+              title: str, depth_ticks: bool, cmap: str = "gray",
+              limits: tuple[float, float] = (0.0, 1.0)) -> Any:
+    """One panel of the camera's view, labelled with depths on the plane when asked."""
+    im = ax.imshow(image, cmap=cmap, vmin=limits[0], vmax=limits[1], aspect="auto",
+                   extent=(tx[0], tx[-1], ty[-1], ty[0]), interpolation="nearest")
+    ax.set_title(title, fontsize=8)
+    ax.set_xticks([])
+    zmark = [400, 500, 642, 800, 1000, 1400]
+    if depth_ticks:
+        ax.set_yticks([(z - p.z0) / p.gy / z for z in zmark])
+        ax.set_yticklabels([f"{z:.0f} mm" for z in zmark], fontsize=8)
+    else:
+        ax.set_yticks([])
+    return im
+
+
+def psnr_axes(ax: Any, mids: list[float], series: dict[str, list[float]]) -> None:
+    """PSNR against the bands' middle depths, half 1's out-of-focus plane marked."""
+    for name, values in series.items():
+        ax.plot(mids, values, "o-", ms=3, label=name)
+    ax.axvline(642.0, color="tab:red", lw=0.8, ls=":", label="half 1's out-of-focus plane")
+    ax.set_xscale("log")
+    ax.set_ylabel("PSNR (dB)")
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3, which="both")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--cache", type=Path, default=None,
@@ -184,40 +223,21 @@ def main() -> None:
     (HERE / "fig2_slanted.json").write_text(json.dumps(out, indent=1))
 
     # the figure: the images and the depth as the camera sees them, and against depth
-    tyb = (SHOWN[0] - p.z0) / p.gy / SHOWN[0]
-    tyt = (SHOWN[1] - p.z0) / p.gy / SHOWN[1]
-    txw = min(c["Kx"] * c["d"] / c["L"] for c in d.resolved()) / 4.0
-    ty = np.linspace(tyt, tyb, 900)
-    tx = np.linspace(-txw, txw, int(900 * 2 * txw / (tyt - tyb)))
+    ty, tx = display_grid(d, p)
     fig = plt.figure(figsize=(13, 7.4))
     gs = fig.add_gridspec(2, 7, width_ratios=[1, 1, 1, 1, 1, 0.12, 2.6])
-    zmark = [400, 500, 642, 800, 1000, 1400]
     panels = [(n, recs[n], "gray", (0.0, 1.0)) for n in CAMERAS] + [
         ("depth from the raw (mm)", depth_views, "viridis", (SHOWN[0], SHOWN[1])),
         ("its error (%)", error_views, "magma", (0.0, 10.0))]
     for k, (name, r, cmap, (lo, hi)) in enumerate(panels):
         ax = fig.add_subplot(gs[:, k])
-        im = ax.imshow(view(r, p, ty, tx), cmap=cmap, vmin=lo, vmax=hi, aspect="auto",
-                       extent=(tx[0], tx[-1], ty[-1], ty[0]), interpolation="nearest")
-        ax.set_title(name, fontsize=8)
-        ax.set_xticks([])
-        if k == 0:
-            ax.set_yticks([(z - p.z0) / p.gy / z for z in zmark])
-            ax.set_yticklabels([f"{z:.0f} mm" for z in zmark], fontsize=8)
-        else:
-            ax.set_yticks([])
+        im = show_view(ax, view(r, p, ty, tx), ty, tx, p, name, k == 0, cmap, (lo, hi))
         if k >= 3:
             fig.colorbar(im, ax=ax, orientation="horizontal", pad=0.02, fraction=0.04)
         ax.axhline((642.0 - p.z0) / p.gy / 642.0, color="tab:red", lw=0.6, ls=":")
     mids = [r["depth"] for r in rows]
-    ax = fig.add_subplot(gs[0, 6])
-    for n in CAMERAS:
-        ax.plot(mids, [r["psnr"][n] for r in rows], "o-", ms=3, label=n)
-    ax.axvline(642.0, color="tab:red", lw=0.8, ls=":", label="half 1's out-of-focus plane")
-    ax.set_xscale("log")
-    ax.set_ylabel("PSNR (dB)")
-    ax.legend(fontsize=7)
-    ax.grid(alpha=0.3, which="both")
+    psnr_axes(fig.add_subplot(gs[0, 6]), mids, {n: [r["psnr"][n] for r in rows]
+                                                 for n in CAMERAS})
     ax = fig.add_subplot(gs[1, 6])
     ax.plot(mids, [100 * r["depth_errors"]["median"] for r in rows], "o-", label="median")
     ax.plot(mids, [100 * r["depth_errors"]["p90"] for r in rows], "s--",
