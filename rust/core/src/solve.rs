@@ -401,24 +401,24 @@ impl Normal {
     fn work_bytes(&self) -> u128 {
         self.blocks
             .iter()
-            .map(|p| match &p.block {
-                Block::Factored { py, .. } => (py.nrows() * self.nx) as u128,
-                Block::Rows { a, .. } => a.nrows() as u128,
-            })
+            .map(|p| self.scratch_len(p) as u128)
             .sum::<u128>()
             * 8
+    }
+
+    /// Values of one block's scratch: a Factored block's nr × nx back-projected rows, a
+    /// Rows block's one value a row.
+    fn scratch_len(&self, p: &Prepared) -> usize {
+        match &p.block {
+            Block::Factored { py, .. } => py.nrows() * self.nx,
+            Block::Rows { a, .. } => a.nrows(),
+        }
     }
 
     fn work(&self) -> Result<Work> {
         self.blocks
             .iter()
-            .map(|p| {
-                let n = match &p.block {
-                    Block::Factored { py, .. } => py.nrows() * self.nx,
-                    Block::Rows { a, .. } => a.nrows(),
-                };
-                memory::try_vec("the solve's work arrays", n, 0.0)
-            })
+            .map(|p| memory::try_vec("the solve's work arrays", self.scratch_len(p), 0.0))
             .collect()
     }
 
