@@ -536,3 +536,71 @@ def test_a_solve_too_large_falls_back_to_tiles(tiled_scene: Any,
             splitlf.reconstruct(raw, 1000.0, tile=bad, **kw)
     with pytest.raises(TypeError, match="tile"):
         splitlf.reconstruct(raw, 1000.0, tile=16.0, **kw)  # type: ignore[arg-type]
+
+
+def _two_types() -> splitlf.Design:
+    """Half 1 of the seed cut to 8 x 6 lenses with interleaved lens types of two focal
+    lengths (a rect multi-focus array: the exact route)."""
+    d = seed_small(8, 6)
+    f = d.resolved()[0]["f"][0]
+    return splitlf.Design(F=d.F, D=d.D, aperture=d.aperture,
+                          channels=(d.channels[0].replace(f=(f, 1.4 * f)),))
+
+
+def _raytrix_small() -> splitlf.Design:
+    d = splitlf.Design.preset("raytrix-r12")
+    return d.replace(channels=(d.channels[0].replace(Kx=6, Ky=5),))
+
+
+@pytest.mark.parametrize("which", ["rect two types (exact route)",
+                                   "raytrix-r12 (general route)"])
+def test_lens_types_use_only_their_lenses(which: str) -> None:
+    """reconstruct(lens_types=...) uses the pixels under those lens types (the core's
+    lens of each pixel, splitlf.chief_samples) and no others: with the other types' pixels
+    set to 5 (far from any albedo) a type's image is the same bit for bit, while the image
+    of every type changes; a type's rows and the other types' rows add up to the whole;
+    every type listed is every type (None)."""
+    rect = which.startswith("rect")
+    design = _two_types() if rect else _raytrix_small()
+    z = 1000.0 if rect else 400.0
+    n_types = len(design.resolved()[0]["f"])
+    kw: dict[str, Any] = {"region": (-1.0, 1.0, -0.8, 0.8) if rect else (-0.8, 0.8, -0.6, 0.6),
+                          "step": (2.0 if rect else 4.0) * design.resolution_step(z)}
+    tex = splitlf.Image(np.random.default_rng(7).random((40, 40)), 8.0)
+    raw = splitlf.render(design, splitlf.Scene(tex, z, background=0.5))
+    types = splitlf.chief_samples(design, 1, z).type
+    assert sorted(np.unique(types)) == list(range(n_types))
+    whole = splitlf.reconstruct(raw, z, **kw)
+    t = 2
+    spoilt = raw.images[0].copy()
+    spoilt[types != t - 1] = 5.0
+    bad = splitlf.Raw(design, [spoilt])
+    one = splitlf.reconstruct(raw, z, lens_types=t, **kw)
+    assert one.lens_types == (t,)
+    np.testing.assert_array_equal(one.image, splitlf.reconstruct(bad, z, lens_types=[t],
+                                                                 **kw).image)
+    assert np.abs(splitlf.reconstruct(bad, z, **kw).image - whole.image).max() > 0.1
+    others = tuple(u for u in range(1, n_types + 1) if u != t)
+    rest = splitlf.reconstruct(raw, z, lens_types=others, **kw)
+    assert 0 < one.rows < whole.rows and 0 < rest.rows < whole.rows
+    assert one.rows + rest.rows == whole.rows
+    every = splitlf.reconstruct(raw, z, lens_types=tuple(range(n_types, 0, -1)), **kw)
+    assert every.lens_types is None and every.rows == whole.rows
+
+
+def test_lens_types_bad_input() -> None:
+    design = _two_types()
+    raw = splitlf.render(design, splitlf.Scene(flat(0.5), 1000.0))
+    kw: dict[str, Any] = {"region": (-1.0, 1.0, -0.8, 0.8)}
+    with pytest.raises(splitlf.InvalidParameter, match=r"lens_types.*1\.\.2"):
+        splitlf.reconstruct(raw, 1000.0, lens_types=3, **kw)
+    with pytest.raises(splitlf.InvalidParameter, match="lens_types"):
+        splitlf.reconstruct(raw, 1000.0, lens_types=0, **kw)
+    with pytest.raises(splitlf.InvalidParameter, match="at most once"):
+        splitlf.reconstruct(raw, 1000.0, lens_types=(1, 1), **kw)
+    with pytest.raises(TypeError, match="lens_types"):
+        splitlf.reconstruct(raw, 1000.0, lens_types="1", **kw)
+    with pytest.raises(TypeError, match="lens_types"):
+        splitlf.reconstruct(raw, 1000.0, lens_types=(1.0,), **kw)
+    with pytest.raises(TypeError, match="lens_types"):
+        splitlf.reconstruct(raw, 1000.0, lens_types=(), **kw)

@@ -819,12 +819,22 @@ def _write_array(args: argparse.Namespace, out: Path, npy: Path | None, array: A
             picture(tmp)
 
 
+def _ints(text: str, option: str) -> tuple[int, ...]:
+    """Comma-separated whole numbers (a number with a fraction is refused, not cut)."""
+    values = _floats(text, len(text.split(",")), option)
+    if not all(math.isfinite(v) and v == int(v) for v in values):
+        raise CliError(f"{option} {text}: give comma-separated whole numbers")
+    return tuple(int(v) for v in values)
+
+
 def _channels_option(args: argparse.Namespace) -> tuple[int, ...] | None:
     """``--channels I[,J...]`` as channel numbers (None: all)."""
-    if args.channels is None:
-        return None
-    return tuple(int(c) for c in _floats(args.channels, len(args.channels.split(",")),
-                                         "--channels"))
+    return None if args.channels is None else _ints(args.channels, "--channels")
+
+
+def _lens_types_option(args: argparse.Namespace) -> tuple[int, ...] | None:
+    """``--lens-types T[,U...]`` as lens type numbers (None: all)."""
+    return None if args.lens_types is None else _ints(args.lens_types, "--lens-types")
 
 
 def _cmd_reconstruct(args: argparse.Namespace) -> int:
@@ -838,7 +848,8 @@ def _cmd_reconstruct(args: argparse.Namespace) -> int:
     rec = reconstruct(raw, depth, region=region, step=args.step,
                       channels=_channels_option(args), noise=args.noise,
                       regularization=args.regularization, tile=args.tile,
-                      n_threads=args.threads, progress=None)
+                      n_threads=args.threads, progress=None,
+                      lens_types=_lens_types_option(args))
 
     def picture(tmp: Any) -> None:
         from .plot._mpl import pyplot
@@ -1533,6 +1544,9 @@ def _add_reconstruct(sub: Any) -> None:
                    metavar="CELLS",
                    help="at most this many cells per side in one solve (default: one "
                    "solve, or tiles of the size that fits when one would not)")
+    p.add_argument("--lens-types", default=None, metavar="T[,U...]",
+                   help="use only the pixels under these lens types of a multi-focus array "
+                   "(numbers from 1, in the order of the channel's f; default: all)")
     _threads_option(p, "threads of the core")
     _array_output(p, "the image to write (.png, or .npy for the array)", "IMAGE.png")
     p.set_defaults(func=_cmd_reconstruct)

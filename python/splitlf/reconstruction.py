@@ -30,7 +30,7 @@ import numpy as np
 from . import _native, _validate
 from .design import Design
 from .errors import InvalidParameter, TooLargeError
-from .rendering import DepthMap, Plane, Raw, _extent, _progress, _progress_flag
+from .rendering import DepthMap, Plane, Raw, _expected_shapes, _extent, _progress, _progress_flag
 from .simulation import _noise
 
 Extent = tuple[float, float, float, float]
@@ -60,7 +60,8 @@ class Reconstruction:
     ``extent`` = (X0, X1, Y0, Y1) in object-space mm, on the surface ``depth`` (a depth in
     mm for a fronto-parallel plane, else the :class:`~splitlf.Plane` or
     :class:`~splitlf.DepthMap` given), from
-    ``channels`` (numbered from 1) of ``design``; and what the solve did: ``rows`` (raw
+    ``channels`` (numbered from 1) of ``design`` and their lenses of ``lens_types``
+    (numbered from 1; None: every type); and what the solve did: ``rows`` (raw
     pixels used), ``iterations``, ``residual`` (the normal equations' relative residual),
     ``regularization`` (lambda), ``noise`` (the per-pixel sigma model used) and ``tiles``
     (the solves: 1, or the tiles of a tiled reconstruction, whose ``rows`` is then summed
@@ -78,6 +79,7 @@ class Reconstruction:
     regularization: float
     noise: str
     tiles: int = 1
+    lens_types: tuple[int, ...] | None = None
 
     def __post_init__(self) -> None:
         self.image.setflags(write=False)
@@ -147,6 +149,38 @@ def _channels(design: Design, channels: Any) -> tuple[int, ...]:
             raise InvalidParameter.of("channels", int(c), "each channel at most once")
         out.append(int(c))
     return tuple(out)
+
+
+def _type_count(design: Design, chans: tuple[int, ...]) -> int:
+    """The most lens types of any of the channels (a channel without ``f``: one)."""
+    res = design.resolved()
+    return max(len(res[i - 1]["f"]) for i in chans)
+
+
+def _lens_types(design: Design, chans: tuple[int, ...], lens_types: Any
+                ) -> tuple[int, ...] | None:
+    """The lens types kept (numbered from 1), or None for every type."""
+    if lens_types is None:
+        return None
+    n = _type_count(design, chans)
+    if isinstance(lens_types, (int, np.integer)) and not isinstance(lens_types, bool):
+        lens_types = (lens_types,)
+    if (not isinstance(lens_types, Sequence) or isinstance(lens_types, str)
+            or not lens_types):
+        raise TypeError("lens_types must be None, a lens type number or a non-empty "
+                        f"sequence of them, got {lens_types!r}")
+    out: list[int] = []
+    for t in lens_types:
+        if isinstance(t, bool) or not isinstance(t, (int, np.integer)):
+            raise TypeError(f"lens_types must hold integers, got {t!r}")
+        if not 1 <= t <= n:
+            raise InvalidParameter.of("lens_types", int(t),
+                                      f"lens type numbers in 1..{n} (the chosen channels' "
+                                      "lens types)")
+        if int(t) in out:
+            raise InvalidParameter.of("lens_types", int(t), "each lens type at most once")
+        out.append(int(t))
+    return None if sorted(out) == list(range(1, n + 1)) else tuple(sorted(out))
 
 
 def _sigma(y: np.ndarray, noise: Mapping[str, float] | None, white: np.ndarray
@@ -221,7 +255,8 @@ def _tiles_hint(e: TooLargeError, nx: int, ny: int, pad: int) -> TooLargeError:
 
 
 def _rows(raw: Raw, chans: tuple[int, ...], surface: Plane | DepthMap | float, grid: tuple,
-          n_threads: int | None, progress: Any) -> list[_Rows]:
+          n_threads: int | None, progress: Any, types: tuple[int, ...] | None = None
+          ) -> list[_Rows]:
     design = raw.design
     plane = surface if not isinstance(surface, float) else Plane(surface)
     kind, params, depth_map = plane.seam()
@@ -232,6 +267,18 @@ def _rows(raw: Raw, chans: tuple[int, ...], surface: Plane | DepthMap | float, g
         return []
     shares = np.array([c["share"] for c in design.resolved()])
     ch = chan.astype(np.int64)
+    if types is not None:
+        keep = _of_types(design, ch, pix.astype(np.int64), types, _reference_depth(surface),
+                         n_threads)
+        if not keep.all():
+            from scipy import sparse
+
+            m = sparse.csr_matrix((data, indices.astype(np.int64), indptr.astype(np.int64)),
+                                  shape=(chan.size, grid[3] * grid[4]))[np.flatnonzero(keep)]
+            indptr, indices, data, _ = _csr(m)
+            chan, pix, ch = chan[keep], pix[keep], ch[keep]
+            if chan.size == 0:
+                return []
     # Each row's raw value, read from its own channel's image (no copy of whole raws).
     y = np.empty(chan.size)
     for c in np.unique(ch):
@@ -240,7 +287,25 @@ def _rows(raw: Raw, chans: tuple[int, ...], surface: Plane | DepthMap | float, g
     return [_Rows(csr=(indptr, indices, data, grid[3] * grid[4]), y=y, white=shares[ch])]
 
 
-def _parts(raw: Raw, chans: tuple[int, ...], z: float, grid: tuple) -> list[_Part]:
+def _of_types(design: Design, ch: np.ndarray, pix: np.ndarray, types: tuple[int, ...],
+              z: float, n_threads: int | None) -> np.ndarray:
+    """Whether each pixel (channel index from 0, flat pixel index) lies under a lens of
+    one of ``types`` (numbered from 1): the core's lens of each pixel, read over the pixel
+    rows the pixels span."""
+    keep = np.zeros(ch.size, dtype=bool)
+    wanted = np.array(types, dtype=np.int64) - 1
+    for c in np.unique(ch):
+        sel = np.flatnonzero(ch == c)
+        cols = _expected_shapes(design)[int(c)][1]
+        r = pix[sel] // cols
+        lo, hi = int(r.min()), int(r.max()) + 1
+        t = _native.chief_samples(design.core, int(c) + 1, z, n_threads, (lo, hi)).type
+        keep[sel] = np.isin(t[r - lo, pix[sel] % cols], wanted)
+    return keep
+
+
+def _parts(raw: Raw, chans: tuple[int, ...], z: float, grid: tuple,
+           kept_types: tuple[int, ...] | None = None) -> list[_Part]:
     from scipy import sparse
 
     design = raw.design
@@ -252,6 +317,8 @@ def _parts(raw: Raw, chans: tuple[int, ...], z: float, grid: tuple) -> list[_Par
         img = raw.images[c - 1]
         rows, cols = types.shape
         for t, ((xi, xj, xd, tx), (yi, yj, yd, ty)) in enumerate(zip(xs, ys, strict=True)):
+            if kept_types is not None and t + 1 not in kept_types:
+                continue
             px = sparse.csr_matrix((xd, xj.astype(np.int64), xi.astype(np.int64)),
                                    shape=(cols, gnx))
             py = sparse.csr_matrix((yd, yj.astype(np.int64), yi.astype(np.int64)),
@@ -278,7 +345,7 @@ def _parts(raw: Raw, chans: tuple[int, ...], z: float, grid: tuple) -> list[_Par
 
 def _tiled(raw: Raw, surface: float | Plane | DepthMap, grid: tuple, tile: int, lam: float,
            chans: tuple[int, ...], noise: Mapping[str, float] | None, n_threads: int | None,
-           progress: bool | None) -> Reconstruction:
+           progress: bool | None, types: tuple[int, ...] | None = None) -> Reconstruction:
     """The grid (X0, Y1, step, nx, ny) solved in tiles of at most ``tile`` cells per side,
     each solve reaching TILE_OVERLAP cells into its neighbours (cropped)."""
     x0, y1, h, nx, ny = grid
@@ -294,7 +361,7 @@ def _tiled(raw: Raw, surface: float | Plane | DepthMap, grid: tuple, tile: int, 
             sub = (x0 + e0 * h, x0 + e1 * h, y1 - f1 * h, y1 - f0 * h)
             r = _reconstruct(raw, surface, region=sub, step=h, regularization=lam,
                              channels=chans, noise=noise, tile=None, n_threads=n_threads,
-                             progress=progress)
+                             progress=progress, lens_types=types)
             if r.image.shape != (f1 - f0, e1 - e0):
                 raise RuntimeError(f"a tile's grid {r.image.shape} is not its cells "
                                    f"{(f1 - f0, e1 - e0)}")
@@ -307,14 +374,14 @@ def _tiled(raw: Raw, surface: float | Plane | DepthMap, grid: tuple, tile: int, 
     return Reconstruction(image=out, extent=(x0, x0 + nx * h, y1 - ny * h, y1), step=h,
                           design=raw.design, depth=surface, channels=chans, rows=rows,
                           iterations=iterations, residual=resid, regularization=lam,
-                          noise=noise_text, tiles=count)
+                          noise=noise_text, tiles=count, lens_types=types)
 
 
 def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None = None,
                 regularization: float | None = None, channels: Any = None,
                 noise: Mapping[str, float] | None = None, tile: int | None = None,
-                n_threads: int | None = None, progress: bool | None = None
-                ) -> Reconstruction:
+                n_threads: int | None = None, progress: bool | None = None,
+                lens_types: Any = None) -> Reconstruction:
     """The albedo on a grid of cells over ``region`` of the surface ``depth``, from the raw
     (docs/model.md §11, docs/reconstruct.md).
 
@@ -329,6 +396,9 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
     - ``regularization``: lambda, the smoothness prior's weight (None:
       ``DEFAULT_REGULARIZATION``); it does not depend on the number of pixels
     - ``channels``: channel numbers from 1 (None: every channel)
+    - ``lens_types``: lens type numbers from 1 (a multi-focus array's types, in the order
+      of the channel's ``f``): only the pixels under lenses of these types are used
+      (None: every type)
     - ``noise``: the raw's noise, as for :func:`splitlf.render` (``{"photons": N,
       "read_noise": r}``); None: noise-free, weighted as ``NOISE_FLOOR`` of white
     - ``tile``: at most this many cells per side in one solve (at least ``MIN_TILE``): a
@@ -352,7 +422,7 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
         raise InvalidParameter.of("tile", tile, f"an integer >= {MIN_TILE} (cells) or None")
     kw: dict[str, Any] = {"region": region, "step": step, "regularization": regularization,
                           "channels": channels, "noise": noise, "n_threads": n_threads,
-                          "progress": progress}
+                          "progress": progress, "lens_types": lens_types}
     try:
         return _reconstruct(raw, depth, tile=None if tile is None else int(tile), **kw)
     except TooLargeError as e:
@@ -366,7 +436,8 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
 def _reconstruct(raw: Raw, depth: Any, *, region: Any, step: float | None,
                  regularization: float | None, channels: Any,
                  noise: Mapping[str, float] | None, tile: int | None,
-                 n_threads: int | None, progress: bool | None) -> Reconstruction:
+                 n_threads: int | None, progress: bool | None,
+                 lens_types: Any = None) -> Reconstruction:
     """:func:`reconstruct` over its region: one solve, or tiles of at most ``tile`` cells
     per side."""
     if not isinstance(raw, Raw):
@@ -374,6 +445,7 @@ def _reconstruct(raw: Raw, depth: Any, *, region: Any, step: float | None,
     design = raw.design
     surface = _depth(depth)
     chans = _channels(design, channels)
+    types = _lens_types(design, chans, lens_types)
     noise_ = _noise(noise)
     lam = DEFAULT_REGULARIZATION if regularization is None else _validate.real(
         regularization, "regularization")
@@ -401,7 +473,7 @@ def _reconstruct(raw: Raw, depth: Any, *, region: Any, step: float | None,
     inner: Extent = (x0, x0 + nx * h, y1 - ny * h, y1)
     if tile is not None and (nx > tile or ny > tile):
         return _tiled(raw, surface, (x0, y1, h, nx, ny), tile, lam, chans, noise, n_threads,
-                      progress)
+                      progress, types)
     # Pad by the widest pixel span over the surface's depths there (twice: the padded
     # region's depth range can be wider).
     padded = inner
@@ -423,11 +495,11 @@ def _reconstruct(raw: Raw, depth: Any, *, region: Any, step: float | None,
         try:
             if exact:
                 assert isinstance(surface, float)
-                parts = _parts(raw, chans, surface, (gx0, gy1, h, gnx, gny))
+                parts = _parts(raw, chans, surface, (gx0, gy1, h, gnx, gny), types)
             else:
                 bar, report = _progress(show, "splitlf reconstruct (map)", "block")
                 parts = _rows(raw, chans, surface, (gx0, gy1, h, gnx, gny), n_threads,
-                              report)
+                              report, types)
                 if bar is not None:
                     bar.close()
                     bar = None
@@ -437,7 +509,8 @@ def _reconstruct(raw: Raw, depth: Any, *, region: Any, step: float | None,
         if rows == 0:
             raise InvalidParameter.of(
                 "region", f"({inner[0]:.6g}, {inner[1]:.6g}, {inner[2]:.6g}, {inner[3]:.6g})",
-                "a region some pixel of the chosen channels sees")
+                "a region some pixel of the chosen channels"
+                + ("" if types is None else " and lens types") + " sees")
         factored: list[tuple[Any, ...]] = []
         explicit: list[tuple[Any, ...]] = []
         for p in parts:
@@ -455,4 +528,4 @@ def _reconstruct(raw: Raw, depth: Any, *, region: Any, step: float | None,
     img = t[pad:pad + ny, pad:pad + nx].copy()
     return Reconstruction(image=img, extent=inner, step=h, design=design, depth=surface,
                           channels=chans, rows=rows, iterations=iterations, residual=resid,
-                          regularization=lam, noise=noise_text)
+                          regularization=lam, noise=noise_text, lens_types=types)
