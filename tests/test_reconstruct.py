@@ -402,7 +402,7 @@ def test_general_map_is_the_render_on_hex_and_circle() -> None:
     from mc_render import mc_pixels, scene
 
     d = splitlf.Design.preset("lytro-illum")
-    small = d.replace(channels=(d.channels[0].replace(Kx=12, Ky=10),))
+    small = d.replace(channels=(d.channels[0].replace(Kx=12, Ky=10, Mx=None, My=None),))
     surface = splitlf.Plane(300.0)
     grid = _native.cell_grid((-2.5, 2.5, -2.0, 2.0), 2.0 * small.resolution_step(300.0))
     x0, y1, h, nx, ny = grid
@@ -549,7 +549,7 @@ def _two_types() -> splitlf.Design:
 
 def _raytrix_small() -> splitlf.Design:
     d = splitlf.Design.preset("raytrix-r12")
-    return d.replace(channels=(d.channels[0].replace(Kx=6, Ky=5),))
+    return d.replace(channels=(d.channels[0].replace(Kx=6, Ky=5, Mx=None, My=None),))
 
 
 @pytest.mark.parametrize("which", ["rect two types (exact route)",
