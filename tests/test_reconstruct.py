@@ -553,38 +553,45 @@ def _raytrix_small() -> splitlf.Design:
 
 
 @pytest.mark.parametrize("which", ["rect two types (exact route)",
+                                   "rect two types, tilted plane (tilted route)",
                                    "raytrix-r12 (general route)"])
 def test_lens_types_use_only_their_lenses(which: str) -> None:
-    """reconstruct(lens_types=...) uses the pixels under those lens types (the core's
-    lens of each pixel, splitlf.chief_samples) and no others: with the other types' pixels
-    set to 5 (far from any albedo) a type's image is the same bit for bit, while the image
-    of every type changes; a type's rows and the other types' rows add up to the whole;
-    every type listed is every type (None)."""
+    """reconstruct(lens_types=...) uses the pixels under those lens types (each pixel's lens
+    from splitlf.chief_samples, its type by the model's rule) and no others: with the other
+    types' pixels set to 5 (far from any albedo) a type's image is the same bit for bit,
+    while the image of every type changes; a type's rows and the other types' rows add up
+    to the whole; every type listed is every type (None)."""
     rect = which.startswith("rect")
     design = _two_types() if rect else _raytrix_small()
     z = 1000.0 if rect else 400.0
+    surface: Any = splitlf.Plane(z, 0.0, 2.0) if "tilted" in which else z
     n_types = len(design.resolved()[0]["f"])
     kw: dict[str, Any] = {"region": (-1.0, 1.0, -0.8, 0.8) if rect else (-0.8, 0.8, -0.6, 0.6),
-                          "step": (2.0 if rect else 4.0) * design.resolution_step(z)}
+                          "step": (2.0 if rect else 4.0) * design.resolution_step(z),
+                          "noise": {"photons": 2000.0, "read_noise": 0.0}}  # fewer iterations
     tex = splitlf.Image(np.random.default_rng(7).random((40, 40)), 8.0)
-    raw = splitlf.render(design, splitlf.Scene(tex, z, background=0.5))
-    types = splitlf.chief_samples(design, 1, z).type
+    raw = splitlf.render(design, splitlf.Scene(tex, surface, background=0.5))
+    # Each pixel's lens type from its lens (j, k) by docs/model.md §9's rule: (j + k) mod T
+    # on rect lattices, (j - floor(k / 2) - k) mod T on hex ones.
+    lens = splitlf.chief_samples(design, 1, z).lens
+    j, k = lens[..., 0], lens[..., 1]
+    types = (j + k if rect else j - k // 2 - k) % n_types
     assert sorted(np.unique(types)) == list(range(n_types))
-    whole = splitlf.reconstruct(raw, z, **kw)
+    whole = splitlf.reconstruct(raw, surface, **kw)
     t = 2
     spoilt = raw.images[0].copy()
     spoilt[types != t - 1] = 5.0
     bad = splitlf.Raw(design, [spoilt])
-    one = splitlf.reconstruct(raw, z, lens_types=t, **kw)
+    one = splitlf.reconstruct(raw, surface, lens_types=t, **kw)
     assert one.lens_types == (t,)
-    np.testing.assert_array_equal(one.image, splitlf.reconstruct(bad, z, lens_types=[t],
+    np.testing.assert_array_equal(one.image, splitlf.reconstruct(bad, surface, lens_types=[t],
                                                                  **kw).image)
-    assert np.abs(splitlf.reconstruct(bad, z, **kw).image - whole.image).max() > 0.1
+    assert np.abs(splitlf.reconstruct(bad, surface, **kw).image - whole.image).max() > 0.1
     others = tuple(u for u in range(1, n_types + 1) if u != t)
-    rest = splitlf.reconstruct(raw, z, lens_types=others, **kw)
+    rest = splitlf.reconstruct(raw, surface, lens_types=others, **kw)
     assert 0 < one.rows < whole.rows and 0 < rest.rows < whole.rows
     assert one.rows + rest.rows == whole.rows
-    every = splitlf.reconstruct(raw, z, lens_types=tuple(range(n_types, 0, -1)), **kw)
+    every = splitlf.reconstruct(raw, surface, lens_types=tuple(range(n_types, 0, -1)), **kw)
     assert every.lens_types is None and every.rows == whole.rows
 
 
@@ -604,3 +611,9 @@ def test_lens_types_bad_input() -> None:
         splitlf.reconstruct(raw, 1000.0, lens_types=(1.0,), **kw)
     with pytest.raises(TypeError, match="lens_types"):
         splitlf.reconstruct(raw, 1000.0, lens_types=(), **kw)
+    # The core's own checks, behind the Python ones.
+    scene = _surface_scene(splitlf.Plane(1000.0))
+    grid = _native.cell_grid((-1.0, 1.0, -0.8, 0.8), 0.2)
+    for bad in ([0], [3], [-2**63], []):
+        with pytest.raises(splitlf.InvalidParameter, match="lens_types"):
+            _native.surface_system(design.core, scene, grid, None, None, None, bad)

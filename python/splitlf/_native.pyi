@@ -436,6 +436,7 @@ def surface_system(
     channels: list[int] | None = None,
     n_threads: int | None = None,
     progress: Callable[[int, int], object] | None = None,
+    lens_types: list[int] | None = None,
 ) -> tuple[
     npt.NDArray[np.uint32],
     npt.NDArray[np.uint64],

@@ -30,7 +30,7 @@ import numpy as np
 from . import _native, _validate
 from .design import Design
 from .errors import InvalidParameter, TooLargeError
-from .rendering import DepthMap, Plane, Raw, _expected_shapes, _extent, _progress, _progress_flag
+from .rendering import DepthMap, Plane, Raw, _extent, _progress, _progress_flag
 from .simulation import _noise
 
 Extent = tuple[float, float, float, float]
@@ -262,46 +262,18 @@ def _rows(raw: Raw, chans: tuple[int, ...], surface: Plane | DepthMap | float, g
     kind, params, depth_map = plane.seam()
     scene = _native.RenderScene("constant", [0.0], None, kind, params, depth_map, 0.0)
     chan, pix, indptr, indices, data = _native.surface_system(
-        design.core, scene, grid, list(chans), n_threads, progress)
+        design.core, scene, grid, list(chans), n_threads, progress,
+        None if types is None else list(types))
     if chan.size == 0:
         return []
     shares = np.array([c["share"] for c in design.resolved()])
     ch = chan.astype(np.int64)
-    if types is not None:
-        keep = _of_types(design, ch, pix.astype(np.int64), types, _reference_depth(surface),
-                         n_threads)
-        if not keep.all():
-            from scipy import sparse
-
-            m = sparse.csr_matrix((data, indices.astype(np.int64), indptr.astype(np.int64)),
-                                  shape=(chan.size, grid[3] * grid[4]))[np.flatnonzero(keep)]
-            indptr, indices, data, _ = _csr(m)
-            chan, pix, ch = chan[keep], pix[keep], ch[keep]
-            if chan.size == 0:
-                return []
     # Each row's raw value, read from its own channel's image (no copy of whole raws).
     y = np.empty(chan.size)
     for c in np.unique(ch):
         sel = ch == c
         y[sel] = raw.images[c].ravel()[pix[sel].astype(np.int64)]
     return [_Rows(csr=(indptr, indices, data, grid[3] * grid[4]), y=y, white=shares[ch])]
-
-
-def _of_types(design: Design, ch: np.ndarray, pix: np.ndarray, types: tuple[int, ...],
-              z: float, n_threads: int | None) -> np.ndarray:
-    """Whether each pixel (channel index from 0, flat pixel index) lies under a lens of
-    one of ``types`` (numbered from 1): the core's lens of each pixel, read over the pixel
-    rows the pixels span."""
-    keep = np.zeros(ch.size, dtype=bool)
-    wanted = np.array(types, dtype=np.int64) - 1
-    for c in np.unique(ch):
-        sel = np.flatnonzero(ch == c)
-        cols = _expected_shapes(design)[int(c)][1]
-        r = pix[sel] // cols
-        lo, hi = int(r.min()), int(r.max()) + 1
-        t = _native.chief_samples(design.core, int(c) + 1, z, n_threads, (lo, hi)).type
-        keep[sel] = np.isin(t[r - lo, pix[sel] % cols], wanted)
-    return keep
 
 
 def _parts(raw: Raw, chans: tuple[int, ...], z: float, grid: tuple,

@@ -455,12 +455,15 @@ fn pixel_may_see(design: &Design, chan: &Chan, sees: &[bool], a: u32, b: u32) ->
 /// apertures, sensor layouts): the forward model's general route in record mode
 /// ([`Recorder`]). The node polygons' images are clipped by the cells exactly; the outer
 /// integral is the render's cuts (the lens's kinks and the grid's lines) with the fixed
-/// rule. `done` counts the raw rows handled.
+/// rule. Only the pixels under lenses of `types` (type indices from 0; None: every type)
+/// are rows. `done` counts the raw rows handled.
+#[allow(clippy::too_many_arguments)]
 pub fn build_surface(
     design: &Design,
     channels: &[usize],
     surface: &Surface,
     grid: &CellGrid,
+    types: Option<&[usize]>,
     n_threads: Option<usize>,
     done: &AtomicUsize,
 ) -> Result<System> {
@@ -470,6 +473,24 @@ pub fn build_surface(
     for &i in channels {
         channel(design, i)?;
     }
+    if let Some(ts) = types {
+        let n = channels
+            .iter()
+            .map(|&i| design.channels[i].f.len())
+            .max()
+            .unwrap_or(1);
+        if ts.is_empty() {
+            return Err(Error::param("lens_types", "none", "at least one lens type"));
+        }
+        if let Some(&t) = ts.iter().find(|&&t| t >= n) {
+            return Err(Error::param(
+                "lens_types",
+                t + 1,
+                format!("lens type numbers in 1..={n} (the channels' lens types)"),
+            ));
+        }
+    }
+    let keeps = |t: usize| types.map_or(true, |ts| ts.contains(&t));
     if grid.cells() > u32::MAX as usize {
         return Err(Error::param(
             "region",
@@ -484,7 +505,9 @@ pub fn build_surface(
             .all(|&i| supported(design, &design.channels[i]).is_ok());
         if exact && g[0] == 0.0 && g[1] != 0.0 {
             // None comes before any row is counted: the general route starts afresh.
-            if let Some(s) = build_tilted(design, channels, *z0, g[1], grid, n_threads, done)? {
+            if let Some(s) =
+                build_tilted(design, channels, *z0, g[1], grid, &keeps, n_threads, done)?
+            {
                 return Ok(s);
             }
         }
@@ -522,6 +545,9 @@ pub fn build_surface(
                         let mut s = System::default();
                         for a in 0..cols {
                             checkpoint()?;
+                            if types.is_some() && !keeps(design.pixel(ch, a as u32, b as u32).t) {
+                                continue;
+                            }
                             if !pixel_may_see(design, &chan, &sees, a as u32, b as u32) {
                                 continue;
                             }
@@ -563,12 +589,14 @@ const MAX_SLABS: usize = 64;
 /// at an edge is the fronto-parallel cut at the edge's depth), and each row is cut into
 /// slabs of at most [`SLAB_DEPTH`] relative depth, each slab's y area times the x areas at
 /// its middle depth (the x polygon's areas move with the depth of the rays' y part only).
+#[allow(clippy::too_many_arguments)]
 fn build_tilted(
     design: &Design,
     channels: &[usize],
     z0: f64,
     g: f64,
     grid: &CellGrid,
+    keeps: &(dyn Fn(usize) -> bool + Sync),
     n_threads: Option<usize>,
     done: &AtomicUsize,
 ) -> Result<Option<System>> {
@@ -679,6 +707,9 @@ fn build_tilted(
                     let mut entries: Vec<(u32, f64)> = Vec::new();
                     for a in 0..cols {
                         let t = typ(a, b);
+                        if !keeps(t) {
+                            continue;
+                        }
                         let Some(yp) = &py[t][b] else {
                             continue;
                         };

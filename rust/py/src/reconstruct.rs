@@ -177,9 +177,12 @@ pub(crate) fn reconstruction_system<'py>(
 
 /// The map for any surface over the grid (X0, Y1, step, nx, ny): the scene's surface (its
 /// texture is not used), any design; the forward model's general route in record mode.
-/// Returns what [`reconstruction_system`] returns.
+/// Only the pixels under lenses of `lens_types` (numbered from 1; None: every type) are
+/// rows. Returns what [`reconstruction_system`] returns.
 #[pyfunction]
-#[pyo3(signature = (design, scene, grid, channels=None, n_threads=None, progress=None))]
+#[pyo3(signature = (design, scene, grid, channels=None, n_threads=None, progress=None,
+                    lens_types=None))]
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn surface_system<'py>(
     py: Python<'py>,
     design: &DesignCore,
@@ -188,8 +191,26 @@ pub(crate) fn surface_system<'py>(
     channels: Option<Vec<i64>>,
     n_threads: Option<&Bound<'py, PyAny>>,
     progress: Option<Py<PyAny>>,
+    lens_types: Option<Vec<i64>>,
 ) -> PyResult<Csr<'py>> {
     let sc = Arc::clone(&scene.inner);
+    let types: Option<Vec<usize>> = lens_types
+        .map(|v| {
+            v.into_iter()
+                .map(|t| {
+                    // Numbers from 1; a number below 1 is named as given (the core names
+                    // those beyond the channels' types).
+                    usize::try_from(t.saturating_sub(1)).map_err(|_| {
+                        to_py(splitlf_core::Error::param(
+                            "lens_types",
+                            t,
+                            "lens type numbers from 1",
+                        ))
+                    })
+                })
+                .collect::<PyResult<Vec<usize>>>()
+        })
+        .transpose()?;
     build_map(
         py,
         design,
@@ -198,7 +219,7 @@ pub(crate) fn surface_system<'py>(
         n_threads,
         progress,
         "depth",
-        move |d, ch, g, t, c| system::build_surface(d, ch, &sc.surface, g, t, c),
+        move |d, ch, g, t, c| system::build_surface(d, ch, &sc.surface, g, types.as_deref(), t, c),
     )
 }
 

@@ -1,0 +1,174 @@
+"""Render docs/fig2_<preset>.png and docs/fig2_<preset>.json: the paper's Fig. 2 question,
+per depth, for the hexagonal presets (`lytro-illum`, `raytrix-r12`), as docs/make_fig2.py
+does for the seed.
+
+Each preset is cut to a few lenses (its sensor cut to match: Mx = My = None) and looks at
+fronto-parallel planes around its array's conjugate (its out-of-focus plane, where every
+pixel under a microlens sees the same point). A conventional camera has the cut sensor's
+pixels (all the light, the preset's main lens and aperture) on the array's plane, so it is
+focused on that plane. At each depth two scenes are rendered (splitlf.render, the general
+route: hex lattice, circular aperture, sensor layout) with photon noise N = 2000: a
+natural image (scikit-image's "camera", 512 x 512 texture cells, each well under the
+reconstruction's cell) and a 5-degree slanted edge (analytic). Neither is representable on
+the reconstruction's grid: no inverse crime. Each raw is reconstructed with the known depth
+(splitlf.reconstruct, the noise model given) over the central half (per axis) of what the
+array images: for the R12 from each of its three lens types alone (``lens_types``) and from
+all three, for the Illum from its one lens type; and from the conventional camera. PSNR on
+the image, MTF50 on the edge (splitlf.measure).
+
+Run: python docs/make_fig2_designs.py lytro-illum|raytrix-r12 (minutes on 2 cores).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import make_fig2 as seedfig  # docs/, the script's own folder
+import matplotlib
+
+matplotlib.use("Agg")  # a script, not the library: it may pick a backend
+
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+import splitlf  # noqa: E402
+from splitlf import _native, measure  # noqa: E402
+from splitlf.report import report_data  # noqa: E402
+
+HERE = Path(__file__).parent
+NOISE = seedfig.NOISE
+#: Per preset: lenses kept (Kx, Ky), depths [mm], the depths shown as images.
+SETUP = {
+    "raytrix-r12": {"lenses": (12, 10), "depths": (200.0, 300.0, 370.0, 407.0, 500.0,
+                                                   700.0, 1000.0, 2000.0),
+                    "shown": (300.0, 407.0, 1000.0)},
+    "lytro-illum": {"lenses": (16, 14), "depths": (300.0, 500.0, 1000.0, 1600.0, 2500.0,
+                                                   4000.0, 7000.0),
+                    "shown": (500.0, 2500.0, 7000.0)},
+}
+
+
+def designs(preset: str) -> tuple[splitlf.Design, splitlf.Design]:
+    """The preset cut to SETUP's lenses (its sensor cut to match) and the conventional
+    camera on the cut sensor's pixels, focused on the array's conjugate."""
+    full = splitlf.Design.preset(preset)
+    kx, ky = SETUP[preset]["lenses"]
+    cut = full.replace(channels=(full.channels[0].replace(Kx=kx, Ky=ky, Mx=None, My=None),))
+    ch = cut.resolved()[0]
+    conv = splitlf.Design(F=full.F, D=full.D, aperture=full.aperture, channels=(
+        splitlf.Channel(L=ch["L"], d=ch["mu"], v=ch["mu"] * ch["L"] / full.D, mu=ch["mu"],
+                        Kx=int(ch["Mx"]), Ky=int(ch["My"]), Q=1),))
+    return cut, conv
+
+
+def cameras(design: splitlf.Design) -> tuple[str, ...]:
+    n = len(design.resolved()[0]["f"])
+    types = tuple(f"type {t}" for t in range(1, n + 1)) if n > 1 else ()
+    return types + ("light field", "conventional")
+
+
+def central(design: splitlf.Design, z: float) -> tuple[float, float, float, float]:
+    """The central half (per axis) of what the array images at depth z: (z/L) x the
+    array's extent (hex rows sqrt(3)/2 d apart)."""
+    c = design.resolved()[0]
+    row = c["d"] * (np.sqrt(3.0) / 2.0 if c["grid"] == "hex" else 1.0)
+    hx = z / c["L"] * c["Kx"] * c["d"] / 4.0
+    hy = z / c["L"] * c["Ky"] * row / 4.0
+    return (-hx, hx, -hy, hy)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("preset", choices=sorted(SETUP))
+    args = ap.parse_args()
+    preset = args.preset
+    t0 = time.perf_counter()
+    lf, conv = designs(preset)
+    cams = cameras(lf)
+    setup = SETUP[preset]
+    band = report_data(lf)["derived"]["channels"][0]["out_of_focus_depth_mm"]
+    out: dict = {"preset": preset, "lenses": list(setup["lenses"]), "band_mm": band,
+                 "depths": list(setup["depths"]), "psnr": {c: [] for c in cams},
+                 "mtf50": {c: [] for c in cams}, "nyquist": [], "region": [],
+                 "seconds": {c: 0.0 for c in cams}}
+    shown: dict = {}
+    for i, z in enumerate(setup["depths"]):
+        region = central(lf, z)
+        span = _native.pixel_span(lf.core, z, None)
+        tex = seedfig.natural(2.0 * (max(abs(v) for v in region) + 2.0 * span))
+        edge = splitlf.SlantedEdge(5.0, 0.1, 0.9)
+        out["nyquist"].append(1.0 / (2.0 * lf.resolution_step(z)))
+        out["region"].append(list(region))
+        for scene_i, texture in enumerate((tex, edge)):
+            sc = splitlf.Scene(texture, z)
+            raws = {"light field": splitlf.render(lf, sc, noise=NOISE, seed=10 * i + scene_i),
+                    "conventional": splitlf.render(conv, sc, noise=NOISE,
+                                                   seed=10 * i + scene_i + 5)}
+            for cam in cams:
+                raw = raws["conventional" if cam == "conventional" else "light field"]
+                types = int(cam.split()[1]) if cam.startswith("type") else None
+                t1 = time.perf_counter()
+                rec = splitlf.reconstruct(raw, z, region=region, noise=NOISE,
+                                          lens_types=types)
+                out["seconds"][cam] += time.perf_counter() - t1
+                if scene_i == 0:
+                    out["psnr"][cam].append(measure.psnr(rec, texture))
+                    if z in setup["shown"]:
+                        shown[z, cam] = rec.image
+                        shown[z, "truth"] = measure.truth(rec, texture)
+                else:
+                    out["mtf50"][cam].append(measure.mtf50(rec, edge))
+        print(f"{z:6.0f} mm  " + "  ".join(
+            f"{c}: {out['psnr'][c][-1]:5.1f} dB {out['mtf50'][c][-1] / out['nyquist'][-1]:5.3f}"
+            for c in cams) + f"  ({time.perf_counter() - t0:.0f} s)", flush=True)
+    (HERE / f"fig2_{preset}.json").write_text(json.dumps(out, indent=1) + "\n")
+    figure(out, shown, cams, setup["shown"], band)
+    print(f"docs/fig2_{preset}.png, .json in {time.perf_counter() - t0:.0f} s")
+
+
+def figure(out: dict, shown: dict, cams: tuple[str, ...], depths: tuple[float, ...],
+           band: float) -> None:
+    cols = ("truth",) + cams
+    fig = plt.figure(figsize=(2.2 * len(cols) + 1.0, 10.5), layout="constrained")
+    grid = fig.add_gridspec(len(depths) + 1, len(cols), height_ratios=[1] * len(depths) + [1.3])
+    for r, z in enumerate(depths):
+        for c, cam in enumerate(cols):
+            ax = fig.add_subplot(grid[r, c])
+            ax.imshow(shown[z, cam], cmap="gray", vmin=0.0, vmax=1.0, interpolation="nearest")
+            ax.set_xticks([])
+            ax.set_yticks([])
+            if r == 0:
+                ax.set_title(cam)
+            if c == 0:
+                ax.set_ylabel(f"{z:.0f} mm")
+    z = np.array(out["depths"])
+    nyq = np.array(out["nyquist"])
+    half = max(1, len(cols) // 2)
+    ax_m = fig.add_subplot(grid[-1, :half])
+    ax_p = fig.add_subplot(grid[-1, half:])
+    styles = ("-o", "-s", "-^", "-v", "-D", "--d")
+    for cam, style in zip(cams, styles[-len(cams):] if len(cams) < 3 else styles, strict=False):
+        if cam == "conventional":
+            style = "--d"
+        ax_m.plot(z, np.array(out["mtf50"][cam]) / nyq, style, label=cam, ms=4)
+        ax_p.plot(z, out["psnr"][cam], style, label=cam, ms=4)
+    for ax in (ax_m, ax_p):
+        ax.set_xscale("log")
+        ax.set_xlabel("depth z [mm]")
+        ax.axvline(band, color="0.7", lw=0.8)
+        ax.grid(True, which="both", alpha=0.3)
+    ax_m.set_ylabel("MTF50 / sensor Nyquist 1/(2 delta(z))")
+    ax_p.set_ylabel("PSNR [dB]")
+    ax_m.legend(fontsize=8)
+    kx, ky = out["lenses"]
+    fig.suptitle(f"{out['preset']} ({kx} x {ky} lenses), photon noise N = 2000, known depth: "
+                 f"the out-of-focus band at {band:.0f} mm (grey line)")
+    fig.savefig(HERE / f"fig2_{out['preset']}.png", dpi=110)
+    plt.close(fig)
+
+
+if __name__ == "__main__":
+    main()
