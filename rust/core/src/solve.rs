@@ -612,19 +612,21 @@ pub fn solve(
     let (mut r, mut p, mut q) = (vec(0.0)?, vec(0.0)?, vec(0.0)?);
     let (mut iterations, mut rho_prev) = (0usize, 0.0f64);
     let mut first = true;
-    let mut tol = 0.0;
+    let (mut tol, mut bn) = (0.0, 0.0);
     parallel::repeat_until(n_threads, || {
         if first {
             first = false;
             normal.rhs(&mut work, &mut b);
             normal.diagonal(&mut work, &mut diag);
-            let ones = vec(1.0)?;
-            normal.apply(&ones, &mut work, &mut seen);
+            // AᵀWA·1, with p (not needed before the first step) as the ones: the seven
+            // vectors the memory check counts are all the solve holds.
+            p.fill(1.0);
+            normal.apply(&p, &mut work, &mut seen);
             let mean = b.iter().sum::<f64>() / seen.iter().sum::<f64>().max(1e-300);
             x.par_iter_mut()
                 .zip(b.par_iter().zip(seen.par_iter()))
                 .for_each(|(x, (&b, &s))| *x = if s > 0.0 { b / s } else { mean });
-            let bn = norm(&b);
+            bn = norm(&b);
             if bn == 0.0 {
                 x.fill(0.0);
                 return Ok(true);
@@ -672,7 +674,6 @@ pub fn solve(
     })?;
     // The true residual of the result (not the recurrence's).
     normal.apply(&x, &mut work, &mut q);
-    let bn = norm(&b);
     q.iter_mut().zip(&b).for_each(|(q, b)| *q -= b);
     let residual = if bn > 0.0 { norm(&q) / bn } else { 0.0 };
     Ok(Solution {
