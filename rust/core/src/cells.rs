@@ -5,7 +5,7 @@
 
 use crate::error::{Error, Result};
 use crate::memory;
-use crate::polygon::{bounds, centroid, clip_box, signed_area, Pt};
+use crate::polygon::{area_above, bounds, centroid, clip_into, signed_area, Pt};
 
 /// A uniform grid of square cells over [x0, x0 + nx h] × [y1 − ny h, y1]; cell (r, c) (row
 /// r from the top, column c from the left, like a texture) is unknown r nx + c.
@@ -145,7 +145,6 @@ pub(crate) struct Recorder {
     pub(crate) jac: f64,
     pub(crate) node: f64,
     strip: Vec<Pt>,
-    cell: Vec<Pt>,
     tmp: Vec<Pt>,
 }
 
@@ -164,7 +163,6 @@ impl Recorder {
             jac: 1.0,
             node: 1.0,
             strip: Vec::new(),
-            cell: Vec::new(),
             tmp: Vec::new(),
         })
     }
@@ -231,7 +229,8 @@ impl Recorder {
             self.strip.clear();
             self.strip.extend_from_slice(mapped);
             if c0 != c1 || x0 < gx0 || x1 > gx1 {
-                clip_box(&mut self.strip, &mut self.tmp, sx0, sx1, y0 - 1.0, y1 + 1.0);
+                clip_into(&self.strip, &mut self.tmp, |p| p[0] - sx0);
+                clip_into(&self.tmp, &mut self.strip, |p| sx1 - p[0]);
             }
             if self.strip.len() < 3 {
                 continue;
@@ -240,19 +239,14 @@ impl Recorder {
             if sy1 <= gy0 || sy0 >= gy1 {
                 continue;
             }
-            for r in row(sy1)..=row(sy0) {
-                let (ry0, ry1) = (gy1 - (r + 1) as f64 * h, gy1 - r as f64 * h);
-                self.cell.clear();
-                self.cell.extend_from_slice(&self.strip);
-                clip_box(
-                    &mut self.cell,
-                    &mut self.tmp,
-                    sx0 - 1.0,
-                    sx1 + 1.0,
-                    ry0,
-                    ry1,
-                );
-                let a = signed_area(&self.cell) / am;
+            // Down the strip: a cell's area is the difference of the strip's areas above
+            // its two row lines (one half-plane pass per line, no polygon built).
+            let (ra, rb) = (row(sy1), row(sy0));
+            let mut above = area_above(&self.strip, gy1 - ra as f64 * h, sx0);
+            for r in ra..=rb {
+                let next = area_above(&self.strip, gy1 - (r + 1) as f64 * h, sx0);
+                let a = (next - above) / am;
+                above = next;
                 if a > 0.0 {
                     share += a;
                     self.put(r * g.nx + c, w * a);

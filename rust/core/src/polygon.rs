@@ -99,6 +99,44 @@ fn cut(a: Pt, b: Pt, fa: f64, fb: f64) -> Pt {
     [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]
 }
 
+/// Signed area of the part of `p` at or above the line y = c: the polygon clipped to that
+/// half-plane as [`clip_into`] does, its shoelace sum taken on the fly about (ox, c) (a
+/// point near the polygon, for precision), without building the clipped polygon.
+pub fn area_above(p: &[Pt], c: f64, ox: f64) -> f64 {
+    let n = p.len();
+    if n < 3 {
+        return 0.0;
+    }
+    let (mut s, mut first, mut last) = (0.0, None::<Pt>, [0.0, 0.0]);
+    let mut emit = |q: Pt| {
+        let q = [q[0] - ox, q[1] - c];
+        match first {
+            None => first = Some(q),
+            Some(_) => s += last[0] * q[1] - last[1] * q[0],
+        }
+        last = q;
+    };
+    let mut prev = p[n - 1];
+    let mut fp = prev[1] - c;
+    for &cur in p {
+        let fc = cur[1] - c;
+        if fc >= 0.0 {
+            if fp < 0.0 {
+                emit(cut(prev, cur, fp, fc));
+            }
+            emit(cur);
+        } else if fp >= 0.0 {
+            emit(cut(prev, cur, fp, fc));
+        }
+        prev = cur;
+        fp = fc;
+    }
+    if let Some(f) = first {
+        s += last[0] * f[1] - last[1] * f[0];
+    }
+    0.5 * s
+}
+
 /// Clip `poly` in place to the axis-aligned box [x0, x1] × [y0, y1] (`tmp` is scratch).
 pub fn clip_box(poly: &mut Vec<Pt>, tmp: &mut Vec<Pt>, x0: f64, x1: f64, y0: f64, y1: f64) {
     clip_into(poly, tmp, |p| p[0] - x0);
@@ -123,6 +161,28 @@ pub fn bounds(p: &[Pt]) -> (f64, f64, f64, f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn area_above_is_the_clipped_area() {
+        // A pentagon (either orientation) against lines through, above and below it.
+        let p = vec![
+            [0.3, -1.0],
+            [2.1, -0.4],
+            [2.6, 1.2],
+            [1.0, 2.2],
+            [-0.7, 0.5],
+        ];
+        let q: Vec<Pt> = p.iter().rev().copied().collect();
+        for poly in [&p, &q] {
+            for c in [-2.0, -1.0, -0.7, 0.0, 0.5, 1.9, 2.2, 3.0] {
+                let mut clipped = Vec::new();
+                clip_into(poly, &mut clipped, |v| v[1] - c);
+                let want = signed_area(&clipped);
+                let got = area_above(poly, c, 0.37);
+                assert!((got - want).abs() < 1e-14, "{c}: {got} vs {want}");
+            }
+        }
+    }
 
     #[test]
     fn square_area_centroid_and_clip() {
