@@ -332,6 +332,15 @@ def test_reconstruct_cli_matches_api(tmp_path, capsys):
     with pytest.raises(SystemExit) as e:
         main([*args, "--force", "--tile", "8"])
     assert e.value.code == 2 and "invalid tile 8" in capsys.readouterr().err
+    # --lens-types: the seed has one type per half (1 is every type); 2 is refused by name,
+    # and a fraction is refused, not cut.
+    code, out, _ = run([*args, "--force", "--lens-types", "1"], capsys)
+    assert code == 0 and np.array_equal(np.load(tmp_path / "img.npy"), rec.image)
+    code, _, err = run([*args, "--force", "--lens-types", "2"], capsys)
+    assert code != 0 and "lens_types" in err
+    for option in ("--lens-types", "--channels"):
+        code, _, err = run([*args, "--force", option, "1.5"], capsys)
+        assert code != 0 and option in err and "whole numbers" in err
 
 
 def test_depth_cli_matches_api(tmp_path, capsys):
