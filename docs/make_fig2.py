@@ -21,6 +21,7 @@ from __future__ import annotations
 import json
 import time
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
@@ -88,13 +89,7 @@ def main() -> None:
                 channels = {"half 1": 1, "half 2": 2}.get(cam)
                 rec = splitlf.reconstruct(raw, z, region=region, channels=channels,
                                           noise=NOISE)
-                if scene_i == 0:
-                    out["psnr"][cam].append(measure.psnr(rec, texture))
-                    if z in SHOWN:
-                        shown[z, cam] = rec.image
-                        shown[z, "truth"] = measure.truth(rec, texture)
-                else:
-                    out["mtf50"][cam].append(measure.mtf50(rec, edge))
+                measured(out, shown, cam, rec, texture, z in SHOWN)
         print(f"{z:6.0f} mm  " + "  ".join(
             f"{c}: {out['psnr'][c][-1]:5.1f} dB {out['mtf50'][c][-1]:6.2f} c/mm"
             for c in CAMERAS), flush=True)
@@ -103,11 +98,24 @@ def main() -> None:
     print(f"docs/fig2.png, docs/fig2.json in {time.perf_counter() - t0:.0f} s")
 
 
-def figure(out: dict, shown: dict) -> None:
-    cols = ("truth",) + CAMERAS
-    fig = plt.figure(figsize=(12, 10.5), layout="constrained")
-    grid = fig.add_gridspec(len(SHOWN) + 1, len(cols), height_ratios=[1] * len(SHOWN) + [1.3])
-    for r, z in enumerate(SHOWN):
+def measured(out: dict, shown: dict, cam: str, rec: splitlf.Reconstruction, texture: Any,
+             show: bool) -> None:
+    """A reconstruction's measure into ``out``: PSNR of the natural image (kept in
+    ``shown`` with its truth when ``show``), MTF50 of the slanted edge."""
+    if isinstance(texture, splitlf.SlantedEdge):
+        out["mtf50"][cam].append(measure.mtf50(rec, texture))
+        return
+    out["psnr"][cam].append(measure.psnr(rec, texture))
+    if show:
+        z = rec.depth
+        shown[z, cam] = rec.image
+        shown[z, "truth"] = measure.truth(rec, texture)
+
+
+def image_rows(fig: plt.Figure, grid: Any, shown: dict, cols: tuple[str, ...],
+               depths: tuple[float, ...]) -> None:
+    """A row of grey images per depth (``shown[z, column]``), a column per camera."""
+    for r, z in enumerate(depths):
         for c, cam in enumerate(cols):
             ax = fig.add_subplot(grid[r, c])
             ax.imshow(shown[z, cam], cmap="gray", vmin=0.0, vmax=1.0, interpolation="nearest")
@@ -117,6 +125,13 @@ def figure(out: dict, shown: dict) -> None:
                 ax.set_title(cam)
             if c == 0:
                 ax.set_ylabel(f"{z:.0f} mm")
+
+
+def figure(out: dict, shown: dict) -> None:
+    cols = ("truth",) + CAMERAS
+    fig = plt.figure(figsize=(12, 10.5), layout="constrained")
+    grid = fig.add_gridspec(len(SHOWN) + 1, len(cols), height_ratios=[1] * len(SHOWN) + [1.3])
+    image_rows(fig, grid, shown, cols, SHOWN)
     z = np.array(out["depths"])
     nyq = np.array(out["nyquist"])
     ax_m = fig.add_subplot(grid[-1, : len(cols) // 2 + 1])

@@ -41,7 +41,7 @@ import numpy as np  # noqa: E402
 from matplotlib.ticker import NullFormatter  # noqa: E402
 
 import splitlf  # noqa: E402
-from splitlf import _native, measure  # noqa: E402
+from splitlf import _native  # noqa: E402
 from splitlf.report import report_data  # noqa: E402
 
 HERE = Path(__file__).parent
@@ -129,13 +129,7 @@ def main() -> None:
                                           step=setup["step"] * lf.resolution_step(z),
                                           lens_types=types)
                 out["seconds"][cam] += time.perf_counter() - t1
-                if scene_i == 0:
-                    out["psnr"][cam].append(measure.psnr(rec, texture))
-                    if z in setup["shown"]:
-                        shown[z, cam] = rec.image
-                        shown[z, "truth"] = measure.truth(rec, texture)
-                else:
-                    out["mtf50"][cam].append(measure.mtf50(rec, edge))
+                seedfig.measured(out, shown, cam, rec, texture, z in setup["shown"])
         print(f"{z:6.0f} mm  " + "  ".join(
             f"{c}: {out['psnr'][c][-1]:5.1f} dB {out['mtf50'][c][-1] / out['nyquist'][-1]:5.3f}"
             for c in cams) + f"  ({time.perf_counter() - t0:.0f} s)", flush=True)
@@ -152,16 +146,7 @@ def figure(out: dict, shown: dict, cams: tuple[str, ...], depths: tuple[float, .
     cols = ("truth",) + cams
     fig = plt.figure(figsize=(max(2.2 * len(cols) + 1.0, 8.0), 10.5), layout="constrained")
     grid = fig.add_gridspec(len(depths) + 1, len(cols), height_ratios=[1] * len(depths) + [1.3])
-    for r, z in enumerate(depths):
-        for c, cam in enumerate(cols):
-            ax = fig.add_subplot(grid[r, c])
-            ax.imshow(shown[z, cam], cmap="gray", vmin=0.0, vmax=1.0, interpolation="nearest")
-            ax.set_xticks([])
-            ax.set_yticks([])
-            if r == 0:
-                ax.set_title(cam)
-            if c == 0:
-                ax.set_ylabel(f"{z:.0f} mm")
+    seedfig.image_rows(fig, grid, shown, cols, depths)
     z = np.array(out["depths"])
     nyq = np.array(out["nyquist"])
     half = max(1, len(cols) // 2)
