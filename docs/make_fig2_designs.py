@@ -130,9 +130,11 @@ def main() -> None:
                                           lens_types=types)
                 out["seconds"][cam] += time.perf_counter() - t1
                 seedfig.measured(out, shown, cam, rec, texture, z in setup["shown"])
-        print(f"{z:6.0f} mm  " + "  ".join(
+        print(f"{z:6.0f} mm  " + "  ".join(  # nan: no MTF50 (sharp to the cells' Nyquist)
             f"{c}: {out['psnr'][c][-1]:5.1f} dB {out['mtf50'][c][-1] / out['nyquist'][-1]:5.3f}"
             for c in cams) + f"  ({time.perf_counter() - t0:.0f} s)", flush=True)
+    for cam in cams:  # no MTF50 (a sharp edge): None, not NaN, in the JSON
+        out["mtf50"][cam] = [None if not np.isfinite(v) else v for v in out["mtf50"][cam]]
     (HERE / f"fig2_{preset}.json").write_text(json.dumps(out, indent=1) + "\n")
     if cache is not None:
         cache.parent.mkdir(parents=True, exist_ok=True)
@@ -152,9 +154,17 @@ def figure(out: dict, shown: dict, cams: tuple[str, ...], depths: tuple[float, .
     half = max(1, len(cols) // 2)
     ax_m = fig.add_subplot(grid[-1, :half])
     ax_p = fig.add_subplot(grid[-1, half:])
+    # An edge whose transfer never falls to half below the cells' Nyquist frequency has no
+    # MTF50 (None): drawn at that frequency, hollow (a lower bound).
+    cap = 1.0 / out["step"]
+    ax_m.axhline(cap, color="0.5", ls=":", lw=0.8, label="the cells' Nyquist")
     styles = ("-o", "-s", "-^")
     for cam, style in zip(cams, styles[:len(cams) - 1] + ("-kD",), strict=True):
-        ax_m.plot(z, np.array(out["mtf50"][cam]) / nyq, style, label=cam, ms=4)
+        m = np.array([np.nan if v is None else v for v in out["mtf50"][cam]], float) / nyq
+        line, = ax_m.plot(z, m, style, label=cam, ms=4)
+        sharp = ~np.isfinite(m)
+        ax_m.plot(z[sharp], np.full(sharp.sum(), cap), style[-1], ms=7, mfc="none",
+                  color=line.get_color())
         ax_p.plot(z, out["psnr"][cam], style, label=cam, ms=4)
     for ax in (ax_m, ax_p):
         ax.set_xscale("log")
