@@ -44,6 +44,8 @@ sys.path.insert(0, str(HERE))
 import numpy_impl  # noqa: E402
 import w7_optimise  # noqa: E402
 import w9_render  # noqa: E402
+import w10_reconstruct  # noqa: E402
+import w11_depth  # noqa: E402
 from timing import timed  # noqa: E402
 
 import splitlf  # noqa: E402
@@ -794,7 +796,7 @@ def write_markdown(doc: dict[str, Any], path: Path) -> None:
         "arrays of the output's total size. Peak memory: extra resident memory of one run in "
         "a fresh process.",
     ]
-    if any(r.get("kind") not in ("study", "concurrent", "render")
+    if any(r.get("kind") not in ("study", "concurrent", "render", "reconstruct", "depth")
            and r["workload"] not in BROWSER_WORKLOADS for r in doc["results"]):
         lines += [
             "",
@@ -804,7 +806,7 @@ def write_markdown(doc: dict[str, Any], path: Path) -> None:
             "|---|---|---|---|---|---|---|---|---|---|---|",
         ]
     for r in doc["results"]:
-        if (r.get("kind") in ("study", "concurrent", "render")
+        if (r.get("kind") in ("study", "concurrent", "render", "reconstruct", "depth")
                 or r["workload"] in BROWSER_WORKLOADS):
             continue
         m = r["median_s"]
@@ -818,7 +820,8 @@ def write_markdown(doc: dict[str, Any], path: Path) -> None:
             f"{r['speedup_1_to_all']:.2f} | {floor} | "
             f"{_mib(r['peak_mib']['numpy'])} / {r['peak_mib']['native']:.0f} / {out_mib} |"
         )
-    lines += _markdown_studies(doc) + _markdown_render(doc) + _markdown_concurrent(doc)
+    lines += (_markdown_studies(doc) + _markdown_render(doc) + _markdown_w10_w11(doc)
+              + _markdown_concurrent(doc))
     lines += _markdown_targets(doc) + _markdown_browser(doc)
     path.write_text("\n".join(lines) + "\n")
 
@@ -932,7 +935,8 @@ def compare(previous: dict[str, Any], results: list[dict[str, Any]]) -> dict[str
         o = old.get(r["workload"])
         if o is None:
             continue
-        if (r["workload"] in BROWSER_WORKLOADS or r.get("kind") in ("concurrent", "render")
+        if (r["workload"] in BROWSER_WORKLOADS
+                or r.get("kind") in ("concurrent", "render", "reconstruct", "depth")
                 or o.get("kind") != r.get("kind")):
             continue
         row = {
@@ -951,6 +955,65 @@ def compare(previous: dict[str, Any], results: list[dict[str, Any]]) -> dict[str
     return {"commit": previous.get("commit"), "workloads": rows}
 
 
+# -- W10, W11: reconstruct and depth (benches/w10_reconstruct.py, w11_depth.py) ----------
+
+
+def run_w10_w11(name: str, quick: bool, rounds: int) -> dict[str, Any]:
+    """W10 (reconstruct) or W11 (depth) as their own scripts run them (W10: its own two
+    rounds; W11: at most 3 of ``rounds``)."""
+    if name == "W10":
+        return {"workload": "W10", "kind": "reconstruct", **w10_reconstruct.run(quick)}
+    return {"workload": "W11", "kind": "depth", **w11_depth.run(quick, min(rounds, 3))}
+
+
+def _w10_w11_summary(r: dict[str, Any]) -> str:
+    if r["workload"] == "W10":
+        f, q = r["full"], r["ratio"]
+        return (f"W10: {f['cells'][0]}^2 cells {f['seconds_all_threads']:.3g} s (1 thread "
+                f"{f['seconds_1_thread']:.3g} s, {f['threads_speedup']:.2f}x), "
+                f"{f['iterations']} iterations, peak {f['peak_rss_mib']:.0f} MiB; NumPy + "
+                f"SciPy at {q['cells'][0]}^2 cells: {q['numpy_over_native']:.0f}x")
+    return (f"W11: {r['cells'][0]}^2 cells x {r['candidates']} candidates "
+            f"{r['native_s']:.3g} s, NumPy {r['ratio_numpy']:.2f}x, 1 -> all threads "
+            f"{r['threads_speedup']:.2f}x, peak {r['peak_mib']:.0f} MiB")
+
+
+def _markdown_w10_w11(doc: dict[str, Any]) -> list[str]:
+    """W10 and W11 as lines against their issues' targets."""
+    out: list[str] = []
+    if doc["quick"] and any(r.get("kind") in ("reconstruct", "depth") for r in doc["results"]):
+        out += ["", "W10 and W11 below are at --quick sizes: their targets are for the full "
+                "sizes, and a 'met' here says nothing of them."]
+    for r in doc["results"]:
+        if r.get("kind") not in ("reconstruct", "depth"):
+            continue
+        if r["workload"] == "W10":
+            f, q = r["full"], r["ratio"]
+            out += ["", f"W10 (reconstruct: the seed's raw at 1 m, N = 2000, "
+                    f"{f['cells'][0]} x {f['cells'][1]} cells, {f['rows']:,} rows, "
+                    f"{f['iterations']} CG iterations; benches/w10_reconstruct.py): "
+                    f"{f['seconds_all_threads']:.3g} s at all threads (target ≤ 5 s: "
+                    f"{_met(f['seconds_all_threads'] <= 5.0)}), 1 → all threads "
+                    f"{f['threads_speedup']:.2f}× (≥ 1.7: {_met(f['threads_speedup'] >= 1.7)}), "
+                    f"peak {f['peak_rss_mib']:.0f} MiB (factored map "
+                    f"{f['factored_map_mib']:.0f} MiB, explicit {f['explicit_map_mib']:,.0f} "
+                    f"MiB); at {q['cells'][0]} x {q['cells'][1]} cells NumPy + SciPy "
+                    f"{q['numpy_s']:.3g} s against {q['native_s']:.3g} s: "
+                    f"{q['numpy_over_native']:.0f}× (≥ 10: {_met(q['numpy_over_native'] >= 10)}"
+                    f"), images within {q['max_diff']:.1e}."]
+        else:
+            out += ["", f"W11 (depth: the seed's raw at 1 m, {r['cells'][0]} x "
+                    f"{r['cells'][1]} cells × {r['candidates']} candidates; "
+                    f"benches/w11_depth.py, {r['rounds']} rounds, medians): "
+                    f"{r['native_s']:.3g} s (target ≤ 3 s: {_met(r['native_s'] <= 3.0)}), "
+                    f"NumPy {r['numpy_s']:.3g} s: {r['ratio_numpy']:.2f}× (≥ 10: "
+                    f"{_met(r['ratio_numpy'] >= 10)}), 1 → all threads "
+                    f"{r['threads_speedup']:.2f}× (≥ 1.8: {_met(r['threads_speedup'] >= 1.8)}),"
+                    f" peak {r['peak_mib']:.0f} MiB; the depth maps agree to 1e-9 on "
+                    f"{100 * r['agree_share']:.2f} % of the cells."]
+    return out
+
+
 def _ordered(names: list[str]) -> list[str]:
     """Workload names in numeric order (W1, ..., W9, W12)."""
     return sorted(names, key=lambda n: int(n[1:]))
@@ -960,8 +1023,9 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="small sizes (CI smoke test)")
     ap.add_argument("--only", nargs="*",
-                    choices=_ordered([*WORKLOADS, *STUDIES, "W9", "W12"]) + list(BROWSER_WORKLOADS),
-                    help="workloads to run (default W1-W7, W9 and W12; W8, the explorer in a "
+                    choices=(_ordered([*WORKLOADS, *STUDIES, "W9", "W10", "W11", "W12"])
+                             + list(BROWSER_WORKLOADS)),
+                    help="workloads to run (default W1-W7 and W9-W12; W8, the explorer in a "
                     "browser, only when named)")
     ap.add_argument("--rounds", type=int, default=None,
                     help="alternating rounds (default 7, 3 with --quick)")
@@ -983,7 +1047,7 @@ def main(argv: list[str] | None = None) -> int:
     previous = (json.loads(prev_path.read_text())
                 if not args.quick and prev_path.exists() else None)
     results = []
-    for name in args.only or _ordered([*WORKLOADS, *STUDIES, "W9", "W12"]):
+    for name in args.only or _ordered([*WORKLOADS, *STUDIES, "W9", "W10", "W11", "W12"]):
         if name == "W8":
             w8 = run_w8(args.quick)
             if w8 is not None:
@@ -997,6 +1061,12 @@ def main(argv: list[str] | None = None) -> int:
             r["load_average"] = {"before": load_before, "after": os.getloadavg()}
             results.append(r)
             print(_w9_summary(r), flush=True)
+            continue
+        if name in ("W10", "W11"):
+            r = run_w10_w11(name, args.quick, rounds)
+            r["load_average"] = {"before": load_before, "after": os.getloadavg()}
+            results.append(r)
+            print(_w10_w11_summary(r), flush=True)
             continue
         if name == "W12":
             r = run_w12(args.quick, rounds)

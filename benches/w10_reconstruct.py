@@ -46,14 +46,18 @@ Z = 1000.0
 NOISE = {"photons": 2000.0, "read_noise": 0.0}
 
 
+def centred(cells: int) -> tuple[float, float, float, float]:
+    """A centred region of cells x cells delta(z) cells of the seed at Z."""
+    half = cells * splitlf.Design.preset("seed").resolution_step(Z) / 2.0 * (1.0 - 1e-9)
+    return (-half, half, -half, half)
+
+
 def scene_raw(cells: int) -> tuple[splitlf.Raw, tuple[float, float, float, float]]:
     """The full seed's raw of a random albedo at 1 m with photon noise, and a centred
     region of cells x cells delta(z) cells."""
     d = splitlf.Design.preset("seed")
     raw = splitlf.render(d, splitlf.Scene("random", Z), noise=NOISE, seed=1)
-    h = d.resolution_step(Z)
-    half = cells * h / 2.0 * (1.0 - 1e-9)
-    return raw, (-half, half, -half, half)
+    return raw, centred(cells)
 
 
 def _smoothness(t: np.ndarray) -> np.ndarray:
@@ -191,7 +195,7 @@ def map_bytes(raw: splitlf.Raw, region: tuple[float, ...]) -> tuple[int, int]:
 
 def run(quick: bool) -> dict[str, Any]:
     full = 128 if quick else 512
-    ratio_cells = 32
+    ratio_cells = 16 if quick else 32
     raw, region = scene_raw(full)
     times: dict[str, list[float]] = {"1": [], "all": []}
     peak = 0.0
@@ -211,7 +215,7 @@ def run(quick: bool) -> dict[str, Any]:
                  "peak_rss_mib": peak, "factored_map_mib": factored / 2 ** 20,
                  "explicit_map_mib": explicit / 2 ** 20},
     }
-    _, small = scene_raw(ratio_cells)
+    small = centred(ratio_cells)
     ours, ref = [], []
     for _ in range(3):
         t, r = timed_call(lambda: splitlf.reconstruct(raw, Z, region=small, noise=NOISE,

@@ -25,6 +25,7 @@ import json
 import statistics
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -242,7 +243,8 @@ def numpy_reference(raw: splitlf.Raw, region: tuple[float, ...], step: float) ->
     far4 = np.take_along_axis(far, order, 0) & np.isfinite(least)
     rival = np.where(far4.any(0), np.take_along_axis(least, np.argmax(far4, 0)[None], 0)[0],
                      np.inf)
-    with np.errstate(invalid="ignore", divide="ignore"):
+    with np.errstate(invalid="ignore", divide="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # cells no candidate costs: NaN
         against = np.minimum(np.nanmean(vol, axis=0), rival)
         conf = np.where((against > 0) & np.isfinite(against), np.clip(1 - m / against, 0, 1), 0.0)
     conf = np.where(np.isfinite(m), conf, -1.0)

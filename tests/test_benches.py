@@ -24,10 +24,10 @@ def test_quick_benchmarks_run(tmp_path):
                     "--out", str(tmp_path)], check=True, capture_output=True, text=True)
     doc = json.loads((tmp_path / "results.json").read_text())
     names = [r["workload"] for r in doc["results"]]
-    assert names == ["W1", "W2", "W3", "W4", "W5", "W6", "W7", "W9", "W12"]
+    assert names == ["W1", "W2", "W3", "W4", "W5", "W6", "W7", "W9", "W10", "W11", "W12"]
     assert doc["quick"] is True
     for r in doc["results"]:
-        if r["workload"] in ("W9", "W12"):  # per-scene figures; a ratio within one process
+        if r["workload"] in ("W9", "W10", "W11", "W12"):  # figures of their own (below)
             continue
         assert all(t > 0 for t in r["median_s"].values())
         if "output_mib" in r:  # the outputs themselves must show in the measured peak
@@ -51,7 +51,7 @@ def test_quick_benchmarks_run(tmp_path):
         assert w7["ms_per_evaluated_design"][side] >= w7["core_ms_per_evaluated_design"][side]
     table = (tmp_path / "RESULTS.md").read_text()
     assert "| W7: " in table and "share outside the core" in table
-    assert table.count("\n| W") == len(names) - 2  # W1-W6 and W7's rows
+    assert table.count("\n| W") == len(names) - 4  # W1-W6 and W7's rows
     # W9: each scene's twin agreed with the core (checked before timing), every figure
     # measured, the seed's raws show in its peak memory
     w9 = by["W9"]
@@ -64,6 +64,17 @@ def test_quick_benchmarks_run(tmp_path):
     mem = w9["peak_memory_seed"]
     assert mem["peak_mib"] * 2**20 >= 0.5 * mem["output_bytes"]
     assert "W9 (" in table and "Targets (issue 21)" in table
+    # W10: the core's solve against NumPy + SciPy (the same iterations within one, the
+    # images within 1e-6); every time measured, the peak memory stated.
+    w10 = by["W10"]
+    assert w10["kind"] == "reconstruct" and w10["ratio"]["max_diff"] <= 1e-6
+    assert abs(w10["ratio"]["iterations"][0] - w10["ratio"]["iterations"][1]) <= 1
+    assert w10["full"]["seconds_all_threads"] > 0 and w10["full"]["peak_rss_mib"] >= 0
+    assert "W10 (reconstruct" in table
+    # W11: the core's sweep against the NumPy sweep (the same depth map).
+    w11 = by["W11"]
+    assert w11["kind"] == "depth" and w11["agree_share"] >= 0.99
+    assert w11["native_s"] > 0 and w11["numpy_s"] > 0 and "W11 (depth" in table
     # W12: concurrent over serial wall time of the same calls, every call and thread count
     w12 = by["W12"]["ratio_concurrent_over_serial"]
     assert set(w12) == {f"{c}_x{k}" for c in ("sample_grid", "footprints_kernel")
