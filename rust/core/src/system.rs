@@ -545,10 +545,10 @@ pub fn build_surface(
                         let mut s = System::default();
                         for a in 0..cols {
                             checkpoint()?;
-                            if types.is_some() && !keeps(design.pixel(ch, a as u32, b as u32).t) {
+                            if !pixel_may_see(design, &chan, &sees, a as u32, b as u32) {
                                 continue;
                             }
-                            if !pixel_may_see(design, &chan, &sees, a as u32, b as u32) {
+                            if types.is_some() && !keeps(design.pixel(ch, a as u32, b as u32).t) {
                                 continue;
                             }
                             if let Some(r) = wk.rec.as_deref_mut() {
