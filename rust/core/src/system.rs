@@ -626,9 +626,14 @@ fn build_tilted(
         let nt = chan.types.len();
         // y profiles per type and raw row, against the slab edges (bottom-up); None where
         // some of the row's rays miss the plane (its pixels are then not kept, as on the
-        // general route: part of their light is not on the grid).
+        // general route: part of their light is not on the grid). A type not kept has no
+        // profiles (its pixels are no rows).
         let mut py: Vec<Vec<Option<Profile>>> = Vec::with_capacity(nt);
         for t in 0..nt {
+            if !keeps(t) {
+                py.push((0..rows).map(|_| None).collect());
+                continue;
+            }
             py.push(
                 (0..rows as u32)
                     .into_par_iter()
@@ -653,11 +658,18 @@ fn build_tilted(
         }
         memory::check(
             "the tilted route's x profiles",
-            (used.iter().filter(|&&u| u).count() as u128) * (nt as u128) * (cols as u128) * 96,
+            (used.iter().filter(|&&u| u).count() as u128)
+                * ((0..nt).filter(|&t| keeps(t)).count() as u128)
+                * (cols as u128)
+                * 96,
         )?;
         // In blocks of slabs, with a check for Ctrl-C between them.
         let mut px: Vec<Vec<Option<Vec<Profile>>>> = Vec::with_capacity(nt);
         for t in 0..nt {
+            if !keeps(t) {
+                px.push((0..ns).map(|_| None).collect());
+                continue;
+            }
             let mut v = Vec::with_capacity(ns);
             for start in (0..ns).step_by(64) {
                 checkpoint()?;
