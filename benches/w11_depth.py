@@ -186,8 +186,10 @@ def numpy_reference(raw: splitlf.Raw, region: tuple[float, ...], step: float) ->
                 tw = tyt @ omb[part] @ txt
                 ttw = (tyt**2) @ omb[part] @ (txt**2)
                 twv = tyt @ ovb[part] @ txt
+                # the share of the tents that valid pixels cover
+                tt = tyt @ (omb[part] > 0) @ txt
                 with np.errstate(invalid="ignore", divide="ignore"):
-                    big = np.where(ttw > 0, tw * tw / ttw, 0.0)
+                    big = np.where(ttw > 0, tw * tw / ttw * np.minimum(tt, 1.0), 0.0)
                     mv = np.where(ttw > 0, twv / tw, 0.0)
                 use = big >= 0.05
                 ly, lx = tw.shape[1], tw.shape[2]
@@ -207,11 +209,10 @@ def numpy_reference(raw: splitlf.Raw, region: tuple[float, ...], step: float) ->
                         ovv = np.where(omb[part][on] > 0, ovb[part][on] ** 2
                                        / np.where(omb[part][on] > 0, omb[part][on], 1.0), 0.0)
                     tv2 = tyt[on] @ ovv @ txt[on]
-                    tt = tyt[on] @ (omb[part][on] > 0) @ txt[on]
                     with np.errstate(invalid="ignore", divide="ignore"):
                         w1 = np.where(use[on], tw[on], 1.0)
                         sp = np.maximum(tv2 - twv[on] ** 2 / w1, 0.0) * gate[on][:, None, None]
-                        df = np.maximum(tt - ttw[on] / w1, 0.0) * gate[on][:, None, None]
+                        df = np.maximum(tt[on] - ttw[on] / w1, 0.0) * gate[on][:, None, None]
                     ins = inside[on]
                     kk = (np.broadcast_to(iy, inside.shape)[on] * enx
                           + np.broadcast_to(ix, inside.shape)[on])[ins]

@@ -18,7 +18,11 @@
 //! denser, the average of those within about a cell. The lens's value in the cell is the
 //! mean m = Σ t ω v / Σ t ω over its own valid pixels (ω the pixel's white relative to a
 //! fully lit pixel, its photon-noise weight) with weight Ω = (Σ t ω)² / Σ t² ω (the weight
-//! of a pixel of m's variance); cells where Ω < [`MIN_WHITE`] take nothing from the lens.
+//! of a pixel of m's variance), times the coverage c = min(1, Σ t) over its valid pixels:
+//! beyond the lens's last pixel the tents are an extrapolation, and the weight falls to 0
+//! with them (without c a cell that one edge pixel barely reaches would count in full,
+//! and the cost would jump wherever a pixel's tent enters or leaves a cell as z varies).
+//! Cells where c Ω < [`MIN_WHITE`] take nothing from the lens.
 //!
 //! **Cost.** At the true depth the lenses that see a cell agree (up to noise and
 //! interpolation); at a wrong depth they saw different patches. Per channel and cell the
@@ -101,6 +105,10 @@ struct Lens {
     /// Per box pixel, row-major: (ω, ω v) = (white, raw) / share; zeros where the pixel is
     /// not the lens's or not valid.
     block: Vec<[f64; 2]>,
+    /// Every pixel of the box whose column and row have positions is valid (ω > 0): the
+    /// valid pixels are a product of columns and rows, and the tents' coverage (which only
+    /// columns and rows with positions have) is separable.
+    full: bool,
     /// Per axis, when its finite positions are monotone at every candidate: the first and
     /// the last finite one and their count (the extent from two positions).
     ends: [Option<(usize, usize, usize)>; 2],
@@ -411,6 +419,12 @@ fn collect(
                 return None;
             }
             let ends = [monotone_ends(&x, zs), monotone_ends(&y, zs)];
+            let full = y.iter().enumerate().all(|(b, yb)| {
+                yb[0].is_nan()
+                    || x.iter()
+                        .enumerate()
+                        .all(|(a, xa)| xa[0].is_nan() || block[b * na + a][0] > 0.0)
+            });
             Some((
                 Lens {
                     ch: n,
@@ -418,6 +432,7 @@ fn collect(
                     x,
                     y,
                     block,
+                    full,
                     ends,
                 },
                 pixels,
@@ -460,8 +475,8 @@ struct Layer {
     /// and degrees of freedom.
     ps: Vec<f64>,
     pw: Vec<f64>,
-    /// One lens's box resampled along its rows (5 arrays of rows × cells: the last two
-    /// only near the out-of-focus plane), and one cell row's sums (5 × cells).
+    /// One lens's box resampled along its rows (5 arrays of rows × cells: the fourth only
+    /// near the out-of-focus plane), and one cell row's sums (5 × cells).
     a: Vec<f64>,
     row: Vec<f64>,
     /// One lens's tents per axis: (pixel index in the box, weight) for each cell of its
@@ -472,6 +487,8 @@ struct Layer {
     tys: Vec<usize>,
     /// The axis's finite positions of one lens, sorted, with their indices.
     sorted: Vec<(f64, u32)>,
+    /// One full lens's tents summed per cell column.
+    cover: Vec<f64>,
 }
 
 impl Layer {
@@ -494,6 +511,7 @@ impl Layer {
             ty: Vec::new(),
             tys: Vec::new(),
             sorted: Vec::new(),
+            cover: Vec::new(),
         }
     }
 }
@@ -633,7 +651,7 @@ fn layer(mi: &Micro, grid: &CellGrid, radius: usize, z: f64, buf: &mut Layer, ou
         // The lens's own pixels count only where they are denser than the cells (near its
         // channel's out-of-focus plane, where they see one point): weight (1 − s/h) per axis.
         let gate = (1.0 - ex.2 / h).max(0.0) * (1.0 - ey.2 / h).max(0.0);
-        let sums = if gate > 0.0 { 5 } else { 3 };
+        let own = gate > 0.0;
         if buf.a.len() < 5 * nl {
             buf.a.resize(5 * nl, 0.0);
         }
@@ -641,8 +659,9 @@ fn layer(mi: &Micro, grid: &CellGrid, radius: usize, z: f64, buf: &mut Layer, ou
             let row = &block[b * na..(b + 1) * na];
             let o = b * lx;
             for (ix, w) in buf.txs.windows(2).enumerate() {
+                let tents = &buf.tx[w[0]..w[1]];
                 let (mut s1, mut s2, mut s3) = (0.0, 0.0, 0.0);
-                for &(a, wa) in &buf.tx[w[0]..w[1]] {
+                for &(a, wa) in tents {
                     let [w, wv] = row[a as usize];
                     s1 += wa * w;
                     s2 += wa * wa * w;
@@ -651,19 +670,35 @@ fn layer(mi: &Micro, grid: &CellGrid, radius: usize, z: f64, buf: &mut Layer, ou
                 buf.a[o + ix] = s1;
                 buf.a[nl + o + ix] = s2;
                 buf.a[2 * nl + o + ix] = s3;
-                if sums == 5 {
-                    let (mut s4, mut s5) = (0.0, 0.0);
+                if !l.full {
+                    let mut s5 = 0.0;
+                    for &(a, wa) in tents {
+                        if row[a as usize][0] > 0.0 {
+                            s5 += wa;
+                        }
+                    }
+                    buf.a[4 * nl + o + ix] = s5;
+                }
+                if own {
+                    let mut s4 = 0.0;
                     for &(a, wa) in &buf.tx[w[0]..w[1]] {
                         let [w, wv] = row[a as usize];
                         if w > 0.0 {
                             s4 += wa * wv * wv / w;
-                            s5 += wa;
                         }
                     }
                     buf.a[3 * nl + o + ix] = s4;
-                    buf.a[4 * nl + o + ix] = s5;
                 }
             }
+        }
+        // A full box's coverage is (Σ t over the row tents) (Σ t over the column tents).
+        if l.full {
+            buf.cover.clear();
+            buf.cover.extend(
+                buf.txs
+                    .windows(2)
+                    .map(|w| buf.tx[w[0]..w[1]].iter().map(|e| e.1).sum::<f64>()),
+            );
         }
         let plane = l.ch * enx * eny;
         if buf.row.len() < 5 * lx {
@@ -678,11 +713,19 @@ fn layer(mi: &Micro, grid: &CellGrid, radius: usize, z: f64, buf: &mut Layer, ou
             if ty.is_empty() {
                 continue;
             }
-            buf.row[..sums * lx].fill(0.0);
             let (tw, rest) = buf.row[..5 * lx].split_at_mut(lx);
             let (ttw, rest) = rest.split_at_mut(lx);
             let (twv, rest) = rest.split_at_mut(lx);
             let (tv2, tt) = rest.split_at_mut(lx);
+            tw.fill(0.0);
+            ttw.fill(0.0);
+            twv.fill(0.0);
+            if own {
+                tv2.fill(0.0);
+            }
+            if !l.full {
+                tt.fill(0.0);
+            }
             for &(b, wb) in ty {
                 let o = b as usize * lx;
                 let wb2 = wb * wb;
@@ -697,15 +740,21 @@ fn layer(mi: &Micro, grid: &CellGrid, radius: usize, z: f64, buf: &mut Layer, ou
                     *t2 += wb2 * r2;
                     *t3 += wb * r3;
                 }
-                if sums == 5 {
-                    for ((t4, t5), (r4, r5)) in tv2
-                        .iter_mut()
-                        .zip(tt.iter_mut())
-                        .zip(a4[o..o + lx].iter().zip(&a5[o..o + lx]))
-                    {
-                        *t4 += wb * r4;
+                if !l.full {
+                    for (t5, r5) in tt.iter_mut().zip(&a5[o..o + lx]) {
                         *t5 += wb * r5;
                     }
+                }
+                if own {
+                    for (t4, r4) in tv2.iter_mut().zip(&a4[o..o + lx]) {
+                        *t4 += wb * r4;
+                    }
+                }
+            }
+            if l.full {
+                let sy: f64 = ty.iter().map(|e| e.1).sum();
+                for (t5, cx) in tt.iter_mut().zip(&buf.cover) {
+                    *t5 = sy * cx;
                 }
             }
             let k0 = plane + cy * enx + cols.start;
@@ -718,12 +767,16 @@ fn layer(mi: &Micro, grid: &CellGrid, radius: usize, z: f64, buf: &mut Layer, ou
             for ix in 0..lx {
                 let (w1, w2, w3) = (tw[ix], ttw[ix], twv[ix]);
                 // The value m = Σ t ω v / Σ t ω has the variance of a pixel of weight
-                // Ω = (Σ t ω)² / Σ t² ω (each pixel's variance ∝ 1 / ω). Branch-free: a
-                // cell the lens gives too little weight adds zeros.
+                // Ω = (Σ t ω)² / Σ t² ω (each pixel's variance ∝ 1 / ω), counted in the
+                // share c = min(1, Σ t) of the tents its valid pixels cover: a cell beyond
+                // the lens's last pixel is an extrapolation, and its weight falls to 0
+                // with the tent instead of jumping. Branch-free: a cell the lens gives
+                // too little weight adds zeros.
                 let inv = 1.0 / w2.max(f64::MIN_POSITIVE);
-                let om = w1 * w1 * inv;
+                let c = tt[ix].min(1.0);
+                let om = w1 * w1 * inv * c;
                 let keep = if w2 > 0.0 && om >= MIN_WHITE {
-                    inv
+                    inv * c
                 } else {
                     0.0
                 };
@@ -733,14 +786,14 @@ fn layer(mi: &Micro, grid: &CellGrid, radius: usize, z: f64, buf: &mut Layer, ou
                 d2[ix] += w3 * w3 * keep;
                 d3[ix] += omk * om;
             }
-            if sums == 5 {
+            if own {
                 // The spread of the lens's own pixels about m, Σ t ω (v − m)², and its
                 // degrees of freedom Σ t − Σ t² ω / Σ t ω: a lens whose pixels see one
                 // point (near its channel's out-of-focus plane) agrees with itself.
                 let (d4, d5) = (&mut buf.s4[k0..k0 + lx], &mut buf.s5[k0..k0 + lx]);
                 for ix in 0..lx {
                     let (w1, w2, w3) = (tw[ix], ttw[ix], twv[ix]);
-                    if w2 > 0.0 && w1 * w1 / w2 >= MIN_WHITE {
+                    if w2 > 0.0 && w1 * w1 / w2 * tt[ix].min(1.0) >= MIN_WHITE {
                         d4[ix] += (tv2[ix] - w3 * w3 / w1).max(0.0) * gate;
                         d5[ix] += (tt[ix] - w2 / w1).max(0.0) * gate;
                     }
