@@ -89,9 +89,9 @@ def reference_volume(design: splitlf.Design, raw: splitlf.Raw, grid: tuple, cand
     between), resampled at the cell centres with tents of half-width max(h, the lens's
     spacing) per axis, each lens's value weighted by (sum t w)^2 / sum t^2 w times
     min(1, sum t over its valid pixels); per channel the lenses' spread within cells (plus
-    their own pixels' spread, weighted (1 - s/h) per axis) over (2r + 1)^2 cells, over its degrees of freedom, over the spread of all the channel's
-    lens values on the widened grid; the lenses thinned to M_CAP per cell by their
-    numbers."""
+    their own pixels' spread, weighted (1 - s/h) per axis) over (2r + 1)^2 cells, over its
+    degrees of freedom, over the spread of all the channel's lens values on the widened
+    grid; the lenses thinned to M_CAP per cell by their numbers."""
     x0, y1, h, nx, ny = grid
     r = radius
     enx, eny = nx + 2 * r, ny + 2 * r
