@@ -103,6 +103,7 @@ def render(d: splitlf.Design, p: splitlf.Plane, tex: np.ndarray, cache: Path | N
         images.append(rng.poisson(NOISE["photons"] * clean) / NOISE["photons"])
     raw = splitlf.Raw(d, tuple(images))
     if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
         raw.save(path)
     return raw
 
