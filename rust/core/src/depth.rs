@@ -681,7 +681,7 @@ fn layer(mi: &Micro, grid: &CellGrid, radius: usize, z: f64, buf: &mut Layer, ou
                 }
                 if own {
                     let mut s4 = 0.0;
-                    for &(a, wa) in &buf.tx[w[0]..w[1]] {
+                    for &(a, wa) in tents {
                         let [w, wv] = row[a as usize];
                         if w > 0.0 {
                             s4 += wa * wv * wv / w;
@@ -764,22 +764,26 @@ fn layer(mi: &Micro, grid: &CellGrid, radius: usize, z: f64, buf: &mut Layer, ou
                 &mut buf.s2[k0..k0 + lx],
                 &mut buf.s3[k0..k0 + lx],
             );
-            for ix in 0..lx {
-                let (w1, w2, w3) = (tw[ix], ttw[ix], twv[ix]);
-                // The value m = Σ t ω v / Σ t ω has the variance of a pixel of weight
-                // Ω = (Σ t ω)² / Σ t² ω (each pixel's variance ∝ 1 / ω), counted in the
-                // share c = min(1, Σ t) of the tents its valid pixels cover: a cell beyond
-                // the lens's last pixel is an extrapolation, and its weight falls to 0
-                // with the tent instead of jumping. Branch-free: a cell the lens gives
-                // too little weight adds zeros.
+            // The value m = Σ t ω v / Σ t ω has the variance of a pixel of weight
+            // Ω = (Σ t ω)² / Σ t² ω (each pixel's variance ∝ 1 / ω), counted in the share
+            // c = min(1, Σ t) of the tents its valid pixels cover: a cell beyond the lens's
+            // last pixel is an extrapolation, and its weight falls to 0 with the tent
+            // instead of jumping. Returns c Ω and c / Σ t² ω, or zeros where the lens gives
+            // the cell too little weight (branch-free: such a cell adds zeros).
+            let weight = |w1: f64, w2: f64, cover: f64| {
                 let inv = 1.0 / w2.max(f64::MIN_POSITIVE);
-                let c = tt[ix].min(1.0);
+                let c = cover.min(1.0);
                 let om = w1 * w1 * inv * c;
                 let keep = if w2 > 0.0 && om >= MIN_WHITE {
                     inv * c
                 } else {
                     0.0
                 };
+                (om, keep)
+            };
+            for ix in 0..lx {
+                let (w1, w3) = (tw[ix], twv[ix]);
+                let (om, keep) = weight(w1, ttw[ix], tt[ix]);
                 let omk = w1 * w1 * keep;
                 d0[ix] += omk;
                 d1[ix] += w1 * w3 * keep;
@@ -793,7 +797,7 @@ fn layer(mi: &Micro, grid: &CellGrid, radius: usize, z: f64, buf: &mut Layer, ou
                 let (d4, d5) = (&mut buf.s4[k0..k0 + lx], &mut buf.s5[k0..k0 + lx]);
                 for ix in 0..lx {
                     let (w1, w2, w3) = (tw[ix], ttw[ix], twv[ix]);
-                    if w2 > 0.0 && w1 * w1 / w2 * tt[ix].min(1.0) >= MIN_WHITE {
+                    if weight(w1, w2, tt[ix]).1 > 0.0 {
                         d4[ix] += (tv2[ix] - w3 * w3 / w1).max(0.0) * gate;
                         d5[ix] += (tt[ix] - w2 / w1).max(0.0) * gate;
                     }
