@@ -308,7 +308,7 @@ impl Events {
 /// the baseline and for AVX2, from the same code. Rust never fuses a multiply and an add,
 /// so both give the same result bit for bit; AVX2 only does four at a time.
 #[cfg(target_arch = "x86_64")]
-fn avx2() -> bool {
+pub(crate) fn avx2() -> bool {
     static HAS: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
     *HAS.get_or_init(|| std::arch::is_x86_feature_detected!("avx2"))
 }
