@@ -317,7 +317,7 @@ pub(crate) fn avx2() -> bool {
 /// dense entries as rows of T, its runs from T's column-wise prefix sums), then for each pixel a of the row
 /// that is a row of the map the value s = value(b·nc + a, (px row a) · u), back-projected
 /// into the scratch row g = Σ_a s · (px row a).
-struct RowJob<'a> {
+struct RowJob<'a, F: Fn(usize, f64) -> f64 + Sync> {
     py: &'a Csr,
     /// For products: py's rows as pieces, and T's chunked prefix sums (s0, s1 of
     /// [`Normal::prefix`]) for their runs.
@@ -328,10 +328,10 @@ struct RowJob<'a> {
     nc: usize,
     nx: usize,
     t: Option<&'a [f64]>,
-    value: &'a (dyn Fn(usize, f64) -> f64 + Sync),
+    value: &'a F,
 }
 
-impl RowJob<'_> {
+impl<F: Fn(usize, f64) -> f64 + Sync> RowJob<'_, F> {
     fn run(&self, b: usize, u: &mut [f64], g: &mut [f64]) {
         #[cfg(target_arch = "x86_64")]
         if avx2() {
