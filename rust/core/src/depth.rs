@@ -580,25 +580,10 @@ fn tents(
 /// are element-wise or summed in order, and Rust never fuses a multiply and an add, so the
 /// two give the same bits; AVX2 does four cells (and four divisions) at a time.
 fn layer(mi: &Micro, grid: &CellGrid, radius: usize, z: f64, buf: &mut Layer, out: &mut [f64]) {
-    #[cfg(target_arch = "x86_64")]
-    if crate::solve::avx2() {
-        // SAFETY: the CPU has AVX2 (checked at run time).
-        return unsafe { layer_avx2(mi, grid, radius, z, buf, out) };
-    }
-    layer_in(mi, grid, radius, z, buf, out)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn layer_avx2(
-    mi: &Micro,
-    grid: &CellGrid,
-    radius: usize,
-    z: f64,
-    buf: &mut Layer,
-    out: &mut [f64],
-) {
-    layer_in(mi, grid, radius, z, buf, out)
+    crate::simd::dispatch(
+        #[inline(always)]
+        |_| layer_in(mi, grid, radius, z, buf, out),
+    )
 }
 
 #[inline(always)]

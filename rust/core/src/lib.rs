@@ -36,6 +36,7 @@ pub mod render;
 pub mod samples;
 pub mod samples2d;
 pub mod scene;
+mod simd;
 pub mod simulate;
 pub mod solve;
 pub mod system;

@@ -26,6 +26,7 @@ use rayon::prelude::*;
 use crate::error::{Error, Result};
 use crate::memory;
 use crate::parallel;
+use crate::simd;
 
 /// A sparse matrix in compressed rows: row i's entries are `indices[indptr[i]..indptr[i+1]]`
 /// (columns, < `ncols`) and the same range of `data`.
@@ -304,15 +305,6 @@ impl Events {
     }
 }
 
-/// Whether the CPU has AVX2 (checked once): the products' kernels are compiled twice, for
-/// the baseline and for AVX2, from the same code. Rust never fuses a multiply and an add,
-/// so both give the same result bit for bit; AVX2 only does four at a time.
-#[cfg(target_arch = "x86_64")]
-pub(crate) fn avx2() -> bool {
-    static HAS: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-    *HAS.get_or_init(|| std::arch::is_x86_feature_detected!("avx2"))
-}
-
 /// One raw row b of a factored block: u = (py row b) · T (for products on py's pieces: its
 /// dense entries as rows of T, its runs from T's column-wise prefix sums), then for each pixel a of the row
 /// that is a row of the map the value s = value(b·nc + a, (px row a) · u), back-projected
@@ -333,22 +325,17 @@ struct RowJob<'a, F: Fn(usize, f64) -> f64 + Sync> {
 
 impl<F: Fn(usize, f64) -> f64 + Sync> RowJob<'_, F> {
     fn run(&self, b: usize, u: &mut [f64], g: &mut [f64]) {
-        #[cfg(target_arch = "x86_64")]
-        if avx2() {
-            // SAFETY: the CPU has AVX2 (checked at run time).
-            return unsafe { self.run_avx2(b, u, g) };
-        }
-        self.run_plain(b, u, g)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    unsafe fn run_avx2(&self, b: usize, u: &mut [f64], g: &mut [f64]) {
-        self.run_with(b, u, g, |a, b| unsafe { dot_slices_avx2(a, b) })
-    }
-
-    fn run_plain(&self, b: usize, u: &mut [f64], g: &mut [f64]) {
-        self.run_with(b, u, g, dot_slices)
+        simd::dispatch(
+            #[inline(always)]
+            |avx2| {
+                if avx2 {
+                    #[cfg(target_arch = "x86_64")]
+                    // SAFETY: dispatch says the CPU has AVX2.
+                    return self.run_with(b, u, g, |a, b| unsafe { dot_slices_avx2(a, b) });
+                }
+                self.run_with(b, u, g, dot_slices)
+            },
+        )
     }
 
     #[inline(always)]
@@ -512,7 +499,18 @@ struct Prepared {
     /// Factored: pyᵀ (grid rows → raw rows); Rows: Aᵀ (cells → rows).
     back: Csr,
     spans: Option<(Band, Band)>,
+    /// A factored block's y factor in pieces (None for Rows blocks).
     fast: Option<Fast>,
+}
+
+impl Prepared {
+    /// The y factor's pieces if a pass runs through them: a product (A t formed) of a
+    /// factored block always does (its runs from T's prefix sums, its dense entries through
+    /// `back_dense`, the runs back by [`Normal::sweep`]); the right-hand side and the
+    /// diagonal use py whole. The one place this choice is made.
+    fn pieces(&self, product: bool) -> Option<&Fast> {
+        self.fast.as_ref().filter(|_| product)
+    }
 }
 
 /// A factored block's y factor for [`Normal::apply`]: cut into pieces, its dense entries
@@ -558,6 +556,9 @@ pub struct Normal {
     ny: usize,
     lam: f64,
     blocks: Vec<Prepared>,
+    /// Whether a product has y runs to read and sweep (some block is factored): then the
+    /// column-chunked prefix sums exist.
+    runs: bool,
 }
 
 /// The solve's result: the cells (row-major, row 0 at the top), the iterations CG took and
@@ -667,11 +668,13 @@ impl Normal {
                 fast,
             });
         }
+        let runs = prepared.iter().any(|p| p.fast.is_some());
         Ok(Normal {
             nx,
             ny,
             lam,
             blocks: prepared,
+            runs,
         })
     }
 
@@ -693,7 +696,7 @@ impl Normal {
     /// Values of one column-chunked array (0 without factored blocks): chunk k holds
     /// columns k·CW .. (k + 1)·CW of grid rows 0..=ny, row-major.
     fn chunked_len(&self) -> usize {
-        if self.blocks.iter().any(|p| p.fast.is_some()) {
+        if self.runs {
             self.nx.div_ceil(CW) * CW * (self.ny + 1)
         } else {
             0
@@ -757,19 +760,11 @@ impl Normal {
         let len = (self.ny + 1) * CW;
         let scratch = &work.scratch;
         work.s0.par_chunks_mut(len).enumerate().for_each(|(k, v)| {
-            #[cfg(target_arch = "x86_64")]
-            if avx2() {
-                // SAFETY: the CPU has AVX2 (checked at run time).
-                return unsafe { self.sweep_chunk_avx2(scratch, k, v) };
-            }
-            self.sweep_chunk(scratch, k, v)
+            simd::dispatch(
+                #[inline(always)]
+                |_| self.sweep_chunk(scratch, k, v),
+            )
         });
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    unsafe fn sweep_chunk_avx2(&self, scratch: &[Vec<f64>], k: usize, v: &mut [f64]) {
-        self.sweep_chunk(scratch, k, v)
     }
 
     /// Chunk k of [`Normal::sweep`].
@@ -779,7 +774,7 @@ impl Normal {
         let (c0, wk) = (k * CW, CW.min(nx - k * CW));
         v.fill(0.0);
         for (p, g) in self.blocks.iter().zip(scratch) {
-            let Some(fast) = &p.fast else { continue };
+            let Some(fast) = p.pieces(true) else { continue };
             let (mut r0, mut r1) = ([0.0f64; CW], [0.0f64; CW]);
             let ev = &fast.events;
             for j in 0..ny {
@@ -820,10 +815,9 @@ impl Normal {
                     let band = if squared { sq } else { plain };
                     let nc = px.nrows();
                     let block = &p.block;
-                    let pieces = match (&p.fast, t) {
-                        (Some(fast), Some(_)) => Some((&fast.y, s0.as_slice(), s1.as_slice())),
-                        _ => None,
-                    };
+                    let pieces = p
+                        .pieces(t.is_some())
+                        .map(|fast| (&fast.y, s0.as_slice(), s1.as_slice()));
                     let job = RowJob {
                         py,
                         pieces,
@@ -861,26 +855,11 @@ impl Normal {
     fn gather(&self, work: &Work, squared: bool, t: Option<&[f64]>, out: &mut [f64]) {
         let nx = self.nx;
         out.par_chunks_mut(nx).enumerate().for_each(|(j, o)| {
-            #[cfg(target_arch = "x86_64")]
-            if avx2() {
-                // SAFETY: the CPU has AVX2 (checked at run time).
-                return unsafe { self.gather_row_avx2(work, squared, t, j, o) };
-            }
-            self.gather_row(work, squared, t, j, o)
+            simd::dispatch(
+                #[inline(always)]
+                |_| self.gather_row(work, squared, t, j, o),
+            )
         });
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    unsafe fn gather_row_avx2(
-        &self,
-        work: &Work,
-        squared: bool,
-        t: Option<&[f64]>,
-        j: usize,
-        o: &mut [f64],
-    ) {
-        self.gather_row(work, squared, t, j, o)
     }
 
     /// Row j of [`Normal::gather`].
@@ -913,10 +892,9 @@ impl Normal {
         for (p, scratch) in self.blocks.iter().zip(&work.scratch) {
             match &p.block {
                 Block::Factored { .. } => {
-                    let back = match (&p.fast, t) {
-                        (Some(fast), Some(_)) => &fast.back_dense,
-                        _ => &p.back,
-                    };
+                    let back = p
+                        .pieces(t.is_some())
+                        .map_or(&p.back, |fast| &fast.back_dense);
                     let (bs, vs) = back.row(j);
                     for (&b, &v) in bs.iter().zip(vs) {
                         let v = if squared { v * v } else { v };
@@ -936,7 +914,7 @@ impl Normal {
                 }
             }
         }
-        if t.is_some() && !work.s0.is_empty() {
+        if t.is_some() && self.runs {
             // The y runs' part, swept into the chunked s0 by [`Normal::sweep`].
             let len = (ny + 1) * CW;
             for (k, o) in o.chunks_mut(CW).enumerate() {
@@ -950,15 +928,14 @@ impl Normal {
 
     /// out = (Aᵀ W A + λ DᵀD) t.
     pub fn apply(&self, t: &[f64], work: &mut Work, out: &mut [f64]) {
-        let runs = !work.s0.is_empty();
-        if runs {
+        if self.runs {
             self.prefix(t, work);
         }
         self.rows_into(Some(t), work, false, |b, k, fwd| match b {
             Block::Factored { norm, w, .. } => w[k] * norm * norm * fwd,
             Block::Rows { w, .. } => w[k] * fwd,
         });
-        if runs {
+        if self.runs {
             self.sweep(work);
         }
         self.gather(work, false, Some(t), out);
