@@ -109,18 +109,22 @@ struct Lens {
     /// valid pixels are a product of columns and rows, and the tents' coverage (which only
     /// columns and rows with positions have) is separable.
     full: bool,
-    /// Per axis, when its finite positions are monotone at every candidate: the first and
-    /// the last finite one and their count (the extent from two positions).
-    ends: [Option<(usize, usize, usize)>; 2],
+    /// Per axis, when its finite positions are monotone at every candidate: the (p, q) of
+    /// the first and the last finite one and their count (the extent from two positions,
+    /// held here so that a layer's pass over every lens does not visit `x` and `y`).
+    ends: [Option<Ends>; 2],
 }
+
+/// An axis's first and last finite positions, (p, q) each, and the count of finite ones.
+type Ends = ([f64; 2], [f64; 2], usize);
 
 impl Lens {
     /// [`axis_extent`] of the lens's columns (axis 0) or rows (axis 1) at depth z.
     fn extent(&self, axis: usize, z: f64) -> Option<(f64, f64, f64)> {
         let pos = if axis == 0 { &self.x } else { &self.y };
         match self.ends[axis] {
-            Some((i, j, n)) => {
-                let (a, b) = (pos[i][0] + z * pos[i][1], pos[j][0] + z * pos[j][1]);
+            Some((pi, pj, n)) => {
+                let (a, b) = (pi[0] + z * pi[1], pj[0] + z * pj[1]);
                 Some(spaced(a.min(b), a.max(b), n))
             }
             None => axis_extent(pos, z),
@@ -418,7 +422,9 @@ fn collect(
             if !(meets(&x, 0) && meets(&y, 1)) {
                 return None;
             }
-            let ends = [monotone_ends(&x, zs), monotone_ends(&y, zs)];
+            let end =
+                |pos: &[[f64; 2]]| monotone_ends(pos, zs).map(|(i, j, n)| (pos[i], pos[j], n));
+            let ends = [end(&x), end(&y)];
             let full = y.iter().enumerate().all(|(b, yb)| {
                 yb[0].is_nan()
                     || x.iter()
@@ -489,6 +495,8 @@ struct Layer {
     sorted: Vec<(f64, u32)>,
     /// One full lens's tents summed per cell column.
     cover: Vec<f64>,
+    /// Every lens's extents along X and Y at this layer's depth ([`Lens::extent`]).
+    extents: Vec<[Option<(f64, f64, f64)>; 2]>,
 }
 
 impl Layer {
@@ -512,6 +520,7 @@ impl Layer {
             tys: Vec::new(),
             sorted: Vec::new(),
             cover: Vec::new(),
+            extents: Vec::new(),
         }
     }
 }
@@ -605,9 +614,10 @@ fn layer_in(mi: &Micro, grid: &CellGrid, radius: usize, z: f64, buf: &mut Layer,
     let (wx0, wx1, wy0, wy1) = (ex0, ex0 + enx as f64 * h, ey1 - eny as f64 * h, ey1);
     let clip = |a: f64, b: f64, c: f64, d: f64| (b.min(d) - a.max(c)).max(0.0);
     let mut area = vec![0.0; nch];
-    for l in &mi.lenses {
-        let ex = l.extent(0, z);
-        let ey = l.extent(1, z);
+    buf.extents.clear();
+    buf.extents
+        .extend(mi.lenses.iter().map(|l| [l.extent(0, z), l.extent(1, z)]));
+    for (l, &[ex, ey]) in mi.lenses.iter().zip(&buf.extents) {
         if let (Some((x0, x1, sx)), Some((y0, y1, sy))) = (ex, ey) {
             let (hx, hy) = (h.max(sx), h.max(sy));
             area[l.ch] += clip(x0 - hx, x1 + hx, wx0, wx1) * clip(y0 - hy, y1 + hy, wy0, wy1);
@@ -624,12 +634,12 @@ fn layer_in(mi: &Micro, grid: &CellGrid, radius: usize, z: f64, buf: &mut Layer,
             }
         })
         .collect();
-    for l in &mi.lenses {
+    for (l, &[ex, ey]) in mi.lenses.iter().zip(&buf.extents) {
         if l.u >= keep[l.ch] {
             continue;
         }
         let (xs, ys) = (&l.x, &l.y);
-        let (Some(ex), Some(ey)) = (l.extent(0, z), l.extent(1, z)) else {
+        let (Some(ex), Some(ey)) = (ex, ey) else {
             continue;
         };
         let cols = tents(
@@ -665,39 +675,51 @@ fn layer_in(mi: &Micro, grid: &CellGrid, radius: usize, z: f64, buf: &mut Layer,
         if buf.a.len() < 5 * nl {
             buf.a.resize(5 * nl, 0.0);
         }
-        for b in 0..nb {
-            let row = &block[b * na..(b + 1) * na];
-            let o = b * lx;
-            for (ix, w) in buf.txs.windows(2).enumerate() {
-                let tents = &buf.tx[w[0]..w[1]];
-                let (mut s1, mut s2, mut s3) = (0.0, 0.0, 0.0);
-                for &(a, wa) in tents {
-                    let [w, wv] = row[a as usize];
-                    s1 += wa * w;
-                    s2 += wa * wa * w;
-                    s3 += wa * wv;
-                }
-                buf.a[o + ix] = s1;
-                buf.a[nl + o + ix] = s2;
-                buf.a[2 * nl + o + ix] = s3;
-                if !l.full {
-                    let mut s5 = 0.0;
-                    for &(a, wa) in tents {
-                        if row[a as usize][0] > 0.0 {
-                            s5 += wa;
-                        }
-                    }
-                    buf.a[4 * nl + o + ix] = s5;
-                }
-                if own {
-                    let mut s4 = 0.0;
+        {
+            let (a1, rest) = buf.a[..5 * nl].split_at_mut(nl);
+            let (a2, rest) = rest.split_at_mut(nl);
+            let (a3, rest) = rest.split_at_mut(nl);
+            let (a4, a5) = rest.split_at_mut(nl);
+            let (tx, txs) = (&buf.tx, &buf.txs[..lx + 1]);
+            for b in 0..nb {
+                let row = &block[b * na..(b + 1) * na];
+                let o = b * lx;
+                let (r1, r2, r3) = (&mut a1[o..o + lx], &mut a2[o..o + lx], &mut a3[o..o + lx]);
+                for ix in 0..lx {
+                    let tents = &tx[txs[ix]..txs[ix + 1]];
+                    let (mut s1, mut s2, mut s3) = (0.0, 0.0, 0.0);
                     for &(a, wa) in tents {
                         let [w, wv] = row[a as usize];
-                        if w > 0.0 {
-                            s4 += wa * wv * wv / w;
-                        }
+                        s1 += wa * w;
+                        s2 += wa * wa * w;
+                        s3 += wa * wv;
                     }
-                    buf.a[3 * nl + o + ix] = s4;
+                    r1[ix] = s1;
+                    r2[ix] = s2;
+                    r3[ix] = s3;
+                }
+                if !l.full {
+                    for (ix, r5) in a5[o..o + lx].iter_mut().enumerate() {
+                        let mut s5 = 0.0;
+                        for &(a, wa) in &tx[txs[ix]..txs[ix + 1]] {
+                            if row[a as usize][0] > 0.0 {
+                                s5 += wa;
+                            }
+                        }
+                        *r5 = s5;
+                    }
+                }
+                if own {
+                    for (ix, r4) in a4[o..o + lx].iter_mut().enumerate() {
+                        let mut s4 = 0.0;
+                        for &(a, wa) in &tx[txs[ix]..txs[ix + 1]] {
+                            let [w, wv] = row[a as usize];
+                            if w > 0.0 {
+                                s4 += wa * wv * wv / w;
+                            }
+                        }
+                        *r4 = s4;
+                    }
                 }
             }
         }
@@ -984,9 +1006,12 @@ impl Fold {
     }
 }
 
-/// The sweep's bytes: the micro-images, per-worker layers, the fold and the outputs.
+/// The sweep's bytes: the micro-images (`pixels` in the lenses' boxes), per-worker layers
+/// (with 64 bytes a lens), the fold and the outputs.
+#[allow(clippy::too_many_arguments)]
 fn sweep_bytes(
     pixels: u128,
+    lenses: u128,
     grid: &CellGrid,
     radius: usize,
     workers: usize,
@@ -1002,7 +1027,7 @@ fn sweep_bytes(
         0
     };
     pixels * BYTES_PER_PIXEL
-        + workers as u128 * (ex * 80 * channels as u128 + entries * 8)
+        + workers as u128 * (ex * 80 * channels as u128 + entries * 8 + lenses * 64)
         + entries * (80 + 12 * KEEP_MINIMA as u128)
         + grid.cells() as u128 * 41
         + volume
@@ -1076,9 +1101,10 @@ pub fn sweep(
     let cells = grid.cells();
     let workers = threads(n_threads);
     // The memory without the samples first, then with them once counted.
-    let need = |pixels: u128| {
+    let need = |pixels: u128, lenses: u128| {
         let bytes = sweep_bytes(
             pixels,
+            lenses,
             grid,
             radius,
             workers,
@@ -1088,10 +1114,10 @@ pub fn sweep(
         );
         memory::check("the depth sweep", bytes)
     };
-    need(0)?;
+    need(0, 0)?;
     let zs = (candidates[0], candidates[candidates.len() - 1]);
     let mi = collect(design, channels, raws, whites, grid, radius, zs, n_threads)?;
-    need(mi.boxed as u128)?;
+    need(mi.boxed as u128, mi.lenses.len() as u128)?;
     let entries = cells * channels.len();
     let fold = Fold::new(entries);
     let volume = if keep_volume {
