@@ -11,9 +11,10 @@ pub(crate) fn avx2() -> bool {
 }
 
 /// Runs `f` compiled for AVX2 when the CPU has it, else in the baseline build; `f`'s
-/// argument says which (so that it may call AVX2 intrinsics in the first case). Give it
-/// a closure whose work is `#[inline(always)]`: it is inlined into the AVX2 twin and
-/// compiled there.
+/// argument says which (so that it may call AVX2 intrinsics in the first case). Mark the
+/// closure `#[inline(always)]`, and the functions it calls for its work too: only code
+/// inlined into the AVX2 twin is compiled for AVX2 (without the mark LLVM left the
+/// closures outside it, as a jump to baseline code, seen in the disassembly).
 #[inline(always)]
 pub(crate) fn dispatch<R>(f: impl FnOnce(bool) -> R) -> R {
     #[cfg(target_arch = "x86_64")]
