@@ -5,11 +5,12 @@ known surface: the core builds the sparse linear map A (row = raw pixel, column 
 entry = what the pixel records when the cell alone is white), with the forward model's own
 integration, so that ``A t`` is ``render``'s raw of the image texture t: on the exact route
 (a fronto-parallel plane, rect cells, a square aperture, the ideal layout) as per-axis
-factors (``_native.reconstruction_factors``), otherwise (slanted planes, depth maps, hex
-arrays, circular apertures, sensor layouts) as explicit rows from the general route in
-record mode (``_native.surface_system``). The core's matrix-free conjugate gradients
-(``_native.solve_normal``, SciPy's ``cg`` iteration, in parallel) solve the regularised
-least squares
+factors (``_native.reconstruction_factors``), otherwise as explicit rows
+(``_native.surface_system``): from the tilted route for a plane tilted along one axis on
+those designs, from the general route in record mode for the rest (planes tilted in both
+axes, depth maps, hex arrays, circular apertures, sensor layouts). The core's
+matrix-free conjugate gradients (``_native.solve_normal``, SciPy's ``cg`` iteration, in
+parallel) solve the regularised least squares
 
     min_t  sum_rows ((A t - raw) / sigma)^2  +  lambda * |D t|^2
 

@@ -503,11 +503,17 @@ pub fn build_surface(
         let exact = channels
             .iter()
             .all(|&i| supported(design, &design.channels[i]).is_ok());
-        if exact && g[0] == 0.0 && g[1] != 0.0 {
-            // None comes before any row is counted: the general route starts afresh.
-            if let Some(s) =
-                build_tilted(design, channels, *z0, g[1], grid, &keeps, n_threads, done)?
-            {
+        // Tilted along one axis only: the tilted route (None comes before any row is
+        // counted: the general route starts afresh).
+        let tilt = match (g[0] == 0.0, g[1] == 0.0) {
+            (true, false) => Some((g[1], 1)),
+            (false, true) => Some((g[0], 0)),
+            _ => None,
+        };
+        if let (true, Some((g, axis))) = (exact, tilt) {
+            if let Some(s) = build_tilted(
+                design, channels, *z0, g, axis, grid, &keeps, n_threads, done,
+            )? {
                 return Ok(s);
             }
         }
@@ -575,42 +581,64 @@ pub fn build_surface(
     Ok(out)
 }
 
-/// Sub-slabs of a grid row on the tilted route: enough that a slab spans at most
-/// [`SLAB_DEPTH`] of its depth (the x profile is taken at the slab's middle depth).
+/// Sub-slabs of a grid row (or column) on the tilted route: enough that a slab spans at
+/// most [`SLAB_DEPTH`] of its depth (the other axis's profile is taken at the slab's
+/// middle depth).
 const SLAB_DEPTH: f64 = 2e-4;
-/// The most sub-slabs a grid row is cut into.
+/// The most sub-slabs a grid row or column is cut into.
 const MAX_SLABS: usize = 64;
 
-/// The map for the plane Z = z0 + g Y (tilted about the X axis) on the exact route's
-/// designs (rect grid, square aperture, ideal layout), or None, before any work, when the
-/// plane is not in front of the lens over the grid (the caller then takes the general
-/// route); pixels with rays that miss the plane are not rows. A pixel's ray set is the product of its x and y polygons; the y
-/// polygon's areas between the grid's row edges are exact ([`tilted_profile`]: the cut
-/// at an edge is the fronto-parallel cut at the edge's depth), and each row is cut into
-/// slabs of at most [`SLAB_DEPTH`] relative depth, each slab's y area times the x areas at
-/// its middle depth (the x polygon's areas move with the depth of the rays' y part only).
+/// The map for the plane Z = z0 + g U tilted along one axis (`axis` 1: U = Y, tilted
+/// about the X axis; 0: U = X, tilted about the Y axis) on the exact route's designs
+/// (rect grid, square aperture, ideal layout), or None, before any work, when the plane
+/// is not in front of the lens over the grid (the caller then takes the general route);
+/// pixels with rays that miss the plane are not rows. A pixel's ray set is the product of
+/// its x and y polygons; the tilted axis's polygon's areas between the grid's edges along
+/// it are exact ([`tilted_profile`]: the cut at an edge is the fronto-parallel cut at the
+/// edge's depth), and each row (column) is cut into slabs of at most [`SLAB_DEPTH`]
+/// relative depth, each slab's area times the other axis's areas at its middle depth (the
+/// other polygon's areas move with the depth of the rays' tilted part only). The two
+/// axes' geometry is the same per axis (a rect grid's lens centres, the ideal layout's
+/// pixel offsets, a square aperture), so one code serves both.
 #[allow(clippy::too_many_arguments)]
 fn build_tilted(
     design: &Design,
     channels: &[usize],
     z0: f64,
     g: f64,
+    axis: usize,
     grid: &CellGrid,
     keeps: &(dyn Fn(usize) -> bool + Sync),
     n_threads: Option<usize>,
     done: &AtomicUsize,
 ) -> Result<Option<System>> {
-    let [_, _, gy0, gy1] = grid.extent();
-    let (za, zb) = (z0 + g * gy0, z0 + g * gy1);
+    let [gx0, gx1, gy0, gy1] = grid.extent();
+    // Along the tilted axis (t) and the other (o): the grid's first edge and cells.
+    let ((t0, t1, nct), (o0, nco)) = if axis == 0 {
+        ((gx0, gx1, grid.nx), (gy0, grid.ny))
+    } else {
+        ((gy0, gy1, grid.ny), (gx0, grid.nx))
+    };
+    let (za, zb) = (z0 + g * t0, z0 + g * t1);
     if !(za > 0.0 && zb > 0.0) {
         return Ok(None);
     }
     let h = grid.step;
     let slabs = ((g.abs() * h / (SLAB_DEPTH * za.min(zb))).ceil() as usize).clamp(1, MAX_SLABS);
     let hs = h / slabs as f64;
-    let ns = grid.ny * slabs;
-    let slab_z = |k: usize| z0 + g * (gy0 + (k as f64 + 0.5) * hs);
-    let [gx0, ..] = grid.extent();
+    let ns = nct * slabs;
+    let slab_z = |k: usize| z0 + g * (t0 + (k as f64 + 0.5) * hs);
+    let (nx, ny) = (grid.nx, grid.ny);
+    // The cell of slab k (counted from the tilted axis's low edge) and of cell n of the
+    // other axis (counted from its low edge): rows run from the top (largest Y).
+    let cell = |k: usize, n: usize| -> u32 {
+        let (c, r) = if axis == 0 {
+            (k / slabs, ny - 1 - n)
+        } else {
+            (n, ny - 1 - k / slabs)
+        };
+        (r * nx + c) as u32
+    };
     let mut out = System {
         indptr: vec![0],
         ..System::default()
@@ -622,34 +650,49 @@ fn build_tilted(
         };
         let chan = Chan::new(design, ch, crate::render::DEFAULT_TOL);
         let (rows, cols) = crate::render::raw_shape(ch);
+        // Pixels along the tilted and the other axis (raw columns run along X, rows along
+        // Y), and a pixel's lens centre along an axis.
+        let (npt, npo) = if axis == 0 {
+            (cols, rows)
+        } else {
+            (rows, cols)
+        };
+        let center = |p: u32, ax: usize| {
+            if ax == 0 {
+                ch.lens_center(p / q, 0)[0]
+            } else {
+                ch.lens_center(0, p / q)[1]
+            }
+        };
         let theta = |i: u32| pixel_offset(ch.mu, q, i);
         let nt = chan.types.len();
-        // y profiles per type and raw row, against the slab edges (bottom-up); None where
-        // some of the row's rays miss the plane (its pixels are then not kept, as on the
+        // Tilted profiles per type and pixel line, against the slab edges; None where
+        // some of the line's rays miss the plane (its pixels are then not kept, as on the
         // general route: part of their light is not on the grid). A type not kept has no
         // profiles (its pixels are no rows).
-        let mut py: Vec<Vec<Option<Profile>>> = Vec::with_capacity(nt);
+        let mut pt: Vec<Vec<Option<Profile>>> = Vec::with_capacity(nt);
         for t in 0..nt {
             if !keeps(t) {
-                py.push((0..rows).map(|_| None).collect());
+                pt.push((0..npt).map(|_| None).collect());
                 continue;
             }
-            py.push(
-                (0..rows as u32)
+            pt.push(
+                (0..npt as u32)
                     .into_par_iter()
                     .map(|b| {
-                        let c = ch.lens_center(0, b / q)[1];
+                        let c = center(b, axis);
                         tilted_profile(&chan, chan.types[t].0, c, theta(b), z0, g, ns, |k| {
-                            gy0 + k as f64 * hs
+                            t0 + k as f64 * hs
                         })
                     })
                     .collect(),
             );
             checkpoint()?;
         }
-        // The slabs some kept pixel's rays reach, and the x profiles at their depths.
+        // The slabs some kept pixel's rays reach, and the other axis's profiles at their
+        // depths.
         let mut used = vec![false; ns];
-        for p in py.iter().flatten().flatten() {
+        for p in pt.iter().flatten().flatten() {
             for (m, &a) in p.areas.iter().enumerate() {
                 if a != 0.0 {
                     used[p.first + m] = true;
@@ -657,17 +700,17 @@ fn build_tilted(
             }
         }
         memory::check(
-            "the tilted route's x profiles",
+            "the tilted route's profiles",
             (used.iter().filter(|&&u| u).count() as u128)
                 * ((0..nt).filter(|&t| keeps(t)).count() as u128)
-                * (cols as u128)
+                * (npo as u128)
                 * 96,
         )?;
         // In blocks of slabs, with a check for Ctrl-C between them.
-        let mut px: Vec<Vec<Option<Vec<Profile>>>> = Vec::with_capacity(nt);
+        let mut po: Vec<Vec<Option<Vec<Profile>>>> = Vec::with_capacity(nt);
         for t in 0..nt {
             if !keeps(t) {
-                px.push((0..ns).map(|_| None).collect());
+                po.push((0..ns).map(|_| None).collect());
                 continue;
             }
             let mut v = Vec::with_capacity(ns);
@@ -675,29 +718,29 @@ fn build_tilted(
                 checkpoint()?;
                 v.par_extend((start..(start + 64).min(ns)).into_par_iter().map(|k| {
                     used[k].then(|| {
-                        (0..cols as u32)
+                        (0..npo as u32)
                             .map(|a| {
-                                let c = ch.lens_center(a / q, 0)[0];
                                 profile(
                                     &chan,
                                     chan.types[t].0,
-                                    c,
+                                    center(a, 1 - axis),
                                     theta(a),
                                     slab_z(k),
-                                    grid.nx,
-                                    |n| gx0 + n as f64 * h,
+                                    nco,
+                                    |n| o0 + n as f64 * h,
                                 )
                             })
                             .collect()
                     })
                 }));
             }
-            px.push(v);
+            po.push(v);
         }
-        // The x polygons' whole areas (the x profile at any depth has the same total).
-        let xtotal: Vec<Vec<f64>> = (0..nt)
+        // The other axis's polygons' whole areas (its profile at any depth has the same
+        // total).
+        let ototal: Vec<Vec<f64>> = (0..nt)
             .map(|t| {
-                (0..cols as u32)
+                (0..npo as u32)
                     .map(|a| ray_set_area(&chan, chan.types[t].0, theta(a)))
                     .collect()
             })
@@ -705,7 +748,6 @@ fn build_tilted(
         checkpoint()?;
         let typ = |a: usize, b: usize| ch.lens_type(a as u32 / q, b as u32 / q);
         let norm = chan.norm;
-        let nx = grid.nx;
         let step = crate::parallel::chunk_items(n_threads, (cols as u128) * 256);
         let parts = Chunks::default();
         let bytes = std::sync::atomic::AtomicU64::new((out.data.len() * 12) as u64);
@@ -722,29 +764,29 @@ fn build_tilted(
                         if !keeps(t) {
                             continue;
                         }
-                        let Some(yp) = &py[t][b] else {
+                        let (it, io) = if axis == 0 { (a, b) } else { (b, a) };
+                        let Some(tp) = &pt[t][it] else {
                             continue;
                         };
-                        let total = yp.total * xtotal[t][a];
+                        let total = tp.total * ototal[t][io];
                         if total <= 0.0 {
                             continue;
                         }
                         entries.clear();
                         let mut inside = 0.0;
-                        for (m, &ay) in yp.areas.iter().enumerate() {
-                            if ay == 0.0 {
+                        for (m, &at) in tp.areas.iter().enumerate() {
+                            if at == 0.0 {
                                 continue;
                             }
-                            let k = yp.first + m;
-                            let Some(xs) = px[t][k].as_ref() else {
+                            let k = tp.first + m;
+                            let Some(os) = po[t][k].as_ref() else {
                                 continue;
                             };
-                            let xp = &xs[a];
-                            let row = grid.ny - 1 - k / slabs;
-                            for (n, &ax) in xp.areas.iter().enumerate() {
-                                if ax != 0.0 {
-                                    inside += ax * ay;
-                                    entries.push(((row * nx + xp.first + n) as u32, ay * ax));
+                            let op = &os[io];
+                            for (n, &ao) in op.areas.iter().enumerate() {
+                                if ao != 0.0 {
+                                    inside += ao * at;
+                                    entries.push((cell(k, op.first + n), at * ao));
                                 }
                             }
                         }
@@ -848,6 +890,58 @@ mod tests {
                 .sum();
             let want = raws[sys.channel[r] as usize][sys.pixel[r] as usize];
             worst = worst.max((v - want).abs());
+        }
+        assert!(worst < 1e-12, "{worst}");
+    }
+
+    /// On a design with as many lenses per row as per column, the plane tilted about the
+    /// Y axis is the plane tilted about the X axis with X and Y swapped: pixel (a, b) is
+    /// pixel (b, a), and cell (row r, column c) of a square grid centred on the axis is
+    /// cell (n - 1 - c, n - 1 - r). The two tilted routes agree to rounding, row by row.
+    #[test]
+    fn tilted_routes_are_mirror_images() {
+        let mut d = seed_small();
+        for ch in d.channels.iter_mut() {
+            ch.ky = ch.kx;
+        }
+        let grid = CellGrid::covering([-1.4, 1.4, -1.4, 1.4], 0.07).unwrap();
+        let n = grid.nx;
+        assert_eq!(grid.ny, n);
+        let done = AtomicUsize::new(0);
+        let map = |g: [f64; 2]| {
+            let plane = Surface::from_parts("plane", &[700.0, g[0], g[1]], None).unwrap();
+            build_surface(&d, &[0, 1], &plane, &grid, None, None, &done).unwrap()
+        };
+        let (about_y, about_x) = (map([12.0, 0.0]), map([0.0, 12.0]));
+        let rows = |s: &System| -> std::collections::HashMap<(u32, u64), Vec<(u32, f64)>> {
+            (0..s.channel.len())
+                .map(|r| {
+                    let (lo, hi) = (s.indptr[r] as usize, s.indptr[r + 1] as usize);
+                    let e = (lo..hi).map(|k| (s.indices[k], s.data[k])).collect();
+                    ((s.channel[r], s.pixel[r]), e)
+                })
+                .collect()
+        };
+        let (ry, rx) = (rows(&about_y), rows(&about_x));
+        assert_eq!(ry.len(), rx.len());
+        assert!(ry.len() > 400, "{}", ry.len());
+        let mut worst = 0.0f64;
+        for ((ch, pixel), entries) in &ry {
+            let cols = crate::render::raw_shape(&d.channels[*ch as usize]).1 as u64;
+            let (a, b) = (pixel % cols, pixel / cols);
+            let mut want: Vec<(u32, f64)> = rx[&(*ch, a * cols + b)]
+                .iter()
+                .map(|&(idx, v)| {
+                    let (r, c) = (idx as usize / n, idx as usize % n);
+                    (((n - 1 - c) * n + n - 1 - r) as u32, v)
+                })
+                .collect();
+            want.sort_by_key(|e| e.0);
+            assert_eq!(entries.len(), want.len());
+            for (&(i, v), &(j, w)) in entries.iter().zip(&want) {
+                assert_eq!(i, j);
+                worst = worst.max((v - w).abs() / w.abs().max(1e-300));
+            }
         }
         assert!(worst < 1e-12, "{worst}");
     }
