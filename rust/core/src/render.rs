@@ -1581,6 +1581,20 @@ pub(crate) mod exact {
         signed_area(&polygon(chan, alpha, theta)).max(0.0)
     }
 
+    /// The mean ray of a pixel's 1-D ray set (lens centre c, offset θ, type α): its scene
+    /// coordinate on the fronto-parallel plane at depth z is w̄ − z ā (the coordinate is
+    /// affine in the ray, so its mean is the centroid's), returned as (w̄, ā); None for an
+    /// empty set.
+    pub(crate) fn mean_ray(chan: &Chan, alpha: f64, c: f64, theta: f64) -> Option<(f64, f64)> {
+        let poly = polygon(chan, alpha, theta);
+        if signed_area(&poly) <= 0.0 {
+            return None;
+        }
+        let q = crate::polygon::centroid(&poly);
+        let (l, f) = (chan.ch.l, chan.f_main);
+        Some((q[1], q[1] / f + (c + q[0] - q[1]) / l))
+    }
+
     /// The 1-D ray-set polygon in (ξ, w) (ξ = x − c) of a pixel at offset θ from its lens
     /// image centre: |ξ| ≤ d/2, |w| ≤ D/2, |α ξ − (v/L) w − θ| ≤ μ/2.
     fn polygon(chan: &Chan, alpha: f64, theta: f64) -> Vec<Pt> {

@@ -20,7 +20,9 @@ use crate::design::{Aperture, Channel, Design, Grid, Layout};
 use crate::error::{Error, Result};
 use crate::memory;
 use crate::parallel::{checkpoint, for_chunks};
-use crate::render::exact::{pixel_offset, profile, ray_set_area, tilted_profile, Profile};
+use crate::render::exact::{
+    mean_ray, pixel_offset, profile, ray_set_area, tilted_profile, Profile,
+};
 use crate::render::{Chan, Work};
 use crate::scene::{Scene, Surface};
 use crate::texture::Texture;
@@ -503,21 +505,32 @@ pub fn build_surface(
         let exact = channels
             .iter()
             .all(|&i| supported(design, &design.channels[i]).is_ok());
-        // Tilted along one axis only: the tilted route (None comes before any row is
-        // counted: the general route starts afresh).
-        let tilt = match (g[0] == 0.0, g[1] == 0.0) {
-            (true, false) => Some((g[1], 1)),
-            (false, true) => Some((g[0], 0)),
-            _ => None,
-        };
-        if let (true, Some((g, axis))) = (exact, tilt) {
-            if let Some(s) = build_tilted(
-                design, channels, *z0, g, axis, grid, &keeps, n_threads, done,
-            )? {
+        // A tilted plane: the tilted route (None comes before any row is counted: the
+        // general route starts afresh).
+        if exact && g != &[0.0, 0.0] {
+            if let Some(s) = build_tilted(design, channels, *z0, *g, grid, &keeps, n_threads, done)?
+            {
                 return Ok(s);
             }
         }
     }
+    build_general(
+        design, channels, surface, grid, types, &keeps, n_threads, done,
+    )
+}
+
+/// The map on the forward model's general route in record mode (any surface, any design).
+#[allow(clippy::too_many_arguments)]
+fn build_general(
+    design: &Design,
+    channels: &[usize],
+    surface: &Surface,
+    grid: &CellGrid,
+    types: Option<&[usize]>,
+    keeps: &(dyn Fn(usize) -> bool + Sync),
+    n_threads: Option<usize>,
+    done: &AtomicUsize,
+) -> Result<System> {
     let workers = crate::parallel::threads(n_threads);
     memory::check(
         "the reconstruction map's grid texture and row accumulators",
@@ -587,47 +600,65 @@ pub fn build_surface(
 const SLAB_DEPTH: f64 = 2e-4;
 /// The most sub-slabs a grid row or column is cut into.
 const MAX_SLABS: usize = 64;
+/// A plane tilted along both axes takes the tilted route when its depth changes by at
+/// most this share across any pixel's footprint along the smaller tilt's axis (g_o W / 2
+/// over the least depth): A t then stays within about a quarter of it of white (measured
+/// on the seed: 2.4e-4 at 1.05e-3, 3.3e-3 at 1.7e-2), below the general route's own
+/// 1e-3. Steeper planes take the general route.
+const TILT_EPS: f64 = 2e-3;
 
-/// The map for the plane Z = z0 + g U tilted along one axis (`axis` 1: U = Y, tilted
-/// about the X axis; 0: U = X, tilted about the Y axis) on the exact route's designs
-/// (rect grid, square aperture, ideal layout), or None, before any work, when the plane
-/// is not in front of the lens over the grid (the caller then takes the general route);
-/// pixels with rays that miss the plane are not rows. A pixel's ray set is the product of
-/// its x and y polygons; the tilted axis's polygon's areas between the grid's edges along
-/// it are exact ([`tilted_profile`]: the cut at an edge is the fronto-parallel cut at the
-/// edge's depth), and each row (column) is cut into slabs of at most [`SLAB_DEPTH`]
-/// relative depth, each slab's area times the other axis's areas at its middle depth (the
-/// other polygon's areas move with the depth of the rays' tilted part only). The two
-/// axes' geometry is the same per axis (a rect grid's lens centres, the ideal layout's
-/// pixel offsets, a square aperture), so one code serves both.
+/// The map for the plane Z = z0 + gx X + gy Y (not fronto-parallel) on the exact route's
+/// designs (rect grid, square aperture, ideal layout), or None, before any work, when the
+/// plane is not in front of the lens over the grid (the caller then takes the general
+/// route); pixels with rays that miss the plane are not rows.
+///
+/// A pixel's ray set is the product of its x and y polygons. Call t the axis of the larger
+/// tilt (Y on a tie) and o the other. Along t the polygon's areas between the grid's edges
+/// are exact when the depth depends on U_t alone ([`tilted_profile`]: the cut at an edge
+/// is the fronto-parallel cut at the edge's depth), and each grid row (column) is cut into
+/// slabs of at most [`SLAB_DEPTH`] relative depth. Along o, each slab's areas are those of
+/// the line of the plane through the slab's middle, Z = z_k + g_o U_o, cut the same exact
+/// way; and a slab's t area times its o areas. With a tilt along o as well, the depth
+/// along t's cuts depends on U_o too: each pixel's t areas are taken on the plane through
+/// its mean ray's point (Z = z0 + g_o U_o* + g_t U_t, U_o* where the pixel's mean ray meets
+/// the plane), so the error grows with g_o times the pixel's footprint along o, not with
+/// the grid's. Either way every pixel's areas add up to its whole ray set (the o areas of
+/// each slab and the t areas do). The two axes' geometry is the same per axis (a rect
+/// grid's lens centres, the ideal layout's pixel offsets, a square aperture), so one code
+/// serves both.
 #[allow(clippy::too_many_arguments)]
 fn build_tilted(
     design: &Design,
     channels: &[usize],
     z0: f64,
-    g: f64,
-    axis: usize,
+    g: [f64; 2],
     grid: &CellGrid,
     keeps: &(dyn Fn(usize) -> bool + Sync),
     n_threads: Option<usize>,
     done: &AtomicUsize,
 ) -> Result<Option<System>> {
     let [gx0, gx1, gy0, gy1] = grid.extent();
-    // Along the tilted axis (t) and the other (o): the grid's first edge and cells.
-    let ((t0, t1, nct), (o0, nco)) = if axis == 0 {
-        ((gx0, gx1, grid.nx), (gy0, grid.ny))
-    } else {
-        ((gy0, gy1, grid.ny), (gx0, grid.nx))
-    };
-    let (za, zb) = (z0 + g * t0, z0 + g * t1);
-    if !(za > 0.0 && zb > 0.0) {
+    let corners = [[gx0, gy0], [gx0, gy1], [gx1, gy0], [gx1, gy1]];
+    let depth = |c: &[f64; 2]| z0 + g[0] * c[0] + g[1] * c[1];
+    let zmin = corners.iter().map(depth).fold(f64::INFINITY, f64::min);
+    if zmin.is_nan() || zmin <= 0.0 {
         return Ok(None);
     }
+    let axis = usize::from(g[1].abs() >= g[0].abs());
+    let (gt, go) = (g[axis], g[1 - axis]);
+    // Along the tilted axis (t): the grid's first edge and cells; along the other (o):
+    // its first and last edges and cells.
+    let ((t0, nct), (o0, o1, nco)) = if axis == 0 {
+        ((gx0, grid.nx), (gy0, gy1, grid.ny))
+    } else {
+        ((gy0, grid.ny), (gx0, gx1, grid.nx))
+    };
     let h = grid.step;
-    let slabs = ((g.abs() * h / (SLAB_DEPTH * za.min(zb))).ceil() as usize).clamp(1, MAX_SLABS);
+    let slabs = ((gt.abs() * h / (SLAB_DEPTH * zmin)).ceil() as usize).clamp(1, MAX_SLABS);
     let hs = h / slabs as f64;
     let ns = nct * slabs;
-    let slab_z = |k: usize| z0 + g * (t0 + (k as f64 + 0.5) * hs);
+    let slab_z = |k: usize| z0 + gt * (t0 + (k as f64 + 0.5) * hs);
+    let edge_t = |k: usize| t0 + k as f64 * hs;
     let (nx, ny) = (grid.nx, grid.ny);
     // The cell of slab k (counted from the tilted axis's low edge) and of cell n of the
     // other axis (counted from its low edge): rows run from the top (largest Y).
@@ -638,6 +669,52 @@ fn build_tilted(
             (n, ny - 1 - k / slabs)
         };
         (r * nx + c) as u32
+    };
+    // With a tilt along o: the widest footprint along o of any pixel (over the grid's
+    // depths: a footprint's width is convex in the depth, widest at an end), against
+    // TILT_EPS.
+    if go != 0.0 {
+        let zmax = corners.iter().map(depth).fold(f64::NEG_INFINITY, f64::max);
+        let mut widest = 0.0f64;
+        for &i in channels {
+            let ch = &design.channels[i];
+            let Layout::Ideal { q } = ch.layout else {
+                unreachable!("checked by `supported` in the caller")
+            };
+            let chan = Chan::new(design, ch, crate::render::DEFAULT_TOL);
+            let (rows, cols) = crate::render::raw_shape(ch);
+            let npo = if axis == 0 { rows } else { cols };
+            for (t, &(alpha, _)) in chan.types.iter().enumerate() {
+                if !keeps(t) {
+                    continue;
+                }
+                for a in 0..npo as u32 {
+                    let c = if axis == 0 {
+                        ch.lens_center(0, a / q)[1]
+                    } else {
+                        ch.lens_center(a / q, 0)[0]
+                    };
+                    let theta = pixel_offset(ch.mu, q, a);
+                    for z in [zmin, zmax] {
+                        let p = profile(&chan, alpha, c, theta, z, nco, |n| o0 + n as f64 * h);
+                        let nz = p.areas.iter().position(|&v| v != 0.0);
+                        let last = p.areas.iter().rposition(|&v| v != 0.0);
+                        if let (Some(f), Some(l)) = (nz, last) {
+                            widest = widest.max((l - f + 1) as f64 * h);
+                        }
+                    }
+                }
+            }
+        }
+        if go.abs() * widest / (2.0 * zmin) > TILT_EPS {
+            return Ok(None);
+        }
+    }
+    // The planes tilted along t alone between which the pixels' planes lie.
+    let offsets = if go == 0.0 {
+        vec![z0]
+    } else {
+        vec![z0 + go * o0, z0 + go * o1]
     };
     let mut out = System {
         indptr: vec![0],
@@ -666,48 +743,68 @@ fn build_tilted(
         };
         let theta = |i: u32| pixel_offset(ch.mu, q, i);
         let nt = chan.types.len();
-        // Tilted profiles per type and pixel line, against the slab edges; None where
-        // some of the line's rays miss the plane (its pixels are then not kept, as on the
-        // general route: part of their light is not on the grid). A type not kept has no
-        // profiles (its pixels are no rows).
-        let mut pt: Vec<Vec<Option<Profile>>> = Vec::with_capacity(nt);
+        let kept = (0..nt).filter(|&t| keeps(t)).count() as u128;
+        // Tilted profiles per type, offset plane and pixel line along t, against the slab
+        // edges; None where some of the line's rays miss the plane (its pixels are then not
+        // kept, as on the general route: part of their light is not on the grid). A type
+        // not kept has no profiles (its pixels are no rows). Without a tilt along o these
+        // are the pixels' profiles; with one, the bounds of the slabs they reach.
+        let mut pt: Vec<Vec<Vec<Option<Profile>>>> = Vec::with_capacity(nt);
         for t in 0..nt {
             if !keeps(t) {
-                pt.push((0..npt).map(|_| None).collect());
+                pt.push(Vec::new());
                 continue;
             }
-            pt.push(
-                (0..npt as u32)
-                    .into_par_iter()
-                    .map(|b| {
-                        let c = center(b, axis);
-                        tilted_profile(&chan, chan.types[t].0, c, theta(b), z0, g, ns, |k| {
-                            t0 + k as f64 * hs
+            let mut per = Vec::with_capacity(offsets.len());
+            for &zp in &offsets {
+                per.push(
+                    (0..npt as u32)
+                        .into_par_iter()
+                        .map(|b| {
+                            let c = center(b, axis);
+                            tilted_profile(&chan, chan.types[t].0, c, theta(b), zp, gt, ns, edge_t)
                         })
-                    })
-                    .collect(),
-            );
-            checkpoint()?;
+                        .collect::<Vec<_>>(),
+                );
+                checkpoint()?;
+            }
+            pt.push(per);
         }
-        // The slabs some kept pixel's rays reach, and the other axis's profiles at their
-        // depths.
+        // The slabs some kept pixel's rays reach (with a tilt along o: every slab between
+        // a line's reach on the two bounding planes, the reach moving monotonically with
+        // the plane's offset), and the other axis's profiles there.
         let mut used = vec![false; ns];
-        for p in pt.iter().flatten().flatten() {
-            for (m, &a) in p.areas.iter().enumerate() {
-                if a != 0.0 {
-                    used[p.first + m] = true;
+        for per in pt.iter().filter(|v| !v.is_empty()) {
+            for it in 0..npt {
+                let (mut lo, mut hi) = (usize::MAX, 0);
+                for p in per.iter().filter_map(|v| v[it].as_ref()) {
+                    for (j, &a) in p.areas.iter().enumerate() {
+                        if a != 0.0 {
+                            lo = lo.min(p.first + j);
+                            hi = hi.max(p.first + j + 1);
+                        }
+                    }
+                }
+                if go == 0.0 {
+                    if let Some(p) = &per[0][it] {
+                        for (j, &a) in p.areas.iter().enumerate() {
+                            if a != 0.0 {
+                                used[p.first + j] = true;
+                            }
+                        }
+                    }
+                } else if lo < hi {
+                    used[lo..hi].fill(true);
                 }
             }
         }
         memory::check(
             "the tilted route's profiles",
-            (used.iter().filter(|&&u| u).count() as u128)
-                * ((0..nt).filter(|&t| keeps(t)).count() as u128)
-                * (npo as u128)
-                * 96,
+            (used.iter().filter(|&&u| u).count() as u128) * kept * (npo as u128) * 96,
         )?;
         // In blocks of slabs, with a check for Ctrl-C between them.
-        let mut po: Vec<Vec<Option<Vec<Profile>>>> = Vec::with_capacity(nt);
+        type Slab = Option<Vec<Option<Profile>>>;
+        let mut po: Vec<Vec<Slab>> = Vec::with_capacity(nt);
         for t in 0..nt {
             if !keeps(t) {
                 po.push((0..ns).map(|_| None).collect());
@@ -720,12 +817,13 @@ fn build_tilted(
                     used[k].then(|| {
                         (0..npo as u32)
                             .map(|a| {
-                                profile(
+                                tilted_profile(
                                     &chan,
                                     chan.types[t].0,
                                     center(a, 1 - axis),
                                     theta(a),
                                     slab_z(k),
+                                    go,
                                     nco,
                                     |n| o0 + n as f64 * h,
                                 )
@@ -736,8 +834,8 @@ fn build_tilted(
             }
             po.push(v);
         }
-        // The other axis's polygons' whole areas (its profile at any depth has the same
-        // total).
+        // The other axis's polygons' whole areas (its profile on any plane has the same
+        // total), and with a tilt along o each pixel line's mean ray per axis.
         let ototal: Vec<Vec<f64>> = (0..nt)
             .map(|t| {
                 (0..npo as u32)
@@ -745,6 +843,19 @@ fn build_tilted(
                     .collect()
             })
             .collect();
+        let rays = |n: usize, ax: usize| -> Vec<Vec<Option<(f64, f64)>>> {
+            (0..nt)
+                .map(|t| {
+                    if go == 0.0 {
+                        return Vec::new();
+                    }
+                    (0..n as u32)
+                        .map(|a| mean_ray(&chan, chan.types[t].0, center(a, ax), theta(a)))
+                        .collect()
+                })
+                .collect()
+        };
+        let (rt, ro) = (rays(npt, axis), rays(npo, 1 - axis));
         checkpoint()?;
         let typ = |a: usize, b: usize| ch.lens_type(a as u32 / q, b as u32 / q);
         let norm = chan.norm;
@@ -759,14 +870,47 @@ fn build_tilted(
                     checkpoint()?;
                     let mut s = System::default();
                     let mut entries: Vec<(u32, f64)> = Vec::new();
-                    for a in 0..cols {
+                    'pixel: for a in 0..cols {
                         let t = typ(a, b);
                         if !keeps(t) {
                             continue;
                         }
                         let (it, io) = if axis == 0 { (a, b) } else { (b, a) };
-                        let Some(tp) = &pt[t][it] else {
-                            continue;
+                        // The pixel's profile along t: its line's, or on the plane tilted
+                        // along t through the point where its mean ray meets the plane.
+                        let own;
+                        let tp = if go == 0.0 {
+                            match &pt[t][0][it] {
+                                Some(p) => p,
+                                None => continue,
+                            }
+                        } else {
+                            let (Some((wt, at)), Some((wo, ao))) = (rt[t][it], ro[t][io]) else {
+                                continue;
+                            };
+                            let den = 1.0 + gt * at + go * ao;
+                            let z = (z0 + gt * wt + go * wo) / den;
+                            if !(den > 0.0 && z > 0.0) {
+                                continue;
+                            }
+                            let zp = z0 + go * (wo - z * ao);
+                            let c = center(it as u32, axis);
+                            match tilted_profile(
+                                &chan,
+                                chan.types[t].0,
+                                c,
+                                theta(it as u32),
+                                zp,
+                                gt,
+                                ns,
+                                edge_t,
+                            ) {
+                                Some(p) => {
+                                    own = p;
+                                    &own
+                                }
+                                None => continue,
+                            }
                         };
                         let total = tp.total * ototal[t][io];
                         if total <= 0.0 {
@@ -774,19 +918,21 @@ fn build_tilted(
                         }
                         entries.clear();
                         let mut inside = 0.0;
-                        for (m, &at) in tp.areas.iter().enumerate() {
-                            if at == 0.0 {
+                        for (m, &a_t) in tp.areas.iter().enumerate() {
+                            if a_t == 0.0 {
                                 continue;
                             }
                             let k = tp.first + m;
                             let Some(os) = po[t][k].as_ref() else {
                                 continue;
                             };
-                            let op = &os[io];
-                            for (n, &ao) in op.areas.iter().enumerate() {
-                                if ao != 0.0 {
-                                    inside += ao * at;
-                                    entries.push((cell(k, op.first + n), at * ao));
+                            let Some(op) = &os[io] else {
+                                continue 'pixel;
+                            };
+                            for (n, &a_o) in op.areas.iter().enumerate() {
+                                if a_o != 0.0 {
+                                    inside += a_o * a_t;
+                                    entries.push((cell(k, op.first + n), a_t * a_o));
                                 }
                             }
                         }
@@ -892,6 +1038,61 @@ mod tests {
             worst = worst.max((v - want).abs());
         }
         assert!(worst < 1e-12, "{worst}");
+    }
+
+    /// A plane tilted along both axes, gently along one of them, on the tilted route
+    /// against the general route's quadrature: on the rows both keep, A t within 5e-4 of
+    /// white for a random t, the row sums within 1e-9 of white, and the rows kept the same
+    /// but where a pixel's light touches the grid's edge (the 1e-9 share both allow
+    /// outside). A plane too steep along both (past TILT_EPS) is left to the general route.
+    #[test]
+    fn tilted_route_in_both_axes_is_the_general_route() {
+        let d = seed_small();
+        let grid = CellGrid::covering([-1.3, 1.3, -1.1, 1.1], 0.06).unwrap();
+        let done = AtomicUsize::new(0);
+        let keeps = |_: usize| true;
+        let steep = build_tilted(&d, &[0, 1], 650.0, [8.0, -20.0], &grid, &keeps, None, &done);
+        assert!(steep.unwrap().is_none());
+        for g in [[0.5, -20.0], [-20.0, 0.5], [0.6, 1.0]] {
+            let plane = Surface::from_parts("plane", &[650.0, g[0], g[1]], None).unwrap();
+            let tilted = build_tilted(&d, &[0, 1], 650.0, g, &grid, &keeps, None, &done)
+                .unwrap()
+                .unwrap();
+            let general =
+                build_general(&d, &[0, 1], &plane, &grid, None, &keeps, None, &done).unwrap();
+            let vals: Vec<f64> = (0..grid.cells())
+                .map(|i| ((i * 7919) % 101) as f64 / 100.0)
+                .collect();
+            let rows = |s: &System| -> std::collections::HashMap<(u32, u64), (f64, f64)> {
+                (0..s.channel.len())
+                    .map(|r| {
+                        let (lo, hi) = (s.indptr[r] as usize, s.indptr[r + 1] as usize);
+                        let at: f64 = (lo..hi)
+                            .map(|k| s.data[k] * vals[s.indices[k] as usize])
+                            .sum();
+                        let sum: f64 = s.data[lo..hi].iter().sum();
+                        ((s.channel[r], s.pixel[r]), (at, sum))
+                    })
+                    .collect()
+            };
+            let (rt, rg) = (rows(&tilted), rows(&general));
+            let common: Vec<_> = rt.keys().filter(|k| rg.contains_key(k)).collect();
+            assert!(common.len() > 300, "{g:?}: {}", common.len());
+            assert!(common.len() as f64 >= 0.98 * rt.len().max(rg.len()) as f64);
+            let white = common.iter().map(|k| rg[k].1).fold(0.0, f64::max);
+            let (mut worst, mut sums) = (0.0f64, 0.0f64);
+            for k in common {
+                worst = worst.max((rt[k].0 - rg[k].0).abs() / white);
+                sums = sums.max((rt[k].1 - rg[k].1).abs() / white);
+            }
+            eprintln!(
+                "{g:?}: A t within {worst:.2e} of white, sums {sums:.1e}, rows {} / {}",
+                rt.len(),
+                rg.len()
+            );
+            assert!(worst <= 5e-4, "{g:?}: {worst}");
+            assert!(sums <= 1e-9, "{g:?}: {sums}");
+        }
     }
 
     /// On a design with as many lenses per row as per column, the plane tilted about the
