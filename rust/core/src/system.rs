@@ -670,6 +670,16 @@ fn build_tilted(
         };
         (r * nx + c) as u32
     };
+    // A channel's spec, its pixels a lens (the ideal layout), geometry and raw's shape.
+    let open = |i: usize| {
+        let ch = &design.channels[i];
+        let Layout::Ideal { q } = ch.layout else {
+            unreachable!("checked by `supported` in the caller")
+        };
+        let (rows, cols) = crate::render::raw_shape(ch);
+        let chan = Chan::new(design, ch, crate::render::DEFAULT_TOL);
+        (ch, q, chan, rows, cols)
+    };
     // With a tilt along o: the widest footprint along o of any pixel (over the grid's
     // depths: a footprint's width is convex in the depth, widest at an end), against
     // TILT_EPS.
@@ -677,12 +687,7 @@ fn build_tilted(
         let zmax = corners.iter().map(depth).fold(f64::NEG_INFINITY, f64::max);
         let mut widest = 0.0f64;
         for &i in channels {
-            let ch = &design.channels[i];
-            let Layout::Ideal { q } = ch.layout else {
-                unreachable!("checked by `supported` in the caller")
-            };
-            let chan = Chan::new(design, ch, crate::render::DEFAULT_TOL);
-            let (rows, cols) = crate::render::raw_shape(ch);
+            let (ch, q, chan, rows, cols) = open(i);
             let npo = if axis == 0 { rows } else { cols };
             for (t, &(alpha, _)) in chan.types.iter().enumerate() {
                 if !keeps(t) {
@@ -721,12 +726,7 @@ fn build_tilted(
         ..System::default()
     };
     for &i in channels {
-        let ch = &design.channels[i];
-        let Layout::Ideal { q } = ch.layout else {
-            unreachable!("checked by `supported` in the caller")
-        };
-        let chan = Chan::new(design, ch, crate::render::DEFAULT_TOL);
-        let (rows, cols) = crate::render::raw_shape(ch);
+        let (ch, q, chan, rows, cols) = open(i);
         // Pixels along the tilted and the other axis (raw columns run along X, rows along
         // Y), and a pixel's lens centre along an axis.
         let (npt, npo) = if axis == 0 {
