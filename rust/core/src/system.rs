@@ -608,9 +608,10 @@ const MAX_SLABS: usize = 64;
 const TILT_EPS: f64 = 2e-3;
 
 /// The map for the plane Z = z0 + gx X + gy Y (not fronto-parallel) on the exact route's
-/// designs (rect grid, square aperture, ideal layout), or None, before any work, when the
-/// plane is not in front of the lens over the grid (the caller then takes the general
-/// route); pixels with rays that miss the plane are not rows.
+/// designs (rect grid, square aperture, ideal layout), or None, before any row is built,
+/// when the plane is not in front of the lens over the grid or is tilted along both axes
+/// past [`TILT_EPS`] (the caller then takes the general route); pixels with rays that miss
+/// the plane are not rows.
 ///
 /// A pixel's ray set is the product of its x and y polygons. Call t the axis of the larger
 /// tilt (Y on a tie) and o the other. Along t the polygon's areas between the grid's edges
