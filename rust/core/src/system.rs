@@ -681,6 +681,14 @@ fn build_tilted(
         let chan = Chan::new(design, ch, crate::render::DEFAULT_TOL);
         (ch, q, chan, rows, cols)
     };
+    // A pixel line's lens centre along axis ax (raw columns run along X, rows along Y).
+    let center = |ch: &Channel, q: u32, p: u32, ax: usize| {
+        if ax == 0 {
+            ch.lens_center(p / q, 0)[0]
+        } else {
+            ch.lens_center(0, p / q)[1]
+        }
+    };
     // With a tilt along o: the widest footprint along o of any pixel (over the grid's
     // depths: a footprint's width is convex in the depth, widest at an end), against
     // TILT_EPS.
@@ -695,11 +703,7 @@ fn build_tilted(
                     continue;
                 }
                 for a in 0..npo as u32 {
-                    let c = if axis == 0 {
-                        ch.lens_center(0, a / q)[1]
-                    } else {
-                        ch.lens_center(a / q, 0)[0]
-                    };
+                    let c = center(ch, q, a, 1 - axis);
                     let theta = pixel_offset(ch.mu, q, a);
                     for z in [zmin, zmax] {
                         let p = profile(&chan, alpha, c, theta, z, nco, |n| o0 + n as f64 * h);
@@ -729,19 +733,13 @@ fn build_tilted(
     for &i in channels {
         let (ch, q, chan, rows, cols) = open(i);
         // Pixels along the tilted and the other axis (raw columns run along X, rows along
-        // Y), and a pixel's lens centre along an axis.
+        // Y), and a pixel line's lens centre along an axis.
         let (npt, npo) = if axis == 0 {
             (cols, rows)
         } else {
             (rows, cols)
         };
-        let center = |p: u32, ax: usize| {
-            if ax == 0 {
-                ch.lens_center(p / q, 0)[0]
-            } else {
-                ch.lens_center(0, p / q)[1]
-            }
-        };
+        let center = |p: u32, ax: usize| center(ch, q, p, ax);
         let theta = |i: u32| pixel_offset(ch.mu, q, i);
         let nt = chan.types.len();
         let kept = (0..nt).filter(|&t| keeps(t)).count() as u128;
@@ -781,20 +779,15 @@ fn build_tilted(
                 for p in per.iter().filter_map(|v| v[it].as_ref()) {
                     for (j, &a) in p.areas.iter().enumerate() {
                         if a != 0.0 {
+                            if go == 0.0 {
+                                used[p.first + j] = true;
+                            }
                             lo = lo.min(p.first + j);
                             hi = hi.max(p.first + j + 1);
                         }
                     }
                 }
-                if go == 0.0 {
-                    if let Some(p) = &per[0][it] {
-                        for (j, &a) in p.areas.iter().enumerate() {
-                            if a != 0.0 {
-                                used[p.first + j] = true;
-                            }
-                        }
-                    }
-                } else if lo < hi {
+                if go != 0.0 && lo < hi {
                     used[lo..hi].fill(true);
                 }
             }
