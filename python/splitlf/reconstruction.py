@@ -6,10 +6,10 @@ entry = what the pixel records when the cell alone is white), with the forward m
 integration, so that ``A t`` is ``render``'s raw of the image texture t: on the exact route
 (a fronto-parallel plane, rect cells, a square aperture, the ideal layout) as per-axis
 factors (``_native.reconstruction_factors``), otherwise as explicit rows
-(``_native.surface_system``): from the tilted route for a plane tilted along one axis on
-those designs (or gently along the second too), from the general route in record mode for
-the rest (planes tilted steeply along both axes, depth maps, hex arrays, circular
-apertures, sensor layouts). The core's
+(``_native.surface_system``): from the tilted route for a tilted plane on those designs
+(wide pixels cut into parts where it tilts along both axes), from the general route in
+record mode for the rest (planes too steep along both axes even for parts, depth maps,
+hex arrays, circular apertures, sensor layouts). The core's
 matrix-free conjugate gradients (``_native.solve_normal``, SciPy's ``cg`` iteration, in
 parallel) solve the regularised least squares
 

@@ -1586,13 +1586,36 @@ pub(crate) mod exact {
     /// affine in the ray, so its mean is the centroid's), returned as (w̄, ā); None for an
     /// empty set.
     pub(crate) fn mean_ray(chan: &Chan, alpha: f64, c: f64, theta: f64) -> Option<(f64, f64)> {
-        let poly = polygon(chan, alpha, theta);
-        if signed_area(&poly) <= 0.0 {
+        mean_ray_of(chan, c, &polygon(chan, alpha, theta))
+    }
+
+    /// [`mean_ray`] of any polygon of rays in (ξ, w) behind the lens centred at c.
+    pub(crate) fn mean_ray_of(chan: &Chan, c: f64, poly: &[Pt]) -> Option<(f64, f64)> {
+        if signed_area(poly) <= 0.0 {
             return None;
         }
-        let q = crate::polygon::centroid(&poly);
+        let q = crate::polygon::centroid(poly);
         let (l, f) = (chan.ch.l, chan.f_main);
         Some((q[1], q[1] / f + (c + q[0] - q[1]) / l))
+    }
+
+    /// The 1-D ray-set polygon of a pixel (offset θ, type α) in (ξ, w) ([`polygon`]).
+    pub(crate) fn ray_set(chan: &Chan, alpha: f64, theta: f64) -> Vec<Pt> {
+        polygon(chan, alpha, theta)
+    }
+
+    /// The scene coordinates [lo, hi] over which a polygon of rays in (ξ, w) behind the lens
+    /// centred at c meets the fronto-parallel plane at depth z: the extremes of an affine
+    /// function over the polygon, at its vertices; None for an empty polygon.
+    pub(crate) fn footprint_of(chan: &Chan, c: f64, poly: &[Pt], z: f64) -> Option<(f64, f64)> {
+        if signed_area(poly) <= 0.0 {
+            return None;
+        }
+        let (l, f) = (chan.ch.l, chan.f_main);
+        let xs = |q: &Pt| q[1] - z * (q[1] / f + (c + q[0] - q[1]) / l);
+        let lo = poly.iter().map(xs).fold(f64::INFINITY, f64::min);
+        let hi = poly.iter().map(xs).fold(f64::NEG_INFINITY, f64::max);
+        Some((lo, hi))
     }
 
     /// The 1-D ray-set polygon in (ξ, w) (ξ = x − c) of a pixel at offset θ from its lens
@@ -1644,8 +1667,21 @@ pub(crate) mod exact {
         n: usize,
         edge: impl Fn(usize) -> f64,
     ) -> Option<Profile> {
-        let poly = polygon(chan, alpha, theta);
-        let total = signed_area(&poly);
+        tilted_profile_of(chan, c, &polygon(chan, alpha, theta), z0, g, n, edge)
+    }
+
+    /// [`tilted_profile`] of any polygon of rays in (ξ, w) behind the lens centred at c (a
+    /// part of a pixel's ray set).
+    pub(crate) fn tilted_profile_of(
+        chan: &Chan,
+        c: f64,
+        poly: &[Pt],
+        z0: f64,
+        g: f64,
+        n: usize,
+        edge: impl Fn(usize) -> f64,
+    ) -> Option<Profile> {
+        let total = signed_area(poly);
         if total <= 0.0 {
             return Some(Profile {
                 first: 0,
@@ -1660,7 +1696,7 @@ pub(crate) mod exact {
         // Y is a linear-fractional function of (ξ, w): extreme at the polygon's vertices.
         let mut lo = f64::INFINITY;
         let mut hi = f64::NEG_INFINITY;
-        for &q in &poly {
+        for &q in poly {
             let den = 1.0 + g * slope(q);
             let y = (q[1] - z0 * slope(q)) / den;
             if !(den > 0.0 && z0 + g * y > 0.0 && y.is_finite()) {
@@ -1679,7 +1715,7 @@ pub(crate) mod exact {
                 return total;
             }
             let z = z0 + g * e;
-            clip_into(&poly, tmp, |q| e - xs(q, z));
+            clip_into(poly, tmp, |q| e - xs(q, z));
             signed_area(tmp)
         };
         // Cells i whose [edge(i), edge(i+1)] meets [lo, hi].

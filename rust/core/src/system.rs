@@ -21,7 +21,8 @@ use crate::error::{Error, Result};
 use crate::memory;
 use crate::parallel::{checkpoint, for_chunks};
 use crate::render::exact::{
-    mean_ray, pixel_offset, profile, ray_set_area, tilted_profile, Profile,
+    footprint_of, mean_ray, mean_ray_of, pixel_offset, profile, ray_set, ray_set_area,
+    tilted_profile, tilted_profile_of, Profile,
 };
 use crate::render::{Chan, Work};
 use crate::scene::{Scene, Surface};
@@ -600,21 +601,25 @@ fn build_general(
 const SLAB_DEPTH: f64 = 2e-4;
 /// The most sub-slabs a grid row or column is cut into.
 const MAX_SLABS: usize = 64;
-/// A plane tilted along both axes takes the tilted route when, for every row, its depth
-/// changes by at most this share across the pixel's footprint along the smaller tilt's
-/// axis (g_o W / 2 over the depth where the pixel's mean ray meets the plane, W the widest
-/// footprint along o over the slabs the pixel reaches): A t then stays within about 0.5 to
-/// 0.85 times the largest such share of white (measured against the general route on the
-/// seed: 2.4e-4 at 4.4e-4, 4.8e-4 at 8.8e-4, 1.5e-3 at 1.8e-3), below the general route's
-/// own 1e-3. Steeper planes take the general route.
+/// The most parts per axis of (ξ, w) a pixel's o ray set is cut into on the tilted route
+/// (m × m boxes).
+const MAX_SIDE: usize = 16;
+/// The share of its depth by which a row's plane may change across a pixel's footprint
+/// along the smaller tilt's axis (g_o W / 2 over the depth where the pixel's mean ray meets
+/// the plane, W the widest footprint along o over the slabs the pixel reaches) for the
+/// pixel to be cut whole; a wider one is cut into parts, each within this share, or, when
+/// a part of the finest cut ([`MAX_SIDE`]) is still past it, the plane is left to the
+/// general route. Whole pixels' A t stays within 0.5 to 0.7 times their largest share of
+/// white (measured against the general route on the seed: 2.2e-4 at 4.4e-4, 4.6e-4 at
+/// 8.8e-4), parts' within 1e-4 to 3e-4, below the general route's own 1e-3.
 const TILT_EPS: f64 = 1e-3;
 
 /// The map for the plane Z = z0 + gx X + gy Y (not fronto-parallel) on the exact route's
 /// designs (rect grid, square aperture, ideal layout), or None (the caller then takes the
 /// general route): before any row is built when the plane is not in front of the lens over
-/// the grid, and at the first row that finds it tilted along both axes past [`TILT_EPS`]
-/// (the rows counted in `done` so far are then taken back). Pixels with rays that miss the
-/// plane are not rows.
+/// the grid, and at the first row that finds it tilted along both axes too steeply even
+/// for parts (the rows counted in `done` so far are then taken back). Pixels with rays
+/// that miss the plane are not rows.
 ///
 /// A pixel's ray set is the product of its x and y polygons. Call t the axis of the larger
 /// tilt (Y on a tie) and o the other. Along t the polygon's areas between the grid's edges
@@ -623,13 +628,17 @@ const TILT_EPS: f64 = 1e-3;
 /// slabs of at most [`SLAB_DEPTH`] relative depth. Along o, each slab's areas are those of
 /// the line of the plane through the slab's middle, Z = z_k + g_o U_o, cut the same exact
 /// way; and a slab's t area times its o areas. With a tilt along o as well, the depth
-/// along t's cuts depends on U_o too: each pixel's t areas are taken on the plane through
-/// its mean ray's point (Z = z0 + g_o U_o* + g_t U_t, U_o* where the pixel's mean ray meets
-/// the plane), so the error grows with g_o times the pixel's footprint along o, not with
-/// the grid's. Either way every pixel's areas add up to its whole ray set (the o areas of
-/// each slab and the t areas do). The two axes' geometry is the same per axis (a rect
-/// grid's lens centres, the ideal layout's pixel offsets, a square aperture), so one code
-/// serves both.
+/// along t's cuts depends on U_o too: each pixel's t areas are taken on the plane along t
+/// that its mean o ray sees (U_o = w_o − Z a_o: Z = (z0 + g_o w_o) / (1 + g_o a_o) +
+/// g_t U_t / (1 + g_o a_o), exact for that o ray with every t ray), so the error grows
+/// with g_o times the pixel's footprint along o, not with the grid's. Where that footprint
+/// is too wide for [`TILT_EPS`], the pixel's o polygon is cut into m × m boxes in (ξ, w)
+/// (a box's rays are close in position and slope, so they meet the plane close together
+/// at any depth), and each box takes the same two steps with its own mean o ray and its own
+/// o areas per slab. Either way every pixel's areas add up to its whole ray set (the o
+/// areas of each slab and box and the t areas do, and the boxes tile the polygon). The
+/// two axes' geometry is the same per axis (a rect grid's lens centres, the ideal
+/// layout's pixel offsets, a square aperture), so one code serves both.
 #[allow(clippy::too_many_arguments)]
 fn build_tilted(
     design: &Design,
@@ -828,6 +837,14 @@ fn build_tilted(
         let (rt, ro) = (rays(npt, axis), rays(npo, 1 - axis));
         checkpoint()?;
         let typ = |a: usize, b: usize| ch.lens_type(a as u32 / q, b as u32 / q);
+        // The plane along t seen by the o rays around the mean o ray (w_o, a_o): the ray is
+        // at U_o = w_o − Z a_o at depth Z, so Z = z0 + g_t U_t + g_o U_o is the plane
+        // Z = (z0 + g_o w_o) / (1 + g_o a_o) + g_t / (1 + g_o a_o) U_t along t, exact for
+        // that o ray with every t ray; None when the o ray runs away from the plane.
+        let along_t = |wo: f64, ao: f64| -> Option<(f64, f64)> {
+            let den = 1.0 + go * ao;
+            (den > 0.0).then(|| ((z0 + go * wo) / den, gt / den))
+        };
         let norm = chan.norm;
         let step = crate::parallel::chunk_items(n_threads, (cols as u128) * 256);
         let parts = Chunks::default();
@@ -849,10 +866,11 @@ fn build_tilted(
                             continue;
                         }
                         let (it, io) = if axis == 0 { (a, b) } else { (b, a) };
-                        // The pixel's profile along t: its line's, or on the plane tilted
-                        // along t through the point where its mean ray meets the plane.
+                        // The pixel's profile along t: its line's, or on the plane along t
+                        // that its mean o ray sees (`along_t`).
                         let own;
                         let mut zp_mean = f64::NAN;
+                        let mut ray_t = (f64::NAN, f64::NAN);
                         let tp = if go == 0.0 {
                             match &pt[t][0][it] {
                                 Some(p) => p,
@@ -868,7 +886,10 @@ fn build_tilted(
                                 continue;
                             }
                             zp_mean = z;
-                            let zp = z0 + go * (wo - z * ao);
+                            ray_t = (wt, at);
+                            let Some((zp, gp)) = along_t(wo, ao) else {
+                                continue;
+                            };
                             let c = center(it as u32, axis);
                             match tilted_profile(
                                 &chan,
@@ -876,7 +897,7 @@ fn build_tilted(
                                 c,
                                 theta(it as u32),
                                 zp,
-                                gt,
+                                gp,
                                 ns,
                                 edge_t,
                             ) {
@@ -923,10 +944,95 @@ fn build_tilted(
                             continue;
                         }
                         // A row whose depth changes across its footprint along o by more
-                        // than TILT_EPS: the plane is too steep for this route.
-                        if go != 0.0 && go.abs() * widest as f64 * h / (2.0 * zp_mean) > TILT_EPS {
-                            steep.store(true, Ordering::Relaxed);
-                            return Ok(s);
+                        // than TILT_EPS: its o ray set is cut into m × m boxes in (ξ, w),
+                        // each part with its own plane along t and its own o areas per
+                        // slab (a box's rays meet any plane close together). The parts
+                        // tile the o polygon, so the areas still add up to the whole.
+                        let eps = go.abs() * widest as f64 * h / (2.0 * zp_mean);
+                        if go != 0.0 && eps > TILT_EPS {
+                            let m = ((2.0 * eps / TILT_EPS).ceil() as usize).clamp(2, MAX_SIDE);
+                            let alpha = chan.types[t].0;
+                            let (co, tho) = (center(io as u32, 1 - axis), theta(io as u32));
+                            let (ct, tht) = (center(it as u32, axis), theta(it as u32));
+                            let (wt, at) = ray_t;
+                            let poly = ray_set(&chan, alpha, tho);
+                            let (bx0, bx1, by0, by1) = crate::polygon::bounds(&poly);
+                            let split = |lo: f64, hi: f64, k: usize| {
+                                if k == m {
+                                    hi
+                                } else {
+                                    lo + (hi - lo) * k as f64 / m as f64
+                                }
+                            };
+                            let (mut part, mut tmp) = (Vec::new(), Vec::new());
+                            entries.clear();
+                            inside = 0.0;
+                            for (jx, jy) in (0..m).flat_map(|jx| (0..m).map(move |jy| (jx, jy))) {
+                                part.clone_from(&poly);
+                                crate::polygon::clip_box(
+                                    &mut part,
+                                    &mut tmp,
+                                    split(bx0, bx1, jx),
+                                    split(bx0, bx1, jx + 1),
+                                    split(by0, by1, jy),
+                                    split(by0, by1, jy + 1),
+                                );
+                                let Some((wo, ao)) = mean_ray_of(&chan, co, &part) else {
+                                    continue;
+                                };
+                                let den = 1.0 + gt * at + go * ao;
+                                let z = (z0 + gt * wt + go * wo) / den;
+                                if !(den > 0.0 && z > 0.0) {
+                                    continue 'pixel;
+                                }
+                                let Some((zp, gp)) = along_t(wo, ao) else {
+                                    continue 'pixel;
+                                };
+                                let Some(tj) =
+                                    tilted_profile(&chan, alpha, ct, tht, zp, gp, ns, edge_t)
+                                else {
+                                    continue 'pixel;
+                                };
+                                // The part's widest footprint along o over the slabs it
+                                // reaches (at its own depth in each slab).
+                                let mut width = 0.0f64;
+                                for (n, &a_t) in tj.areas.iter().enumerate() {
+                                    if a_t == 0.0 {
+                                        continue;
+                                    }
+                                    let k = tj.first + n;
+                                    let zk = zp + gp * (t0 + (k as f64 + 0.5) * hs);
+                                    if let Some((lo, hi)) = footprint_of(&chan, co, &part, zk) {
+                                        width = width.max(hi - lo);
+                                    }
+                                    let Some(op) = tilted_profile_of(
+                                        &chan,
+                                        co,
+                                        &part,
+                                        slab_z(k),
+                                        go,
+                                        nco,
+                                        |n| o0 + n as f64 * h,
+                                    ) else {
+                                        continue 'pixel;
+                                    };
+                                    for (c, &a_o) in op.areas.iter().enumerate() {
+                                        if a_o != 0.0 {
+                                            inside += a_o * a_t;
+                                            entries.push((cell(k, op.first + c), a_t * a_o));
+                                        }
+                                    }
+                                }
+                                // A part still too wide: the plane is too steep for this
+                                // route.
+                                if go.abs() * width / (2.0 * z) > TILT_EPS {
+                                    steep.store(true, Ordering::Relaxed);
+                                    return Ok(s);
+                                }
+                            }
+                            if !(inside > 0.0 && total - inside <= OUTSIDE_SHARE * total) {
+                                continue;
+                            }
                         }
                         entries.sort_unstable_by_key(|e| e.0);
                         let mut last = u32::MAX;
@@ -1033,30 +1139,37 @@ mod tests {
         assert!(worst < 1e-12, "{worst}");
     }
 
-    /// A plane tilted along one axis, either, or along both, gently along one of them, on
-    /// the tilted route against the general route's quadrature: on the rows both keep,
-    /// A t within TILT_EPS of white for a random t (measured 5.0e-5 and 4.6e-5 along one
-    /// axis, 2.4e-4 to 3.6e-4 along both when gently, 4.8e-4 and 7.3e-4 at a tilt of 1
-    /// beside 20), the row sums within 1e-9 of white, and the rows kept
-    /// the same but where a pixel's light touches the grid's edge (the 1e-9 share both
-    /// allow outside; at a tilt of -20 in X, one pixel column, 15 rows, leaks 3.3e-6 of its
-    /// light past the edge on the tilted route's exact cut, a sliver the general route's
-    /// quadrature misses). A plane too steep along both (past TILT_EPS on some row: 1.8e-3
-    /// at (2, -20)) is left to the general route, its rows taken back from the progress.
+    /// A plane tilted along one axis, either, or along both, on the tilted route against the
+    /// general route's quadrature: on the rows both keep, A t within TILT_EPS of white for a
+    /// random t (measured 5.0e-5 and 4.6e-5 along one axis; 2.2e-4 to 6.4e-4 along both on
+    /// rows within TILT_EPS whole; 1.0e-4 to 2.9e-4 where rows are cut into parts, tilts
+    /// (2, -20) to (-15, 20)), the row sums within 1e-9 of white, and the rows kept the
+    /// same but where a pixel's light touches the grid's edge (the 1e-9 share both allow
+    /// outside; at a tilt of -20 in X, one pixel column, 15 rows, leaks 3.3e-6 of its light
+    /// past the edge on the tilted route's exact cut, a sliver the general route's
+    /// quadrature misses). A plane too steep even for parts ((30, -30)) is left to the
+    /// general route, its rows taken back from the progress.
     #[test]
     fn tilted_route_is_the_general_route() {
         let d = seed_small();
         let grid = CellGrid::covering([-1.3, 1.3, -1.1, 1.1], 0.06).unwrap();
         let done = AtomicUsize::new(0);
         let keeps = |_: usize| true;
-        for g in [[8.0, -20.0], [2.0, -20.0]] {
-            let steep = build_tilted(&d, &[0, 1], 650.0, g, &grid, &keeps, None, &done);
-            assert!(steep.unwrap().is_none(), "{g:?}");
-        }
+        let steep = build_tilted(
+            &d,
+            &[0, 1],
+            650.0,
+            [30.0, -30.0],
+            &grid,
+            &keeps,
+            None,
+            &done,
+        );
+        assert!(steep.unwrap().is_none());
         assert_eq!(
             done.load(Ordering::Relaxed),
             0,
-            "the refused planes' rows are taken back"
+            "the refused plane's rows are taken back"
         );
         for g in [
             [0.0, -20.0],
@@ -1066,6 +1179,11 @@ mod tests {
             [0.6, 1.0],
             [1.0, -20.0],
             [-20.0, 1.0],
+            [2.0, -20.0],
+            [-20.0, 2.0],
+            [8.0, -20.0],
+            [12.0, 12.0],
+            [-15.0, 20.0],
         ] {
             let plane = Surface::from_parts("plane", &[650.0, g[0], g[1]], None).unwrap();
             let tilted = build_tilted(&d, &[0, 1], 650.0, g, &grid, &keeps, None, &done)
