@@ -1142,8 +1142,9 @@ mod tests {
     /// A plane tilted along one axis, either, or along both, on the tilted route against the
     /// general route's quadrature: on the rows both keep, A t within TILT_EPS of white for a
     /// random t (measured 5.0e-5 and 4.6e-5 along one axis; 2.2e-4 to 6.4e-4 along both on
-    /// rows within TILT_EPS whole; 1.0e-4 to 2.9e-4 where rows are cut into parts, tilts
-    /// (2, -20) to (-15, 20)), the row sums within 1e-9 of white, and the rows kept the
+    /// rows within TILT_EPS whole; 1.0e-4 at (8, -20), where rows are cut into parts, and
+    /// 1.1e-4 to 2.9e-4 at (2, -20), (-20, 2), (12, 12) and (-15, 20), left out here for
+    /// the debug build's time), the row sums within 1e-9 of white, and the rows kept the
     /// same but where a pixel's light touches the grid's edge (the 1e-9 share both allow
     /// outside; at a tilt of -20 in X, one pixel column, 15 rows, leaks 3.3e-6 of its light
     /// past the edge on the tilted route's exact cut, a sliver the general route's
@@ -1179,11 +1180,7 @@ mod tests {
             [0.6, 1.0],
             [1.0, -20.0],
             [-20.0, 1.0],
-            [2.0, -20.0],
-            [-20.0, 2.0],
             [8.0, -20.0],
-            [12.0, 12.0],
-            [-15.0, 20.0],
         ] {
             let plane = Surface::from_parts("plane", &[650.0, g[0], g[1]], None).unwrap();
             let tilted = build_tilted(&d, &[0, 1], 650.0, g, &grid, &keeps, None, &done)
