@@ -12,8 +12,9 @@ Per depth band (make_fig2_slanted's eight bands):
    The estimate's own map (``reconstruct(raw, depth_map)``) goes through the general
    route, hours for this raw (docs/reconstruct.md step 6).
 3. The band reconstructed from both halves with that plane, and with the true plane; PSNR
-   and RMSE of each against the scene's cell averages. A fit whose depth on the axis is
-   at most F (not a plane of the model) leaves its band without an end-to-end image.
+   and RMSE of each against the scene's cell averages. The plane is checked over the band
+   only (deeper than F there), so a steep fit nearer than F elsewhere in the view is
+   taken; one that reconstruct refuses leaves its band without an end-to-end image.
 
 Run: python docs/make_fig2_end_to_end.py [--cache DIR] (the raw is rendered as in
 make_fig2_slanted.py, or read from DIR).
@@ -92,7 +93,7 @@ def main() -> None:
                 r = splitlf.reconstruct(raw, surface, region=region, step=step,
                                         channels=(1, 2), noise=fig.NOISE, progress=False)
             except splitlf.errors.InvalidParameter:
-                # the core refuses the plane (its depth on the axis is <= F)
+                # reconstruct refuses the plane (nearer than F over the band)
                 out[name] = {"psnr": None, "rmse": None}
                 continue
             recs[name].append(r)

@@ -625,3 +625,48 @@ def test_lens_types_bad_input() -> None:
     for bad in ([0], [3], [-2**63], []):
         with pytest.raises(splitlf.InvalidParameter, match="lens_types"):
             _native.surface_system(design.core, scene, grid, None, None, None, bad)
+
+
+def test_plane_nearer_than_f_in_the_view_is_taken_over_its_region() -> None:
+    """A tilted plane is checked over the region, not over the design's whole view
+    (docs/reconstruct.md, "The surface"): Z = 300 + 20 Y on the seed cut to 6 x 64 lenses
+    is 660 to 740 mm over the region, but some ray of the design meets it nearer than F
+    (at 61 mm: render refuses it, as it renders every pixel). The map has rows over the
+    region, and at six of them A t equals the independent Monte-Carlo renderer's raw of the image t
+    (tests/mc_render.py, where rays that meet the plane nearer than F are background)
+    within 4 standard errors + 2e-4 of white. reconstruct's default step is delta at the
+    region's centre depth (700 mm); a region reaching below Y = -11 (depth < F) raises."""
+    from mc_render import mc_pixels, scene
+
+    design = seed_small(6, 64)
+    surface = splitlf.Plane(300.0, 0.0, 20.0)
+    with pytest.raises(splitlf.errors.InvalidParameter, match="wherever a ray"):
+        splitlf.render(design, splitlf.Scene(splitlf.Sinusoid(0.5, 0.5, 0.4), surface))
+    region = (-2.0, 2.0, 18.0, 22.0)
+    grid = _native.cell_grid(region, 0.07)
+    x0, y1, h, nx, ny = grid
+    chan, pix, A = _csr(_native.surface_system(design.core, _surface_scene(surface), grid),
+                        nx * ny)
+    assert len(chan) > 300
+    t = np.random.default_rng(4).random((ny, nx))
+    got = A @ t.ravel()
+    white = float(A.sum(axis=1).max())
+    sc = scene(("image", [x0, x0 + nx * h, y1 - ny * h, y1], t), ("plane", [300.0, 0.0, 20.0]),
+               0.5)
+    rows = np.random.default_rng(6).choice(len(chan), 6, replace=False)
+    for c in (0, 1):
+        mine = [int(i) for i in rows if chan[i] == c]
+        if not mine:
+            continue
+        pixels = [divmod(int(pix[i]), 6 * 15) for i in mine]
+        mc, se = mc_pixels(design, c + 1, pixels, sc, n_rays=200_000, n_batches=10,
+                           rng=np.random.default_rng(7 + c))
+        for i, k in enumerate(mine):
+            assert abs(got[k] - mc[i]) <= 4.0 * se[i] + 2e-4 * white, (c, got[k], mc[i], se[i])
+    raw = splitlf.Raw(design, (np.full((64 * 15, 6 * 15), 0.5),) * 2)
+    rec = splitlf.reconstruct(raw, surface, region=region, channels=(1,), progress=False)
+    assert rec.step == pytest.approx(design.resolution_step(700.0))
+    # each half takes half the light (share 0.5): a raw of 0.5 is an albedo of 1
+    assert float(np.median(rec.image)) == pytest.approx(1.0, rel=0.01)
+    with pytest.raises(splitlf.errors.InvalidParameter, match="depth"):
+        splitlf.reconstruct(raw, surface, region=(-2.0, 2.0, -12.0, 22.0), progress=False)

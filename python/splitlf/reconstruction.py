@@ -114,13 +114,16 @@ def _depth_range(surface: float | Plane | DepthMap, ext: Extent) -> tuple[float,
     return float(surface.depth.min()), float(surface.depth.max())
 
 
-def _reference_depth(surface: float | Plane | DepthMap) -> float:
-    """The depth that sizes the defaults: a plane's depth on the axis (X = Y = 0), a depth
-    map's median."""
+def _reference_depth(surface: float | Plane | DepthMap, region: Extent | None) -> float:
+    """The depth that sizes the defaults: a plane's depth at the region's centre (on the
+    axis, X = Y = 0, without a region), a depth map's median."""
     if isinstance(surface, float):
         return surface
     if isinstance(surface, Plane):
-        return surface.z0
+        if region is None:
+            return surface.z0
+        x0, x1, y0, y1 = region
+        return surface.z0 + surface.gx * 0.5 * (x0 + x1) + surface.gy * 0.5 * (y0 + y1)
     return float(np.median(surface.depth))
 
 
@@ -366,7 +369,8 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
       least half its aperture at the reference depth, ``_native.seen_region``; for a
       depth map, within its extent); rounded out to whole cells
     - ``step``: the cell pitch, mm (None: delta(z) = mu_1 z / L_1, the sensor's step, at
-      the reference depth: a plane's depth on the axis, a depth map's median)
+      the reference depth: a plane's depth at the region's centre (on the axis without a
+      region), a depth map's median)
     - ``regularization``: lambda, the smoothness prior's weight (None:
       ``DEFAULT_REGULARIZATION``); it does not depend on the number of pixels
     - ``channels``: channel numbers from 1 (None: every channel)
@@ -428,13 +432,20 @@ def _reconstruct(raw: Raw, depth: Any, *, region: Any, step: float | None,
     _validate.n_threads(n_threads)
     show = _progress_flag(progress)
     core = design.core
-    z_ref = _reference_depth(surface)
+    given = None if region is None else _extent(region, "region")
+    z_ref = _reference_depth(surface, given)
+    if z_ref <= design.F:
+        # A plane deeper than F over a region may be nearer than F on the axis.
+        where, hint = (("at the region's centre", "") if given is not None else
+                       ("on the axis", "; a plane nearer than F on the axis needs a region"))
+        raise InvalidParameter.of("depth", f"{z_ref:.6g} mm ({where})",
+                                  f"depths > F = {design.F:g} mm everywhere in the region{hint}")
     if step is None:
         step_ = design.resolution_step(z_ref)
     else:
         step_ = _validate.positive_length(step, "step")
-    if region is not None:
-        ext = _extent(region, "region")
+    if given is not None:
+        ext = given
     else:
         ext = _native.seen_region(core, z_ref, list(chans))
         if isinstance(surface, DepthMap):

@@ -501,7 +501,28 @@ pub fn build_surface(
             "fewer than 2^32 cells (a smaller region or a coarser step)",
         ));
     }
-    crate::render::check_surface(design, surface)?;
+    // The map needs the surface only where the grid's cells are: a tilted plane is
+    // checked over the grid (its depth there > F; rays that meet it elsewhere, nearer than
+    // F or not at all, light no cell and their pixels are not rows), a depth map over its
+    // whole range (the render's check).
+    match surface {
+        Surface::Plane { z0, g } if g != &[0.0, 0.0] => {
+            let (zlo, _) = depth_range(surface, grid);
+            let f = design.f_main;
+            if zlo.is_nan() || zlo <= f {
+                return Err(Error::param(
+                    "plane",
+                    format!("Z = {z0} + {} X + {} Y", g[0], g[1]),
+                    format!(
+                        "a plane deeper than F = {f} mm over the region (its least depth \
+                         there is {} mm)",
+                        crate::error::short_number(zlo)
+                    ),
+                ));
+            }
+        }
+        _ => crate::render::check_surface(design, surface)?,
+    }
     if let Surface::Plane { z0, g } = surface {
         let exact = channels
             .iter()
@@ -1095,6 +1116,31 @@ mod tests {
             ch.ky = 5;
         }
         d
+    }
+
+    /// A tilted plane is checked over the grid, not over the design's whole view: one whose
+    /// depth on the axis is nearer than F but deeper than F over the grid gives rows there;
+    /// one nearer than F at a corner of the grid is refused, naming the plane.
+    #[test]
+    fn tilted_plane_is_checked_over_the_grid() {
+        let mut d = seed_small();
+        for ch in d.channels.iter_mut() {
+            (ch.kx, ch.ky) = (3, 16);
+        }
+        let done = AtomicUsize::new(0);
+        // Z = 40 + 100 Y: 560 to 640 mm over the grid, 40 mm (< F = 80 mm) on the axis.
+        let surface = Surface::from_parts("plane", &[40.0, 0.0, 100.0], None).unwrap();
+        let grid = CellGrid::covering([-0.5, 0.5, 5.2, 6.0], 0.05).unwrap();
+        let sys = build_surface(&d, &[0, 1], &surface, &grid, None, None, &done).unwrap();
+        assert!(!sys.channel.is_empty());
+        assert!(sys.data.iter().all(|v| v.is_finite() && *v > 0.0));
+        let near = CellGrid::covering([-0.5, 0.5, 0.3, 6.0], 0.05).unwrap();
+        let err = build_surface(&d, &[0, 1], &surface, &near, None, None, &done).unwrap_err();
+        let msg = err.to_string();
+        assert!(
+            msg.contains("plane") && msg.contains("over the region"),
+            "{msg}"
+        );
     }
 
     /// A t equals the rendered raw of the image texture t on the grid, for every kept pixel
