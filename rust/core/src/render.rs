@@ -1589,19 +1589,19 @@ pub(crate) mod exact {
         mean_ray_of(chan, c, &polygon(chan, alpha, theta))
     }
 
+    /// The slope a = w/F + (c + ξ − w)/L of the ray q = (ξ, w) behind the lens centred at
+    /// c: the ray is P(Z) = w − Z a.
+    fn slope(chan: &Chan, c: f64, q: Pt) -> f64 {
+        q[1] / chan.f_main + (c + q[0] - q[1]) / chan.ch.l
+    }
+
     /// [`mean_ray`] of any polygon of rays in (ξ, w) behind the lens centred at c.
     pub(crate) fn mean_ray_of(chan: &Chan, c: f64, poly: &[Pt]) -> Option<(f64, f64)> {
         if signed_area(poly) <= 0.0 {
             return None;
         }
         let q = crate::polygon::centroid(poly);
-        let (l, f) = (chan.ch.l, chan.f_main);
-        Some((q[1], q[1] / f + (c + q[0] - q[1]) / l))
-    }
-
-    /// The 1-D ray-set polygon of a pixel (offset θ, type α) in (ξ, w) ([`polygon`]).
-    pub(crate) fn ray_set(chan: &Chan, alpha: f64, theta: f64) -> Vec<Pt> {
-        polygon(chan, alpha, theta)
+        Some((q[1], slope(chan, c, q)))
     }
 
     /// The scene coordinates [lo, hi] over which a polygon of rays in (ξ, w) behind the lens
@@ -1611,8 +1611,7 @@ pub(crate) mod exact {
         if signed_area(poly) <= 0.0 {
             return None;
         }
-        let (l, f) = (chan.ch.l, chan.f_main);
-        let xs = |q: &Pt| q[1] - z * (q[1] / f + (c + q[0] - q[1]) / l);
+        let xs = |q: &Pt| q[1] - z * slope(chan, c, *q);
         let lo = poly.iter().map(xs).fold(f64::INFINITY, f64::min);
         let hi = poly.iter().map(xs).fold(f64::NEG_INFINITY, f64::max);
         Some((lo, hi))
@@ -1620,7 +1619,7 @@ pub(crate) mod exact {
 
     /// The 1-D ray-set polygon in (ξ, w) (ξ = x − c) of a pixel at offset θ from its lens
     /// image centre: |ξ| ≤ d/2, |w| ≤ D/2, |α ξ − (v/L) w − θ| ≤ μ/2.
-    fn polygon(chan: &Chan, alpha: f64, theta: f64) -> Vec<Pt> {
+    pub(crate) fn polygon(chan: &Chan, alpha: f64, theta: f64) -> Vec<Pt> {
         let (h, r, mu, vl) = (chan.hx, chan.r_ap, chan.ch.mu, chan.vl);
         let mut p = vec![[-h, -r], [h, -r], [h, r], [-h, r]];
         let mut t = Vec::new();
@@ -1689,16 +1688,15 @@ pub(crate) mod exact {
                 total: 0.0,
             });
         }
-        let (l, f) = (chan.ch.l, chan.f_main);
-        let slope = |q: Pt| q[1] / f + (c + q[0] - q[1]) / l;
+        let a_of = |q: Pt| slope(chan, c, q);
         // The scene coordinate of the fronto-parallel plane at depth z.
-        let xs = |q: Pt, z: f64| q[1] - z * slope(q);
+        let xs = |q: Pt, z: f64| q[1] - z * a_of(q);
         // Y is a linear-fractional function of (ξ, w): extreme at the polygon's vertices.
         let mut lo = f64::INFINITY;
         let mut hi = f64::NEG_INFINITY;
         for &q in poly {
-            let den = 1.0 + g * slope(q);
-            let y = (q[1] - z0 * slope(q)) / den;
+            let den = 1.0 + g * a_of(q);
+            let y = (q[1] - z0 * a_of(q)) / den;
             if !(den > 0.0 && z0 + g * y > 0.0 && y.is_finite()) {
                 return None;
             }

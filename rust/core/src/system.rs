@@ -21,7 +21,7 @@ use crate::error::{Error, Result};
 use crate::memory;
 use crate::parallel::{checkpoint, for_chunks};
 use crate::render::exact::{
-    footprint_of, mean_ray, mean_ray_of, pixel_offset, profile, ray_set, ray_set_area,
+    footprint_of, mean_ray, mean_ray_of, pixel_offset, polygon, profile, ray_set_area,
     tilted_profile, tilted_profile_of, Profile,
 };
 use crate::render::{Chan, Work};
@@ -866,6 +866,31 @@ fn build_tilted(
             let den = 1.0 + go * ao;
             (den > 0.0).then(|| ((z0 + go * wo) / den, gt / den))
         };
+        // The depth at which the ray (w_t, a_t) along t and (w_o, a_o) along o meets the
+        // plane; None when it runs away from the plane or meets it behind the main lens.
+        let hit = |(wt, at): (f64, f64), (wo, ao): (f64, f64)| -> Option<f64> {
+            let den = 1.0 + gt * at + go * ao;
+            let z = (z0 + gt * wt + go * wo) / den;
+            (den > 0.0 && z > 0.0).then_some(z)
+        };
+        // Slab k's o areas times the t area a_t into a row's entries and its light on the
+        // grid (`inside`); the number of o cells it reaches (0: none).
+        let add = |k: usize,
+                   op: &Profile,
+                   a_t: f64,
+                   entries: &mut Vec<(u32, f64)>,
+                   inside: &mut f64|
+         -> usize {
+            let mut span = (usize::MAX, 0);
+            for (n, &a_o) in op.areas.iter().enumerate() {
+                if a_o != 0.0 {
+                    *inside += a_o * a_t;
+                    entries.push((cell(k, op.first + n), a_t * a_o));
+                    span = (span.0.min(n), n);
+                }
+            }
+            (span.1 + 1).saturating_sub(span.0)
+        };
         let norm = chan.norm;
         let step = crate::parallel::chunk_items(n_threads, (cols as u128) * 256);
         let parts = Chunks::default();
@@ -898,16 +923,14 @@ fn build_tilted(
                                 None => continue,
                             }
                         } else {
-                            let (Some((wt, at)), Some((wo, ao))) = (rt[t][it], ro[t][io]) else {
+                            let (Some(rt), Some((wo, ao))) = (rt[t][it], ro[t][io]) else {
                                 continue;
                             };
-                            let den = 1.0 + gt * at + go * ao;
-                            let z = (z0 + gt * wt + go * wo) / den;
-                            if !(den > 0.0 && z > 0.0) {
+                            let Some(z) = hit(rt, (wo, ao)) else {
                                 continue;
-                            }
+                            };
                             zp_mean = z;
-                            ray_t = (wt, at);
+                            ray_t = rt;
                             let Some((zp, gp)) = along_t(wo, ao) else {
                                 continue;
                             };
@@ -949,17 +972,7 @@ fn build_tilted(
                             let Some(op) = &os[io] else {
                                 continue 'pixel;
                             };
-                            let mut span = (usize::MAX, 0);
-                            for (n, &a_o) in op.areas.iter().enumerate() {
-                                if a_o != 0.0 {
-                                    inside += a_o * a_t;
-                                    entries.push((cell(k, op.first + n), a_t * a_o));
-                                    span = (span.0.min(n), n);
-                                }
-                            }
-                            if span.0 <= span.1 {
-                                widest = widest.max(span.1 - span.0 + 1);
-                            }
+                            widest = widest.max(add(k, op, a_t, &mut entries, &mut inside));
                         }
                         if !(inside > 0.0 && total - inside <= OUTSIDE_SHARE * total) {
                             continue;
@@ -975,8 +988,7 @@ fn build_tilted(
                             let alpha = chan.types[t].0;
                             let (co, tho) = (center(io as u32, 1 - axis), theta(io as u32));
                             let (ct, tht) = (center(it as u32, axis), theta(it as u32));
-                            let (wt, at) = ray_t;
-                            let poly = ray_set(&chan, alpha, tho);
+                            let poly = polygon(&chan, alpha, tho);
                             let (bx0, bx1, by0, by1) = crate::polygon::bounds(&poly);
                             let split = |lo: f64, hi: f64, k: usize| {
                                 if k == m {
@@ -1001,11 +1013,9 @@ fn build_tilted(
                                 let Some((wo, ao)) = mean_ray_of(&chan, co, &part) else {
                                     continue;
                                 };
-                                let den = 1.0 + gt * at + go * ao;
-                                let z = (z0 + gt * wt + go * wo) / den;
-                                if !(den > 0.0 && z > 0.0) {
+                                let Some(z) = hit(ray_t, (wo, ao)) else {
                                     continue 'pixel;
-                                }
+                                };
                                 let Some((zp, gp)) = along_t(wo, ao) else {
                                     continue 'pixel;
                                 };
@@ -1037,12 +1047,7 @@ fn build_tilted(
                                     ) else {
                                         continue 'pixel;
                                     };
-                                    for (c, &a_o) in op.areas.iter().enumerate() {
-                                        if a_o != 0.0 {
-                                            inside += a_o * a_t;
-                                            entries.push((cell(k, op.first + c), a_t * a_o));
-                                        }
-                                    }
+                                    add(k, &op, a_t, &mut entries, &mut inside);
                                 }
                                 // A part still too wide: the plane is too steep for this
                                 // route.
