@@ -629,8 +629,8 @@ def test_lens_types_bad_input() -> None:
 
 def test_plane_nearer_than_f_in_the_view_is_taken_over_its_region() -> None:
     """A tilted plane is checked over the region, not over the design's whole view
-    (docs/reconstruct.md, "The surface"): Z = 300 + 20 Y on the seed cut to 6 x 64 lenses
-    is 660 to 740 mm over the region, but some ray of the design meets it nearer than F
+    (docs/reconstruct.md step 2): Z = 300 + 20 Y on the seed cut to 6 x 64 lenses is 660
+    to 740 mm over the region, but some ray of the design meets it nearer than F
     (at 61 mm: render refuses it, as it renders every pixel). The map has rows over the
     region, and at six of them A t equals the independent Monte-Carlo renderer's raw of the image t
     (tests/mc_render.py, where rays that meet the plane nearer than F are background)
