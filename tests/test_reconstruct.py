@@ -365,18 +365,20 @@ def test_general_map_is_the_render_on_a_slanted_plane() -> None:
     assert err <= 1e-3, err
 
 
-@pytest.mark.parametrize(("gx", "gy"), [(0.6, 20.0), (8.0, 20.0), (12.0, 12.0)])
+@pytest.mark.parametrize(("gx", "gy"), [(0.6, 20.0), (-20.0, 1.0), (8.0, 20.0), (12.0, 12.0)])
 def test_tilted_map_in_both_axes_is_the_render(gx: float, gy: float) -> None:
     """A plane tilted along both axes on the tilted route (docs/reconstruct.md step 5):
-    gently along X (0.6 beside 20 mm per mm: every pixel cut whole), or steeply (8 beside
-    20, 12 beside 12: the wide pixels' X ray sets cut into parts), about 600 mm over the
-    grid: A t equals render's raw of the image t (render's general route, tol 2e-4) within
-    1e-3 of white (measured 5.5e-4, 7.5e-5 and 1.5e-4; 8.4e-5 for the first plane without
-    its X tilt; 8.4e-3 for the second before the parts, with every pixel cut whole)."""
+    gently along the other axis (0.6 beside 20 mm per mm, 1 beside -20: the pixels wide
+    along it cut into a few parts), or steeply (8 beside 20, 12 beside 12: into up to
+    16 x 16), about 600 mm over the grid: A t equals render's raw of the image t (render's
+    general route, tol 2e-4) within 4e-4 of white (measured 1.4e-4, 2.1e-4, 7.2e-5 and
+    1.5e-4; 8.4e-5 for the first plane without its X tilt; 5.5e-4 and 1.0e-3 for the
+    first two with every pixel within 1e-3 cut whole; 8.4e-3 for the third with every
+    pixel cut whole)."""
     err, rows = _map_against_render(seed_small(3, 3), splitlf.Plane(600.0, gx, gy),
                                     (-1.2, 1.2, -1.0, 1.0), 0.07, 2e-4)
     assert rows > 300
-    assert err <= 1e-3, err
+    assert err <= 4e-4, err
 
 
 @pytest.mark.parametrize("gx, gy, region, step",

@@ -1347,8 +1347,7 @@ pub(crate) fn check_surface(design: &Design, surface: &Surface) -> Result<()> {
                     format!("Z = {z0} + {} X + {} Y", g[0], g[1]),
                     format!(
                         "a plane deeper than F = {f} mm wherever a ray of the design meets it \
-                         (some ray meets it at {} mm)",
-                        crate::error::short_number(least)
+                         (some ray meets it at {least:.1} mm)"
                     ),
                 ));
             }
