@@ -364,7 +364,9 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
 
     - ``raw``: a :class:`splitlf.Raw` (rendered, loaded or wrapped)
     - ``depth``: the surface: a depth (mm), a :class:`splitlf.Plane` (slanted or not) or a
-      :class:`splitlf.DepthMap`
+      :class:`splitlf.DepthMap`, deeper than F over the region (padded by a pixel's span);
+      a tilted plane may be nearer than F elsewhere in the view, where ``render`` would
+      refuse it
     - ``region``: (X0, X1, Y0, Y1) mm (None: what each chosen channel sees through at
       least half its aperture at the reference depth, ``_native.seen_region``; for a
       depth map, within its extent); rounded out to whole cells
