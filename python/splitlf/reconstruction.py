@@ -436,7 +436,7 @@ def _reconstruct(raw: Raw, depth: Any, *, region: Any, step: float | None,
     core = design.core
     given = None if region is None else _extent(region, "region")
     z_ref = _reference_depth(surface, given)
-    if z_ref <= design.F:
+    if isinstance(surface, Plane) and z_ref <= design.F:
         # A plane deeper than F over a region may be nearer than F on the axis.
         where, hint = (("at the region's centre", "") if given is not None else
                        ("on the axis", "; a plane nearer than F on the axis needs a region"))

@@ -1199,11 +1199,10 @@ mod tests {
     /// with the pixels past CUT_EPS in parts, 6.8e-5 at (8, -20); 2.2e-4 to 6.4e-4 when
     /// pixels were cut whole up to TILT_EPS; 1.1e-4 to 3.1e-4 at (2, -20), (-20, 2),
     /// (12, 12) and (-15, 20), left out here for the debug build's time), the row sums
-    /// within 1e-9 of white, and the rows kept the
-    /// same but where a pixel's light touches the grid's edge (the 1e-9 share both allow
-    /// outside; at a tilt of -20 in X, one pixel column, 15 rows, leaks 3.3e-6 of its light
-    /// past the edge on the tilted route's exact cut, a sliver the general route's
-    /// quadrature misses). A plane too steep even for parts ((30, -30)) is left to the
+    /// within 1e-9 of white, and the rows kept the same but where a pixel's light touches
+    /// the grid's edge (the 1e-9 share both allow outside; at a tilt of -20 in X, one pixel
+    /// column, 15 rows, leaks 3.3e-6 of its light past the edge on the tilted route's exact
+    /// cut, a sliver the general route's quadrature misses). A plane too steep even for parts ((30, -30)) is left to the
     /// general route, its rows taken back from the progress.
     #[test]
     fn tilted_route_is_the_general_route() {
