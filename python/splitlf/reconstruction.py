@@ -436,12 +436,17 @@ def _reconstruct(raw: Raw, depth: Any, *, region: Any, step: float | None,
     core = design.core
     given = None if region is None else _extent(region, "region")
     z_ref = _reference_depth(surface, given)
-    if isinstance(surface, Plane) and z_ref <= design.F:
-        # A plane deeper than F over a region may be nearer than F on the axis.
-        where, hint = (("at the region's centre", "") if given is not None else
-                       ("on the axis", "; a plane nearer than F on the axis needs a region"))
-        raise InvalidParameter.of("depth", f"{z_ref:.6g} mm ({where})",
-                                  f"depths > F = {design.F:g} mm everywhere in the region{hint}")
+    if isinstance(surface, Plane):
+        # Before the defaults (the step is delta at z_ref): a plane deeper than F over a
+        # region may be nearer than F on the axis. The padded region is checked below.
+        zlo, where, hint = ((z_ref, "on the axis", "; a plane nearer than F on the axis "
+                             "needs a region") if given is None else
+                            (_depth_range(surface, given)[0], "least depth over the region",
+                             ""))
+        if zlo <= design.F:
+            raise InvalidParameter.of("depth", f"{zlo:.6g} mm ({where})",
+                                      f"depths > F = {design.F:g} mm everywhere in the "
+                                      f"region{hint}")
     if step is None:
         step_ = design.resolution_step(z_ref)
     else:
