@@ -1000,7 +1000,9 @@ def _markdown_w10_w11(doc: dict[str, Any]) -> list[str]:
                     f"MiB); at {q['cells'][0]} x {q['cells'][1]} cells NumPy + SciPy "
                     f"{q['numpy_s']:.3g} s against {q['native_s']:.3g} s: "
                     f"{q['numpy_over_native']:.0f}× (≥ 10: {_met(q['numpy_over_native'] >= 10)}"
-                    f"), images within {q['max_diff']:.1e}."]
+                    f"), images within {q['max_diff']:.1e} when both run to the tight "
+                    f"relative stop ({q['iterations'][0]} and {q['iterations'][1]} "
+                    f"iterations)."]
         else:
             out += ["", f"W11 (depth: the seed's raw at 1 m, {r['cells'][0]} x "
                     f"{r['cells'][1]} cells × {r['candidates']} candidates; "

@@ -477,6 +477,7 @@ def solve_normal(
     rows: list[tuple[_CsrIn, _F64, _F64]],
     rtol: float,
     max_iter: int,
+    noise_tol: float = 0.0,
     n_threads: int | None = None,
     progress: Callable[[int, int], object] | None = None,
 ) -> tuple[_F64, int, float]: ...

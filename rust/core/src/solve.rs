@@ -969,19 +969,49 @@ impl Normal {
 /// Wall time of one batch of iterations between two interrupt checks on the calling thread.
 const BATCH: std::time::Duration = std::time::Duration::from_millis(40);
 
+/// When [`solve`] stops: after `max_iter` steps, or once ‖r‖ < max(rtol ‖AᵀWy‖,
+/// noise ν), where ν = √trace(AᵀWA) is the expected norm of the noise's part of AᵀWy when
+/// W is the rows' inverse noise variance (E[AᵀW n nᵀ W A] = AᵀWA): `noise` = 0 for a
+/// raw whose noise is not known.
+#[derive(Clone, Copy, Debug)]
+pub struct Stop {
+    pub rtol: f64,
+    pub noise: f64,
+    pub max_iter: usize,
+}
+
+impl Stop {
+    /// A stop on the relative residual alone.
+    pub fn relative(rtol: f64, max_iter: usize) -> Stop {
+        Stop {
+            rtol,
+            noise: 0.0,
+            max_iter,
+        }
+    }
+}
+
 /// Solve the normal equations by Jacobi-preconditioned conjugate gradients, SciPy's `cg`
 /// iteration: start from the normalised back-projection (AᵀWy / AᵀWA·1; cells no row sees
-/// start at Σ AᵀWy / Σ AᵀWA·1), stop when ‖r‖ < rtol ‖AᵀWy‖ or after `max_iter` steps.
-/// `done` counts iterations (progress); Ctrl-C is checked between batches of about 40 ms.
+/// start at Σ AᵀWy / Σ AᵀWA·1), stop as `stop` says (with `stop.noise` = 0, SciPy's
+/// ‖r‖ < rtol ‖AᵀWy‖). `done` counts iterations (progress); Ctrl-C is checked between
+/// batches of about 40 ms.
 pub fn solve(
     normal: &Normal,
-    rtol: f64,
-    max_iter: usize,
+    stop: Stop,
     n_threads: Option<usize>,
     done: &std::sync::atomic::AtomicUsize,
 ) -> Result<Solution> {
+    let Stop {
+        rtol,
+        noise,
+        max_iter,
+    } = stop;
     if !(rtol.is_finite() && rtol > 0.0) {
         return Err(Error::param("rtol", rtol, "a finite value > 0"));
+    }
+    if !(noise.is_finite() && noise >= 0.0) {
+        return Err(Error::param("noise_tol", noise, "a finite value >= 0"));
     }
     let n = normal.cells();
     memory::check(
@@ -1013,7 +1043,11 @@ pub fn solve(
                 x.fill(0.0);
                 return Ok(true);
             }
-            tol = rtol * bn;
+            // trace(AᵀWA): the diagonal less the prior's λ · (each cell's neighbours).
+            let (nx, ny) = (normal.nx as f64, normal.ny as f64);
+            let prior = normal.lam * (2.0 * (nx - 1.0) * ny + 2.0 * nx * (ny - 1.0));
+            let trace = (diag.iter().sum::<f64>() - prior).max(0.0);
+            tol = (rtol * bn).max(noise * trace.sqrt());
             normal.apply(&x, &mut work, &mut q);
             r.par_iter_mut()
                 .zip(b.par_iter().zip(q.par_iter()))
@@ -1205,7 +1239,7 @@ mod tests {
             let normal = Normal::new(nx, ny, lam, vec![b]).unwrap();
             for threads in [Some(1), Some(2)] {
                 let done = AtomicUsize::new(0);
-                let s = solve(&normal, 1e-14, 10_000, threads, &done).unwrap();
+                let s = solve(&normal, Stop::relative(1e-14, 10_000), threads, &done).unwrap();
                 assert!(s.iterations > 0 && s.iterations < 10_000);
                 assert_eq!(
                     done.load(std::sync::atomic::Ordering::Relaxed),
@@ -1224,6 +1258,61 @@ mod tests {
         // Thread-independent bit for bit within a form.
         assert_eq!(results[0], results[1]);
         assert_eq!(results[2], results[3]);
+    }
+
+    /// The noise stop is the relative stop at rtol = τ √trace(AᵀWA) / ‖AᵀWy‖, the trace
+    /// (Σ_rows w ‖row‖²) and the right-hand side taken here from the dense rows: the same
+    /// iterations and the same cells, in both forms, and fewer iterations than rtol alone.
+    #[test]
+    fn noise_stop_is_the_relative_stop_at_the_noise_norm() {
+        let (nx, ny, lam, tau) = (9, 8, 0.2, 1e-3);
+        let (block, dense, w, y) = factored(nx, ny);
+        let trace: f64 = dense
+            .iter()
+            .zip(&w)
+            .map(|(row, &w)| w * row.iter().map(|v| v * v).sum::<f64>())
+            .sum();
+        let rhs: Vec<f64> = (0..nx * ny)
+            .map(|c| {
+                dense
+                    .iter()
+                    .zip(&w)
+                    .zip(&y)
+                    .map(|((r, w), y)| r[c] * w * y)
+                    .sum()
+            })
+            .collect();
+        let bn = norm(&rhs);
+        let rows = rows_of(&dense, w, y);
+        for b in [block, rows] {
+            let normal = Normal::new(nx, ny, lam, vec![b]).unwrap();
+            let done = AtomicUsize::new(0);
+            let stop = Stop {
+                rtol: 1e-14,
+                noise: tau,
+                max_iter: 10_000,
+            };
+            let noisy = solve(&normal, stop, None, &done).unwrap();
+            let rtol = tau * trace.sqrt() / bn;
+            let relative = solve(&normal, Stop::relative(rtol, 10_000), None, &done).unwrap();
+            let tight = solve(&normal, Stop::relative(1e-14, 10_000), None, &done).unwrap();
+            assert!(rtol > 1e-9 && noisy.iterations > 0, "{rtol}");
+            assert!(noisy.iterations < tight.iterations);
+            assert_eq!(noisy.iterations, relative.iterations);
+            assert_eq!(noisy.cells, relative.cells);
+        }
+        let normal = Normal::new(nx, ny, lam, vec![factored(nx, ny).0]).unwrap();
+        for bad in [-1.0, f64::NAN, f64::INFINITY] {
+            let stop = Stop {
+                rtol: 1e-10,
+                noise: bad,
+                max_iter: 10,
+            };
+            let Err(e) = solve(&normal, stop, None, &AtomicUsize::new(0)) else {
+                panic!("noise_tol {bad} was taken");
+            };
+            assert!(e.to_string().contains("noise_tol"), "{e}");
+        }
     }
 
     /// Rows shaped like defocused pixels' profiles: a kink cell, a ramp up, a flat top, a
@@ -1350,7 +1439,13 @@ mod tests {
             y: vec![0.0; y.len()],
         };
         let normal = Normal::new(nx, ny, 1.0, vec![zero]).unwrap();
-        let s = solve(&normal, 1e-10, 100, None, &AtomicUsize::new(0)).unwrap();
+        let s = solve(
+            &normal,
+            Stop::relative(1e-10, 100),
+            None,
+            &AtomicUsize::new(0),
+        )
+        .unwrap();
         assert!(s.cells.iter().all(|&v| v == 0.0));
         assert_eq!((s.iterations, s.residual), (0, 0.0));
     }
@@ -1392,7 +1487,12 @@ mod tests {
         };
         assert_eq!(e(9, 1.0, short), "weights");
         let normal = Normal::new(1, 1, 1.0, vec![]).unwrap();
-        let r = solve(&normal, f64::NAN, 10, None, &AtomicUsize::new(0));
+        let r = solve(
+            &normal,
+            Stop::relative(f64::NAN, 10),
+            None,
+            &AtomicUsize::new(0),
+        );
         assert_eq!(r.err().unwrap().parameter_name().unwrap(), "rtol");
     }
 

@@ -360,11 +360,12 @@ fn csr_in(field: &'static str, c: &CsrIn<'_>) -> PyResult<solve::Csr> {
 
 /// Solve the regularised least squares of a reconstruction over a grid of `shape` (ny, nx)
 /// cells: blocks of factored rows and of explicit rows (see `splitlf_core::solve`), prior
-/// weight `regularization`, conjugate gradients to `rtol` or `max_iter` steps. Returns
+/// weight `regularization`, conjugate gradients to `rtol`, to `noise_tol` of the noise's
+/// expected norm in the right-hand side (0: not used), or `max_iter` steps. Returns
 /// (cells (ny, nx), iterations, the normal equations' relative residual).
 /// `progress(done, total)` counts iterations out of `max_iter`.
 #[pyfunction]
-#[pyo3(signature = (shape, regularization, factored, rows, rtol, max_iter, n_threads=None, progress=None))]
+#[pyo3(signature = (shape, regularization, factored, rows, rtol, max_iter, noise_tol=0.0, n_threads=None, progress=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn solve_normal<'py>(
     py: Python<'py>,
@@ -374,6 +375,7 @@ pub(crate) fn solve_normal<'py>(
     rows: Vec<RowsIn<'py>>,
     rtol: f64,
     max_iter: usize,
+    noise_tol: f64,
     n_threads: Option<&Bound<'py, PyAny>>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<(Bound<'py, numpy::PyArray2<f64>>, usize, f64)> {
@@ -400,7 +402,12 @@ pub(crate) fn solve_normal<'py>(
     let (report, counter) = counted(progress, max_iter);
     let sol = run_reporting(py, "depth", report, move || {
         let normal = solve::Normal::new(nx, ny, regularization, blocks)?;
-        solve::solve(&normal, rtol, max_iter, threads, &counter)
+        let stop = solve::Stop {
+            rtol,
+            noise: noise_tol,
+            max_iter,
+        };
+        solve::solve(&normal, stop, threads, &counter)
     })?;
     let cells = crate::arrays::filled::<f64, numpy::ndarray::Ix2>(
         py,
