@@ -169,6 +169,9 @@ def test_solve_refuses_bad_blocks() -> None:
         _native.solve_normal((2, 2), 0.0, [good], [], 1e-10, 100)
     with pytest.raises(splitlf.errors.InvalidParameter, match="rtol"):
         _native.solve_normal((2, 2), 1.0, [good], [], float("nan"), 100)
+    for bad in (-1.0, float("nan"), float("inf")):
+        with pytest.raises(splitlf.errors.InvalidParameter, match="noise_tol"):
+            _native.solve_normal((2, 2), 1.0, [good], [], 1e-10, 100, bad)
 
 
 def test_constant_albedo_reconstructs_constant() -> None:

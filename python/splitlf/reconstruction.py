@@ -387,9 +387,8 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
       sets the solve's stop: with a known noise the CG stops once its residual is
       ``CG_NOISE_TOL`` of the noise's expected norm in the right-hand side (measured: the
       image moves from the fully converged one by 0.1–2 % of its error against the
-      truth, docs/reconstruct.md step 3), or at
-      ``CG_RTOL`` of the right-hand side, whichever comes first; noise-free, at
-      ``CG_RTOL`` only
+      truth, docs/reconstruct.md step 3), or at ``CG_RTOL`` of the right-hand side,
+      whichever comes first; noise-free, at ``CG_RTOL`` only
     - ``tile``: at most this many cells per side in one solve (at least ``MIN_TILE``): a
       larger region is solved in tiles, each reaching ``TILE_OVERLAP`` cells into its
       neighbours and padded by a pixel's span of its own, and the tiles' own cells put
