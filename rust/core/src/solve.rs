@@ -950,19 +950,22 @@ impl Normal {
         self.gather(work, false, None, out);
     }
 
-    /// diag(Aᵀ W A + λ DᵀD).
-    fn diagonal(&self, work: &mut Work, out: &mut [f64]) {
+    /// diag(Aᵀ W A + λ DᵀD) into `out`; returns trace(Aᵀ W A), the data part's sum
+    /// (taken before the prior is added).
+    fn diagonal(&self, work: &mut Work, out: &mut [f64]) -> f64 {
         self.rows_into(None, work, true, |b, k, _| match b {
             Block::Factored { norm, w, .. } => w[k] * norm * norm,
             Block::Rows { w, .. } => w[k],
         });
         self.gather(work, true, None, out);
+        let trace = out.iter().sum::<f64>();
         let (nx, ny) = (self.nx, self.ny);
         for (c, d) in out.iter_mut().enumerate() {
             let (j, i) = (c / nx, c % nx);
             let n = (i > 0) as u8 + (i + 1 < nx) as u8 + (j > 0) as u8 + (j + 1 < ny) as u8;
             *d += self.lam * n as f64;
         }
+        trace
     }
 }
 
@@ -1029,7 +1032,7 @@ pub fn solve(
         if first {
             first = false;
             normal.rhs(&mut work, &mut b);
-            normal.diagonal(&mut work, &mut diag);
+            let trace = normal.diagonal(&mut work, &mut diag);
             // AᵀWA·1, with p (not needed before the first step) as the ones: the seven
             // vectors the memory check counts are all the solve holds.
             p.fill(1.0);
@@ -1043,10 +1046,6 @@ pub fn solve(
                 x.fill(0.0);
                 return Ok(true);
             }
-            // trace(AᵀWA): the diagonal less the prior's λ · (each cell's neighbours).
-            let (nx, ny) = (normal.nx as f64, normal.ny as f64);
-            let prior = normal.lam * (2.0 * (nx - 1.0) * ny + 2.0 * nx * (ny - 1.0));
-            let trace = (diag.iter().sum::<f64>() - prior).max(0.0);
             tol = (rtol * bn).max(noise * trace.sqrt());
             normal.apply(&x, &mut work, &mut q);
             r.par_iter_mut()
