@@ -294,15 +294,25 @@ def _lens_rays(design: Any, ch: dict, L1: float, j: int, k: int, s: np.ndarray,
     return out
 
 
+def own_lens(ch: dict, s: np.ndarray) -> tuple[int, int]:
+    """The lens a sensor pixel centred at s belongs to (§9): the one whose image centre
+    c (1 + v/L) is nearest, ties to the least (j, k); by brute force over every lens."""
+    c = lens_centres(ch) * (1.0 + ch["v"] / ch["L"])
+    d2 = np.sum((c - s[None, None, :]) ** 2, axis=-1)
+    ks, js = np.nonzero(d2 == d2.min())
+    return min((int(j), int(k)) for j, k in zip(js, ks, strict=True))
+
+
 def mc_pixels(design: Any, channel: int, pixels: Sequence[tuple[int, int]], sc: Scene,
               n_rays: int = 200_000, n_batches: int = 20,
               rng: np.random.Generator | None = None,
-              chunk: int = 100_000) -> tuple[np.ndarray, np.ndarray]:
+              chunk: int = 100_000, own_only: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """(mean, stderr) of the raw values of ``pixels`` ([row, col] of §10's layout) of
     ``channel`` (from 1): n_rays rays per contributing lens, split in n_batches independent
     batches; mean over batches and the standard error of that mean (std of the batch means
     / sqrt(n_batches)). A pixel whose integrand is constant has stderr 0 (the estimate is
-    then exact up to rounding)."""
+    then exact up to rounding). ``own_only``: a sensor pixel takes its own lens's light
+    alone (:func:`own_lens`), not its neighbours'."""
     rng = np.random.default_rng(0) if rng is None else rng
     chs = design.resolved()
     ch, L1, mu1 = chs[channel - 1], chs[0]["L"], chs[0]["mu"]
@@ -313,7 +323,12 @@ def mc_pixels(design: Any, channel: int, pixels: Sequence[tuple[int, int]], sc: 
     err = np.empty(len(pixels))
     for i, (row, col) in enumerate(pixels):
         s, own = pixel_centre(ch, row, col)
-        lenses = own if ch["layout"] == "ideal" else candidate_lenses(design, ch, s)
+        if ch["layout"] == "ideal":
+            lenses = own
+        elif own_only:
+            lenses = [own_lens(ch, s)]
+        else:
+            lenses = candidate_lenses(design, ch, s)
         batches = np.zeros(n_batches)
         for j, k in lenses:
             samples = _lens_rays(design, ch, L1, j, k, s, sc, per * n_batches, rng, chunk)

@@ -2,9 +2,10 @@
 
 :func:`estimate_depth` runs the core's plane sweep (``_native.depth_sweep``): at each
 candidate depth every lens's micro-image (its pixels' values divided by their whites, the
-design's raw under a white albedo, rendered once per design and kept) is resampled at the
-centres of a grid of cells, where its pixels' mean rays meet the plane at that depth; the
-cost is the spread of the lenses' values within each cell, pooled over a window of cells,
+design's raw under a white albedo, rendered once per design and kept; on a sensor layout
+the pixels that take light through a neighbouring lens as well are left out) is resampled
+at the centres of a grid of cells, where its pixels' mean rays meet the plane at that
+depth; the cost is the spread of the lenses' values within each cell, pooled over a window of cells,
 per channel (at the true depth the lenses that see a cell saw the same patch). Each
 channel's least cost per cell, refined by a V-fit, is its depth; the contrast of its cost
 curve is its confidence, and each cell takes the most confident channel's depth.
@@ -35,8 +36,13 @@ DEFAULT_WINDOW = 6
 DEFAULT_STEP = 3.0
 #: Cells whose confidence (1 - min / mean of the cost curve) is at least this are confident.
 DEFAULT_MIN_CONFIDENCE = 0.5
+#: On a sensor layout the sweep keeps a pixel only when at least this share of its white
+#: comes through its own lens: the rest also see a neighbouring lens's footprint, far away
+#: on the scene, and their value is a blend of the two (docs/depth.md, step 1).
+MIN_OWN_SHARE = 0.99
 
 _WHITES: dict[int, tuple[Design, tuple[np.ndarray, ...]]] = {}
+_OWN_MASKS: dict[int, tuple[Design, tuple[np.ndarray, ...]]] = {}
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -73,6 +79,32 @@ def _white(design: Design) -> tuple[np.ndarray, ...]:
         _WHITES.pop(next(iter(_WHITES)))
     _WHITES[id(design)] = (design, raw.images)
     return raw.images
+
+
+def _sweep_whites(design: Design) -> tuple[np.ndarray, ...]:
+    """The whites the sweep takes: :func:`_white`, with 0 (not valid) for the pixels of a
+    sensor-layout channel that take less than :data:`MIN_OWN_SHARE` of their white through
+    their own lens (the core's own-lens render of the same white scene; the mask is kept
+    per design, a byte a pixel). On the ideal layout a pixel sees its own lens alone, and
+    the whites are :func:`_white`'s."""
+    whites = _white(design)
+    if not any(c["layout"] == "sensor" for c in design.resolved()):
+        return whites
+    hit = _OWN_MASKS.get(id(design))
+    if hit is not None and hit[0] is design:
+        masks = hit[1]
+    else:
+        sinusoid = Sinusoid(1.0, 1.0, 0.0)
+        scene = Scene(sinusoid, 2.0 * design.F + 1000.0, background=1.0)
+        kind, params, _ = sinusoid.seam()
+        surface, sparams, depth_map = scene.depth.seam()
+        native = _native.RenderScene(kind, params, None, surface, sparams, depth_map, 1.0)
+        own = _native.render(design.core, native, own_lens=True)
+        masks = tuple(o >= MIN_OWN_SHARE * w for w, o in zip(whites, own, strict=True))
+        if len(_OWN_MASKS) >= 4:
+            _OWN_MASKS.pop(next(iter(_OWN_MASKS)))
+        _OWN_MASKS[id(design)] = (design, masks)
+    return tuple(np.where(m, w, 0.0) for w, m in zip(whites, masks, strict=True))
 
 
 def _candidates(design: Design, depths: Any, n: Any) -> np.ndarray:
@@ -162,7 +194,7 @@ def estimate_depth(raw: Raw, *, depths: Any, region: Any = None, step: float | N
             ext = _native.seen_region(design.core, z_ref, [chans[0]])
     grid = _native.cell_grid(ext, step_)
     x0, y1, h, nx, ny = grid
-    whites = _white(design)
+    whites = _sweep_whites(design)
     raws = [np.ascontiguousarray(raw.images[c - 1]) for c in chans]
     wh = [np.ascontiguousarray(whites[c - 1]) for c in chans]
     bar, report = _progress(show, "splitlf depth", "depth")

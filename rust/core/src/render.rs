@@ -78,11 +78,19 @@ pub struct RenderOptions {
     /// Error target of the general route's adaptive quadrature per pixel and lens,
     /// relative to a fully lit pixel under a white albedo.
     pub tol: f64,
+    /// Each pixel takes the light of its own lens alone (the lens [`Design::pixel`]
+    /// assigns it), not what its neighbours' lenses send it on a sensor layout: the depth
+    /// sweep's test of which pixels sample one footprint (docs/depth.md). On the ideal
+    /// layout a pixel sees its own lens only either way.
+    pub own_lens: bool,
 }
 
 impl Default for RenderOptions {
     fn default() -> Self {
-        RenderOptions { tol: DEFAULT_TOL }
+        RenderOptions {
+            tol: DEFAULT_TOL,
+            own_lens: false,
+        }
     }
 }
 
@@ -1449,7 +1457,7 @@ pub fn render_into(
         if exact_route(design, ch, scene) {
             exact::render_channel(design, &chan, scene, raw, n_threads, done)?;
         } else {
-            general_channel(design, &chan, scene, opts.tol, raw, n_threads, done)?;
+            general_channel(design, &chan, scene, opts, raw, n_threads, done)?;
         }
     }
     Ok(())
@@ -1460,11 +1468,12 @@ fn general_channel(
     design: &Design,
     chan: &Chan,
     scene: &Scene,
-    tol: f64,
+    opts: RenderOptions,
     raw: &mut [f64],
     n_threads: Option<usize>,
     done: &AtomicUsize,
 ) -> Result<()> {
+    let (tol, own) = (opts.tol, opts.own_lens);
     let ch = chan.ch;
     let (rows, cols) = raw_shape(ch);
     let per_row = (cols as u128) * 2000;
@@ -1489,7 +1498,11 @@ fn general_channel(
                 for (a, out) in row.iter_mut().enumerate() {
                     // A pixel can take milliseconds (depth maps): check for Ctrl-C per pixel.
                     checkpoint()?;
-                    *out = pixel_value(design, chan, scene, tol, a as u32, b, reach, wk);
+                    *out = if own {
+                        own_lens_value(design, chan, scene, tol, a as u32, b, wk)
+                    } else {
+                        pixel_value(design, chan, scene, tol, a as u32, b, reach, wk)
+                    };
                 }
                 done.fetch_add(1, Ordering::Relaxed);
                 Ok(())
@@ -1553,6 +1566,25 @@ pub(crate) fn pixel_value(
             chan.norm * v
         }
     }
+}
+
+/// One pixel's value through its own lens alone (the lens [`Design::pixel`] assigns it;
+/// on the ideal layout that is [`pixel_value`]).
+fn own_lens_value(
+    design: &Design,
+    chan: &Chan,
+    scene: &Scene,
+    tol: f64,
+    a: u32,
+    b: u32,
+    wk: &mut Work,
+) -> f64 {
+    let ch = chan.ch;
+    let px = design.pixel(ch, a, b);
+    let c = ch.lens_center(px.j, px.k);
+    // The pixel's sensor point: its lens image's centre plus its offset θ (both layouts).
+    let s = [chan.m * c[0] + px.theta[0], chan.m * c[1] + px.theta[1]];
+    chan.norm * lens_contribution(chan, scene, tol, c, px.t, s, wk)
 }
 
 /// The exact route (module doc): separable 1-D ray-set areas per texture column and row.

@@ -72,10 +72,11 @@ impl RenderScene {
 
 /// Every channel's raw image of `scene` (docs/model.md §10 layout), one float64 array per
 /// channel. `tol`: the general route's error target per pixel, relative to a fully lit
-/// pixel under a white albedo.
+/// pixel under a white albedo. `own_lens`: each pixel takes its own lens's light alone
+/// (on a sensor layout, not its neighbours'; the depth sweep's test of clean pixels).
 /// `progress(done, total)` is called on the main thread while the render runs.
 #[pyfunction]
-#[pyo3(signature = (design, scene, tol=core_render::DEFAULT_TOL, n_threads=None, progress=None))]
+#[pyo3(signature = (design, scene, tol=core_render::DEFAULT_TOL, n_threads=None, progress=None, own_lens=false))]
 pub(crate) fn render<'py>(
     py: Python<'py>,
     design: &DesignCore,
@@ -83,6 +84,7 @@ pub(crate) fn render<'py>(
     tol: f64,
     n_threads: Option<&Bound<'py, PyAny>>,
     progress: Option<Py<PyAny>>,
+    own_lens: bool,
 ) -> PyResult<Vec<Bound<'py, PyArray2<f64>>>> {
     let threads = threads_arg(n_threads)?;
     let d = design.inner.clone();
@@ -93,7 +95,7 @@ pub(crate) fn render<'py>(
         .map(|ch| core_render::raw_shape(ch).0)
         .sum();
     let (report, counter) = counted(progress, total);
-    let opts = RenderOptions { tol };
+    let opts = RenderOptions { tol, own_lens };
     core_render::check_render(&d, &sc, opts).map_err(to_py)?;
     let bytes = core_render::render_bytes(&d);
     splitlf_core::memory::check("the rendered raw images", bytes).map_err(to_py)?;
