@@ -1536,13 +1536,8 @@ pub(crate) fn pixel_value(
 ) -> f64 {
     let ch = chan.ch;
     match ch.layout {
-        Layout::Ideal { q } => {
-            let px = design.pixel(ch, a, b);
-            let c = ch.lens_center(px.j, px.k);
-            let s = [chan.m * c[0] + px.theta[0], chan.m * c[1] + px.theta[1]];
-            let _ = q;
-            chan.norm * lens_contribution(chan, scene, tol, c, px.t, s, wk)
-        }
+        // The pixel sees its own lens alone.
+        Layout::Ideal { .. } => own_lens_value(design, chan, scene, tol, a, b, wk),
         Layout::Sensor { mx, my } => {
             let mu = ch.mu;
             let s = [
@@ -1569,7 +1564,7 @@ pub(crate) fn pixel_value(
 }
 
 /// One pixel's value through its own lens alone (the lens [`Design::pixel`] assigns it;
-/// on the ideal layout that is [`pixel_value`]).
+/// on the ideal layout that is the pixel's whole value, [`pixel_value`]).
 fn own_lens_value(
     design: &Design,
     chan: &Chan,
