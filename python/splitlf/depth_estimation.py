@@ -5,8 +5,8 @@ candidate depth every lens's micro-image (its pixels' values divided by their wh
 design's raw under a white albedo, rendered once per design and kept; on a sensor layout
 the pixels that take light through a neighbouring lens as well are left out) is resampled
 at the centres of a grid of cells, where its pixels' mean rays meet the plane at that
-depth; the cost is the spread of the lenses' values within each cell, pooled over a window of cells,
-per channel (at the true depth the lenses that see a cell saw the same patch). Each
+depth; the cost is the spread of the lenses' values within each cell, pooled over a window
+of cells, per channel (at the true depth the lenses that see a cell saw the same patch). Each
 channel's least cost per cell, refined by a V-fit, is its depth; the contrast of its cost
 curve is its confidence, and each cell takes the most confident channel's depth.
 """
