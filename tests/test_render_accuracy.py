@@ -36,7 +36,7 @@ from mc_render import mc_channel, mc_pixels, scene
 from scipy import stats
 
 import splitlf
-from splitlf import _native
+from splitlf.depth_estimation import _own_lens_whites, _white, _white_scene
 
 FAMILY_ALPHA = 1e-3  # false-alarm probability of one family's z-score bound
 NATIVE_ERR = 2e-4  # of white: the native's own error that a z-score should not punish
@@ -436,15 +436,6 @@ def test_mc_hex_sensor_spill() -> None:
              "r12 small, image, slanted", n_rays=100_000)
 
 
-def own_lens_white(design: splitlf.Design, z: float) -> list[np.ndarray]:
-    """The native raws of a white plane at z with each pixel's own lens alone."""
-    sc = splitlf.Scene(splitlf.Sinusoid(1.0, 1.0, 0.0), z, background=1.0)
-    kind, params, _ = splitlf.Sinusoid(1.0, 1.0, 0.0).seam()
-    surface, sparams, depth_map = sc.depth.seam()
-    native = _native.RenderScene(kind, params, None, surface, sparams, depth_map, 1.0)
-    return [np.asarray(a) for a in _native.render(design.core, native, own_lens=True)]
-
-
 def test_mc_own_lens_white() -> None:
     """The own-lens render (the depth sweep's test of which pixels see one lens) on the
     reduced raytrix-r12, whose defocused lens types spill light onto their neighbours'
@@ -453,22 +444,22 @@ def test_mc_own_lens_white() -> None:
     of it on many lit pixels (the spill it is there to find). On the ideal layout a pixel
     sees its own lens alone: the own-lens white is the white."""
     design = r12_small()
-    own = own_lens_white(design, 450.0)[0]
-    full = np.asarray(render(design, splitlf.Sinusoid(1.0, 1.0, 0.0), 450.0, 1.0)[0])
+    own = _own_lens_whites(design)[0]
+    full = _white(design)[0]
     lit = full > 0.05 * full.max()
     assert np.all(own <= full + ABS_TOL * white(design, 1))
     spilled = np.count_nonzero(own[lit] < 0.99 * full[lit]) / np.count_nonzero(lit)
     assert 0.2 < spilled < 0.9, spilled
     rng = np.random.default_rng(41)
     pixels = sample_pixels(own.shape, 30, rng, own)
-    white_scene = scene(("constant", [1.0]), ("plane", [450.0, 0.0, 0.0]), 1.0)
+    z = _white_scene(design).depth.z0
+    white_scene = scene(("constant", [1.0]), ("plane", [z, 0.0, 0.0]), 1.0)
     mean, se = mc_pixels(design, 1, pixels, white_scene, 100_000, 20, rng, own_only=True)
     value = np.array([own[p] for p in pixels])
     assert_agree(z_stats(value, mean, se, white(design, 1), NATIVE_ERR, 20), "own lens")
     seed = seed_small(4, 3)
-    for o, w in zip(own_lens_white(seed, 700.0),
-                    render(seed, splitlf.Sinusoid(1.0, 1.0, 0.0), 700.0, 1.0), strict=True):
-        np.testing.assert_array_equal(o, np.asarray(w))
+    for o, w in zip(_own_lens_whites(seed), _white(seed), strict=True):
+        np.testing.assert_array_equal(o, w)
 
 
 def test_mc_rect_sensor_two_channels() -> None:

@@ -23,7 +23,16 @@ from . import _native, _validate
 from .design import Design
 from .errors import InvalidParameter
 from .reconstruction import _channels
-from .rendering import DepthMap, Raw, Scene, _extent, _progress, _progress_flag, render
+from .rendering import (
+    DepthMap,
+    Raw,
+    Scene,
+    _extent,
+    _native_scene,
+    _progress,
+    _progress_flag,
+    render,
+)
 from .textures import Sinusoid
 
 Extent = tuple[float, float, float, float]
@@ -67,18 +76,31 @@ class DepthSweep:
     samples: int
 
 
+def _white_scene(design: Design) -> Scene:
+    """The white scene: albedo 1 everywhere, on a fronto-parallel plane well in front of
+    the lens (any depth gives the same raws)."""
+    return Scene(Sinusoid(1.0, 1.0, 0.0), 2.0 * design.F + 1000.0, background=1.0)
+
+
 def _white(design: Design) -> tuple[np.ndarray, ...]:
     """The design's raws under a white albedo (depth-independent: every ray a pixel
     collects meets a fronto-parallel plane), rendered once per design."""
     hit = _WHITES.get(id(design))
     if hit is not None and hit[0] is design:
         return hit[1]
-    z = 2.0 * design.F + 1000.0
-    raw = render(design, Scene(Sinusoid(1.0, 1.0, 0.0), z, background=1.0), progress=False)
+    raw = render(design, _white_scene(design), progress=False)
     if len(_WHITES) >= 4:
         _WHITES.pop(next(iter(_WHITES)))
     _WHITES[id(design)] = (design, raw.images)
     return raw.images
+
+
+def _own_lens_whites(design: Design) -> tuple[np.ndarray, ...]:
+    """The raws of :func:`_white`'s scene with each pixel's own lens alone (the core's
+    own-lens render: on a sensor layout, without the light its neighbours' lenses send
+    it). Not kept."""
+    native = _native_scene(_white_scene(design), design, np.random.default_rng(0))
+    return tuple(_native.render(design.core, native, own_lens=True))
 
 
 def _sweep_whites(design: Design) -> tuple[np.ndarray, ...]:
@@ -94,12 +116,7 @@ def _sweep_whites(design: Design) -> tuple[np.ndarray, ...]:
     if hit is not None and hit[0] is design:
         masks = hit[1]
     else:
-        sinusoid = Sinusoid(1.0, 1.0, 0.0)
-        scene = Scene(sinusoid, 2.0 * design.F + 1000.0, background=1.0)
-        kind, params, _ = sinusoid.seam()
-        surface, sparams, depth_map = scene.depth.seam()
-        native = _native.RenderScene(kind, params, None, surface, sparams, depth_map, 1.0)
-        own = _native.render(design.core, native, own_lens=True)
+        own = _own_lens_whites(design)
         masks = tuple(o >= MIN_OWN_SHARE * w for w, o in zip(whites, own, strict=True))
         if len(_OWN_MASKS) >= 4:
             _OWN_MASKS.pop(next(iter(_OWN_MASKS)))

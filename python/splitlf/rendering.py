@@ -417,6 +417,16 @@ def _texture_seam(scene: Scene, design: Design, rng: np.random.Generator
     return kind, params, image
 
 
+def _native_scene(scene: Scene, design: Design, rng: np.random.Generator
+                  ) -> _native.RenderScene:
+    """The core's scene for a render of ``design`` (a random albedo drawn from ``rng``)."""
+    kind, params, image = _texture_seam(scene, design, rng)
+    surface, sparams, depth_map = scene.depth.seam()
+    background = scene.background
+    assert background is not None  # Scene.__post_init__ sets it
+    return _native.RenderScene(kind, params, image, surface, sparams, depth_map, background)
+
+
 def _progress_flag(progress: Any) -> bool:
     """Whether to show a bar (the sweep's convention: None = only when stderr is a
     terminal)."""
@@ -487,12 +497,7 @@ def render(design: Design, scene: Scene, *, noise: Mapping[str, float] | None = 
     entropy = int(fresh) if seed_ is None else seed_
     texture_rng = np.random.default_rng([entropy, 0])
     noise_rng = np.random.default_rng([entropy, 1])
-    kind, params, image = _texture_seam(scene, subject, texture_rng)
-    surface, sparams, depth_map = scene.depth.seam()
-    background = scene.background
-    assert background is not None  # Scene.__post_init__ sets it
-    native_scene = _native.RenderScene(
-        kind, params, image, surface, sparams, depth_map, background)
+    native_scene = _native_scene(scene, subject, texture_rng)
     bar, callback = _progress(show)
     try:
         images = _native.render(subject.core, native_scene, tol=tol_, n_threads=threads,
