@@ -49,8 +49,6 @@ matplotlib.use("Agg")  # a script, not the library: it may pick a backend
 
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-from scipy.ndimage import map_coordinates  # noqa: E402
-from skimage import data  # noqa: E402
 
 import splitlf  # noqa: E402
 from splitlf import _native, measure  # noqa: E402
@@ -96,14 +94,7 @@ def texture(d: splitlf.Design, p: splitlf.Plane, theta_x: float, theta_y: float
     X = (np.arange(cols) + 0.5) * TEXEL - width / 2.0
     Y = rows * TEXEL / 2.0 - (np.arange(rows) + 0.5) * TEXEL
     Xg, Yg = np.meshgrid(X, Y)
-    Z = p.z0 + p.gy * Yg
-    t = 1.05 * theta_y
-    photo = data.camera().astype(np.float64) / 255.0
-    n = photo.shape[0] - 1
-    u = (Xg / Z / (2.0 * t) + 0.5) * n
-    v = (t - Yg / Z) / (2.0 * t) * n
-    img = 0.1 + 0.8 * map_coordinates(photo, [v, u], order=1, mode="reflect")
-    return splitlf.Image(img, cols * TEXEL)
+    return splitlf.Image(seedfig.photograph(p, 1.05 * theta_y, Xg, Yg), cols * TEXEL)
 
 
 def render(d: splitlf.Design, p: splitlf.Plane, tex: splitlf.Image, cache: Path | None

@@ -80,12 +80,18 @@ def texture(p: splitlf.Plane, theta: float) -> np.ndarray:
     X = (np.arange(cols) + 0.5) * CELL - WIDTH / 2.0
     Y = HEIGHT / 2.0 - (np.arange(rows) + 0.5) * CELL
     Xg, Yg = np.meshgrid(X, Y)
-    Z = p.z0 + p.gy * Yg
-    t = 1.05 * theta
+    return photograph(p, 1.05 * theta, Xg, Yg)
+
+
+def photograph(p: splitlf.Plane, t: float, X: np.ndarray, Y: np.ndarray) -> np.ndarray:
+    """The photograph's albedo (0.1 to 0.9) at the points (X, Y) of the plane, taken at
+    their view angles (X/Z, Y/Z): the photograph spans view angles -t to t in Y (and in
+    X, centred), bilinear, mirrored beyond."""
+    Z = p.z0 + p.gx * X + p.gy * Y
     photo = data.camera().astype(np.float64) / 255.0
     n = photo.shape[0] - 1
-    u = (Xg / Z / (2.0 * t) + 0.5) * n
-    v = (t - Yg / Z) / (2.0 * t) * n
+    u = (X / Z / (2.0 * t) + 0.5) * n
+    v = (t - Y / Z) / (2.0 * t) * n
     return 0.1 + 0.8 * map_coordinates(photo, [v, u], order=1, mode="reflect")
 
 
