@@ -1,7 +1,7 @@
 """Write docs/depth_r12.png and docs/depth_r12.json: the paper's Fig. 2 scene for
 `raytrix-r12` -- one slanted plane across its working range -- its depth from the raw, the
-depth's error, and the image end to end (from the estimated depth map) beside the one with
-the known plane.
+depth's error, and the image end to end (with a plane fitted to the estimated depth) beside
+the one with the known plane.
 
 - Camera: `raytrix-r12` (hexagonal lattice, three lens types, circular aperture, sensor
   layout) cut to KX x KY lenses, its sensor cut to match.
@@ -123,14 +123,20 @@ def bands(d: splitlf.Design, p: splitlf.Plane) -> list[tuple[float, tuple, float
     return out
 
 
-def fitted(est: splitlf.DepthMap) -> tuple[splitlf.Plane, float]:
-    """The plane fitted to the estimate's confident cells (make_fig2_end_to_end's robust
-    least squares, both tilts kept: the R12 takes the general route either way), and the
-    share of those cells the fit kept."""
+def centres(est: splitlf.DepthMap) -> tuple[np.ndarray, np.ndarray]:
+    """X and Y [mm] of the estimate's cell centres (row 0 at the top)."""
     ny, nx = est.depth.shape
     x0, x1, y0, y1 = est.extent
     Xg, Yg = np.meshgrid(x0 + (np.arange(nx) + 0.5) * (x1 - x0) / nx,
                          y1 - (np.arange(ny) + 0.5) * (y1 - y0) / ny)
+    return Xg, Yg
+
+
+def fitted(est: splitlf.DepthMap, Xg: np.ndarray, Yg: np.ndarray
+           ) -> tuple[splitlf.Plane, float]:
+    """The plane fitted to the estimate's confident cells at (Xg, Yg) (make_fig2_end_to_end's
+    robust least squares, both tilts kept: the R12 takes the general route either way), and
+    the share of those cells the fit kept."""
     m = est.confident
     z0, gx, gy, kept = fit_plane(Xg[m], Yg[m], est.depth[m])
     return splitlf.Plane(z0, gx, gy), kept
@@ -164,16 +170,14 @@ def main() -> None:
         est = splitlf.estimate_depth(raw, depths=CANDIDATES, region=padded, progress=False)
         t_depth = time.perf_counter() - t1
         e = measure.depth_errors(est, p)
-        ex0, ex1, ey0, ey1 = est.extent
-        ny, nx = est.depth.shape
-        ys = ey1 - (np.arange(ny) + 0.5) * (ey1 - ey0) / ny
-        true = (p.z0 + p.gy * ys)[:, None] * np.ones(est.depth.shape)
+        Xg, Yg = centres(est)
+        true = p.z0 + p.gx * Xg + p.gy * Yg
         rel = (est.depth - true) / true
         depth_views.append(SimpleNamespace(extent=est.extent, image=np.where(
             est.confident, est.depth, np.nan)))
         error_views.append(SimpleNamespace(extent=est.extent, image=np.where(
             est.confident, 100.0 * np.abs(rel), np.nan)))
-        surface, kept = fitted(est)
+        surface, kept = fitted(est, Xg, Yg)
         yc = 0.5 * (y0 + y1)
         z_true, z_fit = p.z0 + p.gy * yc, surface.z0 + surface.gy * yc
         row: dict[str, Any] = {"depth": zm, "region": list(region), "step": step,
@@ -267,8 +271,7 @@ def figure(d: splitlf.Design, p: splitlf.Plane, theta_x: float, rows: list[dict]
         a.set_xscale("log")
         a.axvline(band_mm, color="0.6", lw=0.8, ls=":")
         a.grid(alpha=0.3, which="both")
-    kx, ky = KX, KY
-    fig.suptitle(f"raytrix-r12 cut to {kx} x {ky} lenses: one slanted plane, {NEAR:.0f} mm "
+    fig.suptitle(f"raytrix-r12 cut to {KX} x {KY} lenses: one slanted plane, {NEAR:.0f} mm "
                  f"(bottom) to {FAR:.0f} mm (top); render's general route, N = 2000; "
                  f"grey line: the array's conjugate ({band_mm:.0f} mm)", fontsize=9)
     fig.tight_layout()
