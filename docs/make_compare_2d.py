@@ -5,14 +5,14 @@ beside the 1-D figures of splitlf.compare.mtf50.
 For each design and depth z of make_compare.SIMULATE_DEPTHS:
 - the design is cut to the lenses of each channel that can see a square of REGION_CELLS
   cells of delta(z) = mu z / L_1 about the axis (that square widened by a pixel's span,
-  ``_native.pixel_span``, on each side, plus two lenses), its sensor cut to match;
+  ``_native.pixel_span``, on each side, plus two lenses each side), its sensor cut to match;
 - a 5-degree slanted edge (albedo 0.1 | 0.9, analytic: not representable on the cells) is
   rendered (splitlf.render, its own adaptive integration) noise-free and with photon noise
   N = 2000 (seed 1);
 - each raw is reconstructed (splitlf.reconstruct, the known depth, its default prior, the
   noise model given for the noisy raw) on cells of delta(z) over that square, and
-  splitlf.measure.mtf50 reads the edge. NaN: the transfer never fell to half below the
-  cells' Nyquist frequency 1 / (2 delta(z)).
+  splitlf.measure.mtf50 reads the edge. When the transfer never fell to half below the
+  cells' Nyquist frequency 1 / (2 delta(z)): null in the JSON, "≥ Nyquist" in the table.
 
 Run: python docs/make_compare_2d.py [preset ...] [--designs plain,split,...] [--depths
 150,300] [--noise "N = 2000"] (seconds per rect design and depth on the seed's sensor; the
