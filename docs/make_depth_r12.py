@@ -43,7 +43,7 @@ from typing import Any
 
 import make_fig2_slanted as seedfig  # docs/, the script's own folder
 import matplotlib
-from make_fig2_end_to_end import fit_plane
+from make_fig2_end_to_end import centres, fit_plane
 
 matplotlib.use("Agg")  # a script, not the library: it may pick a backend
 
@@ -121,15 +121,6 @@ def bands(d: splitlf.Design, p: splitlf.Plane) -> list[tuple[float, tuple, float
         out.append((zm, (-hx, hx, (zlo - p.z0) / p.gy, (zhi - p.z0) / p.gy),
                     STEP * d.resolution_step(zm)))
     return out
-
-
-def centres(est: splitlf.DepthMap) -> tuple[np.ndarray, np.ndarray]:
-    """X and Y [mm] of the estimate's cell centres (row 0 at the top)."""
-    ny, nx = est.depth.shape
-    x0, x1, y0, y1 = est.extent
-    Xg, Yg = np.meshgrid(x0 + (np.arange(nx) + 0.5) * (x1 - x0) / nx,
-                         y1 - (np.arange(ny) + 0.5) * (y1 - y0) / ny)
-    return Xg, Yg
 
 
 def fitted(est: splitlf.DepthMap, Xg: np.ndarray, Yg: np.ndarray

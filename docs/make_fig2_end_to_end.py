@@ -55,6 +55,15 @@ def fit_plane(X: np.ndarray, Y: np.ndarray, Z: np.ndarray) -> tuple[float, ...]:
     return float(coef[0]), float(coef[1]), float(coef[2]), float(keep.mean())
 
 
+def centres(est: splitlf.DepthMap) -> tuple[np.ndarray, np.ndarray]:
+    """X and Y [mm] of the estimate's cell centres (row 0 at the top)."""
+    ny, nx = est.depth.shape
+    x0, x1, y0, y1 = est.extent
+    Xg, Yg = np.meshgrid(x0 + (np.arange(nx) + 0.5) * (x1 - x0) / nx,
+                         y1 - (np.arange(ny) + 0.5) * (y1 - y0) / ny)
+    return Xg, Yg
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--cache", type=Path, default=None,
@@ -72,11 +81,7 @@ def main() -> None:
         x0, x1, y0, y1 = region
         est = splitlf.estimate_depth(raw, depths=(250.0, 3000.0), region=region,
                                      step=fig.DEPTH_STEP, progress=False)
-        ny, nx = est.depth.shape
-        e0, e1, f0, f1 = est.extent
-        xs = e0 + (np.arange(nx) + 0.5) * (e1 - e0) / nx
-        ys = f1 - (np.arange(ny) + 0.5) * (f1 - f0) / ny
-        Xg, Yg = np.meshgrid(xs, ys)
+        Xg, Yg = centres(est)
         m = est.confident
         z0, gx, gy, kept = fit_plane(Xg[m], Yg[m], est.depth[m])
         fitted = splitlf.Plane(z0, 0.0, gy)
