@@ -256,6 +256,33 @@ impl Recorder {
         self.outside += w * (1.0 - share).max(0.0);
     }
 
+    /// The grid the rows are over.
+    pub(crate) fn grid(&self) -> &CellGrid {
+        &self.grid
+    }
+
+    /// Ray measure `w` (normalised) on cell (col, row) of the grid's lattice, which may lie
+    /// outside the grid (then it adds to `outside`).
+    pub(crate) fn add_cell(&mut self, col: i64, row: i64, w: f64) {
+        self.total += w;
+        let g = self.grid;
+        if col >= 0 && row >= 0 && (col as usize) < g.nx && (row as usize) < g.ny {
+            self.put(row as usize * g.nx + col as usize, w);
+        } else {
+            self.outside += w;
+        }
+    }
+
+    /// The row cannot be kept (rays may fall outside the grid).
+    pub(crate) fn lose(&mut self) {
+        self.outside = f64::INFINITY;
+    }
+
+    /// Has the row been found not to be kept?
+    pub(crate) fn lost(&self) -> bool {
+        self.outside == f64::INFINITY
+    }
+
     /// A node's piece of ray measure `area` seen as one surface point p.
     pub(crate) fn add_point(&mut self, p: Pt, area: f64) {
         let w = self.weight(area);

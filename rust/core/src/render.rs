@@ -97,26 +97,26 @@ impl Default for RenderOptions {
 /// One channel as the renderer sees it.
 pub(crate) struct Chan<'a> {
     pub(crate) ch: &'a Channel,
-    f_main: f64,
+    pub(crate) f_main: f64,
     /// Aperture half-width (square) or radius (circle).
-    r_ap: f64,
-    shape: Aperture,
+    pub(crate) r_ap: f64,
+    pub(crate) shape: Aperture,
     /// share (L_1/L)² / (μ_1² A).
     pub(crate) norm: f64,
     /// (α, κ = v/f) per lens type.
     pub(crate) types: Vec<(f64, f64)>,
     /// The lens cell around its centre (counter-clockwise).
-    cell: Vec<Pt>,
+    pub(crate) cell: Vec<Pt>,
     /// Half-extents of the cell's bounding box; the y of the hex's side vertices.
-    hx: f64,
-    hy: f64,
+    pub(crate) hx: f64,
+    pub(crate) hy: f64,
     hy_side: f64,
     /// The unit circle as an equal-area polygon (circle apertures).
-    ngon: Vec<Pt>,
+    pub(crate) ngon: Vec<Pt>,
     /// Lens image centre magnification 1 + v/L.
     m: f64,
     /// v/L.
-    vl: f64,
+    pub(crate) vl: f64,
 }
 
 impl<'a> Chan<'a> {
@@ -249,6 +249,8 @@ pub(crate) struct Work {
     zs: Vec<f64>,
     /// Record mode: the current lens's cuts hold every kink of the grid's lines.
     kinks_cut: bool,
+    /// Record mode on a plane: [`crate::footprint`]'s buffers.
+    fp: crate::footprint::Scratch,
 }
 
 impl Work {
@@ -443,6 +445,11 @@ fn lens_contribution(
     let (alpha, _) = chan.types[t];
     let mu = chan.ch.mu;
     let e = [chan.m * c[0] - s_pix[0], chan.m * c[1] - s_pix[1]];
+    if let (Some(rec), Surface::Plane { z0, g }) = (wk.rec.as_deref_mut(), &scene.surface) {
+        // Record mode on a plane: the footprint density over the grid's cells.
+        crate::footprint::record(chan, c, alpha, e, *z0, *g, rec, &mut wk.fp);
+        return 0.0;
+    }
     if chan.outer_w(alpha) {
         outer_w(chan, scene, tol, c, alpha, e, mu, wk)
     } else {
