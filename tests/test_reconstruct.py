@@ -324,7 +324,7 @@ def _surface_scene(surface: splitlf.Plane | splitlf.DepthMap) -> Any:
                                          (400.0, 0.07)])
 def test_general_map_is_the_exact_map_on_a_fronto_plane(z: float, step: float) -> None:
     """The general route in record mode (any surface, any design: on a plane, each pixel's
-    footprint density integrated over the cells, rust/core/src/footprint.rs) against the
+    footprint density integrated over the cells, rust/core/src/render/footprint.rs) against the
     exact route's map on a fronto-parallel plane: the same rows, and per row an L1
     difference (the worst error over every albedo in [0, 1]) within 1e-4 of white
     (measured 2.2e-5, 6.7e-10, 1.6e-5 and 1.7e-5; the route's error target is 1e-4 of a

@@ -23,7 +23,6 @@ pub mod cells;
 pub mod depth;
 pub mod design;
 pub mod error;
-mod footprint;
 pub mod lens;
 pub mod line;
 pub mod memory;

@@ -39,6 +39,9 @@ use crate::polygon::{angular_span, bounds, clip_box, clip_into, signed_area, Pt}
 use crate::scene::{Scene, Surface};
 use crate::texture::{Scratch, Texture};
 
+/// Record mode on a plane: the footprint density integrated over the grid's cells.
+pub(crate) mod footprint;
+
 /// Fewest and most sides of the equal-area polygon that stands for a circular aperture.
 pub const MIN_CIRCLE_SIDES: usize = 32;
 pub const MAX_CIRCLE_SIDES: usize = 1024;
@@ -249,8 +252,8 @@ pub(crate) struct Work {
     zs: Vec<f64>,
     /// Record mode: the current lens's cuts hold every kink of the grid's lines.
     kinks_cut: bool,
-    /// Record mode on a plane: [`crate::footprint`]'s buffers.
-    fp: crate::footprint::Scratch,
+    /// Record mode on a plane: [`footprint`]'s buffers.
+    fp: footprint::Scratch,
 }
 
 impl Work {
@@ -447,7 +450,7 @@ fn lens_contribution(
     let e = [chan.m * c[0] - s_pix[0], chan.m * c[1] - s_pix[1]];
     if let (Some(rec), Surface::Plane { z0, g }) = (wk.rec.as_deref_mut(), &scene.surface) {
         // Record mode on a plane: the footprint density over the grid's cells.
-        crate::footprint::record(chan, c, alpha, e, *z0, *g, rec, &mut wk.fp);
+        footprint::record(chan, c, alpha, e, *z0, *g, rec, &mut wk.fp);
         return 0.0;
     }
     if chan.outer_w(alpha) {

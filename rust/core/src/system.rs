@@ -1201,7 +1201,7 @@ mod tests {
     }
 
     /// A plane tilted along one axis, either, or along both, on the tilted route against the
-    /// general route (the footprint density integrated over the cells, crate::footprint):
+    /// general route (the footprint density integrated over the cells, crate::render::footprint):
     /// on the rows both keep, A t within 4e-4 of white for a random t (measured 4.1e-5 to
     /// 4.0e-4; the tilted route's own cut was measured within 3.5e-4 of the earlier general
     /// route), the row sums within 6e-4 of white (the tilted route's are exact; the general

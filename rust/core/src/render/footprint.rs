@@ -44,10 +44,10 @@
 //! and tilted planes, footprint_integrates_to_the_ray_measure); on the seed's rect design
 //! at 1 m, entries within 1.7e-5 (L1 over a row, of the row's sum) of the exact route's.
 
+use super::Chan;
 use crate::cells::Recorder;
 use crate::design::Aperture;
 use crate::polygon::Pt;
-use crate::render::Chan;
 
 /// Quarterings before the refined rule may be accepted on its agreement with the coarser
 /// one: the two can agree by chance on a sub-cell that an edge of W crosses (measured on
