@@ -462,9 +462,9 @@ fn clip_disc(chan: &Chan, a: &mut Vec<(Pt, u8)>, b: &mut Vec<(Pt, u8)>) {
 }
 
 /// Record one lens's share of a pixel (lens centre c, type α, e = m c − s the pixel's
-/// offset) on the plane Z = z0 + g · P into `rec`: each grid cell's ∫ ρ, the footprint's
-/// part outside the grid as outside; on a tilted plane, a footprint that is not provably
-/// inside the grid marks the row as not kept.
+/// offset) on the plane Z = z0 + g · P into `rec`: each grid cell's ∫ ρ. A lit node off
+/// the grid, or on a tilted plane rays that cannot meet it on the grid or its margin, mark
+/// the row as not kept.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn record(
     chan: &Chan,
