@@ -234,8 +234,6 @@ impl<'a> Chan<'a> {
 /// Per-worker buffers.
 #[derive(Default)]
 pub(crate) struct Work {
-    /// The surface is a fronto-parallel plane (the integrand is bilinear between kinks).
-    fronto: bool,
     /// Relative accuracy of one evaluation of the integrand (0: exact; see `PIECE_NOISE`).
     rel_floor: f64,
     /// When set, the integration records each grid cell's share of the pixel's rays
@@ -250,8 +248,6 @@ pub(crate) struct Work {
     cuts_a: Vec<f64>,
     cuts_b: Vec<f64>,
     zs: Vec<f64>,
-    /// Record mode: the current lens's cuts hold every kink of the grid's lines.
-    kinks_cut: bool,
     /// Record mode on a plane: [`footprint`]'s buffers.
     fp: footprint::Scratch,
 }
@@ -260,17 +256,17 @@ impl Work {
     /// A worker that averages the texture (`fronto`: the surface is a fronto-parallel plane).
     fn new(fronto: bool) -> Work {
         Work {
-            fronto,
             rel_floor: if fronto { 0.0 } else { PIECE_NOISE },
             ..Work::default()
         }
     }
 
-    /// A worker in record mode (`fronto`: the surface is a fronto-parallel plane).
-    pub(crate) fn recording(rec: Box<crate::cells::Recorder>, fronto: bool) -> Work {
+    /// A worker in record mode. On a plane the record is [`footprint`]'s, which has rules
+    /// of its own; elsewhere (a depth map) the surface is not fronto-parallel.
+    pub(crate) fn recording(rec: Box<crate::cells::Recorder>) -> Work {
         Work {
             rec: Some(rec),
-            ..Work::new(fronto)
+            ..Work::new(false)
         }
     }
 }
@@ -543,10 +539,9 @@ fn gauss(
 }
 
 /// The record-mode rule on a box (its decisions cannot depend on one texture's values):
-/// when the box lies between every kink of the grid's lines (`wk.kinks_cut`) on a
-/// fronto-parallel plane (the integrand is bilinear there), the 2 × 2 Gauss–Legendre
-/// rule, exact for bicubics; otherwise 3 × 3 Gauss–Legendre. Each node's weight is handed
-/// to the recorder before the integrand runs.
+/// 3 × 3 Gauss–Legendre. Each node's weight is handed to the recorder before the integrand
+/// runs. (Record mode reaches it on depth maps only: on a plane the record is
+/// [`footprint`]'s.)
 fn fixed_rule(
     f: &mut impl FnMut(f64, f64, &mut Work) -> f64,
     x0: f64,
@@ -555,7 +550,7 @@ fn fixed_rule(
     y1: f64,
     wk: &mut Work,
 ) {
-    let (nodes, weights) = if wk.kinks_cut && wk.fronto { G2 } else { G3 };
+    let (nodes, weights) = G3;
     let (hx, hy) = (0.5 * (x1 - x0), 0.5 * (y1 - y0));
     let (xm, ym) = (x0 + hx, y0 + hy);
     let area = 4.0 * hx * hy;
@@ -594,11 +589,9 @@ fn over_boxes(
         for j in 1..cy.len() {
             let a = (cx[i] - cx[i - 1]) * (cy[j] - cy[j - 1]);
             if bilinear {
-                // Bilinear between the cuts: the midpoint rule is exact.
+                // Bilinear between the cuts (a fronto-parallel plane, never in record mode):
+                // the midpoint rule is exact.
                 let (xm, ym) = (0.5 * (cx[i - 1] + cx[i]), 0.5 * (cy[j - 1] + cy[j]));
-                if let Some(r) = wk.rec.as_deref_mut() {
-                    r.node = a;
-                }
                 s += a * f(xm, ym, wk);
                 continue;
             }
@@ -708,7 +701,6 @@ fn outer_w(
         );
     }
     let (cx, cy) = box_cuts(wk, (x0, x1), (y0, y1), &kx, &ky);
-    wk.kinks_cut = complete;
     // The rect cell clipped by the pixel's square preimage: a product of intervals (a
     // circle's outer domain is parametrised by φ instead).
     let bilinear = bilinear(scene, separable && !circle, complete);
@@ -930,7 +922,6 @@ fn outer_s(
         );
     }
     let (cx, cy) = box_cuts(wk, (x0, x1), (y0, y1), &kx, &ky);
-    wk.kinks_cut = complete;
     // The rect cell clipped by the square aperture's preimage: a product of intervals.
     let bilinear = bilinear(scene, separable, complete);
     let lv = 1.0 / chan.vl;
@@ -1067,10 +1058,7 @@ fn scene_mean(chan: &Chan, scene: &Scene, c: Pt, w_of: impl Fn(Pt) -> Pt, wk: &m
             let a = a_of(xi, w);
             wk.mapped.push([w[0] - z * a[0], w[1] - z * a[1]]);
         }
-        if let Some(r) = wk.rec.as_deref_mut() {
-            r.add(&wk.mapped, signed_area(&wk.poly));
-            return 0.0;
-        }
+        // (Never in record mode: on a plane the record is `footprint`'s.)
         return scene.texture.average(&wk.mapped, &mut wk.tex);
     }
     // Slanted or curved: hits at the vertices decide how finely to cut.

@@ -560,7 +560,6 @@ fn build_general(
     let ext = grid.extent();
     let lines = crate::texture::ImageTexture::new(&vec![0.0; grid.cells()], grid.ny, grid.nx, ext)?;
     let scene = Scene::new(Texture::Image(Box::new(lines)), surface.clone(), 0.0)?;
-    let fronto = surface.fronto().is_some();
     let mut out = System {
         indptr: vec![0],
         ..System::default()
@@ -579,7 +578,7 @@ fn build_general(
                 .clone()
                 .into_par_iter()
                 .map_init(
-                    || Recorder::new(*grid).map(|r| Work::recording(Box::new(r), fronto)),
+                    || Recorder::new(*grid).map(|r| Work::recording(Box::new(r))),
                     |wk, b| -> Result<System> {
                         let wk = wk.as_mut().map_err(|e| e.clone())?;
                         let mut s = System::default();
