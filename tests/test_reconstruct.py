@@ -477,11 +477,28 @@ def test_too_large_suggests_tiles() -> None:
     from splitlf.reconstruction import _tiles_hint
 
     e = TooLargeError("too large.", what="the map", nbytes=400 * 2**20, limit=100 * 2**20)
-    hint = _tiles_hint(e, 1000, 1000, 10)
+    hint = _tiles_hint(e, 1000, 1000, 10, 0.05)
     side = int(1020 * np.sqrt(0.8 * 100 / 400)) - 20
     assert isinstance(hint, TooLargeError) and hint.bytes == e.bytes
     assert f"tiles of at most {side} x {side} cells (tile={side})" in str(hint)
     assert "1000 x 1000" in str(hint) and hint.tile == side
+
+
+def test_too_large_by_the_padding_suggests_a_coarser_step() -> None:
+    """When the padding alone does not fit (the multi-focus design of docs/compare.md at
+    300 mm: 64 x 64 cells padded by 1,155 per side, 12.2 GB), a tile would be a cell or
+    two: the hint says tiles do not help and names a step sqrt(need / (0.8 limit)) times
+    coarser, and reconstruct's fallback re-raises it rather than tiling."""
+    from splitlf.errors import TooLargeError
+    from splitlf.reconstruction import MIN_TILE, _tiles_hint
+
+    e = TooLargeError("too large.", what="the map", nbytes=12_163_760_088,
+                      limit=11_157_381_120)
+    hint = _tiles_hint(e, 64, 64, 1155, 0.0155)
+    coarse = 0.0155 * np.sqrt(12_163_760_088 / (0.8 * 11_157_381_120))
+    assert hint.tile < MIN_TILE and "tiles would not help" in str(hint)
+    assert f"step={coarse:.3g}" in str(hint) and "tile=" not in str(hint)
+    assert "padded by 1155 per side" in str(hint)
 
 
 @pytest.fixture(scope="module")

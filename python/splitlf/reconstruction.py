@@ -248,15 +248,24 @@ class _Rows:
         return (self.csr, np.ascontiguousarray(w, dtype=np.float64), self.y)
 
 
-def _tiles_hint(e: TooLargeError, nx: int, ny: int, pad: int) -> TooLargeError:
+def _tiles_hint(e: TooLargeError, nx: int, ny: int, pad: int, step: float) -> TooLargeError:
     """``e`` with a suggested tile: the region's cells scaled by the share of the need
-    that fits (each tile is padded by ``pad`` cells of its own, so tiles overlap by that)."""
+    that fits (each tile is padded by ``pad`` cells of its own, so tiles overlap by that).
+    When the padding alone is past what fits (a tile below ``MIN_TILE``), tiles cannot
+    help: a coarser step is suggested instead (a row's entries scale as the inverse square
+    of the step, the pixels do not change)."""
     if not (e.bytes and e.limit) or e.bytes <= 0:
         return e
     scale = math.sqrt(0.8 * e.limit / e.bytes)
     side = max(1, int(math.sqrt((nx + 2 * pad) * (ny + 2 * pad)) * scale) - 2 * pad)
-    msg = (f"{e} The region is {nx} x {ny} cells (padded by {pad} per side): reconstruct "
-           f"it in tiles of at most {side} x {side} cells (tile={side}).")
+    head = f"{e} The region is {nx} x {ny} cells (padded by {pad} per side)"
+    if side < MIN_TILE:
+        coarse = step / scale
+        msg = (f"{head}: tiles would not help, the padding (a pixel's span on the surface, "
+               f"{pad} cells) needs the memory; use a coarser step (at least about "
+               f"{coarse:.3g} mm, step={coarse:.3g}), or fewer channels.")
+    else:
+        msg = f"{head}: reconstruct it in tiles of at most {side} x {side} cells (tile={side})."
     out = TooLargeError(msg, what=e.what, nbytes=e.bytes, limit=e.limit)
     out.tile = side  # type: ignore[attr-defined]
     return out
@@ -504,7 +513,7 @@ def _reconstruct(raw: Raw, depth: Any, *, region: Any, step: float | None,
                     bar.close()
                     bar = None
         except TooLargeError as e:
-            raise _tiles_hint(e, nx, ny, pad) from None
+            raise _tiles_hint(e, nx, ny, pad, h) from None
         rows = sum(int(p.mask.sum()) for p in parts)
         if rows == 0:
             raise InvalidParameter.of(
@@ -522,7 +531,7 @@ def _reconstruct(raw: Raw, depth: Any, *, region: Any, step: float | None,
                 (gny, gnx), lam, factored, explicit, CG_RTOL, CG_MAX_ITER,
                 0.0 if noise_ is None else CG_NOISE_TOL, n_threads, report)
         except TooLargeError as e:
-            raise _tiles_hint(e, nx, ny, pad) from None
+            raise _tiles_hint(e, nx, ny, pad, h) from None
     finally:
         if bar is not None:
             bar.close()
