@@ -67,6 +67,12 @@ def resolution_step(cam, z):
     return cam.d * z / (cam.Q * cam.v1)
 
 
+def sensor_step(cam, z):
+    """delta(z) = mu z / v' (§9's mu_1 z / L_1): the step of the sample counts' merge
+    tolerance and gaps for every design, a Camera too; §6's d z / (Q v') when d = Q mu."""
+    return cam.mu * z / cam.v1
+
+
 def curves(cam, z) -> dict[str, np.ndarray]:
     """docs/model.md §2: Eq. 1, H_i, rep_i, b_i, bounded LF blur, conventional blur."""
     z = np.asarray(z, dtype=np.float64)
@@ -257,13 +263,18 @@ def matched(a: np.ndarray, b: np.ndarray, eps: float) -> int:
 
 def new_samples(cam, z, tol: float = 1e-6):
     """(distinct, distinct_2d, max_gap, sampled) of the chief samples at depths z, as
-    ``splitlf.new_samples`` returns them (docs/model.md §6, docs/samples.md)."""
+    ``splitlf.new_samples`` returns them (docs/model.md §6, docs/samples.md): merged at
+    tol * delta(z) and gaps in delta(z), delta(z) = mu z / v' (§9)."""
     z = np.atleast_1d(np.asarray(z, dtype=float))
     m = z.size
     distinct = np.zeros((3, m), dtype=np.int64)
     d2 = np.zeros((3, m), dtype=np.int64)
     gap = np.zeros((3, m))
-    eps = tol * cam.d / cam.Q  # tol * delta(z) mapped to plane v' (X = -p' z / v')
+    # delta(z) = mu z / v' (§9's mu_1 z / L_1, the step of every design, a Camera too; §6's
+    # d z / (Q v') only when d = Q mu), mapped to plane v' (X = -p' z / v'): mu. Merge
+    # tolerance and gaps are both in that step.
+    step = cam.mu
+    eps = tol * step
     W = cam.Kx * cam.d / 4  # |X| <= Kx d z / (4 v')  <=>  |p'| <= Kx d / 4
     for k, zk in enumerate(z):
         zc = conjugate(cam, zk)
@@ -276,7 +287,7 @@ def new_samples(cam, z, tol: float = 1e-6):
             counts[axis + "i"] = matched(p1, p2, eps)
             if axis == "x":
                 distinct[:, k] = counts["x"]
-                gap[:, k] = [field_gap(p, W) * cam.Q / cam.d for p in (p1, p2, pu)]
+                gap[:, k] = [field_gap(p, W) / step for p in (p1, p2, pu)]
         (x1, x2, _), (y1, y2, _) = counts["x"], counts["y"]
         d2[:, k] = [x1 * y1, x2 * y2, x1 * y1 + x2 * y2 - counts["xi"] * counts["yi"]]
     lit = np.array([cam.Kx * lit_w(cam, h).size for h in (1, 2)])
@@ -286,8 +297,8 @@ def new_samples(cam, z, tol: float = 1e-6):
 def centroid_counts(cam, z: float, positions, tol: float):
     """(counts, gaps, sampled) of the centroid samples at depth z from the footprint
     positions X of half 1 and half 2 (NaN: no sample): sorted and merged with the greedy
-    rule at tol * delta(z), gaps over the central field in delta(z)."""
-    delta = resolution_step(cam, z)
+    rule at tol * delta(z), gaps over the central field in delta(z) = mu z / v' (§9)."""
+    delta = sensor_step(cam, z)
     field = cam.Kx * cam.d * z / (4 * cam.v1)
     pos = [np.sort(x[np.isfinite(x)]) for x in positions]
     pos.append(np.sort(np.concatenate(pos)))

@@ -51,7 +51,7 @@ def test_counted_equals_eqs_8_9_on_every_plane(name, half):
         assert t.new_samples[i] == nx * ny
         assert t.counted[i] == t.new_samples[i], (name, half, N, T, t.side[i])
         # The count itself, redone by the NumPy reference (sort and merge, x and y).
-        eps = 1e-6 * cam.d / cam.Q
+        eps = 1e-6 * cam.mu  # tol * delta(z) on plane v', delta = mu z / v' (§9)
         cx = ref.greedy_count(np.sort(ref.chief_p(cam, half, cam.Kx, t.conjugate[i]).ravel()), eps)
         cy = ref.greedy_count(np.sort(ref.chief_p(cam, half, cam.Ky, t.conjugate[i]).ravel()), eps)
         assert cx * cy == t.counted[i]
@@ -138,12 +138,6 @@ def test_union_bounds(name):
     assert np.all(r.distinct[:2] <= r.sampled[:2, None])
 
 
-def _step_ratio(cam) -> float:
-    """The reference's gaps are in the paper's step d z / (Q v') (docs/model.md §6); the
-    engine's in the sensor step mu_1 z / L_1 of every design (§9): equal when d = Q mu."""
-    return cam.d / (cam.Q * cam.mu)
-
-
 @pytest.mark.parametrize("name", DESIGNS)
 def test_matches_numpy_reference(name):
     cam = DESIGNS[name]()
@@ -155,7 +149,7 @@ def test_matches_numpy_reference(name):
     np.testing.assert_array_equal(r.distinct, distinct)
     np.testing.assert_array_equal(r.sampled, lit)
     np.testing.assert_array_equal(np.isinf(r.max_gap), np.isinf(gap))
-    np.testing.assert_allclose(r.max_gap, gap * _step_ratio(cam), rtol=1e-9)
+    np.testing.assert_allclose(r.max_gap, gap, rtol=1e-9)
     assert r.distinct.dtype == np.int64 and r.max_gap.shape == (3, z.size)
 
 
@@ -219,7 +213,32 @@ def test_property_matches_reference(cam, t):
     distinct, _, gap, lit = ref.new_samples(cam, z)
     np.testing.assert_array_equal(r.distinct, distinct)
     np.testing.assert_array_equal(r.sampled, lit)
-    np.testing.assert_allclose(r.max_gap, gap * _step_ratio(cam), rtol=1e-9)
+    np.testing.assert_allclose(r.max_gap, gap, rtol=1e-9)
+
+
+def test_near_coincident_channels_merge_at_the_sensor_step():
+    """Regression (a Hypothesis example): channels at L = 52 and 52.0000062 mm, one pixel
+    per lens (w = 0), so half 2's sample j is (v'/L_2) c_j, |c_j| (1 - v'/L_2) = 5.37e-8,
+    4.17e-8, ... mm from half 1's on plane v' for |c_j| = 0.45, 0.35, ... mm. The merge
+    tolerance is tol * delta(z) with delta(z) = mu_1 z / L_1 for every design, a Camera too
+    (docs/model.md §9): 1e-6 * mu = 5e-8 mm here, so the outermost pairs (|c_j| = 0.45 mm)
+    stay apart and the union counts 10 + 2 = 12 at every depth. In §6's step d z / (Q v')
+    (d = 2 Q mu here: 1e-7 mm) every pair would merge, 10: the reference once merged in
+    that step while the core merged in mu_1 z / L_1."""
+    cam = Camera(F=50.0, D=2.65, v1=52.0, kappa=0.0000062 / 52.0, d=0.1, v=1.0, mu=0.05,
+                 Q=1, Kx=10, Ky=1)
+    assert cam.v1 * (1 + cam.kappa) == pytest.approx(52.0000062, abs=1e-9)
+    z = [cam.F * 2.0, cam.out_of_focus_depth(1), cam.out_of_focus_depth(2)]
+    r = splitlf.new_samples(cam, z)
+    distinct, _, gap, lit = ref.new_samples(cam, z)
+    np.testing.assert_array_equal(r.distinct, [[10] * 3, [10] * 3, [12] * 3])
+    np.testing.assert_array_equal(r.distinct, distinct)
+    np.testing.assert_array_equal(r.sampled, lit)
+    np.testing.assert_allclose(r.max_gap, gap, rtol=1e-9)
+    # In units of d z / (Q v') (tol twice as large here) all ten pairs merge.
+    wide = splitlf.new_samples(cam, z, tol=1e-6 * cam.d / (cam.Q * cam.mu))
+    np.testing.assert_array_equal(wide.distinct, [[10] * 3] * 3)
+    np.testing.assert_array_equal(wide.distinct, ref.new_samples(cam, z, tol=2e-6)[0])
 
 
 @settings(max_examples=40, deadline=None)

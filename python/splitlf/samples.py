@@ -204,7 +204,8 @@ def new_samples(
         camera: a :class:`splitlf.Design` (a :class:`splitlf.Camera` is one) (every channel on
             a rect grid; ideal or sensor layout).
         z: depths in mm: a number or any 1-D array-like (m,), each finite and > F.
-        tol: merge tolerance in units of delta(z) = d z / (Q v') (Design: mu_1 z / L_1),
+        tol: merge tolerance in units of delta(z) = mu_1 z / L_1 (docs/model.md §9; for a
+            Camera mu z / v', which is §6's d z / (Q v') only when d = Q mu),
             finite and >= 0
             (default ``DEFAULT_TOL`` = 1e-6; 0 merges only equal positions).
         sample: ``"chief"`` (default: the chief ray's projection, the paper's convention;

@@ -10,6 +10,11 @@
 //! - the central field |X| ≤ K_x d_1 z / (4 L_1) is |p'| ≤ K_x d_1 / 4,
 //! - a gap g in p' is g / μ_1 in units of δ(z).
 //!
+//! This δ is the one step of every design, a Camera too: for a camera it is μ z / v',
+//! docs/model.md §6's d z / (Q v') only when d = Q μ. Where positions are a fraction of the
+//! tolerance apart (channels whose array planes differ by a few ppm) the count depends on
+//! it; it is μ_1, for the tolerance as for the gaps.
+//!
 //! Merge rule: the distinct count of a set of positions is the least number of closed
 //! intervals of length `tol · δ(z)` that cover it (computed greedily on the sorted positions:
 //! a position opens a new sample when it lies more than `tol · δ(z)` beyond the first
@@ -1167,6 +1172,34 @@ mod tests {
             assert!(g(2) <= g(0).min(g(1)));
         }
         assert_eq!(a.sampled, [266 * 15, 266 * 11, 266 * 26]);
+    }
+
+    #[test]
+    fn near_coincident_channels_merge_in_mu_1() {
+        // L = 52 and 52.0000062 mm, Q = 1 (w = 0): half 2's samples are (L_1/L_2) c_j,
+        // |c_j| (1 − L_1/L_2) = 5.37e-8, 4.17e-8, … mm from half 1's. tol · μ_1 = 5e-8 keeps
+        // the outermost pairs apart (10 + 2); tol · d/Q = 1e-7 (d = 2 Q μ) would merge all.
+        let d = Camera::new(
+            50.0,
+            2.65,
+            52.0,
+            6.2e-6 / 52.0,
+            0.1,
+            1.0,
+            0.05,
+            1,
+            10,
+            1,
+            None,
+            None,
+        )
+        .unwrap()
+        .design();
+        let z = [100.0, 2600.0];
+        let r = design_new_samples(&d, &z, 1e-6, Sample::Chief, Some(1)).unwrap();
+        assert_eq!(r.distinct, [10, 10, 10, 10, 12, 12]);
+        let r = design_new_samples(&d, &z, 2e-6, Sample::Chief, Some(1)).unwrap();
+        assert_eq!(r.distinct, [10; 6]);
     }
 
     #[test]
