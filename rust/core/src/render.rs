@@ -225,6 +225,14 @@ impl<'a> Chan<'a> {
         v
     }
 
+    /// The half-side of a box holding the main lens's aperture (a disc's: its polygon's).
+    pub(crate) fn aperture_box(&self) -> f64 {
+        match self.shape {
+            Aperture::Square => self.r_ap,
+            Aperture::Circle => self.r_ap * self.ngon[0][0],
+        }
+    }
+
     /// Does the type's α call for the outer-w rule (its cell's image narrower than a pixel)?
     fn outer_w(&self, alpha: f64) -> bool {
         alpha.abs() * 2.0 * self.hx < self.ch.mu
@@ -250,6 +258,9 @@ pub(crate) struct Work {
     zs: Vec<f64>,
     /// Record mode on a plane: [`footprint`]'s buffers.
     fp: footprint::Scratch,
+    /// Record mode on a depth map: every ray meets it at most once
+    /// ([`crate::scene::DepthMap::seen_once`]), so [`footprint`] records it too.
+    map_once: bool,
 }
 
 impl Work {
@@ -261,11 +272,18 @@ impl Work {
         }
     }
 
-    /// A worker in record mode. On a plane the record is [`footprint`]'s, which has rules
-    /// of its own; elsewhere (a depth map) the surface is not fronto-parallel.
-    pub(crate) fn recording(rec: Box<crate::cells::Recorder>) -> Work {
+    /// A worker in record mode for the surface `surface` of a scene seen through `chan`.
+    /// On a plane, and on a depth map that every ray meets at most once, the record is
+    /// [`footprint`]'s, which has rules of its own; on another depth map (never
+    /// fronto-parallel) it is the render's own integral's, which takes first hits.
+    pub(crate) fn recording(
+        rec: Box<crate::cells::Recorder>,
+        chan: &Chan,
+        surface: &Surface,
+    ) -> Work {
         Work {
             rec: Some(rec),
+            map_once: matches!(surface, Surface::Map(m) if m.seen_once(chan.aperture_box())),
             ..Work::new(false)
         }
     }
@@ -444,10 +462,18 @@ fn lens_contribution(
     let (alpha, _) = chan.types[t];
     let mu = chan.ch.mu;
     let e = [chan.m * c[0] - s_pix[0], chan.m * c[1] - s_pix[1]];
-    if let (Some(rec), Surface::Plane { z0, g }) = (wk.rec.as_deref_mut(), &scene.surface) {
-        // Record mode on a plane: the footprint density over the grid's cells.
-        footprint::record(chan, c, alpha, e, *z0, *g, rec, &mut wk.fp);
-        return 0.0;
+    if let Some(rec) = wk.rec.as_deref_mut() {
+        // Record mode on a plane, or on a depth map every ray meets at most once: the
+        // footprint density over the grid's cells.
+        let surf = match &scene.surface {
+            Surface::Plane { z0, g } => Some(footprint::Surf::Plane { z0: *z0, g: *g }),
+            Surface::Map(m) if wk.map_once => Some(footprint::Surf::Map(m)),
+            Surface::Map(_) => None,
+        };
+        if let Some(surf) = surf {
+            footprint::record(chan, c, alpha, e, surf, rec, &mut wk.fp);
+            return 0.0;
+        }
     }
     if chan.outer_w(alpha) {
         outer_w(chan, scene, tol, c, alpha, e, mu, wk)

@@ -120,6 +120,120 @@ impl DepthMap {
     }
 }
 
+impl DepthMap {
+    /// h(X, Y) and its gradient at any point: inside the extent the surface's own (the
+    /// gradient of the bilinear patch holding p, the patch on the larger-coordinate side
+    /// on a line between patches); beyond it, the surface continued as it is at the
+    /// extent's edge (p clamped to the extent; there is no surface there, and the
+    /// continuation only tells where the rays that miss the surface go).
+    pub fn depth_grad(&self, p: Pt) -> (f64, Pt) {
+        let x = p[0].clamp(self.x0, self.x1);
+        let y = p[1].clamp(self.y0, self.y1);
+        // (lower sample, upper sample, fraction, d fraction / d coordinate).
+        let axis = |t: f64, n: usize, h: f64| -> (usize, usize, f64, f64) {
+            if n == 1 || t < 0.0 {
+                return (0, 0, 0.0, 0.0);
+            }
+            let m = (n - 1) as f64;
+            if t >= m {
+                return (n - 1, n - 1, 0.0, 0.0);
+            }
+            let i = t.floor() as usize;
+            (i, i + 1, t - i as f64, 1.0 / h)
+        };
+        let (i0, i1, fx, dx) = axis((x - self.x0) / self.hx - 0.5, self.cols, self.hx);
+        let (b0, b1, fy, dy) = axis((y - self.y0) / self.hy - 0.5, self.rows, self.hy);
+        let v = |b: usize, i: usize| self.z[b * self.cols + i];
+        let lo = v(b0, i0) * (1.0 - fx) + v(b0, i1) * fx;
+        let hi = v(b1, i0) * (1.0 - fx) + v(b1, i1) * fx;
+        let gx = ((v(b0, i1) - v(b0, i0)) * (1.0 - fy) + (v(b1, i1) - v(b1, i0)) * fy) * dx;
+        let gy = (hi - lo) * dy;
+        (lo * (1.0 - fy) + hi * fy, [gx, gy])
+    }
+
+    /// Bounds (least, greatest) on h over the box [X0, X1, Y0, Y1] (clamped to the
+    /// extent, as `depth_grad` continues it): the samples of every patch that meets it.
+    pub fn range_over(&self, b: [f64; 4]) -> (f64, f64) {
+        let idx = |lo: f64, hi: f64, o: f64, h: f64, n: usize| -> (usize, usize) {
+            let m = (n - 1) as f64;
+            let a = ((lo - o) / h - 0.5).floor().clamp(0.0, m);
+            let b = ((hi - o) / h - 0.5).ceil().clamp(0.0, m);
+            (a as usize, b as usize)
+        };
+        let (i0, i1) = idx(b[0], b[1], self.x0, self.hx, self.cols);
+        let (r0, r1) = idx(b[2], b[3], self.y0, self.hy, self.rows);
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for r in r0..=r1 {
+            for &v in &self.z[r * self.cols + i0..=r * self.cols + i1] {
+                lo = lo.min(v);
+                hi = hi.max(v);
+            }
+        }
+        (lo, hi)
+    }
+
+    /// The sample-centre lines along one axis (0: X, 1: Y), where the surface's gradient
+    /// may jump: (first line, spacing, count).
+    pub fn creases(&self, axis: usize) -> (f64, f64, usize) {
+        if axis == 0 {
+            (self.x0 + 0.5 * self.hx, self.hx, self.cols)
+        } else {
+            (self.y0 + 0.5 * self.hy, self.hy, self.rows)
+        }
+    }
+
+    /// Does every ray from a main-lens point w with |w_x|, |w_y| ≤ `r` meet the surface at
+    /// most once? So it does when the surface faces every such w everywhere: g · (P − w)
+    /// < h(P), g the gradient at P (along the line from w through P's foot, t / h(P(t))
+    /// then grows strictly, so no two points of the surface lie on one ray; the extent is
+    /// convex). Checked per bilinear patch with interval bounds (the gradient's range over
+    /// the patch times P − w's), with a margin of 1 % of the patch's least depth.
+    pub fn seen_once(&self, r: f64) -> bool {
+        let (cols, rows) = (self.cols, self.rows);
+        let v = |b: usize, i: usize| self.z[b * cols + i];
+        let span = |a: [f64; 2], b: [f64; 2]| {
+            let q = [a[0] * b[0], a[0] * b[1], a[1] * b[0], a[1] * b[1]];
+            q.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+        };
+        // Patches between centres (b, i)..(b + 1, i + 1); one row or column: its own.
+        for b in 0..rows.saturating_sub(1).max(1) {
+            for i in 0..cols.saturating_sub(1).max(1) {
+                let (b1, i1) = ((b + 1).min(rows - 1), (i + 1).min(cols - 1));
+                let gx = if i1 > i {
+                    let (p, q) = (
+                        (v(b, i1) - v(b, i)) / self.hx,
+                        (v(b1, i1) - v(b1, i)) / self.hx,
+                    );
+                    [p.min(q), p.max(q)]
+                } else {
+                    [0.0, 0.0]
+                };
+                let gy = if b1 > b {
+                    let (p, q) = (
+                        (v(b1, i) - v(b, i)) / self.hy,
+                        (v(b1, i1) - v(b, i1)) / self.hy,
+                    );
+                    [p.min(q), p.max(q)]
+                } else {
+                    [0.0, 0.0]
+                };
+                // The patch's X and Y ranges (the border strips' gradient is 0).
+                let xa = self.x0 + (i as f64 + 0.5) * self.hx;
+                let xb = self.x0 + (i1 as f64 + 0.5) * self.hx;
+                let ya = self.y0 + (b as f64 + 0.5) * self.hy;
+                let yb = self.y0 + (b1 as f64 + 0.5) * self.hy;
+                let zmin = v(b, i).min(v(b, i1)).min(v(b1, i)).min(v(b1, i1));
+                let lead = span(gx, [xa - r, xb + r]) + span(gy, [ya - r, yb + r]);
+                // (NaN fails too.)
+                if lead.partial_cmp(&(0.99 * zmin)) != Some(std::cmp::Ordering::Less) {
+                    return false;
+                }
+            }
+        }
+        true
+    }
+}
+
 /// The surface of a scene.
 #[derive(Debug, Clone)]
 pub enum Surface {
@@ -303,5 +417,144 @@ impl Scene {
             surface,
             background,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A map of `f` sampled at the centres of rows × cols cells over `ext` (row 0 at the
+    /// top).
+    fn sampled(f: impl Fn(f64, f64) -> f64, rows: usize, cols: usize, ext: [f64; 4]) -> DepthMap {
+        let (hx, hy) = (
+            (ext[1] - ext[0]) / cols as f64,
+            (ext[3] - ext[2]) / rows as f64,
+        );
+        let mut v = Vec::new();
+        for r in 0..rows {
+            for c in 0..cols {
+                v.push(f(
+                    ext[0] + (c as f64 + 0.5) * hx,
+                    ext[3] - (r as f64 + 0.5) * hy,
+                ));
+            }
+        }
+        DepthMap::new(&v, rows, cols, ext).unwrap()
+    }
+
+    #[test]
+    fn depth_grad_is_the_bilinear_surface_and_its_slope() {
+        let m = sampled(
+            |x, y| 500.0 + 3.0 * x * x - 2.0 * x * y + 7.0 * y,
+            7,
+            9,
+            [-2.0, 2.5, -1.0, 2.0],
+        );
+        let h = 1e-6;
+        for &(x, y) in &[
+            (0.1, 0.2),
+            (-1.7, 1.8),
+            (2.1, -0.7),
+            (0.33, 0.41),
+            (-0.6, -0.05),
+        ] {
+            let (z, g) = m.depth_grad([x, y]);
+            assert_eq!(Some(z), m.depth([x, y]));
+            for (i, d) in [[h, 0.0], [0.0, h]].iter().enumerate() {
+                let fd = (m.depth([x + d[0], y + d[1]]).unwrap()
+                    - m.depth([x - d[0], y - d[1]]).unwrap())
+                    / (2.0 * h);
+                assert!(
+                    (g[i] - fd).abs() < 1e-6,
+                    "({x}, {y}) axis {i}: {} vs {fd}",
+                    g[i]
+                );
+            }
+        }
+        // Beyond the extent: the edge's depth, flat across it.
+        let (z, g) = m.depth_grad([3.5, 0.2]);
+        assert_eq!(Some(z), m.depth([2.5, 0.2]));
+        assert_eq!(g[0], 0.0);
+        // On a plane the bilinear map is the plane inside the outer centres.
+        let p = sampled(
+            |x, y| 800.0 + 0.3 * x + 2.0 * y,
+            5,
+            5,
+            [-1.0, 1.0, -1.0, 1.0],
+        );
+        let (z, g) = p.depth_grad([0.31, -0.47]);
+        assert!((z - (800.0 + 0.3 * 0.31 - 2.0 * 0.47)).abs() < 1e-9);
+        assert!((g[0] - 0.3).abs() < 1e-12 && (g[1] - 2.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn range_over_bounds_the_surface_on_a_box() {
+        let m = sampled(
+            |x, y| 600.0 + 40.0 * (x * 1.3).sin() * (y * 0.7).cos(),
+            20,
+            30,
+            [-3.0, 3.0, -2.0, 2.0],
+        );
+        for b in [
+            [-0.4, 0.9, -1.1, 0.3],
+            [2.0, 5.0, 1.5, 4.0],
+            [-9.0, -8.0, -0.1, 0.1],
+            [-1.0, 1.0, -1.0, 1.0],
+        ] {
+            let (lo, hi) = m.range_over(b);
+            let (mut a, mut z) = (f64::INFINITY, f64::NEG_INFINITY);
+            for i in 0..=40 {
+                for j in 0..=40 {
+                    let p = [
+                        b[0] + (b[1] - b[0]) * i as f64 / 40.0,
+                        b[2] + (b[3] - b[2]) * j as f64 / 40.0,
+                    ];
+                    let v = m.depth_grad(p).0;
+                    a = a.min(v);
+                    z = z.max(v);
+                }
+            }
+            assert!(lo <= a && z <= hi, "{b:?}: [{lo}, {hi}] against [{a}, {z}]");
+            // Not the whole map's range for a small box.
+            if b[1] - b[0] < 2.0 {
+                assert!(hi - lo < m.zmax - m.zmin, "{b:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn seen_once_is_the_facing_condition() {
+        // A ramp in X over [0, 2] × [0, 1] (centres at X = 0.5, 1.5): gradient g, depth
+        // z0 at X = 0.5. With |w| <= r = 1 the worst case is g (1.5 + r) against 0.99 z0:
+        // g < 39.6 for z0 = 100.
+        let ramp = |g: f64| {
+            DepthMap::new(
+                &[100.0, 100.0 + g, 100.0, 100.0 + g],
+                2,
+                2,
+                [0.0, 2.0, 0.0, 1.0],
+            )
+            .unwrap()
+        };
+        assert!(ramp(39.0).seen_once(1.0));
+        assert!(!ramp(40.0).seen_once(1.0));
+        // A descent: g (X − w) is largest at X = 0.5, w = 1 (g = −20: 10 against 0.99 ×
+        // 80, the patch's least depth). Its mirror image over [−2, 0] climbs towards the
+        // axis: 40 (1.5 + r) against 99.
+        assert!(ramp(-20.0).seen_once(1.0));
+        let mirror = DepthMap::new(
+            &[100.0 + 40.0, 100.0, 100.0 + 40.0, 100.0],
+            2,
+            2,
+            [-2.0, 0.0, 0.0, 1.0],
+        )
+        .unwrap();
+        assert!(!mirror.seen_once(1.0));
+        assert!(mirror.seen_once(0.5)); // 40 (1.5 + 0.5) = 80 < 99
+                                        // A single sample: flat, always seen once.
+        assert!(DepthMap::new(&[50.0], 1, 1, [0.0, 1.0, 0.0, 1.0])
+            .unwrap()
+            .seen_once(100.0));
     }
 }

@@ -578,7 +578,7 @@ fn build_general(
                 .clone()
                 .into_par_iter()
                 .map_init(
-                    || Recorder::new(*grid).map(|r| Work::recording(Box::new(r))),
+                    || Recorder::new(*grid).map(|r| Work::recording(Box::new(r), &chan, surface)),
                     |wk, b| -> Result<System> {
                         let wk = wk.as_mut().map_err(|e| e.clone())?;
                         let mut s = System::default();

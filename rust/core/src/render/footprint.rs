@@ -48,6 +48,7 @@ use super::Chan;
 use crate::cells::Recorder;
 use crate::design::Aperture;
 use crate::polygon::Pt;
+use crate::scene::DepthMap;
 
 /// Quarterings before the refined rule may be accepted on its agreement with the coarser
 /// one: the two can agree by chance on a sub-cell that an edge of W crosses (measured on
@@ -89,7 +90,16 @@ pub(crate) struct Scratch {
     extra: [Vec<f64>; 2],
 }
 
-/// One pixel seen through one lens on one plane.
+/// The surface a footprint is taken on: the plane Z = z0 + g · P, or a depth map that
+/// every ray meets at most once ([`DepthMap::seen_once`]), continued beyond its extent
+/// ([`DepthMap::depth_grad`]) only to find the rays that miss it.
+#[derive(Clone, Copy)]
+pub(crate) enum Surf<'m> {
+    Plane { z0: f64, g: Pt },
+    Map(&'m DepthMap),
+}
+
+/// One pixel seen through one lens on one surface.
 struct Lens<'a> {
     chan: &'a Chan<'a>,
     c: Pt,
@@ -97,8 +107,7 @@ struct Lens<'a> {
     /// The pixel's σ range per axis.
     lo: Pt,
     hi: Pt,
-    z0: f64,
-    g: Pt,
+    surf: Surf<'a>,
     /// The lens cell as half-planes n · ξ ≤ d (n, d + n · c).
     cell: Vec<(Pt, f64)>,
 }
@@ -126,7 +135,7 @@ fn clip(src: &[(Pt, u8)], out: &mut Vec<(Pt, u8)>, a: Pt, b: f64, label: u8) {
 }
 
 impl<'a> Lens<'a> {
-    fn new(chan: &'a Chan<'a>, c: Pt, alpha: f64, e: Pt, z0: f64, g: Pt) -> Lens<'a> {
+    fn new(chan: &'a Chan<'a>, c: Pt, alpha: f64, e: Pt, surf: Surf<'a>) -> Lens<'a> {
         let mu = chan.ch.mu;
         let cell = chan
             .cell
@@ -145,33 +154,37 @@ impl<'a> Lens<'a> {
             alpha,
             lo: [-e[0] - mu / 2.0, -e[1] - mu / 2.0],
             hi: [-e[0] + mu / 2.0, -e[1] + mu / 2.0],
-            z0,
-            g,
+            surf,
             cell,
         }
     }
 }
 
 impl Lens<'_> {
-    /// The plane's depth at P.
+    /// The surface's depth at P.
     fn depth(&self, p: Pt) -> f64 {
-        self.z0 + self.g[0] * p[0] + self.g[1] * p[1]
+        self.depth_grad(p).0
+    }
+
+    /// The surface's depth and gradient at P.
+    fn depth_grad(&self, p: Pt) -> (f64, Pt) {
+        match self.surf {
+            Surf::Plane { z0, g } => (z0 + g[0] * p[0] + g[1] * p[1], g),
+            Surf::Map(m) => m.depth_grad(p),
+        }
     }
 
     /// ρ(P) (before the channel's norm) and the signature of W(P): the bits of the labels
     /// of its edges (0 and 0 when W(P) is empty).
     fn eval(&self, p: Pt, s: &mut Scratch) -> (f64, u32) {
         let chan = self.chan;
-        let z = self.depth(p);
+        let (z, grad) = self.depth_grad(p);
         let l = chan.ch.l;
         let gl = z / l;
         let bz = 1.0 - z / chan.f_main + z / l;
         // The axis-aligned constraints make a box (each side labelled with the constraint
         // it comes from); the slanted ones clip it.
-        let rb = match chan.shape {
-            Aperture::Square => chan.r_ap,
-            Aperture::Circle => chan.r_ap * chan.ngon[0][0],
-        };
+        let rb = chan.aperture_box();
         let mut lo = [(-rb, AP + 3), (-rb, AP)];
         let mut hi = [(rb, AP + 1), (rb, AP + 2)];
         let mut slanted = [([0.0; 2], 0.0, 0u8); 6];
@@ -277,12 +290,13 @@ impl Lens<'_> {
             return (0.0, 0);
         }
         let jac = (l / z) * (l / z);
-        let f = if self.g == [0.0, 0.0] {
+        let f = if grad == [0.0, 0.0] {
             area
         } else {
-            // ∫ (1 − g · (P − w)/Z) dw = area (1 − g · (P − w̄)/Z).
+            // ∫ (1 − g · (P − w)/Z) dw = area (1 − g · (P − w̄)/Z), g the local gradient (on
+            // a depth map the ray map's Jacobian is the tangent plane's).
             let wbar = [o[0] + mx / (3.0 * ar), o[1] + my / (3.0 * ar)];
-            area * (1.0 - (self.g[0] * (p[0] - wbar[0]) + self.g[1] * (p[1] - wbar[1])) / z)
+            area * (1.0 - (grad[0] * (p[0] - wbar[0]) + grad[1] * (p[1] - wbar[1])) / z)
         };
         (jac * f, sig)
     }
@@ -370,11 +384,14 @@ impl Lens<'_> {
     /// (1 + g · a), a = w/F + (c + ξ − w)/L the ray's slope, with numerator and denominator
     /// bounded over the sets (interval arithmetic); None when the denominator may vanish.
     fn hit_depths(&self, sets: &[Vec<Pt>; 2]) -> Option<(f64, f64)> {
+        let Surf::Plane { z0, g: grad } = self.surf else {
+            return None;
+        };
         let chan = self.chan;
         let (f, l) = (chan.f_main, chan.ch.l);
-        let (mut num, mut den) = ([self.z0, self.z0], [1.0, 1.0]);
+        let (mut num, mut den) = ([z0, z0], [1.0, 1.0]);
         for (i, set) in sets.iter().enumerate() {
-            let g = self.g[i];
+            let g = grad[i];
             let range = |v: &dyn Fn(&Pt) -> f64| {
                 let (lo, hi) = set
                     .iter()
@@ -462,57 +479,85 @@ fn clip_disc(chan: &Chan, a: &mut Vec<(Pt, u8)>, b: &mut Vec<(Pt, u8)>) {
 }
 
 /// Record one lens's share of a pixel (lens centre c, type α, e = m c − s the pixel's
-/// offset) on the plane Z = z0 + g · P into `rec`: each grid cell's ∫ ρ. A lit node off
-/// the grid, or on a tilted plane rays that cannot meet it on the grid or its margin, mark
-/// the row as not kept.
+/// offset) on the surface `surf` into `rec`: each grid cell's ∫ ρ. A lit node off the grid
+/// (or off a depth map's extent, where the rays miss the surface), or on a tilted plane
+/// rays that cannot meet it on the grid or its margin, mark the row as not kept.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn record(
     chan: &Chan,
     c: Pt,
     alpha: f64,
     e: Pt,
-    z0: f64,
-    g: Pt,
+    surf: Surf,
     rec: &mut Recorder,
     s: &mut Scratch,
 ) {
     if rec.lost() {
         return;
     }
-    let lens = Lens::new(chan, c, alpha, e, z0, g);
+    let lens = Lens::new(chan, c, alpha, e, surf);
     let Some(sets) = lens.axis_sets() else {
         return;
     };
-    if g == [0.0, 0.0] {
+    let grid = *rec.grid();
+    let mut keep = grid.extent();
+    if let Surf::Plane { z0, g: [0.0, 0.0] } = surf {
         let bx = lens.reach(&sets, z0, z0);
-        integrate(&lens, bx, bx, w_ranges(&sets), rec, s);
+        integrate(&lens, bx, bx, keep, w_ranges(&sets), rec, s);
         return;
     }
-    // A tilted plane. A ray of the pixel that meets the plane on the grid does so at a
-    // depth in the plane's range over the grid and in the rays' bounds; and if some of the
-    // rays meet it on the grid and some off it, some meet it just off the grid's edge (the
-    // hits are connected), at depths in the range over the grid widened by a margin. The
-    // footprint's box over those depths, cut to the grid widened by the margin, holds both.
-    let grid = *rec.grid();
+    // A tilted plane or a depth map. A ray of the pixel that meets the surface on the grid
+    // does so at a depth in the surface's range over the grid and in the rays' bounds;
+    // and if some of the rays meet it on the grid and some off it, some meet it just off
+    // the grid's edge (the hits are connected), at depths in the range over the grid
+    // widened by a margin. The footprint's box over those depths, cut to the grid widened
+    // by the margin, holds both.
     let m = grid.step;
-    let [x0, x1, y0, y1] = grid.extent();
+    let [x0, x1, y0, y1] = keep;
     let wide = [x0 - m, x1 + m, y0 - m, y1 + m];
-    let d = [
-        [wide[0], wide[2]],
-        [wide[0], wide[3]],
-        [wide[1], wide[2]],
-        [wide[1], wide[3]],
-    ]
-    .map(|p| lens.depth(p));
-    let (mut z1, mut z2) = (
-        d.iter().copied().fold(f64::INFINITY, f64::min),
-        d.iter().copied().fold(f64::NEG_INFINITY, f64::max),
-    );
+    let (mut z1, mut z2) = match surf {
+        Surf::Plane { .. } => {
+            let d = [
+                [wide[0], wide[2]],
+                [wide[0], wide[3]],
+                [wide[1], wide[2]],
+                [wide[1], wide[3]],
+            ]
+            .map(|p| lens.depth(p));
+            (
+                d.iter().copied().fold(f64::INFINITY, f64::min),
+                d.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            )
+        }
+        Surf::Map(dm) => {
+            // The map's range over the widened grid (its continuation beyond the extent
+            // stays in the extent's range), then twice over the footprint's box in that
+            // range (the hits lie in it, so their depths in the map's range there); rays
+            // that land beyond the extent miss the surface.
+            let [mx0, mx1, my0, my1] = dm.extent();
+            keep = [x0.max(mx0), x1.min(mx1), y0.max(my0), y1.min(my1)];
+            let mut zr = dm.range_over(wide);
+            for _ in 0..2 {
+                let r = lens.reach(&sets, zr.0, zr.1);
+                let b = [
+                    r[0].max(wide[0]),
+                    r[1].min(wide[1]),
+                    r[2].max(wide[2]),
+                    r[3].min(wide[3]),
+                ];
+                if !(b[0] < b[1] && b[2] < b[3]) {
+                    break;
+                }
+                zr = dm.range_over(b);
+            }
+            zr
+        }
+    };
     if let Some((h1, h2)) = lens.hit_depths(&sets) {
         (z1, z2) = (z1.max(h1), z2.min(h2));
     }
-    if z1.is_nan() || z2.is_nan() || z1 > z2 {
-        // The rays meet the plane off the grid and its margin.
+    if z1.is_nan() || z2.is_nan() || z1 > z2 || !(keep[0] < keep[1] && keep[2] < keep[3]) {
+        // The rays meet the surface off the grid and its margin.
         rec.lose();
         return;
     }
@@ -533,6 +578,7 @@ pub(crate) fn record(
         &lens,
         bx,
         lens.reach(&sets, zm, zm),
+        keep,
         w_ranges(&sets),
         rec,
         s,
@@ -546,6 +592,7 @@ fn integrate(
     lens: &Lens,
     bx: [f64; 4],
     size: [f64; 4],
+    keep: [f64; 4],
     wr: [[f64; 2]; 2],
     rec: &mut Recorder,
     s: &mut Scratch,
@@ -584,6 +631,27 @@ fn integrate(
                 .filter(|&t| t > lo && t < hi),
         );
     }
+    if let Surf::Map(m) = lens.surf {
+        // A depth map's gradient jumps on its sample-centre lines: where they are no
+        // finer than the lattice, each as two lines a hair apart, as above.
+        for (axis, lines, q) in [(0, &mut xs, qx), (1, &mut ys, qy)] {
+            let (first, step, n) = m.creases(axis);
+            if step < q {
+                continue;
+            }
+            let (a, b) = (lines[0], lines[lines.len() - 1]);
+            let (lo, hi) = (a.min(b), a.max(b));
+            let k0 = (((lo - first) / step).ceil().max(0.0)) as usize;
+            let eps = SLIVER * q;
+            for k in k0..n {
+                let t = first + k as f64 * step;
+                if t >= hi {
+                    break;
+                }
+                lines.extend([t - eps, t + eps].into_iter().filter(|&u| u > lo && u < hi));
+            }
+        }
+    }
     s.extra = extra;
     xs.sort_by(f64::total_cmp);
     xs.dedup_by(|a, b| (*a - *b).abs() <= 1e-12 * qx);
@@ -594,8 +662,9 @@ fn integrate(
     nodes.clear();
     nodes.resize((ni + 1) * (nj + 1), (0.0, UNSET));
     let idx = |i: usize, j: usize| j * (ni + 1) + i;
-    // The nodes off the grid first: light at any of them and the row cannot be kept.
-    let [ex0, ex1, ey0, ey1] = grid.extent();
+    // The nodes off the grid (or a depth map's extent) first: light at any of them and
+    // the row cannot be kept.
+    let [ex0, ex1, ey0, ey1] = keep;
     let mut lost = false;
     if bx[0] < ex0 || bx[1] > ex1 || bx[2] < ey0 || bx[3] > ey1 {
         'off: for j in 0..=nj {
@@ -835,7 +904,7 @@ mod tests {
                     let e = [-px.theta[0], -px.theta[1]];
                     // A grid holding every hit: the footprint's box over the rays' depth
                     // bounds, widened by a fifth each side.
-                    let lens = Lens::new(&chan, c, alpha, e, z0, g);
+                    let lens = Lens::new(&chan, c, alpha, e, Surf::Plane { z0, g });
                     let Some(sets) = lens.axis_sets() else {
                         assert_eq!(want, 0.0);
                         continue;
@@ -858,7 +927,15 @@ mod tests {
                     }
                     let mut rec = Recorder::new(grid).unwrap();
                     rec.reset(chan.norm);
-                    record(&chan, c, alpha, e, z0, g, &mut rec, &mut Scratch::default());
+                    record(
+                        &chan,
+                        c,
+                        alpha,
+                        e,
+                        Surf::Plane { z0, g },
+                        &mut rec,
+                        &mut Scratch::default(),
+                    );
                     assert!(
                         !rec.lost() && rec.outside == 0.0,
                         "channel {ci} z {z0} g {g:?} pixel ({a}, {b})"
