@@ -9,8 +9,9 @@ Per depth band (make_fig2_slanted's eight bands):
    cells (least squares, refitted three times without the cells beyond 3 robust
    deviations). Its tilt in X is dropped: the fast tilted route takes planes tilted about
    the X axis only (the depth change it drops over the band's half-width is recorded).
-   The estimate's own map (``reconstruct(raw, depth_map)``) goes through the general
-   route, hours for this raw (docs/reconstruct.md step 6).
+   The estimate's own map (``reconstruct(raw, depth_map)``) went through the render's
+   own integral when this was written, hours for this raw; a map every ray meets once
+   now takes the footprint route (docs/reconstruct.md step 6), not yet used here.
 3. The band reconstructed from both halves with that plane, and with the true plane; PSNR
    and RMSE of each against the scene's cell averages. The plane is checked over the band
    only (deeper than F there), so a steep fit nearer than F elsewhere in the view is

@@ -9,7 +9,8 @@ factors (``_native.reconstruction_factors``), otherwise as explicit rows
 (``_native.surface_system``): from the tilted route for a tilted plane on those designs
 (wide pixels cut into parts where it tilts along both axes), from the general route in
 record mode for the rest (planes too steep along both axes even for parts, depth maps,
-hex arrays, circular apertures, sensor layouts). The core's
+hex arrays, circular apertures, sensor layouts: on planes, and on depth maps that every
+ray meets once, each pixel's footprint density over the cells). The core's
 matrix-free conjugate gradients (``_native.solve_normal``, SciPy's ``cg`` iteration, in
 parallel) solve the regularised least squares
 
