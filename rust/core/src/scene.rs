@@ -199,21 +199,18 @@ impl DepthMap {
         for b in 0..rows.saturating_sub(1).max(1) {
             for i in 0..cols.saturating_sub(1).max(1) {
                 let (b1, i1) = ((b + 1).min(rows - 1), (i + 1).min(cols - 1));
-                let gx = if i1 > i {
-                    let (p, q) = (
-                        (v(b, i1) - v(b, i)) / self.hx,
-                        (v(b1, i1) - v(b1, i)) / self.hx,
-                    );
+                // The range of a difference quotient between two pairs of samples.
+                let slope = |a: (f64, f64), b: (f64, f64), h: f64| {
+                    let (p, q) = ((a.1 - a.0) / h, (b.1 - b.0) / h);
                     [p.min(q), p.max(q)]
+                };
+                let gx = if i1 > i {
+                    slope((v(b, i), v(b, i1)), (v(b1, i), v(b1, i1)), self.hx)
                 } else {
                     [0.0, 0.0]
                 };
                 let gy = if b1 > b {
-                    let (p, q) = (
-                        (v(b1, i) - v(b, i)) / self.hy,
-                        (v(b1, i1) - v(b, i1)) / self.hy,
-                    );
-                    [p.min(q), p.max(q)]
+                    slope((v(b, i), v(b1, i)), (v(b, i1), v(b1, i1)), self.hy)
                 } else {
                     [0.0, 0.0]
                 };

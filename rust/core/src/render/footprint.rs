@@ -538,16 +538,9 @@ pub(crate) fn record(
             keep = [x0.max(mx0), x1.min(mx1), y0.max(my0), y1.min(my1)];
             let mut zr = dm.range_over(wide);
             for _ in 0..2 {
-                let r = lens.reach(&sets, zr.0, zr.1);
-                let b = [
-                    r[0].max(wide[0]),
-                    r[1].min(wide[1]),
-                    r[2].max(wide[2]),
-                    r[3].min(wide[3]),
-                ];
-                if !(b[0] < b[1] && b[2] < b[3]) {
+                let Some(b) = meet(lens.reach(&sets, zr.0, zr.1), wide) else {
                     break;
-                }
+                };
                 zr = dm.range_over(b);
             }
             zr
@@ -561,17 +554,10 @@ pub(crate) fn record(
         rec.lose();
         return;
     }
-    let full = lens.reach(&sets, z1, z2);
-    let bx = [
-        full[0].max(wide[0]),
-        full[1].min(wide[1]),
-        full[2].max(wide[2]),
-        full[3].min(wide[3]),
-    ];
-    if !(bx[0] < bx[1] && bx[2] < bx[3]) {
+    let Some(bx) = meet(lens.reach(&sets, z1, z2), wide) else {
         rec.lose();
         return;
-    }
+    };
     // The lattice is sized by the footprint at the middle depth.
     let zm = 0.5 * (z1 + z2);
     integrate(
@@ -583,6 +569,17 @@ pub(crate) fn record(
         rec,
         s,
     );
+}
+
+/// The common part of two boxes [X0, X1, Y0, Y1], if it has an interior.
+fn meet(a: [f64; 4], b: [f64; 4]) -> Option<[f64; 4]> {
+    let m = [
+        a[0].max(b[0]),
+        a[1].min(b[1]),
+        a[2].max(b[2]),
+        a[3].min(b[3]),
+    ];
+    (m[0] < m[1] && m[2] < m[3]).then_some(m)
 }
 
 /// ∫ ρ over each grid cell (and sub-cell lattice) that meets the box `bx`, into `rec`; the
