@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _subprocess import default_sigint
 
 import splitlf
 from splitlf.cli import main
@@ -162,11 +163,15 @@ def test_ctrl_c_is_one_line_and_status_130(tmp_path):
                     "[depths]\nnum = 2000\n")
     p = subprocess.Popen([sys.executable, "-m", "splitlf", "sweep", "--grid", str(spec),
                           "--threads", "1"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                         text=True, env=ENV)
-    time.sleep(4.0)
-    assert p.poll() is None, p.communicate()
-    p.send_signal(signal.SIGINT)
-    out, err = p.communicate(timeout=60)
+                         text=True, env=ENV, preexec_fn=default_sigint)
+    try:
+        time.sleep(4.0)
+        assert p.poll() is None, p.communicate()
+        p.send_signal(signal.SIGINT)
+        out, err = p.communicate(timeout=60)
+    finally:
+        p.kill()  # never left running when the test fails
+        p.wait()
     assert p.returncode == 130
     assert err.splitlines()[-1] == "splitlf sweep: interrupted"
     assert "Traceback" not in err

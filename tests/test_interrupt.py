@@ -10,7 +10,7 @@ import textwrap
 import time
 
 import pytest
-from _subprocess import HANG_TIMEOUT
+from _subprocess import HANG_TIMEOUT, default_sigint
 
 pytestmark = pytest.mark.skipif(sys.platform != "linux", reason="POSIX signals")
 
@@ -74,7 +74,7 @@ def interrupt(call: str, after: float = 1.0) -> tuple[float, str, str]:
             print("interrupted", time.time(), flush=True)
     """)
     child = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE,
-                             stderr=subprocess.PIPE, text=True)
+                             stderr=subprocess.PIPE, text=True, preexec_fn=default_sigint)
     try:
         assert child.stdout is not None
         assert child.stdout.readline().strip() == "ready", child.communicate()
