@@ -272,21 +272,23 @@ impl Work {
         }
     }
 
-    /// A worker in record mode for the surface `surface` of a scene seen through `chan`.
-    /// On a plane, and on a depth map that every ray meets at most once, the record is
-    /// [`footprint`]'s, which has rules of its own; on another depth map (never
-    /// fronto-parallel) it is the render's own integral's, which takes first hits.
-    pub(crate) fn recording(
-        rec: Box<crate::cells::Recorder>,
-        chan: &Chan,
-        surface: &Surface,
-    ) -> Work {
+    /// A worker in record mode. On a plane, and on a depth map that every ray meets at
+    /// most once (`map_once`: [`map_seen_once`]), the record is [`footprint`]'s, which has
+    /// rules of its own; on another depth map (never fronto-parallel) it is the render's
+    /// own integral's, which takes first hits.
+    pub(crate) fn recording(rec: Box<crate::cells::Recorder>, map_once: bool) -> Work {
         Work {
             rec: Some(rec),
-            map_once: matches!(surface, Surface::Map(m) if m.seen_once(chan.aperture_box())),
+            map_once,
             ..Work::new(false)
         }
     }
+}
+
+/// Is `surface` a depth map that every ray through the main lens of `chan` meets at most
+/// once ([`crate::scene::DepthMap::seen_once`])? Checked once per map, not per worker.
+pub(crate) fn map_seen_once(chan: &Chan, surface: &Surface) -> bool {
+    matches!(surface, Surface::Map(m) if m.seen_once(chan.aperture_box()))
 }
 
 /// The lines along one axis (0: X, 1: Y) where a texture's albedo jumps, as (origin,

@@ -96,31 +96,10 @@ impl DepthMap {
 
     /// h(X, Y), None outside the extent.
     pub fn depth(&self, p: Pt) -> Option<f64> {
-        if !(p[0] >= self.x0 && p[0] <= self.x1 && p[1] >= self.y0 && p[1] <= self.y1) {
-            return None;
-        }
-        let axis = |t: f64, n: usize| -> (usize, usize, f64) {
-            // t in cell-centre units: centre i at t = i.
-            if n == 1 || t <= 0.0 {
-                return (0, 0, 0.0);
-            }
-            let m = (n - 1) as f64;
-            if t >= m {
-                return (n - 1, n - 1, 0.0);
-            }
-            let i = t.floor() as usize;
-            (i, (i + 1).min(n - 1), t - i as f64)
-        };
-        let (i0, i1, fx) = axis((p[0] - self.x0) / self.hx - 0.5, self.cols);
-        let (b0, b1, fy) = axis((p[1] - self.y0) / self.hy - 0.5, self.rows);
-        let v = |b: usize, i: usize| self.z[b * self.cols + i];
-        let lo = v(b0, i0) * (1.0 - fx) + v(b0, i1) * fx;
-        let hi = v(b1, i0) * (1.0 - fx) + v(b1, i1) * fx;
-        Some(lo * (1.0 - fy) + hi * fy)
+        (p[0] >= self.x0 && p[0] <= self.x1 && p[1] >= self.y0 && p[1] <= self.y1)
+            .then(|| self.depth_grad(p).0)
     }
-}
 
-impl DepthMap {
     /// h(X, Y) and its gradient at any point: inside the extent the surface's own (the
     /// gradient of the bilinear patch holding p, the patch on the larger-coordinate side
     /// on a line between patches); beyond it, the surface continued as it is at the

@@ -569,6 +569,7 @@ fn build_general(
         let chan = Chan::new(design, ch, crate::render::DEFAULT_TOL);
         let (rows, cols) = crate::render::raw_shape(ch);
         let reach = chan.reach();
+        let map_once = crate::render::map_seen_once(&chan, surface);
         let sees = lenses_seeing(design, ch, surface, grid);
         let step = crate::parallel::chunk_items(n_threads, (cols as u128) * 4000);
         let parts = Chunks::default();
@@ -578,7 +579,7 @@ fn build_general(
                 .clone()
                 .into_par_iter()
                 .map_init(
-                    || Recorder::new(*grid).map(|r| Work::recording(Box::new(r), &chan, surface)),
+                    || Recorder::new(*grid).map(|r| Work::recording(Box::new(r), map_once)),
                     |wk, b| -> Result<System> {
                         let wk = wk.as_mut().map_err(|e| e.clone())?;
                         let mut s = System::default();

@@ -534,8 +534,11 @@ pub(crate) fn record(
             // stays in the extent's range), then twice over the footprint's box in that
             // range (the hits lie in it, so their depths in the map's range there); rays
             // that land beyond the extent miss the surface.
-            let [mx0, mx1, my0, my1] = dm.extent();
-            keep = [x0.max(mx0), x1.min(mx1), y0.max(my0), y1.min(my1)];
+            let Some(k) = meet(keep, dm.extent()) else {
+                rec.lose();
+                return;
+            };
+            keep = k;
             let mut zr = dm.range_over(wide);
             for _ in 0..2 {
                 let Some(b) = meet(lens.reach(&sets, zr.0, zr.1), wide) else {
@@ -549,7 +552,7 @@ pub(crate) fn record(
     if let Some((h1, h2)) = lens.hit_depths(&sets) {
         (z1, z2) = (z1.max(h1), z2.min(h2));
     }
-    if z1.is_nan() || z2.is_nan() || z1 > z2 || !(keep[0] < keep[1] && keep[2] < keep[3]) {
+    if z1.is_nan() || z2.is_nan() || z1 > z2 {
         // The rays meet the surface off the grid and its margin.
         rec.lose();
         return;
@@ -616,6 +619,24 @@ fn integrate(
     let zc = lens.depth([0.5 * (bx[0] + bx[1]), 0.5 * (bx[2] + bx[3])]);
     let mut extra = std::mem::take(&mut s.extra);
     lens.sharp_lines(zc, [qx, qy], wr, &mut extra);
+    if let Surf::Map(m) = lens.surf {
+        // A depth map's gradient jumps on its sample-centre lines: those no finer than the
+        // lattice join the lines above.
+        for (axis, lines, q) in [(0, &xs, qx), (1, &ys, qy)] {
+            let (first, step, n) = m.creases(axis);
+            if step < q {
+                continue;
+            }
+            let (a, b) = (lines[0], lines[lines.len() - 1]);
+            let (lo, hi) = (a.min(b), a.max(b));
+            let k0 = ((lo - first) / step).ceil().max(0.0) as usize;
+            extra[axis].extend(
+                (k0..n)
+                    .map(|k| first + k as f64 * step)
+                    .take_while(|&t| t < hi),
+            );
+        }
+    }
     // Each such line as two a hair apart: the jump falls in a sliver between them (its
     // measure negligible), not on a node, whose value would be one side's.
     for (lines, e, q) in [(&mut xs, &extra[0], qx), (&mut ys, &extra[1], qy)] {
@@ -627,27 +648,6 @@ fn integrate(
                 .flat_map(|&t| [t - eps, t + eps])
                 .filter(|&t| t > lo && t < hi),
         );
-    }
-    if let Surf::Map(m) = lens.surf {
-        // A depth map's gradient jumps on its sample-centre lines: where they are no
-        // finer than the lattice, each as two lines a hair apart, as above.
-        for (axis, lines, q) in [(0, &mut xs, qx), (1, &mut ys, qy)] {
-            let (first, step, n) = m.creases(axis);
-            if step < q {
-                continue;
-            }
-            let (a, b) = (lines[0], lines[lines.len() - 1]);
-            let (lo, hi) = (a.min(b), a.max(b));
-            let k0 = (((lo - first) / step).ceil().max(0.0)) as usize;
-            let eps = SLIVER * q;
-            for k in k0..n {
-                let t = first + k as f64 * step;
-                if t >= hi {
-                    break;
-                }
-                lines.extend([t - eps, t + eps].into_iter().filter(|&u| u > lo && u < hi));
-            }
-        }
     }
     s.extra = extra;
     xs.sort_by(f64::total_cmp);
