@@ -2,7 +2,7 @@
 //! two-channel design for 10^5 depths.
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use splitlf_core::optics::{design_curves_into, DesignCurvesOut};
+use splitlf_core::model::optics::{design_curves_into, DesignCurvesOut};
 use splitlf_core::Camera;
 
 mod common;

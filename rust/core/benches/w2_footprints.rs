@@ -2,8 +2,8 @@
 //! of half 2 along x (3,990 pixels) at 200 depths.
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use splitlf_core::line::Line;
-use splitlf_core::rayspace::{footprints_line_into, FootprintsOut, Sample};
+use splitlf_core::sampling::line::Line;
+use splitlf_core::sampling::rayspace::{footprints_line_into, FootprintsOut, Sample};
 use splitlf_core::{Axis, Camera};
 
 mod common;

@@ -2,8 +2,8 @@
 //! max gap) at 500 depths.
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use splitlf_core::rayspace::Sample;
-use splitlf_core::samples::design_new_samples;
+use splitlf_core::sampling::rayspace::Sample;
+use splitlf_core::sampling::samples::design_new_samples;
 use splitlf_core::Camera;
 
 mod common;

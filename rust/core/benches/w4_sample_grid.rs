@@ -2,7 +2,7 @@
 //! sensor of `benches/run.py` (Kx = 129, Ky = 43: 1,935 x 645 pixels), at one depth.
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use splitlf_core::rayspace::{design_sample_grid_into, Sample};
+use splitlf_core::sampling::rayspace::{design_sample_grid_into, Sample};
 use splitlf_core::Camera;
 
 mod common;

@@ -2,8 +2,8 @@
 //! [300, 10^4] mm (`benches/run.py` runs 100 depths against SciPy/qhull).
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use splitlf_core::presets::preset;
-use splitlf_core::samples2d::coverage;
+use splitlf_core::model::presets::preset;
+use splitlf_core::sampling::samples2d::coverage;
 
 mod common;
 

@@ -4,7 +4,7 @@
 //! the alloc-and-fill floor of fresh outputs).
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use splitlf_core::samples2d::{chief_samples_into, ChiefSamplesOut};
+use splitlf_core::sampling::samples2d::{chief_samples_into, ChiefSamplesOut};
 
 mod common;
 

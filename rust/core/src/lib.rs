@@ -1,48 +1,28 @@
 //! splitlf-core: the optics and ray-space engine of split-sensor light field cameras.
 //!
-//! Pure Rust (no Python): [`lens`] the thin-lens relations and validation rules every model
-//! shares, [`design`] the validated architectures (channels, lattices, lens types, layouts;
-//! §9), [`camera`] the paper's split-sensor parametrisation, which builds a two-channel
-//! design (§1, §3, §7),
-//! [`presets`] named designs (the seed, its variants, a Raytrix R12, a Lytro Illum),
-//! [`optics`] the closed forms over depth (Eqs. 1–7) and the depth of field,
-//! [`rayspace`] every pixel's integration polygon in (u, w) and its footprints (§3–5),
-//! [`line`] one channel along one axis, the view the 1-D engine runs on,
-//! [`samples`] the coincidence planes and genuinely new samples (Eqs. 8–9, docs/model.md §6),
-//! [`samples2d`] the 2-D chief samples, distinct samples and covering radius of a design (§9),
-//! [`merit`] the figures of merit of one design that sweeps compare,
-//! [`simulate`] the forward model and system matrix of the super-resolution simulation,
-//! [`render`] the 2-D forward model (raw images, §10) with [`scene`], [`texture`] and
-//! [`polygon`]; [`system`] the linear map a reconstruction inverts, [`solve`] its
-//! regularised least squares (matrix-free conjugate gradients), and [`depth`] the
-//! plane sweep that estimates depth from a raw.
-//! Every parallel entry point takes `n_threads` (see [`parallel`]).
+//! Pure Rust (no Python), one folder per domain; each folder's `mod.rs` says what it owns
+//! and what it may use (docs/architecture.md is the map). Lower rooms never use higher ones:
+//!
+//! 1. [`infra`]: errors, the thread pool and Ctrl-C, memory budgets, SIMD, polygon geometry;
+//! 2. [`model`]: the camera model: lenses, designs, the paper's camera, presets, and the
+//!    closed forms over depth (Eqs. 1–7);
+//! 3. [`sampling`]: what a design samples: one channel along one axis, the ray space
+//!    (§3–5), coincidence planes and new samples (Eqs. 8–9), 2-D samples and coverage
+//!    (§9), and the figures of merit sweeps compare;
+//! 4. [`imaging`]: image formation: scenes, textures, the renderer (§10) and the recorder
+//!    that turns its integration into rows of a linear map;
+//! 5. [`inverse`]: inversion: the 1-D simulation, the linear map of a reconstruction, its
+//!    regularised solve, and the plane sweep that estimates depth (§11).
+//!
+//! Every parallel entry point takes `n_threads` (see [`infra::parallel`]).
 
-pub mod camera;
-pub mod cells;
-pub mod depth;
-pub mod design;
-pub mod error;
-pub mod lens;
-pub mod line;
-pub mod memory;
-pub mod merit;
-pub mod optics;
-pub mod parallel;
-pub mod polygon;
-pub mod presets;
-pub mod rayspace;
-pub mod render;
-pub mod samples;
-pub mod samples2d;
-pub mod scene;
-mod simd;
-pub mod simulate;
-pub mod solve;
-pub mod system;
-pub mod texture;
+pub mod imaging;
+pub mod infra;
+pub mod inverse;
+pub mod model;
+pub mod sampling;
 
-pub use camera::{Camera, Half};
-pub use design::{Aperture, Channel, ChannelSpec, Design, Grid, Layout};
-pub use error::{Error, Result};
-pub use line::Axis;
+pub use infra::error::{Error, Result};
+pub use model::camera::{Camera, Half};
+pub use model::design::{Aperture, Channel, ChannelSpec, Design, Grid, Layout};
+pub use sampling::line::Axis;

@@ -1,12 +1,12 @@
 //! Designs and depths at the edges of the floating-point range: every result stays finite
 //! and consistent, or the input is refused with a named error.
 
-use splitlf_core::camera::Camera;
-use splitlf_core::lens::conjugate;
-use splitlf_core::line::Line;
-use splitlf_core::optics::{design_curves as curves, design_depth_of_field};
-use splitlf_core::rayspace::{self, Sample, LIT_AREA_RTOL};
-use splitlf_core::samples::design_new_samples as new_samples;
+use splitlf_core::model::camera::Camera;
+use splitlf_core::model::lens::conjugate;
+use splitlf_core::model::optics::{design_curves as curves, design_depth_of_field};
+use splitlf_core::sampling::line::Line;
+use splitlf_core::sampling::rayspace::{self, Sample, LIT_AREA_RTOL};
+use splitlf_core::sampling::samples::design_new_samples as new_samples;
 use splitlf_core::{Axis, Design, Error};
 
 /// The seed with some of (F, D, v1, kappa, d, v, mu) changed, as its two-channel design.

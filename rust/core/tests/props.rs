@@ -8,11 +8,11 @@
 
 use proptest::prelude::*;
 use proptest::test_runner::RngSeed;
-use splitlf_core::lens::{MAX_K, MAX_Q};
-use splitlf_core::line::Line;
-use splitlf_core::optics::{design_curves, design_depth_of_field, Intervals, LensOptics};
-use splitlf_core::rayspace::{trace_line, Sample};
-use splitlf_core::samples::{design_coincidence_planes, design_new_samples, MAX_PAIRS};
+use splitlf_core::model::lens::{MAX_K, MAX_Q};
+use splitlf_core::model::optics::{design_curves, design_depth_of_field, Intervals, LensOptics};
+use splitlf_core::sampling::line::Line;
+use splitlf_core::sampling::rayspace::{trace_line, Sample};
+use splitlf_core::sampling::samples::{design_coincidence_planes, design_new_samples, MAX_PAIRS};
 use splitlf_core::{Axis, Camera, Design, Error, Half};
 
 /// The seed under CI.

@@ -10,8 +10,8 @@ use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
 use pyo3::types::PyBool;
 
-use splitlf_core::rayspace::Sample;
-use splitlf_core::{memory, parallel, Design, Error, Half};
+use splitlf_core::sampling::rayspace::Sample;
+use splitlf_core::{infra::memory, infra::parallel, Design, Error, Half};
 
 use crate::errors::to_py;
 

@@ -8,7 +8,7 @@ use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
 use pyo3::types::PyTuple;
 
-use splitlf_core::{memory, Error};
+use splitlf_core::{infra::memory, Error};
 
 use crate::errors::{internal, to_py};
 
@@ -69,7 +69,7 @@ pub(crate) fn as_u64(s: &mut [i64]) -> &mut [u64] {
     unsafe { std::slice::from_raw_parts_mut(s.as_mut_ptr().cast::<u64>(), s.len()) }
 }
 
-/// Bytes the memory guard lets one call allocate now (see `splitlf_core::memory`).
+/// Bytes the memory guard lets one call allocate now (see `splitlf_core::infra::memory`).
 #[pyfunction]
 pub(crate) fn available_memory() -> u128 {
     memory::available()

@@ -6,7 +6,7 @@ use numpy::{PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 
-use splitlf_core::samples2d;
+use splitlf_core::sampling::samples2d;
 
 use crate::args::{as_slice, channel_arg, threads_arg};
 use crate::arrays::{as_u64, empty, filled};

@@ -3,7 +3,7 @@
 use numpy::{PyArray2, PyArray4, PyReadonlyArray2};
 use pyo3::prelude::*;
 
-use splitlf_core::depth;
+use splitlf_core::inverse::depth;
 
 use crate::args::threads_arg;
 use crate::arrays::filled;

@@ -5,9 +5,11 @@ use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use splitlf_core::line::Line;
-use splitlf_core::optics::LensOptics;
-use splitlf_core::{design, lens, optics, presets, Axis, Camera, Design};
+use splitlf_core::model::optics::LensOptics;
+use splitlf_core::sampling::line::Line;
+use splitlf_core::{
+    model::design, model::lens, model::optics, model::presets, Axis, Camera, Design,
+};
 
 use crate::args::{half_arg, int_arg, saturate, with_given};
 use crate::errors::to_py;
@@ -196,7 +198,7 @@ impl DesignCore {
         }
     }
 
-    /// The named design `name` (see `splitlf_core::presets`).
+    /// The named design `name` (see `splitlf_core::model::presets`).
     #[staticmethod]
     fn preset(name: &str) -> PyResult<Self> {
         let inner = presets::preset(name).map_err(to_py)?;

@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 use pyo3::exceptions::PyKeyboardInterrupt;
 use pyo3::prelude::*;
 
-use splitlf_core::{parallel, Error};
+use splitlf_core::{infra::parallel, Error};
 
 use crate::errors::core_error;
 

@@ -22,8 +22,12 @@ mod simulate;
 
 use pyo3::prelude::*;
 
-use splitlf_core::{design as core_design, lens, optics as core_optics, parallel};
-use splitlf_core::{samples as core_samples, samples2d, simulate as core_simulate};
+use splitlf_core::{
+    infra::parallel, model::design as core_design, model::lens, model::optics as core_optics,
+};
+use splitlf_core::{
+    inverse::simulate as core_simulate, sampling::samples as core_samples, sampling::samples2d,
+};
 
 /// Limits and defaults: the single source for the Python layer and the CLI.
 fn constants(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -45,9 +49,12 @@ fn constants(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("DEFAULT_WINDOW", samples2d::DEFAULT_WINDOW)?;
     m.add("MAX_TOL_2D", samples2d::MAX_TOL_2D)?;
     m.add("MAX_COVERAGE_WORK", samples2d::MAX_COVERAGE_WORK)?;
-    m.add("RENDER_TOL", splitlf_core::render::DEFAULT_TOL)?;
-    m.add("OUTSIDE_SHARE", splitlf_core::system::OUTSIDE_SHARE)?;
-    m.add("MIN_RENDER_TOL", splitlf_core::render::MIN_TOL)?;
+    m.add("RENDER_TOL", splitlf_core::imaging::render::DEFAULT_TOL)?;
+    m.add(
+        "OUTSIDE_SHARE",
+        splitlf_core::inverse::system::OUTSIDE_SHARE,
+    )?;
+    m.add("MIN_RENDER_TOL", splitlf_core::imaging::render::MIN_TOL)?;
     Ok(())
 }
 

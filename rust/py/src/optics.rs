@@ -3,7 +3,7 @@
 use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1};
 use pyo3::prelude::*;
 
-use splitlf_core::{memory, optics};
+use splitlf_core::{infra::memory, model::optics};
 
 use crate::args::{as_slice, threads_arg};
 use crate::arrays::empty;
@@ -27,7 +27,7 @@ pub(crate) fn design_sharp_fractions(
 }
 
 /// Closed-form curves of a design at n depths: per-channel arrays (C, n), per-type arrays
-/// (R, n) in `splitlf_core::optics::type_rows` order, the union (n).
+/// (R, n) in `splitlf_core::model::optics::type_rows` order, the union (n).
 #[pyclass(frozen, get_all, module = "splitlf._native")]
 pub(crate) struct DesignCurvesArrays {
     conjugate: Py<PyArray1<f64>>,

@@ -4,9 +4,9 @@
 use numpy::{PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray1};
 use pyo3::prelude::*;
 
-use splitlf_core::line::Line;
-use splitlf_core::memory;
-use splitlf_core::rayspace::{self, MAX_VERTICES};
+use splitlf_core::infra::memory;
+use splitlf_core::sampling::line::Line;
+use splitlf_core::sampling::rayspace::{self, MAX_VERTICES};
 
 use crate::args::{as_slice, channel_arg, sample_arg, threads_arg};
 use crate::arrays::{empty, filled};

@@ -6,8 +6,8 @@ use std::sync::Arc;
 use numpy::{IntoPyArray, PyArray1};
 use pyo3::prelude::*;
 
-use splitlf_core::solve;
-use splitlf_core::system::{self, CellGrid};
+use splitlf_core::inverse::solve;
+use splitlf_core::inverse::system::{self, CellGrid};
 
 use crate::args::threads_arg;
 use crate::design::DesignCore;
@@ -114,7 +114,7 @@ fn csr(py: Python<'_>, sys: system::System) -> Csr<'_> {
 fn raw_rows(d: &splitlf_core::Design, channels: &[usize]) -> usize {
     channels
         .iter()
-        .map(|&i| splitlf_core::render::raw_shape(&d.channels[i]).0)
+        .map(|&i| splitlf_core::imaging::render::raw_shape(&d.channels[i]).0)
         .sum()
 }
 
@@ -283,9 +283,9 @@ pub(crate) fn cell_averages<'py>(
     grid: (f64, f64, f64, usize, usize),
 ) -> PyResult<Bound<'py, numpy::PyArray2<f64>>> {
     let g = checked_grid(grid)?;
-    splitlf_core::memory::check(
+    splitlf_core::infra::memory::check(
         "the cell averages",
-        splitlf_core::memory::bytes_of::<f64>(g.cells() as u128),
+        splitlf_core::infra::memory::bytes_of::<f64>(g.cells() as u128),
     )
     .map_err(to_py)?;
     let sc = Arc::clone(&scene.inner);
@@ -359,7 +359,7 @@ fn csr_in(field: &'static str, c: &CsrIn<'_>) -> PyResult<solve::Csr> {
 }
 
 /// Solve the regularised least squares of a reconstruction over a grid of `shape` (ny, nx)
-/// cells: blocks of factored rows and of explicit rows (see `splitlf_core::solve`), prior
+/// cells: blocks of factored rows and of explicit rows (see `splitlf_core::inverse::solve`), prior
 /// weight `regularization`, conjugate gradients to `rtol`, to `noise_tol` of the noise's
 /// expected norm in the right-hand side (0: not used), or `max_iter` steps. Returns
 /// (cells (ny, nx), iterations, the normal equations' relative residual).

@@ -6,9 +6,9 @@ use std::sync::Arc;
 use numpy::{PyArray2, PyArrayMethods, PyReadonlyArray2};
 use pyo3::prelude::*;
 
-use splitlf_core::render::{self as core_render, RenderOptions};
-use splitlf_core::scene::{Scene, Surface};
-use splitlf_core::texture::Texture;
+use splitlf_core::imaging::render::{self as core_render, RenderOptions};
+use splitlf_core::imaging::scene::{Scene, Surface};
+use splitlf_core::imaging::texture::Texture;
 
 use crate::args::threads_arg;
 use crate::arrays::empty;
@@ -98,7 +98,7 @@ pub(crate) fn render<'py>(
     let opts = RenderOptions { tol, own_lens };
     core_render::check_render(&d, &sc, opts).map_err(to_py)?;
     let bytes = core_render::render_bytes(&d);
-    splitlf_core::memory::check("the rendered raw images", bytes).map_err(to_py)?;
+    splitlf_core::infra::memory::check("the rendered raw images", bytes).map_err(to_py)?;
     let mut out = Vec::with_capacity(d.channels.len());
     for ch in &d.channels {
         let (r, c) = core_render::raw_shape(ch);

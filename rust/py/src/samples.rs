@@ -4,7 +4,7 @@
 use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1};
 use pyo3::prelude::*;
 
-use splitlf_core::{merit, optics, samples, Error};
+use splitlf_core::{model::optics, sampling::merit, sampling::samples, Error};
 
 use crate::args::{as_slice, channel_arg, int_arg, sample_arg, saturate, threads_arg, with_given};
 use crate::arrays::{as_u64, empty, filled};

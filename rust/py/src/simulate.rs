@@ -4,7 +4,7 @@
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray2};
 use pyo3::prelude::*;
 
-use splitlf_core::simulate::{self, DesignSource, Grid, Pixels};
+use splitlf_core::inverse::simulate::{self, DesignSource, Grid, Pixels};
 use splitlf_core::Design;
 
 use crate::args::{as_flat, threads_arg};

@@ -48,5 +48,5 @@ pub fn label(n: Option<usize>) -> String {
 /// The `lytro-illum` preset with 1/4 of its lenses and pixels per axis: 135 x 108 lenses
 /// on 1,932 x 1,342 pixels (W6's modest size).
 pub fn lytro_quarter() -> splitlf_core::Design {
-    splitlf_core::presets::lytro_illum_reduced(4).unwrap()
+    splitlf_core::model::presets::lytro_illum_reduced(4).unwrap()
 }

@@ -36,7 +36,7 @@ pub enum Error {
         limit: u128,
         unit: &'static str,
     },
-    /// The caller's interrupt check (see [`crate::parallel::checkpoint`]) asked to stop.
+    /// The caller's interrupt check (see [`crate::infra::parallel::checkpoint`]) asked to stop.
     Interrupted,
 }
 

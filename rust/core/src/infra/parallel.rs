@@ -22,7 +22,7 @@ use std::time::Duration;
 
 use rayon::{ThreadPool, ThreadPoolBuilder};
 
-use crate::error::{Error, Result};
+use crate::infra::error::{Error, Result};
 
 /// Largest thread count accepted (far above any real machine; guards against typos).
 pub const MAX_THREADS: usize = 1024;

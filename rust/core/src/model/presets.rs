@@ -5,9 +5,9 @@
 //! is computed here from the formula that defines it, and docs/architectures.md lists
 //! them; the tests recompute them independently. All lengths in mm.
 
-use crate::camera::{Camera, Half};
-use crate::design::{Aperture, ChannelSpec, Design, Grid};
-use crate::error::{Error, Result};
+use crate::infra::error::{Error, Result};
+use crate::model::camera::{Camera, Half};
+use crate::model::design::{Aperture, ChannelSpec, Design, Grid};
 
 /// The names [`preset`] accepts, in the order the docs list them.
 pub const PRESETS: [&str; 5] = ["seed", "seed-plain", "split3", "raytrix-r12", "lytro-illum"];
@@ -158,7 +158,7 @@ pub fn lytro_illum_reduced(per_axis: u32) -> Result<Design> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::optics::{design_depth_of_field, LensOptics};
+    use crate::model::optics::{design_depth_of_field, LensOptics};
 
     #[test]
     fn every_preset_is_valid_and_named() {

@@ -4,9 +4,9 @@
 //! In object space the ray with main-lens point w and array-plane point x (plane L) is the
 //! line P(z) = w − z a, a = w/F + (x − w)/L (the thin main lens deflects it by −w/F).
 
-use crate::error::{Error, Result};
-use crate::polygon::Pt;
-use crate::texture::Texture;
+use crate::imaging::texture::Texture;
+use crate::infra::error::{Error, Result};
+use crate::infra::polygon::Pt;
 
 /// Most depth-map samples.
 pub const MAX_DEPTH_SAMPLES: usize = 1 << 28;
@@ -56,7 +56,7 @@ impl DepthMap {
                 "finite X0 < X1 and Y0 < Y1 (mm)",
             ));
         }
-        let mut z = crate::memory::try_vec("the depth map", rows * cols, 0.0)?;
+        let mut z = crate::infra::memory::try_vec("the depth map", rows * cols, 0.0)?;
         let (mut zmin, mut zmax) = (f64::INFINITY, f64::NEG_INFINITY);
         for r in 0..rows {
             for c in 0..cols {

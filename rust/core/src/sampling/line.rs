@@ -1,5 +1,5 @@
-//! One channel seen along one axis: the 1-D view the ray-space engine ([`crate::rayspace`])
-//! and the sample counts ([`crate::samples`]) run on (docs/model.md §3–§6, and §9 for
+//! One channel seen along one axis: the 1-D view the ray-space engine ([`crate::sampling::rayspace`])
+//! and the sample counts ([`crate::sampling::samples`]) run on (docs/model.md §3–§6, and §9 for
 //! designs: "The 1-D analysis of §3–§6 runs along x on rect grids").
 //!
 //! A [`Line`] is a channel of a [`Design`] ([`Line::of_channel`], rect grids only); the
@@ -19,8 +19,8 @@
 //!   D are the same segment.
 //! - Ray space is referred to plane v_ref = L_1 (channel 1's array; v' of the paper's camera).
 
-use crate::design::{Aperture, Channel, Design, Grid, Layout};
-use crate::error::{Error, Result};
+use crate::infra::error::{Error, Result};
+use crate::model::design::{Aperture, Channel, Design, Grid, Layout};
 
 /// One lateral axis of the sensor (a rect microlens grid is separable).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -290,7 +290,7 @@ mod tests {
     /// w_q = −(L/v) θ_q, lit iff |w_q| < D/2, p' = (v'/L) [c + w (L − z')/z'].
     #[test]
     fn seed_lines_follow_the_closed_forms() {
-        let d = crate::camera::Camera::paper().design();
+        let d = crate::model::camera::Camera::paper().design();
         for (h, ch) in d.channels.iter().enumerate() {
             let Layout::Ideal { q: qq } = ch.layout else {
                 panic!("the seed has the ideal layout")

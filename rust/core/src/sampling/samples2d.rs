@@ -27,12 +27,12 @@
 use rayon::prelude::*;
 use spade::{DelaunayTriangulation, HierarchyHintGenerator, Point2, Triangulation};
 
-use crate::design::{Aperture, Channel, Design, Grid, Layout, SQRT3_2};
-use crate::error::{Error, Result};
-use crate::memory::{self, try_reserve, try_vec};
-use crate::optics::check_design_depths;
-use crate::parallel::{self, chunk_items, for_chunks, threads};
-use crate::samples::check_tol;
+use crate::infra::error::{Error, Result};
+use crate::infra::memory::{self, try_reserve, try_vec};
+use crate::infra::parallel::{self, chunk_items, for_chunks, threads};
+use crate::model::design::{Aperture, Channel, Design, Grid, Layout, SQRT3_2};
+use crate::model::optics::check_design_depths;
+use crate::sampling::samples::check_tol;
 
 /// Default width of the 2-D central field, in lens pitches of channel 1.
 pub const DEFAULT_WINDOW: f64 = 16.0;
@@ -155,7 +155,7 @@ struct Sensor {
     /// The hex lattice's mean (x, y) / d ([`Channel::hex_mean`]); rect: unused.
     mean: (f64, f64),
     /// Half the image pitch ([`Channel::in_cell`]) and the aperture's radius D/2
-    /// ([`crate::design::Aperture::contains`]).
+    /// ([`crate::model::design::Aperture::contains`]).
     half_cell: f64,
     radius: f64,
     /// A margin above which distance² differences survive rounding: 16 ulp of the largest
@@ -1503,7 +1503,7 @@ fn separable_row(
     let PixelTables::Ideal { w, .. } = &t.px else {
         return Ok(None);
     };
-    if t.design.shape != crate::design::Aperture::Square {
+    if t.design.shape != crate::model::design::Aperture::Square {
         return Ok(None);
     }
     let r = t.design.aperture / 2.0;
@@ -1959,8 +1959,8 @@ fn check_cells(design: &Design, z: &[f64], tol: f64) -> Result<()> {
             format!(
                 "at least {} for this design at these depths (its samples reach {} tol*delta(z) \
                  from the axis; at most 2^42 hash-grid cells are allowed)",
-                crate::error::short_number(need),
-                crate::error::short_number(worst)
+                crate::infra::error::short_number(need),
+                crate::infra::error::short_number(worst)
             ),
         ));
     }
@@ -2199,8 +2199,8 @@ pub fn coverage(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::camera::Camera;
-    use crate::design::{Aperture, ChannelSpec};
+    use crate::model::camera::Camera;
+    use crate::model::design::{Aperture, ChannelSpec};
 
     #[allow(clippy::too_many_arguments)]
     fn spec(
@@ -2765,7 +2765,7 @@ mod tests {
             );
         }
         // Channel 1 on its out-of-focus plane: one sample per lens.
-        let z1 = crate::lens::depth_of_conjugate(d.f_main, d.channels[0].l);
+        let z1 = crate::model::lens::depth_of_conjugate(d.f_main, d.channels[0].l);
         let s = samples_2d(&d, z1, 1e-6, 16.0).unwrap();
         assert_eq!(s.distinct[0], 16 * 16);
         assert_eq!(s.samples[0].len(), 256);

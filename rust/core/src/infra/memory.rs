@@ -7,7 +7,7 @@
 //! allocated fallibly ([`try_vec`]), so an allocation that fails anyway (the estimate is
 //! checked against a moment's free memory) is the same error, never an abort.
 
-use crate::error::{Error, Result};
+use crate::infra::error::{Error, Result};
 
 /// Used when neither /proc/meminfo nor /proc/self/limits can be read (not Linux).
 const UNKNOWN: u128 = 1 << 40;

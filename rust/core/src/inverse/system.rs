@@ -1,7 +1,7 @@
 //! The linear map from a scene's albedo to the raw (docs/model.md §11, docs/reconstruct.md):
 //! row = raw pixel, column = cell of a uniform grid over a region of the surface, entry =
 //! the value the pixel records when the albedo is 1 on that cell and 0 elsewhere. It is
-//! built with the forward model's own integration ([`crate::render`]), so that for an
+//! built with the forward model's own integration ([`crate::imaging::render`]), so that for an
 //! image texture on the grid `A t` is the rendered raw.
 //!
 //! Today the map is built on the forward model's exact route: a fronto-parallel plane, a
@@ -13,20 +13,20 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use rayon::prelude::*;
 
-use crate::cells::Chunks;
-use crate::cells::Recorder;
-pub use crate::cells::{CellGrid, System, OUTSIDE_SHARE};
-use crate::design::{Aperture, Channel, Design, Grid, Layout};
-use crate::error::{Error, Result};
-use crate::memory;
-use crate::parallel::{checkpoint, for_chunks};
-use crate::render::exact::{
+use crate::imaging::recorder::Chunks;
+use crate::imaging::recorder::Recorder;
+pub use crate::imaging::recorder::{CellGrid, System, OUTSIDE_SHARE};
+use crate::imaging::render::exact::{
     footprint_of, mean_ray, mean_ray_of, pixel_offset, polygon, profile, ray_set_area,
     tilted_profile, tilted_profile_of, Profile,
 };
-use crate::render::{Chan, Work};
-use crate::scene::{Scene, Surface};
-use crate::texture::Texture;
+use crate::imaging::render::{Chan, Work};
+use crate::imaging::scene::{Scene, Surface};
+use crate::imaging::texture::Texture;
+use crate::infra::error::{Error, Result};
+use crate::infra::memory;
+use crate::infra::parallel::{checkpoint, for_chunks};
+use crate::model::design::{Aperture, Channel, Design, Grid, Layout};
 
 /// Can the map be built for this channel (the exact route)? The reason when not.
 fn supported(design: &Design, ch: &Channel) -> std::result::Result<(), &'static str> {
@@ -47,7 +47,7 @@ fn supported(design: &Design, ch: &Channel) -> std::result::Result<(), &'static 
 /// through array point x = (B w − P) L / z (B = 1 − z/F + z/L); for |w| ≤ r/2 that x lies
 /// inside the array (half-width W/2) when |P| ≤ (z/L) W/2 − |B| r/2.
 pub fn seen_region(design: &Design, channels: &[usize], z: f64) -> Result<[f64; 4]> {
-    crate::optics::check_design_depths(design.f_main, &[z])?;
+    crate::model::optics::check_design_depths(design.f_main, &[z])?;
     let r = design.aperture / 2.0;
     let (mut hx, mut hy) = (f64::INFINITY, f64::INFINITY);
     for &i in channels {
@@ -76,7 +76,7 @@ pub fn seen_region(design: &Design, channels: &[usize], z: f64) -> Result<[f64; 
 /// width (L/v)(|α| 2h + μ) (at most D): at most (z/L) 2h + |B| min(D, (L/v)(|α| 2h + μ)).
 /// A pixel that sees any point of a region sees only points within this margin of it.
 pub fn pixel_span(design: &Design, channels: &[usize], z: f64) -> Result<f64> {
-    crate::optics::check_design_depths(design.f_main, &[z])?;
+    crate::model::optics::check_design_depths(design.f_main, &[z])?;
     let mut span = 0.0f64;
     for &i in channels {
         let ch = channel(design, i)?;
@@ -148,7 +148,7 @@ fn axis_csr(p: &[Profile], flip: Option<usize>) -> AxisProfiles {
 
 /// The factors of channel `i`'s map (module doc) for the plane at depth z and the grid.
 pub fn factors(design: &Design, i: usize, z: f64, grid: &CellGrid) -> Result<Factors> {
-    crate::optics::check_design_depths(design.f_main, &[z])?;
+    crate::model::optics::check_design_depths(design.f_main, &[z])?;
     let ch = channel(design, i)?;
     if let Err(need) = supported(design, ch) {
         return Err(unsupported(i, need));
@@ -159,9 +159,9 @@ pub fn factors(design: &Design, i: usize, z: f64, grid: &CellGrid) -> Result<Fac
     if ch.f.len() > u8::MAX as usize {
         return Err(Error::param("f", ch.f.len(), "at most 255 lens types"));
     }
-    let chan = Chan::new(design, ch, crate::render::DEFAULT_TOL);
+    let chan = Chan::new(design, ch, crate::imaging::render::DEFAULT_TOL);
     let pr = profiles(&chan, z, grid, q);
-    let (rows, cols) = crate::render::raw_shape(ch);
+    let (rows, cols) = crate::imaging::render::raw_shape(ch);
     memory::check(
         "the reconstruction's pixel-type map",
         memory::bytes_of::<u8>(rows as u128 * cols as u128),
@@ -218,7 +218,7 @@ struct Profiles {
 
 fn profiles(chan: &Chan, z: f64, grid: &CellGrid, q: u32) -> Profiles {
     let ch = chan.ch;
-    let (rows, cols) = crate::render::raw_shape(ch);
+    let (rows, cols) = crate::imaging::render::raw_shape(ch);
     let theta = |i: u32| pixel_offset(ch.mu, q, i);
     let [gx0, _, gy0, _] = grid.extent();
     let h = grid.step;
@@ -264,7 +264,7 @@ pub fn build(
     n_threads: Option<usize>,
     done: &AtomicUsize,
 ) -> Result<System> {
-    crate::optics::check_design_depths(design.f_main, &[z])?;
+    crate::model::optics::check_design_depths(design.f_main, &[z])?;
     if channels.is_empty() {
         return Err(Error::param("channels", "none", "at least one channel"));
     }
@@ -291,9 +291,9 @@ pub fn build(
             unreachable!("checked by `supported`")
         };
         // The tolerance only sizes a circle's polygon (unused on this route).
-        let chan = Chan::new(design, ch, crate::render::DEFAULT_TOL);
+        let chan = Chan::new(design, ch, crate::imaging::render::DEFAULT_TOL);
         let pr = profiles(&chan, z, grid, q);
-        let (rows, cols) = crate::render::raw_shape(ch);
+        let (rows, cols) = crate::imaging::render::raw_shape(ch);
         let typ = |a: usize, b: usize| ch.lens_type(a as u32 / q, b as u32 / q);
         // Count first, to check the memory before any entry is written.
         let counts: Vec<(usize, usize)> = (0..rows)
@@ -321,7 +321,7 @@ pub fn build(
             system_bytes(have.0 + n_rows, have.1 + nnz),
         )?;
         // Rows in parallel chunks, each chunk's entries in its own buffers, then appended.
-        let step = crate::parallel::chunk_items(n_threads, (cols as u128) * 64);
+        let step = crate::infra::parallel::chunk_items(n_threads, (cols as u128) * 64);
         let parts = Chunks::default();
         let norm = chan.norm;
         let nx = grid.nx;
@@ -520,7 +520,7 @@ pub fn build_surface(
                 ));
             }
         }
-        _ => crate::render::check_surface(design, surface)?,
+        _ => crate::imaging::render::check_surface(design, surface)?,
     }
     if let Surface::Plane { z0, g } = surface {
         let exact = channels
@@ -552,13 +552,18 @@ fn build_general(
     n_threads: Option<usize>,
     done: &AtomicUsize,
 ) -> Result<System> {
-    let workers = crate::parallel::threads(n_threads);
+    let workers = crate::infra::parallel::threads(n_threads);
     memory::check(
         "the reconstruction map's grid texture and row accumulators",
         recorder_bytes(grid, workers + 1) + memory::bytes_of::<f64>(grid.cells() as u128),
     )?;
     let ext = grid.extent();
-    let lines = crate::texture::ImageTexture::new(&vec![0.0; grid.cells()], grid.ny, grid.nx, ext)?;
+    let lines = crate::imaging::texture::ImageTexture::new(
+        &vec![0.0; grid.cells()],
+        grid.ny,
+        grid.nx,
+        ext,
+    )?;
     let scene = Scene::new(Texture::Image(Box::new(lines)), surface.clone(), 0.0)?;
     let mut out = System {
         indptr: vec![0],
@@ -566,12 +571,12 @@ fn build_general(
     };
     for &i in channels {
         let ch = &design.channels[i];
-        let chan = Chan::new(design, ch, crate::render::DEFAULT_TOL);
-        let (rows, cols) = crate::render::raw_shape(ch);
+        let chan = Chan::new(design, ch, crate::imaging::render::DEFAULT_TOL);
+        let (rows, cols) = crate::imaging::render::raw_shape(ch);
         let reach = chan.reach();
-        let map_once = crate::render::map_seen_once(&chan, surface);
+        let map_once = crate::imaging::render::map_seen_once(&chan, surface);
         let sees = lenses_seeing(design, ch, surface, grid);
-        let step = crate::parallel::chunk_items(n_threads, (cols as u128) * 4000);
+        let step = crate::infra::parallel::chunk_items(n_threads, (cols as u128) * 4000);
         let parts = Chunks::default();
         let bytes = std::sync::atomic::AtomicU64::new((out.data.len() * 12) as u64);
         for_chunks(n_threads, rows, step, |range| {
@@ -594,7 +599,7 @@ fn build_general(
                             if let Some(r) = wk.rec.as_deref_mut() {
                                 r.reset(chan.norm);
                             }
-                            crate::render::pixel_value(
+                            crate::imaging::render::pixel_value(
                                 design, &chan, &scene, 1.0, a as u32, b as u32, reach, wk,
                             );
                             if wk.rec.as_deref_mut().is_some_and(|r| r.take(&mut s)) {
@@ -715,8 +720,8 @@ fn build_tilted(
         let Layout::Ideal { q } = ch.layout else {
             unreachable!("checked by `supported` in the caller")
         };
-        let (rows, cols) = crate::render::raw_shape(ch);
-        let chan = Chan::new(design, ch, crate::render::DEFAULT_TOL);
+        let (rows, cols) = crate::imaging::render::raw_shape(ch);
+        let chan = Chan::new(design, ch, crate::imaging::render::DEFAULT_TOL);
         (ch, q, chan, rows, cols)
     };
     // A pixel line's lens centre along axis ax (raw columns run along X, rows along Y).
@@ -902,7 +907,7 @@ fn build_tilted(
             (span.1 + 1).saturating_sub(span.0)
         };
         let norm = chan.norm;
-        let step = crate::parallel::chunk_items(n_threads, (cols as u128) * 256);
+        let step = crate::infra::parallel::chunk_items(n_threads, (cols as u128) * 256);
         let parts = Chunks::default();
         let bytes = std::sync::atomic::AtomicU64::new((out.data.len() * 12) as u64);
         for_chunks(n_threads, rows, step, |range| {
@@ -999,7 +1004,7 @@ fn build_tilted(
                             let (co, tho) = (center(io as u32, 1 - axis), theta(io as u32));
                             let (ct, tht) = (center(it as u32, axis), theta(it as u32));
                             let poly = polygon(&chan, alpha, tho);
-                            let (bx0, bx1, by0, by1) = crate::polygon::bounds(&poly);
+                            let (bx0, bx1, by0, by1) = crate::infra::polygon::bounds(&poly);
                             let split = |lo: f64, hi: f64, k: usize| {
                                 if k == m {
                                     hi
@@ -1012,7 +1017,7 @@ fn build_tilted(
                             inside = 0.0;
                             for (jx, jy) in (0..m).flat_map(|jx| (0..m).map(move |jy| (jx, jy))) {
                                 part.clone_from(&poly);
-                                crate::polygon::clip_box(
+                                crate::infra::polygon::clip_box(
                                     &mut part,
                                     &mut tmp,
                                     split(bx0, bx1, jx),
@@ -1100,10 +1105,10 @@ fn build_tilted(
 }
 
 /// The texture averaged over each cell of the grid, row-major from the top row.
-pub fn cell_averages(texture: &crate::texture::Texture, grid: &CellGrid) -> Vec<f64> {
+pub fn cell_averages(texture: &crate::imaging::texture::Texture, grid: &CellGrid) -> Vec<f64> {
     let mut v = vec![0.0; grid.cells()];
     v.par_chunks_mut(grid.nx.max(1)).enumerate().for_each_init(
-        crate::texture::Scratch::default,
+        crate::imaging::texture::Scratch::default,
         |s, (r, row)| {
             let y1 = grid.y1 - r as f64 * grid.step;
             let y0 = y1 - grid.step;
@@ -1120,12 +1125,12 @@ pub fn cell_averages(texture: &crate::texture::Texture, grid: &CellGrid) -> Vec<
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::render::{render_into, RenderOptions};
-    use crate::scene::{Scene, Surface};
-    use crate::texture::{ImageTexture, Texture};
+    use crate::imaging::render::{render_into, RenderOptions};
+    use crate::imaging::scene::{Scene, Surface};
+    use crate::imaging::texture::{ImageTexture, Texture};
 
     fn seed_small() -> Design {
-        let mut d = crate::presets::preset("seed").unwrap();
+        let mut d = crate::model::presets::preset("seed").unwrap();
         for ch in d.channels.iter_mut() {
             ch.kx = 6;
             ch.ky = 5;
@@ -1182,7 +1187,7 @@ mod tests {
             .channels
             .iter()
             .map(|ch| {
-                let (r, c) = crate::render::raw_shape(ch);
+                let (r, c) = crate::imaging::render::raw_shape(ch);
                 vec![0.0; r * c]
             })
             .collect();
@@ -1201,7 +1206,7 @@ mod tests {
     }
 
     /// A plane tilted along one axis, either, or along both, on the tilted route against the
-    /// general route (the footprint density integrated over the cells, crate::render::footprint):
+    /// general route (the footprint density integrated over the cells, crate::imaging::render::footprint):
     /// on the rows both keep, A t within 4e-4 of white for a random t (measured 4.1e-5 to
     /// 4.0e-4; the tilted route's own cut was measured within 3.5e-4 of the earlier general
     /// route), the row sums within 6e-4 of white (the tilted route's are exact; the general
@@ -1321,7 +1326,7 @@ mod tests {
         assert!(ry.len() > 400, "{}", ry.len());
         let mut worst = 0.0f64;
         for ((ch, pixel), entries) in &ry {
-            let cols = crate::render::raw_shape(&d.channels[*ch as usize]).1 as u64;
+            let cols = crate::imaging::render::raw_shape(&d.channels[*ch as usize]).1 as u64;
             let (a, b) = (pixel % cols, pixel / cols);
             let mut want: Vec<(u32, f64)> = rx[&(*ch, a * cols + b)]
                 .iter()

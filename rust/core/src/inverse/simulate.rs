@@ -19,15 +19,15 @@
 
 use rayon::prelude::*;
 
-use crate::design::Design;
-use crate::error::{Error, Result};
-use crate::lens::conjugate;
-use crate::line::Axis;
-use crate::line::Line;
-use crate::memory::{self, try_vec, try_with_capacity};
-use crate::optics::{check_design_depths, LensOptics};
-use crate::parallel::{check_threads, chunk_items, for_chunks, with_threads};
-use crate::rayspace::{trace_line, weight_profile, MAX_VERTICES, TRACE_BYTES_PER_PIXEL};
+use crate::infra::error::{Error, Result};
+use crate::infra::memory::{self, try_vec, try_with_capacity};
+use crate::infra::parallel::{check_threads, chunk_items, for_chunks, with_threads};
+use crate::model::design::Design;
+use crate::model::lens::conjugate;
+use crate::model::optics::{check_design_depths, LensOptics};
+use crate::sampling::line::Axis;
+use crate::sampling::line::Line;
+use crate::sampling::rayspace::{trace_line, weight_profile, MAX_VERTICES, TRACE_BYTES_PER_PIXEL};
 
 /// Which pixels of a design (docs/simulate.md, "Designs"): channel c's light field, or the
 /// conventional camera with a sensor of pitch μ_c on channel c's array plane (c from 1).
@@ -504,8 +504,8 @@ fn check_rendered(n_tex: usize, n_pix: usize) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::camera::Camera;
-    use crate::rayspace::{Polygon, Rays};
+    use crate::model::camera::Camera;
+    use crate::sampling::rayspace::{Polygon, Rays};
 
     fn close(a: f64, b: f64, tol: f64) -> bool {
         (a - b).abs() <= tol * a.abs().max(b.abs()).max(1e-300)
@@ -650,7 +650,7 @@ mod tests {
     /// Three rect channels: f-number matched ideal, a sensor layout with three lens types,
     /// an ideal layout with two (the Python tests' `MIX`); shares sum to 1.
     fn mix() -> Design {
-        use crate::design::{Aperture, ChannelSpec, Grid as Lattice};
+        use crate::model::design::{Aperture, ChannelSpec, Grid as Lattice};
         let ch = |l, d, v, mu, kx, f: Option<Vec<f64>>, layout: &str, q, share| ChannelSpec {
             l,
             d,
@@ -750,7 +750,7 @@ mod tests {
             let e = DesignSource::from_name(&d, bad).unwrap_err();
             assert_eq!(e.parameter_name().as_deref(), Some("source"));
         }
-        let hex = crate::presets::preset("raytrix-r12").unwrap();
+        let hex = crate::model::presets::preset("raytrix-r12").unwrap();
         let e = Pixels::of_design(&hex, DesignSource::Channel(1)).unwrap_err();
         assert_eq!(e.parameter_name().as_deref(), Some("channels[1].grid"));
     }

@@ -45,10 +45,10 @@
 //! at 1 m, entries within 1.7e-5 (L1 over a row, of the row's sum) of the exact route's.
 
 use super::Chan;
-use crate::cells::Recorder;
-use crate::design::Aperture;
-use crate::polygon::Pt;
-use crate::scene::DepthMap;
+use crate::imaging::recorder::Recorder;
+use crate::imaging::scene::DepthMap;
+use crate::infra::polygon::Pt;
+use crate::model::design::Aperture;
 
 /// Quarterings before the refined rule may be accepted on its agreement with the coarser
 /// one: the two can agree by chance on a sub-cell that an edge of W crosses (measured on
@@ -859,8 +859,8 @@ fn cell_rule(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cells::CellGrid;
-    use crate::render::exact::ray_set_area;
+    use crate::imaging::recorder::CellGrid;
+    use crate::imaging::render::exact::ray_set_area;
 
     /// On rect cells and a square aperture a pixel's ray measure through its lens is the
     /// product of its two 1-D ray sets' areas (docs/model.md §4): ∫ ρ over a grid that
@@ -868,11 +868,11 @@ mod tests {
     /// depths on both sides of the array's conjugate and near it.
     #[test]
     fn footprint_integrates_to_the_ray_measure() {
-        let d = crate::presets::preset("seed").unwrap();
+        let d = crate::model::presets::preset("seed").unwrap();
         let (mut worst, mut skipped) = (0.0f64, 0);
         for (ci, ch) in d.channels.iter().enumerate() {
-            let chan = Chan::new(&d, ch, crate::render::DEFAULT_TOL);
-            let crate::design::Layout::Ideal { q } = ch.layout else {
+            let chan = Chan::new(&d, ch, crate::imaging::render::DEFAULT_TOL);
+            let crate::model::design::Layout::Ideal { q } = ch.layout else {
                 panic!("the seed's layout is ideal")
             };
             // Pixels under the lens at the array's centre.

@@ -2,7 +2,7 @@
 //! Ng's setting) and the validation rules shared by cameras and designs (lengths, derived
 //! lengths, counts and their limits). Uses nothing of the crate but its errors.
 
-use crate::error::{Error, Result};
+use crate::infra::error::{Error, Result};
 
 /// Largest pixel count per microlens along one axis the core accepts.
 pub const MAX_Q: u64 = 65_535;

@@ -23,15 +23,15 @@
 
 use rayon::prelude::*;
 
-use crate::design::Design;
-use crate::error::{Error, Result};
-use crate::lens::{conjugate, depth_of_conjugate};
-use crate::line::Axis;
-use crate::line::{check_coincidence_channel, Line};
-use crate::memory::{self, try_reserve, try_vec};
-use crate::optics::{check_design_depths, LensOptics};
-use crate::parallel::{chunk_items, for_chunks, threads, with_threads};
-use crate::rayspace::{trace_line, Sample, TRACE_BYTES_PER_PIXEL};
+use crate::infra::error::{Error, Result};
+use crate::infra::memory::{self, try_reserve, try_vec};
+use crate::infra::parallel::{chunk_items, for_chunks, threads, with_threads};
+use crate::model::design::Design;
+use crate::model::lens::{conjugate, depth_of_conjugate};
+use crate::model::optics::{check_design_depths, LensOptics};
+use crate::sampling::line::Axis;
+use crate::sampling::line::{check_coincidence_channel, Line};
+use crate::sampling::rayspace::{trace_line, Sample, TRACE_BYTES_PER_PIXEL};
 
 /// Largest number of pixels along one axis of one channel (K · Q) the brute-force count
 /// accepts (a cap on the work per depth; the memory a call needs is estimated separately
@@ -877,7 +877,7 @@ pub fn check_design_new_samples(
     mode: Sample,
     n_threads: Option<usize>,
 ) -> Result<Vec<Line>> {
-    crate::parallel::check_threads(n_threads)?;
+    crate::infra::parallel::check_threads(n_threads)?;
     check_tol(tol)?;
     check_design_depths(design.f_main, z)?;
     let lines = Line::of_design(design, Axis::X)?;
@@ -1001,7 +1001,7 @@ pub fn design_count_distinct(design: &Design, channel: i64, z: f64, tol: f64) ->
 mod tests {
     use super::*;
 
-    use crate::camera::Camera;
+    use crate::model::camera::Camera;
 
     /// The seed's design, or a variant of it with F = 80 (as the paper's camera).
     fn small(kappa: f64, aperture: f64, q: i64, kx: i64, ky: i64) -> Design {

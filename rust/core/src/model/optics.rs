@@ -5,11 +5,11 @@
 
 use rayon::prelude::*;
 
-use crate::design::{Channel, Design};
-use crate::error::{Error, Result};
-use crate::lens::{conjugate, depth_of_conjugate};
-use crate::memory;
-use crate::parallel::for_chunks;
+use crate::infra::error::{Error, Result};
+use crate::infra::memory;
+use crate::infra::parallel::for_chunks;
+use crate::model::design::{Channel, Design};
+use crate::model::lens::{conjugate, depth_of_conjugate};
 use std::ops::Range;
 
 /// Default sharpness threshold on the blur radius, in pixels.
@@ -568,7 +568,7 @@ pub fn design_sharp_fractions(
 mod tests {
     use super::*;
 
-    use crate::camera::Camera;
+    use crate::model::camera::Camera;
 
     /// The seed's two-channel design (channel i is the paper's half i).
     fn seed() -> Design {
@@ -650,7 +650,7 @@ mod tests {
     }
 
     fn multi_focus() -> Design {
-        use crate::design::{Aperture, ChannelSpec, Grid};
+        use crate::model::design::{Aperture, ChannelSpec, Grid};
         let spec = ChannelSpec {
             l: 56.86,
             d: 0.12744,

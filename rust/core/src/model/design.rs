@@ -10,8 +10,10 @@
 //! nearest), which pixels are lit (square or circular aperture) and each pixel's 2-D chief
 //! sample on a plane at depth z. All lengths in mm.
 
-use crate::error::{Error, Result};
-use crate::lens::{conjugate, count, derived, ng_focal_length, positive as length, MAX_K, MAX_Q};
+use crate::infra::error::{Error, Result};
+use crate::model::lens::{
+    conjugate, count, derived, ng_focal_length, positive as length, MAX_K, MAX_Q,
+};
 
 /// Most channels a design may have.
 pub const MAX_CHANNELS: usize = 64;
@@ -542,8 +544,8 @@ fn check_images(shape: Aperture, aperture: f64, ch: &Channel) -> Result<()> {
             aperture,
             format!(
                 "an aperture whose image behind a lens (D v / L = {} mm) fits in the lens's image cell (pitch d (1 + v / L) = {} mm): otherwise neighbouring microlens images overlap",
-                crate::error::short_number(size),
-                crate::error::short_number(ch.image_pitch())
+                crate::infra::error::short_number(size),
+                crate::infra::error::short_number(ch.image_pitch())
             ),
         ))
     }

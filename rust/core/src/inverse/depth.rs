@@ -64,13 +64,13 @@ use std::sync::Mutex;
 
 use rayon::prelude::*;
 
-use crate::cells::CellGrid;
-use crate::design::{Aperture, Design, Grid, Layout};
-use crate::error::{Error, Result};
-use crate::line::{Axis, Line};
-use crate::memory;
-use crate::parallel::{checkpoint, for_chunks, threads};
-use crate::rayspace::{axis_samples, Sample};
+use crate::imaging::recorder::CellGrid;
+use crate::infra::error::{Error, Result};
+use crate::infra::memory;
+use crate::infra::parallel::{checkpoint, for_chunks, threads};
+use crate::model::design::{Aperture, Design, Grid, Layout};
+use crate::sampling::line::{Axis, Line};
+use crate::sampling::rayspace::{axis_samples, Sample};
 
 /// Least degrees of freedom (in fully lit lenses) a channel's window must hold for its cost
 /// to count.
@@ -276,7 +276,7 @@ fn collect(
     };
     for (n, &i) in channels.iter().enumerate() {
         let ch = &design.channels[i];
-        let (rows, cols) = crate::render::raw_shape(ch);
+        let (rows, cols) = crate::imaging::render::raw_shape(ch);
         let (raw, white) = (raws[n], whites[n]);
         let share = ch.share;
         let inv_l = 1.0 / ch.l;
@@ -301,8 +301,9 @@ fn collect(
                     })
                     .collect())
             };
-            let (xs, ys) =
-                crate::parallel::with_threads(n_threads, || rayon::join(|| pq(&lx), || pq(&ly)))?;
+            let (xs, ys) = crate::infra::parallel::with_threads(n_threads, || {
+                rayon::join(|| pq(&lx), || pq(&ly))
+            })?;
             Some((xs?, ys?))
         } else {
             None
@@ -347,7 +348,7 @@ fn collect(
             Layout::Sensor { .. } => {
                 memory::check("the depth sweep's lens boxes", (kx * ky) as u128 * 32)?;
                 let mut b = vec![[usize::MAX, 0, usize::MAX, 0]; kx * ky];
-                let step = crate::parallel::chunk_items(n_threads, cols as u128 * 8);
+                let step = crate::infra::parallel::chunk_items(n_threads, cols as u128 * 8);
                 for_chunks(n_threads, rows, step, |range| {
                     let parts: Vec<Vec<(usize, usize, usize)>> = range
                         .into_par_iter()
@@ -444,7 +445,7 @@ fn collect(
                 pixels,
             ))
         };
-        let step = crate::parallel::chunk_items(n_threads, 64 * 64);
+        let step = crate::infra::parallel::chunk_items(n_threads, 64 * 64);
         for_chunks(n_threads, kx * ky, step, |range| {
             let found: Vec<Option<(Lens, usize)>> = range.into_par_iter().map(lens).collect();
             let bytes: u128 = found
@@ -589,7 +590,7 @@ fn tents(
 /// are element-wise or summed in order, and Rust never fuses a multiply and an add, so the
 /// two give the same bits; AVX2 does four cells (and four divisions) at a time.
 fn layer(mi: &Micro, grid: &CellGrid, radius: usize, z: f64, buf: &mut Layer, out: &mut [f64]) {
-    crate::simd::dispatch(
+    crate::infra::simd::dispatch(
         #[inline(always)]
         |_| layer_in(mi, grid, radius, z, buf, out),
     )
@@ -1049,7 +1050,7 @@ pub fn sweep(
     n_threads: Option<usize>,
     done: &AtomicUsize,
 ) -> Result<Sweep> {
-    crate::parallel::check_threads(n_threads)?;
+    crate::infra::parallel::check_threads(n_threads)?;
     check_candidates(design, candidates)?;
     if channels.is_empty() || channels.len() > u8::MAX as usize {
         return Err(Error::param(
@@ -1080,7 +1081,7 @@ pub fn sweep(
                 format!("channel numbers in 1..={}", design.channels.len()),
             ));
         }
-        let (rows, cols) = crate::render::raw_shape(&design.channels[i]);
+        let (rows, cols) = crate::imaging::render::raw_shape(&design.channels[i]);
         for (name, img) in [("raw", raws[n]), ("white", whites[n])] {
             if img.len() != rows * cols {
                 return Err(Error::param(

@@ -23,10 +23,10 @@
 
 use rayon::prelude::*;
 
-use crate::error::{Error, Result};
-use crate::memory;
-use crate::parallel;
-use crate::simd;
+use crate::infra::error::{Error, Result};
+use crate::infra::memory;
+use crate::infra::parallel;
+use crate::infra::simd;
 
 /// A sparse matrix in compressed rows: row i's entries are `indices[indptr[i]..indptr[i+1]]`
 /// (columns, < `ncols`) and the same range of `data`.
@@ -1411,7 +1411,7 @@ mod tests {
         for threads in [Some(1), Some(2)] {
             let mut work = normal.work().unwrap();
             let mut out = vec![0.0; nx * ny];
-            crate::parallel::with_threads(threads, || normal.apply(&t, &mut work, &mut out))
+            crate::infra::parallel::with_threads(threads, || normal.apply(&t, &mut work, &mut out))
                 .unwrap();
             let err = out
                 .iter()

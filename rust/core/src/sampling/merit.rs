@@ -3,15 +3,15 @@
 //! the worst and median resolution (max gap, §6) of each channel and of the union, plus
 //! each channel's lit fraction and light per lit pixel.
 
-use crate::design::{Design, Grid};
-use crate::error::Result;
-use crate::line::Axis;
-use crate::line::Line;
-use crate::optics::{check_design_depths, design_sharp_fractions};
-use crate::parallel::check_threads;
-use crate::rayspace::{trace_line_threads, Sample};
-use crate::samples::{check_tol, design_new_samples};
-use crate::samples2d::{check_tol_2d, check_window, coverage};
+use crate::infra::error::Result;
+use crate::infra::parallel::check_threads;
+use crate::model::design::{Design, Grid};
+use crate::model::optics::{check_design_depths, design_sharp_fractions};
+use crate::sampling::line::Axis;
+use crate::sampling::line::Line;
+use crate::sampling::rayspace::{trace_line_threads, Sample};
+use crate::sampling::samples::{check_tol, design_new_samples};
+use crate::sampling::samples2d::{check_tol_2d, check_window, coverage};
 
 /// Median as NumPy computes it: the middle value, or the mean of the two middle values.
 fn median(values: &mut [f64]) -> f64 {
@@ -144,7 +144,7 @@ pub fn design_metrics_2d(channels: usize) -> Vec<String> {
 }
 
 /// Check the arguments only the 2-D merits have, before any work: `tol` as the 2-D
-/// distinct samples take it ((0, [`crate::samples2d::MAX_TOL_2D`]]) and `window` (finite,
+/// distinct samples take it ((0, [`crate::sampling::samples2d::MAX_TOL_2D`]]) and `window` (finite,
 /// > 0).
 pub fn check_merits_2d(tol: f64, window: f64) -> Result<()> {
     check_tol_2d(tol)?;
@@ -196,7 +196,7 @@ mod tests {
 
     #[test]
     fn seed_design_merits() {
-        let cam = crate::camera::Camera::paper();
+        let cam = crate::model::camera::Camera::paper();
         let design = cam.design();
         let z: Vec<f64> = (0..50)
             .map(|i| 150.0 * (10_000.0f64 / 150.0).powf(i as f64 / 49.0))
@@ -220,7 +220,7 @@ mod tests {
 
     #[test]
     fn merits_2d_are_coverage_rows() {
-        let design = crate::presets::preset("split3").unwrap();
+        let design = crate::model::presets::preset("split3").unwrap();
         let z: Vec<f64> = (0..6)
             .map(|i| 150.0 * (10_000.0f64 / 150.0).powf(i as f64 / 5.0))
             .collect();

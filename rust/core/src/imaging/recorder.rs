@@ -1,11 +1,11 @@
 //! The reconstruction's cell grid, the map's rows, and the recorder that builds a row from
 //! the forward model's integration (docs/model.md §11, docs/reconstruct.md). Kept apart
-//! from [`crate::system`] (which builds maps from [`crate::render`]) so that the renderer
+//! from [`crate::inverse::system`] (which builds maps from [`crate::imaging::render`]) so that the renderer
 //! can hold a recorder without the two modules depending on each other.
 
-use crate::error::{Error, Result};
-use crate::memory;
-use crate::polygon::{area_above, bounds, centroid, clip_into, signed_area, Pt};
+use crate::infra::error::{Error, Result};
+use crate::infra::memory;
+use crate::infra::polygon::{area_above, bounds, centroid, clip_into, signed_area, Pt};
 
 /// A uniform grid of square cells over [x0, x0 + nx h] × [y1 − ny h, y1]; cell (r, c) (row
 /// r from the top, column c from the left, like a texture) is unknown r nx + c.

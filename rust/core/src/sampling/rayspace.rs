@@ -12,14 +12,14 @@
 
 use rayon::prelude::*;
 
-use crate::design::{Aperture, Design};
-use crate::error::{Error, Result};
-use crate::lens::conjugate;
-use crate::line::Axis;
-use crate::line::Line;
-use crate::memory::{self, try_vec, try_with_capacity};
-use crate::optics::check_design_depths;
-use crate::parallel::{check_threads, chunk_items, for_chunks, with_threads};
+use crate::infra::error::{Error, Result};
+use crate::infra::memory::{self, try_vec, try_with_capacity};
+use crate::infra::parallel::{check_threads, chunk_items, for_chunks, with_threads};
+use crate::model::design::{Aperture, Design};
+use crate::model::lens::conjugate;
+use crate::model::optics::check_design_depths;
+use crate::sampling::line::Axis;
+use crate::sampling::line::Line;
 
 /// Most vertices of an integration polygon (a parallelogram clipped by one strip).
 pub const MAX_VERTICES: usize = 6;
@@ -993,8 +993,8 @@ pub fn design_sample_grid_into(
 mod tests {
     use super::*;
 
-    use crate::camera::Camera;
-    use crate::lens::MAX_K;
+    use crate::model::camera::Camera;
+    use crate::model::lens::MAX_K;
 
     /// The seed with 6 x 4 lenses and the given microlens focal lengths, as its design.
     fn design(f1: Option<f64>, f2: Option<f64>) -> Design {

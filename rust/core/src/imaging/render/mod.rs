@@ -31,13 +31,13 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use rayon::prelude::*;
 
-use crate::design::{Aperture, Channel, Design, Grid, Layout};
-use crate::error::{Error, Result};
-use crate::memory;
-use crate::parallel::{checkpoint, for_chunks};
-use crate::polygon::{angular_span, bounds, clip_box, clip_into, signed_area, Pt};
-use crate::scene::{Scene, Surface};
-use crate::texture::{Scratch, Texture};
+use crate::imaging::scene::{Scene, Surface};
+use crate::imaging::texture::{Scratch, Texture};
+use crate::infra::error::{Error, Result};
+use crate::infra::memory;
+use crate::infra::parallel::{checkpoint, for_chunks};
+use crate::infra::polygon::{angular_span, bounds, clip_box, clip_into, signed_area, Pt};
+use crate::model::design::{Aperture, Channel, Design, Grid, Layout};
 
 /// Record mode on a plane: the footprint density integrated over the grid's cells.
 pub(crate) mod footprint;
@@ -246,8 +246,8 @@ pub(crate) struct Work {
     rel_floor: f64,
     /// When set, the integration records each grid cell's share of the pixel's rays
     /// instead of averaging the texture (the map of docs/model.md §11; see
-    /// [`crate::cells::Recorder`]), and the adaptive rule is a fixed one ([`fixed_rule`]).
-    pub(crate) rec: Option<Box<crate::cells::Recorder>>,
+    /// [`crate::imaging::recorder::Recorder`]), and the adaptive rule is a fixed one ([`fixed_rule`]).
+    pub(crate) rec: Option<Box<crate::imaging::recorder::Recorder>>,
     tex: Scratch,
     poly: Vec<Pt>,
     tmp: Vec<Pt>,
@@ -259,7 +259,7 @@ pub(crate) struct Work {
     /// Record mode on a plane: [`footprint`]'s buffers.
     fp: footprint::Scratch,
     /// Record mode on a depth map: every ray meets it at most once
-    /// ([`crate::scene::DepthMap::seen_once`]), so [`footprint`] records it too.
+    /// ([`crate::imaging::scene::DepthMap::seen_once`]), so [`footprint`] records it too.
     map_once: bool,
 }
 
@@ -276,7 +276,7 @@ impl Work {
     /// most once (`map_once`: [`map_seen_once`]), the record is [`footprint`]'s, which has
     /// rules of its own; on another depth map (never fronto-parallel) it is the render's
     /// own integral's, which takes first hits.
-    pub(crate) fn recording(rec: Box<crate::cells::Recorder>, map_once: bool) -> Work {
+    pub(crate) fn recording(rec: Box<crate::imaging::recorder::Recorder>, map_once: bool) -> Work {
         Work {
             rec: Some(rec),
             map_once,
@@ -286,7 +286,7 @@ impl Work {
 }
 
 /// Is `surface` a depth map that every ray through the main lens of `chan` meets at most
-/// once ([`crate::scene::DepthMap::seen_once`])? Checked once per map, not per worker.
+/// once ([`crate::imaging::scene::DepthMap::seen_once`])? Checked once per map, not per worker.
 pub(crate) fn map_seen_once(chan: &Chan, surface: &Surface) -> bool {
     matches!(surface, Surface::Map(m) if m.seen_once(chan.aperture_box()))
 }
@@ -1113,7 +1113,7 @@ fn scene_mean(chan: &Chan, scene: &Scene, c: Pt, w_of: impl Fn(Pt) -> Pt, wk: &m
     }
     if misses == wk.poly.len() {
         // Check the centroid before declaring the whole polygon background.
-        let ctr = crate::polygon::centroid(&wk.poly);
+        let ctr = crate::infra::polygon::centroid(&wk.poly);
         let w = w_of(ctr);
         if scene.surface.hit(w, a_of(ctr, w)).is_none() {
             if let Some(r) = wk.rec.as_deref_mut() {
@@ -1221,7 +1221,7 @@ fn piece_value(
         if !miss {
             r.add(&wk.mapped, area);
         } else {
-            let ctr = crate::polygon::centroid(&wk.piece);
+            let ctr = crate::infra::polygon::centroid(&wk.piece);
             let w = w_of(ctr);
             match scene.surface.hit(w, a_of(ctr, w)) {
                 Some((_, p)) => r.add_point(p, area),
@@ -1231,7 +1231,7 @@ fn piece_value(
         return 0.0;
     }
     let v = if miss {
-        let ctr = crate::polygon::centroid(&wk.piece);
+        let ctr = crate::infra::polygon::centroid(&wk.piece);
         let w = w_of(ctr);
         match scene.surface.hit(w, a_of(ctr, w)) {
             Some((_, p)) => scene.texture.at(p),
@@ -1286,7 +1286,7 @@ pub fn raw_shape(ch: &Channel) -> (usize, usize) {
 /// that holds every point a ray of any channel can reach (rays through any point of the
 /// aperture and any point of the array's cells).
 pub fn view_extent(design: &Design, z: f64) -> Result<[f64; 4]> {
-    crate::optics::check_design_depths(design.f_main, &[z])?;
+    crate::model::optics::check_design_depths(design.f_main, &[z])?;
     let r = design.aperture / 2.0;
     let mut ext = [
         f64::INFINITY,
@@ -1507,7 +1507,7 @@ fn general_channel(
     // ray measure of a fully lit pixel, cell area × (μ L / v)².
     let full = signed_area(&chan.cell) * (ch.mu / chan.vl).powi(2);
     let tol = tol * full;
-    let step = crate::parallel::chunk_items(n_threads, per_row);
+    let step = crate::infra::parallel::chunk_items(n_threads, per_row);
     let reach = chan.reach();
     let raw_ptr = SendPtr(raw.as_mut_ptr());
     for_chunks(n_threads, rows, step, |range| {
@@ -1611,7 +1611,7 @@ fn own_lens_value(
 /// The exact route (module doc): separable 1-D ray-set areas per texture column and row.
 pub(crate) mod exact {
     use super::*;
-    use crate::texture::ImageTexture;
+    use crate::imaging::texture::ImageTexture;
 
     /// Areas of one pixel's 1-D ray set (x, w) between consecutive cell edges of one axis:
     /// `first` the index of the first cell, then the areas; plus the areas before the
@@ -1652,7 +1652,7 @@ pub(crate) mod exact {
         if signed_area(poly) <= 0.0 {
             return None;
         }
-        let q = crate::polygon::centroid(poly);
+        let q = crate::infra::polygon::centroid(poly);
         Some((q[1], slope(chan, c, q)))
     }
 
@@ -1856,7 +1856,7 @@ pub(crate) mod exact {
             .collect();
         let mean = tex.mean_value();
         let norm = chan.norm;
-        let step = crate::parallel::chunk_items(n_threads, (cols as u128) * 64);
+        let step = crate::infra::parallel::chunk_items(n_threads, (cols as u128) * 64);
         let raw_ptr = SendPtr(raw.as_mut_ptr());
         for_chunks(n_threads, rows, step, |range| {
             let start = range.start;

@@ -14,8 +14,8 @@
 
 use std::f64::consts::PI;
 
-use crate::error::{Error, Result};
-use crate::polygon::{angular_span, centroid, clip_into, signed_area, Pt};
+use crate::infra::error::{Error, Result};
+use crate::infra::polygon::{angular_span, centroid, clip_into, signed_area, Pt};
 
 /// Largest number of texture cells (far beyond any image; guards typos).
 pub const MAX_TEXTURE_CELLS: usize = 1 << 31;
@@ -140,8 +140,9 @@ impl ImageTexture {
         let mean = sum / values.len() as f64;
         let hx = (x1 - x0) / cols as f64;
         let hy = (y1 - y0) / rows as f64;
-        let mut flipped = crate::memory::try_vec("the texture", rows * cols, 0.0)?;
-        let mut prefix = crate::memory::try_vec("the texture's row sums", rows * (cols + 1), 0.0)?;
+        let mut flipped = crate::infra::memory::try_vec("the texture", rows * cols, 0.0)?;
+        let mut prefix =
+            crate::infra::memory::try_vec("the texture's row sums", rows * (cols + 1), 0.0)?;
         for b in 0..rows {
             let r = rows - 1 - b;
             let src = &values[r * cols..(r + 1) * cols];
@@ -519,7 +520,7 @@ impl Texture {
     /// The mean of T over a convex polygon (T at its centroid when its area vanishes).
     pub fn average(&self, poly: &[Pt], scratch: &mut Scratch) -> f64 {
         let area = signed_area(poly);
-        let (x0, x1, y0, y1) = crate::polygon::bounds(poly);
+        let (x0, x1, y0, y1) = crate::infra::polygon::bounds(poly);
         let scale = (x1 - x0).max(y1 - y0);
         if area.abs() <= 1e-12 * scale * scale || !area.is_finite() {
             return self.at(centroid(poly));
@@ -695,7 +696,7 @@ mod tests {
 
     /// Brute-force mean over the polygon by a fine midpoint grid.
     fn brute(t: &Texture, p: &[Pt], n: usize) -> f64 {
-        let (x0, x1, y0, y1) = crate::polygon::bounds(p);
+        let (x0, x1, y0, y1) = crate::infra::polygon::bounds(p);
         let (hx, hy) = ((x1 - x0) / n as f64, (y1 - y0) / n as f64);
         let mut s = 0.0;
         let mut c = 0usize;

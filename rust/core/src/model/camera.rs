@@ -4,9 +4,9 @@
 //! lens; half i has its microlens array at `L_i` (L_1 = v', L_2 = v'(1+κ)) with microlens
 //! focal length `f_i`, and its sensor a distance `v` behind the array. All lengths in mm.
 
-use crate::design::{Aperture, Channel, ChannelSpec, Design, Grid, Layout};
-use crate::error::{Error, Result};
-use crate::lens::ng_focal_length;
+use crate::infra::error::{Error, Result};
+use crate::model::design::{Aperture, Channel, ChannelSpec, Design, Grid, Layout};
+use crate::model::lens::ng_focal_length;
 
 /// Which half of the split sensor: half 1 is the conventional ("original") LF camera.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -265,8 +265,8 @@ impl Camera {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::lens::depth_of_conjugate;
-    use crate::line::{Axis, Line};
+    use crate::model::lens::depth_of_conjugate;
+    use crate::sampling::line::{Axis, Line};
 
     /// Lit pixels of channel `number` along x under one lens.
     fn lit_pixels(d: &Design, number: i64) -> usize {
