@@ -1,24 +1,14 @@
-//! PyO3 bindings of splitlf-core. Nothing physical lives here: argument conversion
-//! ([`args`]), GIL release around the core with Ctrl-C checked between the core's chunks of
-//! work ([`interrupt`]), fallible allocation of the NumPy outputs ([`arrays`]), named
-//! result objects, and the mapping of core errors to the exceptions of `splitlf.errors`
-//! ([`errors`]). The bindings are split by domain: [`design`] (the validated models),
-//! [`optics`], [`samples`], [`rayspace`], [`coverage`], [`simulate`] and [`render`]; this file only
+//! PyO3 bindings of splitlf-core. Nothing physical lives here. The bindings mirror the
+//! core's domains: [`infra`] (argument conversion, NumPy arrays in and out, error mapping to
+//! the exceptions of `splitlf.errors`, GIL release with Ctrl-C checked between the core's
+//! chunks of work), [`model`], [`sampling`], [`imaging`] and [`inverse`]; this file only
 //! registers them.
 
-mod args;
-mod arrays;
-mod coverage;
-mod depth;
-mod design;
-mod errors;
-mod interrupt;
-mod optics;
-mod rayspace;
-mod reconstruct;
-mod render;
-mod samples;
-mod simulate;
+mod imaging;
+mod infra;
+mod inverse;
+mod model;
+mod sampling;
 
 use pyo3::prelude::*;
 
@@ -69,57 +59,57 @@ macro_rules! functions {
 
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    interrupt::numpy_ready(m.py())?;
+    infra::interrupt::numpy_ready(m.py())?;
     constants(m)?;
-    classes!(m, design::CameraCore, design::DesignCore);
+    classes!(m, model::design::CameraCore, model::design::DesignCore);
     classes!(
         m,
-        optics::DesignCurvesArrays,
-        optics::DesignDepthOfFieldIntervals,
-        samples::DesignSamplesArrays,
-        samples::PlaneColumns,
-        rayspace::TraceArrays,
-        rayspace::FootprintArrays,
-        rayspace::SampleGridArrays,
-        coverage::ChiefSampleArrays,
-        coverage::Samples2dArrays,
-        coverage::CoverageArrays,
-        simulate::SystemMatrixArrays,
-        simulate::RenderArrays,
-        render::RenderScene,
+        model::optics::DesignCurvesArrays,
+        model::optics::DesignDepthOfFieldIntervals,
+        sampling::samples::DesignSamplesArrays,
+        sampling::samples::PlaneColumns,
+        sampling::rayspace::TraceArrays,
+        sampling::rayspace::FootprintArrays,
+        sampling::rayspace::SampleGridArrays,
+        sampling::samples2d::ChiefSampleArrays,
+        sampling::samples2d::Samples2dArrays,
+        sampling::samples2d::CoverageArrays,
+        inverse::simulate::SystemMatrixArrays,
+        inverse::simulate::RenderArrays,
+        imaging::render::RenderScene,
     );
     // Closed forms; samples along one axis and figures of merit; ray space; 2-D samples;
     // the simulation's forward model; the memory guard.
     functions!(
         m,
-        optics::design_curves,
-        optics::design_depth_of_field,
-        optics::design_sharp_fractions,
-        samples::design_new_samples,
-        samples::design_coincidence_planes,
-        samples::design_figures_of_merit,
-        samples::design_metrics,
-        rayspace::design_trace,
-        rayspace::design_footprints,
-        rayspace::design_sample_grid,
-        coverage::chief_samples,
-        coverage::samples_2d,
-        coverage::coverage,
-        simulate::design_kernel_support,
-        simulate::design_system_matrix,
-        simulate::design_render,
-        render::render,
-        render::render_extent,
-        reconstruct::seen_region,
-        reconstruct::pixel_span,
-        reconstruct::cell_grid,
-        reconstruct::reconstruction_system,
-        reconstruct::surface_system,
-        reconstruct::reconstruction_factors,
-        reconstruct::solve_normal,
-        reconstruct::cell_averages,
-        depth::depth_sweep,
-        arrays::available_memory,
+        model::optics::design_curves,
+        model::optics::design_depth_of_field,
+        model::optics::design_sharp_fractions,
+        sampling::samples::design_new_samples,
+        sampling::samples::design_coincidence_planes,
+        sampling::samples::design_figures_of_merit,
+        sampling::samples::design_metrics,
+        sampling::rayspace::design_trace,
+        sampling::rayspace::design_footprints,
+        sampling::rayspace::design_sample_grid,
+        sampling::samples2d::chief_samples,
+        sampling::samples2d::samples_2d,
+        sampling::samples2d::coverage,
+        inverse::simulate::design_kernel_support,
+        inverse::simulate::design_system_matrix,
+        inverse::simulate::design_render,
+        imaging::render::render,
+        imaging::render::render_extent,
+        inverse::reconstruct::seen_region,
+        inverse::reconstruct::pixel_span,
+        inverse::reconstruct::cell_grid,
+        inverse::reconstruct::reconstruction_system,
+        inverse::reconstruct::surface_system,
+        inverse::reconstruct::reconstruction_factors,
+        inverse::reconstruct::solve_normal,
+        inverse::reconstruct::cell_averages,
+        inverse::depth::depth_sweep,
+        infra::arrays::available_memory,
     );
     Ok(())
 }

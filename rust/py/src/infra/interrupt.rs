@@ -9,7 +9,7 @@ use pyo3::prelude::*;
 
 use splitlf_core::{infra::parallel, Error};
 
-use crate::errors::core_error;
+use crate::infra::errors::core_error;
 
 /// Time between two signal checks of a call on the main thread: the core's chunks can be
 /// much shorter, and each check takes the GIL.

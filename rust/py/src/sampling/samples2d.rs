@@ -8,11 +8,11 @@ use pyo3::types::PyTuple;
 
 use splitlf_core::sampling::samples2d;
 
-use crate::args::{as_slice, channel_arg, threads_arg};
-use crate::arrays::{as_u64, empty, filled};
-use crate::design::DesignCore;
-use crate::errors::{internal, to_py};
-use crate::interrupt::run;
+use crate::infra::args::{as_slice, channel_arg, threads_arg};
+use crate::infra::arrays::{as_u64, empty, filled};
+use crate::infra::errors::{internal, to_py};
+use crate::infra::interrupt::run;
+use crate::model::design::DesignCore;
 
 /// Every pixel of one channel (rows y, columns x of its pixel grid): chief sample (X, Y)
 /// [mm] (NaN where unlit), lit flag, lens (j, k) and lens type.

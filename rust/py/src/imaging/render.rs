@@ -10,11 +10,11 @@ use splitlf_core::imaging::render::{self as core_render, RenderOptions};
 use splitlf_core::imaging::scene::{Scene, Surface};
 use splitlf_core::imaging::texture::Texture;
 
-use crate::args::threads_arg;
-use crate::arrays::empty;
-use crate::design::DesignCore;
-use crate::errors::{internal, to_py};
-use crate::interrupt::{counted, run_reporting};
+use crate::infra::args::threads_arg;
+use crate::infra::arrays::empty;
+use crate::infra::errors::{internal, to_py};
+use crate::infra::interrupt::{counted, run_reporting};
+use crate::model::design::DesignCore;
 
 /// A validated scene of the forward model.
 #[pyclass(frozen, module = "splitlf._native")]

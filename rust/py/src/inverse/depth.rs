@@ -5,12 +5,12 @@ use pyo3::prelude::*;
 
 use splitlf_core::inverse::depth;
 
-use crate::args::threads_arg;
-use crate::arrays::filled;
-use crate::design::DesignCore;
-use crate::errors::internal;
-use crate::interrupt::{counted, run_reporting};
-use crate::reconstruct::{channel_indices, checked_grid};
+use crate::infra::args::threads_arg;
+use crate::infra::arrays::filled;
+use crate::infra::errors::internal;
+use crate::infra::interrupt::{counted, run_reporting};
+use crate::inverse::reconstruct::{channel_indices, checked_grid};
+use crate::model::design::DesignCore;
 
 type SweepTuple<'py> = (
     Bound<'py, PyArray2<f64>>,

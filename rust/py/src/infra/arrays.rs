@@ -10,7 +10,7 @@ use pyo3::types::PyTuple;
 
 use splitlf_core::{infra::memory, Error};
 
-use crate::errors::{internal, to_py};
+use crate::infra::errors::{internal, to_py};
 
 /// An uninitialised C-contiguous NumPy array, allocated by `numpy.empty` so that a failed
 /// allocation is a `TooLargeError` naming the call (rust-numpy's constructors would panic).

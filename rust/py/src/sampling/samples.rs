@@ -6,11 +6,13 @@ use pyo3::prelude::*;
 
 use splitlf_core::{model::optics, sampling::merit, sampling::samples, Error};
 
-use crate::args::{as_slice, channel_arg, int_arg, sample_arg, saturate, threads_arg, with_given};
-use crate::arrays::{as_u64, empty, filled};
-use crate::design::DesignCore;
-use crate::errors::{internal, to_py};
-use crate::interrupt::{run, run_as};
+use crate::infra::args::{
+    as_slice, channel_arg, int_arg, sample_arg, saturate, threads_arg, with_given,
+};
+use crate::infra::arrays::{as_u64, empty, filled};
+use crate::infra::errors::{internal, to_py};
+use crate::infra::interrupt::{run, run_as};
+use crate::model::design::DesignCore;
 
 /// Coincidence planes of one half sorted by depth, one column per field.
 #[pyclass(frozen, get_all, module = "splitlf._native")]

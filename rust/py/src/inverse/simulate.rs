@@ -7,11 +7,11 @@ use pyo3::prelude::*;
 use splitlf_core::inverse::simulate::{self, DesignSource, Grid, Pixels};
 use splitlf_core::Design;
 
-use crate::args::{as_flat, threads_arg};
-use crate::arrays::filled;
-use crate::design::DesignCore;
-use crate::errors::{internal, to_py};
-use crate::interrupt::run;
+use crate::infra::args::{as_flat, threads_arg};
+use crate::infra::arrays::filled;
+use crate::infra::errors::{internal, to_py};
+use crate::infra::interrupt::run;
+use crate::model::design::DesignCore;
 
 /// A design's source from its name ("channel<c>", "conventional<c>").
 pub(crate) fn design_source(design: &Design, source: &str) -> PyResult<Pixels> {

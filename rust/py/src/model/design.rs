@@ -11,8 +11,8 @@ use splitlf_core::{
     model::design, model::lens, model::optics, model::presets, Axis, Camera, Design,
 };
 
-use crate::args::{half_arg, int_arg, saturate, with_given};
-use crate::errors::to_py;
+use crate::infra::args::{half_arg, int_arg, saturate, with_given};
+use crate::infra::errors::to_py;
 
 /// A validated camera held by the core (wrapped by `splitlf.Camera`): the paper's
 /// parametrisation and the two-channel design it builds (channel i is half i), validated

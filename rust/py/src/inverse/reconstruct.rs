@@ -9,10 +9,10 @@ use pyo3::prelude::*;
 use splitlf_core::inverse::solve;
 use splitlf_core::inverse::system::{self, CellGrid};
 
-use crate::args::threads_arg;
-use crate::design::DesignCore;
-use crate::errors::to_py;
-use crate::interrupt::{counted, run_reporting};
+use crate::infra::args::threads_arg;
+use crate::infra::errors::to_py;
+use crate::infra::interrupt::{counted, run_reporting};
+use crate::model::design::DesignCore;
 
 /// Channels numbered from 1 (Python) to indices from 0, every channel when None.
 pub(crate) fn channel_indices(
@@ -186,7 +186,7 @@ pub(crate) fn reconstruction_system<'py>(
 pub(crate) fn surface_system<'py>(
     py: Python<'py>,
     design: &DesignCore,
-    scene: &crate::render::RenderScene,
+    scene: &crate::imaging::render::RenderScene,
     grid: (f64, f64, f64, usize, usize),
     channels: Option<Vec<i64>>,
     n_threads: Option<&Bound<'py, PyAny>>,
@@ -257,7 +257,7 @@ pub(crate) fn reconstruction_factors<'py>(
         .detach(move || system::factors(&d, ch, z, &g))
         .map_err(to_py)?;
     let types = numpy::ndarray::Array2::from_shape_vec((f.rows, f.cols), f.types)
-        .map_err(crate::errors::internal)?;
+        .map_err(crate::infra::errors::internal)?;
     let axis = |a: system::AxisProfiles| -> Axis<'py> {
         (
             a.indptr.into_pyarray(py),
@@ -279,7 +279,7 @@ pub(crate) fn reconstruction_factors<'py>(
 #[pyfunction]
 pub(crate) fn cell_averages<'py>(
     py: Python<'py>,
-    scene: &crate::render::RenderScene,
+    scene: &crate::imaging::render::RenderScene,
     grid: (f64, f64, f64, usize, usize),
 ) -> PyResult<Bound<'py, numpy::PyArray2<f64>>> {
     let g = checked_grid(grid)?;
@@ -291,7 +291,7 @@ pub(crate) fn cell_averages<'py>(
     let sc = Arc::clone(&scene.inner);
     let values = py.detach(move || system::cell_averages(&sc.texture, &g));
     let a = numpy::ndarray::Array2::from_shape_vec((g.ny, g.nx), values)
-        .map_err(crate::errors::internal)?;
+        .map_err(crate::infra::errors::internal)?;
     Ok(a.into_pyarray(py))
 }
 
@@ -409,7 +409,7 @@ pub(crate) fn solve_normal<'py>(
         };
         solve::solve(&normal, stop, threads, &counter)
     })?;
-    let cells = crate::arrays::filled::<f64, numpy::ndarray::Ix2>(
+    let cells = crate::infra::arrays::filled::<f64, numpy::ndarray::Ix2>(
         py,
         &[ny, nx],
         "the reconstruction",

@@ -8,11 +8,11 @@ use splitlf_core::infra::memory;
 use splitlf_core::sampling::line::Line;
 use splitlf_core::sampling::rayspace::{self, MAX_VERTICES};
 
-use crate::args::{as_slice, channel_arg, sample_arg, threads_arg};
-use crate::arrays::{empty, filled};
-use crate::design::DesignCore;
-use crate::errors::{internal, to_py};
-use crate::interrupt::run;
+use crate::infra::args::{as_slice, channel_arg, sample_arg, threads_arg};
+use crate::infra::arrays::{empty, filled};
+use crate::infra::errors::{internal, to_py};
+use crate::infra::interrupt::run;
+use crate::model::design::DesignCore;
 
 /// Integration polygons of n pixels of one half (or channel) along one axis.
 #[pyclass(frozen, get_all, module = "splitlf._native")]

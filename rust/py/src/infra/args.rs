@@ -13,7 +13,7 @@ use pyo3::types::PyBool;
 use splitlf_core::sampling::rayspace::Sample;
 use splitlf_core::{infra::memory, infra::parallel, Design, Error, Half};
 
-use crate::errors::to_py;
+use crate::infra::errors::to_py;
 
 /// An integer argument of any size (a Python int or anything with `__index__`, never a
 /// bool), or a `TypeError` naming it: its value saturated to i128 (every range is far

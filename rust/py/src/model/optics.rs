@@ -5,11 +5,11 @@ use pyo3::prelude::*;
 
 use splitlf_core::{infra::memory, model::optics};
 
-use crate::args::{as_slice, threads_arg};
-use crate::arrays::empty;
-use crate::design::DesignCore;
-use crate::errors::{internal, to_py};
-use crate::interrupt::run;
+use crate::infra::args::{as_slice, threads_arg};
+use crate::infra::arrays::empty;
+use crate::infra::errors::{internal, to_py};
+use crate::infra::interrupt::run;
+use crate::model::design::DesignCore;
 
 pub(crate) type Intervals = Vec<(f64, f64)>;
 

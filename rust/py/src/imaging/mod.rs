@@ -1,0 +1,3 @@
+//! Bindings of image formation: the renderer.
+
+pub(crate) mod render;
