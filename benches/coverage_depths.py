@@ -1,4 +1,4 @@
-"""Per-depth cost of ``splitlf.coverage`` on every preset, and of the 2-D merits in an
+"""Per-depth cost of ``splitlf.sampling.samples2d`` on every preset, and of the 2-D merits in an
 optimisation (the cost behind issue 12's 2-D objectives).
 
 For each preset (``splitlf.Design.preset``) and window (4 and 16 lens pitches): 20 depths

@@ -38,7 +38,7 @@ from timing import timed_call  # noqa: E402
 
 import splitlf  # noqa: E402
 from splitlf import _native  # noqa: E402
-from splitlf.reconstruction import (  # noqa: E402
+from splitlf.inverse.reconstruct import (  # noqa: E402
     CG_MAX_ITER,
     CG_NOISE_TOL,
     CG_RTOL,
@@ -187,7 +187,7 @@ def peak_rss_mib(fn: Any) -> tuple[float, Any]:
 def map_bytes(raw: splitlf.Raw, region: tuple[float, ...]) -> tuple[int, int]:
     """Bytes of the factored map the solve holds (its factors) and of the explicit CSR map
     it stands for (8 B a value, 4 B a column, per kept pixel nnz_y x nnz_x)."""
-    from splitlf.reconstruction import _parts
+    from splitlf.inverse.reconstruct import _parts
 
     d = raw.design
     x0, y1, h, nx, ny = _native.cell_grid(region, d.resolution_step(Z))

@@ -38,7 +38,7 @@ from timing import timed_call  # noqa: E402
 
 import splitlf  # noqa: E402
 from splitlf import _native  # noqa: E402
-from splitlf.depth_estimation import DEFAULT_STEP, DEFAULT_WINDOW, _white  # noqa: E402
+from splitlf.inverse.depth import DEFAULT_STEP, DEFAULT_WINDOW, _white  # noqa: E402
 
 Z = 1000.0
 DEPTHS = (250.0, 4000.0)

@@ -9,7 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from splitlf.cli import main
-from splitlf.design import PRESETS
+from splitlf.model.design import PRESETS
 
 if __name__ == "__main__":
     docs = Path(__file__).resolve().parent

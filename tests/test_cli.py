@@ -242,7 +242,7 @@ def test_failed_write_keeps_the_previous_file(tmp_path, monkeypatch, capsys):
 
 
 def test_trace_passes_threads(tmp_path, monkeypatch, capsys):
-    import splitlf.rayspace as rs
+    import splitlf.sampling.rayspace as rs
 
     real = rs.trace
     seen = []
@@ -269,7 +269,7 @@ def test_figures_check_every_target_before_writing(tmp_path, capsys):
 
 def test_figures_pass_threads_to_every_figure(tmp_path, monkeypatch, capsys):
     import splitlf.cli as cli
-    import splitlf.rayspace as rs
+    import splitlf.sampling.rayspace as rs
 
     seen = {}
 

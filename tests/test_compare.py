@@ -54,7 +54,7 @@ def test_seed_numbers_equal_report_coverage_and_trace():
     seed = Design.preset("seed")
     table, curves = evaluate({"split": seed}, Z, window=3.0)
     row = table.loc["split"]
-    # covering radius per depth and over the depths: splitlf.coverage, row "union"
+    # covering radius per depth and over the depths: splitlf.sampling.samples2d, row "union"
     cov = splitlf.coverage(seed, Z, window=3.0)
     np.testing.assert_array_equal(curves["z_mm"], Z)
     np.testing.assert_array_equal(curves["covering_radius"], cov.covering_radius[-1])

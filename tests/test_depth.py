@@ -14,7 +14,7 @@ from scipy.signal import convolve2d
 
 import splitlf
 from splitlf import _native, measure
-from splitlf.depth_estimation import _white
+from splitlf.inverse.depth import _white
 
 PHOTONS = 2000.0
 
@@ -55,7 +55,7 @@ def mc_raw(design: splitlf.Design, texture: tuple, surface: tuple, seed: int,
 
 # -- the sweep against NumPy ------------------------------------------------------------------
 
-#: The core's constants (rust/core/src/depth.rs), restated.
+#: The core's constants (rust/core/src/inverse/depth.rs), restated.
 MIN_WHITE, MIN_WEIGHT, M_CAP = 0.05, 2.0, 48.0
 
 
@@ -417,7 +417,7 @@ def test_sensor_layout_keeps_pixels_of_one_lens(monkeypatch: pytest.MonkeyPatch)
     MIN_OWN_SHARE of their white through their own lens. Measured: median 2.0-2.6 %, 90th
     percentile 3.6-5.1 % over texture seeds 3, 5, 7; with every pixel (the whites alone)
     3.8-4.0 % and 6.2-7.3 %."""
-    import splitlf.depth_estimation as de
+    import splitlf.inverse.depth as de
 
     r12 = splitlf.Design.preset("raytrix-r12")
     d = r12.replace(channels=tuple(c.replace(Kx=10, Ky=9, Mx=None, My=None)

@@ -41,7 +41,7 @@ def multi() -> Design:
 
 
 def all_designs() -> dict[str, Design]:
-    out = {name: Design.preset(name) for name in splitlf.design.PRESETS}
+    out = {name: Design.preset(name) for name in splitlf.model.design.PRESETS}
     out["multi"] = multi()
     out["non_ng"] = OPTICS["non_ng"]().design
     return out
@@ -212,9 +212,9 @@ def test_dof_names_and_json():
 # -- presets ---------------------------------------------------------------------------------
 
 def test_presets_validate():
-    assert splitlf.design.PRESETS == ("seed", "seed-plain", "split3", "raytrix-r12",
+    assert splitlf.model.design.PRESETS == ("seed", "seed-plain", "split3", "raytrix-r12",
                                       "lytro-illum")
-    for name in splitlf.design.PRESETS:
+    for name in splitlf.model.design.PRESETS:
         d = Design.preset(name)
         assert sum(ch.share for ch in d.channels) <= 1.0 + 1e-12
         for ch in d.channels:
@@ -493,7 +493,7 @@ def run(args, capsys):
     return code, out.out, out.err
 
 
-@pytest.mark.parametrize("name", splitlf.design.PRESETS)
+@pytest.mark.parametrize("name", splitlf.model.design.PRESETS)
 def test_report_preset_json(name, capsys):
     code, out, err = run(["report", "--preset", name, "--json"], capsys)
     assert code == 0 and err == ""

@@ -13,7 +13,7 @@ import pytest
 import splitlf
 from splitlf import Camera, Design, InvalidParameter, simulate
 from splitlf.cli import json_text, main
-from splitlf.merits import merit_names
+from splitlf.study.merit import merit_names
 
 SEED = Camera.paper()
 Z = np.geomspace(150.0, 10_000.0, 12)
@@ -46,7 +46,7 @@ def _sweep_file(tmp_path, grid_lines, base="", name="sweep.toml"):
 
 def test_cli_sweep_of_a_preset_equals_the_api(tmp_path, capsys):
     xr = pytest.importorskip("xarray")
-    from splitlf.merits import merit_names as design_metrics
+    from splitlf.study.merit import merit_names as design_metrics
     from splitlf.sweep import sweep
 
     d = Design.preset("split3")

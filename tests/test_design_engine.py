@@ -339,13 +339,13 @@ def test_bad_channel_arguments():
 
 # -- sweeps and fractions ------------------------------------------------------------------
 def test_sweep_and_worst_resolution_of_a_design():
-    z = splitlf.samples.sweep_depths(IDEAL, (100.0, 5_000.0), n=50)
+    z = splitlf.sampling.samples.sweep_depths(IDEAL, (100.0, 5_000.0), n=50)
     for c in (1, 2):
         assert np.any(np.isclose(z, IDEAL.out_of_focus_depth(c), rtol=0, atol=0))
     planes = splitlf.coincidence_planes(IDEAL, channel=1, max_n=3).z
     inside = planes[(planes >= 100.0) & (planes <= 5_000.0)]
     assert np.all(np.isin(inside, z))
-    w = splitlf.samples.worst_resolution(MIX, (100.0, 5_000.0), n=60)
+    w = splitlf.sampling.samples.worst_resolution(MIX, (100.0, 5_000.0), n=60)
     assert [k for k in w if k.startswith(("channel", "union"))] == [
         "channel 1", "channel 2", "channel 3", "union"]
     assert w["union"]["max_gap"] <= min(w[f"channel {c}"]["max_gap"] for c in (1, 2, 3))

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 import splitlf
-import splitlf.simulation as simulation
+import splitlf.inverse.simulate as simulation
 from splitlf import Camera, Channel, Design, InvalidParameter, simulate
-from splitlf.simulation import design_sources, forward, system_matrix
+from splitlf.inverse.simulate import design_sources, forward, system_matrix
 
 SEED = Camera.paper()
 

@@ -12,7 +12,7 @@ import splitlf
 from splitlf import Camera, Design, _native
 from splitlf import evaluate as evaluate_design
 from splitlf.errors import InvalidParameter
-from splitlf.merits import merit_names
+from splitlf.study.merit import merit_names
 from splitlf.sweep import design_fields, sweep
 
 DEPTHS = np.geomspace(150.0, 10_000.0, 30)

@@ -12,7 +12,7 @@ import pytest
 
 import splitlf
 from splitlf import Camera, Design, Merits, evaluate
-from splitlf.merits import merit_doc, merit_names
+from splitlf.study.merit import merit_doc, merit_names
 
 Z = np.geomspace(150.0, 10_000.0, 12)
 PACKAGE = pathlib.Path(splitlf.__file__).parent

@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 
 import splitlf
-from splitlf.design import PRESETS
+from splitlf.model.design import PRESETS
 
 ROOT = Path(__file__).resolve().parent.parent
 CHROMIUM = "/usr/bin/chromium"

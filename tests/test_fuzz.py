@@ -27,7 +27,7 @@ from hypothesis import strategies as st
 
 import splitlf
 from splitlf import Camera, InvalidParameter, _native
-from splitlf.camera import COUNT_FIELDS, FIELDS
+from splitlf.model.camera import COUNT_FIELDS, FIELDS
 
 
 def log_floats(lo: float, hi: float) -> st.SearchStrategy[float]:

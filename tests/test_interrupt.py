@@ -37,7 +37,8 @@ LONG_CALLS = {
     "coverage": "splitlf.coverage(IL, np.geomspace(300, 3000, 50), window=200.0)",
     "coincidence_planes": "splitlf.coincidence_planes(P.replace(Kx=10**5), 1, max_n=40)",
     "system_matrix": "for _ in range(10**4): "
-                     "splitlf.simulation.system_matrix(P, 800.0, 'half1', -2.0, 1e-4, 40_000)",
+                     "splitlf.inverse.simulate.system_matrix(P, 800.0, 'half1', -2.0, 1e-4, "
+                     "40_000)",
     "sweep": "splitlf.sweep.sweep(P, {'D': np.linspace(10, 25, 400)}, "
              "np.geomspace(150, 1e4, 20_000))",
     "estimate_depth": "E = S.replace(channels=tuple(c.replace(Kx=10, Ky=8) for c in "
@@ -54,7 +55,7 @@ LONG_CALLS = {
 SETUP = """
     import time
     import numpy as np
-    import splitlf, splitlf.sweep, splitlf.simulation
+    import splitlf, splitlf.sweep, splitlf.inverse.simulate
     P = splitlf.Camera.paper()
     IL = splitlf.Design.preset("lytro-illum")
     S = splitlf.Design.preset("seed")

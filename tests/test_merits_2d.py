@@ -1,5 +1,5 @@
 """The 2-D figures of merit (issue 12): worst and median covering radius and median distinct
-2-D samples per channel and union, against NumPy's max and median of `splitlf.coverage`'s
+2-D samples per channel and union, against NumPy's max and median of `splitlf.sampling.samples2d`'s
 rows computed here; the Camera against its `Camera.design`; computed only when asked for
 (absent otherwise) in evaluate_design, sweep, optimise and the CLI; `window` checked."""
 
@@ -14,8 +14,8 @@ import splitlf
 from splitlf import Camera, Channel, Design, InvalidParameter, _native
 from splitlf import evaluate as evaluate_design
 from splitlf.cli import main
-from splitlf.merits import merit_names
-from splitlf.optimisation import optimise
+from splitlf.study.merit import merit_names
+from splitlf.study.optimise import optimise
 from splitlf.sweep import sweep
 
 
@@ -254,7 +254,7 @@ def test_cli_optimise_and_sweep_with_2d_merits(tmp_path, capsys):
                    polish=False, window=4.0)
     assert doc["objective_value"] == res.objective and doc["free"] == res.free
     assert set(METRICS_2D) <= set(doc["merits"])
-    import splitlf.optimisation
+    import splitlf.study.optimise
 
     class Seen(Exception):
         pass
@@ -263,7 +263,7 @@ def test_cli_optimise_and_sweep_with_2d_merits(tmp_path, capsys):
         raise Seen(kwargs)
 
     with pytest.MonkeyPatch.context() as mp:  # without --window: the default, 16
-        mp.setattr(splitlf.optimisation, "optimise", seen)
+        mp.setattr(splitlf.study.optimise, "optimise", seen)
         with pytest.raises(Seen) as e:
             main(argv[:-3] + ["--json"])
         assert "window" not in e.value.args[0] and e.value.args[0]["merits_2d"] is None

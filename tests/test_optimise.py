@@ -14,8 +14,8 @@ import splitlf
 from splitlf import Camera, Design, _native
 from splitlf.cli import main
 from splitlf.errors import InvalidParameter
-from splitlf.merits import merit_names
-from splitlf.optimisation import optimise
+from splitlf.study.merit import merit_names
+from splitlf.study.optimise import optimise
 
 pytest.importorskip("scipy")
 pd = pytest.importorskip("pandas")

@@ -47,7 +47,7 @@ def test_bad_range(fn):
 def test_threads_reach_the_core(monkeypatch):
     from matplotlib.figure import Figure
 
-    import splitlf.rayspace as rs
+    import splitlf.sampling.rayspace as rs
 
     cam = Camera.paper()
     ax = plot.blur(cam, (150.0, 5000.0), n=200, ax=Figure().add_subplot(), n_threads=1)

@@ -12,7 +12,7 @@ from exact_render import axis_weights
 
 import splitlf
 from splitlf import _native, measure
-from splitlf.reconstruction import _parts
+from splitlf.inverse.reconstruct import _parts
 
 
 def seed_small(kx: int = 10, ky: int = 8) -> splitlf.Design:
@@ -324,7 +324,8 @@ def _surface_scene(surface: splitlf.Plane | splitlf.DepthMap) -> Any:
                                          (400.0, 0.07)])
 def test_general_map_is_the_exact_map_on_a_fronto_plane(z: float, step: float) -> None:
     """The general route in record mode (any surface, any design: on a plane, each pixel's
-    footprint density integrated over the cells, rust/core/src/render/footprint.rs) against the
+    footprint density integrated over the cells, rust/core/src/imaging/render/footprint.rs)
+    against the
     exact route's map on a fronto-parallel plane: the same rows, and per row an L1
     difference (the worst error over every albedo in [0, 1]) within 1e-4 of white
     (measured 2.2e-5, 6.7e-10, 1.6e-5 and 1.7e-5; the route's error target is 1e-4 of a
@@ -448,7 +449,7 @@ def _sampled_map(f: Any, n: int, ext: tuple) -> splitlf.DepthMap:
 def test_depth_map_of_a_plane_is_the_plane() -> None:
     """A depth map sampled from a tilted plane (bilinear: the plane itself inside its
     outer samples) that every ray meets once goes the plane's way, the footprint density
-    (rust/core/src/render/footprint.rs, with the map's local gradient in the ray map's
+    (rust/core/src/imaging/render/footprint.rs, with the map's local gradient in the ray map's
     Jacobian): behind a circular aperture both take the general route, and the maps agree
     row for row within 1e-4 of white (L1 per row; measured 3.3e-5 over 218 rows, the same
     rows; the map's lattice also has node lines on its sample lines)."""
@@ -475,7 +476,7 @@ def test_depth_map_seen_once_against_monte_carlo() -> None:
     standard errors 3.6e-4 to 4.3e-4 of white at 400,000 rays)."""
     from mc_render import mc_pixels, scene
 
-    from splitlf.rendering import _expected_shapes
+    from splitlf.imaging.render import _expected_shapes
 
     design = seed_small(6, 6)
     ext = (-3.0, 3.0, -3.0, 3.0)
@@ -539,7 +540,7 @@ def test_too_large_suggests_tiles() -> None:
     """A map that does not fit is reported with a tile size that would: the region's
     padded side scaled by sqrt(0.8 limit / need), less the padding."""
     from splitlf.errors import TooLargeError
-    from splitlf.reconstruction import _tiles_hint
+    from splitlf.inverse.reconstruct import _tiles_hint
 
     e = TooLargeError("too large.", what="the map", nbytes=400 * 2**20, limit=100 * 2**20)
     hint = _tiles_hint(e, 1000, 1000, 10, 0.05)
@@ -555,7 +556,7 @@ def test_too_large_by_the_padding_suggests_a_coarser_step() -> None:
     two: the hint says tiles do not help and names a step sqrt(need / (0.8 limit)) times
     coarser, and reconstruct's fallback re-raises it rather than tiling."""
     from splitlf.errors import TooLargeError
-    from splitlf.reconstruction import MIN_TILE, _tiles_hint
+    from splitlf.inverse.reconstruct import MIN_TILE, _tiles_hint
 
     e = TooLargeError("too large.", what="the map", nbytes=12_163_760_088,
                       limit=11_157_381_120)

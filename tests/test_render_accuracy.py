@@ -36,7 +36,7 @@ from mc_render import mc_channel, mc_pixels, scene
 from scipy import stats
 
 import splitlf
-from splitlf.depth_estimation import _own_lens_whites, _white, _white_scene
+from splitlf.inverse.depth import _own_lens_whites, _white, _white_scene
 
 FAMILY_ALPHA = 1e-3  # false-alarm probability of one family's z-score bound
 NATIVE_ERR = 2e-4  # of white: the native's own error that a z-score should not punish

@@ -84,7 +84,7 @@ def test_f_number_matched_repetitions():
 def test_planes_table_api(monkeypatch):
     t = splitlf.coincidence_planes(seed(), 1, max_n=3, max_t=4)
     assert len(t) == len(t.z) == len(t.rows())
-    assert list(t.columns()) == list(splitlf.samples.PLANE_COLUMNS)
+    assert list(t.columns()) == list(splitlf.sampling.samples.PLANE_COLUMNS)
     assert t.N.dtype == np.int64 and t.z.dtype == np.float64 and t.side.dtype.kind == "U"
     assert t.T.max() <= 4 and t.N.max() <= 3
     with pytest.raises(dataclasses_frozen()):
@@ -105,7 +105,7 @@ def test_to_pandas_when_installed():
     t = splitlf.coincidence_planes(seed(), 2, max_n=2)
     df = t.to_pandas()
     assert isinstance(df, pd.DataFrame) and len(df) == len(t)
-    assert list(df.columns) == list(splitlf.samples.PLANE_COLUMNS)
+    assert list(df.columns) == list(splitlf.sampling.samples.PLANE_COLUMNS)
 
 
 # ---------------------------------------------------------------------------------------
@@ -299,7 +299,7 @@ def test_bad_arguments():
 
 def test_sweep_depths_include_the_dips():
     cam = seed()
-    z = splitlf.samples.sweep_depths(cam, (150.0, 1e4), n=50, max_n=2)
+    z = splitlf.sampling.samples.sweep_depths(cam, (150.0, 1e4), n=50, max_n=2)
     assert np.all(np.diff(z) > 0) and z[0] == 150.0 and z[-1] == 1e4
     for h in (1, 2):
         assert np.any(z == cam.out_of_focus_depth(h))
@@ -308,7 +308,7 @@ def test_sweep_depths_include_the_dips():
         assert inside.size > 0 and np.isin(inside, z).all()
     for bad in ((50.0, 100.0), (500.0, 200.0), (150.0, math.inf)):
         with pytest.raises(ValueError, match="z_range"):
-            splitlf.samples.sweep_depths(cam, bad)
+            splitlf.sampling.samples.sweep_depths(cam, bad)
 
 
 def test_report_has_planes_and_worst_resolution():

@@ -14,7 +14,7 @@ import pytest
 import reference as ref
 import splitlf
 from splitlf import Camera, Image, RandomAlbedo, Sinusoid, simulate
-from splitlf.simulation import forward, system_matrix
+from splitlf.inverse.simulate import forward, system_matrix
 
 SEED = Camera.paper()
 

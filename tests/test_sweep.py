@@ -12,7 +12,7 @@ import pytest
 import splitlf
 from splitlf import Camera, evaluate
 from splitlf.cli import main
-from splitlf.merits import merit_names
+from splitlf.study.merit import merit_names
 from splitlf.sweep import sweep
 
 xr = pytest.importorskip("xarray")

@@ -5,22 +5,29 @@ description, presets, presentation and orchestration. Lengths are in millimetres
 are positive distances in front of the main lens.
 """
 
-from . import measure
+from . import _moved
 from ._native import __version__
-from .camera import Camera
-from .coverage import ChiefSamples, Coverage, Samples2D, chief_samples, coverage, samples_2d
-from .depth_estimation import DepthSweep, estimate_depth
-from .design import Channel, Design
 from .errors import InvalidParameter, SplitlfError, TooLargeError
-from .merits import Merits, evaluate
-from .optics import Curves, DepthOfField, curves, depth_of_field, sharp_fractions
-from .optimisation import OptimiseResult, optimise
-from .rayspace import Footprints, SampleGrid, Trace, footprints, sample_grid, trace
-from .reconstruction import Reconstruction, reconstruct
-from .rendering import DepthMap, Plane, Raw, Scene, render
-from .samples import CoincidencePlanes, NewSamples, coincidence_planes, new_samples
-from .simulation import Simulation, simulate
-from .textures import BarChart, Image, RandomAlbedo, SiemensStar, Sinusoid, SlantedEdge
+from .imaging.render import DepthMap, Plane, Raw, Scene, render
+from .imaging.texture import BarChart, Image, RandomAlbedo, SiemensStar, Sinusoid, SlantedEdge
+from .inverse.depth import DepthSweep, estimate_depth
+from .inverse.reconstruct import Reconstruction, reconstruct
+from .inverse.simulate import Simulation, simulate
+from .model.camera import Camera
+from .model.design import Channel, Design
+from .model.optics import Curves, DepthOfField, curves, depth_of_field, sharp_fractions
+from .sampling.rayspace import Footprints, SampleGrid, Trace, footprints, sample_grid, trace
+from .sampling.samples import CoincidencePlanes, NewSamples, coincidence_planes, new_samples
+from .sampling.samples2d import (
+    ChiefSamples,
+    Coverage,
+    Samples2D,
+    chief_samples,
+    coverage,
+    samples_2d,
+)
+from .study.merit import Merits, evaluate
+from .study.optimise import OptimiseResult, optimise
 
 
 def explore(design: Design | None = None, *, port: int = 0,
@@ -105,13 +112,18 @@ __all__ = [
 #: after a plain ``import splitlf``, which itself imports neither.
 _LAZY_SUBMODULES = ("cli", "compare", "plot", "report", "sweep")
 
+_moved.install()
+from .inverse import measure  # noqa: E402  (after the finder: splitlf.measure is its alias)
+
 
 def __getattr__(name: str) -> object:
-    if name in _LAZY_SUBMODULES:
+    if name in _LAZY_SUBMODULES or _moved.target(name) is not None:
         from importlib import import_module
 
-        module = import_module(f".{name}", __name__)
-        globals()[name] = module
+        new = _moved.target(name)
+        module = import_module(new if new is not None else f".{name}", __name__)
+        if name in _LAZY_SUBMODULES:
+            globals()[name] = module
         return module
     raise AttributeError(f"module 'splitlf' has no attribute {name!r}")
 

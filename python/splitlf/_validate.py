@@ -14,8 +14,8 @@ from typing import Any
 import numpy as np
 
 from . import _native
-from .design import Design
 from .errors import InvalidParameter, TooLargeError
+from .model.design import Design
 
 #: Largest thread count (from the core).
 MAX_THREADS: int = _native.MAX_THREADS

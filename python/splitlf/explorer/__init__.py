@@ -106,7 +106,7 @@ def serve(design: Any = None, *, port: int = 0, address: str = LOOPBACK,
     from bokeh.application.handlers.function import FunctionHandler
     from bokeh.server.server import Server
 
-    from ..design import Design
+    from ..model.design import Design
     from .app import Explorer
 
     def as_design(value: Any, what: str) -> Design:

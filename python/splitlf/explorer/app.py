@@ -48,8 +48,8 @@ from bokeh.models.widgets import (
 from bokeh.palettes import Category10_10
 from bokeh.plotting import figure
 
-from ..design import PRESETS, Design
 from ..errors import SplitlfError
+from ..model.design import PRESETS, Design
 from . import model
 from .model import CHANNEL_CONTROLS, DESIGN_CONTROLS, Field, FieldError
 

@@ -15,14 +15,14 @@ from typing import Any
 
 import numpy as np
 
-from ..camera import Camera, read_toml
-from ..coverage import coverage
-from ..design import _CHANNEL_DESCRIPTIONS, _DESIGN_DESCRIPTIONS, Channel, Design
 from ..errors import InvalidParameter, TooLargeError
-from ..optics import curves, depth_of_field
-from ..rayspace import trace
-from ..report import report_data
-from ..samples import new_samples, sweep_depths
+from ..model.camera import Camera, read_toml
+from ..model.design import _CHANNEL_DESCRIPTIONS, _DESIGN_DESCRIPTIONS, Channel, Design
+from ..model.optics import curves, depth_of_field
+from ..sampling.rayspace import trace
+from ..sampling.samples import new_samples, sweep_depths
+from ..sampling.samples2d import coverage
+from ..study.report import report_data
 
 __all__ = [
     "CHANNEL_CONTROLS",
@@ -353,7 +353,7 @@ def sample_map(design: Design, z: float, window: float = SAMPLES_WINDOW) -> dict
     field ``window`` lens pitches wide), per channel, in units of delta(z): ``x``, ``y``
     (lists of arrays), ``rows`` (channels, then the union), ``distinct`` and
     ``covering_radius`` of every row, ``delta_mm``."""
-    from ..coverage import samples_2d
+    from ..sampling.samples2d import samples_2d
 
     r = samples_2d(design, z, window=window)
     delta = design.resolution_step(r.z)
@@ -375,7 +375,7 @@ def microlens_image(design: Design, channel: int, lenses: int = 4) -> dict[str, 
     over the crop's rows only; which pixels are lit does not depend on the depth).
     ``rgba`` (rows, cols) uint32 for Bokeh's ``image_rgba``, ``x0``, ``y0`` (the crop's
     first column and row), ``lit`` and ``pixels`` (counts in the crop)."""
-    from ..coverage import chief_samples
+    from ..sampling.samples2d import chief_samples
 
     ch = design.channels[channel - 1]
     info = design.resolved()[channel - 1]

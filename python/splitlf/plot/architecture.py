@@ -80,7 +80,7 @@ def microlens_images(design: Any, channel: int | None = None, lenses: int = 6, a
 
 def _microlens_images(des: Any, channel: int, lenses: int, ax: Any,
                       n_threads: int | None) -> Any:
-    from ..coverage import chief_samples
+    from ..sampling.samples2d import chief_samples
 
     ch = des.channels[channel - 1]
     info = des.resolved()[channel - 1]
@@ -169,7 +169,7 @@ def sample_map(design: Any, z: float | None = None, ax: Any = None, *, tol: floa
     Returns the Axes. Raises ``TypeError``/``ValueError`` for bad arguments,
     ``ImportError`` without matplotlib.
     """
-    from ..coverage import samples_2d
+    from ..sampling.samples2d import samples_2d
 
     des = _design(design)
     if z is None:

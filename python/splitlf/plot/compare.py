@@ -49,7 +49,7 @@ def compare(result: Any, ax: Any = None, *, table: bool = True) -> Any:
     legend). Raises ``TypeError`` for a result that is not a Comparison, ``ValueError``
     for ``ax`` of the wrong shape, ``ImportError`` without matplotlib.
     """
-    from ..compare import Comparison
+    from ..study.compare import Comparison
 
     if not isinstance(result, Comparison):
         raise TypeError(f"result must be a splitlf.compare.Comparison, got "

@@ -6,8 +6,8 @@ import math
 from typing import Any
 
 from .. import _validate
-from ..design import Design
-from ..optics import curves
+from ..model.design import Design
+from ..model.optics import curves
 from ._mpl import (
     ROW_COLORS,
     axes,

@@ -22,7 +22,7 @@ def depth(estimate: Any, ax: Any = None, *, cmap: str = "viridis",
     bar, the cells whose ``confident`` is False in grey; X and Y in object-space mm. The
     colour range defaults to the confident cells' 2nd to 98th
     percentile of depth. Returns the Axes."""
-    from ..rendering import DepthMap
+    from ..imaging.render import DepthMap
 
     if not isinstance(estimate, DepthMap):
         raise TypeError(f"estimate must be a splitlf.DepthMap, got {type(estimate).__name__}")

@@ -98,7 +98,7 @@ def raw(raw: Any, channel: int | None = None, zoom: int = 3, ax: Any = None) -> 
 
     Returns the matplotlib Figure. Raises ``TypeError``/``ValueError`` for bad arguments,
     ``ImportError`` without matplotlib."""
-    from ..rendering import Raw
+    from ..imaging.render import Raw
 
     if not isinstance(raw, Raw):
         raise TypeError(f"raw must be a splitlf.Raw, got {type(raw).__name__}")

@@ -7,8 +7,9 @@ from typing import Any
 
 import numpy as np
 
-from .. import _validate, rayspace
-from ..design import Design
+from .. import _validate
+from ..model.design import Design
+from ..sampling import rayspace
 from ._mpl import channel_name, pyplot, trace_threads
 
 __all__ = ["ray_space"]

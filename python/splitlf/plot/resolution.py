@@ -9,8 +9,8 @@ from typing import Any
 import numpy as np
 
 from .. import _validate
-from ..design import Design
-from ..simulation import _check_rect, simulate
+from ..inverse.simulate import _check_rect, simulate
+from ..model.design import Design
 from ._mpl import SPLIT_COLOR, axes_pair, channel_colors, is_split
 
 __all__ = ["resolution"]

@@ -7,9 +7,9 @@ from typing import Any
 import numpy as np
 
 from .. import _validate
-from ..design import Design
 from ..errors import InvalidParameter
-from ..samples import coincidence_planes, new_samples, sweep_depths
+from ..model.design import Design
+from ..sampling.samples import coincidence_planes, new_samples, sweep_depths
 from ._mpl import ROW_COLORS, axes_pair, is_split, row_name
 
 __all__ = ["samples"]

@@ -23,9 +23,9 @@ from typing import Any
 
 import numpy as np
 
-from . import _native, _validate
-from .design import Design
-from .errors import InvalidParameter
+from .. import _native, _validate
+from ..errors import InvalidParameter
+from ..model.design import Design
 
 __all__ = ["DEFAULT_THRESHOLD_PX", "DEFAULT_TOL", "DEFAULT_WINDOW", "Merits", "evaluate",
            "merit_doc", "merit_names"]
@@ -195,7 +195,7 @@ def _mtf50_depths(values: Any) -> list[float]:
 
 def _closed_form(design: Design, z: np.ndarray, threshold_px: float) -> dict[str, float]:
     """The closed-form merits of :func:`merit_names` (from the core's derived values)."""
-    from .optics import sharp_fractions
+    from ..model.optics import sharp_fractions
 
     design = design.design  # the plain Design: a Camera's per-half overrides not used
     n = len(design.channels)
@@ -219,7 +219,7 @@ def _mtf50(design: Design, z: float, row: str, seed: int, n_threads: int | None)
     (``"union"``, ``"channel i"``; ``"conventional i"``: the conventional camera on
     channel i's plane, simulated for this row only); NaN for a design with a hex channel
     (the simulation is 1-D along x on rect lattices, docs/simulate.md)."""
-    from .simulation import simulate
+    from ..inverse.simulate import simulate
 
     if any(ch.grid != "rect" for ch in design.channels):
         return math.nan

@@ -24,8 +24,8 @@ from typing import Any
 
 import numpy as np
 
-from . import _validate
-from .errors import InvalidParameter, TooLargeError
+from .. import _validate
+from ..errors import InvalidParameter, TooLargeError
 
 __all__ = [
     "MAX_RANDOM_CELLS",

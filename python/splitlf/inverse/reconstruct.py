@@ -30,11 +30,11 @@ from typing import Any
 
 import numpy as np
 
-from . import _native, _validate
-from .design import Design
-from .errors import InvalidParameter, TooLargeError
-from .rendering import DepthMap, Plane, Raw, _extent, _progress, _progress_flag
-from .simulation import _noise
+from .. import _native, _validate
+from ..errors import InvalidParameter, TooLargeError
+from ..imaging.render import DepthMap, Plane, Raw, _extent, _progress, _progress_flag
+from ..model.design import Design
+from .simulate import _noise
 
 Extent = tuple[float, float, float, float]
 

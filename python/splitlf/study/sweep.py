@@ -21,10 +21,10 @@ from typing import Any
 
 import numpy as np
 
-from . import _validate
-from .design import Design
-from .errors import InvalidParameter, TooLargeError
-from .merits import (
+from .. import _validate
+from ..errors import InvalidParameter, TooLargeError
+from ..model.design import Design
+from .merit import (
     DEFAULT_THRESHOLD_PX,
     DEFAULT_TOL,
     DEFAULT_WINDOW,

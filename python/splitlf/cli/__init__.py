@@ -21,12 +21,12 @@ from typing import Any, NoReturn
 
 import numpy as np
 
-from . import _native
-from ._files import atomic_output, check_new, read_toml
-from .camera import Camera
-from .design import PRESETS, Design
-from .errors import InvalidParameter, SplitlfError
-from .report import format_report, report_data
+from .. import _native
+from .._files import atomic_output, check_new, read_toml
+from ..errors import InvalidParameter, SplitlfError
+from ..model.camera import Camera
+from ..model.design import PRESETS, Design
+from ..study.report import format_report, report_data
 
 SEED = "seed design (docs/model.md §7, reconstructed from the paper)"
 #: Resolution of ``splitlf figures`` [dots per inch]: the allowed range.
@@ -187,7 +187,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
 def figure_functions() -> dict[str, tuple[Any, Any, tuple[float, float]]]:
     """File stem -> (plot function taking (design, ax=..., n_threads=...), its panels: a
     number stacked or "channels" side by side, figure size [in])."""
-    from . import plot
+    from .. import plot
 
     return {stem: (getattr(plot, fn), panels, size) for stem, (fn, panels, size)
             in plot.FIGURES.items()}
@@ -196,7 +196,7 @@ def figure_functions() -> dict[str, tuple[Any, Any, tuple[float, float]]]:
 def _figures_of(subject: Design) -> dict[str, tuple[Any, Any, tuple[float, float]]]:
     """:func:`figure_functions` for a design; a design with a hex channel has no figure
     along x (``plot.RECT_ONLY``: ray space, samples along x)."""
-    from . import plot
+    from .. import plot
 
     rect = all(ch.grid == "rect" for ch in subject.channels)
     return {stem: f for stem, f in figure_functions().items()
@@ -220,7 +220,7 @@ def _cmd_figures(args: argparse.Namespace) -> int:
         from matplotlib.figure import Figure
     except ImportError:
         raise CliError('figures need matplotlib: pip install "splitlf[plot]"') from None
-    from .plot._mpl import trace_threads
+    from ..plot._mpl import trace_threads
 
     trace_threads(args.threads)  # the ray-space figure traces: refuse what it cannot honour
     subject, _ = _load_subject(args)
@@ -265,8 +265,8 @@ def _trace_half(t: Any) -> dict[str, Any]:
 
 
 def _cmd_trace(args: argparse.Namespace) -> int:
-    from . import rayspace
-    from .plot._mpl import trace_threads
+    from ..plot._mpl import trace_threads
+    from ..sampling import rayspace
 
     camera, source = _load_subject(args)
     out = Path(args.out)
@@ -317,7 +317,7 @@ def _toml_count(where: str, value: Any, lo: int, hi: int) -> int:
 
 def _linspace(where: str, spec: Any) -> list[Any]:
     """A grid axis from TOML: a list of values, or {start, stop, num, log}."""
-    from .sweep import MAX_DESIGNS
+    from ..study.sweep import MAX_DESIGNS
 
     if isinstance(spec, list):
         return spec
@@ -338,7 +338,7 @@ def _linspace(where: str, spec: Any) -> list[Any]:
 
 def _sweep_depths(path: str, dep: Any) -> np.ndarray:
     """[depths] min, max (mm), num (log-spaced), checked before anything is allocated."""
-    from .sweep import MAX_DEPTHS
+    from ..study.sweep import MAX_DEPTHS
 
     if not isinstance(dep, dict):
         raise CliError(f"{path}: [depths] must be a table")
@@ -397,7 +397,7 @@ SWEEP_OPTIONS = ("threshold_px", "tol", "merits_2d", "window")
 def _sweep_options(path: str, opts: Any) -> dict[str, Any]:
     """The [options] table of a sweep file, checked as :func:`splitlf.evaluate` checks
     them."""
-    from . import merits as ev
+    from ..study import merit as ev
 
     bad = set(opts) - set(SWEEP_OPTIONS) if isinstance(opts, dict) else {"(not a table)"}
     if bad:
@@ -438,7 +438,7 @@ def _write_sweep(ds: Any, out: Path, force: bool) -> None:
 
 def _run_sweep(camera: Design, spec: dict[str, Any], scheduler: str | None,
                n_threads: int | None) -> Any:
-    from .sweep import sweep
+    from ..study.sweep import sweep
 
     if scheduler is None:
         return sweep(camera, spec["grid"], spec["depths"], n_threads=n_threads,
@@ -465,7 +465,7 @@ def _sweep_base(args: argparse.Namespace, spec: dict[str, Any]) -> Design:
 
 
 def _sweep_table(ds: Any, base: Design, spec: dict[str, Any]) -> str:
-    from .merits import merit_names
+    from ..study.merit import merit_names
 
     df = ds.to_dataframe().reset_index()
     cols = list(spec["grid"]) + ["sharp_fraction_union", "max_gap_worst_union",
@@ -509,7 +509,7 @@ def parse_texture(spec: str) -> Any:
     """The texture of ``--texture``: random | sinusoid:F | bars:F (F in cycles/mm on the
     object) | image:FILE.npy:WIDTH_MM (a 2D array of albedos, WIDTH mm wide). Raises
     :class:`CliError` (or the loader's ``OSError``/``ValueError``) for anything else."""
-    from .simulation import BarChart, Image, RandomAlbedo, Sinusoid
+    from ..inverse.simulate import BarChart, Image, RandomAlbedo, Sinusoid
 
     kind, _, rest = spec.partition(":")
     try:
@@ -578,7 +578,7 @@ def _simulate_table(rows: list[dict[str, Any]], source: str, args: argparse.Name
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
     _need("scipy", "simulate", "simulate")
-    from .simulation import simulate
+    from ..inverse.simulate import simulate
 
     out = None if args.out is None else Path(args.out)
     if out is not None:
@@ -611,7 +611,7 @@ def parse_render_texture(spec: str, width: float | None) -> Any:
     | sinusoid:F | bars:F (F in cycles/mm on the object) | edge[:ANGLE] (degrees) |
     star[:SPOKES] | an image file (.png or .npy; needs ``width`` [mm]). Raises
     :class:`CliError` for anything else."""
-    from .textures import BarChart, RandomAlbedo, SiemensStar, Sinusoid, SlantedEdge
+    from ..imaging.texture import BarChart, RandomAlbedo, SiemensStar, Sinusoid, SlantedEdge
 
     kind, colon, rest = spec.partition(":")
     known = {"random", "sinusoid", "bars", "edge", "star"}
@@ -638,7 +638,7 @@ TEXTURE_FORMS = ("random[:CELL] (mm), sinusoid:F, bars:F (cycles/mm), edge[:ANGL
 def _image_texture(path: str, width: float | None) -> Any:
     """An :class:`~splitlf.Image` from a .npy array of albedos or a PNG (read by
     matplotlib: values in [0, 1], a colour image as the Rec. 709 luma of R, G, B)."""
-    from .textures import Image
+    from ..imaging.texture import Image
 
     suffix = Path(path).suffix.lower()
     if suffix not in (".png", ".npy"):
@@ -669,7 +669,7 @@ def _image_texture(path: str, width: float | None) -> Any:
 def parse_render_depth(spec: str, extent: str | None) -> Any:
     """The surface of ``render --depth``: a depth [mm] | plane:Z0,GX,GY | a .npy depth map
     (needs ``extent`` X0,X1,Y0,Y1 [mm])."""
-    from .rendering import DepthMap, Plane
+    from ..imaging.render import DepthMap, Plane
 
     if spec.lower().endswith(".npy"):
         if extent is None:
@@ -746,8 +746,8 @@ def _write_render(raw: Any, out: Path, png: Path | None, force: bool) -> None:
 
     with contextlib.ExitStack() as stack:
         if png is not None:
-            from .plot import raw as plot_raw
-            from .plot._mpl import pyplot
+            from ..plot import raw as plot_raw
+            from ..plot._mpl import pyplot
 
             tmp = stack.enter_context(atomic_output(png, force=force, hint=FORCE_HINT))
             fig = plot_raw(raw)
@@ -759,7 +759,7 @@ def _write_render(raw: Any, out: Path, png: Path | None, force: bool) -> None:
 
 
 def _cmd_render(args: argparse.Namespace) -> int:
-    from .rendering import Scene, render
+    from ..imaging.render import Scene, render
 
     out, png = _render_targets(args)
     design = _named_design(args.design)
@@ -838,8 +838,8 @@ def _lens_types_option(args: argparse.Namespace) -> tuple[int, ...] | None:
 
 
 def _cmd_reconstruct(args: argparse.Namespace) -> int:
-    from .reconstruction import reconstruct
-    from .rendering import Raw
+    from ..imaging.render import Raw
+    from ..inverse.reconstruct import reconstruct
 
     out, npy = _array_targets(args, "reconstruct")
     raw = Raw.load(args.raw)
@@ -852,7 +852,7 @@ def _cmd_reconstruct(args: argparse.Namespace) -> int:
                       lens_types=_lens_types_option(args))
 
     def picture(tmp: Any) -> None:
-        from .plot._mpl import pyplot
+        from ..plot._mpl import pyplot
 
         pyplot().imsave(tmp, rec.image, cmap="gray", format="png",
                         vmin=0.0, vmax=max(1.0, float(rec.image.max())))
@@ -880,8 +880,8 @@ def _depth_range(text: str) -> Any:
 def _cmd_depth(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from .depth_estimation import estimate_depth
-    from .rendering import Raw
+    from ..imaging.render import Raw
+    from ..inverse.depth import estimate_depth
 
     out, npy = _array_targets(args, "a depth map")
     raw = Raw.load(args.raw)
@@ -894,8 +894,8 @@ def _cmd_depth(args: argparse.Namespace) -> int:
     assert est.confident is not None and est.sweep is not None
 
     def picture(tmp: Any) -> None:
-        from .plot._mpl import pyplot
-        from .plot.depth import depth as depth_plot
+        from ..plot._mpl import pyplot
+        from ..plot.depth import depth as depth_plot
 
         fig, ax = pyplot().subplots(figsize=(7.5, 5.0), layout="constrained")
         depth_plot(est, ax)
@@ -1030,7 +1030,7 @@ def _write_optimised(res: Any, out: Path | None, hist: Path | None, force: bool)
 def _cmd_optimise(args: argparse.Namespace) -> int:
     for module in ("scipy", "pandas"):
         _need(module, "optimise", "sweep")
-    from .optimisation import optimise
+    from ..study.optimise import optimise
 
     out, hist = _optimise_outputs(args)
     free = dict(parse_free(f) for f in args.free)
@@ -1092,7 +1092,7 @@ def _compare_targets(args: argparse.Namespace, names: list[str]) -> tuple[Path |
 
 
 def _compare_names(spec: str | None) -> list[str]:
-    from .compare import ARCHITECTURES
+    from ..study.compare import ARCHITECTURES
 
     if spec is None:
         return list(ARCHITECTURES)
@@ -1200,7 +1200,7 @@ def _write_compare(res: Any, out: Path | None, fig_path: Path | None,
     if fig_path is not None:
         from matplotlib.figure import Figure
 
-        from .plot import compare as plot_compare
+        from ..plot import compare as plot_compare
 
         fig = Figure(figsize=(9.5, 12.0), layout="constrained")
         plot_compare(res, ax=fig.subplots(3, 1, height_ratios=[3, 2, 1.3]))
@@ -1224,7 +1224,7 @@ def _simulate_depth_list(spec: str | None) -> list[float]:
 def _cmd_compare(args: argparse.Namespace) -> int:
     for module in ("scipy", "pandas"):
         _need(module, "compare", "sweep")
-    from .compare import compare
+    from ..study.compare import compare
 
     names = _compare_names(args.architectures)
     out, fig_path = _compare_targets(args, names)
@@ -1263,7 +1263,7 @@ def _cmd_explore(args: argparse.Namespace) -> int:
         import bokeh  # noqa: F401
     except ImportError:
         raise CliError('explore needs Bokeh: pip install "splitlf[explore]"') from None
-    from .explorer import serve
+    from ..explorer import serve
 
     subject, _ = _load_subject(args)
     reference = None if args.compare is None else _named_design(args.compare)
@@ -1592,8 +1592,8 @@ def _add_optimise(sub: Any) -> None:
 
 
 def _add_compare(sub: Any) -> None:
-    from .compare import ARCHITECTURES
-    from .compare import PRESETS as SENSORS
+    from ..study.compare import ARCHITECTURES
+    from ..study.compare import PRESETS as SENSORS
 
     p = sub.add_parser("compare", help="optimise every architecture on one sensor and "
                        "compare them", description="Build the plain light field camera, the "

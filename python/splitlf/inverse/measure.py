@@ -15,10 +15,10 @@ from typing import Any
 
 import numpy as np
 
-from . import _native
-from .errors import InvalidParameter
-from .reconstruction import Reconstruction
-from .textures import RandomAlbedo, SlantedEdge
+from .. import _native
+from ..errors import InvalidParameter
+from ..imaging.texture import RandomAlbedo, SlantedEdge
+from .reconstruct import Reconstruction
 
 #: PSNR's and SSIM's data range: albedo 0 to 1.
 DATA_RANGE = 1.0
@@ -144,7 +144,7 @@ def depth_errors(estimate: Any, truth: Any) -> dict[str, float]:
     cells without a ``confident`` mask count as confident); ``truth`` a depth (mm, a
     fronto-parallel plane), a :class:`~splitlf.Plane` (evaluated at the cell centres) or an
     array of the estimate's shape."""
-    from .rendering import DepthMap, Plane
+    from ..imaging.render import DepthMap, Plane
 
     if not isinstance(estimate, DepthMap):
         raise TypeError(f"estimate must be a splitlf.DepthMap, got {type(estimate).__name__}")

@@ -30,13 +30,13 @@ from typing import Any
 
 import numpy as np
 
-from . import _validate
-from .coverage import DEFAULT_TOL, DEFAULT_WINDOW, coverage
-from .design import Channel, Design
-from .errors import InvalidParameter
-from .merits import SIMULATE_OPTIONS, Merits, _mtf50
-from .merits import evaluate as _merits
-from .optics import curves, sharp_fractions
+from .. import _validate
+from ..errors import InvalidParameter
+from ..model.design import Channel, Design
+from ..model.optics import curves, sharp_fractions
+from ..sampling.samples2d import DEFAULT_TOL, DEFAULT_WINDOW, coverage
+from .merit import SIMULATE_OPTIONS, Merits, _mtf50
+from .merit import evaluate as _merits
 from .sweep import with_changes
 
 __all__ = [
@@ -560,7 +560,7 @@ def compare(preset: str, objective: str | Callable[[dict[str, float]], float],
     """
     import pandas as pd
 
-    from .optimisation import optimise
+    from .optimise import optimise
 
     archs = architectures(preset)
     names = list(ARCHITECTURES) if which is None else list(which)

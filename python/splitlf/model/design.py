@@ -21,9 +21,9 @@ from collections.abc import Mapping
 from collections.abc import Set as AbstractSet
 from typing import TYPE_CHECKING, Any, Literal, cast
 
-from . import _native
-from ._files import read_toml, text_file
-from .errors import InvalidParameter
+from .. import _native
+from .._files import read_toml, text_file
+from ..errors import InvalidParameter
 
 __all__ = ["Channel", "Design", "CHANNEL_FIELDS", "DESIGN_FIELDS", "PRESETS"]
 

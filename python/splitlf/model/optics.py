@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from . import _native, _validate
+from .. import _native, _validate
 from .design import Design
 
 __all__ = ["Curves", "DepthOfField", "curves", "depth_of_field", "sharp_fractions"]

@@ -11,12 +11,12 @@ import numbers
 import os
 from typing import Any
 
-from . import _native
-from ._files import read_toml, text_file
+from .. import _native
+from .._files import read_toml, text_file
+from ..errors import InvalidParameter
 from .design import Design, missing_fields
 from .design import _count as _count_field
 from .design import _real as _real_field
-from .errors import InvalidParameter
 
 __all__ = ["Camera", "LENGTH_FIELDS", "COUNT_FIELDS", "FIELDS"]
 

@@ -28,10 +28,9 @@ from typing import Any
 
 import numpy as np
 
-from . import _native, _validate
-from .design import Design
-from .errors import InvalidParameter
-from .textures import (
+from .. import _native, _validate
+from ..errors import InvalidParameter
+from ..imaging.texture import (
     ANALYTIC,
     MTF_AMPLITUDE,
     TEXTURES,
@@ -45,6 +44,7 @@ from .textures import (
     _piecewise_antiderivative,
     _positive,
 )
+from ..model.design import Design
 
 __all__ = [
     "HALF_SOURCES",

@@ -9,10 +9,10 @@ from __future__ import annotations
 
 from typing import Any
 
-from . import _validate
-from .design import Design
-from .optics import depth_of_field
-from .samples import coincidence_planes, worst_resolution
+from .. import _validate
+from ..model.design import Design
+from ..model.optics import depth_of_field
+from ..sampling.samples import coincidence_planes, worst_resolution
 
 __all__ = ["format_report", "report_data"]
 

@@ -19,11 +19,9 @@ from typing import Any
 
 import numpy as np
 
-from . import _native, _validate
-from .design import Design
-from .errors import InvalidParameter
-from .reconstruction import _channels
-from .rendering import (
+from .. import _native, _validate
+from ..errors import InvalidParameter
+from ..imaging.render import (
     DepthMap,
     Raw,
     Scene,
@@ -33,7 +31,9 @@ from .rendering import (
     _progress_flag,
     render,
 )
-from .textures import Sinusoid
+from ..imaging.texture import Sinusoid
+from ..model.design import Design
+from .reconstruct import _channels
 
 Extent = tuple[float, float, float, float]
 

@@ -18,9 +18,9 @@ from typing import Any
 
 import numpy as np
 
-from . import _native, _validate
-from .design import Design
-from .errors import InvalidParameter
+from .. import _native, _validate
+from ..errors import InvalidParameter
+from ..model.design import Design
 
 __all__ = ["Footprints", "SampleGrid", "Trace", "footprints", "sample_grid", "trace"]
 

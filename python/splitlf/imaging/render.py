@@ -37,12 +37,12 @@ from typing import Any
 
 import numpy as np
 
-from . import _native, _validate
-from ._files import atomic_output
-from .design import Design
-from .errors import InvalidParameter
-from .simulation import _add_noise, _noise, _seed
-from .textures import TEXTURES, RandomAlbedo, _albedo, _finite
+from .. import _native, _validate
+from .._files import atomic_output
+from ..errors import InvalidParameter
+from ..inverse.simulate import _add_noise, _noise, _seed
+from ..model.design import Design
+from .texture import TEXTURES, RandomAlbedo, _albedo, _finite
 
 __all__ = ["FORMAT", "DepthMap", "Plane", "Raw", "Scene", "render"]
 

@@ -29,10 +29,10 @@ from typing import Any
 
 import numpy as np
 
-from . import _validate
-from .design import Design
-from .errors import InvalidParameter
-from .merits import (
+from .. import _validate
+from ..errors import InvalidParameter
+from ..model.design import Design
+from .merit import (
     DEFAULT_THRESHOLD_PX,
     DEFAULT_TOL,
     DEFAULT_WINDOW,

@@ -16,9 +16,9 @@ from typing import Any
 
 import numpy as np
 
-from . import _native, _validate
-from .design import Design
-from .errors import InvalidParameter
+from .. import _native, _validate
+from ..errors import InvalidParameter
+from ..model.design import Design
 
 __all__ = [
     "DEFAULT_WINDOW",
