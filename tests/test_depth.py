@@ -295,6 +295,7 @@ def design() -> splitlf.Design:
     return seed_small()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("z", "median", "p90", "confident"),
                          [(400.0, 0.01, 0.03, 0.8), (1000.0, 0.01, 0.03, 0.8),
                           (1600.0, 0.02, 0.06, 0.6)])
@@ -314,6 +315,7 @@ def test_fronto_plane_depth(design: splitlf.Design, z: float, median: float, p90
     assert est.sweep.candidates.size == 64 and est.sweep.samples > 0
 
 
+@pytest.mark.slow
 def test_slanted_plane_depth(design: splitlf.Design) -> None:
     """A plane through 900 mm at 10 mm of depth per mm of Y (840 to 960 mm over the
     region): median relative error within 2 %."""
@@ -326,6 +328,7 @@ def test_slanted_plane_depth(design: splitlf.Design) -> None:
     assert e["median"] <= 0.02 and e["confident"] >= 0.5, e
 
 
+@pytest.mark.slow
 def test_textureless_cells_are_not_confident() -> None:
     """The left half of the scene is a uniform grey: at least 90 % of the cells that
     neither the window nor a pixel's footprint (half its span, _native.pixel_span) reach
@@ -388,6 +391,7 @@ def test_bad_input(design: splitlf.Design) -> None:
         splitlf.estimate_depth(raw, depths="near")
 
 
+@pytest.mark.slow
 def test_end_to_end_image_at_1m(design: splitlf.Design) -> None:
     """raw -> estimated depth -> super-resolved image, no truth given: the image from the
     estimated depth map itself (45 x 67 samples, 980-1005 mm) is within 1.5x the RMSE of
@@ -416,6 +420,7 @@ def test_end_to_end_image_at_1m(design: splitlf.Design) -> None:
                                                                          rmse_found)
 
 
+@pytest.mark.slow
 def test_sensor_layout_keeps_pixels_of_one_lens(monkeypatch: pytest.MonkeyPatch) -> None:
     """raytrix-r12 cut to 10 x 9 lenses (hex, three lens types, circular aperture, sensor
     layout), a textured plane at 600 mm (cells of 2 mm, N = 2000; `render`'s general route:

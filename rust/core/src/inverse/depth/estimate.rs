@@ -127,3 +127,17 @@ pub fn estimate(
     let sweep = sweep(design, &images, &plan, n_threads, done)?;
     Ok(Estimate { grid, sweep })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reference_depth_is_the_median_in_inverse_depth() {
+        // Odd: the middle candidate; even: 1 / mean of the two middle ones' 1/z
+        // (1 / ((1/500 + 1/1000) / 2) = 666.67 mm).
+        assert_eq!(reference_depth(&[250.0, 500.0, 4000.0]), 500.0);
+        let even = reference_depth(&[250.0, 500.0, 1000.0, 4000.0]);
+        assert!((even - 2000.0 / 3.0).abs() < 1e-9);
+    }
+}
