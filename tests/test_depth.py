@@ -528,8 +528,9 @@ def test_fine_grid_is_refused_before_allocating() -> None:
     3 GiB of address space: each lens whose footprint spans the row resamples its 15 rows at
     every cell, 5 arrays of 15 x 4e6 doubles = 2.4 GB of one worker's scratch (measured on
     200,000 cells: 168 MB, 840 bytes a cell), which the memory plan left out (it said
-    1.35 GB): the call went on and aborted. Now it is refused up front with TooLargeError,
-    its plan at least that scratch."""
+    1.35 GB): the call went on and aborted ("memory allocation of 2400000000 bytes
+    failed"). Now it is refused up front with TooLargeError, its plan at least that scratch
+    (5.9 GB planned; on 200,000 cells 280 MB planned for 168 MB used)."""
     code = """
         import resource
         resource.setrlimit(resource.RLIMIT_AS, (3 << 30, 3 << 30))

@@ -83,11 +83,12 @@ impl Layer {
     /// An upper bound of the bytes a worker's layer holds at its peak: the planes of
     /// [`Layer::new`] over the widened grid `ex` (6 of cells, 2 of prefix sums, 8 bytes
     /// each), the lenses' extents, and one lens's scratch: its box rows resampled (5 arrays
-    /// of `box_rows` × the widened grid's columns at most), one cell row (5 × columns),
-    /// its tents (at most a pair per cell and box pixel of each axis: `box_cols` and
-    /// `box_rows` pixels, 16 bytes a pair, 8 a start), its sorted positions and a full
-    /// lens's coverage. A lens whose footprint spans a fine grid resamples its rows at
-    /// every column: on a grid of one row that scratch is most of the sweep's memory.
+    /// of `box_rows` × the widened grid's columns at most, sized exactly), one cell row
+    /// (5 × columns, sized exactly), its tents per axis (at most a pair per cell and box
+    /// pixel of the axis: `box_cols` and `box_rows` pixels, 16 bytes a pair, 8 a start),
+    /// its sorted positions and a full lens's coverage. A lens whose footprint spans a fine
+    /// grid resamples its rows at every column: on a grid of one row that scratch is most
+    /// of the sweep's memory.
     pub(super) fn bytes(
         ex: (usize, usize),
         channels: usize,
@@ -98,14 +99,11 @@ impl Layer {
         let planes =
             6 * ex0 * ex1 * channels as u128 + 2 * (ex0 + 1) * (ex1 + 1) * channels as u128;
         let (na, nb) = boxes;
-        let scratch = 5 * nb * ex0 * 8
-            + 5 * ex0 * 8
-            + (ex0 * na + ex1 * nb) * 16
-            + (ex0 + ex1 + 2) * 8
-            + na.max(nb) * 16
-            + ex0 * 8;
-        // Growing vectors may hold twice what they need.
-        planes * 8 + 2 * (lenses * EXTENT_BYTES + scratch)
+        let exact = 5 * nb * ex0 * 8 + 5 * ex0 * 8;
+        let pairs = ex0 * na + ex1 * nb;
+        let grown = pairs * 16 + (ex0 + ex1 + 2) * 8 + na.max(nb) * 16 + ex0 * 8;
+        // Vectors grown by pushes may hold up to twice what they need.
+        planes * 8 + exact + 2 * (lenses * EXTENT_BYTES + grown)
     }
 
     #[inline(always)]
@@ -326,6 +324,7 @@ fn resample_rows(l: &Lens, lx: usize, own: bool, buf: &mut Layer) {
     let (block, na, nb) = (&l.block, l.x.len(), l.y.len());
     let nl = nb * lx;
     if buf.a.len() < 5 * nl {
+        buf.a.reserve_exact(5 * nl - buf.a.len());
         buf.a.resize(5 * nl, 0.0);
     }
     let (a1, rest) = buf.a[..5 * nl].split_at_mut(nl);
@@ -409,6 +408,7 @@ fn add_cells(
     let nl = l.y.len() * lx;
     let plane = l.ch * wd.enx * wd.eny;
     if buf.row.len() < 5 * lx {
+        buf.row.reserve_exact(5 * lx - buf.row.len());
         buf.row.resize(5 * lx, 0.0);
     }
     let (a1, rest) = buf.a.split_at(nl);
