@@ -501,6 +501,11 @@ def test_window_out_of_range_is_named(design: splitlf.Design) -> None:
         with pytest.raises(splitlf.InvalidParameter, match=r"\[0, 64\]") as e:
             splitlf.estimate_depth(raw, depths=(300.0, 900.0), window=w)
         assert e.value.name == "window" and e.value.value == w
+    # the core's own check, past Python's
+    with pytest.raises(splitlf.InvalidParameter, match=r"\[0, 64\]") as e:
+        _native.estimate_depth(design.core, list(raw.images),
+                               sweep_request([1, 2], np.linspace(300.0, 900.0, 3), 65))
+    assert e.value.name == "window"
 
 
 def test_candidate_count_is_capped(design: splitlf.Design) -> None:

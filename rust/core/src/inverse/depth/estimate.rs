@@ -83,6 +83,7 @@ pub fn estimate(
 ) -> Result<Estimate> {
     crate::infra::parallel::check_threads(n_threads)?;
     super::check_candidates(design, &req.candidates)?;
+    super::check_radius(req.radius)?;
     if req.channels.is_empty() || req.channels.iter().any(|&i| i >= design.channels.len()) {
         return Err(Error::param(
             "channels",

@@ -180,6 +180,18 @@ pub fn check_candidates(design: &Design, candidates: &[f64]) -> Result<()> {
     Ok(())
 }
 
+/// Check the window's radius: at most [`MAX_RADIUS`] cells.
+fn check_radius(radius: usize) -> Result<()> {
+    if radius > MAX_RADIUS {
+        return Err(Error::param(
+            "window",
+            radius,
+            format!("a window radius in [0, {MAX_RADIUS}] cells"),
+        ));
+    }
+    Ok(())
+}
+
 /// Check a sweep's inputs: threads, candidates, channels (1 to 255, in the design), the
 /// window's radius, one raw and one white per chosen channel of the channel's raw shape,
 /// all finite.
@@ -199,13 +211,7 @@ fn check_sweep(
             "1 to 255 channels",
         ));
     }
-    if plan.radius > MAX_RADIUS {
-        return Err(Error::param(
-            "window",
-            plan.radius,
-            format!("a window radius in [0, {MAX_RADIUS}] cells"),
-        ));
-    }
+    check_radius(plan.radius)?;
     if images.raws.len() != channels.len() || images.whites.len() != channels.len() {
         return Err(Error::param(
             "raw",
