@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 import pytest
+from _subprocess import run_python
 from mc_render import mc_pixels, scene
 from scipy.signal import convolve2d
 
@@ -55,7 +56,7 @@ def mc_raw(design: splitlf.Design, texture: tuple, surface: tuple, seed: int,
 
 # -- the sweep against NumPy ------------------------------------------------------------------
 
-#: The core's constants (rust/core/src/inverse/depth.rs), restated.
+#: The core's constants (rust/core/src/inverse/depth/mod.rs), restated.
 MIN_WHITE, MIN_WEIGHT, M_CAP = 0.05, 2.0, 48.0
 
 
@@ -218,6 +219,13 @@ def reference_confidence(curves: np.ndarray) -> np.ndarray:
         return np.where((against > 0) & np.isfinite(against), np.clip(1 - m / against, 0, 1), 0.0)
 
 
+def sweep_request(channels: list[int], cand: np.ndarray, window: int, **kw: object
+                  ) -> dict[str, object]:
+    """The core's request for a sweep that keeps its cost volume."""
+    return {"channels": channels, "candidates": [float(z) for z in cand], "window": window,
+            "min_own_share": 0.99, "keep_volume": True, "region": None, "step": None, **kw}
+
+
 def test_sweep_matches_numpy_reference(monkeypatch: pytest.MonkeyPatch) -> None:
     """The core's cost volume against the NumPy transcription, on a seed cut to 12 x 10
     lenses and candidates from 300 mm to 4 m (far candidates thin the lenses: the
@@ -227,12 +235,11 @@ def test_sweep_matches_numpy_reference(monkeypatch: pytest.MonkeyPatch) -> None:
     z = 642.0  # half 1's out-of-focus plane: half 2 is the more confident in places
     tex, _ = random_image(design, z, 10 * design.resolution_step(z), seed=1)
     raw = splitlf.render(design, splitlf.Scene(tex, z), noise={"photons": PHOTONS}, seed=3)
-    grid = _native.cell_grid((-1.5, 1.5, -1.0, 1.0), 0.2)
     cand = 1.0 / np.linspace(1 / 300.0, 1 / 4000.0, 7)
-    whites = _white(design)
-    depth, index, conf, cmin, cmean, chan, _, vol = _native.depth_sweep(
-        design.core, list(raw.images), list(whites), grid, list(cand), [1, 2], 2, True, None,
-        None)
+    depth, index, conf, cmin, cmean, chan, _, vol, grid = _native.estimate_depth(
+        design.core, list(raw.images),
+        sweep_request([1, 2], cand, 2, region=(-1.5, 1.5, -1.0, 1.0), step=0.2))
+    assert grid == _native.cell_grid((-1.5, 1.5, -1.0, 1.0), 0.2)
     ref = reference_volume(design, raw, grid, cand, 2)
     assert vol is not None and vol.shape == ref.shape
     assert np.array_equal(np.isnan(vol), np.isnan(ref))
@@ -262,10 +269,11 @@ def test_cost_is_smooth_in_depth() -> None:
     z = 1000.0
     tex, _ = random_image(d, z, 10 * d.resolution_step(z), seed=int(z))
     raw = splitlf.render(d, splitlf.Scene(tex, z), seed=3)
-    grid = _native.cell_grid(_native.seen_region(d.core, z, [1]), 3 * d.resolution_step(z))
     cand = np.arange(985.0, 1015.01, 0.5)
-    *_, vol = _native.depth_sweep(d.core, [raw.images[0]], [_white(d)[0]], grid, list(cand),
-                                  [1], 6, True, None, None)
+    *_, vol, _ = _native.estimate_depth(
+        d.core, [raw.images[0]],
+        sweep_request([1], cand, 6, region=_native.seen_region(d.core, z, [1]),
+                      step=3 * d.resolution_step(z)))
     assert vol is not None
     curves = vol[:, 0].reshape(cand.size, -1)
     assert np.all(np.isfinite(curves))
@@ -287,6 +295,7 @@ def design() -> splitlf.Design:
     return seed_small()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("z", "median", "p90", "confident"),
                          [(400.0, 0.01, 0.03, 0.8), (1000.0, 0.01, 0.03, 0.8),
                           (1600.0, 0.02, 0.06, 0.6)])
@@ -306,6 +315,7 @@ def test_fronto_plane_depth(design: splitlf.Design, z: float, median: float, p90
     assert est.sweep.candidates.size == 64 and est.sweep.samples > 0
 
 
+@pytest.mark.slow
 def test_slanted_plane_depth(design: splitlf.Design) -> None:
     """A plane through 900 mm at 10 mm of depth per mm of Y (840 to 960 mm over the
     region): median relative error within 2 %."""
@@ -318,6 +328,7 @@ def test_slanted_plane_depth(design: splitlf.Design) -> None:
     assert e["median"] <= 0.02 and e["confident"] >= 0.5, e
 
 
+@pytest.mark.slow
 def test_textureless_cells_are_not_confident() -> None:
     """The left half of the scene is a uniform grey: at least 90 % of the cells that
     neither the window nor a pixel's footprint (half its span, _native.pixel_span) reach
@@ -380,6 +391,7 @@ def test_bad_input(design: splitlf.Design) -> None:
         splitlf.estimate_depth(raw, depths="near")
 
 
+@pytest.mark.slow
 def test_end_to_end_image_at_1m(design: splitlf.Design) -> None:
     """raw -> estimated depth -> super-resolved image, no truth given: the image from the
     estimated depth map itself (45 x 67 samples, 980-1005 mm) is within 1.5x the RMSE of
@@ -408,6 +420,7 @@ def test_end_to_end_image_at_1m(design: splitlf.Design) -> None:
                                                                          rmse_found)
 
 
+@pytest.mark.slow
 def test_sensor_layout_keeps_pixels_of_one_lens(monkeypatch: pytest.MonkeyPatch) -> None:
     """raytrix-r12 cut to 10 x 9 lenses (hex, three lens types, circular aperture, sensor
     layout), a textured plane at 600 mm (cells of 2 mm, N = 2000; `render`'s general route:
@@ -434,6 +447,112 @@ def test_sensor_layout_keeps_pixels_of_one_lens(monkeypatch: pytest.MonkeyPatch)
     est = splitlf.estimate_depth(raw, depths=(200.0, 4000.0))
     e = measure.depth_errors(est, z)
     assert e["median"] <= 0.032 and e["p90"] <= 0.06, e
-    monkeypatch.setattr(de, "_sweep_whites", de._white)
+    monkeypatch.setattr(de, "MIN_OWN_SHARE", 0.0)  # every pixel: the whites alone
+    np.testing.assert_array_equal(de._sweep_whites(d)[0], whites)
     every = measure.depth_errors(splitlf.estimate_depth(raw, depths=(200.0, 4000.0)), z)
     assert every["median"] > e["median"] and every["p90"] > e["p90"], (every, e)
+
+
+# -- one native call, the limits ---------------------------------------------------------
+
+class _CountingNative:
+    """A proxy of ``splitlf._native`` that counts the calls of its functions and classes."""
+
+    def __init__(self, real: object) -> None:
+        self._real = real
+        self.calls: list[str] = []
+
+    def __getattr__(self, name: str) -> object:
+        value = getattr(self._real, name)
+        if not callable(value):
+            return value
+
+        def counted(*args: object, **kw: object) -> object:
+            self.calls.append(name)
+            return value(*args, **kw)
+
+        return counted
+
+
+def test_estimate_is_one_native_call(monkeypatch: pytest.MonkeyPatch) -> None:
+    """After Python's checks, splitlf.estimate_depth makes one call of the core (the
+    default region and grid, the whites and the sweep are the core's), also on a design
+    whose whites are not yet made (a sensor layout: two renders of the white scene) and
+    with the default region and step."""
+    import sys
+
+    r12 = splitlf.Design.preset("raytrix-r12")
+    d = r12.replace(channels=tuple(c.replace(Kx=6, Ky=5, Mx=None, My=None)
+                                   for c in r12.channels))
+    raw = splitlf.Raw(d, tuple(np.full(a.shape, 0.5) for a in _white(d)))
+    proxy = _CountingNative(_native)
+    for name, module in list(sys.modules.items()):
+        if name.startswith("splitlf") and getattr(module, "_native", None) is _native:
+            monkeypatch.setattr(module, "_native", proxy)
+    splitlf.estimate_depth(raw, depths=(200.0, 4000.0), candidates=5, progress=False)
+    assert proxy.calls == ["estimate_depth"]
+
+
+def test_window_out_of_range_is_named(design: splitlf.Design) -> None:
+    """window = -1 or 2**64 (an OverflowError at the seam before) and 65: InvalidParameter
+    naming window and its range [0, 64]."""
+    raw = splitlf.Raw(design, tuple(np.zeros_like(a) for a in _white(design)))
+    for w in (-1, 2**64, 65):
+        with pytest.raises(splitlf.InvalidParameter, match=r"\[0, 64\]") as e:
+            splitlf.estimate_depth(raw, depths=(300.0, 900.0), window=w)
+        assert e.value.name == "window" and e.value.value == w
+    # the core's own check, past Python's
+    with pytest.raises(splitlf.InvalidParameter, match=r"\[0, 64\]") as e:
+        _native.estimate_depth(design.core, list(raw.images),
+                               sweep_request([1, 2], np.linspace(300.0, 900.0, 3), 65))
+    assert e.value.name == "window"
+
+
+def test_candidate_count_is_capped(design: splitlf.Design) -> None:
+    """10 million candidates (minutes of sweep before) are refused at once, naming depths
+    and the range 3 to 4096; so is a count of 4097 at the core's own check."""
+    import time
+
+    raw = splitlf.Raw(design, tuple(np.zeros_like(a) for a in _white(design)))
+    t0 = time.perf_counter()
+    with pytest.raises(splitlf.InvalidParameter, match="3 to 4096") as e:
+        splitlf.estimate_depth(raw, depths=np.linspace(300.0, 900.0, 10_000_000))
+    assert e.value.name == "depths"
+    with pytest.raises(splitlf.InvalidParameter, match=r"\[3, 4096\]") as e:
+        splitlf.estimate_depth(raw, depths=(300.0, 900.0), candidates=10_000_000)
+    assert e.value.name == "candidates"
+    assert time.perf_counter() - t0 < 10.0
+    cand = [float(z) for z in np.linspace(300.0, 900.0, 4097)]
+    with pytest.raises(splitlf.InvalidParameter, match="3 to 4096") as e:
+        _native.estimate_depth(design.core, list(raw.images), sweep_request([1, 2], cand, 0))
+    assert e.value.name == "depths"
+
+
+def test_fine_grid_is_refused_before_allocating() -> None:
+    """A grid of one row of 4 million cells (pitch 1 nm over 4 mm) in a child limited to
+    3 GiB of address space: each lens whose footprint spans the row resamples its 15 rows at
+    every cell, 5 arrays of 15 x 4e6 doubles = 2.4 GB of one worker's scratch (measured on
+    200,000 cells: 168 MB, 840 bytes a cell), which the memory plan left out (it said
+    1.35 GB): the call went on and aborted ("memory allocation of 2400000000 bytes
+    failed"). Now it is refused up front with TooLargeError, its plan at least that scratch
+    (5.9 GB planned; on 200,000 cells 280 MB planned for 168 MB used)."""
+    code = """
+        import resource
+        resource.setrlimit(resource.RLIMIT_AS, (3 << 30, 3 << 30))
+        import splitlf
+        d = splitlf.Design.preset("seed")
+        d = d.replace(channels=tuple(c.replace(Kx=10, Ky=8) for c in d.channels))
+        raw = splitlf.render(d, splitlf.Scene(splitlf.RandomAlbedo(cell=0.5), 900.0), seed=3)
+        try:
+            splitlf.estimate_depth(raw, depths=(250.0, 4000.0), candidates=3, channels=(1,),
+                                   region=(-2.0, 2.0, 0.0, 1e-6), step=1e-6, window=0,
+                                   n_threads=1, progress=False)
+            print("returned")
+        except splitlf.TooLargeError as e:
+            print("TooLargeError", e.bytes)
+    """
+    r = run_python(code)
+    assert r.returncode == 0, r.stderr[-2000:]
+    kind, nbytes = r.stdout.split()
+    assert kind == "TooLargeError"
+    assert int(nbytes) >= 5 * 15 * 4_000_000 * 8

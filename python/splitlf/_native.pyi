@@ -14,6 +14,9 @@ __all__ = [
     "DEFAULT_THRESHOLD_PX",
     "DEFAULT_TOL",
     "DEFAULT_WINDOW",
+    "DEPTH_DEFAULT_STEP",
+    "DEPTH_MAX_CANDIDATES",
+    "DEPTH_MAX_WINDOW",
     "DesignCore",
     "DesignCurvesArrays",
     "DesignDepthOfFieldIntervals",
@@ -70,7 +73,8 @@ __all__ = [
     "seen_region",
     "solve_normal",
     "surface_system",
-    "depth_sweep",
+    "estimate_depth",
+    "depth_whites",
 ]
 
 __version__: str
@@ -93,6 +97,9 @@ MAX_TOL_2D: float
 MAX_COVERAGE_WORK: int
 RENDER_TOL: float
 MIN_RENDER_TOL: float
+DEPTH_DEFAULT_STEP: float
+DEPTH_MAX_CANDIDATES: int
+DEPTH_MAX_WINDOW: int
 
 _F64 = npt.NDArray[np.float64]
 _I64 = npt.NDArray[np.int64]
@@ -484,15 +491,10 @@ def solve_normal(
 ) -> tuple[_F64, int, float]: ...
 
 
-def depth_sweep(
+def estimate_depth(
     design: DesignCore,
     raws: list[npt.NDArray[np.float64]],
-    whites: list[npt.NDArray[np.float64]],
-    grid: tuple[float, float, float, int, int],
-    candidates: list[float],
-    channels: list[int] | None = None,
-    radius: int = 3,
-    keep_volume: bool = False,
+    request: dict[str, Any],
     n_threads: int | None = None,
     progress: Callable[[int, int], object] | None = None,
 ) -> tuple[
@@ -504,4 +506,10 @@ def depth_sweep(
     npt.NDArray[np.int64],
     int,
     npt.NDArray[np.float64] | None,
+    tuple[float, float, float, int, int],
 ]: ...
+
+
+def depth_whites(
+    design: DesignCore, min_own_share: float, n_threads: int | None = None
+) -> list[npt.NDArray[np.float64]]: ...

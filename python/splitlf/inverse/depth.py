@@ -1,14 +1,16 @@
 """Depth from the raw (docs/model.md §11, docs/depth.md).
 
-:func:`estimate_depth` runs the core's plane sweep (``_native.depth_sweep``): at each
-candidate depth every lens's micro-image (its pixels' values divided by their whites, the
-design's raw under a white albedo, rendered once per design and kept; on a sensor layout
-the pixels that take light through a neighbouring lens as well are left out) is resampled
-at the centres of a grid of cells, where its pixels' mean rays meet the plane at that
-depth; the cost is the spread of the lenses' values within each cell, pooled over a window
-of cells, per channel (at the true depth the lenses that see a cell saw the same patch). Each
-channel's least cost per cell, refined by a V-fit, is its depth; the contrast of its cost
-curve is its confidence, and each cell takes the most confident channel's depth.
+:func:`estimate_depth` checks its arguments and makes one call of the core
+(``_native.estimate_depth``, rust/core/src/inverse/depth/: the default region and grid,
+the whites and the plane sweep): at each candidate depth every lens's micro-image (its
+pixels' values divided by their whites, the design's raw under a white albedo, rendered
+once per design and kept; on a sensor layout the pixels that take light through a
+neighbouring lens as well are left out) is resampled at the centres of a grid of cells,
+where its pixels' mean rays meet the plane at that depth; the cost is the spread of the
+lenses' values within each cell, pooled over a window of cells, per channel (at the true
+depth the lenses that see a cell saw the same patch). Each channel's least cost per cell,
+refined by a V-fit, is its depth; the contrast of its cost curve is its confidence, and
+each cell takes the most confident channel's depth.
 """
 
 from __future__ import annotations
@@ -42,16 +44,19 @@ DEFAULT_CANDIDATES = 64
 #: The default window radius (cells): costs are pooled over (2 r + 1)^2 cells.
 DEFAULT_WINDOW = 6
 #: The default grid pitch, in delta(z) (docs/model.md §9) at the reference depth.
-DEFAULT_STEP = 3.0
+DEFAULT_STEP: float = _native.DEPTH_DEFAULT_STEP
 #: Cells whose confidence (1 - min / mean of the cost curve) is at least this are confident.
 DEFAULT_MIN_CONFIDENCE = 0.5
 #: On a sensor layout the sweep keeps a pixel only when at least this share of its white
 #: comes through its own lens: the rest also see a neighbouring lens's footprint, far away
 #: on the scene, and their value is a blend of the two (docs/depth.md, step 1).
 MIN_OWN_SHARE = 0.99
+#: Most candidate depths (each is a pass over every lens).
+MAX_CANDIDATES: int = _native.DEPTH_MAX_CANDIDATES
+#: Largest window radius, in cells.
+MAX_WINDOW: int = _native.DEPTH_MAX_WINDOW
 
 _WHITES: dict[int, tuple[Design, tuple[np.ndarray, ...]]] = {}
-_OWN_MASKS: dict[int, tuple[Design, tuple[np.ndarray, ...]]] = {}
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -104,24 +109,12 @@ def _own_lens_whites(design: Design) -> tuple[np.ndarray, ...]:
 
 
 def _sweep_whites(design: Design) -> tuple[np.ndarray, ...]:
-    """The whites the sweep takes: :func:`_white`, with 0 (not valid) for the pixels of a
+    """The whites the sweep takes, as the core makes them for :func:`estimate_depth`
+    (``_native.depth_whites``): :func:`_white`, with 0 (not valid) for the pixels of a
     sensor-layout channel that take less than :data:`MIN_OWN_SHARE` of their white through
-    their own lens (the core's own-lens render of the same white scene; the mask is kept
-    per design, a byte a pixel). On the ideal layout a pixel sees its own lens alone, and
-    the whites are :func:`_white`'s."""
-    whites = _white(design)
-    if not any(c["layout"] == "sensor" for c in design.resolved()):
-        return whites
-    hit = _OWN_MASKS.get(id(design))
-    if hit is not None and hit[0] is design:
-        masks = hit[1]
-    else:
-        own = _own_lens_whites(design)
-        masks = tuple(o >= MIN_OWN_SHARE * w for w, o in zip(whites, own, strict=True))
-        if len(_OWN_MASKS) >= 4:
-            _OWN_MASKS.pop(next(iter(_OWN_MASKS)))
-        _OWN_MASKS[id(design)] = (design, masks)
-    return tuple(np.where(m, w, 0.0) for w, m in zip(whites, masks, strict=True))
+    their own lens (the core's own-lens render of the same white scene). On the ideal
+    layout a pixel sees its own lens alone, and the whites are :func:`_white`'s."""
+    return tuple(_native.depth_whites(design.core, MIN_OWN_SHARE))
 
 
 def _candidates(design: Design, depths: Any, n: Any) -> np.ndarray:
@@ -139,12 +132,13 @@ def _candidates(design: Design, depths: Any, n: Any) -> np.ndarray:
         if zmin <= design.F:
             raise InvalidParameter.of("depths", f"zmin = {zmin}",
                                       f"depths > F = {design.F:g} mm")
-        if isinstance(n, bool) or not isinstance(n, int | np.integer) or not 3 <= n <= 4096:
-            raise InvalidParameter.of("candidates", n, "an integer in [3, 4096]")
+        if (isinstance(n, bool) or not isinstance(n, int | np.integer)
+                or not 3 <= n <= MAX_CANDIDATES):
+            raise InvalidParameter.of("candidates", n, f"an integer in [3, {MAX_CANDIDATES}]")
         return 1.0 / np.linspace(1.0 / zmin, 1.0 / zmax, int(n))
-    if arr.size < 3:
+    if not 3 <= arr.size <= MAX_CANDIDATES:
         raise InvalidParameter.of("depths", f"{arr.size} candidates",
-                                  "(zmin, zmax) or at least 3 candidate depths")
+                                  f"(zmin, zmax) or 3 to {MAX_CANDIDATES} candidate depths")
     bad = np.flatnonzero(~(np.isfinite(arr) & (arr > design.F)))
     if bad.size:
         i = int(bad[0])
@@ -165,13 +159,15 @@ def estimate_depth(raw: Raw, *, depths: Any, region: Any = None, step: float | N
 
     - ``raw``: a :class:`~splitlf.Raw` (rendered or wrapped)
     - ``depths``: ``(zmin, zmax)`` (``candidates`` depths uniform in 1/z between them) or
-      a 1-D array of at least 3 increasing candidate depths, all finite and > F (mm)
+      a 1-D array of 3 to 4096 increasing candidate depths, all finite and > F (mm)
+    - ``candidates``: the count of a (zmin, zmax) range, an integer in [3, 4096]
     - ``region``: (X0, X1, Y0, Y1) mm (default: what every chosen channel sees through at
       least half its aperture at the reference depth, the middle candidate in 1/z; when
       there is no such point, what the first chosen channel sees so)
     - ``step``: the grid's pitch in mm (default: delta(z) of docs/model.md §9 at the
       reference depth)
-    - ``window``: costs are pooled over (2 window + 1)^2 cells (0 to 64)
+    - ``window``: costs are pooled over (2 window + 1)^2 cells (an integer in
+      [0, 64])
     - ``min_confidence``: the least confidence of a confident cell, in [0, 1]
     - ``channels``: the channels used (numbered from 1; default all)
     - ``progress``: a tqdm bar over the candidates (None: only when stderr is a terminal)
@@ -182,59 +178,55 @@ def estimate_depth(raw: Raw, *, depths: Any, region: Any = None, step: float | N
     rival minimum) of the most confident channel's cost curve, in [0, 1]), ``confident``
     (bool) and ``sweep`` (a :class:`DepthSweep`).
     A raw without texture (all zeros, a uniform albedo) gives no confident cell.
+    Raises ``TypeError``, :class:`~splitlf.errors.InvalidParameter` naming the parameter,
+    :class:`~splitlf.errors.TooLargeError` (before any work, from the memory of the whole
+    call: the whites, the sweep's buffers and its outputs) and ``KeyboardInterrupt``.
     """
     if not isinstance(raw, Raw):
         raise TypeError(f"raw must be a splitlf.Raw, got {type(raw).__name__}")
     design = raw.design
     chans = _channels(design, channels)
     cand = _candidates(design, depths, candidates)
-    if isinstance(window, bool) or not isinstance(window, int | np.integer):
-        raise TypeError(f"window must be an integer number of cells, got {window!r}")
     mc = _validate.real(min_confidence, "min_confidence")
     if not 0.0 <= mc <= 1.0:
         raise InvalidParameter.of("min_confidence", mc, "a value in [0, 1]")
+    radius = _window(window)
+    request: dict[str, Any] = {
+        "channels": list(chans), "candidates": [float(z) for z in cand], "window": radius,
+        "min_own_share": MIN_OWN_SHARE, "keep_volume": False,
+        "step": None if step is None else _validate.positive_length(step, "step"),
+        "region": None if region is None else _extent(region, "region")}
     _validate.n_threads(n_threads)
-    show = _progress_flag(progress)
-    z_ref = float(1.0 / np.median(1.0 / cand))
-    if step is None:
-        step_ = DEFAULT_STEP * design.resolution_step(z_ref)
-    else:
-        step_ = _validate.positive_length(step, "step")
-    if region is not None:
-        ext = _extent(region, "region")
-    else:
-        try:
-            ext = _native.seen_region(design.core, z_ref, list(chans))
-        except InvalidParameter:
-            # Far from its focus a channel may see no point through half its aperture:
-            # then the first chosen channel's region.
-            ext = _native.seen_region(design.core, z_ref, [chans[0]])
-    grid = _native.cell_grid(ext, step_)
-    x0, y1, h, nx, ny = grid
-    whites = _sweep_whites(design)
-    raws = [np.ascontiguousarray(raw.images[c - 1]) for c in chans]
-    wh = [np.ascontiguousarray(whites[c - 1]) for c in chans]
-    bar, report = _progress(show, "splitlf depth", "depth")
+    raws = [np.ascontiguousarray(raw.images[c - 1], dtype=np.float64) for c in chans]
+    bar, report = _progress(_progress_flag(progress), "splitlf depth", "depth")
     try:
-        depth, index, conf, cmin, cmean, chan, samples, _ = _native.depth_sweep(
-            design.core, raws, wh, grid, [float(z) for z in cand], list(chans), int(window),
-            False, n_threads, report)
+        depth, index, conf, cmin, cmean, chan, samples, _, grid = _native.estimate_depth(
+            design.core, raws, request, n_threads, report)
     finally:
         if bar is not None:
             bar.close()
+    x0, y1, h, nx, ny = grid
+    extent = (x0, x0 + nx * h, y1 - ny * h, y1)
     ok = np.isfinite(depth)
     if not ok.any():
         raise InvalidParameter.of(
-            "region", f"({x0:.6g}, {x0 + nx * h:.6g}, {y1 - ny * h:.6g}, {y1:.6g})",
+            "region", "({:.6g}, {:.6g}, {:.6g}, {:.6g})".format(*extent),
             "a region the chosen channels' pixels see at the candidate depths")
     confident = ok & (conf >= mc) & (conf > 0.0)
-    filled = _fill(depth, confident, ok, cand)
     sweep = DepthSweep(candidates=cand, index=index, min_cost=cmin, mean_cost=cmean,
-                       channel=chan,
-                       estimate=depth, window=int(window), channels=chans,
+                       channel=chan, estimate=depth, window=radius, channels=chans,
                        samples=int(samples))
-    return DepthMap(filled, (x0, x0 + nx * h, y1 - ny * h, y1), confidence=conf,
+    return DepthMap(_fill(depth, confident, ok, cand), extent, confidence=conf,
                     confident=confident, sweep=sweep)
+
+
+def _window(window: Any) -> int:
+    """The window's radius: an integer in [0, :data:`MAX_WINDOW`] cells."""
+    if isinstance(window, bool) or not isinstance(window, int | np.integer):
+        raise TypeError(f"window must be an integer number of cells, got {window!r}")
+    if not 0 <= window <= MAX_WINDOW:
+        raise InvalidParameter.of("window", window, f"an integer in [0, {MAX_WINDOW}] cells")
+    return int(window)
 
 
 def _fill(depth: np.ndarray, confident: np.ndarray, ok: np.ndarray,

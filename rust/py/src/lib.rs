@@ -45,6 +45,15 @@ fn constants(m: &Bound<'_, PyModule>) -> PyResult<()> {
         splitlf_core::inverse::system::OUTSIDE_SHARE,
     )?;
     m.add("MIN_RENDER_TOL", splitlf_core::imaging::render::MIN_TOL)?;
+    m.add(
+        "DEPTH_DEFAULT_STEP",
+        splitlf_core::inverse::depth::DEFAULT_STEP,
+    )?;
+    m.add("DEPTH_MAX_WINDOW", splitlf_core::inverse::depth::MAX_RADIUS)?;
+    m.add(
+        "DEPTH_MAX_CANDIDATES",
+        splitlf_core::inverse::depth::MAX_CANDIDATES,
+    )?;
     Ok(())
 }
 
@@ -108,7 +117,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
         inverse::reconstruct::reconstruction_factors,
         inverse::reconstruct::solve_normal,
         inverse::reconstruct::cell_averages,
-        inverse::depth::depth_sweep,
+        inverse::depth::estimate_depth,
+        inverse::depth::depth_whites,
         infra::arrays::available_memory,
     );
     Ok(())

@@ -1,4 +1,5 @@
-//! Depth from the raw: the core's plane sweep (docs/model.md §11, docs/depth.md).
+//! Depth from the raw: the core's whole estimate in one call (docs/model.md §11,
+//! docs/depth.md).
 
 use numpy::{PyArray2, PyArray4, PyReadonlyArray2};
 use pyo3::prelude::*;
@@ -7,12 +8,28 @@ use splitlf_core::inverse::depth;
 
 use crate::infra::args::threads_arg;
 use crate::infra::arrays::filled;
-use crate::infra::errors::internal;
-use crate::infra::interrupt::{counted, run_reporting};
-use crate::inverse::reconstruct::{channel_indices, checked_grid};
+use crate::infra::errors::{internal, to_py};
+use crate::infra::interrupt::{counted, run_as, run_reporting};
+use crate::inverse::reconstruct::channel_indices;
 use crate::model::design::DesignCore;
 
-type SweepTuple<'py> = (
+/// An estimate's request, from a dict (Python has checked the types and ranges; the core
+/// checks again): `channels` (numbered from 1), `candidates` (mm, increasing), `region`
+/// ((X0, X1, Y0, Y1) mm or None: the default), `step` (mm or None: the default),
+/// `window` (radius, cells), `min_own_share` and `keep_volume`.
+#[derive(FromPyObject)]
+#[pyo3(from_item_all)]
+pub(crate) struct DepthRequest {
+    channels: Vec<i64>,
+    candidates: Vec<f64>,
+    region: Option<(f64, f64, f64, f64)>,
+    step: Option<f64>,
+    window: usize,
+    min_own_share: f64,
+    keep_volume: bool,
+}
+
+type EstimateTuple<'py> = (
     Bound<'py, PyArray2<f64>>,
     Bound<'py, PyArray2<f64>>,
     Bound<'py, PyArray2<f64>>,
@@ -21,87 +38,103 @@ type SweepTuple<'py> = (
     Bound<'py, PyArray2<i64>>,
     usize,
     Option<Bound<'py, PyArray4<f64>>>,
+    (f64, f64, f64, usize, usize),
 );
 
-/// The plane sweep of `raws` (one C-contiguous image per chosen channel) with `whites`
-/// (the same channels' raws under a white albedo) over the increasing `candidates` on the
-/// grid (X0, Y1, step, nx, ny), windows of (2 radius + 1)^2 cells: (depth, fractional
-/// candidate index, confidence, least cost, mean cost, the channel (numbered from 1) whose
-/// curve gave the estimate) per cell (ny, nx), the pixels used, and the cost volume
-/// (candidates, chosen channels, ny, nx) when `keep_volume`. `progress(done, total)` counts
-/// candidates.
+/// The depth of the scene from `raws` (one C-contiguous image per chosen channel) as
+/// `request` asks ([`DepthRequest`]): per cell (ny, nx) the depth, the fractional
+/// candidate index, the confidence, the least and the mean cost, the channel (numbered
+/// from 1) whose curve gave the estimate; the pixels used; the cost volume (candidates,
+/// chosen channels, ny, nx) when asked for; and the grid (X0, Y1, step, nx, ny).
+/// `progress(done, total)` counts candidates.
 #[pyfunction]
-#[pyo3(signature = (design, raws, whites, grid, candidates, channels=None, radius=3, keep_volume=false, n_threads=None, progress=None))]
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn depth_sweep<'py>(
+#[pyo3(signature = (design, raws, request, n_threads=None, progress=None))]
+pub(crate) fn estimate_depth<'py>(
     py: Python<'py>,
     design: &DesignCore,
     raws: Vec<PyReadonlyArray2<'py, f64>>,
-    whites: Vec<PyReadonlyArray2<'py, f64>>,
-    grid: (f64, f64, f64, usize, usize),
-    candidates: Vec<f64>,
-    channels: Option<Vec<i64>>,
-    radius: usize,
-    keep_volume: bool,
+    request: DepthRequest,
     n_threads: Option<&Bound<'py, PyAny>>,
     progress: Option<Py<PyAny>>,
-) -> PyResult<SweepTuple<'py>> {
+) -> PyResult<EstimateTuple<'py>> {
     let threads = threads_arg(n_threads)?;
-    let ch = channel_indices(design, channels)?;
-    let g = checked_grid(grid)?;
-    let d = design.inner.clone();
+    let channels = channel_indices(design, Some(request.channels))?;
     let mut raw_s = Vec::with_capacity(raws.len());
     for a in &raws {
         raw_s.push(a.as_slice().map_err(internal)?);
     }
-    let mut white_s = Vec::with_capacity(whites.len());
-    for a in &whites {
-        white_s.push(a.as_slice().map_err(internal)?);
-    }
-    let (report, counter) = counted(progress, candidates.len());
-    let chosen = ch.clone();
-    let s = run_reporting(py, "depths", report, move || {
-        depth::sweep(
-            &d,
-            &ch,
-            &raw_s,
-            &white_s,
-            &g,
-            &candidates,
-            radius,
-            keep_volume,
-            threads,
-            &counter,
-        )
+    let req = depth::Request {
+        channels,
+        candidates: request.candidates,
+        region: request.region.map(|r| [r.0, r.1, r.2, r.3]),
+        step: request.step,
+        radius: request.window,
+        min_own_share: request.min_own_share,
+        keep_volume: request.keep_volume,
+    };
+    let d = &design.inner;
+    let (report, counter) = counted(progress, req.candidates.len());
+    let e = run_reporting(py, "depths", report, || {
+        depth::estimate(d, &raw_s, &req, threads, &counter)
     })?;
+    let (g, s) = (e.grid, e.sweep);
     let shape = [g.ny, g.nx];
     let arr = |v: Vec<f64>, what: &str| filled::<f64, numpy::Ix2>(py, &shape, what, v.into_iter());
-    let nch = chosen.len();
+    let nch = req.channels.len();
     let volume = match s.volume {
-        Some(v) => {
-            let n = v.len() / (nch * g.ny * g.nx).max(1);
-            Some(filled::<f64, numpy::Ix4>(
-                py,
-                &[n, nch, g.ny, g.nx],
-                "the depth sweep's cost volume",
-                v.into_iter(),
-            )?)
-        }
+        Some(v) => Some(filled::<f64, numpy::Ix4>(
+            py,
+            &[req.candidates.len(), nch, g.ny, g.nx],
+            "the depth sweep's cost volume",
+            v.into_iter(),
+        )?),
         None => None,
     };
+    let channel = s
+        .channel
+        .iter()
+        .map(|&c| req.channels[c as usize] as i64 + 1);
     Ok((
         arr(s.depth, "the depth estimate")?,
         arr(s.index, "the depth estimate's candidate index")?,
         arr(s.confidence, "the depth estimate's confidence")?,
         arr(s.min_cost, "the depth estimate's least cost")?,
         arr(s.mean_cost, "the depth estimate's mean cost")?,
-        filled::<i64, numpy::Ix2>(
-            py,
-            &shape,
-            "the depth estimate's channel",
-            s.channel.iter().map(|&c| chosen[c as usize] as i64 + 1),
-        )?,
+        filled::<i64, numpy::Ix2>(py, &shape, "the depth estimate's channel", channel)?,
         s.samples,
         volume,
+        (g.x0, g.y1, g.step, g.nx, g.ny),
     ))
+}
+
+/// The whites the depth estimate takes, one array per channel of the design: its raws
+/// under a white albedo, with 0 for the pixels of a sensor layout that take less than
+/// `min_own_share` of their white through their own lens.
+#[pyfunction]
+#[pyo3(signature = (design, min_own_share, n_threads=None))]
+pub(crate) fn depth_whites<'py>(
+    py: Python<'py>,
+    design: &DesignCore,
+    min_own_share: f64,
+    n_threads: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Vec<Bound<'py, PyArray2<f64>>>> {
+    let threads = threads_arg(n_threads)?;
+    let d = &design.inner;
+    if !(0.0..=1.0).contains(&min_own_share) {
+        let e = splitlf_core::Error::param("min_own_share", min_own_share, "a share in [0, 1]");
+        return Err(to_py(e));
+    }
+    splitlf_core::infra::memory::check("the depth sweep's whites", depth::whites_bytes(d))
+        .map_err(to_py)?;
+    let w = run_as(py, "depths", || {
+        depth::sweep_whites(d, min_own_share, threads)
+    })?;
+    d.channels
+        .iter()
+        .zip(w.iter())
+        .map(|(ch, v)| {
+            let (r, c) = splitlf_core::imaging::render::raw_shape(ch);
+            filled::<f64, numpy::Ix2>(py, &[r, c], "the depth sweep's whites", v.iter().copied())
+        })
+        .collect()
 }
