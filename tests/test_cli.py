@@ -189,12 +189,12 @@ def test_option_values_are_checked_with_named_types(tmp_path, monkeypatch, capsy
     (KeyError("a bug"), None),
 ])
 def test_only_user_errors_are_caught(monkeypatch, capsys, exc, code):
-    import splitlf.cli as cli
+    import splitlf.cli.report as cli_report
 
     def fail(*args, **kwargs):
         raise exc
 
-    monkeypatch.setattr(cli, "report_data", fail)
+    monkeypatch.setattr(cli_report, "report_data", fail)
     if code is None:
         with pytest.raises(type(exc)):
             main(["report"])
@@ -268,7 +268,7 @@ def test_figures_check_every_target_before_writing(tmp_path, capsys):
 
 
 def test_figures_pass_threads_to_every_figure(tmp_path, monkeypatch, capsys):
-    import splitlf.cli as cli
+    import splitlf.cli.figures as cli_figures
     import splitlf.sampling.rayspace as rs
 
     seen = {}
@@ -278,7 +278,7 @@ def test_figures_pass_threads_to_every_figure(tmp_path, monkeypatch, capsys):
             seen[stem] = n_threads
         return draw
 
-    monkeypatch.setattr(cli, "figure_functions",
+    monkeypatch.setattr(cli_figures, "figure_functions",
                         lambda design=False: {s: (fake(s), 1, (1.0, 1.0)) for s in ("a", "b")})
     real = rs.trace
     monkeypatch.setattr(rs, "trace", lambda c, h, axis="x", n_threads=None: real(c, h, axis))
@@ -372,7 +372,7 @@ def test_depth_cli_matches_api(tmp_path, capsys):
     assert code != 0 and "depths" in err
     # reconstruct --depth DEPTH.npy --extent=... reads back the same surface (the map
     # build itself is tested in tests/test_depth.py: minutes on a depth map).
-    from splitlf.cli import parse_render_depth
+    from splitlf.cli._common import parse_render_depth
 
     ext = ",".join(repr(v) for v in summary["extent"])
     surface = parse_render_depth(str(tmp_path / "depth.npy"), ext)

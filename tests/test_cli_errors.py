@@ -1,6 +1,6 @@
 """The command line's verdicts (issue 20): one validation before any output, one-line
 errors in the CLI's words, missing extras, Ctrl-C, the short report, the narrow compare
-table, and the structure of cli.py (option groups declared once, short functions)."""
+table, and the structure of the cli package (option groups declared once, short functions)."""
 
 from __future__ import annotations
 
@@ -20,7 +20,9 @@ from _subprocess import default_sigint
 import splitlf
 from splitlf.cli import main
 
-CLI = Path(splitlf.__file__).with_name("cli.py")
+CLI = Path(splitlf.__file__).with_name("cli")
+#: Every source file of the command line (the package: main, _common, one per command).
+CLI_FILES = sorted(CLI.glob("*.py"))
 ENV = {**os.environ, "PYTHONPATH": str(Path(splitlf.__file__).parent.parent)}
 
 
@@ -45,16 +47,29 @@ def d40(tmp_path):
 
 # -- structure --------------------------------------------------------------------------------
 
+def _cli_source() -> str:
+    return "\n".join(p.read_text() for p in CLI_FILES)
+
+
+def test_the_cli_is_a_package_of_one_module_per_command():
+    from splitlf.cli import COMMANDS
+
+    assert {p.stem for p in CLI_FILES} == {"__init__", "_common", *(
+        m.__name__.rpartition(".")[2] for m in COMMANDS)}
+    for module in COMMANDS:
+        assert callable(module.add_parser) and callable(module.run)
+
+
 def test_no_function_in_cli_is_longer_than_60_lines():
-    tree = ast.parse(CLI.read_text())
-    long = [(n.name, n.end_lineno - n.lineno + 1) for n in ast.walk(tree)
+    long = [(p.name, n.name, n.end_lineno - n.lineno + 1) for p in CLI_FILES
+            for n in ast.walk(ast.parse(p.read_text()))
             if isinstance(n, ast.FunctionDef | ast.AsyncFunctionDef)
             and n.end_lineno - n.lineno + 1 > 60]
     assert long == []
 
 
 def test_cli_never_branches_on_camera():
-    src = CLI.read_text()
+    src = _cli_source()
     assert "isinstance(" not in src.replace("isinstance(data", "").replace(
         "isinstance(value", "").replace("isinstance(spec", "").replace(
         "isinstance(log", "").replace("isinstance(dep", "").replace(
@@ -63,7 +78,7 @@ def test_cli_never_branches_on_camera():
 
 
 def test_option_groups_are_declared_once():
-    src = CLI.read_text()
+    src = _cli_source()
     for option in ('"--config"', '"--preset", choices=PRESETS', '"--threads"', '"--force"',
                    '"--json"', '"--out"', '"--scheduler"', '"--threshold"'):
         assert src.count(f"add_argument({option}") == 1, option
@@ -256,18 +271,18 @@ def _comparison_table():
 def test_compare_table_fits_100_columns_unless_wide():
     from types import SimpleNamespace
 
-    from splitlf.cli import _compare_text
+    from splitlf.cli.compare import compare_text
 
     res = SimpleNamespace(table=_comparison_table(), preset="seed",
                           timing={"optimise_s": 1.0, "evaluate_s": 2.0})
     args = SimpleNamespace(objective="sharp_fraction_union", sense=None, wide=False)
-    text = _compare_text(res, args, {}, [])
+    text = compare_text(res, args, {}, [])
     assert max(map(len, text.splitlines())) <= 100
     conv = next(ln for ln in text.splitlines() if ln.startswith("conventional"))
     assert conv.split()[1] == "-" and "<NA>" not in text and "None" not in text
     assert ("note: sharp (the union's sharp fraction) is 1 for every light field row: the "
             "objective maximised it") in text
     args.wide = True
-    wide = _compare_text(res, args, {}, [])
+    wide = compare_text(res, args, {}, [])
     assert max(map(len, wide.splitlines())) > 100 and "covering_radius_median" in wide
     assert wide.splitlines()[-1].startswith("optimised in")
