@@ -184,6 +184,7 @@ def test_option_values_are_checked_with_named_types(tmp_path, monkeypatch, capsy
     (TypeError("bad type"), 2),
     (FileExistsError("exists"), 2),
     (splitlf.TooLargeError("too large"), 2),
+    (MemoryError("Unable to allocate 128. TiB for an array"), 2),
     (RuntimeError("a bug"), None),
     (AssertionError("a bug"), None),
     (KeyError("a bug"), None),
@@ -301,6 +302,7 @@ def test_written_files_get_the_usual_permissions(tmp_path, capsys):
     assert out.stat().st_mode & 0o777 == 0o640  # a replaced file keeps its permissions
 
 
+@pytest.mark.slow
 def test_reconstruct_cli_matches_api(tmp_path, capsys):
     """render -> reconstruct on the command line gives the API's image (the .npy beside
     the .png), and refuses to overwrite without --force."""
@@ -321,6 +323,11 @@ def test_reconstruct_cli_matches_api(tmp_path, capsys):
     assert np.array_equal(image, rec.image)
     assert summary["shape"] == list(rec.image.shape) and png.stat().st_size > 0
     assert summary["tiles"] == 1
+    # the picture is a figure with axes in mm (7.5 x 5 in at 110 dpi, as the depth map's),
+    # not the bare image (one pixel per cell)
+    from matplotlib.image import imread
+
+    assert imread(png).shape[:2] == (550, 825)
     code, _, err = run(args, capsys)
     assert code != 0 and "--force" in err
     # --tile: the API's tiled image; a tile below 16 cells is refused by name.

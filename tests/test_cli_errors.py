@@ -5,7 +5,9 @@ table, and the structure of the cli package (option groups declared once, short 
 from __future__ import annotations
 
 import ast
+import json
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -286,3 +288,203 @@ def test_compare_table_fits_100_columns_unless_wide():
     wide = compare_text(res, args, {}, [])
     assert max(map(len, wide.splitlines())) > 100 and "covering_radius_median" in wide
     assert wide.splitlines()[-1].startswith("optimised in")
+
+
+# -- what a new user hit ----------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def small_raw(tmp_path_factory):
+    """A small raw file of the seed design (10 x 8 lenses per half), rendered by the CLI."""
+    folder = tmp_path_factory.mktemp("raw")
+    d = splitlf.Design.preset("seed")
+    d = d.replace(channels=tuple(c.replace(Kx=10, Ky=8) for c in d.channels))
+    toml = folder / "d.toml"
+    toml.write_text(d.to_toml())
+    raw = folder / "r.npz"
+    assert main(["render", str(toml), "--texture", "random:1", "--depth", "1000",
+                 "--noise", "2000", "-o", str(raw)]) == 0
+    return raw
+
+
+@pytest.mark.parametrize("command, extra_args", [
+    ("depth", ["--depths", "250:4000"]),
+    ("reconstruct", ["--depth", "1000", "--region=-1,1,-1,1"]),
+])
+def test_depth_and_reconstruct_without_scipy_name_the_extra(tmp_path, small_raw, command,
+                                                           extra_args):
+    """After a core-only install (no SciPy) the image commands say which extra to install,
+    in one line, instead of a ModuleNotFoundError traceback; nothing is written."""
+    argv = [command, str(small_raw), *extra_args, "-o", str(tmp_path / "out.npy")]
+    hide = "import sys; sys.modules['scipy'] = None; from splitlf.cli import main; " \
+        f"sys.exit(main({argv!r}))"
+    r = subprocess.run([sys.executable, "-c", hide], capture_output=True, text=True,
+                       env=ENV, timeout=120)
+    assert (r.returncode, r.stdout) == (2, "")
+    assert r.stderr == f'splitlf {command}: error: {command} needs scipy: pip install ' \
+        '"splitlf[reconstruct]"\n'
+    assert list(tmp_path.iterdir()) == []
+
+
+def _extras() -> dict[str, list[str]]:
+    from splitlf._files import read_toml
+
+    root = Path(__file__).resolve().parent.parent
+    return read_toml(root / "pyproject.toml")["project"]["optional-dependencies"]
+
+
+def test_the_readme_names_every_extra_and_what_each_image_command_needs():
+    readme = (Path(__file__).resolve().parent.parent / "README.md").read_text()
+    extras = _extras()
+    assert {"plot", "simulate", "reconstruct"} <= set(extras)
+    assert any(dep.startswith("scipy") for dep in extras["reconstruct"])
+    table = readme.split("## Optional features (extras)", 1)[1].split("\n## ", 1)[0]
+    for extra in extras:
+        assert f"| `{extra}` |" in table, extra
+    for command, needed in (("render", ["`plot`"]), ("reconstruct", ["`reconstruct`", "`plot`"]),
+                            ("depth", ["`reconstruct`", "`plot`"]),
+                            ("simulate", ["`simulate`"])):
+        computes = readme.split("## What it computes", 1)[1].split("\n## ", 1)[0]
+        rows = [ln for ln in computes.splitlines() if ln.startswith("|")
+                and re.search(f"`splitlf {command}[ `]", ln.rsplit("|", 2)[-2])]
+        assert rows, command
+        for needle in needed:
+            assert all(needle in row for row in rows), (command, needle)
+
+
+def test_depth_npy_writes_the_confidence_beside_the_depth(tmp_path, small_raw, capsys):
+    """-o DEPTH.npy writes DEPTH.confident.npy too (True where the method stands behind the
+    cell); every other cell holds a confident cell's depth (the nearest one's). The region
+    reaches beyond what the channels see well, so a few cells are not confident."""
+    out = tmp_path / "depth.npy"
+    code, stdout, err = _cli(["depth", str(small_raw), "--depths", "250:4000",
+                              "--region=-8,8,-6,6", "-o", str(out), "--json"], capsys)
+    assert code == 0, err
+    summary = json.loads(stdout)
+    depth = np.load(out)
+    conf = np.load(tmp_path / "depth.confident.npy")
+    assert summary["confident_npy"] == str(tmp_path / "depth.confident.npy")
+    assert conf.dtype == bool and conf.shape == depth.shape
+    assert 0 < conf.sum() < conf.size
+    assert summary["confident"] == conf.sum() / conf.size
+    assert np.isin(depth[~conf], depth[conf]).all()
+    # both are checked before any work: an existing confidence file is refused
+    out.unlink()
+    code, _, err = _cli(["depth", str(small_raw), "--depths", "250:4000", "-o", str(out)],
+                        capsys)
+    assert code == 2 and "depth.confident.npy: exists" in err and not out.exists()
+
+
+def test_the_reconstruction_picture_has_axes_in_mm_over_its_extent():
+    """plot.image draws the albedo over the reconstruction's extent, row 0 at the top, with
+    axes in mm and a colour bar from 0 to max(1, largest value)."""
+    pytest.importorskip("matplotlib")
+    from matplotlib.figure import Figure
+
+    from splitlf.inverse.reconstruct import Reconstruction
+    from splitlf.plot.image import image
+
+    albedo = np.arange(12, dtype=np.float64).reshape(3, 4) / 8.0  # largest 1.375
+    rec = Reconstruction(image=albedo, extent=(-2.0, 2.0, -1.5, 1.5), step=1.0,
+                         design=splitlf.Design.preset("seed"), depth=800.0, channels=(1, 2),
+                         rows=10, iterations=3, residual=1e-12, regularization=4.0,
+                         noise="floor")
+    ax = image(rec, Figure().add_subplot())
+    shown = ax.images[0]
+    assert list(shown.get_extent()) == [-2.0, 2.0, -1.5, 1.5]
+    assert shown.origin == "upper" and np.array_equal(shown.get_array(), albedo)
+    assert shown.get_clim() == (0.0, 1.375)
+    assert (ax.get_xlabel(), ax.get_ylabel()) == ("X [mm]", "Y [mm]")
+    assert "4 x 3 cells of 1 mm" in ax.get_title()
+
+
+def _unwritable_folder(tmp_path):
+    """A folder without write permission; as root (who may write anyway) sysfs, which
+    refuses new files."""
+    folder = tmp_path / "read-only"
+    folder.mkdir()
+    folder.chmod(0o555)
+    for candidate in (folder, Path("/sys")):
+        try:
+            (candidate / ".probe").touch()
+        except OSError:
+            return candidate
+        (candidate / ".probe").unlink()
+    pytest.skip("no folder this user cannot write to")
+
+
+@pytest.mark.parametrize("argv, computes", [
+    (["trace", "--out", "{ro}/t.npz"], "splitlf.sampling.rayspace.trace"),
+    (["render", "seed", "--texture", "random", "--depth", "1000", "-o", "{ro}/r.npz"],
+     "splitlf.imaging.render.render"),
+    (["reconstruct", "{tmp}/r.npz", "--depth", "800", "-o", "{ro}/i.npy"],
+     "splitlf.inverse.reconstruct.reconstruct"),
+    (["depth", "{tmp}/r.npz", "--depths", "250:4000", "-o", "{ro}/d.npy"],
+     "splitlf.inverse.depth.estimate_depth"),
+    (["simulate", "--out", "{ro}/s.json"], "splitlf.inverse.simulate.simulate"),
+    (["sweep", "--grid", "{tmp}/g.toml", "--out", "{ro}/s.nc"], "splitlf.study.sweep.sweep"),
+    (["optimise", "--free", "D=8:40", "--objective", "f_number", "--out", "{ro}/b.toml"],
+     "splitlf.study.optimise.optimise"),
+    (["compare", "--objective", "sharp_fraction_union", "--out", "{ro}/cmp"],
+     "splitlf.study.compare.compare"),
+    (["figures", "--out", "{ro}/figs"], "splitlf.cli.figures.figure_functions"),
+])
+def test_an_unwritable_output_folder_is_refused_before_any_work(tmp_path, monkeypatch,
+                                                                capsys, argv, computes):
+    import importlib
+
+    pytest.importorskip("scipy")
+    pytest.importorskip("xarray")
+    ro = _unwritable_folder(tmp_path)
+    (tmp_path / "g.toml").write_text("[grid]\nkappa = [0.3, 0.4]\n")
+    module, _, name = computes.rpartition(".")
+
+    def computed(*args, **kwargs):
+        raise AssertionError("computed before checking the output folder")
+
+    monkeypatch.setattr(importlib.import_module(module), name, computed)
+    argv = [a.replace("{ro}", str(ro)).replace("{tmp}", str(tmp_path)) for a in argv]
+    code, out, err = _cli(argv, capsys)
+    assert (code, out) == (2, "")
+    assert err.startswith(f"splitlf {argv[0]}: error: ") and err.count("\n") == 1
+    assert f"folder {ro} is not writable" in err and ".tmp" not in err
+
+
+def test_reconstruct_allow_slow_reaches_the_library(tmp_path, monkeypatch, capsys):
+    """--allow-slow passes allow_slow=True to reconstruct; without it the library's
+    default holds (the keyword is not passed)."""
+    from types import SimpleNamespace
+
+    import splitlf.imaging.render as render_module
+    import splitlf.inverse.reconstruct as rec_module
+
+    seen = []
+
+    def fake(raw, depth, **kwargs):
+        seen.append(kwargs)
+        return SimpleNamespace(image=np.zeros((2, 3)), extent=(0.0, 3.0, 0.0, 2.0), step=1.0,
+                               depth=depth, channels=(1,), rows=6, iterations=1,
+                               residual=0.0, regularization=4.0, noise="floor", tiles=1)
+
+    monkeypatch.setattr(rec_module, "reconstruct", fake)
+    monkeypatch.setattr(render_module.Raw, "load", staticmethod(lambda path: path))
+    argv = ["reconstruct", "r.npz", "--depth", "800", "-o", str(tmp_path / "i.npy")]
+    assert _cli([*argv, "--allow-slow"], capsys)[0] == 0
+    assert _cli([*argv, "--force"], capsys)[0] == 0
+    assert seen[0]["allow_slow"] is True and "allow_slow" not in seen[1]
+    code, out, _ = _cli(["reconstruct", "--help"], capsys)
+    assert "--allow-slow" in out and "refused" in out
+
+
+def test_a_malformed_npy_is_one_line_not_a_memory_error(tmp_path, capsys):
+    """A .npy whose header claims far more data than the file (and the machine) holds:
+    NumPy's MemoryError becomes the CLI's one line naming the file, exit 2."""
+    bad = tmp_path / "bad.npy"
+    with open(bad, "wb") as fh:
+        np.lib.format.write_array_header_1_0(fh, {"descr": "<f8", "fortran_order": False,
+                                                  "shape": (2**22, 2**22)})
+        fh.write(b"\0" * 64)
+    code, out, err = _cli(["render", "seed", "--texture", str(bad), "--width", "10",
+                           "--depth", "1000", "-o", str(tmp_path / "r.npz")], capsys)
+    assert (code, out) == (2, "")
+    assert err.startswith(f"splitlf render: error: {bad}: ") and err.count("\n") == 1
+    assert not (tmp_path / "r.npz").exists()

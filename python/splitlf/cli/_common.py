@@ -8,6 +8,8 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
+import tempfile
 from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
@@ -26,8 +28,9 @@ SEED = "seed design (docs/model.md §7, reconstructed from the paper)"
 THREADS_RANGE = (1, _native.MAX_THREADS)
 
 #: What the CLI reports as a user error (one line, exit 2); anything else is a bug.
-#: (read_toml reports invalid TOML as a ValueError naming the file.)
-USER_ERRORS = (SplitlfError, ValueError, TypeError, OSError)
+#: (read_toml reports invalid TOML as a ValueError naming the file; a MemoryError is input
+#: too large for this machine: splitlf.TooLargeError, or NumPy's for a malformed .npy.)
+USER_ERRORS = (SplitlfError, ValueError, TypeError, OSError, MemoryError)
 
 FORCE_HINT = "pass --force to overwrite"
 
@@ -96,6 +99,43 @@ def check_suffix(option: str, path: Path, allowed: Iterable[str]) -> None:
     allowed = tuple(allowed)
     if path.suffix not in allowed:
         raise CliError(f"{option} {path}: allowed suffixes {', '.join(allowed)}")
+
+
+def check_output(path: str | os.PathLike[str], force: bool) -> Path:
+    """An output file, checked before any work: not overwritten without ``--force``, its
+    folder exists, and a trial file can be created in that folder (an unwritable folder is
+    refused now, in words naming it, not after the computation). Returns the path.
+
+    (``splitlf._files.check_writable`` is to do the same for the library; this is the
+    command line's own until it lands.)"""
+    p = check_new(path, force, FORCE_HINT)
+    _probe(p.parent, p)
+    return p
+
+
+def check_folder(folder: Path, option: str = "--out") -> None:
+    """An output folder that the command creates when missing: it, or its nearest
+    existing ancestor when it is missing, must be a folder that can be written."""
+    if folder.exists() and not folder.is_dir():
+        raise CliError(f"{option} {folder}: exists and is not a folder")
+    base = folder
+    while not base.exists():
+        base = base.parent
+    if not base.is_dir():
+        raise CliError(f"{option} {folder}: {base} is not a folder")
+    _probe(base, folder)
+
+
+def _probe(folder: Path, target: Path) -> None:
+    """Create and remove a trial file in ``folder``: CliError naming ``target`` and the
+    folder when that fails (read-only, no permission, full)."""
+    try:
+        fd, name = tempfile.mkstemp(dir=folder, prefix=".splitlf-check.", suffix=".tmp")
+    except OSError as e:
+        reason = e.strerror or type(e).__name__
+        raise CliError(f"{target}: folder {folder} is not writable ({reason})") from None
+    os.close(fd)
+    os.unlink(name)
 
 
 def integer_type(what: str, lo: int, hi: int) -> Callable[[str], int]:
@@ -175,6 +215,8 @@ def load_npy(path: str) -> Any:
         raise CliError(f"no such file: {path}") from None
     except (ValueError, EOFError):
         raise CliError(f"{path}: not a NumPy .npy array file") from None
+    except MemoryError as e:  # a header claiming more than this machine holds
+        raise CliError(f"{path}: cannot load the array ({e})") from None
 
 
 def numbers(option: str, text: str, n: int) -> tuple[float, ...]:
@@ -260,7 +302,7 @@ def array_targets(args: argparse.Namespace, what: str) -> tuple[Path, Path | Non
         need("matplotlib", f"{what} to a PNG", "plot")
     for target in (out, npy):
         if target is not None:
-            check_new(target, args.force, FORCE_HINT)
+            check_output(target, args.force)
     return out, npy
 
 
@@ -410,12 +452,29 @@ def grid_options(p: Any, region_default: str, step_default: str) -> None:
                    help="channel numbers from 1 (default: all)")
 
 
-def array_output(p: Any, what: str, metavar: str) -> None:
+def array_output(p: Any, what: str, metavar: str,
+                 npy_help: str = "with a .png output, also write the array beside it (.npy)"
+                 ) -> None:
     """-o (.png or .npy), --json and --npy of the commands that write an array."""
     g = output_group(p, what, metavar, required=True,
                      json_help="print a JSON summary instead of the path")
-    g.add_argument("--npy", action="store_true",
-                   help="with a .png output, also write the array beside it (.npy)")
+    g.add_argument("--npy", action="store_true", help=npy_help)
+
+
+def figure_picture(draw: Callable[[Any], Any]) -> Callable[[Any], None]:
+    """The writer of a PNG of one Axes (7.5 x 5 in, 110 dpi) that ``draw(ax)`` fills:
+    the picture of an array command (:func:`write_array`)."""
+    def picture(tmp: Any) -> None:
+        from ..plot._mpl import pyplot
+
+        fig, ax = pyplot().subplots(figsize=(7.5, 5.0), layout="constrained")
+        try:
+            draw(ax)
+            fig.savefig(tmp, format="png", dpi=110)
+        finally:
+            pyplot().close(fig)
+
+    return picture
 
 
 def objective_options(p: argparse.ArgumentParser, objective: str, example: str = "") -> None:

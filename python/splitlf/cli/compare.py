@@ -9,10 +9,12 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from .._files import atomic_output, check_new
+from .._files import atomic_output
 from ._common import (
     FORCE_HINT,
     CliError,
+    check_folder,
+    check_output,
     check_suffix,
     depth_type,
     depths_option,
@@ -90,18 +92,17 @@ def add_parser(subparsers: Any) -> None:
 def _compare_targets(args: argparse.Namespace, names: list[str]) -> tuple[Path | None,
                                                                           Path | None]:
     """The folder and the figure of `compare`, checked (no file overwritten without
-    --force, a folder not a file) before any work."""
+    --force, a writable folder, not a file) before any work."""
     out = None if args.out is None else Path(args.out)
     if out is not None:
-        if out.exists() and not out.is_dir():
-            raise CliError(f"--out {out}: exists and is not a folder")
+        check_folder(out)
         for name in [*COMPARE_FILES, *(f"{n}.toml" for n in names)]:
             if out.is_dir():
-                check_new(out / name, args.force, FORCE_HINT)
+                check_output(out / name, args.force)
     fig = None if args.figure is None else Path(args.figure)
     if fig is not None:
         check_suffix("--figure", fig, (".png", ".svg"))
-        check_new(fig, args.force, FORCE_HINT)
+        check_output(fig, args.force)
         try:
             import matplotlib  # noqa: F401
         except ImportError:

@@ -4,17 +4,23 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from .._files import atomic_output
 from ._common import (
+    FORCE_HINT,
     array_output,
     array_targets,
     channels_option,
+    check_output,
+    figure_picture,
     floats,
     grid_options,
     json_text,
+    need,
     numbers,
     threads_option,
     write_array,
@@ -39,7 +45,12 @@ def add_parser(subparsers: Any) -> None:
     grid_options(p, "what the channels see at the middle candidate",
                  "3 sensor steps mu_1 z / L_1 at the middle candidate")
     threads_option(p, "threads of the core")
-    array_output(p, "the depth map to write (.png, or .npy for the array in mm)", "DEPTH.png")
+    array_output(p, "the depth map to write (.png, or .npy for the array in mm; every .npy "
+                 "depth map gets its confidence beside it, NAME.confident.npy)", "DEPTH.png",
+                 npy_help="with a .png output, also write the depth in mm beside it (.npy) "
+                 "and its confidence (NAME.confident.npy: True where the method stands "
+                 "behind the cell; the depth .npy holds a depth in every cell, elsewhere the "
+                 "nearest confident cell's)")
     p.set_defaults(func=run)
 
 
@@ -51,12 +62,22 @@ def _depth_range(text: str) -> Any:
     return numbers("--depths", text, len(text.split(",")))
 
 
-def run(args: argparse.Namespace) -> int:
+def confidence_path(depth_npy: Path) -> Path:
+    """Where the confidence of the depth array ``depth_npy`` goes: NAME.confident.npy
+    beside NAME.npy."""
+    return depth_npy.with_name(f"{depth_npy.stem}.confident.npy")
 
+
+def run(args: argparse.Namespace) -> int:
+    need("scipy", "depth", "reconstruct")
     from ..imaging.render import Raw
     from ..inverse.depth import estimate_depth
+    from ..plot.depth import depth as depth_plot
 
     out, npy = array_targets(args, "a depth map")
+    depth_npy = out if out.suffix == ".npy" else npy
+    conf_npy = None if depth_npy is None else check_output(confidence_path(depth_npy),
+                                                           args.force)
     raw = Raw.load(args.raw)
     depths = _depth_range(args.depths)
     region = None if args.region is None else floats(args.region, 4, "--region")
@@ -65,20 +86,14 @@ def run(args: argparse.Namespace) -> int:
                          channels=channels_option(args), n_threads=args.threads,
                          progress=None, **kw)
     assert est.confident is not None and est.sweep is not None
-
-    def picture(tmp: Any) -> None:
-        from ..plot._mpl import pyplot
-        from ..plot.depth import depth as depth_plot
-
-        fig, ax = pyplot().subplots(figsize=(7.5, 5.0), layout="constrained")
-        depth_plot(est, ax)
-        fig.savefig(tmp, format="png", dpi=110)
-        pyplot().close(fig)
-
-    write_array(args, out, npy, est.depth, picture)
     conf = est.confident
+    write_array(args, out, npy, est.depth, figure_picture(lambda ax: depth_plot(est, ax)))
+    if conf_npy is not None:
+        with atomic_output(conf_npy, force=args.force, hint=FORCE_HINT) as tmp:
+            np.save(tmp, np.asarray(conf, dtype=bool))
     z = est.depth[conf]
     summary = {"path": str(out), "npy": None if npy is None else str(npy),
+               "confident_npy": None if conf_npy is None else str(conf_npy),
                "shape": list(est.depth.shape), "extent": list(est.extent),
                "candidates": [float(est.sweep.candidates[0]), float(est.sweep.candidates[-1]),
                               int(est.sweep.candidates.size)],

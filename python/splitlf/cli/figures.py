@@ -6,11 +6,13 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from .._files import atomic_output, check_new
+from .._files import atomic_output
 from ..model.design import Design
 from ._common import (
     FORCE_HINT,
     CliError,
+    check_folder,
+    check_output,
     depth_type,
     design_source,
     integer_type,
@@ -76,13 +78,12 @@ def _figures_of(subject: Design) -> dict[str, tuple[Any, Any, tuple[float, float
 
 def _figure_targets(out: Path, fmt: str, force: bool, subject: Design) -> dict[str, Path]:
     """The file of every figure, checked (folder not a file, no file overwritten without
-    --force) before the folder is created or anything is drawn."""
-    if out.exists() and not out.is_dir():
-        raise CliError(f"--out {out}: exists and is not a folder")
+    --force, the folder writable) before the folder is created or anything is drawn."""
+    check_folder(out)
     targets = {stem: out / f"{stem}.{fmt}" for stem in _figures_of(subject)}
     for path in targets.values():
         if out.is_dir():
-            check_new(path, force, FORCE_HINT)
+            check_output(path, force)
     return targets
 
 

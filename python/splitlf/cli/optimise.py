@@ -8,10 +8,11 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from .._files import atomic_output, check_new
+from .._files import atomic_output
 from ._common import (
     FORCE_HINT,
     CliError,
+    check_output,
     check_suffix,
     depths_option,
     design_source,
@@ -96,11 +97,11 @@ def _optimise_outputs(args: argparse.Namespace) -> tuple[Path | None, Path | Non
     out = None if args.out is None else Path(args.out)
     if out is not None:
         check_suffix("--out", out, (".toml",))
-        check_new(out, args.force, FORCE_HINT)
+        check_output(out, args.force)
     hist = None if args.history is None else Path(args.history)
     if hist is not None:
         check_suffix("--history", hist, (".csv", ".parquet"))
-        check_new(hist, args.force, FORCE_HINT)
+        check_output(hist, args.force)
     return out, hist
 
 

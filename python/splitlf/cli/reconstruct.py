@@ -11,11 +11,13 @@ from ._common import (
     array_output,
     array_targets,
     channels_option,
+    figure_picture,
     floats,
     grid_options,
     integer_type,
     ints,
     json_text,
+    need,
     noise_type,
     parse_render_depth,
     real_type,
@@ -54,8 +56,13 @@ def add_parser(subparsers: Any) -> None:
     p.add_argument("--lens-types", default=None, metavar="T[,U...]",
                    help="use only the pixels under these lens types of a multi-focus array "
                    "(numbers from 1, in the order of the channel's f; default: all)")
+    p.add_argument("--allow-slow", action="store_true",
+                   help="run a reconstruction expected to take more than a few minutes "
+                   "(without it, such a reconstruct is refused before it starts, saying "
+                   "how long it would take)")
     threads_option(p, "threads of the core")
-    array_output(p, "the image to write (.png, or .npy for the array)", "IMAGE.png")
+    array_output(p, "the image to write (.png with axes in mm over the extent, or .npy for "
+                 "the array)", "IMAGE.png")
     p.set_defaults(func=run)
 
 
@@ -64,9 +71,17 @@ def _lens_types_option(args: argparse.Namespace) -> tuple[int, ...] | None:
     return None if args.lens_types is None else ints(args.lens_types, "--lens-types")
 
 
+def _slow(args: argparse.Namespace) -> dict[str, bool]:
+    """``allow_slow=True`` with ``--allow-slow``, else nothing: the library's default
+    (refuse a reconstruction expected to take more than a few minutes)."""
+    return {"allow_slow": True} if args.allow_slow else {}
+
+
 def run(args: argparse.Namespace) -> int:
+    need("scipy", "reconstruct", "reconstruct")
     from ..imaging.render import Raw
     from ..inverse.reconstruct import reconstruct
+    from ..plot.image import image
 
     out, npy = array_targets(args, "reconstruct")
     raw = Raw.load(args.raw)
@@ -76,15 +91,8 @@ def run(args: argparse.Namespace) -> int:
                       channels=channels_option(args), noise=args.noise,
                       regularization=args.regularization, tile=args.tile,
                       n_threads=args.threads, progress=None,
-                      lens_types=_lens_types_option(args))
-
-    def picture(tmp: Any) -> None:
-        from ..plot._mpl import pyplot
-
-        pyplot().imsave(tmp, rec.image, cmap="gray", format="png",
-                        vmin=0.0, vmax=max(1.0, float(rec.image.max())))
-
-    write_array(args, out, npy, rec.image, picture)
+                      lens_types=_lens_types_option(args), **_slow(args))
+    write_array(args, out, npy, rec.image, figure_picture(lambda ax: image(rec, ax)))
     summary = {"path": str(out), "npy": None if npy is None else str(npy),
                "shape": list(rec.image.shape), "extent": list(rec.extent), "step": rec.step,
                "depth": rec.depth, "channels": list(rec.channels), "rows": rec.rows,

@@ -10,11 +10,12 @@ from typing import Any
 
 import numpy as np
 
-from .._files import atomic_output, check_new
+from .._files import atomic_output
 from ..model.design import PRESETS
 from ._common import (
     FORCE_HINT,
     CliError,
+    check_output,
     check_suffix,
     json_text,
     load_npy,
@@ -131,12 +132,12 @@ def _image_texture(path: str, width: float | None) -> Any:
 def _render_targets(args: argparse.Namespace) -> tuple[Path, Path | None]:
     out = Path(args.out)
     check_suffix("--out", out, (".npz",))
-    check_new(out, args.force, FORCE_HINT)
+    check_output(out, args.force)
     png = None if args.png is None else Path(args.png)
     if png is not None:
         check_suffix("--png", png, (".png",))
         need("matplotlib", "render --png", "plot")
-        check_new(png, args.force, FORCE_HINT)
+        check_output(png, args.force)
         if png.resolve() == out.resolve():
             raise CliError("--png and --out: give two different files")
     return out, png

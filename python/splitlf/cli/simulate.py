@@ -11,10 +11,9 @@ from typing import Any
 
 import numpy as np
 
-from .._files import check_new
 from ._common import (
-    FORCE_HINT,
     CliError,
+    check_output,
     check_suffix,
     depth_type,
     design_source,
@@ -147,7 +146,7 @@ def run(args: argparse.Namespace) -> int:
     out = None if args.out is None else Path(args.out)
     if out is not None:
         check_suffix("--out", out, (".json",))
-        check_new(out, args.force, FORCE_HINT)
+        check_output(out, args.force)
     depths = _simulate_depths(args)
     noise = _simulate_noise(args)
     camera, source = load_subject(args)

@@ -10,12 +10,13 @@ from typing import Any
 
 import numpy as np
 
-from .._files import atomic_output, check_new, read_toml
+from .._files import atomic_output, read_toml
 from ..model.camera import Camera
 from ..model.design import Design
 from ._common import (
     FORCE_HINT,
     CliError,
+    check_output,
     check_suffix,
     design_source,
     json_text,
@@ -242,7 +243,7 @@ def run(args: argparse.Namespace) -> int:
     out = None if args.out is None else Path(args.out)
     if out is not None:
         check_suffix("--out", out, SWEEP_SUFFIXES)
-        check_new(out, args.force, FORCE_HINT)
+        check_output(out, args.force)
     spec = load_sweep(args.grid)
     if args.merits_2d:
         spec["options"]["merits_2d"] = True

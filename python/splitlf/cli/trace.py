@@ -10,10 +10,11 @@ from typing import Any
 
 import numpy as np
 
-from .._files import atomic_output, check_new
+from .._files import atomic_output
 from ._common import (
     FORCE_HINT,
     CliError,
+    check_output,
     check_suffix,
     design_source,
     json_text,
@@ -67,7 +68,7 @@ def run(args: argparse.Namespace) -> int:
     camera, source = load_subject(args)
     out = Path(args.out)
     check_suffix("--out", out, (".npz",))
-    check_new(out, args.force, FORCE_HINT)
+    check_output(out, args.force)
     threads = trace_threads(args.threads)
     hex_ = [i for i, ch in enumerate(camera.channels, start=1) if ch.grid != "rect"]
     if hex_:
