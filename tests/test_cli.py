@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _cli import small_raw
 
 import splitlf
 from splitlf import Camera, depth_of_field
@@ -306,13 +307,9 @@ def test_written_files_get_the_usual_permissions(tmp_path, capsys):
 def test_reconstruct_cli_matches_api(tmp_path, capsys):
     """render -> reconstruct on the command line gives the API's image (the .npy beside
     the .png), and refuses to overwrite without --force."""
-    d = splitlf.Design.preset("seed")
-    d = d.replace(channels=tuple(c.replace(Kx=16, Ky=12) for c in d.channels))
-    toml = tmp_path / "d.toml"
-    toml.write_text(d.to_toml())
-    raw_path, png = tmp_path / "r.npz", tmp_path / "img.png"
-    assert run(["render", str(toml), "--texture", "sinusoid:1", "--depth", "800",
-                "-o", str(raw_path)], capsys)[0] == 0
+    raw_path = small_raw(tmp_path, (16, 12), "--texture", "sinusoid:1", "--depth", "800",
+                         capsys=capsys)
+    png = tmp_path / "img.png"
     args = ["reconstruct", str(raw_path), "--depth", "800", "--region=-1.5,1.5,-1,1",
             "--channels", "1,2", "-o", str(png), "--npy", "--json"]
     code, out, _ = run(args, capsys)
@@ -353,13 +350,9 @@ def test_reconstruct_cli_matches_api(tmp_path, capsys):
 def test_depth_cli_matches_api(tmp_path, capsys):
     """render -> depth on the command line gives the API's map (the .npy beside the
     .png), and reconstruct's --depth reads that .npy with the printed extent."""
-    d = splitlf.Design.preset("seed")
-    d = d.replace(channels=tuple(c.replace(Kx=10, Ky=8) for c in d.channels))
-    toml = tmp_path / "d.toml"
-    toml.write_text(d.to_toml())
-    raw_path, png = tmp_path / "r.npz", tmp_path / "depth.png"
-    assert run(["render", str(toml), "--texture", "random:1", "--depth", "1000",
-                "--noise", "2000", "-o", str(raw_path)], capsys)[0] == 0
+    raw_path = small_raw(tmp_path, (10, 8), "--texture", "random:1", "--depth", "1000",
+                         "--noise", "2000", capsys=capsys)
+    png = tmp_path / "depth.png"
     args = ["depth", str(raw_path), "--depths", "250:4000", "--region=-3,3,-2,2",
             "-o", str(png), "--npy", "--json"]
     code, out, _ = run(args, capsys)

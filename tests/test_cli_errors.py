@@ -17,24 +17,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _cli import run_cli, small_raw
 from _subprocess import default_sigint
 
 import splitlf
-from splitlf.cli import main
 
 CLI = Path(splitlf.__file__).with_name("cli")
 #: Every source file of the command line (the package: main, _common, one per command).
 CLI_FILES = sorted(CLI.glob("*.py"))
 ENV = {**os.environ, "PYTHONPATH": str(Path(splitlf.__file__).parent.parent)}
-
-
-def _cli(argv, capsys):
-    try:
-        code = main(argv)
-    except SystemExit as e:
-        code = e.code
-    out = capsys.readouterr()
-    return code, out.out, out.err
 
 
 @pytest.fixture
@@ -97,7 +88,7 @@ def test_option_groups_are_declared_once():
 ])
 def test_an_invalid_design_gets_one_verdict_before_any_output(tmp_path, capsys, d40, argv):
     argv = [a.replace("{tmp}", str(tmp_path)) for a in argv]
-    code, out, err = _cli([*argv, "--config", str(d40)], capsys)
+    code, out, err = run_cli([*argv, "--config", str(d40)], capsys)
     assert code == 2 and out == ""
     assert err == (f"splitlf {argv[0]}: error: {d40}: invalid D = 40: allowed an aperture "
                    f"{err.split('allowed an aperture ', 1)[1]}")
@@ -109,7 +100,7 @@ def test_a_sweep_base_with_an_invalid_design_is_refused(tmp_path, capsys, d40):
     pytest.importorskip("xarray")
     spec = tmp_path / "sweep.toml"
     spec.write_text("[grid]\nkappa = [0.3, 0.4]\n\n" + d40.read_text())
-    code, out, err = _cli(["sweep", "--grid", str(spec), "--out", str(tmp_path / "s.nc")],
+    code, out, err = run_cli(["sweep", "--grid", str(spec), "--out", str(tmp_path / "s.nc")],
                           capsys)
     assert code == 2 and out == "" and "invalid D = 40" in err and err.count("\n") == 1
     assert not (tmp_path / "s.nc").exists()
@@ -119,12 +110,12 @@ def test_a_sweep_base_with_an_invalid_design_is_refused(tmp_path, capsys, d40):
                                   ["explore"]])
 def test_a_missing_file_is_named_in_one_line(tmp_path, capsys, argv):
     missing = tmp_path / "nope.toml"
-    code, out, err = _cli([*argv, "--config", str(missing)], capsys)
+    code, out, err = run_cli([*argv, "--config", str(missing)], capsys)
     assert (code, out, err) == (2, "", f"splitlf {argv[0]}: error: no such file: {missing}\n")
 
 
 def test_a_device_is_refused_at_once(capsys):
-    code, out, err = _cli(["report", "--config", "/dev/zero"], capsys)
+    code, out, err = run_cli(["report", "--config", "/dev/zero"], capsys)
     assert code == 2 and out == ""
     assert err == "splitlf report: error: /dev/zero: not a regular file (a TOML file is " \
         "expected)\n"
@@ -134,22 +125,22 @@ def test_a_texture_that_is_not_an_npy_array_is_named(tmp_path, capsys):
     pytest.importorskip("scipy")
     toml = tmp_path / "some.toml"
     toml.write_text("[camera]\n")
-    code, out, err = _cli(["simulate", "--texture", f"image:{toml}:10"], capsys)
+    code, out, err = run_cli(["simulate", "--texture", f"image:{toml}:10"], capsys)
     assert (code, out) == (2, "")
     assert err == f"splitlf simulate: error: {toml}: not a NumPy .npy array file\n"
     assert "pickle" not in err
-    code, _, err = _cli(["simulate", "--texture", f"image:{tmp_path / 'no.npy'}:10"], capsys)
+    code, _, err = run_cli(["simulate", "--texture", f"image:{tmp_path / 'no.npy'}:10"], capsys)
     assert code == 2 and "no such file: " in err
 
 
-def test_optimise_errors_speak_the_cli(capsys):
-    code, out, err = _cli(["optimise", "--free", "D=8:40", "--objective", "sharpness"],
+def test_optimise_errors_speak_therun_cli(capsys):
+    code, out, err = run_cli(["optimise", "--free", "D=8:40", "--objective", "sharpness"],
                           capsys)
     assert code == 2 and out == "" and err.count("\n") == 1
     assert err.startswith("splitlf optimise: error: invalid --objective = 'sharpness': "
                           "allowed one of: sharp_fraction_channel1, ")
     assert "callable" not in err
-    code, _, err = _cli(["optimise", "--free", "D=8:40", "--objective",
+    code, _, err = run_cli(["optimise", "--free", "D=8:40", "--objective",
                          "sharp_fraction_union", "--constraint", "nope<=3"], capsys)
     assert code == 2 and "invalid --constraint = 'nope'" in err and "callable" not in err
 
@@ -222,14 +213,14 @@ def test_the_threaded_explorer_stops_at_interpreter_exit():
 # -- report -----------------------------------------------------------------------------------
 
 def test_report_is_short_by_default_and_full_on_request(capsys):
-    code, out, err = _cli(["report"], capsys)
+    code, out, err = run_cli(["report"], capsys)
     assert code == 0 and err == ""
     lines = out.splitlines()
     assert len(lines) <= 30 and max(map(len, lines)) <= 120
     for needle in ("642.00", "217.00", "half 1 (light field)", "split sensor (either half)",
                    "split sensor   max gap", "--full"):
         assert needle in out, needle
-    code, full, _ = _cli(["report", "--full"], capsys)
+    code, full, _ = run_cli(["report", "--full"], capsys)
     assert code == 0 and len(full.splitlines()) > 150 and "Coincidence planes" in full
 
 
@@ -239,12 +230,12 @@ def test_simulate_no_conventional(capsys):
     pytest.importorskip("scipy")
     import json
 
-    code, out, err = _cli(["simulate", "--z", "700", "--no-conventional", "--json"], capsys)
+    code, out, err = run_cli(["simulate", "--z", "700", "--no-conventional", "--json"], capsys)
     assert code == 0, err
     doc = json.loads(out)
     assert list(doc["results"][0]["rmse"]) == ["channel 1", "channel 2", "union"]
     assert doc["window_cells"] == 256
-    code, out, _ = _cli(["simulate", "--z", "700", "--no-conventional"], capsys)
+    code, out, _ = run_cli(["simulate", "--z", "700", "--no-conventional"], capsys)
     assert code == 0 and "conventional" not in out and "window [mm]" in out
 
 
@@ -293,28 +284,21 @@ def test_compare_table_fits_100_columns_unless_wide():
 # -- what a new user hit ----------------------------------------------------------------------
 
 @pytest.fixture(scope="module")
-def small_raw(tmp_path_factory):
+def raw_file(tmp_path_factory):
     """A small raw file of the seed design (10 x 8 lenses per half), rendered by the CLI."""
-    folder = tmp_path_factory.mktemp("raw")
-    d = splitlf.Design.preset("seed")
-    d = d.replace(channels=tuple(c.replace(Kx=10, Ky=8) for c in d.channels))
-    toml = folder / "d.toml"
-    toml.write_text(d.to_toml())
-    raw = folder / "r.npz"
-    assert main(["render", str(toml), "--texture", "random:1", "--depth", "1000",
-                 "--noise", "2000", "-o", str(raw)]) == 0
-    return raw
+    return small_raw(tmp_path_factory.mktemp("raw"), (10, 8), "--texture", "random:1",
+                     "--depth", "1000", "--noise", "2000")
 
 
 @pytest.mark.parametrize("command, extra_args", [
     ("depth", ["--depths", "250:4000"]),
     ("reconstruct", ["--depth", "1000", "--region=-1,1,-1,1"]),
 ])
-def test_depth_and_reconstruct_without_scipy_name_the_extra(tmp_path, small_raw, command,
+def test_depth_and_reconstruct_without_scipy_name_the_extra(tmp_path, raw_file, command,
                                                            extra_args):
     """After a core-only install (no SciPy) the image commands say which extra to install,
     in one line, instead of a ModuleNotFoundError traceback; nothing is written."""
-    argv = [command, str(small_raw), *extra_args, "-o", str(tmp_path / "out.npy")]
+    argv = [command, str(raw_file), *extra_args, "-o", str(tmp_path / "out.npy")]
     hide = "import sys; sys.modules['scipy'] = None; from splitlf.cli import main; " \
         f"sys.exit(main({argv!r}))"
     r = subprocess.run([sys.executable, "-c", hide], capture_output=True, text=True,
@@ -351,12 +335,12 @@ def test_the_readme_names_every_extra_and_what_each_image_command_needs():
             assert all(needle in row for row in rows), (command, needle)
 
 
-def test_depth_npy_writes_the_confidence_beside_the_depth(tmp_path, small_raw, capsys):
+def test_depth_npy_writes_the_confidence_beside_the_depth(tmp_path, raw_file, capsys):
     """-o DEPTH.npy writes DEPTH.confident.npy too (True where the method stands behind the
     cell); every other cell holds a confident cell's depth (the nearest one's). The region
     reaches beyond what the channels see well, so a few cells are not confident."""
     out = tmp_path / "depth.npy"
-    code, stdout, err = _cli(["depth", str(small_raw), "--depths", "250:4000",
+    code, stdout, err = run_cli(["depth", str(raw_file), "--depths", "250:4000",
                               "--region=-8,8,-6,6", "-o", str(out), "--json"], capsys)
     assert code == 0, err
     summary = json.loads(stdout)
@@ -369,7 +353,7 @@ def test_depth_npy_writes_the_confidence_beside_the_depth(tmp_path, small_raw, c
     assert np.isin(depth[~conf], depth[conf]).all()
     # both are checked before any work: an existing confidence file is refused
     out.unlink()
-    code, _, err = _cli(["depth", str(small_raw), "--depths", "250:4000", "-o", str(out)],
+    code, _, err = run_cli(["depth", str(raw_file), "--depths", "250:4000", "-o", str(out)],
                         capsys)
     assert code == 2 and "depth.confident.npy: exists" in err and not out.exists()
 
@@ -443,7 +427,7 @@ def test_an_unwritable_output_folder_is_refused_before_any_work(tmp_path, monkey
 
     monkeypatch.setattr(importlib.import_module(module), name, computed)
     argv = [a.replace("{ro}", str(ro)).replace("{tmp}", str(tmp_path)) for a in argv]
-    code, out, err = _cli(argv, capsys)
+    code, out, err = run_cli(argv, capsys)
     assert (code, out) == (2, "")
     assert err.startswith(f"splitlf {argv[0]}: error: ") and err.count("\n") == 1
     assert f"folder {ro} is not writable" in err and ".tmp" not in err
@@ -468,10 +452,10 @@ def test_reconstruct_allow_slow_reaches_the_library(tmp_path, monkeypatch, capsy
     monkeypatch.setattr(rec_module, "reconstruct", fake)
     monkeypatch.setattr(render_module.Raw, "load", staticmethod(lambda path: path))
     argv = ["reconstruct", "r.npz", "--depth", "800", "-o", str(tmp_path / "i.npy")]
-    assert _cli([*argv, "--allow-slow"], capsys)[0] == 0
-    assert _cli([*argv, "--force"], capsys)[0] == 0
+    assert run_cli([*argv, "--allow-slow"], capsys)[0] == 0
+    assert run_cli([*argv, "--force"], capsys)[0] == 0
     assert seen[0]["allow_slow"] is True and "allow_slow" not in seen[1]
-    code, out, _ = _cli(["reconstruct", "--help"], capsys)
+    code, out, _ = run_cli(["reconstruct", "--help"], capsys)
     assert "--allow-slow" in out and "refused" in out
 
 
@@ -483,7 +467,7 @@ def test_a_malformed_npy_is_one_line_not_a_memory_error(tmp_path, capsys):
         np.lib.format.write_array_header_1_0(fh, {"descr": "<f8", "fortran_order": False,
                                                   "shape": (2**22, 2**22)})
         fh.write(b"\0" * 64)
-    code, out, err = _cli(["render", "seed", "--texture", str(bad), "--width", "10",
+    code, out, err = run_cli(["render", "seed", "--texture", str(bad), "--width", "10",
                            "--depth", "1000", "-o", str(tmp_path / "r.npz")], capsys)
     assert (code, out) == (2, "")
     assert err.startswith(f"splitlf render: error: {bad}: ") and err.count("\n") == 1
