@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _cli import small_raw
 
 import splitlf
 from splitlf import Camera, depth_of_field
@@ -184,17 +185,18 @@ def test_option_values_are_checked_with_named_types(tmp_path, monkeypatch, capsy
     (TypeError("bad type"), 2),
     (FileExistsError("exists"), 2),
     (splitlf.TooLargeError("too large"), 2),
+    (MemoryError("Unable to allocate 128. TiB for an array"), 2),
     (RuntimeError("a bug"), None),
     (AssertionError("a bug"), None),
     (KeyError("a bug"), None),
 ])
 def test_only_user_errors_are_caught(monkeypatch, capsys, exc, code):
-    import splitlf.cli as cli
+    import splitlf.cli.report as cli_report
 
     def fail(*args, **kwargs):
         raise exc
 
-    monkeypatch.setattr(cli, "report_data", fail)
+    monkeypatch.setattr(cli_report, "report_data", fail)
     if code is None:
         with pytest.raises(type(exc)):
             main(["report"])
@@ -268,7 +270,7 @@ def test_figures_check_every_target_before_writing(tmp_path, capsys):
 
 
 def test_figures_pass_threads_to_every_figure(tmp_path, monkeypatch, capsys):
-    import splitlf.cli as cli
+    import splitlf.cli.figures as cli_figures
     import splitlf.sampling.rayspace as rs
 
     seen = {}
@@ -278,7 +280,7 @@ def test_figures_pass_threads_to_every_figure(tmp_path, monkeypatch, capsys):
             seen[stem] = n_threads
         return draw
 
-    monkeypatch.setattr(cli, "figure_functions",
+    monkeypatch.setattr(cli_figures, "figure_functions",
                         lambda design=False: {s: (fake(s), 1, (1.0, 1.0)) for s in ("a", "b")})
     real = rs.trace
     monkeypatch.setattr(rs, "trace", lambda c, h, axis="x", n_threads=None: real(c, h, axis))
@@ -301,16 +303,13 @@ def test_written_files_get_the_usual_permissions(tmp_path, capsys):
     assert out.stat().st_mode & 0o777 == 0o640  # a replaced file keeps its permissions
 
 
+@pytest.mark.slow
 def test_reconstruct_cli_matches_api(tmp_path, capsys):
     """render -> reconstruct on the command line gives the API's image (the .npy beside
     the .png), and refuses to overwrite without --force."""
-    d = splitlf.Design.preset("seed")
-    d = d.replace(channels=tuple(c.replace(Kx=16, Ky=12) for c in d.channels))
-    toml = tmp_path / "d.toml"
-    toml.write_text(d.to_toml())
-    raw_path, png = tmp_path / "r.npz", tmp_path / "img.png"
-    assert run(["render", str(toml), "--texture", "sinusoid:1", "--depth", "800",
-                "-o", str(raw_path)], capsys)[0] == 0
+    raw_path = small_raw(tmp_path, (16, 12), "--texture", "sinusoid:1", "--depth", "800",
+                         capsys=capsys)
+    png = tmp_path / "img.png"
     args = ["reconstruct", str(raw_path), "--depth", "800", "--region=-1.5,1.5,-1,1",
             "--channels", "1,2", "-o", str(png), "--npy", "--json"]
     code, out, _ = run(args, capsys)
@@ -321,6 +320,11 @@ def test_reconstruct_cli_matches_api(tmp_path, capsys):
     assert np.array_equal(image, rec.image)
     assert summary["shape"] == list(rec.image.shape) and png.stat().st_size > 0
     assert summary["tiles"] == 1
+    # the picture is a figure with axes in mm (7.5 x 5 in at 110 dpi, as the depth map's),
+    # not the bare image (one pixel per cell)
+    from matplotlib.image import imread
+
+    assert imread(png).shape[:2] == (550, 825)
     code, _, err = run(args, capsys)
     assert code != 0 and "--force" in err
     # --tile: the API's tiled image; a tile below 16 cells is refused by name.
@@ -346,13 +350,9 @@ def test_reconstruct_cli_matches_api(tmp_path, capsys):
 def test_depth_cli_matches_api(tmp_path, capsys):
     """render -> depth on the command line gives the API's map (the .npy beside the
     .png), and reconstruct's --depth reads that .npy with the printed extent."""
-    d = splitlf.Design.preset("seed")
-    d = d.replace(channels=tuple(c.replace(Kx=10, Ky=8) for c in d.channels))
-    toml = tmp_path / "d.toml"
-    toml.write_text(d.to_toml())
-    raw_path, png = tmp_path / "r.npz", tmp_path / "depth.png"
-    assert run(["render", str(toml), "--texture", "random:1", "--depth", "1000",
-                "--noise", "2000", "-o", str(raw_path)], capsys)[0] == 0
+    raw_path = small_raw(tmp_path, (10, 8), "--texture", "random:1", "--depth", "1000",
+                         "--noise", "2000", capsys=capsys)
+    png = tmp_path / "depth.png"
     args = ["depth", str(raw_path), "--depths", "250:4000", "--region=-3,3,-2,2",
             "-o", str(png), "--npy", "--json"]
     code, out, _ = run(args, capsys)
@@ -372,7 +372,7 @@ def test_depth_cli_matches_api(tmp_path, capsys):
     assert code != 0 and "depths" in err
     # reconstruct --depth DEPTH.npy --extent=... reads back the same surface (the map
     # build itself is tested in tests/test_depth.py: minutes on a depth map).
-    from splitlf.cli import parse_render_depth
+    from splitlf.cli._common import parse_render_depth
 
     ext = ",".join(repr(v) for v in summary["extent"])
     surface = parse_render_depth(str(tmp_path / "depth.npy"), ext)

@@ -9,6 +9,7 @@ import json
 
 import numpy as np
 import pytest
+from _cli import run_cli
 
 import splitlf
 from splitlf import Camera, Design, InvalidParameter, simulate
@@ -17,16 +18,6 @@ from splitlf.study.merit import merit_names
 
 SEED = Camera.paper()
 Z = np.geomspace(150.0, 10_000.0, 12)
-
-
-def _cli(argv, capsys):
-    """Exit status, stdout, stderr of the CLI (argparse's own errors included)."""
-    try:
-        code = main(argv)
-    except SystemExit as e:
-        code = e.code
-    out = capsys.readouterr()
-    return code, out.out, out.err
 
 
 def _design_file(tmp_path, design, name="design.toml"):
@@ -51,7 +42,7 @@ def test_cli_sweep_of_a_preset_equals_the_api(tmp_path, capsys):
 
     d = Design.preset("split3")
     spec = _sweep_file(tmp_path, '"channels[2].L" = [100.0, 115.0]\nD = [15.0, 20.0]\n')
-    code, out, err = _cli(["sweep", "--grid", spec, "--preset", "split3", "--json"], capsys)
+    code, out, err = run_cli(["sweep", "--grid", spec, "--preset", "split3", "--json"], capsys)
     assert code == 0, err
     doc = json.loads(out)
     ds = sweep(d, {"channels[2].L": [100.0, 115.0], "D": [15.0, 20.0]}, Z, progress=False)
@@ -68,13 +59,13 @@ def test_cli_sweep_of_a_preset_equals_the_api(tmp_path, capsys):
     spec2 = _sweep_file(tmp_path, '"channels[2].L" = [100.0, 115.0]\nD = [15.0, 20.0]\n', base,
                         "with_base.toml")
     nc = tmp_path / "s.nc"
-    code, out, err = _cli(["sweep", "--grid", spec2, "--out", str(nc)], capsys)
+    code, out, err = run_cli(["sweep", "--grid", spec2, "--out", str(nc)], capsys)
     assert code == 0, err
     with xr.open_dataset(nc) as back:
         np.testing.assert_array_equal(back["max_gap_worst_union"], ds["max_gap_worst_union"])
         assert Design.from_dict(tomllib.loads(back.attrs["base_design"])["design"]) == d
     # the text table names the design's union rows
-    code, out, _ = _cli(["sweep", "--grid", spec, "--preset", "split3"], capsys)
+    code, out, _ = run_cli(["sweep", "--grid", spec, "--preset", "split3"], capsys)
     assert code == 0 and "sharp_fraction_union" in out and "sharp_fraction_channel3" in out
 
 
@@ -104,7 +95,7 @@ def test_cli_sweep_of_camera_design_equals_the_camera_path(tmp_path, capsys):
 def test_cli_sweep_bad_bases_are_named(tmp_path, capsys, grid, base, extra, needle):
     pytest.importorskip("xarray")
     spec = _sweep_file(tmp_path, grid, base)
-    code, out, err = _cli(["sweep", "--grid", spec, *extra], capsys)
+    code, out, err = run_cli(["sweep", "--grid", spec, *extra], capsys)
     assert code == 2 and out == "" and needle in err and err.count("\n") == 1, err
 
 
@@ -112,7 +103,7 @@ def test_cli_sweep_bad_bases_are_named(tmp_path, capsys, grid, base, extra, need
 
 def test_cli_simulate_of_a_preset_equals_the_api(capsys):
     pytest.importorskip("scipy")
-    code, out, err = _cli(["simulate", "--preset", "split3", "--z", "700", "--threads", "1",
+    code, out, err = run_cli(["simulate", "--preset", "split3", "--z", "700", "--threads", "1",
                            "--json"], capsys)
     assert code == 0, err
     doc = json.loads(out)
@@ -121,7 +112,7 @@ def test_cli_simulate_of_a_preset_equals_the_api(capsys):
     assert doc["results"] == [json.loads(json_text(r.summary()))]
     assert list(doc["results"][0]["rmse"]) == list(r.rows) == \
         ["channel 1", "channel 2", "channel 3", "union", "conventional 1"]
-    code, out, _ = _cli(["simulate", "--preset", "split3", "--z", "700"], capsys)
+    code, out, _ = run_cli(["simulate", "--preset", "split3", "--z", "700"], capsys)
     rows = [ln.split() for ln in out.splitlines()[2:]]
     assert code == 0 and [" ".join(w[1:-4]) for w in rows] == list(r.rows)
     assert [float(w[-4]) for w in rows] == [round(r.rmse[k], 4) for k in r.rows]
@@ -143,7 +134,7 @@ def test_cli_simulate_of_camera_design_equals_the_camera_path(tmp_path, capsys):
 
 
 def test_cli_simulate_refuses_a_hex_design_by_name(tmp_path, capsys):
-    code, out, err = _cli(["simulate", "--preset", "raytrix-r12", "--z", "900"], capsys)
+    code, out, err = run_cli(["simulate", "--preset", "raytrix-r12", "--z", "900"], capsys)
     assert code == 2 and out == "" and "channels[1].grid" in err and err.count("\n") == 1
 
 
@@ -156,7 +147,7 @@ def test_cli_optimise_of_a_preset_equals_the_api_and_writes_a_design(tmp_path, c
     pytest.importorskip("scipy")
     pytest.importorskip("pandas")
     out = tmp_path / "best.toml"
-    code, text, err = _cli(["optimise", "--preset", "split3", "--free", "channels[2].L=95:140",
+    code, text, err = run_cli(["optimise", "--preset", "split3", "--free", "channels[2].L=95:140",
                             "--objective", "sharp_fraction_channel2", *OPT, "--out", str(out),
                             "--json"], capsys)
     assert code == 0, err
@@ -167,7 +158,7 @@ def test_cli_optimise_of_a_preset_equals_the_api_and_writes_a_design(tmp_path, c
     assert doc["free"] == res.free and doc["merits"] == json.loads(json_text(res.merits))
     assert doc["design"] == res.design.as_dict() and "camera" not in doc
     assert Design.from_toml(out) == res.design
-    code, text, err = _cli(["report", "--config", str(out), "--json"], capsys)
+    code, text, err = run_cli(["report", "--config", str(out), "--json"], capsys)
     assert code == 0 and json.loads(text)["design"] == res.design.as_dict()
 
 
@@ -202,7 +193,7 @@ def test_cli_optimise_of_camera_design_equals_the_camera_path(tmp_path, capsys):
 ])
 def test_cli_optimise_bad_design_options_are_named(capsys, extra, needle):
     argv = ["optimise", "--objective", "sharp_fraction_union", *extra]
-    code, out, err = _cli(argv, capsys)
+    code, out, err = run_cli(argv, capsys)
     assert code == 2 and out == "" and needle in err and err.count("\n") == 1, err
     assert "callable" not in err
 
@@ -320,10 +311,10 @@ def test_design_report_has_the_sample_sections():
 
 
 def test_cli_report_of_a_design_prints_the_sample_sections(capsys):
-    code, out, _ = _cli(["report", "--preset", "split3", "--threads", "1", "--full"], capsys)
+    code, out, _ = run_cli(["report", "--preset", "split3", "--threads", "1", "--full"], capsys)
     assert code == 0
     for needle in ("Coincidence planes (N <= 3", "channel 3: ", "Worst resolution over 150",
                    "  union          max gap"):
         assert needle in out, needle
-    code, out, _ = _cli(["report", "--preset", "lytro-illum", "--full"], capsys)
+    code, out, _ = run_cli(["report", "--preset", "lytro-illum", "--full"], capsys)
     assert code == 0 and "channel 1: none defined" in out and "not defined for a hex" in out

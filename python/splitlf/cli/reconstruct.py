@@ -1,0 +1,102 @@
+"""``splitlf reconstruct``: a super-resolved image from a raw file (docs/model.md §11,
+docs/reconstruct.md)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+from ._common import (
+    array_output,
+    array_targets,
+    channels_option,
+    figure_picture,
+    floats,
+    grid_options,
+    integer_type,
+    ints,
+    json_text,
+    need,
+    noise_type,
+    parse_render_depth,
+    real_type,
+    threads_option,
+    write_array,
+)
+
+#: What ``splitlf reconstruct --help`` says the command does.
+DESCRIPTION = (
+    "Reconstruct the albedo on a grid of cells over a region of a known surface from a raw "
+    "file (docs/model.md §11, docs/reconstruct.md) and write it as a picture or an array."
+)
+
+
+def add_parser(subparsers: Any) -> None:
+    p = subparsers.add_parser("reconstruct", description=DESCRIPTION,
+                              help="a super-resolved image from a raw file")
+    p.add_argument("raw", metavar="RAW.npz", help="a raw file (splitlf render, Raw.save)")
+    p.add_argument("--depth", required=True, metavar="SPEC",
+                   help="the surface: a depth in mm (a fronto-parallel plane), "
+                   "plane:Z0,GX,GY (Z = Z0 + GX X + GY Y), or a .npy depth map (with "
+                   "--extent; e.g. from splitlf depth --npy)")
+    p.add_argument("--extent", default=None, metavar="X0,X1,Y0,Y1",
+                   help="a .npy depth map's extent [mm] (splitlf depth prints it)")
+    grid_options(p, "what every channel sees through half its aperture",
+                 "the sensor step mu_1 z / L_1")
+    p.add_argument("--noise", type=noise_type, default=None, metavar="N[,READ]",
+                   help="the raw's noise, as given to render (default: noise-free)")
+    p.add_argument("--regularization", type=real_type(
+        "regularization", 0.0, "a finite weight > 0"), default=None, metavar="LAMBDA",
+        help="the smoothness prior's weight (default 4)")
+    p.add_argument("--tile", type=integer_type("tile", 16, 10**9), default=None,
+                   metavar="CELLS",
+                   help="at most this many cells per side in one solve (default: one "
+                   "solve, or tiles of the size that fits when one would not)")
+    p.add_argument("--lens-types", default=None, metavar="T[,U...]",
+                   help="use only the pixels under these lens types of a multi-focus array "
+                   "(numbers from 1, in the order of the channel's f; default: all)")
+    p.add_argument("--allow-slow", action="store_true",
+                   help="run a reconstruction expected to take more than a few minutes "
+                   "(without it, such a reconstruct is refused before it starts, saying "
+                   "how long it would take)")
+    threads_option(p, "threads of the core")
+    array_output(p, "the image to write (.png with axes in mm over the extent, or .npy for "
+                 "the array)", "IMAGE.png")
+    p.set_defaults(func=run)
+
+
+def _lens_types_option(args: argparse.Namespace) -> tuple[int, ...] | None:
+    """``--lens-types T[,U...]`` as lens type numbers (None: all)."""
+    return None if args.lens_types is None else ints(args.lens_types, "--lens-types")
+
+
+def _slow(args: argparse.Namespace) -> dict[str, bool]:
+    """``allow_slow=True`` with ``--allow-slow``, else nothing: the library's default
+    (refuse a reconstruction expected to take more than a few minutes)."""
+    return {"allow_slow": True} if args.allow_slow else {}
+
+
+def run(args: argparse.Namespace) -> int:
+    need("scipy", "reconstruct", "reconstruct")
+    from ..imaging.render import Raw
+    from ..inverse.reconstruct import reconstruct
+    from ..plot.image import image
+
+    out, npy = array_targets(args, "reconstruct")
+    raw = Raw.load(args.raw)
+    depth = parse_render_depth(args.depth, args.extent)
+    region = None if args.region is None else floats(args.region, 4, "--region")
+    rec = reconstruct(raw, depth, region=region, step=args.step,
+                      channels=channels_option(args), noise=args.noise,
+                      regularization=args.regularization, tile=args.tile,
+                      n_threads=args.threads, progress=None,
+                      lens_types=_lens_types_option(args), **_slow(args))
+    write_array(args, out, npy, rec.image, figure_picture(lambda ax: image(rec, ax)))
+    summary = {"path": str(out), "npy": None if npy is None else str(npy),
+               "shape": list(rec.image.shape), "extent": list(rec.extent), "step": rec.step,
+               "depth": rec.depth, "channels": list(rec.channels), "rows": rec.rows,
+               "iterations": rec.iterations, "residual": rec.residual,
+               "regularization": rec.regularization, "noise": rec.noise, "tiles": rec.tiles}
+    sys.stdout.write(json_text(summary) if args.json else f"{out}\n")
+    return 0

@@ -1,0 +1,187 @@
+"""``splitlf render``: the raw sensor images of a textured scene (docs/model.md §10,
+docs/render.md)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .._files import atomic_output
+from ..model.design import PRESETS
+from ._common import (
+    FORCE_HINT,
+    CliError,
+    check_output,
+    check_suffix,
+    json_text,
+    load_npy,
+    named_design,
+    need,
+    noise_type,
+    output_group,
+    parse_render_depth,
+    real_type,
+    seed_type,
+    threads_option,
+)
+
+#: What ``splitlf render --help`` says the command does.
+DESCRIPTION = (
+    "Render what each channel's sensor records for a textured surface (docs/model.md §10) "
+    "and write the raws to an .npz file that splitlf.Raw.load reads (and, with --png, a "
+    "picture of them with a zoom on a few micro-images)."
+)
+
+
+def add_parser(subparsers: Any) -> None:
+    p = subparsers.add_parser("render", description=DESCRIPTION,
+                              help="the raw sensor images of a textured scene")
+    p.add_argument("design", metavar="DESIGN",
+                   help=f"a preset ({', '.join(PRESETS)}) or a TOML file with a [design] "
+                   "or [camera] table")
+    p.add_argument("--texture", required=True, metavar="SPEC",
+                   help="random | sinusoid:F | bars:F (cycles/mm) | edge[:ANGLE] (degrees "
+                   "from vertical, default 5) | star[:SPOKES] (default 36) | an image file "
+                   "(.png or .npy of albedos) with --width")
+    p.add_argument("--width", type=real_type("width", 0.0, "a finite width > 0 (mm)"),
+                   default=None, metavar="MM", help="an image texture's width on the object")
+    p.add_argument("--depth", required=True, metavar="SPEC",
+                   help="a depth in mm (a fronto-parallel plane) | plane:Z0,GX,GY "
+                   "(Z = Z0 + GX X + GY Y) | a .npy depth map with --extent")
+    p.add_argument("--extent", default=None, metavar="X0,X1,Y0,Y1",
+                   help="a depth map's extent on the object [mm] (with a negative X0: "
+                   "--extent=X0,X1,Y0,Y1)")
+    p.add_argument("--noise", type=noise_type, default=None, metavar="N[,READ]",
+                   help="add noise: N photo-electrons for value 1 (Poisson), READ electrons "
+                   "rms of read noise (default 0)")
+    p.add_argument("--seed", type=seed_type, default=0,
+                   help="seed of the random texture and the noise, an integer >= 0 "
+                   "(default 0)")
+    threads_option(p, "threads of the core")
+    g = output_group(p, "the raw file to write (.npz)", "RAW.npz", required=True,
+                     json_help="print a JSON summary of the raws instead of the path")
+    g.add_argument("--png", default=None, metavar="FILE.png",
+                   help="also write a picture of the raws (splitlf.plot.raw)")
+    p.set_defaults(func=run)
+
+
+def parse_render_texture(spec: str, width: float | None) -> Any:
+    """The texture of ``render --texture``: random[:CELL] (CELL in mm; default delta(z))
+    | sinusoid:F | bars:F (F in cycles/mm on the object) | edge[:ANGLE] (degrees) |
+    star[:SPOKES] | an image file (.png or .npy; needs ``width`` [mm]). Raises
+    :class:`CliError` for anything else."""
+    from ..imaging.texture import BarChart, RandomAlbedo, SiemensStar, Sinusoid, SlantedEdge
+
+    kind, colon, rest = spec.partition(":")
+    known = {"random", "sinusoid", "bars", "edge", "star"}
+    if kind not in known:
+        return _image_texture(spec, width)
+    if width is not None:
+        raise CliError("--width: only with an image file as --texture")
+    try:
+        if kind == "random":
+            return RandomAlbedo(float(rest)) if colon else RandomAlbedo()
+        if kind in ("sinusoid", "bars"):
+            return (Sinusoid if kind == "sinusoid" else BarChart)(float(rest))
+        if kind == "edge":
+            return SlantedEdge(float(rest)) if colon else SlantedEdge()
+        return SiemensStar(int(rest)) if colon else SiemensStar()
+    except ValueError as e:
+        raise CliError(f"--texture {spec}: {e}") from None
+
+
+TEXTURE_FORMS = ("random[:CELL] (mm), sinusoid:F, bars:F (cycles/mm), edge[:ANGLE], "
+                 "star[:SPOKES] or an image file (.png, .npy) with --width")
+
+
+def _image_texture(path: str, width: float | None) -> Any:
+    """An :class:`~splitlf.Image` from a .npy array of albedos or a PNG (read by
+    matplotlib: values in [0, 1], a colour image as the Rec. 709 luma of R, G, B)."""
+    from ..imaging.texture import Image
+
+    suffix = Path(path).suffix.lower()
+    if suffix not in (".png", ".npy"):
+        raise CliError(f"--texture {path}: allowed {TEXTURE_FORMS}")
+    if width is None:
+        raise CliError(f"--texture {path}: an image needs --width MM (its width on the "
+                       "object)")
+    if suffix == ".npy":
+        array = load_npy(path)
+    else:
+        need("matplotlib", "render with a PNG texture", "plot")
+        import matplotlib.image
+
+        if not Path(path).is_file():
+            raise CliError(f"no such file: {path}")
+        try:
+            array = np.asarray(matplotlib.image.imread(path), dtype=np.float64)
+        except (OSError, ValueError, SyntaxError) as e:
+            raise CliError(f"{path}: not a PNG image ({e})") from None
+        if array.ndim == 3:
+            array = array[..., :3] @ np.array([0.2126, 0.7152, 0.0722])[:array.shape[2]]
+    try:
+        return Image(array, width)
+    except (TypeError, ValueError) as e:
+        raise CliError(f"--texture {path}: {e}") from None
+
+
+def _render_targets(args: argparse.Namespace) -> tuple[Path, Path | None]:
+    out = Path(args.out)
+    check_suffix("--out", out, (".npz",))
+    check_output(out, args.force)
+    png = None if args.png is None else Path(args.png)
+    if png is not None:
+        check_suffix("--png", png, (".png",))
+        need("matplotlib", "render --png", "plot")
+        check_output(png, args.force)
+        if png.resolve() == out.resolve():
+            raise CliError("--png and --out: give two different files")
+    return out, png
+
+
+def _render_summary(raw: Any, out: Path, png: Path | None, args: argparse.Namespace
+                    ) -> dict[str, Any]:
+    channels = [{"channel": i, "shape": list(a.shape), "min": float(a.min()),
+                 "max": float(a.max()), "mean": float(a.mean())}
+                for i, a in enumerate(raw.images, 1)]
+    return {"path": str(out), "png": None if png is None else str(png),
+            "design": args.design, "texture": args.texture, "depth": args.depth,
+            "noise": args.noise, "seed": args.seed, "channels": channels}
+
+
+def _write_render(raw: Any, out: Path, png: Path | None, force: bool) -> None:
+    """The raw file, and its picture (both atomic; the picture is put in place only once
+    the raw file is)."""
+    import contextlib
+
+    with contextlib.ExitStack() as stack:
+        if png is not None:
+            from ..plot import raw as plot_raw
+            from ..plot._mpl import pyplot
+
+            tmp = stack.enter_context(atomic_output(png, force=force, hint=FORCE_HINT))
+            fig = plot_raw(raw)
+            try:
+                fig.savefig(tmp, dpi=150)
+            finally:
+                pyplot().close(fig)
+        raw.save(out, force=force)
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..imaging.render import Scene, render
+
+    out, png = _render_targets(args)
+    design = named_design(args.design)
+    texture = parse_render_texture(args.texture, args.width)
+    depth = parse_render_depth(args.depth, args.extent)
+    scene = Scene(texture, depth)
+    raw = render(design, scene, noise=args.noise, seed=args.seed, n_threads=args.threads)
+    _write_render(raw, out, png, args.force)
+    sys.stdout.write(json_text(_render_summary(raw, out, png, args)) if args.json
+                     else f"{out}\n")
+    return 0

@@ -1,0 +1,49 @@
+"""``splitlf report``: where a design is sharp and how densely it samples."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+from ..study.report import format_report, report_data
+from ._common import (
+    design_source,
+    json_text,
+    load_subject,
+    output_group,
+    threads_option,
+    threshold_option,
+)
+
+#: What ``splitlf report --help`` says the command does.
+DESCRIPTION = (
+    "Print where the design (the seed design unless --config or --preset) is sharp and how "
+    "densely it samples: a summary of the design, its out-of-focus planes, the depth of "
+    "field of each channel (each half of the split sensor) and of their union, and the "
+    "worst resolution. --full adds every field of every channel, its lens types and the "
+    "coincidence planes where docs/model.md §6 holds."
+)
+
+
+def add_parser(subparsers: Any) -> None:
+    p = subparsers.add_parser("report", description=DESCRIPTION,
+                              help="where a design is sharp and how densely it samples")
+    design_source(p, "report")
+    threads_option(p, "threads for the coincidence planes and the resolution figures")
+    threshold_option(p)
+    p.add_argument("--full", action="store_true",
+                   help="every field of every channel, its lens types and the coincidence "
+                   "planes (default: the short answer)")
+    output_group(p, None)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    subject, source = load_subject(args)
+    data = report_data(subject, args.threshold, n_threads=args.threads)
+    if args.json:
+        sys.stdout.write(json_text({"source": source, **data}))
+    else:
+        sys.stdout.write(format_report(data, f"splitlf report: {source}", full=args.full))
+    return 0
