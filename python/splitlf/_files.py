@@ -23,7 +23,8 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover - Python 3.10 (the tomli backport)
     import tomli as tomllib
 
-__all__ = ["MAX_TOML_BYTES", "atomic_output", "check_new", "read_toml", "text_file"]
+__all__ = ["MAX_TOML_BYTES", "atomic_output", "check_new", "check_writable", "read_toml",
+           "text_file"]
 
 #: Largest TOML file read (a design or sweep file is a few kB; this refuses a runaway input
 #: such as /dev/zero or a mistaken data file before reading it).
@@ -46,6 +47,27 @@ def check_new(path: str | os.PathLike[str], force: bool, hint: str = "") -> Path
     folder = p.parent
     if not folder.is_dir():
         raise FileNotFoundError(f"{p}: folder {folder} does not exist")
+    return p
+
+
+def check_writable(path: str | os.PathLike[str], force: bool = True, hint: str = "") -> Path:
+    """``path`` as a :class:`~pathlib.Path`, after checking that a file can be written
+    there now: the checks of :func:`check_new`, then a trial file created (and removed) in
+    its folder, so a read-only or full folder is found before a long computation rather
+    than after it.
+
+    Raises what :func:`check_new` raises, and ``PermissionError`` (or the ``OSError`` of
+    the trial, e.g. a read-only file system) naming the folder when it cannot be written.
+    """
+    p = check_new(path, force, hint)
+    try:
+        fd, name = tempfile.mkstemp(dir=p.parent, prefix=f".{p.name}.", suffix=".check")
+    except OSError as e:
+        reason = e.strerror or type(e).__name__
+        raise type(e)(e.errno, f"{p}: folder {p.parent} is not writable ({reason})") from None
+    os.close(fd)
+    with contextlib.suppress(FileNotFoundError):
+        os.unlink(name)
     return p
 
 
