@@ -22,7 +22,6 @@ import dataclasses
 import inspect
 import math
 import numbers
-import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
@@ -30,20 +29,18 @@ from typing import Any
 import numpy as np
 
 from .. import _validate
+from .._progress import Progress, progress_bar, progress_flag
 from ..errors import InvalidParameter
 from ..model.design import Design
+from ._options import options_2d, real_option, threshold_option, tol_option
 from .merit import (
     DEFAULT_THRESHOLD_PX,
     DEFAULT_TOL,
     DEFAULT_WINDOW,
-    _options_2d,
-    _real_option,
-    _threshold,
-    _tol,
     evaluate,
     merit_names,
 )
-from .sweep import _evaluate_batch, _field, with_changes
+from .sweep import check_field, evaluate_batch, with_changes
 
 __all__ = ["OptimiseResult", "merit_names", "natural_sense", "optimise"]
 
@@ -141,7 +138,7 @@ def _base(base: Any) -> Design:
 
 def _real(value: Any, where: str) -> float:
     """A real number (an integer beyond the float range is +-inf), else ``TypeError``."""
-    return _real_option(value, where, "a real number", lambda x: True)
+    return real_option(value, where, "a real number", lambda x: True)
 
 
 def _free(free: Any, design: Design) -> list[Free]:
@@ -151,7 +148,7 @@ def _free(free: Any, design: Design) -> list[Free]:
         raise TypeError("free must be a non-empty mapping {field: (low, high)}")
     out = []
     for name, bounds in free.items():
-        is_count = _field(design, name, "free")[1]
+        is_count = check_field(design, name, "free")[1]
         if isinstance(bounds, str | bytes) or not isinstance(bounds, Sequence) \
                 or len(bounds) != 2:
             raise TypeError(f"free[{name!r}] must be a pair (low, high), got {bounds!r}")
@@ -328,7 +325,7 @@ class _Problem:
                 out.append(list(m.values()))
             return out
         size = self.batch_size or max(1, math.ceil(len(designs) / 16))
-        futures = [self.executor.submit(_evaluate_batch, self.base, changes[i:i + size],
+        futures = [self.executor.submit(evaluate_batch, self.base, changes[i:i + size],
                                         self.z, self.threshold_px, self.tol, self.window,
                                         self.threads_per_task)
                    for i in range(0, len(changes), size)]
@@ -409,16 +406,9 @@ class _Problem:
 
 # -- the search --------------------------------------------------------------------------
 
-def _progress_bar(total: int, progress: bool | None) -> Any:
-    if progress is None:
-        progress = sys.stderr.isatty()
-    if not progress:
-        return None
-    try:
-        from tqdm.auto import tqdm
-    except ImportError:
-        return None
-    return tqdm(total=total, desc="splitlf optimise", unit="gen")
+def _progress_bar(total: int, progress: bool | None) -> Progress | None:
+    """The report over generations (splitlf._progress)."""
+    return progress_bar(progress_flag(progress), "splitlf optimise", "gen", total)[0]
 
 
 def _de_seed_keyword(de: Callable) -> str:
@@ -587,8 +577,8 @@ def optimise(base: Design, free: Mapping[str, tuple[float, float]],
         min_f = _real(min_microlens_f_number, "min_microlens_f_number")
         if not (math.isfinite(min_f) and min_f > 0):
             raise InvalidParameter.of("min_microlens_f_number", min_f, "a finite number > 0")
-    core_args = (_threshold(threshold_px), _tol(tol))
-    window_2d = _options_2d(on_2d, window, core_args[1])
+    core_args = (threshold_option(threshold_px), tol_option(tol))
+    window_2d = options_2d(on_2d, window, core_args[1])
     n_threads = _validate.n_threads(n_threads)
     tpt = _validate.n_threads(threads_per_task)
     if batch_size is not None:
