@@ -553,17 +553,8 @@ def optimise(base: Design, free: Mapping[str, tuple[float, float]],
     fields = _free(free, cam)
     fn, _, sense_ = _objective(objective, sense, names)
     cons = _constraints(constraints, names)
-    names_2d = frozenset(names) - frozenset(merit_names(cam))
-    named = sorted({m for m, _, _ in cons if m in names_2d}
-                   | ({objective} if isinstance(objective, str) and objective in names_2d
-                      else set()))
-    if merits_2d is not None and not isinstance(merits_2d, bool):
-        raise TypeError(f"merits_2d must be None, True or False, got "
-                        f"{type(merits_2d).__name__} {merits_2d!r}")
-    if merits_2d is False and named:
-        raise InvalidParameter.of("merits_2d", False, "None or True: the objective or a "
-                                  f"constraint names the 2-D merit {named[0]}")
-    on_2d = bool(named) if merits_2d is None else merits_2d
+    on_2d = _merits_2d_wanted(merits_2d, objective, cons,
+                              frozenset(names) - frozenset(merit_names(cam)))
     z = _depths(depths)
     seed_ = _validate.integer(seed, "seed", "an integer >= 0")
     if seed_ < 0:
@@ -572,11 +563,7 @@ def optimise(base: Design, free: Mapping[str, tuple[float, float]],
     if polish_maxfev is None:
         polish_maxfev = 100 + 100 * len(fields)
     polish_maxfev = _count(polish_maxfev, "polish_maxfev")
-    min_f = None
-    if min_microlens_f_number is not None:
-        min_f = _real(min_microlens_f_number, "min_microlens_f_number")
-        if not (math.isfinite(min_f) and min_f > 0):
-            raise InvalidParameter.of("min_microlens_f_number", min_f, "a finite number > 0")
+    min_f = _min_f_number(min_microlens_f_number)
     core_args = (threshold_option(threshold_px), tol_option(tol))
     window_2d = options_2d(on_2d, window, core_args[1])
     n_threads = _validate.n_threads(n_threads)
@@ -618,6 +605,39 @@ def optimise(base: Design, free: Mapping[str, tuple[float, float]],
     finally:
         if bar is not None:
             bar.close()
+    return _result(problem, fields, cons, str(res.message), time.perf_counter() - t0, pd)
+
+
+def _merits_2d_wanted(merits_2d: Any, objective: Any, cons: list[tuple[str, str, float]],
+                      names_2d: frozenset[str]) -> bool:
+    """Whether the 2-D merits are computed: ``merits_2d`` (None, True or False), None
+    meaning iff the objective or a constraint names one (False with one named is an
+    error)."""
+    named = sorted({m for m, _, _ in cons if m in names_2d}
+                   | ({objective} if isinstance(objective, str) and objective in names_2d
+                      else set()))
+    if merits_2d is not None and not isinstance(merits_2d, bool):
+        raise TypeError(f"merits_2d must be None, True or False, got "
+                        f"{type(merits_2d).__name__} {merits_2d!r}")
+    if merits_2d is False and named:
+        raise InvalidParameter.of("merits_2d", False, "None or True: the objective or a "
+                                  f"constraint names the 2-D merit {named[0]}")
+    return bool(named) if merits_2d is None else merits_2d
+
+
+def _min_f_number(value: Any) -> float | None:
+    if value is None:
+        return None
+    min_f = _real(value, "min_microlens_f_number")
+    if not (math.isfinite(min_f) and min_f > 0):
+        raise InvalidParameter.of("min_microlens_f_number", min_f, "a finite number > 0")
+    return min_f
+
+
+def _result(problem: _Problem, fields: list[Free], cons: list[tuple[str, str, float]],
+            message: str, total_s: float, pd: Any) -> OptimiseResult:
+    """The search's result from its evaluations (``InvalidParameter`` naming ``free``
+    when no candidate was a valid design)."""
     best = _best(problem.rows, problem.sign)
     feasible = best is not None
     if best is None:
@@ -630,7 +650,6 @@ def optimise(base: Design, free: Mapping[str, tuple[float, float]],
         best = min(valid, key=lambda r: _violation(r, cons))
     generations = max(problem.map_calls - 1, 0)
     active = _active(problem, best) if feasible else ()
-    total_s = time.perf_counter() - t0
     design = problem.build({f.name: best[f.name] for f in fields})
     merits = {m: float(best[m]) for m in problem.merit_names}
     slack = {f"{m} {op} {limit!r}": (limit - merits[m]) if op == "<=" else (merits[m] - limit)
@@ -643,7 +662,7 @@ def optimise(base: Design, free: Mapping[str, tuple[float, float]],
         design=design, merits=merits, objective=float(best["objective"]),
         free={f.name: best[f.name] for f in fields}, feasible=feasible, active=active,
         slack=slack, history=history, nfev=len(problem.rows), generations=generations,
-        message=str(res.message),
+        message=message,
         timing={"total_s": total_s, "core_s": problem.core_s,
                 "evaluations": float(problem.evaluations)})
 
