@@ -523,7 +523,8 @@ def optimise(base: Design, free: Mapping[str, tuple[float, float]],
       each generation is sent as batches of plain field dicts (``batch_size`` designs per
       task, default at most 16 tasks), each task on ``threads_per_task`` core threads;
       None evaluates in-process on ``n_threads`` (None: all cores)
-    - ``progress``: a tqdm bar over generations (None: only when stderr is a terminal)
+    - ``progress``: a tqdm bar over generations (None: a bar when stderr is a terminal,
+      else sparse lines on stderr once the search has run 10 s; False: nothing)
     - ``maxiter``, ``popsize``: generations and population (popsize x free fields) of
       differential evolution; ``de_options``: other keywords of
       ``scipy.optimize.differential_evolution`` (:data:`DE_OPTIONS`)

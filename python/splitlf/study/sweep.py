@@ -325,7 +325,8 @@ def sweep(camera: Design, grid: Mapping[str, Sequence[Any]], depths: Any,
       > 0, at least two distinct; [min, max] is the depth range of the sharp fractions
     - ``executor``: any ``concurrent.futures.Executor`` (e.g. Dask's
       ``client.get_executor()``); None runs in-process on the core's pool of ``n_threads``
-    - ``progress``: a tqdm bar; None = only when stderr is a terminal
+    - ``progress``: a tqdm bar; None = for more than one design, a bar when stderr is a
+      terminal, else sparse lines on stderr once the sweep has run 10 s
     - ``threshold_px``: sharpness threshold [pixels], finite > 0; ``tol``: merge tolerance
       [delta(z)], finite >= 0 (in (0, 1] with ``merits_2d``)
     - ``merits_2d``, ``window``: also compute the 2-D merits with a central field
