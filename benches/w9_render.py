@@ -1,11 +1,11 @@
 """W9: raw images (`splitlf.render`, issue 21), measured in one process.
 
 Three scenes, each rendered by the core and by a NumPy twin of the same integration
-(benches/numpy_impl.py):
+(benches/numpy_render.py):
 
 - ``seed``: the seed design (exact route: rect grid, square aperture, ideal layout, image
   texture, fronto-parallel plane) on a random 512 x 512 image covering the view at
-  1000 mm. Twin: `numpy_impl.render_exact`, the same exact separable integration
+  1000 mm. Twin: `numpy_render.render_exact`, the same exact separable integration
   vectorised (per-axis polygon/cell weights, then a banded separable sum), every pixel of
   both channels; agreement <= 1e-12 of a fully lit white pixel.
 - ``r12_fronto`` and ``r12_slanted``: `raytrix-r12` (hex, three lens types, circular
@@ -13,12 +13,12 @@ Three scenes, each rendered by the core and by a NumPy twin of the same integrat
   random 512 x 512 image laid over the *full* R12's view at 1000 mm (so a texture cell is
   as large, relative to a pixel's footprint, as at full size), on the fronto-parallel
   plane at 1000 mm and on the plane Z = 1000 + 0.3 X + 0.1 Y. Twin:
-  `numpy_impl.render_pixels_s` (the core's order of integration, vectorised: a fixed
+  `numpy_render.render_pixels_s` (the core's order of integration, vectorised: a fixed
   `TWIN_NODES` x `TWIN_NODES` Gauss-Legendre rule over the pixel, per node the exact
   texture integral over the image of the lens cell clipped by the aperture's preimage)
   on a random sample of pixels; agreement <= 1e-3 of white on those pixels; its time is
   per pixel. Checked once (not timed in the rounds): a second, independent twin with
-  the other order, `numpy_impl.render_pixels` (`CHECK_NODES` per axis over the lens cell,
+  the other order, `numpy_render.render_pixels` (`CHECK_NODES` per axis over the lens cell,
   exact inner integrals over the pixel's aperture square), also <= 1e-3 of white.
 
 Alternating rounds (order rotated every round) of: twin, native at 1 thread, native at all
@@ -61,7 +61,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parent / "tests"))  # mc_render (and its `reference`)
 
-import numpy_impl  # noqa: E402
+import numpy_render  # noqa: E402
 from timing import timed  # noqa: E402
 
 import splitlf  # noqa: E402
@@ -157,16 +157,16 @@ def twin(inp: dict[str, Any], name: str) -> tuple[np.ndarray, ...]:
     design, scene = inp["scenes"][name]
     if name == "seed":
         tex = scene.texture
-        out = numpy_impl.render_exact(design, Z, tex.array, tex.extent)
+        out = numpy_render.render_exact(design, Z, tex.array, tex.extent)
         return tuple(out[f"channel{i}"] for i in range(1, len(design.channels) + 1))
     rows, cols = inp["pick"]
-    return (numpy_impl.render_pixels_s(design, 1, rows, cols, _twin_scene(scene),
+    return (numpy_render.render_pixels_s(design, 1, rows, cols, _twin_scene(scene),
                                        n_s=inp["nodes"]),)
 
 
 def white(design: splitlf.Design) -> float:
     """A fully lit pixel's value under a white albedo (channel 1)."""
-    return numpy_impl.render_white(design, design.channels[0])
+    return numpy_render.render_white(design, design.channels[0])
 
 
 def raw_shapes(design: splitlf.Design) -> list[tuple[int, int]]:
@@ -203,7 +203,7 @@ def check(inp: dict[str, Any], name: str) -> dict[str, Any]:
         n = inp["check_pixels"]
         rows, cols = rows[:n], cols[:n]
         t0 = time.perf_counter()
-        v = numpy_impl.render_pixels(design, 1, rows, cols, _twin_scene(scene),
+        v = numpy_render.render_pixels(design, 1, rows, cols, _twin_scene(scene),
                                      n_xi=inp["check_nodes"])
         dt = time.perf_counter() - t0
         d2 = float(np.max(np.abs(v - a[0][rows, cols]))) / wh

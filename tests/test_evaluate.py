@@ -22,7 +22,7 @@ def test_only_evaluate_calls_the_core_merit_entry():
     callers = sorted(str(p.relative_to(PACKAGE)) for p in PACKAGE.rglob("*.py")
                      if re.search(r"\bdesign_figures_of_merit\b|\bfigures_of_merit\b",
                                   p.read_text(encoding="utf-8")))
-    assert callers == ["merits.py"]
+    assert callers == ["study/merit.py"]
 
 
 def test_merits_is_a_read_only_mapping_with_its_settings():

@@ -213,7 +213,7 @@ def test_whole_sweep_errors_are_one_error_before_any_work(monkeypatch, kwargs, n
     def no_work(*args, **kw):
         raise AssertionError("a design was evaluated before the sweep's arguments were checked")
 
-    monkeypatch.setattr(sw, "_evaluate_batch", no_work)
+    monkeypatch.setattr(sw, "evaluate_batch", no_work)
     args = {"depths": FEW} | kwargs
     depths = args.pop("depths")
     with pytest.raises(splitlf.InvalidParameter) as e:

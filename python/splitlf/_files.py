@@ -3,27 +3,41 @@
 A writer never touches the target directly. It writes a temporary file in the target's
 folder (same file system, so the final rename is atomic), the data are flushed to disk,
 and only then ``os.replace`` puts the file in place. A failure part-way (a full disk, an
-interrupted run, a bug) leaves the previous file untouched and removes the temporary one.
-An existing target is refused unless ``force`` is given.
+interrupted run, a bug, a SIGTERM) leaves the previous file untouched and removes the
+temporary one. An existing target is refused unless ``force`` is given.
+
+Readers (:func:`open_regular`, :func:`read_toml`, :func:`read_npy`) refuse anything but a
+regular file before reading it: a FIFO, a device or a folder given as an input file is an
+error naming it, never a read that blocks forever or runs away.
 """
 
 from __future__ import annotations
 
 import contextlib
+import io
 import os
+import signal
 import stat
 import sys
 import tempfile
+import threading
+import tokenize
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
+
+import numpy as np
+
+from . import _native
+from .errors import InvalidParameter, TooLargeError
 
 if sys.version_info >= (3, 11):
     import tomllib
 else:  # pragma: no cover - Python 3.10 (the tomli backport)
     import tomli as tomllib
 
-__all__ = ["MAX_TOML_BYTES", "atomic_output", "check_new", "read_toml", "text_file"]
+__all__ = ["MAX_TOML_BYTES", "atomic_output", "check_new", "check_writable", "open_regular",
+           "read_npy", "read_toml", "text_file"]
 
 #: Largest TOML file read (a design or sweep file is a few kB; this refuses a runaway input
 #: such as /dev/zero or a mistaken data file before reading it).
@@ -46,6 +60,27 @@ def check_new(path: str | os.PathLike[str], force: bool, hint: str = "") -> Path
     folder = p.parent
     if not folder.is_dir():
         raise FileNotFoundError(f"{p}: folder {folder} does not exist")
+    return p
+
+
+def check_writable(path: str | os.PathLike[str], force: bool = True, hint: str = "") -> Path:
+    """``path`` as a :class:`~pathlib.Path`, after checking that a file can be written
+    there now: the checks of :func:`check_new`, then a trial file created (and removed) in
+    its folder, so a read-only or full folder is found before a long computation rather
+    than after it.
+
+    Raises what :func:`check_new` raises, and ``PermissionError`` (or the ``OSError`` of
+    the trial, e.g. a read-only file system) naming the folder when it cannot be written.
+    """
+    p = check_new(path, force, hint)
+    try:
+        fd, name = tempfile.mkstemp(dir=p.parent, prefix=f".{p.name}.", suffix=".check")
+    except OSError as e:
+        reason = e.strerror or type(e).__name__
+        raise type(e)(e.errno, f"{p}: folder {p.parent} is not writable ({reason})") from None
+    os.close(fd)
+    with contextlib.suppress(FileNotFoundError):
+        os.unlink(name)
     return p
 
 
@@ -78,7 +113,8 @@ def atomic_output(path: str | os.PathLike[str], *, force: bool = False,
     """Context manager: yields a temporary path in the folder of ``path`` (same suffix, so
     writers that choose a format by suffix still do); when the block ends without error,
     the file is flushed to disk and renamed onto ``path``; on any error it is removed and
-    ``path`` is left as it was.
+    ``path`` is left as it was. A SIGTERM during the block (on the main thread) removes it
+    too, then takes its previous course (by default the process ends, status 143).
 
     ``force``: overwrite an existing ``path`` (otherwise ``FileExistsError``, checked both
     before the block and again just before the rename). Raises the errors of
@@ -90,15 +126,119 @@ def atomic_output(path: str | os.PathLike[str], *, force: bool = False,
     os.close(fd)
     tmp = Path(name)
     try:
-        yield tmp
-        with open(tmp, "rb+") as fh:
-            os.fsync(fh.fileno())
-        os.chmod(tmp, _mode_for(target))
-        check_new(target, force, hint)
-        os.replace(tmp, target)
+        with _removed_on_sigterm(tmp):
+            yield tmp
+            with open(tmp, "rb+") as fh:
+                os.fsync(fh.fileno())
+            os.chmod(tmp, _mode_for(target))
+            check_new(target, force, hint)
+            os.replace(tmp, target)
     finally:
         with contextlib.suppress(FileNotFoundError):
             tmp.unlink()
+
+
+@contextlib.contextmanager
+def _removed_on_sigterm(tmp: Path) -> Iterator[None]:
+    """While the block runs, a SIGTERM removes ``tmp`` and is then handled as it would
+    have been without this block (the previous handler restored and the signal sent
+    again: the default action ends the process). Only on the main thread (where Python
+    runs signal handlers), and not when SIGTERM is ignored."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.getsignal(signal.SIGTERM)
+    if previous in (signal.SIG_IGN, None):
+        yield
+        return
+
+    def on_term(signum: int, frame: Any) -> None:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        signal.signal(signal.SIGTERM, previous)
+        os.kill(os.getpid(), signal.SIGTERM)
+
+    signal.signal(signal.SIGTERM, on_term)
+    try:
+        yield
+    finally:
+        if signal.getsignal(signal.SIGTERM) is on_term:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def open_regular(path: str | os.PathLike[str], expected: str = "a file") -> BinaryIO:
+    """``path`` opened for binary reading, after checking that it is a regular file:
+    ``ValueError`` naming it (and ``expected``, e.g. "a TOML file") for a FIFO, a device, a
+    socket or a folder, before any read can block. The file is opened without blocking
+    and checked again (no race with a file swapped in between); ``OSError`` when it cannot
+    be opened (``FileNotFoundError`` when missing)."""
+    name = os.fspath(path)
+    if not stat.S_ISREG(os.stat(name).st_mode):
+        raise ValueError(f"{name}: not a regular file ({expected} is expected)")
+    fd = os.open(name, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+    try:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            raise ValueError(f"{name}: not a regular file ({expected} is expected)")
+        if hasattr(os, "set_blocking"):
+            os.set_blocking(fd, True)
+        return os.fdopen(fd, "rb")
+    except BaseException:
+        os.close(fd)
+        raise
+
+
+def read_npy(path: str | os.PathLike[str], what: str = "array") -> np.ndarray:
+    """The array of a NumPy ``.npy`` file (no pickled objects), checked before it is
+    loaded: a regular file (:func:`open_regular`), a readable header (version 1.0 or 2.0)
+    and a declared size within the memory a call may take now
+    (``_native.available_memory``). ``what`` names the input in errors ("texture",
+    "depth").
+
+    Raises :class:`InvalidParameter` (a ``ValueError``) naming ``what`` and the file for
+    anything that is not such an array (a malformed header, pickled objects, data shorter
+    than the header declares), :class:`TooLargeError` for a declared size over the
+    budget, ``ValueError`` for a path that is not a regular file, ``OSError`` when it
+    cannot be read."""
+    name = os.fspath(path)
+    with open_regular(path, f"a NumPy .npy file ({what})") as fh:
+        shape, dtype = _npy_header(fh, name, what)
+        nbytes = int(np.prod(shape, dtype=object)) * dtype.itemsize
+        limit = int(_native.available_memory())
+        if nbytes > limit:
+            raise TooLargeError(f"{name}: its header declares a {what} array of shape "
+                                f"{shape} ({dtype}), {nbytes} bytes, over the {limit} bytes "
+                                "this call may take now", what=f"{what} file {name}",
+                                nbytes=nbytes, limit=limit)
+        fh.seek(0)
+        try:
+            return np.lib.format.read_array(fh, allow_pickle=False)
+        except (ValueError, EOFError, OSError) as e:
+            raise _not_npy(name, what, str(e)) from None
+
+
+def _npy_header(fh: BinaryIO, name: str, what: str) -> tuple[tuple[int, ...], np.dtype]:
+    """The shape and dtype a .npy header declares (the header alone is read)."""
+    fmt = np.lib.format
+    try:
+        version = fmt.read_magic(fh)
+        if version == (1, 0):
+            shape, _, dtype = fmt.read_array_header_1_0(fh)
+        elif version == (2, 0):
+            shape, _, dtype = fmt.read_array_header_2_0(fh)
+        else:
+            raise ValueError(f"format version {version[0]}.{version[1]} (1.0 or 2.0 read here)")
+    except (ValueError, TypeError, SyntaxError, EOFError, UnicodeError, RecursionError,
+            MemoryError, OverflowError, tokenize.TokenError, io.UnsupportedOperation) as e:
+        raise _not_npy(name, what, str(e) or type(e).__name__) from None
+    if dtype.hasobject:
+        raise _not_npy(name, what, "it holds Python objects (pickles are not read)")
+    return tuple(int(n) for n in shape), dtype
+
+
+def _not_npy(name: str, what: str, reason: str) -> InvalidParameter:
+    allowed = "a NumPy .npy array file"
+    return InvalidParameter(f"invalid {what} file {name}: not a NumPy .npy array ({reason}); "
+                            f"allowed {allowed}", name=what, value=name, allowed=allowed)
 
 
 def read_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
@@ -107,10 +247,8 @@ def read_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
     :data:`MAX_TOML_BYTES`, invalid TOML or text that is not UTF-8 (e.g. a binary file);
     ``OSError`` when it cannot be read (``FileNotFoundError`` when missing)."""
     name = os.fspath(path)
-    with open(path, "rb") as fh:
+    with open_regular(path, "a TOML file") as fh:
         info = os.fstat(fh.fileno())
-        if not stat.S_ISREG(info.st_mode):
-            raise ValueError(f"{name}: not a regular file (a TOML file is expected)")
         if info.st_size > MAX_TOML_BYTES:
             raise ValueError(f"{name}: {info.st_size} bytes, over the {MAX_TOML_BYTES} bytes "
                              "a TOML file may have here")

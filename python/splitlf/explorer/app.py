@@ -276,9 +276,21 @@ class Explorer:
         self._n_channels = len(design.channels)
 
     def _build_figures(self) -> None:
+        """Every figure and data source of the page (the views fill the sources)."""
         tools = "pan,wheel_zoom,box_zoom,reset,save"
         empty = _lines(np.zeros(1), (), np.zeros((0, 1)))
         nothing = _points(np.zeros(0), (), np.zeros((0, 0)))
+        self._build_depth_figures(tools, empty, nothing)
+        self._build_report()
+        self._build_picked_figures()
+        for fig in (self.blur_fig, self.dof_fig, self.reps_fig, self.distinct_fig,
+                    self.cover_fig):  # a click on a depth axis picks the sample map's depth
+            fig.on_event(Tap, self._on_tap)
+        self._build_reference(empty, nothing)
+
+    def _build_depth_figures(self, tools: str, empty: dict[str, Any],
+                             nothing: dict[str, Any]) -> None:
+        """The figures against depth: blur, depth of field, repetitions, the samples."""
         self.blur_src = ColumnDataSource(dict(empty), name="blur")
         self.conv_src = ColumnDataSource(dict(empty), name="conventional")
         self.reps_src = ColumnDataSource(dict(empty), name="repetitions")
@@ -335,6 +347,8 @@ class Explorer:
         c.scatter("x", "y", color="color", size=6, source=self.cover_src)
         _title(c).text_font_size = "11px"
         self.cover_fig = c
+
+    def _build_report(self) -> None:
         # The report as a table of a data source, and the status (which design each view
         # shows) as a data source: changing either sends data, never re-lays the page out.
         self.report_src = ColumnDataSource({"label": [], "value": []}, name="report")
@@ -345,6 +359,8 @@ class Explorer:
         self.status_src = ColumnDataSource({"blur": [0], "gap": [0], "samples": [0]},
                                            name="status")
         self.report.tags = [self.status_src]  # a model must reference it to reach the page
+
+    def _build_picked_figures(self) -> None:
         # The 2-D sample map at a picked depth and the microlens images on the sensor.
         self.map_src = ColumnDataSource({"x": [], "y": [], "color": [], "label": []},
                                         name="sample_map")
@@ -376,9 +392,10 @@ class Explorer:
         for sp in self.aperture_spans:
             a.add_layout(sp)
         self.rays_fig = a
-        for fig in (f, d, r, s, c):  # a click on a depth axis picks the sample map's depth
-            fig.on_event(Tap, self._on_tap)
-        # The reference design, grey and dashed on the same axes.
+
+    def _build_reference(self, empty: dict[str, Any], nothing: dict[str, Any]) -> None:
+        """The reference design, grey and dashed on the same axes."""
+        f, s, c = self.blur_fig, self.distinct_fig, self.cover_fig
         self.ref_blur_src = ColumnDataSource(dict(empty), name="reference_blur")
         self.ref_gap_distinct_src = ColumnDataSource(dict(empty), name="reference_distinct_1d")
         self.ref_gap_src = ColumnDataSource(dict(empty), name="reference_max_gap")

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..errors import InvalidParameter, TooLargeError
 from ..model.camera import Camera, read_toml
-from ..model.design import _CHANNEL_DESCRIPTIONS, _DESIGN_DESCRIPTIONS, Channel, Design
+from ..model.design import CHANNEL_DESCRIPTIONS, DESIGN_DESCRIPTIONS, Channel, Design
 from ..model.optics import curves, depth_of_field
 from ..sampling.rayspace import trace
 from ..sampling.samples import new_samples, sweep_depths
@@ -75,27 +75,27 @@ class Field:
 
 
 DESIGN_CONTROLS = (
-    Field("F", "real", "F [mm]", _DESIGN_DESCRIPTIONS["F"]),
-    Field("D", "real", "D [mm]", _DESIGN_DESCRIPTIONS["D"]),
-    Field("aperture", "choice", "aperture", _DESIGN_DESCRIPTIONS["aperture"],
+    Field("F", "real", "F [mm]", DESIGN_DESCRIPTIONS["F"]),
+    Field("D", "real", "D [mm]", DESIGN_DESCRIPTIONS["D"]),
+    Field("aperture", "choice", "aperture", DESIGN_DESCRIPTIONS["aperture"],
           ("square", "circle")),
 )
 
 CHANNEL_CONTROLS = (
-    Field("L", "real", "L [mm]", _CHANNEL_DESCRIPTIONS["L"]),
-    Field("d", "real", "d [mm]", _CHANNEL_DESCRIPTIONS["d"]),
-    Field("v", "real", "v [mm]", _CHANNEL_DESCRIPTIONS["v"]),
-    Field("mu", "real", "μ [mm]", _CHANNEL_DESCRIPTIONS["mu"]),
-    Field("Kx", "count", "Kx [lenses]", _CHANNEL_DESCRIPTIONS["Kx"]),
-    Field("Ky", "count", "Ky [lenses]", _CHANNEL_DESCRIPTIONS["Ky"]),
-    Field("f", "focal lengths", "f [mm] (blank: Ng)", _CHANNEL_DESCRIPTIONS["f"]),
-    Field("grid", "choice", "grid", _CHANNEL_DESCRIPTIONS["grid"], ("rect", "hex")),
-    Field("layout", "choice", "layout", _CHANNEL_DESCRIPTIONS["layout"],
+    Field("L", "real", "L [mm]", CHANNEL_DESCRIPTIONS["L"]),
+    Field("d", "real", "d [mm]", CHANNEL_DESCRIPTIONS["d"]),
+    Field("v", "real", "v [mm]", CHANNEL_DESCRIPTIONS["v"]),
+    Field("mu", "real", "μ [mm]", CHANNEL_DESCRIPTIONS["mu"]),
+    Field("Kx", "count", "Kx [lenses]", CHANNEL_DESCRIPTIONS["Kx"]),
+    Field("Ky", "count", "Ky [lenses]", CHANNEL_DESCRIPTIONS["Ky"]),
+    Field("f", "focal lengths", "f [mm] (blank: Ng)", CHANNEL_DESCRIPTIONS["f"]),
+    Field("grid", "choice", "grid", CHANNEL_DESCRIPTIONS["grid"], ("rect", "hex")),
+    Field("layout", "choice", "layout", CHANNEL_DESCRIPTIONS["layout"],
           ("ideal", "sensor")),
-    Field("Q", "optional count", "Q [px/lens]", _CHANNEL_DESCRIPTIONS["Q"]),
-    Field("Mx", "optional count", "Mx [px]", _CHANNEL_DESCRIPTIONS["Mx"]),
-    Field("My", "optional count", "My [px]", _CHANNEL_DESCRIPTIONS["My"]),
-    Field("share", "real", "share", _CHANNEL_DESCRIPTIONS["share"]),
+    Field("Q", "optional count", "Q [px/lens]", CHANNEL_DESCRIPTIONS["Q"]),
+    Field("Mx", "optional count", "Mx [px]", CHANNEL_DESCRIPTIONS["Mx"]),
+    Field("My", "optional count", "My [px]", CHANNEL_DESCRIPTIONS["My"]),
+    Field("share", "real", "share", CHANNEL_DESCRIPTIONS["share"]),
 )
 
 

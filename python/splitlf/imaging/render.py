@@ -32,17 +32,24 @@ import numbers
 import os
 import sys
 import zipfile
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
 from .. import _native, _validate
 from .._files import atomic_output
+from .._noise import add_noise as _add_noise
+from .._noise import options as _noise
+from .._noise import seed as _seed
+from .._progress import progress_bar as _progress
+from .._progress import progress_flag as _progress_flag
+from .._validate import extent as _extent
+from .._validate import finite as _finite
+from .._validate import nonnegative as _albedo
 from ..errors import InvalidParameter
-from ..inverse.simulate import _add_noise, _noise, _seed
 from ..model.design import Design
-from .texture import TEXTURES, RandomAlbedo, _albedo, _finite
+from .texture import TEXTURES, RandomAlbedo
 
 __all__ = ["FORMAT", "DepthMap", "Plane", "Raw", "Scene", "render"]
 
@@ -55,16 +62,6 @@ _EXTENT_ROUNDS = 64
 RANDOM_DEPTH_FACTOR = 4.0
 
 Extent = tuple[float, float, float, float]
-
-
-def _extent(value: Any, name: str = "extent") -> Extent:
-    """(X0, X1, Y0, Y1) [mm], finite, X0 < X1 and Y0 < Y1."""
-    if isinstance(value, str | bytes) or not hasattr(value, "__len__") or len(value) != 4:
-        raise TypeError(f"{name} must be (X0, X1, Y0, Y1) in mm, got {value!r}")
-    x0, x1, y0, y1 = (_finite(v, f"{name}[{i}]") for i, v in enumerate(value))
-    if not (x0 < x1 and y0 < y1):
-        raise InvalidParameter.of(name, (x0, x1, y0, y1), "X0 < X1 and Y0 < Y1 (mm)")
-    return x0, x1, y0, y1
 
 
 def _real_array(value: Any, name: str) -> np.ndarray:
@@ -417,41 +414,14 @@ def _texture_seam(scene: Scene, design: Design, rng: np.random.Generator
     return kind, params, image
 
 
-def _native_scene(scene: Scene, design: Design, rng: np.random.Generator
-                  ) -> _native.RenderScene:
+def native_scene(scene: Scene, design: Design, rng: np.random.Generator
+                 ) -> _native.RenderScene:
     """The core's scene for a render of ``design`` (a random albedo drawn from ``rng``)."""
     kind, params, image = _texture_seam(scene, design, rng)
     surface, sparams, depth_map = scene.depth.seam()
     background = scene.background
     assert background is not None  # Scene.__post_init__ sets it
     return _native.RenderScene(kind, params, image, surface, sparams, depth_map, background)
-
-
-def _progress_flag(progress: Any) -> bool:
-    """Whether to show a bar (the sweep's convention: None = only when stderr is a
-    terminal)."""
-    if progress is not None and not isinstance(progress, bool):
-        raise TypeError(f"progress must be None, True or False, got {progress!r}")
-    return sys.stderr.isatty() if progress is None else progress
-
-
-def _progress(show: bool, desc: str = "splitlf render", unit: str = "block"
-              ) -> tuple[Any, Callable[[int, int], None] | None]:
-    """A tqdm bar and the core's callback (done, total) for it (without tqdm, no bar)."""
-    if not show:
-        return None, None
-    try:
-        from tqdm.auto import tqdm
-    except ImportError:
-        return None, None
-    bar = tqdm(total=1, desc=desc, unit=unit)
-
-    def update(done: int, total: int) -> None:
-        if bar.total != total:
-            bar.total = total
-        bar.update(done - bar.n)
-
-    return bar, update
 
 
 def render(design: Design, scene: Scene, *, noise: Mapping[str, float] | None = None,
@@ -497,10 +467,10 @@ def render(design: Design, scene: Scene, *, noise: Mapping[str, float] | None = 
     entropy = int(fresh) if seed_ is None else seed_
     texture_rng = np.random.default_rng([entropy, 0])
     noise_rng = np.random.default_rng([entropy, 1])
-    native_scene = _native_scene(scene, subject, texture_rng)
+    scene_core = native_scene(scene, subject, texture_rng)
     bar, callback = _progress(show)
     try:
-        images = _native.render(subject.core, native_scene, tol=tol_, n_threads=threads,
+        images = _native.render(subject.core, scene_core, tol=tol_, n_threads=threads,
                                 progress=callback)
     finally:
         if bar is not None:

@@ -25,6 +25,9 @@ from typing import Any
 import numpy as np
 
 from .. import _validate
+from .._validate import finite as _finite
+from .._validate import nonnegative as _albedo
+from .._validate import positive as _positive
 from ..errors import InvalidParameter, TooLargeError
 
 __all__ = [
@@ -52,54 +55,12 @@ Seam = tuple[str, list[float], np.ndarray | None]
 
 # -- validation helpers (shared with splitlf.simulation) -----------------------------------
 
-def _real(value: Any, name: str) -> float:
-    """A real number (an integer beyond the float range becomes +-inf, for the range
-    check to reject), else ``TypeError``."""
-    if isinstance(value, numbers.Integral) and not isinstance(value, bool):
-        try:
-            return float(value)
-        except OverflowError:
-            return -math.inf if value < 0 else math.inf
-    return _validate.real(value, name)
-
-
-def _finite(value: Any, name: str) -> float:
-    x = _real(value, name)
-    if not math.isfinite(x):
-        raise InvalidParameter.of(name, x, "a finite number")
-    return x
-
-
-def _positive(value: Any, name: str, upper: float = math.inf) -> float:
-    x = _real(value, name)
-    if not (math.isfinite(x) and 0 < x <= upper):
-        allowed = "a finite value > 0" if upper == math.inf else f"a value in (0, {upper:g}]"
-        raise InvalidParameter.of(name, x, allowed)
-    return x
-
-
-def _albedo(value: Any, name: str) -> float:
-    x = _real(value, name)
-    if not (math.isfinite(x) and x >= 0):
-        raise InvalidParameter.of(name, x, "a finite value >= 0")
-    return x
-
-
 def _center(value: Any, name: str = "center") -> tuple[float, float]:
     """A point (X0, Y0) of two finite reals [mm]."""
     if isinstance(value, str | bytes) or not hasattr(value, "__len__") or len(value) != 2:
         raise TypeError(f"{name} must be a pair (X0, Y0) of finite numbers in mm, "
                         f"got {value!r}")
     return _finite(value[0], f"{name}[0]"), _finite(value[1], f"{name}[1]")
-
-
-def _piecewise_antiderivative(edges: np.ndarray, values: np.ndarray, x: np.ndarray,
-                              outside: float) -> np.ndarray:
-    """Antiderivative at x of the function equal to values[i] on [edges[i], edges[i+1]]
-    and ``outside`` elsewhere (0 at edges[0])."""
-    cum = np.concatenate([[0.0], np.cumsum(values * np.diff(edges))])
-    inside = np.interp(x, edges, cum)
-    return inside + outside * (np.minimum(x - edges[0], 0.0) + np.maximum(x - edges[-1], 0.0))
 
 
 def _steps_antiderivative(breaks: np.ndarray, values: np.ndarray, x: np.ndarray

@@ -22,20 +22,15 @@ from typing import Any
 import numpy as np
 
 from .. import _native, _validate
+from .._progress import progress_bar as _progress
+from .._progress import progress_flag as _progress_flag
+from .._validate import channels as _channels
+from .._validate import extent as _extent
 from ..errors import InvalidParameter
-from ..imaging.render import (
-    DepthMap,
-    Raw,
-    Scene,
-    _extent,
-    _native_scene,
-    _progress,
-    _progress_flag,
-    render,
-)
+from ..imaging.render import DepthMap, Raw, Scene, render
+from ..imaging.render import native_scene as _native_scene
 from ..imaging.texture import Sinusoid
 from ..model.design import Design
-from .reconstruct import _channels
 
 Extent = tuple[float, float, float, float]
 

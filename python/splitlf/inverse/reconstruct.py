@@ -31,10 +31,14 @@ from typing import Any
 import numpy as np
 
 from .. import _native, _validate
+from .._noise import options as _noise
+from .._progress import progress_bar as _progress
+from .._progress import progress_flag as _progress_flag
+from .._validate import channels as _channels
+from .._validate import extent as _extent
 from ..errors import InvalidParameter, TooLargeError
-from ..imaging.render import DepthMap, Plane, Raw, _extent, _progress, _progress_flag
+from ..imaging.render import DepthMap, Plane, Raw
 from ..model.design import Design
-from .simulate import _noise
 
 Extent = tuple[float, float, float, float]
 
@@ -137,27 +141,6 @@ def _exact(design: Design, surface: float | Plane | DepthMap, chans: tuple[int, 
         return False
     res = design.resolved()
     return all(res[c - 1]["grid"] == "rect" and res[c - 1]["layout"] == "ideal" for c in chans)
-
-
-def _channels(design: Design, channels: Any) -> tuple[int, ...]:
-    n = len(design.channels)
-    if channels is None:
-        return tuple(range(1, n + 1))
-    if isinstance(channels, (int, np.integer)) and not isinstance(channels, bool):
-        channels = (channels,)
-    if not isinstance(channels, Sequence) or isinstance(channels, str) or not channels:
-        raise TypeError("channels must be None, a channel number or a non-empty sequence of "
-                        f"them, got {channels!r}")
-    out = []
-    for c in channels:
-        if isinstance(c, bool) or not isinstance(c, (int, np.integer)):
-            raise TypeError(f"channels must hold integers, got {c!r}")
-        if not 1 <= int(c) <= n:
-            raise InvalidParameter.of("channels", int(c), f"channel numbers in 1..{n}")
-        if int(c) in out:
-            raise InvalidParameter.of("channels", int(c), "each channel at most once")
-        out.append(int(c))
-    return tuple(out)
 
 
 def _type_count(design: Design, chans: tuple[int, ...]) -> int:

@@ -29,6 +29,12 @@ from typing import Any
 import numpy as np
 
 from .. import _native, _validate
+from .._noise import add_noise as _add_noise
+from .._noise import options as _noise
+from .._noise import seed as _seed
+from .._piecewise import antiderivative as _piecewise_antiderivative
+from .._validate import nonnegative as _albedo
+from .._validate import rect_grids as _check_rect
 from ..errors import InvalidParameter
 from ..imaging.texture import (
     ANALYTIC,
@@ -40,9 +46,6 @@ from ..imaging.texture import (
     SiemensStar,
     Sinusoid,
     SlantedEdge,
-    _albedo,
-    _piecewise_antiderivative,
-    _positive,
 )
 from ..model.design import Design
 
@@ -73,14 +76,6 @@ PRIOR_STEP = 0.4
 NOISE_FREE_SIGMA = 1e-5
 #: Normal equations up to this many cells are solved by dense Cholesky, larger by sparse LU.
 DENSE_CELLS = 6000
-#: Largest ``photons`` of the noise model (a full-aperture pixel's photo-electrons; real
-#: full wells hold ~1e4-1e6): beyond it shot noise is nil at double precision anyway.
-MAX_PHOTONS = 1e15
-#: Largest mean photo-electron count of one pixel that the Poisson draw accepts (NumPy's
-#: generator refuses means near 2**63).
-MAX_POISSON_MEAN = 1e18
-
-
 def _scipy() -> tuple[types.ModuleType, types.ModuleType, types.ModuleType]:
     try:
         import scipy.linalg as sla
@@ -237,42 +232,6 @@ def _fine_texture(tex: Any, edges: np.ndarray, delta: float,
     if not np.all(np.isfinite(vals)) or np.any(vals < 0):
         raise ValueError("texture callable must return finite albedos >= 0")
     return vals
-
-
-# -- noise ---------------------------------------------------------------------------------
-
-def _noise(value: Any) -> dict[str, float] | None:
-    if value is None:
-        return None
-    if not isinstance(value, Mapping):
-        raise TypeError(f"noise must be None or a dict {{photons, read_noise}}, got {value!r}")
-    unknown = set(value) - {"photons", "read_noise"}
-    if unknown or "photons" not in value:
-        raise ValueError(
-            f"invalid noise keys {sorted(value)}: needs photons and optional read_noise"
-        )
-    photons = _positive(value["photons"], "noise photons", MAX_PHOTONS)
-    read = _albedo(value.get("read_noise", 0.0), "noise read_noise")
-    return {"photons": photons, "read_noise": read}
-
-
-def _add_noise(y: np.ndarray, noise: dict[str, float] | None,
-               rng: np.random.Generator) -> np.ndarray:
-    """Poisson shot noise on photons * y photo-electrons, Gaussian read noise (electrons
-    rms), back in the normalised units of y."""
-    if noise is None:
-        return y
-    n = noise["photons"]
-    lam = np.maximum(y, 0.0) * n
-    peak = float(lam.max(initial=0.0))
-    if peak > MAX_POISSON_MEAN:
-        raise InvalidParameter.of(
-            "noise photons", n, f"at most {MAX_POISSON_MEAN:g} photo-electrons in the "
-            f"brightest pixel (here photons x {peak / n:g}): lower photons or the albedo")
-    counts = rng.poisson(lam).astype(np.float64)
-    if noise["read_noise"] > 0:
-        counts += rng.normal(0.0, noise["read_noise"], size=y.shape)
-    return counts / n
 
 
 # -- result --------------------------------------------------------------------------------
@@ -433,16 +392,6 @@ class _Options:
     regularization: float | None
     conventional_half: int
     n_threads: int | None
-
-
-def _seed(value: Any) -> int | None:
-    if value is None:
-        return None
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-        raise TypeError(f"seed must be an integer >= 0 or None, got {value!r}")
-    if value < 0:
-        raise InvalidParameter.of("seed", int(value), "an integer >= 0 or None")
-    return int(value)
 
 
 def _conventional(subject: Design, half: Any, channel: Any) -> int:
@@ -607,17 +556,6 @@ def _mtf_contrast(rec: np.ndarray, x: np.ndarray, freqs: np.ndarray) -> np.ndarr
         pair = rec[1 + 2 * i: 3 + 2 * i]
         c[i] = float(np.mean(_fit_contrast(pair, basis, MTF_AMPLITUDE)))
     return c
-
-
-def _check_rect(design: Design) -> None:
-    """Every channel of ``design`` on a rect grid (the simulation is the 1-D engine along
-    x, docs/model.md §9), else :class:`InvalidParameter` named ``channels[i].grid``."""
-    for i, ch in enumerate(design.channels, 1):
-        if ch.grid != "rect":
-            allowed = ('"rect": the simulation runs the 1-D analysis along x (docs/model.md '
-                       '§3-§6, §9), which needs rect grids')
-            raise InvalidParameter(f'invalid channels[{i}].grid = "hex": allowed {allowed}',
-                                   name=f"channels[{i}].grid", value="hex", allowed=allowed)
 
 
 def simulate(

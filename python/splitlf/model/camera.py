@@ -13,10 +13,9 @@ from typing import Any
 
 from .. import _native
 from .._files import read_toml, text_file
+from .._validate import field_count, field_real
 from ..errors import InvalidParameter
 from .design import Design, missing_fields
-from .design import _count as _count_field
-from .design import _real as _real_field
 
 __all__ = ["Camera", "LENGTH_FIELDS", "COUNT_FIELDS", "FIELDS"]
 
@@ -48,11 +47,11 @@ _COUNT_LIMITS = {"Q": _native.MAX_Q, "Kx": _native.MAX_K, "Ky": _native.MAX_K}
 
 
 def _real(name: str, value: Any) -> float:
-    return _real_field("Camera", name, value, _DESCRIPTIONS[name])
+    return field_real("Camera", name, value, _DESCRIPTIONS[name])
 
 
 def _count(name: str, value: Any) -> int:
-    return _count_field("Camera", name, value, _DESCRIPTIONS[name], _COUNT_LIMITS[name])
+    return field_count("Camera", name, value, _DESCRIPTIONS[name], _COUNT_LIMITS[name])
 
 
 def _half(value: Any) -> int:

@@ -14,15 +14,15 @@ this module checks Python types and holds the fields.
 from __future__ import annotations
 
 import dataclasses
-import math
 import numbers
 import os
 from collections.abc import Mapping
 from collections.abc import Set as AbstractSet
-from typing import TYPE_CHECKING, Any, Literal, cast
+from typing import TYPE_CHECKING, Any, Literal
 
 from .. import _native
 from .._files import read_toml, text_file
+from .._validate import field_count, field_real, register_design
 from ..errors import InvalidParameter
 
 __all__ = ["Channel", "Design", "CHANNEL_FIELDS", "DESIGN_FIELDS", "PRESETS"]
@@ -37,13 +37,13 @@ DESIGN_FIELDS = ("F", "D", "channels", "aperture")
 #: The names of :meth:`Design.preset` (from the core), in the documented order.
 PRESETS: tuple[str, ...] = tuple(_native.DesignCore.presets())
 
-_DESIGN_DESCRIPTIONS = {
+DESIGN_DESCRIPTIONS = {
     "F": "main lens focal length [mm]",
     "D": "main lens aperture width (side of the square, diameter of the circle) [mm]",
     "aperture": 'main lens aperture shape, "square" or "circle"',
 }
 
-_CHANNEL_DESCRIPTIONS = {
+CHANNEL_DESCRIPTIONS = {
     "L": "optical path main lens -> microlens array [mm], > F",
     "d": "microlens pitch [mm]",
     "v": "microlens array -> sensor [mm]",
@@ -63,35 +63,6 @@ _COUNT_LIMITS = {"Kx": _native.MAX_K, "Ky": _native.MAX_K, "Q": _native.MAX_Q,
                  "Mx": _native.MAX_M, "My": _native.MAX_M}
 
 
-def _real(owner: str, name: str, value: Any, what: str) -> float:
-    """A finite real field of ``owner`` (a class name), else ``TypeError`` /
-    :class:`InvalidParameter` naming it; ``what`` describes the field."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{owner}.{name} must be a real number ({what}), "
-                        f"got {type(value).__name__} {value!r}")
-    try:
-        x = float(value)
-    except OverflowError:  # an integer beyond the float range (e.g. a 400-digit TOML integer)
-        x = math.inf if cast(int, value) > 0 else -math.inf
-    if not math.isfinite(x):
-        shown = x if isinstance(value, float) else f"{str(value)[:12]}... ({x})"
-        raise InvalidParameter.of(name, shown, f"a finite value ({what})")
-    return x
-
-
-def _count(owner: str, name: str, value: Any, what: str, limit: int) -> int:
-    """An integer field (never a bool or a float), else ``TypeError``; one beyond any i64
-    is :class:`InvalidParameter` here (the core checks the range ``[1, limit]``)."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-        raise TypeError(f"{owner}.{name} must be an integer ({what}), "
-                        f"got {type(value).__name__} {value!r}")
-    n = int(value)
-    if not -(2**62) < n < 2**62:
-        shown = n if abs(n) < 10**15 else f"{str(n)[:12]}... ({len(str(abs(n)))} digits)"
-        raise InvalidParameter.of(name, shown, f"an integer in [1, {limit}]")
-    return n
-
-
 def _choice(owner: str, name: str, value: Any, allowed: tuple[str, ...]) -> str:
     if not isinstance(value, str):
         raise TypeError(f"{owner}.{name} must be one of {allowed}, got "
@@ -102,7 +73,7 @@ def _choice(owner: str, name: str, value: Any, allowed: tuple[str, ...]) -> str:
 
 
 def _channel_count(name: str, value: Any) -> int:
-    return _count("Channel", name, value, _CHANNEL_DESCRIPTIONS[name], _COUNT_LIMITS[name])
+    return field_count("Channel", name, value, CHANNEL_DESCRIPTIONS[name], _COUNT_LIMITS[name])
 
 
 def _focal_lengths(value: Any) -> tuple[float, ...] | None:
@@ -115,7 +86,7 @@ def _focal_lengths(value: Any) -> tuple[float, ...] | None:
             or not hasattr(value, "__iter__")):
         raise TypeError("Channel.f must be None (Ng's setting), a focal length or a sequence "
                         f"of focal lengths [mm], got {type(value).__name__} {value!r}")
-    return tuple(_real("Channel", "f", x, _CHANNEL_DESCRIPTIONS["f"]) for x in value)
+    return tuple(field_real("Channel", "f", x, CHANNEL_DESCRIPTIONS["f"]) for x in value)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -153,8 +124,8 @@ class Channel:
     def __post_init__(self) -> None:
         set_ = object.__setattr__
         for name in ("L", "d", "v", "mu", "share"):
-            set_(self, name, _real("Channel", name, getattr(self, name),
-                                   _CHANNEL_DESCRIPTIONS[name]))
+            set_(self, name, field_real("Channel", name, getattr(self, name),
+                                   CHANNEL_DESCRIPTIONS[name]))
         for name in ("Kx", "Ky"):
             set_(self, name, _channel_count(name, getattr(self, name)))
         for name in ("Q", "Mx", "My"):
@@ -179,6 +150,7 @@ class Channel:
         return out
 
 
+@register_design
 @dataclasses.dataclass(frozen=True, eq=False)
 class Design:
     """A plenoptic camera design (docs/model.md §9): a thin main lens of focal length ``F``
@@ -206,8 +178,8 @@ class Design:
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
-        set_(self, "F", _real("Design", "F", self.F, "main lens focal length [mm]"))
-        set_(self, "D", _real("Design", "D", self.D, "main lens aperture width [mm]"))
+        set_(self, "F", field_real("Design", "F", self.F, "main lens focal length [mm]"))
+        set_(self, "D", field_real("Design", "D", self.D, "main lens aperture width [mm]"))
         set_(self, "aperture", _choice("Design", "aperture", self.aperture,
                                        ("square", "circle")))
         channels = self.channels
@@ -353,15 +325,15 @@ class Design:
         lines = ["# splitlf design: lengths in mm (docs/architectures.md)", "[design]"]
         for name in ("F", "D"):
             lines.append(f"{f'{name} = {getattr(self, name)!r}':<40} # "
-                         f"{_DESIGN_DESCRIPTIONS[name]}")
+                         f"{DESIGN_DESCRIPTIONS[name]}")
         lines.append(f"{f'aperture = {_toml_string(self.aperture)}':<40} # "
-                     f"{_DESIGN_DESCRIPTIONS['aperture']}")
+                     f"{DESIGN_DESCRIPTIONS['aperture']}")
         for ch in self.channels:
             lines += ["", "[[design.channels]]"]
             for name in CHANNEL_FIELDS:
                 text = _toml_field(name, getattr(ch, name))
                 if text is not None:
-                    lines.append(f"{text:<40} # {_CHANNEL_DESCRIPTIONS[name]}")
+                    lines.append(f"{text:<40} # {CHANNEL_DESCRIPTIONS[name]}")
                 elif name == "f":
                     lines.append("# f omitted: Ng's setting 1/f = 1/L + 1/v")
         return text_file(lines, path)

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from .. import _validate
-from ..inverse.simulate import _check_rect, simulate
+from ..inverse.simulate import simulate
 from ..model.design import Design
 from ._mpl import SPLIT_COLOR, axes_pair, channel_colors, is_split
 
@@ -73,7 +73,7 @@ def resolution(
     SciPy.
     """
     cam = _validate.design(camera, "camera")
-    _check_rect(cam)
+    _validate.rect_grids(cam)
     lo, hi = (_validate.real(v, "z_range") for v in z_range)
     if not (cam.F < lo < hi < np.inf):
         raise ValueError(f"invalid z_range = ({lo}, {hi}): allowed F = {cam.F} < near < far")

@@ -19,7 +19,6 @@ from typing import Any
 import numpy as np
 
 from .. import _native, _validate
-from ..errors import InvalidParameter
 from ..model.design import Design
 
 __all__ = ["Footprints", "SampleGrid", "Trace", "footprints", "sample_grid", "trace"]
@@ -61,24 +60,6 @@ class Trace:
     channel: int | None = None
 
 
-def _number(design: Design, half: Any, channel: Any) -> int:
-    """The channel number: exactly one of ``half`` and ``channel`` (two names of one
-    number: the split sensor's half i is its channel i), in [1, C]; errors name the
-    argument given."""
-    if half is not None and channel is not None:
-        raise TypeError("give half or channel, not both (half i of the split sensor is its "
-                        "channel i)")
-    if half is None and channel is None:
-        raise TypeError("missing the channel number (half= or channel=)")
-    name, value = ("half", half) if channel is None else ("channel", channel)
-    n = _validate.integer(value, name, "an integer >= 1")
-    count = len(design.channels)
-    if not 1 <= n <= count:
-        raise InvalidParameter.of(name, n, "1 or 2" if count == 2 and name == "half"
-                                  else f"an integer in [1, {count}] (a channel number)")
-    return n
-
-
 def trace(camera: Design, half: int | None = None, axis: str = "x",
           n_threads: int | None = None, *, channel: int | None = None) -> Trace:
     """Integration polygon of every pixel of one half along one axis (docs/model.md §3-4).
@@ -110,7 +91,7 @@ def trace(camera: Design, half: int | None = None, axis: str = "x",
         KeyboardInterrupt: on Ctrl-C (checked between chunks of pixels).
     """
     subject = _validate.design(camera)
-    h = _number(subject, half, channel)
+    h = _validate.channel_number(subject, half, channel)
     ax = _validate.choice(axis, "axis", ("x", "y"))
     threads = _validate.n_threads(n_threads)
     r = _native.design_trace(subject.core, h, ax, threads)
@@ -189,7 +170,7 @@ def footprints(
     """
     subject = _validate.design(camera)
     zs = _validate.depths(z)
-    h = _number(subject, half, channel)
+    h = _validate.channel_number(subject, half, channel)
     ax = _validate.choice(axis, "axis", ("x", "y"))
     s = _validate.choice(sample, "sample", ("centroid", "chief"))
     if not isinstance(kernel, bool | np.bool_):
@@ -256,7 +237,7 @@ def sample_grid(
     """
     subject = _validate.design(camera)
     zf = _validate.depth(z)
-    h = _number(subject, half, channel)
+    h = _validate.channel_number(subject, half, channel)
     s = _validate.choice(sample, "sample", ("centroid", "chief"))
     threads = _validate.n_threads(n_threads)
     r = _native.design_sample_grid(subject.core, zf, h, s, threads)

@@ -19,7 +19,6 @@ import numpy as np
 from .. import _native, _validate
 from ..errors import InvalidParameter
 from ..model.design import Design
-from .rayspace import _number
 
 __all__ = [
     "CoincidencePlanes",
@@ -138,7 +137,7 @@ def coincidence_planes(
         KeyboardInterrupt: on Ctrl-C (checked between chunks of planes).
     """
     subject = _validate.design(camera)
-    h = _number(subject, half, channel)
+    h = _validate.channel_number(subject, half, channel)
     n = _validate.integer(max_n, "max_n", "an integer >= 1")
     t = None if max_t is None else _validate.integer(max_t, "max_t", "an integer >= 1 or None")
     threads = _validate.n_threads(n_threads)

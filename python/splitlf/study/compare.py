@@ -35,7 +35,7 @@ from ..errors import InvalidParameter
 from ..model.design import Channel, Design
 from ..model.optics import curves, sharp_fractions
 from ..sampling.samples2d import DEFAULT_TOL, DEFAULT_WINDOW, coverage
-from .merit import SIMULATE_OPTIONS, Merits, _mtf50
+from .merit import SIMULATE_OPTIONS, Merits, mtf50_at
 from .merit import evaluate as _merits
 from .sweep import with_changes
 
@@ -357,7 +357,7 @@ def mtf50(designs: Mapping[str, Design], simulate_depths: Sequence[float], *,
     conv = set(conventional)
     sim_z = [_validate.real(s, "simulate_depths") for s in simulate_depths]
     columns = [f"mtf50_{zs:g}mm" for zs in sim_z]
-    values = [[_mtf50(d, zs, _mtf50_row(name in conv), seed, n_threads) for zs in sim_z]
+    values = [[mtf50_at(d, zs, _mtf50_row(name in conv), seed, n_threads) for zs in sim_z]
               for name, d in designs.items()]
     return pd.DataFrame(values, columns=columns, dtype=float,
                         index=pd.Index(list(designs), name="architecture"))

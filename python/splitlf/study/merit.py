@@ -17,15 +17,18 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import numbers
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
 from .. import _native, _validate
-from ..errors import InvalidParameter
 from ..model.design import Design
+from ._options import check_options, merits_2d_option, options_2d, threshold_option, tol_option
+
+# The CLI's sweep-file check (cli/) still calls these by their former private names:
+# aliases until it calls study._options.check_options.
+_threshold, _tol, _options_2d = threshold_option, tol_option, options_2d
 
 __all__ = ["DEFAULT_THRESHOLD_PX", "DEFAULT_TOL", "DEFAULT_WINDOW", "Merits", "evaluate",
            "merit_doc", "merit_names"]
@@ -99,7 +102,7 @@ def merit_names(design: Design, merits_2d: bool = False,
     closed = ["f_number"] + [f"{p}_channel{i}" for p in
                              ("sharp_fraction_conventional", "out_of_focus_depth",
                               "image_fill", "microlens_f_number") for i in range(1, n + 1)]
-    return (tuple(_native.design_metrics(d.core, _merits_2d(merits_2d))) + tuple(closed)
+    return (tuple(_native.design_metrics(d.core, merits_2d_option(merits_2d))) + tuple(closed)
             + tuple(f"mtf50_{float(z):g}mm" for z in mtf50))
 
 
@@ -133,57 +136,6 @@ class Merits(Mapping[str, float]):
                 f"window={self.window!r})")
 
 
-# -- argument checks (shared with sweep and optimise) --------------------------------------
-
-def _real_option(value: Any, name: str, allowed: str, ok: Callable[[float], bool]) -> float:
-    """A real option: ``TypeError`` if not a real number, :class:`InvalidParameter` unless
-    ``ok(x)`` (an integer beyond the float range is inf)."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{name} must be a real number, got {type(value).__name__} {value!r}")
-    try:
-        x = float(value)
-    except OverflowError:  # an integer (or a Fraction) beyond the float range
-        x = -math.inf if value < 0 else math.inf
-    if not ok(x):
-        raise InvalidParameter.of(name, x, allowed)
-    return x
-
-
-def _threshold(value: Any) -> float:
-    return _real_option(value, "threshold_px", "a finite number > 0 (pixels)",
-                        lambda x: math.isfinite(x) and x > 0)
-
-
-def _tol(value: Any) -> float:
-    return _real_option(value, "tol", "a finite number >= 0 (a multiple of delta(z))",
-                        lambda x: math.isfinite(x) and x >= 0)
-
-
-def _merits_2d(value: Any) -> bool:
-    if not isinstance(value, bool):
-        raise TypeError(f"merits_2d must be True or False, got {type(value).__name__} "
-                        f"{value!r}")
-    return value
-
-
-def _window(value: Any) -> float:
-    return _real_option(value, "window", "a finite number > 0 (the central field's width "
-                        "in lens pitches of channel 1)", lambda x: math.isfinite(x) and x > 0)
-
-
-def _options_2d(merits_2d: Any, window: Any, tol: float) -> float | None:
-    """The core's ``window`` argument: the checked window when the 2-D merits are asked
-    for, else None (they are not computed). ``window`` is checked either way; with the 2-D
-    merits, ``tol`` must also suit the 2-D distinct samples, (0, MAX_TOL_2D]."""
-    on, w = _merits_2d(merits_2d), _window(window)
-    if not on:
-        return None
-    if not 0.0 < tol <= _native.MAX_TOL_2D:
-        raise InvalidParameter.of("tol", tol, f"a number in (0, {_native.MAX_TOL_2D:g}] with "
-                                  "the 2-D merits (a multiple of delta(z))")
-    return w
-
-
 def _mtf50_depths(values: Any) -> list[float]:
     if isinstance(values, str | bytes) or not isinstance(values, Sequence | np.ndarray):
         raise TypeError("mtf50 must be a sequence of depths [mm], got "
@@ -214,7 +166,7 @@ def _closed_form(design: Design, z: np.ndarray, threshold_px: float) -> dict[str
     return out
 
 
-def _mtf50(design: Design, z: float, row: str, seed: int, n_threads: int | None) -> float:
+def mtf50_at(design: Design, z: float, row: str, seed: int, n_threads: int | None) -> float:
     """The super-resolution MTF50 [cycles/mm] at depth ``z`` of simulation row ``row``
     (``"union"``, ``"channel i"``; ``"conventional i"``: the conventional camera on
     channel i's plane, simulated for this row only); NaN for a design with a hex channel
@@ -264,8 +216,7 @@ def evaluate(design: Design, depths: Any, *, threshold_px: float = DEFAULT_THRES
     """
     d = _validate.design(design)
     z = _validate.depths(depths, "depths")
-    thr, t = _threshold(threshold_px), _tol(tol)
-    w = _options_2d(merits_2d, window, t)
+    thr, t, w = check_options(threshold_px, tol, merits_2d, window)
     threads = _validate.n_threads(n_threads)
     sim_z = _mtf50_depths(mtf50)
     if not isinstance(mtf50_row, str):
@@ -274,7 +225,7 @@ def evaluate(design: Design, depths: Any, *, threshold_px: float = DEFAULT_THRES
     merits = dict(zip(_native.design_metrics(d.core, w is not None), values, strict=True))
     merits.update(_closed_form(d, z, thr))
     for zs in sim_z:
-        merits[f"mtf50_{zs:g}mm"] = _mtf50(d, zs, mtf50_row, seed, threads)
+        merits[f"mtf50_{zs:g}mm"] = mtf50_at(d, zs, mtf50_row, seed, threads)
     z = z.copy()
     z.flags.writeable = False
     return Merits(merits, z, thr, t, w)

@@ -22,7 +22,6 @@ import dataclasses
 import inspect
 import math
 import numbers
-import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
@@ -30,20 +29,18 @@ from typing import Any
 import numpy as np
 
 from .. import _validate
+from .._progress import Progress, progress_bar, progress_flag
 from ..errors import InvalidParameter
 from ..model.design import Design
+from ._options import options_2d, real_option, threshold_option, tol_option
 from .merit import (
     DEFAULT_THRESHOLD_PX,
     DEFAULT_TOL,
     DEFAULT_WINDOW,
-    _options_2d,
-    _real_option,
-    _threshold,
-    _tol,
     evaluate,
     merit_names,
 )
-from .sweep import _evaluate_batch, _field, with_changes
+from .sweep import check_field, evaluate_batch, with_changes
 
 __all__ = ["OptimiseResult", "merit_names", "natural_sense", "optimise"]
 
@@ -141,7 +138,7 @@ def _base(base: Any) -> Design:
 
 def _real(value: Any, where: str) -> float:
     """A real number (an integer beyond the float range is +-inf), else ``TypeError``."""
-    return _real_option(value, where, "a real number", lambda x: True)
+    return real_option(value, where, "a real number", lambda x: True)
 
 
 def _free(free: Any, design: Design) -> list[Free]:
@@ -151,7 +148,7 @@ def _free(free: Any, design: Design) -> list[Free]:
         raise TypeError("free must be a non-empty mapping {field: (low, high)}")
     out = []
     for name, bounds in free.items():
-        is_count = _field(design, name, "free")[1]
+        is_count = check_field(design, name, "free")[1]
         if isinstance(bounds, str | bytes) or not isinstance(bounds, Sequence) \
                 or len(bounds) != 2:
             raise TypeError(f"free[{name!r}] must be a pair (low, high), got {bounds!r}")
@@ -328,7 +325,7 @@ class _Problem:
                 out.append(list(m.values()))
             return out
         size = self.batch_size or max(1, math.ceil(len(designs) / 16))
-        futures = [self.executor.submit(_evaluate_batch, self.base, changes[i:i + size],
+        futures = [self.executor.submit(evaluate_batch, self.base, changes[i:i + size],
                                         self.z, self.threshold_px, self.tol, self.window,
                                         self.threads_per_task)
                    for i in range(0, len(changes), size)]
@@ -409,16 +406,9 @@ class _Problem:
 
 # -- the search --------------------------------------------------------------------------
 
-def _progress_bar(total: int, progress: bool | None) -> Any:
-    if progress is None:
-        progress = sys.stderr.isatty()
-    if not progress:
-        return None
-    try:
-        from tqdm.auto import tqdm
-    except ImportError:
-        return None
-    return tqdm(total=total, desc="splitlf optimise", unit="gen")
+def _progress_bar(total: int, progress: bool | None) -> Progress | None:
+    """The report over generations (splitlf._progress)."""
+    return progress_bar(progress_flag(progress), "splitlf optimise", "gen", total)[0]
 
 
 def _de_seed_keyword(de: Callable) -> str:
@@ -533,7 +523,8 @@ def optimise(base: Design, free: Mapping[str, tuple[float, float]],
       each generation is sent as batches of plain field dicts (``batch_size`` designs per
       task, default at most 16 tasks), each task on ``threads_per_task`` core threads;
       None evaluates in-process on ``n_threads`` (None: all cores)
-    - ``progress``: a tqdm bar over generations (None: only when stderr is a terminal)
+    - ``progress``: a tqdm bar over generations (None: a bar when stderr is a terminal,
+      else sparse lines on stderr once the search has run 10 s; False: nothing)
     - ``maxiter``, ``popsize``: generations and population (popsize x free fields) of
       differential evolution; ``de_options``: other keywords of
       ``scipy.optimize.differential_evolution`` (:data:`DE_OPTIONS`)
@@ -563,17 +554,8 @@ def optimise(base: Design, free: Mapping[str, tuple[float, float]],
     fields = _free(free, cam)
     fn, _, sense_ = _objective(objective, sense, names)
     cons = _constraints(constraints, names)
-    names_2d = frozenset(names) - frozenset(merit_names(cam))
-    named = sorted({m for m, _, _ in cons if m in names_2d}
-                   | ({objective} if isinstance(objective, str) and objective in names_2d
-                      else set()))
-    if merits_2d is not None and not isinstance(merits_2d, bool):
-        raise TypeError(f"merits_2d must be None, True or False, got "
-                        f"{type(merits_2d).__name__} {merits_2d!r}")
-    if merits_2d is False and named:
-        raise InvalidParameter.of("merits_2d", False, "None or True: the objective or a "
-                                  f"constraint names the 2-D merit {named[0]}")
-    on_2d = bool(named) if merits_2d is None else merits_2d
+    on_2d = _merits_2d_wanted(merits_2d, objective, cons,
+                              frozenset(names) - frozenset(merit_names(cam)))
     z = _depths(depths)
     seed_ = _validate.integer(seed, "seed", "an integer >= 0")
     if seed_ < 0:
@@ -582,13 +564,9 @@ def optimise(base: Design, free: Mapping[str, tuple[float, float]],
     if polish_maxfev is None:
         polish_maxfev = 100 + 100 * len(fields)
     polish_maxfev = _count(polish_maxfev, "polish_maxfev")
-    min_f = None
-    if min_microlens_f_number is not None:
-        min_f = _real(min_microlens_f_number, "min_microlens_f_number")
-        if not (math.isfinite(min_f) and min_f > 0):
-            raise InvalidParameter.of("min_microlens_f_number", min_f, "a finite number > 0")
-    core_args = (_threshold(threshold_px), _tol(tol))
-    window_2d = _options_2d(on_2d, window, core_args[1])
+    min_f = _min_f_number(min_microlens_f_number)
+    core_args = (threshold_option(threshold_px), tol_option(tol))
+    window_2d = options_2d(on_2d, window, core_args[1])
     n_threads = _validate.n_threads(n_threads)
     tpt = _validate.n_threads(threads_per_task)
     if batch_size is not None:
@@ -628,6 +606,39 @@ def optimise(base: Design, free: Mapping[str, tuple[float, float]],
     finally:
         if bar is not None:
             bar.close()
+    return _result(problem, fields, cons, str(res.message), time.perf_counter() - t0, pd)
+
+
+def _merits_2d_wanted(merits_2d: Any, objective: Any, cons: list[tuple[str, str, float]],
+                      names_2d: frozenset[str]) -> bool:
+    """Whether the 2-D merits are computed: ``merits_2d`` (None, True or False), None
+    meaning iff the objective or a constraint names one (False with one named is an
+    error)."""
+    named = sorted({m for m, _, _ in cons if m in names_2d}
+                   | ({objective} if isinstance(objective, str) and objective in names_2d
+                      else set()))
+    if merits_2d is not None and not isinstance(merits_2d, bool):
+        raise TypeError(f"merits_2d must be None, True or False, got "
+                        f"{type(merits_2d).__name__} {merits_2d!r}")
+    if merits_2d is False and named:
+        raise InvalidParameter.of("merits_2d", False, "None or True: the objective or a "
+                                  f"constraint names the 2-D merit {named[0]}")
+    return bool(named) if merits_2d is None else merits_2d
+
+
+def _min_f_number(value: Any) -> float | None:
+    if value is None:
+        return None
+    min_f = _real(value, "min_microlens_f_number")
+    if not (math.isfinite(min_f) and min_f > 0):
+        raise InvalidParameter.of("min_microlens_f_number", min_f, "a finite number > 0")
+    return min_f
+
+
+def _result(problem: _Problem, fields: list[Free], cons: list[tuple[str, str, float]],
+            message: str, total_s: float, pd: Any) -> OptimiseResult:
+    """The search's result from its evaluations (``InvalidParameter`` naming ``free``
+    when no candidate was a valid design)."""
     best = _best(problem.rows, problem.sign)
     feasible = best is not None
     if best is None:
@@ -640,7 +651,6 @@ def optimise(base: Design, free: Mapping[str, tuple[float, float]],
         best = min(valid, key=lambda r: _violation(r, cons))
     generations = max(problem.map_calls - 1, 0)
     active = _active(problem, best) if feasible else ()
-    total_s = time.perf_counter() - t0
     design = problem.build({f.name: best[f.name] for f in fields})
     merits = {m: float(best[m]) for m in problem.merit_names}
     slack = {f"{m} {op} {limit!r}": (limit - merits[m]) if op == "<=" else (merits[m] - limit)
@@ -653,7 +663,7 @@ def optimise(base: Design, free: Mapping[str, tuple[float, float]],
         design=design, merits=merits, objective=float(best["objective"]),
         free={f.name: best[f.name] for f in fields}, feasible=feasible, active=active,
         slack=slack, history=history, nfev=len(problem.rows), generations=generations,
-        message=str(res.message),
+        message=message,
         timing={"total_s": total_s, "core_s": problem.core_s,
                 "evaluations": float(problem.evaluations)})
 

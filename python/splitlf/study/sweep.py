@@ -15,22 +15,20 @@ import itertools
 import math
 import numbers
 import re
-import sys
 from collections.abc import Iterator, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
 from .. import _validate
+from .._progress import Progress, progress_bar, progress_flag
 from ..errors import InvalidParameter, TooLargeError
 from ..model.design import Design
+from ._options import options_2d, threshold_option, tol_option
 from .merit import (
     DEFAULT_THRESHOLD_PX,
     DEFAULT_TOL,
     DEFAULT_WINDOW,
-    _options_2d,
-    _threshold,
-    _tol,
     evaluate,
     merit_doc,
     merit_names,
@@ -83,7 +81,7 @@ def design_fields(design: Design) -> tuple[str, ...]:
     return tuple(out)
 
 
-def _field(base: Design, name: Any, where: str) -> tuple[str, bool]:
+def check_field(base: Design, name: Any, where: str) -> tuple[str, bool]:
     """Check a field name of ``base`` (:func:`design_fields`): (name, is a count).
     ``InvalidParameter`` named ``where`` for an unknown or malformed name, a channel or
     lens type the design lacks."""
@@ -143,7 +141,7 @@ def with_changes(base: Design, changes: Mapping[str, Any]) -> Design:
     return base.replace(**top)
 
 
-def _evaluate_batch(base: Design, batch: list[dict[str, Any]], depths: np.ndarray,
+def evaluate_batch(base: Design, batch: list[dict[str, Any]], depths: np.ndarray,
                     threshold_px: float, tol: float, window: float | None,
                     n_threads: int | None) -> list[tuple[list[float] | None, str]]:
     """Worker task: the base (pickled by its own ``__reduce__``: plain fields, never a
@@ -187,7 +185,7 @@ def _grid(grid: Mapping[str, Any], base: Design
     """The axes of the grid and the names among them that are counts (integers)."""
     if not isinstance(grid, Mapping) or not grid:
         raise TypeError("grid must be a non-empty mapping of field names to values")
-    counts = frozenset(n for n in grid if _field(base, n, "grid")[1])
+    counts = frozenset(n for n in grid if check_field(base, n, "grid")[1])
     axes = {name: _axis(name, values, counts) for name, values in grid.items()}
     n = math.prod(a.size for a in axes.values())
     if n > MAX_DESIGNS:
@@ -234,16 +232,10 @@ def _batches(designs: Iterator[dict[str, Any]], size: int) -> Iterator[list[dict
         yield batch
 
 
-def _progress_bar(total: int, progress: bool | None) -> Any:
-    if progress is None:
-        progress = total > 1 and sys.stderr.isatty()
-    if not progress:
-        return None
-    try:
-        from tqdm.auto import tqdm
-    except ImportError:
-        return None
-    return tqdm(total=total, desc="splitlf sweep", unit="design")
+def _progress_bar(total: int, progress: bool | None) -> Progress | None:
+    """The sweep's report (splitlf._progress; None: only for more than one design)."""
+    show = progress_flag(progress) if progress is not None or total > 1 else ""
+    return progress_bar(show, "splitlf sweep", "design", total)[0]
 
 
 def _batch_size(batch_size: Any, n_designs: int, executor: cf.Executor | None) -> int:
@@ -269,7 +261,7 @@ def _run(tasks: Iterator[list[dict[str, Any]]], args: tuple[Any, ...],
     if executor is None:
         start = 0
         for task in tasks:
-            part = _evaluate_batch(base, task, z, threshold_px, tol, window, n_threads)
+            part = evaluate_batch(base, task, z, threshold_px, tol, window, n_threads)
             results[start:start + len(part)] = part
             start += len(part)
             if bar is not None:
@@ -278,7 +270,7 @@ def _run(tasks: Iterator[list[dict[str, Any]]], args: tuple[Any, ...],
     futures = {}
     start = 0
     for task in tasks:
-        fut = executor.submit(_evaluate_batch, base, task, z, threshold_px, tol, window,
+        fut = executor.submit(evaluate_batch, base, task, z, threshold_px, tol, window,
                               threads_per_task)
         futures[fut] = start
         start += len(task)
@@ -333,7 +325,8 @@ def sweep(camera: Design, grid: Mapping[str, Sequence[Any]], depths: Any,
       > 0, at least two distinct; [min, max] is the depth range of the sharp fractions
     - ``executor``: any ``concurrent.futures.Executor`` (e.g. Dask's
       ``client.get_executor()``); None runs in-process on the core's pool of ``n_threads``
-    - ``progress``: a tqdm bar; None = only when stderr is a terminal
+    - ``progress``: a tqdm bar; None = for more than one design, a bar when stderr is a
+      terminal, else sparse lines on stderr once the sweep has run 10 s
     - ``threshold_px``: sharpness threshold [pixels], finite > 0; ``tol``: merge tolerance
       [delta(z)], finite >= 0 (in (0, 1] with ``merits_2d``)
     - ``merits_2d``, ``window``: also compute the 2-D merits with a central field
@@ -360,8 +353,8 @@ def sweep(camera: Design, grid: Mapping[str, Sequence[Any]], depths: Any,
     cam = _validate.design(camera, "camera")
     axes, counts = _grid(grid, cam)
     z = _depths(depths, cam, axes)
-    threshold_px, tol = _threshold(threshold_px), _tol(tol)
-    window_2d = _options_2d(merits_2d, window, tol)
+    threshold_px, tol = threshold_option(threshold_px), tol_option(tol)
+    window_2d = options_2d(merits_2d, window, tol)
     n_threads = _validate.n_threads(n_threads)
     task_threads = _validate.n_threads(threads_per_task)
     n_designs = math.prod(a.size for a in axes.values())
