@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from .. import _native
-from .._files import atomic_output, check_new, read_toml
+from .._files import atomic_output, check_writable, read_npy, read_toml
 from ..errors import InvalidParameter, SplitlfError
 from ..model.camera import Camera
 from ..model.design import PRESETS, Design
@@ -102,15 +102,11 @@ def check_suffix(option: str, path: Path, allowed: Iterable[str]) -> None:
 
 
 def check_output(path: str | os.PathLike[str], force: bool) -> Path:
-    """An output file, checked before any work: not overwritten without ``--force``, its
-    folder exists, and a trial file can be created in that folder (an unwritable folder is
-    refused now, in words naming it, not after the computation). Returns the path.
-
-    (``splitlf._files.check_writable`` is to do the same for the library; this is the
-    command line's own until it lands.)"""
-    p = check_new(path, force, FORCE_HINT)
-    _probe(p.parent, p)
-    return p
+    """An output file, checked before any work (``splitlf._files.check_writable``): not
+    overwritten without ``--force``, its folder exists, and a trial file can be created
+    in that folder (an unwritable folder is refused now, in words naming it, not after
+    the computation). Returns the path."""
+    return check_writable(path, force, FORCE_HINT)
 
 
 def check_folder(folder: Path, option: str = "--out") -> None:
@@ -206,17 +202,14 @@ def load_subject(args: argparse.Namespace) -> tuple[Design, str]:
     return Camera.paper(), SEED
 
 
-def load_npy(path: str) -> Any:
-    """The array of a .npy file; a file that is not one (e.g. a TOML file, or pickled
-    objects) is refused in the CLI's words."""
+def load_npy(path: str, what: str = "array") -> Any:
+    """The array of a .npy file, read safely (``splitlf._files.read_npy``: a regular
+    file, its header checked, its declared size within the memory budget before loading);
+    ``what`` names the input in errors ("texture", "depth")."""
     try:
-        return np.load(path, allow_pickle=False)
+        return read_npy(path, what)
     except FileNotFoundError:
         raise CliError(f"no such file: {path}") from None
-    except (ValueError, EOFError):
-        raise CliError(f"{path}: not a NumPy .npy array file") from None
-    except MemoryError as e:  # a header claiming more than this machine holds
-        raise CliError(f"{path}: cannot load the array ({e})") from None
 
 
 def numbers(option: str, text: str, n: int) -> tuple[float, ...]:
@@ -255,7 +248,7 @@ def parse_render_depth(spec: str, extent: str | None) -> Any:
             raise CliError(f"--depth {spec}: a depth map needs --extent X0,X1,Y0,Y1 (mm)")
         box: Any = numbers("--extent", extent, 4)
         try:
-            return DepthMap(load_npy(spec), box)
+            return DepthMap(load_npy(spec, "depth"), box)
         except (TypeError, ValueError) as e:
             raise CliError(f"--depth {spec}: {e}") from None
     if extent is not None:

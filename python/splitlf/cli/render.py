@@ -110,7 +110,7 @@ def _image_texture(path: str, width: float | None) -> Any:
         raise CliError(f"--texture {path}: an image needs --width MM (its width on the "
                        "object)")
     if suffix == ".npy":
-        array = load_npy(path)
+        array = load_npy(path, "texture")
     else:
         need("matplotlib", "render with a PNG texture", "plot")
         import matplotlib.image

@@ -94,7 +94,7 @@ def parse_texture(spec: str) -> Any:
             return Sinusoid(f) if kind == "sinusoid" else BarChart(f)
         if kind == "image":
             path, _, width = rest.rpartition(":")
-            return Image(load_npy(path), float(width))
+            return Image(load_npy(path, "texture"), float(width))
     except ValueError as e:
         raise CliError(f"--texture {spec}: {e}") from None
     raise CliError(f"--texture {spec}: allowed random, sinusoid:F, bars:F (cycles/mm) "

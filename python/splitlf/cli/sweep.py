@@ -157,6 +157,7 @@ SWEEP_OPTIONS = ("threshold_px", "tol", "merits_2d", "window")
 def _sweep_options(path: str, opts: Any) -> dict[str, Any]:
     """The [options] table of a sweep file, checked as :func:`splitlf.evaluate` checks
     them."""
+    from ..study import _options
     from ..study import merit as ev
 
     bad = set(opts) - set(SWEEP_OPTIONS) if isinstance(opts, dict) else {"(not a table)"}
@@ -166,8 +167,8 @@ def _sweep_options(path: str, opts: Any) -> dict[str, Any]:
     full = {"threshold_px": ev.DEFAULT_THRESHOLD_PX, "tol": ev.DEFAULT_TOL,
             "merits_2d": False, "window": ev.DEFAULT_WINDOW, **opts}
     try:  # the checks of splitlf.evaluate's options
-        ev._threshold(full["threshold_px"])
-        ev._options_2d(full["merits_2d"], full["window"], ev._tol(full["tol"]))
+        _options.threshold_option(full["threshold_px"])
+        _options.options_2d(full["merits_2d"], full["window"], _options.tol_option(full["tol"]))
     except (ValueError, TypeError) as e:
         raise CliError(f"{path}: options: {e}") from None
     return dict(opts)

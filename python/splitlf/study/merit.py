@@ -24,11 +24,7 @@ import numpy as np
 
 from .. import _native, _validate
 from ..model.design import Design
-from ._options import check_options, merits_2d_option, options_2d, threshold_option, tol_option
-
-# The CLI's sweep-file check (cli/) still calls these by their former private names:
-# aliases until it calls study._options.check_options.
-_threshold, _tol, _options_2d = threshold_option, tol_option, options_2d
+from ._options import check_options, merits_2d_option
 
 __all__ = ["DEFAULT_THRESHOLD_PX", "DEFAULT_TOL", "DEFAULT_WINDOW", "Merits", "evaluate",
            "merit_doc", "merit_names"]
