@@ -15,6 +15,7 @@ use rayon::prelude::*;
 use crate::infra::error::{Error, Result};
 use crate::infra::memory::{self, try_vec, try_with_capacity};
 use crate::infra::parallel::{check_threads, chunk_items, for_chunks, with_threads};
+use crate::infra::polygon;
 use crate::model::design::{Aperture, Design};
 use crate::model::lens::conjugate;
 use crate::model::optics::check_design_depths;
@@ -76,42 +77,17 @@ impl Polygon {
 
     /// Shoelace area (relative to the first vertex, for accuracy); 0 when empty.
     pub fn area(&self) -> f64 {
-        area_of(self.vertices())
+        polygon::signed_area_about_first(self.vertices())
     }
 
-    /// Centroid (u, w); NaN when empty.
+    /// Centroid (u, w); NaN when empty (no positive area).
     pub fn centroid(&self) -> [f64; 2] {
         let p = self.vertices();
-        if p.len() < 3 {
+        if p.len() < 3 || self.area() <= 0.0 {
             return [f64::NAN; 2];
         }
-        let o = p[0];
-        let (mut a2, mut cu, mut cw) = (0.0, 0.0, 0.0);
-        for i in 1..p.len() - 1 {
-            let (u1, w1) = (p[i][0] - o[0], p[i][1] - o[1]);
-            let (u2, w2) = (p[i + 1][0] - o[0], p[i + 1][1] - o[1]);
-            let cross = u1 * w2 - u2 * w1;
-            a2 += cross;
-            cu += cross * (u1 + u2);
-            cw += cross * (w1 + w2);
-        }
-        if a2 <= 0.0 {
-            return [f64::NAN; 2];
-        }
-        [o[0] + cu / (3.0 * a2), o[1] + cw / (3.0 * a2)]
+        polygon::centroid(p)
     }
-}
-
-fn area_of(p: &[[f64; 2]]) -> f64 {
-    if p.len() < 3 {
-        return 0.0;
-    }
-    let o = p[0];
-    let mut a2 = 0.0;
-    for i in 1..p.len() - 1 {
-        a2 += (p[i][0] - o[0]) * (p[i + 1][1] - o[1]) - (p[i + 1][0] - o[0]) * (p[i][1] - o[1]);
-    }
-    0.5 * a2
 }
 
 /// A strip lo ≤ n·(u, w) ≤ hi in ray space.
@@ -125,27 +101,10 @@ pub struct Strip {
 /// Largest working polygon during clipping (4 + 1 per clipping line, with slack).
 const WORK: usize = 10;
 
-/// Keep the part of `p` (convex, ccw) with n·x ≤ h (Sutherland–Hodgman, one line).
-/// A vertex on the line is kept once and produces no extra intersection.
+/// Keep the part of `p` (convex, ccw) with n·x ≤ h (Sutherland–Hodgman, one line; a vertex
+/// on the line is kept once and produces no extra intersection).
 fn clip_half_plane(p: &[[f64; 2]], n: [f64; 2], h: f64, out: &mut [[f64; 2]; WORK]) -> usize {
-    let mut k = 0;
-    let m = p.len();
-    for i in 0..m {
-        let a = p[i];
-        let b = p[(i + 1) % m];
-        let da = h - (n[0] * a[0] + n[1] * a[1]);
-        let db = h - (n[0] * b[0] + n[1] * b[1]);
-        if da >= 0.0 && k < WORK {
-            out[k] = a;
-            k += 1;
-        }
-        if ((da > 0.0 && db < 0.0) || (da < 0.0 && db > 0.0)) && k < WORK {
-            let t = da / (da - db);
-            out[k] = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
-            k += 1;
-        }
-    }
-    k
+    polygon::clip_keep(p, out, |x| h - (n[0] * x[0] + n[1] * x[1]))
 }
 
 /// Polygon from a clipped vertex list: drop repeated vertices, reduce to ≤ 6 vertices
@@ -175,7 +134,7 @@ fn finish(buf: &[[f64; 2]]) -> Polygon {
         v.copy_within(best.1 + 1..n, best.1);
         n -= 1;
     }
-    if n < 3 || area_of(&v[..n]) <= 0.0 {
+    if n < 3 || polygon::signed_area_about_first(&v[..n]) <= 0.0 {
         return Polygon::EMPTY;
     }
     let mut out = Polygon::EMPTY;
