@@ -113,26 +113,44 @@ fn camera_error(e: Error) -> Error {
     }
 }
 
+/// A camera's fields before validation ([`Camera::new`]): the docs/model.md symbols of
+/// [`Camera`], Q and K as given (any integer) and f_1/f_2 `None` for Ng's setting.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CameraSpec {
+    pub f_main: f64,
+    pub aperture: f64,
+    pub v1: f64,
+    pub kappa: f64,
+    pub d: f64,
+    pub v: f64,
+    pub mu: f64,
+    pub q: i64,
+    pub kx: i64,
+    pub ky: i64,
+    pub f1: Option<f64>,
+    pub f2: Option<f64>,
+}
+
 impl Camera {
     /// Validate every field; `f1`/`f2` default to Ng's setting when `None`. The camera is
     /// the two-channel design of [`Camera::design`] and is valid exactly when that design
     /// is ([`Design::new`]: overlapping microlens images are refused too), with κ ≥ 0 as
     /// the parametrisation's own rule; an error names the camera's field.
-    #[allow(clippy::too_many_arguments)]
-    pub fn new(
-        f_main: f64,
-        aperture: f64,
-        v1: f64,
-        kappa: f64,
-        d: f64,
-        v: f64,
-        mu: f64,
-        q: i64,
-        kx: i64,
-        ky: i64,
-        f1: Option<f64>,
-        f2: Option<f64>,
-    ) -> Result<Camera> {
+    pub fn new(spec: &CameraSpec) -> Result<Camera> {
+        let &CameraSpec {
+            f_main,
+            aperture,
+            v1,
+            kappa,
+            d,
+            v,
+            mu,
+            q,
+            kx,
+            ky,
+            f1,
+            f2,
+        } = spec;
         let l2 = check_kappa(v1, kappa)?;
         let channel = |l: f64, f: Option<f64>| ChannelSpec {
             l,
@@ -208,20 +226,20 @@ impl Camera {
         let v1 = f_main * 642.0 / (642.0 - f_main);
         let l2 = f_main * 217.0 / (217.0 - f_main);
         let d = 0.135;
-        Camera::new(
+        Camera::new(&CameraSpec {
             f_main,
             aperture,
             v1,
-            l2 / v1 - 1.0,
+            kappa: l2 / v1 - 1.0,
             d,
-            d * v1 / aperture,
-            0.009,
-            15,
-            266,
-            88,
-            None,
-            None,
-        )
+            v: d * v1 / aperture,
+            mu: 0.009,
+            q: 15,
+            kx: 266,
+            ky: 88,
+            f1: None,
+            f2: None,
+        })
         .expect("the seed design is valid")
     }
 
@@ -299,9 +317,20 @@ mod tests {
     fn rejects_bad_fields() {
         let ok = Camera::paper();
         let mk = |v1: f64, kappa: f64, q: i64| {
-            Camera::new(
-                80.0, 20.0, v1, kappa, 0.135, ok.v, 0.009, q, 10, 10, None, None,
-            )
+            Camera::new(&CameraSpec {
+                f_main: 80.0,
+                aperture: 20.0,
+                v1,
+                kappa,
+                d: 0.135,
+                v: ok.v,
+                mu: 0.009,
+                q,
+                kx: 10,
+                ky: 10,
+                f1: None,
+                f2: None,
+            })
         };
         assert!(matches!(
             mk(80.0, 0.1, 15),
@@ -327,9 +356,20 @@ mod tests {
     fn validates_as_its_design() {
         let p = Camera::paper();
         let with = |aperture: f64, v: f64, f1: Option<f64>| {
-            Camera::new(
-                p.f_main, aperture, p.v1, p.kappa, p.d, v, p.mu, 15, 266, 88, f1, None,
-            )
+            Camera::new(&CameraSpec {
+                f_main: p.f_main,
+                aperture,
+                v1: p.v1,
+                kappa: p.kappa,
+                d: p.d,
+                v,
+                mu: p.mu,
+                q: 15,
+                kx: 266,
+                ky: 88,
+                f1,
+                f2: None,
+            })
         };
         for (aperture, v) in [(20.0, 0.7), (40.0, p.v)] {
             let e = with(aperture, v, None).unwrap_err();
@@ -338,20 +378,20 @@ mod tests {
         }
         let e = with(20.0, p.v, Some(-1.0)).unwrap_err();
         assert_eq!(e.parameter_name().as_deref(), Some("f1"));
-        let e = Camera::new(
-            p.f_main,
-            20.0,
-            p.v1,
-            p.kappa,
-            p.d,
-            p.v,
-            p.mu,
-            15,
-            266,
-            88,
-            None,
-            Some(0.0),
-        )
+        let e = Camera::new(&CameraSpec {
+            f_main: p.f_main,
+            aperture: 20.0,
+            v1: p.v1,
+            kappa: p.kappa,
+            d: p.d,
+            v: p.v,
+            mu: p.mu,
+            q: 15,
+            kx: 266,
+            ky: 88,
+            f1: None,
+            f2: Some(0.0),
+        })
         .unwrap_err();
         assert_eq!(e.parameter_name().as_deref(), Some("f2"));
         let e = with(20.0, 0.0, None).unwrap_err();

@@ -5,6 +5,7 @@ use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
+use splitlf_core::model::camera::CameraSpec;
 use splitlf_core::model::optics::LensOptics;
 use splitlf_core::sampling::line::Line;
 use splitlf_core::{
@@ -38,27 +39,76 @@ impl CameraCore {
     }
 }
 
+/// The fields of `splitlf.Camera` as its constructor checked their types: a dict keyed by
+/// the Python names, read into the core's [`CameraSpec`].
+#[derive(FromPyObject)]
+struct CameraFields {
+    #[pyo3(item("F"))]
+    f_main: f64,
+    #[pyo3(item("D"))]
+    aperture: f64,
+    #[pyo3(item)]
+    v1: f64,
+    #[pyo3(item)]
+    kappa: f64,
+    #[pyo3(item)]
+    d: f64,
+    #[pyo3(item)]
+    v: f64,
+    #[pyo3(item)]
+    mu: f64,
+    #[pyo3(item("Q"))]
+    q: i64,
+    #[pyo3(item("Kx"))]
+    kx: i64,
+    #[pyo3(item("Ky"))]
+    ky: i64,
+    #[pyo3(item)]
+    f1: Option<f64>,
+    #[pyo3(item)]
+    f2: Option<f64>,
+}
+
+impl CameraFields {
+    fn spec(&self) -> CameraSpec {
+        let &CameraFields {
+            f_main,
+            aperture,
+            v1,
+            kappa,
+            d,
+            v,
+            mu,
+            q,
+            kx,
+            ky,
+            f1,
+            f2,
+        } = self;
+        CameraSpec {
+            f_main,
+            aperture,
+            v1,
+            kappa,
+            d,
+            v,
+            mu,
+            q,
+            kx,
+            ky,
+            f1,
+            f2,
+        }
+    }
+}
+
 #[pymethods]
 impl CameraCore {
+    /// The camera of `fields`, a dict keyed by `splitlf.Camera`'s field names (F, D, v1,
+    /// kappa, d, v, mu, Q, Kx, Ky, f1, f2; f1/f2 None for Ng's setting).
     #[new]
-    #[pyo3(signature = (f_main, aperture, v1, kappa, d, v, mu, q, kx, ky, f1=None, f2=None))]
-    #[allow(clippy::too_many_arguments)]
-    fn new(
-        f_main: f64,
-        aperture: f64,
-        v1: f64,
-        kappa: f64,
-        d: f64,
-        v: f64,
-        mu: f64,
-        q: i64,
-        kx: i64,
-        ky: i64,
-        f1: Option<f64>,
-        f2: Option<f64>,
-    ) -> PyResult<Self> {
-        let inner =
-            Camera::new(f_main, aperture, v1, kappa, d, v, mu, q, kx, ky, f1, f2).map_err(to_py)?;
+    fn new(fields: CameraFields) -> PyResult<Self> {
+        let inner = Camera::new(&fields.spec()).map_err(to_py)?;
         Ok(CameraCore::of(inner))
     }
 
