@@ -137,50 +137,37 @@ impl Camera {
     /// is ([`Design::new`]: overlapping microlens images are refused too), with κ ≥ 0 as
     /// the parametrisation's own rule; an error names the camera's field.
     pub fn new(spec: &CameraSpec) -> Result<Camera> {
-        let &CameraSpec {
-            f_main,
-            aperture,
-            v1,
-            kappa,
-            d,
-            v,
-            mu,
-            q,
-            kx,
-            ky,
-            f1,
-            f2,
-        } = spec;
-        let l2 = check_kappa(v1, kappa)?;
+        let s = spec;
+        let l2 = check_kappa(s.v1, s.kappa)?;
         let channel = |l: f64, f: Option<f64>| ChannelSpec {
             l,
-            d,
-            v,
-            mu,
-            kx,
-            ky,
+            d: s.d,
+            v: s.v,
+            mu: s.mu,
+            kx: s.kx,
+            ky: s.ky,
             grid: Grid::Rect,
             f: f.map(|f| vec![f]),
             layout: "ideal".into(),
-            q: Some(q),
+            q: Some(s.q),
             mx: None,
             my: None,
             share: 0.5,
         };
-        let specs = [channel(v1, f1), channel(l2, f2)];
+        let specs = [channel(s.v1, s.f1), channel(l2, s.f2)];
         let design =
-            Design::new(f_main, aperture, Aperture::Square, &specs).map_err(camera_error)?;
+            Design::new(s.f_main, s.aperture, Aperture::Square, &specs).map_err(camera_error)?;
         let [c1, c2] = [&design.channels[0], &design.channels[1]];
         Ok(Camera {
             f_main: design.f_main,
             aperture: design.aperture,
             v1: c1.l,
-            kappa,
+            kappa: s.kappa,
             d: c1.d,
             v: c1.v,
             mu: c1.mu,
             // Q passed the design's check: an integer in [1, MAX_Q].
-            q: q as u32,
+            q: s.q as u32,
             kx: c1.kx,
             ky: c1.ky,
             f1: c1.f[0],

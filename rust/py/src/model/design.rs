@@ -39,76 +39,13 @@ impl CameraCore {
     }
 }
 
-/// The fields of `splitlf.Camera` as its constructor checked their types: a dict keyed by
-/// the Python names, read into the core's [`CameraSpec`].
-#[derive(FromPyObject)]
-struct CameraFields {
-    #[pyo3(item("F"))]
-    f_main: f64,
-    #[pyo3(item("D"))]
-    aperture: f64,
-    #[pyo3(item)]
-    v1: f64,
-    #[pyo3(item)]
-    kappa: f64,
-    #[pyo3(item)]
-    d: f64,
-    #[pyo3(item)]
-    v: f64,
-    #[pyo3(item)]
-    mu: f64,
-    #[pyo3(item("Q"))]
-    q: i64,
-    #[pyo3(item("Kx"))]
-    kx: i64,
-    #[pyo3(item("Ky"))]
-    ky: i64,
-    #[pyo3(item)]
-    f1: Option<f64>,
-    #[pyo3(item)]
-    f2: Option<f64>,
-}
-
-impl CameraFields {
-    fn spec(&self) -> CameraSpec {
-        let &CameraFields {
-            f_main,
-            aperture,
-            v1,
-            kappa,
-            d,
-            v,
-            mu,
-            q,
-            kx,
-            ky,
-            f1,
-            f2,
-        } = self;
-        CameraSpec {
-            f_main,
-            aperture,
-            v1,
-            kappa,
-            d,
-            v,
-            mu,
-            q,
-            kx,
-            ky,
-            f1,
-            f2,
-        }
-    }
-}
-
 #[pymethods]
 impl CameraCore {
     /// The camera of `fields`, a dict keyed by `splitlf.Camera`'s field names (F, D, v1,
     /// kappa, d, v, mu, Q, Kx, Ky, f1, f2; f1/f2 None for Ng's setting).
     #[new]
-    fn new(fields: CameraFields) -> PyResult<Self> {
-        let inner = Camera::new(&fields.spec()).map_err(to_py)?;
+    fn new(fields: &Bound<'_, PyDict>) -> PyResult<Self> {
+        let inner = Camera::new(&camera_spec(fields)?).map_err(to_py)?;
         Ok(CameraCore::of(inner))
     }
 
@@ -177,9 +114,28 @@ pub(crate) fn item<'py, T: FromPyObjectOwned<'py>>(
     match d.get_item(key)? {
         Some(v) => v.extract::<T>().map_err(Into::into),
         None => Err(PyRuntimeError::new_err(format!(
-            "internal: channel dict without {key:?}"
+            "internal: dict without {key:?}"
         ))),
     }
+}
+
+/// The core's [`CameraSpec`] from `splitlf.Camera`'s fields as its constructor checked
+/// their types (a dict keyed by the Python names).
+fn camera_spec(d: &Bound<'_, PyDict>) -> PyResult<CameraSpec> {
+    Ok(CameraSpec {
+        f_main: item(d, "F")?,
+        aperture: item(d, "D")?,
+        v1: item(d, "v1")?,
+        kappa: item(d, "kappa")?,
+        d: item(d, "d")?,
+        v: item(d, "v")?,
+        mu: item(d, "mu")?,
+        q: item(d, "Q")?,
+        kx: item(d, "Kx")?,
+        ky: item(d, "Ky")?,
+        f1: item(d, "f1")?,
+        f2: item(d, "f2")?,
+    })
 }
 
 pub(crate) fn channel_spec(d: &Bound<'_, PyDict>) -> PyResult<design::ChannelSpec> {
