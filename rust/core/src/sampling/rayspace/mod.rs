@@ -9,6 +9,11 @@
 //! third clips it: a convex polygon of at most 6 vertices, counter-clockwise.
 //! A scene plane at depth z is the family of lines p' = u + σ w, σ = (v' − z')/z'; the
 //! footprint of a pixel is the image of its polygon under that projection (docs/rayspace.md).
+//!
+//! Parts: `polygons` (the strips, the clipped polygon through `infra::polygon`, the
+//! residue rule), `trace` (every pixel's polygon along a line), `footprints` (positions,
+//! extents and weight profiles over depth), `grid` (the 2-D sample grid of a channel).
+//! This file holds the names they share: [`MAX_VERTICES`], [`Sample`], [`axis_from_name`].
 
 mod footprints;
 mod grid;

@@ -20,6 +20,14 @@
 //! a position opens a new sample when it lies more than `tol · δ(z)` beyond the first
 //! position of the current sample). This count is monotone (adding positions never lowers
 //! it), so the union of both halves never counts fewer samples than either half.
+//!
+//! Parts: `sorted` (one line's sorted chief samples, merging, the scans that count and
+//! measure gaps), `coincidence` (the coincidence planes and Eqs. 8–9), `designs` (every
+//! channel of a design and their union over depths). This file holds the limits and the
+//! closed forms they share.
+//!
+//! [`Line::chief_projection`]: crate::sampling::line::Line::chief_projection
+//! [`Line::pixel`]: crate::sampling::line::Line::pixel
 
 mod coincidence;
 mod designs;

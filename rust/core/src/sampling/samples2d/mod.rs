@@ -22,7 +22,17 @@
 //! that of the full sample set: the representatives that can be wrong (those of
 //! components reaching the margin's edge) lie farther than m₂ from the field, and ρ < m₂.
 //! A trial pass at a narrower margin ([`TRIAL_MARGIN`] δ) comes first and is kept only when
-//! its result is provably the first margin's, bit for bit (see [`row_pass`]).
+//! its result is provably the first margin's, bit for bit (see `rows::row_pass`).
+//!
+//! Parts: `tables` (per-channel pixel tables, the nearest-lens candidates) and `gather`
+//! (the pixels whose samples can fall near the field), `chief` ([`chief_samples_into`]),
+//! `components` (hash grid and union-find), `cover` (the covering radius, and its exact
+//! separable form), `rows` (one depth, the margin widened until exact), `coverage`
+//! (validation and the entry points). This file holds the limits they share.
+//!
+//! [`Channel::nearest_lens`]: crate::model::design::Channel::nearest_lens
+//! [`Design::pixel`]: crate::model::design::Design::pixel
+//! [`Design::chief_sample`]: crate::model::design::Design::chief_sample
 
 mod chief;
 mod components;
