@@ -131,6 +131,31 @@ pub struct CameraSpec {
     pub f2: Option<f64>,
 }
 
+impl CameraSpec {
+    /// The fields of the seed design ([`Camera::paper`]), in Ng's setting.
+    pub fn paper() -> CameraSpec {
+        let f_main = 80.0;
+        let aperture = 20.0;
+        let v1 = f_main * 642.0 / (642.0 - f_main);
+        let l2 = f_main * 217.0 / (217.0 - f_main);
+        let d = 0.135;
+        CameraSpec {
+            f_main,
+            aperture,
+            v1,
+            kappa: l2 / v1 - 1.0,
+            d,
+            v: d * v1 / aperture,
+            mu: 0.009,
+            q: 15,
+            kx: 266,
+            ky: 88,
+            f1: None,
+            f2: None,
+        }
+    }
+}
+
 impl Camera {
     /// Validate every field; `f1`/`f2` default to Ng's setting when `None`. The camera is
     /// the two-channel design of [`Camera::design`] and is valid exactly when that design
@@ -208,26 +233,7 @@ impl Camera {
     /// planes (642 mm and 217 mm): F = 80, D = 20, d = 0.135, μ = 0.009, Q = 15,
     /// v = d v'/D (f-number matched on half 1), Ng's setting, K = 266 × 88 per half.
     pub fn paper() -> Camera {
-        let f_main = 80.0;
-        let aperture = 20.0;
-        let v1 = f_main * 642.0 / (642.0 - f_main);
-        let l2 = f_main * 217.0 / (217.0 - f_main);
-        let d = 0.135;
-        Camera::new(&CameraSpec {
-            f_main,
-            aperture,
-            v1,
-            kappa: l2 / v1 - 1.0,
-            d,
-            v: d * v1 / aperture,
-            mu: 0.009,
-            q: 15,
-            kx: 266,
-            ky: 88,
-            f1: None,
-            f2: None,
-        })
-        .expect("the seed design is valid")
+        Camera::new(&CameraSpec::paper()).expect("the seed design is valid")
     }
 
     /// L_i, the array plane of half i: L_1 = v', L_2 = v'(1+κ).
@@ -366,18 +372,8 @@ mod tests {
         let e = with(20.0, p.v, Some(-1.0)).unwrap_err();
         assert_eq!(e.parameter_name().as_deref(), Some("f1"));
         let e = Camera::new(&CameraSpec {
-            f_main: p.f_main,
-            aperture: 20.0,
-            v1: p.v1,
-            kappa: p.kappa,
-            d: p.d,
-            v: p.v,
-            mu: p.mu,
-            q: 15,
-            kx: 266,
-            ky: 88,
-            f1: None,
             f2: Some(0.0),
+            ..CameraSpec::paper()
         })
         .unwrap_err();
         assert_eq!(e.parameter_name().as_deref(), Some("f2"));

@@ -461,8 +461,6 @@ mod tests {
         }
         let k = MAX_K as i64;
         let huge = Camera::new(&CameraSpec {
-            f_main: 80.0,
-            aperture: 20.0,
             v1: 90.0,
             kappa: 0.3,
             d: 0.1,
@@ -471,8 +469,7 @@ mod tests {
             q: 65_535,
             kx: k,
             ky: k,
-            f1: None,
-            f2: None,
+            ..CameraSpec::paper()
         })
         .unwrap()
         .design();

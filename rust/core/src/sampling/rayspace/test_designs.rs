@@ -7,20 +7,12 @@ use crate::sampling::line::{Axis, Line};
 
 /// The seed with 6 x 4 lenses and the given microlens focal lengths, as its design.
 pub(super) fn design(f1: Option<f64>, f2: Option<f64>) -> Design {
-    let p = Camera::paper();
     Camera::new(&CameraSpec {
-        f_main: p.f_main,
-        aperture: p.aperture,
-        v1: p.v1,
-        kappa: p.kappa,
-        d: p.d,
-        v: p.v,
-        mu: p.mu,
-        q: 15,
         kx: 6,
         ky: 4,
         f1,
         f2,
+        ..CameraSpec::paper()
     })
     .unwrap()
     .design()

@@ -10,20 +10,13 @@ use crate::sampling::line::{Axis, Line};
 
 /// The seed's design, or a variant of it with F = 80 (as the paper's camera).
 pub(super) fn small(kappa: f64, aperture: f64, q: i64, kx: i64, ky: i64) -> Design {
-    let p = Camera::paper();
     Camera::new(&CameraSpec {
-        f_main: 80.0,
         aperture,
-        v1: p.v1,
         kappa,
-        d: p.d,
-        v: p.v,
-        mu: p.mu,
         q,
         kx,
         ky,
-        f1: None,
-        f2: None,
+        ..CameraSpec::paper()
     })
     .unwrap()
     .design()

@@ -99,20 +99,11 @@ pub(super) fn designs() -> Vec<Design> {
 }
 
 fn small_camera() -> Camera {
-    let p = Camera::paper();
     Camera::new(&CameraSpec {
-        f_main: 80.0,
-        aperture: 20.0,
-        v1: p.v1,
         kappa: 0.3866,
-        d: p.d,
-        v: p.v,
-        mu: p.mu,
-        q: 15,
         kx: 12,
         ky: 9,
-        f1: None,
-        f2: None,
+        ..CameraSpec::paper()
     })
     .unwrap()
 }
