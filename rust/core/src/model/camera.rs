@@ -252,6 +252,17 @@ impl Camera {
         }
     }
 
+    /// Lit pixels under one lens along x of half i (docs/model.md §3): the q whose chief
+    /// ray w = −(L_i/v) θ_q, θ_q = μ (q − (Q − 1)/2), passes the aperture, |w| < D/2.
+    pub fn lit_pixels(&self, half: Half) -> u32 {
+        let l = self.array_plane(half);
+        let lit = |q: u32| {
+            let theta = self.mu * (q as f64 - (self.q as f64 - 1.0) / 2.0);
+            (-(l / self.v) * theta).abs() < self.aperture / 2.0
+        };
+        (0..self.q).filter(|&q| lit(q)).count() as u32
+    }
+
     /// ρ = κ v', the extra optical path of half 2 (one prism side).
     pub fn rho(&self) -> f64 {
         self.kappa * self.v1
@@ -301,9 +312,45 @@ mod tests {
     #[test]
     fn paper_lit_pixels() {
         // Half 1 is f-number matched: all 15 lit. Half 2: |q − 7| < 7.5 / (1 + κ) = 5.41.
-        let d = Camera::paper().design();
+        let cam = Camera::paper();
+        let d = cam.design();
         assert_eq!(lit_pixels(&d, 1), 15);
         assert_eq!(lit_pixels(&d, 2), 11);
+        assert_eq!(
+            [cam.lit_pixels(Half::One), cam.lit_pixels(Half::Two)],
+            [15, 11]
+        );
+    }
+
+    #[test]
+    fn lit_pixels_are_the_lines_lit_pixels() {
+        // The camera's count against the 1-D line's pixels (sampling::line), over apertures
+        // from vignetted to f-number matched, odd and even Q (Q μ = d).
+        for (aperture, q, mu) in [
+            (20.0, 15, 0.009),
+            (14.0, 15, 0.009),
+            (9.0, 15, 0.009),
+            (14.0, 10, 0.0135),
+            (7.0, 10, 0.0135),
+        ] {
+            let cam = Camera::new(&CameraSpec {
+                aperture,
+                mu,
+                q,
+                kx: 6,
+                ky: 4,
+                ..CameraSpec::paper()
+            })
+            .unwrap();
+            let d = cam.design();
+            for (n, half) in [(1, Half::One), (2, Half::Two)] {
+                assert_eq!(
+                    cam.lit_pixels(half) as usize,
+                    lit_pixels(&d, n),
+                    "{aperture} {q}"
+                );
+            }
+        }
     }
 
     #[test]

@@ -7,10 +7,7 @@ use pyo3::types::PyDict;
 
 use splitlf_core::model::camera::CameraSpec;
 use splitlf_core::model::optics::LensOptics;
-use splitlf_core::sampling::line::Line;
-use splitlf_core::{
-    model::design, model::lens, model::optics, model::presets, Axis, Camera, Design,
-};
+use splitlf_core::{model::design, model::lens, model::optics, model::presets, Camera, Design};
 
 use crate::infra::args::{half_arg, int_arg, saturate, with_given};
 use crate::infra::errors::to_py;
@@ -78,10 +75,7 @@ impl CameraCore {
 
     /// Lit pixels per lens along x of channel i (its first lens's Q pixels).
     fn lit_pixels(&self, half_: &Bound<'_, PyAny>) -> PyResult<u32> {
-        let number = half_arg(half_)?.index() as i64 + 1;
-        let line = Line::of_channel(&self.design, number, Axis::X).map_err(to_py)?;
-        let q = line.q().unwrap_or_default();
-        Ok((0..q).filter(|&i| line.pixel(i).lit).count() as u32)
+        Ok(self.inner.lit_pixels(half_arg(half_)?))
     }
 
     fn ng_focal_length(&self, half_: &Bound<'_, PyAny>) -> PyResult<f64> {
