@@ -15,9 +15,6 @@ use crate::model::optics::LensOptics;
 use crate::sampling::line::Axis;
 use crate::sampling::line::{check_coincidence_channel, Line};
 
-/// Depths per parallel task.
-pub(super) const CHUNK: usize = 8;
-
 /// Side of a coincidence plane relative to the half's out-of-focus plane.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Side {

@@ -3,7 +3,6 @@
 
 use rayon::prelude::*;
 
-use super::coincidence::CHUNK;
 use super::sorted::{field_gap, line_samples, merge_into, scan, LineSamples, Scratch, Work};
 use super::*;
 use crate::infra::error::{Error, Result};

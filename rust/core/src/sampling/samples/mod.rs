@@ -40,6 +40,8 @@ pub use designs::*;
 
 use crate::infra::error::{Error, Result};
 
+/// Depths per parallel task.
+const CHUNK: usize = 8;
 /// Largest number of pixels along one axis of one channel (K · Q) the brute-force count
 /// accepts (a cap on the work per depth; the memory a call needs is estimated separately
 /// and checked against what is available).

@@ -3,7 +3,7 @@
 
 use rayon::prelude::*;
 
-use super::tables::{tables_bytes, PixelTables, Tables};
+use super::tables::{tables_bytes, PixelTables, RowOut, Tables};
 use crate::infra::error::{Error, Result};
 use crate::infra::memory::{self, try_vec};
 use crate::infra::parallel::{self, chunk_items, for_chunks};
@@ -11,15 +11,6 @@ use crate::model::design::Design;
 use crate::model::optics::check_design_depths;
 
 // ---- chief samples of every pixel -----------------------------------------------------
-
-/// One pixel row of the [`chief_samples_into`] outputs.
-pub(super) struct RowOut<'a> {
-    pub(super) x: &'a mut [f64],
-    pub(super) y: &'a mut [f64],
-    pub(super) lit: &'a mut [bool],
-    pub(super) lens: &'a mut [i64],
-    pub(super) types: &'a mut [i64],
-}
 
 /// Output buffers of [`chief_samples_into`], row-major over the channel's pixel grid
 /// (rows b, columns a; see [`Design::pixel_grid`]): `x`, `y`, `lit`, `types` one value per

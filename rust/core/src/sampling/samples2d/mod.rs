@@ -26,8 +26,9 @@
 //!
 //! Parts: `tables` (per-channel pixel tables, the nearest-lens candidates) and `gather`
 //! (the pixels whose samples can fall near the field), `chief` ([`chief_samples_into`]),
-//! `components` (hash grid and union-find), `cover` (the covering radius, and its exact
-//! separable form), `rows` (one depth, the margin widened until exact), `coverage`
+//! `components` (hash grid and union-find), `cover` (the covering radius, and the 1-D
+//! covers of the separable form), `rows` (one depth, the margin widened until exact, or
+//! the separable form where the samples are a product of two 1-D sets), `coverage`
 //! (validation and the entry points). This file holds the limits they share.
 //!
 //! [`Channel::nearest_lens`]: crate::model::design::Channel::nearest_lens

@@ -1,9 +1,10 @@
 //! One depth: the rows (each channel and the union) from the samples within a margin of
-//! the field, the margin widened until the result is provably that of every sample.
+//! the field, the margin widened until the result is provably that of every sample; or, for
+//! a channel whose samples are a product of two 1-D sets, exactly from those sets.
 
 use super::components::{components, excess, CompWork};
-use super::cover::separable_row;
-use super::tables::{ColumnX, Tables};
+use super::cover::{cover_1d, reps_1d};
+use super::tables::{ColumnX, PixelTables, Tables};
 use super::*;
 use crate::infra::error::Result;
 use crate::infra::memory::{self, try_reserve};
@@ -340,6 +341,78 @@ fn rows_from(
         m = next.max(2.0 * m);
         pass += 1;
     }
+}
+
+// ---- separable channels ----------------------------------------------------------------
+
+/// A channel whose lit samples form a Cartesian product: the ideal layout (X depends on
+/// the column only, Y on the row only) behind a square aperture (a pixel is lit when
+/// |w_x| < D/2 and |w_y| < D/2, one condition per axis). Then two samples are linked when
+/// their X values and their Y values are, the components are products of the 1-D chains,
+/// each represented by (least X, least Y), the distinct count is the product of the 1-D
+/// counts inside the field, and the squared distance to the nearest representative is the
+/// sum of the 1-D squared distances, so ρ² = ρ_x² + ρ_y² with ρ_x, ρ_y the 1-D covering
+/// radii of [−h_x, h_x] and [−h_y, h_y]. Exact over every pixel, no margin needed.
+/// None for any other channel.
+fn separable_row(
+    t: &Tables<'_>,
+    g: f64,
+    s: f64,
+    geom: &DepthGeom,
+    keep: Option<&mut Vec<[f64; 2]>>,
+) -> Result<Option<RowResult>> {
+    let PixelTables::Ideal { w, .. } = &t.px else {
+        return Ok(None);
+    };
+    if t.design.shape != crate::model::design::Aperture::Square {
+        return Ok(None);
+    }
+    let r = t.design.aperture / 2.0;
+    let what = "coverage (separable channel)";
+    let axis = |c: &[f64]| -> Result<Vec<f64>> {
+        let mut v = Vec::new();
+        try_reserve(&mut v, what, c.len() * w.len())?;
+        for &cj in c {
+            // As Tables::sample: −g (c + w s), lit pixels only.
+            v.extend(
+                w.iter()
+                    .filter(|wq| wq.abs() < r)
+                    .map(|&wq| -g * (cj + wq * s)),
+            );
+        }
+        Ok(v)
+    };
+    let (mut xs, mut ys) = (axis(&t.cx[0])?, axis(&t.cy)?);
+    if xs.is_empty() || ys.is_empty() {
+        if let Some(out) = keep {
+            out.clear();
+        }
+        return Ok(Some(RowResult::default()));
+    }
+    reps_1d(&mut xs, geom.eps);
+    reps_1d(&mut ys, geom.eps);
+    let [hx, hy] = geom.field;
+    let inside = |v: &[f64], h: f64| {
+        let lo = v.partition_point(|&x| x < -h);
+        let hi = v.partition_point(|&x| x <= h);
+        lo..hi.max(lo)
+    };
+    let (ix, iy) = (inside(&xs, hx), inside(&ys, hy));
+    let distinct = (ix.len() * iy.len()) as u64;
+    let (rx, ry) = (cover_1d(&xs, hx), cover_1d(&ys, hy));
+    let rho_mm = (rx * rx + ry * ry).sqrt();
+    if let Some(out) = keep {
+        out.clear();
+        try_reserve(out, "samples_2d (representatives)", distinct as usize)?;
+        for &x in &xs[ix] {
+            out.extend(ys[iy.clone()].iter().map(|&y| [x, y]));
+        }
+    }
+    Ok(Some(RowResult {
+        distinct,
+        rho: rho_mm / geom.delta,
+        rho_mm,
+    }))
 }
 
 #[cfg(test)]

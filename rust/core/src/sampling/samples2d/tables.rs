@@ -2,7 +2,6 @@
 //! (or the ideal layout's offsets), from which a pixel's lens, type, lit flag and chief
 //! sample follow with the same floating-point expressions as [`Design::pixel`].
 
-use super::chief::RowOut;
 use crate::infra::error::Result;
 use crate::infra::memory::try_reserve;
 use crate::model::design::{Aperture, Channel, Design, Grid, Layout, SQRT3_2};
@@ -74,6 +73,15 @@ macro_rules! dispatch {
     }};
 }
 pub(super) use dispatch;
+
+/// One pixel row of the [`chief_samples_into`](super::chief_samples_into) outputs.
+pub(super) struct RowOut<'a> {
+    pub(super) x: &'a mut [f64],
+    pub(super) y: &'a mut [f64],
+    pub(super) lit: &'a mut [bool],
+    pub(super) lens: &'a mut [i64],
+    pub(super) types: &'a mut [i64],
+}
 
 /// A sensor pixel: its lens, chief sample and lit flag.
 #[derive(Debug, Clone, Copy)]
