@@ -331,6 +331,38 @@ def test_lytro_preset_derived_numbers():
     assert d.focus_depths(1) == [None]
 
 
+def _hex_cover_numpy(L, d, v, mu, kx, ky):
+    """(M_x, M_y) of the smallest axis-centred grid holding every hex image cell, and M_x
+    of a grid as wide as the cells' bounding box, from the lattice of docs/model.md §9
+    (row k shifted by k mod 2 halves, centres mean-centred) in plain NumPy."""
+    j, k = np.meshgrid(np.arange(kx), np.arange(ky), indexing="ij")
+    x = j + (k % 2) / 2.0
+    y = k * math.sqrt(3) / 2
+    p = d * (1 + v / L)
+    x, y = (x - x.mean()) * p, (y - y.mean()) * p
+    # Pointy-top hexagon of pitch p: flat sides p/2 either side, corners p/sqrt(3) up.
+    lo_x, hi_x = (x - p / 2).min(), (x + p / 2).max()
+    hi_y = np.abs(y).max() + p / math.sqrt(3)
+    mx = math.ceil(2 * max(-lo_x, hi_x) / mu)
+    my = math.ceil(2 * hi_y / mu)
+    return mx, my, math.ceil((hi_x - lo_x) / mu)
+
+
+@pytest.mark.parametrize("kx, ky, want", [(6, 5, 134), (8, 7, 173), (6, 6, 132),
+                                          (8, 8, 172), (7, 1, 142)])
+def test_default_hex_sensor_covers_every_image_cell(kx, ky, want):
+    # The mean-centred lattice of an odd number of rows sits (1/2 - floor(Ky/2)/Ky) d/2
+    # off its bounding box's centre: a centred grid as wide as the box missed a sliver on
+    # one side (6 x 5: 132 columns, 8 x 7: 172). Even Ky and one row are symmetric.
+    L, d, v, mu = 60.0, 0.1, 0.3, 0.00498
+    ch = Channel(L=L, d=d, v=v, mu=mu, Kx=kx, Ky=ky, grid="hex", layout="sensor")
+    (row,) = Design(50.0, 10.0, (ch,)).resolved()
+    mx, my, box = _hex_cover_numpy(L, d, v, mu, kx, ky)
+    assert (row["Mx"], row["My"]) == (mx, my)
+    assert row["Mx"] == want
+    assert box == (want if ky % 2 == 0 or ky == 1 else {5: 132, 7: 172}[ky])
+
+
 # -- TOML, dicts, pickling --------------------------------------------------------------------
 
 @pytest.mark.parametrize("name", sorted(DESIGNS))

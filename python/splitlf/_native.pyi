@@ -108,21 +108,7 @@ _Intervals = list[tuple[float, float]]
 
 @final
 class CameraCore:
-    def __new__(
-        cls,
-        f_main: float,
-        aperture: float,
-        v1: float,
-        kappa: float,
-        d: float,
-        v: float,
-        mu: float,
-        q: int,
-        kx: int,
-        ky: int,
-        f1: float | None = None,
-        f2: float | None = None,
-    ) -> CameraCore: ...
+    def __new__(cls, fields: dict[str, float | int | None]) -> CameraCore: ...
     @staticmethod
     def paper() -> CameraCore: ...
     def fields(

@@ -118,7 +118,7 @@ class Camera(Design):
         for name in ("f1", "f2"):
             explicit[name] = given[name] is not None
             values[name] = None if given[name] is None else _real(name, given[name])
-        core = _native.CameraCore(*(values[n] for n in FIELDS))
+        core = _native.CameraCore(values)
         self._adopt(_native.DesignCore.from_camera(core))  # validated by the core already
         set_ = object.__setattr__
         for name, value in zip(FIELDS, core.fields(), strict=True):

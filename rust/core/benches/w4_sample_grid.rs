@@ -2,6 +2,7 @@
 //! sensor of `benches/run.py` (Kx = 129, Ky = 43: 1,935 x 645 pixels), at one depth.
 
 use criterion::{criterion_group, criterion_main, Criterion};
+use splitlf_core::model::camera::CameraSpec;
 use splitlf_core::sampling::rayspace::{design_sample_grid_into, Sample};
 use splitlf_core::Camera;
 
@@ -11,20 +12,20 @@ fn bench(c: &mut Criterion) {
     let p = Camera::paper();
     let (mu, q) = (0.0045, 15);
     let d = q as f64 * mu;
-    let cam = Camera::new(
-        p.f_main,
-        p.aperture,
-        p.v1,
-        p.kappa,
+    let cam = Camera::new(&CameraSpec {
+        f_main: p.f_main,
+        aperture: p.aperture,
+        v1: p.v1,
+        kappa: p.kappa,
         d,
-        d * p.v1 / p.aperture,
+        v: d * p.v1 / p.aperture,
         mu,
         q,
-        129,
-        43,
-        None,
-        None,
-    )
+        kx: 129,
+        ky: 43,
+        f1: None,
+        f2: None,
+    })
     .unwrap();
     let n = (cam.kx * cam.q) as usize * (cam.ky * cam.q) as usize;
     let d = cam.design();

@@ -1,7 +1,7 @@
 //! Designs and depths at the edges of the floating-point range: every result stays finite
 //! and consistent, or the input is refused with a named error.
 
-use splitlf_core::model::camera::Camera;
+use splitlf_core::model::camera::{Camera, CameraSpec};
 use splitlf_core::model::lens::conjugate;
 use splitlf_core::model::optics::{design_curves as curves, design_depth_of_field};
 use splitlf_core::sampling::line::Line;
@@ -14,9 +14,20 @@ fn seed_with(f: impl FnOnce(&mut [f64; 7])) -> Result<Design, Error> {
     let p = Camera::paper();
     let mut x = [p.f_main, p.aperture, p.v1, p.kappa, p.d, p.v, p.mu];
     f(&mut x);
-    Camera::new(
-        x[0], x[1], x[2], x[3], x[4], x[5], x[6], 15, 266, 88, None, None,
-    )
+    Camera::new(&CameraSpec {
+        f_main: x[0],
+        aperture: x[1],
+        v1: x[2],
+        kappa: x[3],
+        d: x[4],
+        v: x[5],
+        mu: x[6],
+        q: 15,
+        kx: 266,
+        ky: 88,
+        f1: None,
+        f2: None,
+    })
     .map(|c| c.design())
 }
 
@@ -162,20 +173,20 @@ fn depth_of_field_never_returns_empty_intervals() {
 fn boundary_contacts_are_not_light() {
     // A design whose half-2 polygons touch a strip boundary: exact area 0, computed area
     // ~5e-16 of a full pixel before the rule.
-    let cam = Camera::new(
-        40.0,
-        10.0,
-        45.0,
-        0.2,
-        0.1,
-        0.45,
-        0.1 / 12.0,
-        12,
-        8,
-        4,
-        None,
-        None,
-    )
+    let cam = Camera::new(&CameraSpec {
+        f_main: 40.0,
+        aperture: 10.0,
+        v1: 45.0,
+        kappa: 0.2,
+        d: 0.1,
+        v: 0.45,
+        mu: 0.1 / 12.0,
+        q: 12,
+        kx: 8,
+        ky: 4,
+        f1: None,
+        f2: None,
+    })
     .unwrap()
     .design();
     for channel in [1, 2] {

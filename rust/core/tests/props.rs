@@ -8,6 +8,7 @@
 
 use proptest::prelude::*;
 use proptest::test_runner::RngSeed;
+use splitlf_core::model::camera::CameraSpec;
 use splitlf_core::model::lens::{MAX_K, MAX_Q};
 use splitlf_core::model::optics::{design_curves, design_depth_of_field, Intervals, LensOptics};
 use splitlf_core::sampling::line::Line;
@@ -52,7 +53,20 @@ impl Fields {
         let [f_main, aperture, v1, kappa, d, v, mu] = self.lengths;
         let [q, kx, ky] = self.counts;
         let [f1, f2] = self.focal;
-        Camera::new(f_main, aperture, v1, kappa, d, v, mu, q, kx, ky, f1, f2)
+        Camera::new(&CameraSpec {
+            f_main,
+            aperture,
+            v1,
+            kappa,
+            d,
+            v,
+            mu,
+            q,
+            kx,
+            ky,
+            f1,
+            f2,
+        })
     }
 }
 

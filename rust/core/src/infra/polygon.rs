@@ -43,6 +43,20 @@ pub fn signed_area(p: &[Pt]) -> f64 {
     0.5 * s
 }
 
+/// Signed area taken about the first vertex (a fan of triangles from it): the same value
+/// as [`signed_area`] up to rounding, more precise far from the origin.
+pub fn signed_area_about_first(p: &[Pt]) -> f64 {
+    if p.len() < 3 {
+        return 0.0;
+    }
+    let o = p[0];
+    let mut a2 = 0.0;
+    for i in 1..p.len() - 1 {
+        a2 += (p[i][0] - o[0]) * (p[i + 1][1] - o[1]) - (p[i + 1][0] - o[0]) * (p[i][1] - o[1]);
+    }
+    0.5 * a2
+}
+
 /// Centroid of a polygon of non-zero area (the vertex mean when the area vanishes).
 pub fn centroid(p: &[Pt]) -> Pt {
     let n = p.len();
@@ -91,6 +105,28 @@ pub fn clip_into(src: &[Pt], out: &mut Vec<Pt>, f: impl Fn(Pt) -> f64) {
         prev = cur;
         fp = fc;
     }
+}
+
+/// Keep the part of the convex polygon `src` where `f(point) >= 0`, `f` affine, into the
+/// fixed buffer `out`; returns the number of vertices written (at most `out.len()`, the rest
+/// dropped). Unlike [`clip_into`] the output starts at `src[0]` when it is kept, and a
+/// vertex on the line is kept once and makes no extra intersection.
+pub fn clip_keep(src: &[Pt], out: &mut [Pt], f: impl Fn(Pt) -> f64) -> usize {
+    let (cap, m) = (out.len(), src.len());
+    let mut k = 0;
+    for i in 0..m {
+        let (a, b) = (src[i], src[(i + 1) % m]);
+        let (fa, fb) = (f(a), f(b));
+        if fa >= 0.0 && k < cap {
+            out[k] = a;
+            k += 1;
+        }
+        if ((fa > 0.0 && fb < 0.0) || (fa < 0.0 && fb > 0.0)) && k < cap {
+            out[k] = cut(a, b, fa, fb);
+            k += 1;
+        }
+    }
+    k
 }
 
 #[inline]
@@ -182,6 +218,23 @@ mod tests {
                 assert!((got - want).abs() < 1e-14, "{c}: {got} vs {want}");
             }
         }
+    }
+
+    #[test]
+    fn clip_keep_keeps_vertices_on_the_line_once() {
+        let sq = [[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]];
+        let mut out = [[0.0; 2]; 8];
+        // x ≤ 1: two cuts, starting at the first vertex.
+        let n = clip_keep(&sq, &mut out, |q| 1.0 - q[0]);
+        assert_eq!(&out[..n], &[[0.0, 0.0], [1.0, 0.0], [1.0, 2.0], [0.0, 2.0]]);
+        // x + y ≤ 2 passes through two corners: kept once each, no cut points.
+        let n = clip_keep(&sq, &mut out, |q| 2.0 - q[0] - q[1]);
+        assert_eq!(&out[..n], &[[0.0, 0.0], [2.0, 0.0], [0.0, 2.0]]);
+        assert_eq!(signed_area_about_first(&out[..n]), 2.0);
+        assert_eq!(signed_area_about_first(&sq), signed_area(&sq));
+        // A full buffer drops the rest.
+        let mut small = [[0.0; 2]; 2];
+        assert_eq!(clip_keep(&sq, &mut small, |_| 1.0), 2);
     }
 
     #[test]

@@ -113,56 +113,86 @@ fn camera_error(e: Error) -> Error {
     }
 }
 
+/// A camera's fields before validation ([`Camera::new`]): the docs/model.md symbols of
+/// [`Camera`], Q and K as given (any integer) and f_1/f_2 `None` for Ng's setting.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CameraSpec {
+    pub f_main: f64,
+    pub aperture: f64,
+    pub v1: f64,
+    pub kappa: f64,
+    pub d: f64,
+    pub v: f64,
+    pub mu: f64,
+    pub q: i64,
+    pub kx: i64,
+    pub ky: i64,
+    pub f1: Option<f64>,
+    pub f2: Option<f64>,
+}
+
+impl CameraSpec {
+    /// The fields of the seed design ([`Camera::paper`]), in Ng's setting.
+    pub fn paper() -> CameraSpec {
+        let f_main = 80.0;
+        let aperture = 20.0;
+        let v1 = f_main * 642.0 / (642.0 - f_main);
+        let l2 = f_main * 217.0 / (217.0 - f_main);
+        let d = 0.135;
+        CameraSpec {
+            f_main,
+            aperture,
+            v1,
+            kappa: l2 / v1 - 1.0,
+            d,
+            v: d * v1 / aperture,
+            mu: 0.009,
+            q: 15,
+            kx: 266,
+            ky: 88,
+            f1: None,
+            f2: None,
+        }
+    }
+}
+
 impl Camera {
     /// Validate every field; `f1`/`f2` default to Ng's setting when `None`. The camera is
     /// the two-channel design of [`Camera::design`] and is valid exactly when that design
     /// is ([`Design::new`]: overlapping microlens images are refused too), with κ ≥ 0 as
     /// the parametrisation's own rule; an error names the camera's field.
-    #[allow(clippy::too_many_arguments)]
-    pub fn new(
-        f_main: f64,
-        aperture: f64,
-        v1: f64,
-        kappa: f64,
-        d: f64,
-        v: f64,
-        mu: f64,
-        q: i64,
-        kx: i64,
-        ky: i64,
-        f1: Option<f64>,
-        f2: Option<f64>,
-    ) -> Result<Camera> {
-        let l2 = check_kappa(v1, kappa)?;
+    pub fn new(spec: &CameraSpec) -> Result<Camera> {
+        let s = spec;
+        let l2 = check_kappa(s.v1, s.kappa)?;
         let channel = |l: f64, f: Option<f64>| ChannelSpec {
             l,
-            d,
-            v,
-            mu,
-            kx,
-            ky,
+            d: s.d,
+            v: s.v,
+            mu: s.mu,
+            kx: s.kx,
+            ky: s.ky,
             grid: Grid::Rect,
             f: f.map(|f| vec![f]),
             layout: "ideal".into(),
-            q: Some(q),
+            q: Some(s.q),
             mx: None,
             my: None,
             share: 0.5,
         };
-        let specs = [channel(v1, f1), channel(l2, f2)];
+        let specs = [channel(s.v1, s.f1), channel(l2, s.f2)];
         let design =
-            Design::new(f_main, aperture, Aperture::Square, &specs).map_err(camera_error)?;
+            Design::new(s.f_main, s.aperture, Aperture::Square, &specs).map_err(camera_error)?;
         let [c1, c2] = [&design.channels[0], &design.channels[1]];
         Ok(Camera {
             f_main: design.f_main,
             aperture: design.aperture,
             v1: c1.l,
-            kappa,
+            kappa: s.kappa,
             d: c1.d,
             v: c1.v,
             mu: c1.mu,
             // Q passed the design's check: an integer in [1, MAX_Q].
-            q: q as u32,
+            q: s.q as u32,
             kx: c1.kx,
             ky: c1.ky,
             f1: c1.f[0],
@@ -203,26 +233,7 @@ impl Camera {
     /// planes (642 mm and 217 mm): F = 80, D = 20, d = 0.135, μ = 0.009, Q = 15,
     /// v = d v'/D (f-number matched on half 1), Ng's setting, K = 266 × 88 per half.
     pub fn paper() -> Camera {
-        let f_main = 80.0;
-        let aperture = 20.0;
-        let v1 = f_main * 642.0 / (642.0 - f_main);
-        let l2 = f_main * 217.0 / (217.0 - f_main);
-        let d = 0.135;
-        Camera::new(
-            f_main,
-            aperture,
-            v1,
-            l2 / v1 - 1.0,
-            d,
-            d * v1 / aperture,
-            0.009,
-            15,
-            266,
-            88,
-            None,
-            None,
-        )
-        .expect("the seed design is valid")
+        Camera::new(&CameraSpec::paper()).expect("the seed design is valid")
     }
 
     /// L_i, the array plane of half i: L_1 = v', L_2 = v'(1+κ).
@@ -239,6 +250,17 @@ impl Camera {
             Half::One => self.f1,
             Half::Two => self.f2,
         }
+    }
+
+    /// Lit pixels under one lens along x of half i (docs/model.md §3): the q whose chief
+    /// ray w = −(L_i/v) θ_q, θ_q = μ (q − (Q − 1)/2), passes the aperture, |w| < D/2.
+    pub fn lit_pixels(&self, half: Half) -> u32 {
+        let l = self.array_plane(half);
+        let lit = |q: u32| {
+            let theta = self.mu * (q as f64 - (self.q as f64 - 1.0) / 2.0);
+            (-(l / self.v) * theta).abs() < self.aperture / 2.0
+        };
+        (0..self.q).filter(|&q| lit(q)).count() as u32
     }
 
     /// ρ = κ v', the extra optical path of half 2 (one prism side).
@@ -290,18 +312,65 @@ mod tests {
     #[test]
     fn paper_lit_pixels() {
         // Half 1 is f-number matched: all 15 lit. Half 2: |q − 7| < 7.5 / (1 + κ) = 5.41.
-        let d = Camera::paper().design();
+        let cam = Camera::paper();
+        let d = cam.design();
         assert_eq!(lit_pixels(&d, 1), 15);
         assert_eq!(lit_pixels(&d, 2), 11);
+        assert_eq!(
+            [cam.lit_pixels(Half::One), cam.lit_pixels(Half::Two)],
+            [15, 11]
+        );
+    }
+
+    #[test]
+    fn lit_pixels_are_the_lines_lit_pixels() {
+        // The camera's count against the 1-D line's pixels (sampling::line), over apertures
+        // from vignetted to f-number matched, odd and even Q (Q μ = d).
+        for (aperture, q, mu) in [
+            (20.0, 15, 0.009),
+            (14.0, 15, 0.009),
+            (9.0, 15, 0.009),
+            (14.0, 10, 0.0135),
+            (7.0, 10, 0.0135),
+        ] {
+            let cam = Camera::new(&CameraSpec {
+                aperture,
+                mu,
+                q,
+                kx: 6,
+                ky: 4,
+                ..CameraSpec::paper()
+            })
+            .unwrap();
+            let d = cam.design();
+            for (n, half) in [(1, Half::One), (2, Half::Two)] {
+                assert_eq!(
+                    cam.lit_pixels(half) as usize,
+                    lit_pixels(&d, n),
+                    "{aperture} {q}"
+                );
+            }
+        }
     }
 
     #[test]
     fn rejects_bad_fields() {
         let ok = Camera::paper();
         let mk = |v1: f64, kappa: f64, q: i64| {
-            Camera::new(
-                80.0, 20.0, v1, kappa, 0.135, ok.v, 0.009, q, 10, 10, None, None,
-            )
+            Camera::new(&CameraSpec {
+                f_main: 80.0,
+                aperture: 20.0,
+                v1,
+                kappa,
+                d: 0.135,
+                v: ok.v,
+                mu: 0.009,
+                q,
+                kx: 10,
+                ky: 10,
+                f1: None,
+                f2: None,
+            })
         };
         assert!(matches!(
             mk(80.0, 0.1, 15),
@@ -327,9 +396,20 @@ mod tests {
     fn validates_as_its_design() {
         let p = Camera::paper();
         let with = |aperture: f64, v: f64, f1: Option<f64>| {
-            Camera::new(
-                p.f_main, aperture, p.v1, p.kappa, p.d, v, p.mu, 15, 266, 88, f1, None,
-            )
+            Camera::new(&CameraSpec {
+                f_main: p.f_main,
+                aperture,
+                v1: p.v1,
+                kappa: p.kappa,
+                d: p.d,
+                v,
+                mu: p.mu,
+                q: 15,
+                kx: 266,
+                ky: 88,
+                f1,
+                f2: None,
+            })
         };
         for (aperture, v) in [(20.0, 0.7), (40.0, p.v)] {
             let e = with(aperture, v, None).unwrap_err();
@@ -338,20 +418,10 @@ mod tests {
         }
         let e = with(20.0, p.v, Some(-1.0)).unwrap_err();
         assert_eq!(e.parameter_name().as_deref(), Some("f1"));
-        let e = Camera::new(
-            p.f_main,
-            20.0,
-            p.v1,
-            p.kappa,
-            p.d,
-            p.v,
-            p.mu,
-            15,
-            266,
-            88,
-            None,
-            Some(0.0),
-        )
+        let e = Camera::new(&CameraSpec {
+            f2: Some(0.0),
+            ..CameraSpec::paper()
+        })
         .unwrap_err();
         assert_eq!(e.parameter_name().as_deref(), Some("f2"));
         let e = with(20.0, 0.0, None).unwrap_err();

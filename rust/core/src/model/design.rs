@@ -347,7 +347,7 @@ impl Channel {
 
     /// The smallest centred sensor grid (M_x, M_y) that covers every image cell.
     fn covering_sensor(&self) -> Result<(u32, u32)> {
-        let (ex, ey) = self.image_extent();
+        let (ex, ey) = self.covering_extent();
         let m = |name: &'static str, e: f64| -> Result<u32> {
             let n = (e / self.mu).ceil();
             if n.is_finite() && n <= MAX_M as f64 {
@@ -400,6 +400,23 @@ impl Channel {
         let (w, h) = self.array_extent();
         let m = self.magnification();
         (w * m, h * m)
+    }
+
+    /// Width and height of the smallest axis-centred box that holds every image cell: the
+    /// image extent, widened on hex grids with an odd number K_y ≥ 3 of rows by twice the
+    /// offset |⌊K_y/2⌋/K_y − 1/2| d/2 of the mean-centred lattice from its bounding box's
+    /// centre, scaled onto the sensor (docs/model.md §9, Pixel layouts). Zero offset,
+    /// and so the image extent itself, on rect grids, with even K_y or with one row.
+    pub fn covering_extent(&self) -> (f64, f64) {
+        let (w, h) = self.image_extent();
+        if self.grid == Grid::Rect || self.ky < 2 {
+            return (w, h);
+        }
+        let (mx, _) = self.hex_mean();
+        // The cells' bounding box spans [−1/2, K_x] d before centring; its centre is
+        // (K_x/2 − 1/4) d and the lattice's mean mx d.
+        let off = (self.kx as f64 / 2.0 - 0.25 - mx).abs();
+        (w + 2.0 * off * self.d * self.magnification(), h)
     }
 
     /// The mean of the hex lattice's uncentred centres, (x, y) / d.

@@ -5,11 +5,9 @@ use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
+use splitlf_core::model::camera::CameraSpec;
 use splitlf_core::model::optics::LensOptics;
-use splitlf_core::sampling::line::Line;
-use splitlf_core::{
-    model::design, model::lens, model::optics, model::presets, Axis, Camera, Design,
-};
+use splitlf_core::{model::design, model::lens, model::optics, model::presets, Camera, Design};
 
 use crate::infra::args::{half_arg, int_arg, saturate, with_given};
 use crate::infra::errors::to_py;
@@ -40,25 +38,11 @@ impl CameraCore {
 
 #[pymethods]
 impl CameraCore {
+    /// The camera of `fields`, a dict keyed by `splitlf.Camera`'s field names (F, D, v1,
+    /// kappa, d, v, mu, Q, Kx, Ky, f1, f2; f1/f2 None for Ng's setting).
     #[new]
-    #[pyo3(signature = (f_main, aperture, v1, kappa, d, v, mu, q, kx, ky, f1=None, f2=None))]
-    #[allow(clippy::too_many_arguments)]
-    fn new(
-        f_main: f64,
-        aperture: f64,
-        v1: f64,
-        kappa: f64,
-        d: f64,
-        v: f64,
-        mu: f64,
-        q: i64,
-        kx: i64,
-        ky: i64,
-        f1: Option<f64>,
-        f2: Option<f64>,
-    ) -> PyResult<Self> {
-        let inner =
-            Camera::new(f_main, aperture, v1, kappa, d, v, mu, q, kx, ky, f1, f2).map_err(to_py)?;
+    fn new(fields: &Bound<'_, PyDict>) -> PyResult<Self> {
+        let inner = Camera::new(&camera_spec(fields)?).map_err(to_py)?;
         Ok(CameraCore::of(inner))
     }
 
@@ -91,10 +75,7 @@ impl CameraCore {
 
     /// Lit pixels per lens along x of channel i (its first lens's Q pixels).
     fn lit_pixels(&self, half_: &Bound<'_, PyAny>) -> PyResult<u32> {
-        let number = half_arg(half_)?.index() as i64 + 1;
-        let line = Line::of_channel(&self.design, number, Axis::X).map_err(to_py)?;
-        let q = line.q().unwrap_or_default();
-        Ok((0..q).filter(|&i| line.pixel(i).lit).count() as u32)
+        Ok(self.inner.lit_pixels(half_arg(half_)?))
     }
 
     fn ng_focal_length(&self, half_: &Bound<'_, PyAny>) -> PyResult<f64> {
@@ -127,9 +108,28 @@ pub(crate) fn item<'py, T: FromPyObjectOwned<'py>>(
     match d.get_item(key)? {
         Some(v) => v.extract::<T>().map_err(Into::into),
         None => Err(PyRuntimeError::new_err(format!(
-            "internal: channel dict without {key:?}"
+            "internal: dict without {key:?}"
         ))),
     }
+}
+
+/// The core's [`CameraSpec`] from `splitlf.Camera`'s fields as its constructor checked
+/// their types (a dict keyed by the Python names).
+fn camera_spec(d: &Bound<'_, PyDict>) -> PyResult<CameraSpec> {
+    Ok(CameraSpec {
+        f_main: item(d, "F")?,
+        aperture: item(d, "D")?,
+        v1: item(d, "v1")?,
+        kappa: item(d, "kappa")?,
+        d: item(d, "d")?,
+        v: item(d, "v")?,
+        mu: item(d, "mu")?,
+        q: item(d, "Q")?,
+        kx: item(d, "Kx")?,
+        ky: item(d, "Ky")?,
+        f1: item(d, "f1")?,
+        f2: item(d, "f2")?,
+    })
 }
 
 pub(crate) fn channel_spec(d: &Bound<'_, PyDict>) -> PyResult<design::ChannelSpec> {

@@ -85,9 +85,7 @@ pub(crate) struct FootprintArrays {
 /// (rect grids; docs/model.md §5, §9).
 #[pyfunction]
 #[pyo3(signature = (design, z, channel, axis="x", sample="centroid", kernel=false, n_threads=None))]
-#[allow(clippy::too_many_arguments)]
 pub(crate) fn design_footprints(
-    py: Python<'_>,
     design: &DesignCore,
     z: PyReadonlyArray1<'_, f64>,
     channel: &Bound<'_, PyAny>,
@@ -96,6 +94,7 @@ pub(crate) fn design_footprints(
     kernel: bool,
     n_threads: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<FootprintArrays> {
+    let py = z.py();
     let d = &design.inner;
     let ch = channel_arg(d, channel)?;
     let ax = rayspace::axis_from_name(axis).map_err(to_py)?;
