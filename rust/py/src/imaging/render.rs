@@ -33,7 +33,6 @@ fn array_parts(a: &PyReadonlyArray2<'_, f64>) -> (Vec<f64>, usize, usize) {
 impl RenderScene {
     #[new]
     #[pyo3(signature = (texture, texture_params, texture_image, surface, surface_params, depth_map, background))]
-    #[allow(clippy::too_many_arguments)]
     fn new(
         texture: &str,
         texture_params: Vec<f64>,
