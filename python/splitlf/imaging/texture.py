@@ -12,6 +12,8 @@ whole 2-D texture to the core through ``seam`` (the native scene's description).
 - :class:`SiemensStar`: ``spokes`` bright sectors around a centre
 - :class:`RandomAlbedo`: i.i.d. uniform albedos on square cells, drawn per use
 - :class:`Image`: a user array of albedos, ``width`` mm wide, centred on the axis
+- :class:`Constant`: one albedo everywhere (a number given as a :class:`~splitlf.Scene`'s
+  texture is one)
 """
 
 from __future__ import annotations
@@ -28,10 +30,12 @@ from .. import _validate
 from ..errors import InvalidParameter, TooLargeError
 
 __all__ = [
+    "MAX_ALBEDO",
     "MAX_RANDOM_CELLS",
     "MAX_SPOKES",
     "TEXTURES",
     "BarChart",
+    "Constant",
     "Image",
     "RandomAlbedo",
     "SiemensStar",
@@ -45,6 +49,9 @@ MTF_MEAN, MTF_AMPLITUDE = 0.5, 0.4
 MAX_SPOKES = 100_000
 #: Most cells of a 2-D :class:`RandomAlbedo` drawn for one render (8 bytes each: 1 GiB).
 MAX_RANDOM_CELLS = 2**27
+#: Largest albedo accepted (the core's bound: far beyond any physical albedo, small enough
+#: that a pixel's integral and an image's sum cannot overflow).
+MAX_ALBEDO = 1e100
 
 #: The description of a texture for the native scene: (kind, params, image or None).
 Seam = tuple[str, list[float], np.ndarray | None]
@@ -80,8 +87,8 @@ def _positive(value: Any, name: str, upper: float = math.inf) -> float:
 
 def _albedo(value: Any, name: str) -> float:
     x = _real(value, name)
-    if not (math.isfinite(x) and x >= 0):
-        raise InvalidParameter.of(name, x, "a finite value >= 0")
+    if not (math.isfinite(x) and 0 <= x <= MAX_ALBEDO):
+        raise InvalidParameter.of(name, x, f"a finite value in [0, {MAX_ALBEDO:g}]")
     return x
 
 
@@ -349,8 +356,16 @@ class RandomAlbedo:
         :class:`~splitlf.errors.TooLargeError` beyond :data:`MAX_RANDOM_CELLS` cells."""
         cell = _positive(step, "cell") if self.cell is None else float(self.cell)
         x0, x1, y0, y1 = extent
-        k0, k1 = math.floor(x0 / cell), math.ceil(x1 / cell)
-        j0, j1 = math.floor(y0 / cell), math.ceil(y1 / cell)
+        span = [x0 / cell, x1 / cell, y0 / cell, y1 / cell]
+        if not all(math.isfinite(v) for v in span) or (
+                (span[1] - span[0]) * (span[3] - span[2]) > 1e200):
+            # Far beyond any memory (the cells' count may not even be a float): the cell
+            # is at fault, and the least one this scene allows is known.
+            least = math.sqrt((x1 - x0) * (y1 - y0) / MAX_RANDOM_CELLS)
+            raise InvalidParameter.of("cell", cell, f"a cell of at least {least:.3g} mm for "
+                                      f"this scene (at most {MAX_RANDOM_CELLS} cells)")
+        k0, k1 = math.floor(span[0]), math.ceil(span[1])
+        j0, j1 = math.floor(span[2]), math.ceil(span[3])
         cols, rows = max(k1 - k0, 1), max(j1 - j0, 1)
         if rows * cols > MAX_RANDOM_CELLS:
             raise TooLargeError(
@@ -388,8 +403,9 @@ class Image:
         if a.ndim != 2 or min(a.shape) < 1:
             raise ValueError(f"Image.array must be a non-empty 2D array, got shape {a.shape}")
         a = a.astype(np.float64)
-        if not np.all(np.isfinite(a)) or np.any(a < 0):
-            raise ValueError("Image.array must hold finite albedos >= 0")
+        if not np.all(np.isfinite(a)) or np.any(a < 0) or np.any(a > MAX_ALBEDO):
+            raise InvalidParameter.of("Image.array", "values outside the range",
+                                      f"finite albedos in [0, {MAX_ALBEDO:g}]")
         _positive(self.width, "width")
         if self.row is not None:
             if isinstance(self.row, bool) or not isinstance(self.row, numbers.Integral):
@@ -422,11 +438,40 @@ class Image:
         return "image", list(self.extent), np.ascontiguousarray(self.array)
 
 
+@dataclasses.dataclass(frozen=True)
+class Constant:
+    """One albedo everywhere (a number given as a :class:`~splitlf.Scene`'s texture is
+    one): a scene of it renders to ``albedo`` × the white raw.
+
+    ``albedo`` finite in [0, :data:`MAX_ALBEDO`]. Raises ``TypeError`` and
+    :class:`~splitlf.errors.InvalidParameter`."""
+
+    albedo: float = 1.0
+
+    def __post_init__(self) -> None:
+        if isinstance(self.albedo, bool | np.bool_):
+            raise TypeError(f"albedo must be a real number, got {self.albedo!r}")
+        object.__setattr__(self, "albedo", _albedo(self.albedo, "albedo"))
+
+    @property
+    def mean(self) -> float:
+        """The albedo."""
+        return float(self.albedo)
+
+    def antiderivative(self, x: np.ndarray) -> np.ndarray:
+        """The integral of the albedo along X from 0 to each X in ``x`` [mm]."""
+        return self.albedo * np.asarray(x, dtype=np.float64)
+
+    def seam(self) -> Seam:
+        """The native scene's description: ("constant", [albedo], None)."""
+        return "constant", [float(self.albedo)], None
+
+
 #: The texture classes (every one works in 1-D :func:`~splitlf.simulate` and in
 #: :func:`~splitlf.render`).
-TEXTURES = (Sinusoid, BarChart, SlantedEdge, SiemensStar, RandomAlbedo, Image)
+TEXTURES = (Sinusoid, BarChart, SlantedEdge, SiemensStar, RandomAlbedo, Image, Constant)
 #: The textures with an exact ``antiderivative`` along X.
-ANALYTIC = (Sinusoid, BarChart, SlantedEdge, SiemensStar)
+ANALYTIC = (Sinusoid, BarChart, SlantedEdge, SiemensStar, Constant)
 
 
 def texture_mean(texture: Any) -> float:

@@ -90,6 +90,7 @@ fn gauss(
     wk: &mut Work,
 ) -> f64 {
     let mut sum = 0.0;
+    wk.evals += (rule.0.len() * rule.0.len()) as u64;
     for (&sx, &wx) in rule.0.iter().zip(rule.1) {
         for (&sy, &wy) in rule.0.iter().zip(rule.1) {
             sum += wx * wy * f(xm + sx * xh, ym + sy * yh, wk);
@@ -151,6 +152,7 @@ pub(super) fn over_boxes(
                 // Bilinear between the cuts (a fronto-parallel plane, never in record mode):
                 // the midpoint rule is exact.
                 let (xm, ym) = (0.5 * (cx[i - 1] + cx[i]), 0.5 * (cy[j - 1] + cy[j]));
+                wk.evals += 1;
                 s += a * f(xm, ym, wk);
                 continue;
             }

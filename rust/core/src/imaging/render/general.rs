@@ -53,14 +53,11 @@ pub(super) fn general_channel(
     let ch = chan.ch;
     let (rows, cols) = raw_shape(ch);
     let per_row = (cols as u128) * 2000;
-    // The adaptive rule's absolute target per lens (before the channel's norm): tol × the
-    // ray measure of a fully lit pixel, cell area × (μ L / v)².
-    let full = signed_area(&chan.cell) * (ch.mu / chan.vl).powi(2);
     let px = Pixels {
         design,
         chan,
         scene,
-        tol: tol * full,
+        tol: lens_tol(chan, scene, tol),
     };
     let step = crate::infra::parallel::chunk_items(n_threads, per_row);
     let raw_ptr = SendPtr(raw.as_mut_ptr());
@@ -89,6 +86,18 @@ pub(super) fn general_channel(
             },
         )
     })
+}
+
+/// The adaptive rule's absolute target per lens (before the channel's norm) for an error
+/// target `tol` relative to a fully lit pixel under the scene's largest albedo: tol × the
+/// ray measure of a fully lit pixel, cell area × (μ L / v)², × that albedo (of the texture
+/// or the background; 1 for a black scene). Relative to the scene, not to white: scaling
+/// the albedo scales the raw and leaves the work unchanged (docs/render.md).
+pub(super) fn lens_tol(chan: &Chan, scene: &Scene, tol: f64) -> f64 {
+    let full = signed_area(&chan.cell) * (chan.ch.mu / chan.vl).powi(2);
+    let scale = scene.texture.max_albedo().max(scene.background);
+    let scale = if scale > 0.0 { scale } else { 1.0 };
+    tol * full * scale
 }
 
 /// One pixel (column a, row b of the channel's raw).
@@ -609,6 +618,57 @@ fn clip_disc(ngon: &[Pt], g: Pt, rad: f64, wk: &mut Work) {
         std::mem::swap(&mut wk.poly, &mut wk.tmp);
         if wk.poly.is_empty() {
             return;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::imaging::texture::Texture;
+
+    /// The general route's target is relative to the scene's largest albedo: a sinusoid
+    /// on a tilted plane scaled by 50 renders 50 × the raw (to 50 × tol of its white) with
+    /// the same number of integrand evaluations (before: relative to white, the scaled
+    /// scene's target was 50 × tighter and its work grew).
+    #[test]
+    fn scaling_the_albedo_scales_the_raw_not_the_work() {
+        let design = crate::model::presets::preset("seed").unwrap();
+        let ch = &design.channels[0];
+        let chan = Chan::new(&design, ch, 1e-3);
+        let scene = |k: f64| {
+            let tex = Texture::Sinusoid {
+                frequency: 0.8,
+                mean: 0.5 * k,
+                amplitude: 0.4 * k,
+                phase: 0.3,
+            };
+            let surf = Surface::Plane {
+                z0: 1000.0,
+                g: [0.2, -0.1],
+            };
+            Scene::new(tex, surf, 0.5 * k).unwrap()
+        };
+        let (s1, s50) = (scene(1.0), scene(50.0));
+        let run = |sc: &Scene| {
+            let px = Pixels {
+                design: &design,
+                chan: &chan,
+                scene: sc,
+                tol: lens_tol(&chan, sc, 1e-3),
+            };
+            let mut wk = Work::new(false);
+            let v: Vec<f64> = (0..40u32)
+                .map(|i| pixel_value(&px, 300 + 7 * i, 200 + 3 * i, &mut wk))
+                .collect();
+            (v, wk.evals)
+        };
+        let ((v1, n1), (v50, n50)) = (run(&s1), run(&s50));
+        assert!(n1 > 0);
+        assert_eq!(n1, n50, "work units");
+        // White is 1/2 on the seed's fully lit pixels; tol 1e-3 of the scene's max (0.9 k).
+        for (a, b) in v1.iter().zip(&v50) {
+            assert!((b - 50.0 * a).abs() <= 50.0 * 1e-3 * 0.9 * 0.5, "{a} {b}");
         }
     }
 }

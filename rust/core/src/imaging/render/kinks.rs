@@ -20,7 +20,10 @@ fn texture_lines(t: &Texture, axis: usize) -> Option<(f64, f64, i64, i64)> {
             })
         }
         Texture::Bars { frequency, .. } if axis == 0 => {
-            Some((0.0, 0.5 / frequency, i64::MIN / 4, i64::MAX / 4))
+            // (Bars wider than f64::MAX / 2, as in the texture's own integral: a finite
+            // spacing keeps the edge at X = 0 a cut, where 0 × ∞ made it NaN.)
+            let h = (0.5 / frequency).min(0.5 * f64::MAX);
+            Some((0.0, h, i64::MIN / 4, i64::MAX / 4))
         }
         _ => None,
     }

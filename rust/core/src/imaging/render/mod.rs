@@ -54,16 +54,22 @@ pub use chan::{circle_sides, MAX_CIRCLE_SIDES, MIN_CIRCLE_SIDES};
 pub(crate) use chan::{map_seen_once, Chan, Work};
 pub(crate) use general::{pixel_value, Pixels};
 
-/// Default error target of a pixel, relative to a fully lit pixel under a white albedo.
+/// Default error target of a pixel, relative to a fully lit pixel under the scene's largest
+/// albedo ([`Texture::max_albedo`]).
 pub const DEFAULT_TOL: f64 = 1e-3;
 /// Smallest error target accepted (the quadrature's own limit is far below).
 pub const MIN_TOL: f64 = 1e-10;
+
+/// Deepest surface point accepted (mm; 1,000 km): beyond, scene coordinates and the
+/// areas of ray polygons on the scene (~ depth²) leave the range where the integrals are
+/// exact in floating point (at 1e200 mm they overflowed to NaN).
+pub const MAX_SCENE_DEPTH: f64 = 1e9;
 
 /// Options of a render.
 #[derive(Debug, Clone, Copy)]
 pub struct RenderOptions {
     /// Error target of the general route's adaptive quadrature per pixel and lens,
-    /// relative to a fully lit pixel under a white albedo.
+    /// relative to a fully lit pixel under the scene's largest albedo.
     pub tol: f64,
     /// Each pixel takes the light of its own lens alone (the lens [`Design::pixel`]
     /// assigns it), not what its neighbours' lenses send it on a sensor layout: the depth
@@ -123,6 +129,13 @@ pub(crate) fn check_surface(design: &Design, surface: &Surface) -> Result<()> {
     let f = design.f_main;
     match surface {
         Surface::Plane { z0, g } => {
+            if *z0 > MAX_SCENE_DEPTH {
+                return Err(Error::param(
+                    "z0",
+                    *z0,
+                    format!("a depth in (F, {MAX_SCENE_DEPTH:e}] mm, F = {f} mm"),
+                ));
+            }
             if g[0] == 0.0 && g[1] == 0.0 {
                 if *z0 <= f {
                     return Err(Error::param("z0", *z0, format!("a depth > F = {f} mm")));
@@ -195,6 +208,13 @@ pub(crate) fn check_surface(design: &Design, surface: &Surface) -> Result<()> {
             Ok(())
         }
         Surface::Map(m) => {
+            if m.zmax > MAX_SCENE_DEPTH {
+                return Err(Error::param(
+                    "depth_map",
+                    m.zmax,
+                    format!("depths in (F, {MAX_SCENE_DEPTH:e}] mm, F = {f} mm"),
+                ));
+            }
             if m.zmin <= f {
                 return Err(Error::param(
                     "depth_map",
