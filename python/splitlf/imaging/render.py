@@ -395,7 +395,7 @@ def _read_raw(name: str, npz: Any) -> Raw:
 def _check_headers(npz: Any, channels: list[str], shapes: list[tuple[int, int]]) -> None:
     """Each channel's declared shape and dtype from its .npy header, read before any
     array is (a file declaring a huge array must not make the reader allocate it)."""
-    for name, shape in zip(channels, shapes, strict=True):
+    for i, (name, shape) in enumerate(zip(channels, shapes, strict=True)):
         with npz.zip.open(f"{name}.npy") as fh:
             version = np.lib.format.read_magic(fh)
             if version == (1, 0):
@@ -406,10 +406,12 @@ def _check_headers(npz: Any, channels: list[str], shapes: list[tuple[int, int]])
                 raise ValueError(f"{name}: an .npy format version {version} not written by "
                                  "Raw.save")
         if tuple(declared) != shape:
-            raise ValueError(f"{name} declares shape {tuple(declared)}, the design's raw is "
-                             f"{shape} (docs/model.md §10)")
-        if dtype.kind not in "fiu" or dtype.itemsize > 8:
-            raise ValueError(f"{name} declares dtype {dtype}, not a real array")
+            raise ValueError(f"invalid images[{i}] ({name}): declares shape "
+                             f"{tuple(declared)}, allowed {shape} (channel {i + 1}'s raw, "
+                             "docs/model.md §10)")
+        if dtype.kind not in "fiuO" or dtype.itemsize > 8:  # (objects: the loader refuses)
+            raise ValueError(f"invalid images[{i}] ({name}): declares dtype {dtype}, "
+                             "allowed real numbers")
 
 
 def _design_from_text(name: str, text: str) -> Design:
