@@ -671,3 +671,130 @@ def test_plot_raw_draws_each_channel_with_a_zoom():
     with pytest.raises(TypeError, match="raw"):
         splitlf.plot.raw(a)
 
+
+
+# -- fuzz findings (docs/render.md) ----------------------------------------------------------
+
+def tiny_seed() -> Design:
+    """The seed on 4 x 3 lenses per channel (the fuzzer's cut)."""
+    d = Design.preset("seed")
+    return d.replace(channels=tuple(c.replace(Kx=4, Ky=3) for c in d.channels))
+
+
+# Both routes' error bound on these scenes: tol (1e-3) of a fully lit pixel (1/2 on the
+# seed's halves) under the scene's largest albedo (at most 1), twice (two renders).
+TWO_TOL = 2 * 1e-3 * 0.5
+
+
+def test_a_number_is_a_constant_texture_rendering_albedo_times_white():
+    """Scene(0.3, z) is Constant(0.3): albedo x the white raw, exactly on the exact route
+    (fully lit pixels of the seed's halves read 1/2 under white: 0.15) and to tol on the
+    general route (a tilted plane)."""
+    d = tiny_seed()
+    assert Scene(0.3, 1000.0).texture == splitlf.Constant(0.3)
+    white = render(d, Scene(splitlf.Constant(1.0), 1000.0))
+    grey = render(d, Scene(0.3, 1000.0))
+    for w, g in zip(white.images, grey.images, strict=True):
+        np.testing.assert_allclose(g, 0.3 * w, rtol=1e-12, atol=1e-15)
+        assert abs(g.max() - 0.15) < 1e-12
+    tilted = render(d, Scene(0.3, Plane(1000.0, 0.2, 0.0)))
+    for g in tilted.images:
+        assert g.max() <= 0.15 + 0.3 * TWO_TOL
+        assert abs(np.median(g[g > 0.1]) - 0.15) < 0.3 * TWO_TOL
+    with pytest.raises(TypeError):
+        Scene(True, 1000.0)
+    with pytest.raises(InvalidParameter, match="albedo"):
+        Scene(-1.0, 1000.0)
+
+
+def test_one_spoke_star_is_the_upper_half_plane():
+    """SiemensStar(spokes=1) is high where Y >= Y0: a SlantedEdge at -90 degrees
+    ((X - X0) 0 - (Y - Y0)(-1) >= 0), by the definitions (it read 0.689 where white is
+    0.5 on this cut before)."""
+    d = tiny_seed()
+    star = render(d, Scene(SiemensStar(spokes=1, low=0.1, high=0.9), 1000.0))
+    edge = render(d, Scene(SlantedEdge(angle=-90.0, low=0.1, high=0.9), 1000.0))
+    for s, e in zip(star.images, edge.images, strict=True):
+        assert s.max() <= 0.9 * 0.5 + TWO_TOL
+        np.testing.assert_allclose(s, e, rtol=0, atol=TWO_TOL)
+
+
+@pytest.mark.parametrize("frequency", [1e-300, 1e-20, 1e-15])
+def test_slow_sinusoid_is_its_value_at_the_origin(frequency):
+    """A sinusoid of tiny frequency is mean + amplitude sin(phase) over the whole view
+    (1e-20 rendered all black before, 1e-15 was 0.5 % off)."""
+    d = tiny_seed()
+    got = render(d, Scene(Sinusoid(frequency, 0.5, 0.4, 0.3), 1000.0))
+    want = render(d, Scene(0.5 + 0.4 * math.sin(0.3), 1000.0))
+    for g, w in zip(got.images, want.images, strict=True):
+        np.testing.assert_allclose(g, w, rtol=0, atol=TWO_TOL)
+
+
+def test_bar_charts_of_extreme_frequencies():
+    """Bars far finer than a pixel's footprint read their mean (1e18 and up panicked
+    before: capacity overflow); bars wider than the view are the edge at X = 0 (high on
+    X >= 0: 5e-324 gave 1.45 x the brightest bar before)."""
+    d = tiny_seed()
+    mean = render(d, Scene(0.5, 1000.0))
+    edge = render(d, Scene(SlantedEdge(angle=0.0, low=0.1, high=0.9), 1000.0))
+    for f, want in [(1e18, mean), (1e300, mean), (5e-324, edge), (1e-300, edge)]:
+        got = render(d, Scene(BarChart(f, 0.1, 0.9), 1000.0))
+        for g, w in zip(got.images, want.images, strict=True):
+            np.testing.assert_allclose(g, w, rtol=0, atol=TWO_TOL, err_msg=str(f))
+
+
+@pytest.mark.parametrize("z", [1e22, 1e150, 1e200, 1e300])
+def test_depths_beyond_the_bound_are_refused_by_name(z):
+    """Depths beyond MAX_SCENE_DEPTH (1e9 mm) are refused naming z0 or the depth map and
+    the range, before any work (they panicked, read the low albedo everywhere, or ended
+    in a NaN raw blamed on images[0])."""
+    d = tiny_seed()
+    for tex in (BarChart(1.0), Sinusoid(0.5), SlantedEdge()):
+        with pytest.raises(InvalidParameter, match=r"z0.*1e9\] mm"):
+            render(d, Scene(tex, z))
+    dm = DepthMap(np.full((3, 4), z), (-5.0, 5.0, -4.0, 4.0))
+    with pytest.raises(InvalidParameter, match="depth_map"):
+        render(d, Scene(SlantedEdge(), dm))
+
+
+def test_random_albedo_of_tiny_cells_names_cell():
+    with pytest.raises(InvalidParameter, match="cell"):
+        render(tiny_seed(), Scene(RandomAlbedo(cell=1e-300), 1000.0))
+
+
+def test_huge_image_albedo_names_the_array_not_the_background():
+    with pytest.raises(InvalidParameter, match="Image.array") as e:
+        Scene(Image(np.full((3, 4), 1e308), 4.0), 1000.0)
+    assert "background" not in str(e.value)
+
+
+def test_load_checks_declared_shapes_before_reading_the_arrays(tmp_path):
+    """A small archive whose channel1.npy declares a 40,000 x 25,000 float64 array (8 GB)
+    is refused from its header, naming the declared and the expected shape; no array is
+    read (the payload is a few bytes, so reading it would fail differently)."""
+    import zipfile
+
+    d = tiny_seed()
+    path = tmp_path / "liar.npz"
+    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED) as z:
+        for key, value in (("format", np.array("splitlf-raw/1")),
+                           ("design", np.array(d.to_toml()))):
+            with z.open(f"{key}.npy", "w") as fh:
+                np.lib.format.write_array(fh, value)
+        for i in (1, 2):
+            with z.open(f"channel{i}.npy", "w") as fh:
+                header = {"descr": "<f8", "fortran_order": False, "shape": (40000, 25000)}
+                np.lib.format.write_array_header_1_0(fh, header)
+                fh.write(b"\0" * 64)
+    with pytest.raises(ValueError, match=r"declares shape \(40000, 25000\)"):
+        Raw.load(path)
+
+
+def test_depth_map_and_raw_reprs_are_short():
+    rng = np.random.default_rng(0)
+    dm = DepthMap(1000 + rng.random((300, 400)), (-5.0, 5.0, -4.0, 4.0),
+                  confident=rng.random((300, 400)) < 0.25)
+    text = repr(dm)
+    assert len(text) < 200 and "shape=(300, 400)" in text and "confident=" in text
+    raw = Raw(tiny_seed(), [np.zeros(s) for s in shapes(tiny_seed())])
+    assert len(repr(raw)) < 200 and "2 channel(s)" in repr(raw)

@@ -9,7 +9,15 @@ from . import _moved
 from ._native import __version__
 from .errors import InvalidParameter, SplitlfError, TooLargeError
 from .imaging.render import DepthMap, Plane, Raw, Scene, render
-from .imaging.texture import BarChart, Image, RandomAlbedo, SiemensStar, Sinusoid, SlantedEdge
+from .imaging.texture import (
+    BarChart,
+    Constant,
+    Image,
+    RandomAlbedo,
+    SiemensStar,
+    Sinusoid,
+    SlantedEdge,
+)
 from .inverse.depth import DepthSweep, estimate_depth
 from .inverse.reconstruct import Reconstruction, reconstruct
 from .inverse.simulate import Simulation, simulate
@@ -59,6 +67,7 @@ __all__ = [
     "Channel",
     "ChiefSamples",
     "CoincidencePlanes",
+    "Constant",
     "Coverage",
     "Curves",
     "DepthMap",

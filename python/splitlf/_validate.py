@@ -254,12 +254,14 @@ def positive(value: Any, name: str, upper: float = math.inf) -> float:
     return x
 
 
-def nonnegative(value: Any, name: str) -> float:
-    """A finite real number >= 0 (an albedo, a noise level), else ``TypeError`` /
-    :class:`InvalidParameter`."""
+def nonnegative(value: Any, name: str, upper: float = math.inf) -> float:
+    """A finite real number in [0, ``upper``] (an albedo, a noise level), else
+    ``TypeError`` / :class:`InvalidParameter`."""
     x = _real_or_inf(value, name)
-    if not (math.isfinite(x) and x >= 0):
-        raise InvalidParameter.of(name, x, "a finite value >= 0")
+    if not (math.isfinite(x) and 0 <= x <= upper):
+        allowed = ("a finite value >= 0" if upper == math.inf
+                   else f"a finite value in [0, {upper:g}]")
+        raise InvalidParameter.of(name, x, allowed)
     return x
 
 

@@ -33,7 +33,7 @@ import os
 import sys
 import zipfile
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -46,10 +46,10 @@ from .._progress import progress_bar as _progress
 from .._progress import progress_flag as _progress_flag
 from .._validate import extent as _extent
 from .._validate import finite as _finite
-from .._validate import nonnegative as _albedo
-from ..errors import InvalidParameter
+from ..errors import InvalidParameter, TooLargeError
 from ..model.design import Design
-from .texture import TEXTURES, RandomAlbedo
+from .texture import TEXTURES, Constant, RandomAlbedo
+from .texture import albedo as _albedo
 
 __all__ = ["FORMAT", "DepthMap", "Plane", "Raw", "Scene", "render"]
 
@@ -162,6 +162,19 @@ class DepthMap:
             b.setflags(write=False)
             object.__setattr__(self, "confident", b)
 
+    def __repr__(self) -> str:
+        """A short summary (shape, extent, depth range, confident share), not the arrays."""
+        z = self.depth
+        parts = [f"shape={z.shape}", "extent=({:g}, {:g}, {:g}, {:g})".format(*self.extent),
+                 f"depth=[{float(z.min()):g}, {float(z.max()):g}] mm"]
+        if self.confident is not None:
+            parts.append(f"confident={float(np.mean(self.confident)):.0%}")
+        if self.confidence is not None:
+            parts.append("confidence=array")
+        if self.sweep is not None:
+            parts.append(f"sweep={type(self.sweep).__name__}")
+        return f"DepthMap({', '.join(parts)})"
+
     def seam(self) -> tuple[str, list[float], np.ndarray]:
         """The native scene's surface: ("depthmap", [X0, X1, Y0, Y1], depth)."""
         return "depthmap", list(self.extent), self.depth
@@ -182,8 +195,9 @@ class Scene:
 
     - ``texture``: a :class:`~splitlf.Sinusoid`, :class:`~splitlf.BarChart`,
       :class:`~splitlf.SlantedEdge`, :class:`~splitlf.SiemensStar`,
-      :class:`~splitlf.RandomAlbedo`, :class:`~splitlf.Image`, or ``"random"`` (a
-      RandomAlbedo on delta(z) cells)
+      :class:`~splitlf.RandomAlbedo`, :class:`~splitlf.Image`, :class:`~splitlf.Constant`,
+      a number (a Constant of that albedo) or ``"random"`` (a RandomAlbedo on delta(z)
+      cells)
     - ``depth``: a number (the fronto-parallel plane at that depth [mm], kept as a
       :class:`Plane`), a :class:`Plane` or a :class:`DepthMap`
     - ``background``: the albedo a ray sees when it meets no surface, finite >= 0
@@ -199,9 +213,12 @@ class Scene:
         tex = self.texture
         if isinstance(tex, str) and tex == "random":
             tex = RandomAlbedo()
+        elif isinstance(tex, numbers.Real) and not isinstance(tex, bool | np.bool_):
+            tex = Constant(cast(float, tex))  # validated by Constant
         if not isinstance(tex, TEXTURES):
-            raise TypeError("texture must be \"random\", a Sinusoid, BarChart, SlantedEdge, "
-                            "SiemensStar, RandomAlbedo or Image, got "
+            raise TypeError("texture must be \"random\", a number (a constant albedo), a "
+                            "Sinusoid, BarChart, SlantedEdge, SiemensStar, RandomAlbedo, "
+                            "Image or Constant, got "
                             f"{type(self.texture).__name__} {self.texture!r}"[:300])
         object.__setattr__(self, "texture", tex)
         object.__setattr__(self, "depth", _surface(self.depth))
@@ -296,6 +313,13 @@ class Raw:
         object.__setattr__(self, "images", tuple(_image(a, i, s, copy) for i, (a, s)
                                                  in enumerate(zip(imgs, shapes, strict=True))))
 
+    def __repr__(self) -> str:
+        """A short summary (each channel's shape and value range), not the arrays."""
+        chans = ", ".join(f"{a.shape[0]}x{a.shape[1]} in [{float(a.min()):.4g}, "
+                          f"{float(a.max()):.4g}]" if a.size else f"{a.shape}"
+                          for a in self.images)
+        return f"Raw({len(self.images)} channel(s): {chans})"
+
     def channel(self, i: int) -> np.ndarray:
         """Channel ``i``'s raw (channels numbered from 1)."""
         n = len(self.images)
@@ -354,7 +378,37 @@ def _read_raw(name: str, npz: Any) -> Raw:
     if missing or extra:
         raise ValueError(f"the arrays {sorted(keys - {'format', 'design'})} do not match "
                          f"the design's {len(channels)} channel(s) ({', '.join(channels)})")
+    shapes = _expected_shapes(design)
+    _check_headers(npz, channels, shapes)
+    nbytes = sum(8 * r * c for r, c in shapes)
+    limit = _native.available_memory()
+    if nbytes > limit:
+        raise TooLargeError(f"its raws need {nbytes / 2**30:.1f} GiB, more than the "
+                            f"{limit / 2**30:.1f} GiB available", what="Raw.load",
+                            nbytes=nbytes, limit=limit)
     return Raw._adopt(design, tuple(npz[c] for c in channels))
+
+
+def _check_headers(npz: Any, channels: list[str], shapes: list[tuple[int, int]]) -> None:
+    """Each channel's declared shape and dtype from its .npy header, read before any
+    array is (a file declaring a huge array must not make the reader allocate it)."""
+    for i, (name, shape) in enumerate(zip(channels, shapes, strict=True)):
+        with npz.zip.open(f"{name}.npy") as fh:
+            version = np.lib.format.read_magic(fh)
+            if version == (1, 0):
+                declared, _, dtype = np.lib.format.read_array_header_1_0(fh)
+            elif version == (2, 0):
+                declared, _, dtype = np.lib.format.read_array_header_2_0(fh)
+            else:
+                raise ValueError(f"{name}: an .npy format version {version} not written by "
+                                 "Raw.save")
+        if tuple(declared) != shape:
+            raise ValueError(f"invalid images[{i}] ({name}): declares shape "
+                             f"{tuple(declared)}, allowed {shape} (channel {i + 1}'s raw, "
+                             "docs/model.md §10)")
+        if dtype.kind not in "fiuO" or dtype.itemsize > 8:  # (objects: the loader refuses)
+            raise ValueError(f"invalid images[{i}] ({name}): declares dtype {dtype}, "
+                             "allowed real numbers")
 
 
 def _design_from_text(name: str, text: str) -> Design:
@@ -442,8 +496,9 @@ def render(design: Design, scene: Scene, *, noise: Mapping[str, float] | None = 
     - ``seed``: an integer >= 0 (or None: fresh entropy); the texture is drawn by
       ``np.random.default_rng([seed, 0])``, the noise by ``np.random.default_rng([seed,
       1])``, channel 1 first: a given seed gives the same raw bit for bit
-    - ``tol``: the error target of a pixel, relative to a fully lit pixel under a white
-      albedo (None: ``_native.RENDER_TOL``, 1e-3; allowed [1e-10, 0.1]); the exact route
+    - ``tol``: the error target of a pixel, relative to a fully lit pixel under the
+      scene's largest albedo (None: ``_native.RENDER_TOL``, 1e-3; allowed [1e-10, 0.1];
+      docs/render.md); the exact route
       (rect grid, square aperture, ideal layout, fronto-parallel plane, image texture) has
       no quadrature error at all (docs/render.md)
     - ``n_threads``: threads of the core (None: all cores)

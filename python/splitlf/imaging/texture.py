@@ -12,6 +12,8 @@ whole 2-D texture to the core through ``seam`` (the native scene's description).
 - :class:`SiemensStar`: ``spokes`` bright sectors around a centre
 - :class:`RandomAlbedo`: i.i.d. uniform albedos on square cells, drawn per use
 - :class:`Image`: a user array of albedos, ``width`` mm wide, centred on the axis
+- :class:`Constant`: one albedo everywhere (a number given as a :class:`~splitlf.Scene`'s
+  texture is one)
 """
 
 from __future__ import annotations
@@ -26,15 +28,16 @@ import numpy as np
 
 from .. import _validate
 from .._validate import finite as _finite
-from .._validate import nonnegative as _albedo
 from .._validate import positive as _positive
 from ..errors import InvalidParameter, TooLargeError
 
 __all__ = [
+    "MAX_ALBEDO",
     "MAX_RANDOM_CELLS",
     "MAX_SPOKES",
     "TEXTURES",
     "BarChart",
+    "Constant",
     "Image",
     "RandomAlbedo",
     "SiemensStar",
@@ -48,12 +51,21 @@ MTF_MEAN, MTF_AMPLITUDE = 0.5, 0.4
 MAX_SPOKES = 100_000
 #: Most cells of a 2-D :class:`RandomAlbedo` drawn for one render (8 bytes each: 1 GiB).
 MAX_RANDOM_CELLS = 2**27
+#: Largest albedo accepted (the core's bound: far beyond any physical albedo, small enough
+#: that a pixel's integral and an image's sum cannot overflow).
+MAX_ALBEDO = 1e100
 
 #: The description of a texture for the native scene: (kind, params, image or None).
 Seam = tuple[str, list[float], np.ndarray | None]
 
 
-# -- validation helpers (shared with splitlf.simulation) -----------------------------------
+# -- validation helpers (shared with splitlf.imaging.render) -------------------------------
+
+def albedo(value: Any, name: str) -> float:
+    """A finite albedo in [0, :data:`MAX_ALBEDO`], else ``TypeError`` /
+    :class:`InvalidParameter` naming ``name``."""
+    return _validate.nonnegative(value, name, MAX_ALBEDO)
+
 
 def _center(value: Any, name: str = "center") -> tuple[float, float]:
     """A point (X0, Y0) of two finite reals [mm]."""
@@ -98,7 +110,7 @@ class Sinusoid:
 
     def __post_init__(self) -> None:
         _positive(self.frequency, "frequency")
-        m, a = _albedo(self.mean, "mean"), _albedo(self.amplitude, "amplitude")
+        m, a = albedo(self.mean, "mean"), albedo(self.amplitude, "amplitude")
         _validate.real(self.phase, "phase")
         if a > m:
             raise ValueError(f"invalid amplitude = {a}: allowed <= mean = {m} (albedo >= 0)")
@@ -131,8 +143,8 @@ class BarChart:
 
     def __post_init__(self) -> None:
         _positive(self.frequency, "frequency")
-        _albedo(self.low, "low")
-        _albedo(self.high, "high")
+        albedo(self.low, "low")
+        albedo(self.high, "high")
 
     @property
     def mean(self) -> float:
@@ -169,8 +181,8 @@ class SlantedEdge:
 
     def __post_init__(self) -> None:
         _finite(self.angle, "angle")
-        _albedo(self.low, "low")
-        _albedo(self.high, "high")
+        albedo(self.low, "low")
+        albedo(self.high, "high")
         object.__setattr__(self, "center", _center(self.center))
 
     @property
@@ -230,8 +242,8 @@ class SiemensStar:
         if not 1 <= n <= MAX_SPOKES:
             raise InvalidParameter.of("spokes", n, f"an integer in [1, {MAX_SPOKES}]")
         object.__setattr__(self, "spokes", n)
-        _albedo(self.low, "low")
-        _albedo(self.high, "high")
+        albedo(self.low, "low")
+        albedo(self.high, "high")
         object.__setattr__(self, "center", _center(self.center))
 
     @property
@@ -293,7 +305,7 @@ class RandomAlbedo:
     def __post_init__(self) -> None:
         if self.cell is not None:
             _positive(self.cell, "cell")
-        lo, hi = _albedo(self.low, "low"), _albedo(self.high, "high")
+        lo, hi = albedo(self.low, "low"), albedo(self.high, "high")
         if hi < lo:
             raise ValueError(f"invalid high = {hi}: allowed >= low = {lo}")
 
@@ -310,8 +322,16 @@ class RandomAlbedo:
         :class:`~splitlf.errors.TooLargeError` beyond :data:`MAX_RANDOM_CELLS` cells."""
         cell = _positive(step, "cell") if self.cell is None else float(self.cell)
         x0, x1, y0, y1 = extent
-        k0, k1 = math.floor(x0 / cell), math.ceil(x1 / cell)
-        j0, j1 = math.floor(y0 / cell), math.ceil(y1 / cell)
+        span = [x0 / cell, x1 / cell, y0 / cell, y1 / cell]
+        if not all(math.isfinite(v) for v in span) or (
+                (span[1] - span[0]) * (span[3] - span[2]) > 1e200):
+            # Far beyond any memory (the cells' count may not even be a float): the cell
+            # is at fault, and the least one this scene allows is known.
+            least = math.sqrt((x1 - x0) * (y1 - y0) / MAX_RANDOM_CELLS)
+            raise InvalidParameter.of("cell", cell, f"a cell of at least {least:.3g} mm for "
+                                      f"this scene (at most {MAX_RANDOM_CELLS} cells)")
+        k0, k1 = math.floor(span[0]), math.ceil(span[1])
+        j0, j1 = math.floor(span[2]), math.ceil(span[3])
         cols, rows = max(k1 - k0, 1), max(j1 - j0, 1)
         if rows * cols > MAX_RANDOM_CELLS:
             raise TooLargeError(
@@ -349,8 +369,9 @@ class Image:
         if a.ndim != 2 or min(a.shape) < 1:
             raise ValueError(f"Image.array must be a non-empty 2D array, got shape {a.shape}")
         a = a.astype(np.float64)
-        if not np.all(np.isfinite(a)) or np.any(a < 0):
-            raise ValueError("Image.array must hold finite albedos >= 0")
+        if not np.all(np.isfinite(a)) or np.any(a < 0) or np.any(a > MAX_ALBEDO):
+            raise InvalidParameter.of("Image.array", "values outside the range",
+                                      f"finite albedos in [0, {MAX_ALBEDO:g}]")
         _positive(self.width, "width")
         if self.row is not None:
             if isinstance(self.row, bool) or not isinstance(self.row, numbers.Integral):
@@ -383,11 +404,40 @@ class Image:
         return "image", list(self.extent), np.ascontiguousarray(self.array)
 
 
+@dataclasses.dataclass(frozen=True)
+class Constant:
+    """One albedo everywhere (a number given as a :class:`~splitlf.Scene`'s texture is
+    one): a scene of it renders to ``albedo`` × the white raw.
+
+    ``albedo`` finite in [0, :data:`MAX_ALBEDO`]. Raises ``TypeError`` and
+    :class:`~splitlf.errors.InvalidParameter`."""
+
+    albedo: float = 1.0
+
+    def __post_init__(self) -> None:
+        if isinstance(self.albedo, bool | np.bool_):
+            raise TypeError(f"albedo must be a real number, got {self.albedo!r}")
+        object.__setattr__(self, "albedo", albedo(self.albedo, "albedo"))
+
+    @property
+    def mean(self) -> float:
+        """The albedo."""
+        return float(self.albedo)
+
+    def antiderivative(self, x: np.ndarray) -> np.ndarray:
+        """The integral of the albedo along X from 0 to each X in ``x`` [mm]."""
+        return self.albedo * np.asarray(x, dtype=np.float64)
+
+    def seam(self) -> Seam:
+        """The native scene's description: ("constant", [albedo], None)."""
+        return "constant", [float(self.albedo)], None
+
+
 #: The texture classes (every one works in 1-D :func:`~splitlf.simulate` and in
 #: :func:`~splitlf.render`).
-TEXTURES = (Sinusoid, BarChart, SlantedEdge, SiemensStar, RandomAlbedo, Image)
+TEXTURES = (Sinusoid, BarChart, SlantedEdge, SiemensStar, RandomAlbedo, Image, Constant)
 #: The textures with an exact ``antiderivative`` along X.
-ANALYTIC = (Sinusoid, BarChart, SlantedEdge, SiemensStar)
+ANALYTIC = (Sinusoid, BarChart, SlantedEdge, SiemensStar, Constant)
 
 
 def texture_mean(texture: Any) -> float:

@@ -35,6 +35,8 @@ pub struct ImageTexture {
     hx: f64,
     hy: f64,
     mean: f64,
+    /// The largest value.
+    max: f64,
     /// Bottom-up row b (b = rows − 1 − r): `prefix[b * (cols + 1) + i]` = Σ_{i' < i} T hx.
     prefix: Vec<f64>,
     /// Values bottom-up, `values[b * cols + i]`.
@@ -75,11 +77,19 @@ pub enum Texture {
     },
 }
 
-fn albedo(name: &'static str, x: f64) -> Result<f64> {
-    if x.is_finite() && x >= 0.0 {
+/// Largest albedo accepted: far beyond any physical one, small enough that a pixel's
+/// integral (albedo × ray measure × norm) and an image's sum cannot overflow.
+pub const MAX_ALBEDO: f64 = 1e100;
+
+pub(crate) fn albedo(name: &'static str, x: f64) -> Result<f64> {
+    if x.is_finite() && (0.0..=MAX_ALBEDO).contains(&x) {
         Ok(x)
     } else {
-        Err(Error::param(name, x, "a finite albedo >= 0"))
+        Err(Error::param(
+            name,
+            x,
+            format!("a finite albedo in [0, {MAX_ALBEDO:e}]"),
+        ))
     }
 }
 
@@ -133,9 +143,11 @@ impl ImageTexture {
             ));
         }
         let mut sum = 0.0;
+        let mut max = 0.0f64;
         for &v in values {
             albedo("texture_image", v)?;
             sum += v;
+            max = max.max(v);
         }
         let mean = sum / values.len() as f64;
         let hx = (x1 - x0) / cols as f64;
@@ -165,6 +177,7 @@ impl ImageTexture {
             hx,
             hy,
             mean,
+            max,
             prefix,
             values: flipped,
         })
@@ -424,6 +437,21 @@ impl Texture {
         }
     }
 
+    /// The largest albedo anywhere (an image's largest value, mean + amplitude, or the
+    /// larger of low and high): the scale of the general route's error target.
+    pub fn max_albedo(&self) -> f64 {
+        match self {
+            Texture::Constant(c) => *c,
+            Texture::Image(im) => im.max,
+            Texture::Sinusoid {
+                mean, amplitude, ..
+            } => mean + amplitude,
+            Texture::Bars { low, high, .. }
+            | Texture::Edge { low, high, .. }
+            | Texture::Star { low, high, .. } => low.max(*high),
+        }
+    }
+
     /// Does the albedo jump inside the box [x0, x1] × [y0, y1] along a line that the
     /// renderer's cuts do not follow (a slanted edge, a star's spokes or centre)? Image
     /// cells and bar edges are axis-aligned: the renderer cuts at them.
@@ -547,7 +575,15 @@ impl Texture {
                 amplitude,
                 phase,
             } => {
+                // G(X) = mean X + amplitude (cos φ − cos(w X + φ))/w: the constant
+                // cos φ / w drops out of ∮ G dY but keeps the sum free of the cancellation
+                // of terms ~ amplitude / w when w is tiny (a frequency of 1e-20 read black).
+                // Its mean along an edge, X = xm + t dx/2 (t ∈ [−1, 1]), u = w xm,
+                // h = w dx/2: (cos φ − cos(u + φ) sinc h)/w
+                //   = cos φ (xm sin(u/2) sinc(u/2) + cos u (dx/2) c1(h)) + sin φ xm sinc u sinc h
+                // with c1(h) = (1 − sinc h)/h.
                 let w = 2.0 * PI * frequency;
+                let (cp, sp) = (phase.cos(), phase.sin());
                 let mut t = 0.0;
                 for i in 0..n {
                     let (a, b) = (poly[i], poly[(i + 1) % n]);
@@ -556,13 +592,11 @@ impl Texture {
                         continue;
                     }
                     let xm = 0.5 * (a[0] + b[0]);
-                    let h = 0.5 * w * (b[0] - a[0]);
-                    let sinc = if h.abs() < 1e-8 {
-                        1.0 - h * h / 6.0
-                    } else {
-                        h.sin() / h
-                    };
-                    t += dy * (mean * xm - amplitude / w * (w * xm + phase).cos() * sinc);
+                    let half = 0.5 * (b[0] - a[0]);
+                    let (u, h) = (w * xm, w * half);
+                    let wave = cp * (xm * (0.5 * u).sin() * sinc(0.5 * u) + u.cos() * half * c1(h))
+                        + sp * xm * sinc(u) * sinc(h);
+                    t += dy * (mean * xm + amplitude * wave);
                 }
                 t
             }
@@ -571,12 +605,11 @@ impl Texture {
                 low,
                 high,
             } => {
-                // G(X) = low X + (high − low) H(X)/f, H the high part in periods.
-                let g = |x: f64| {
-                    let s = frequency * x;
-                    let k = s.floor();
-                    low * x + (high - low) * (0.5 * k + (s - k).min(0.5)) / frequency
-                };
+                // G(X) = mean X + (high − low) tri(X), tri(X) = ½ dist(X, P ℤ) (P = 1/f),
+                // so ∫ G dY along an edge = dy (mean xm + (high − low) · tri's mean over
+                // the edge's X range): no loop over the bars, any frequency.
+                let period = (1.0 / frequency).min(f64::MAX);
+                let mean = 0.5 * (low + high);
                 let mut t = 0.0;
                 for i in 0..n {
                     let (a, b) = (poly[i], poly[(i + 1) % n]);
@@ -584,31 +617,8 @@ impl Texture {
                     if dy == 0.0 {
                         continue;
                     }
-                    // Knots at X = m / (2 f) between a and b.
-                    let (sa, sb) = (2.0 * frequency * a[0], 2.0 * frequency * b[0]);
-                    let (mut px, mut gp) = (a[0], g(a[0]));
-                    let mut py = a[1];
-                    let (m0, m1) = (sa.min(sb).floor() as i64 + 1, sa.max(sb).ceil() as i64 - 1);
-                    let slope = if b[0] != a[0] {
-                        dy / (b[0] - a[0])
-                    } else {
-                        0.0
-                    };
-                    let mut knots: Vec<i64> = (m0..=m1).collect();
-                    if sa > sb {
-                        knots.reverse();
-                    }
-                    for m in knots {
-                        let kx = m as f64 / (2.0 * frequency);
-                        let ky = a[1] + (kx - a[0]) * slope;
-                        let gk = g(kx);
-                        t += 0.5 * (gp + gk) * (ky - py);
-                        px = kx;
-                        py = ky;
-                        gp = gk;
-                    }
-                    let _ = px;
-                    t += 0.5 * (gp + g(b[0])) * (b[1] - py);
+                    let xm = 0.5 * (a[0] + b[0]);
+                    t += dy * (mean * xm + (high - low) * tri_mean(period, a[0], b[0]));
                 }
                 t
             }
@@ -633,6 +643,72 @@ impl Texture {
     }
 }
 
+/// sin x / x.
+fn sinc(x: f64) -> f64 {
+    if x.abs() < 1e-4 {
+        1.0 - x * x / 6.0
+    } else {
+        x.sin() / x
+    }
+}
+
+/// (1 − sinc h)/h, without cancellation for small h.
+fn c1(h: f64) -> f64 {
+    if h.abs() < 1e-3 {
+        h / 6.0 - h * h * h / 120.0
+    } else {
+        (1.0 - h.sin() / h) / h
+    }
+}
+
+/// ½ the distance from X to the nearest multiple of `period` (a triangle wave of height
+/// period/4, kinked at the bar edges k period/2).
+fn tri(period: f64, x: f64) -> f64 {
+    let k = (x / period).floor();
+    let (lo, hi) = (x - k * period, (k + 1.0) * period - x);
+    0.5 * lo.min(hi).clamp(0.0, 0.5 * period)
+}
+
+/// The mean of [`tri`] over X between xa and xb (its value at xa when they coincide).
+fn tri_mean(period: f64, xa: f64, xb: f64) -> f64 {
+    let (lo, hi) = if xa < xb { (xa, xb) } else { (xb, xa) };
+    let half = 0.5 * period;
+    let (m0, m1) = ((lo / half).floor(), (hi / half).ceil());
+    if hi <= lo || hi.is_nan() || lo.is_nan() {
+        return tri(period, lo);
+    }
+    if m1 - m0 <= 64.0 {
+        // Linear between the kinks: the trapezoid rule piece by piece is exact.
+        let mut acc = 0.0;
+        let (mut x, mut v) = (lo, tri(period, lo));
+        for j in 1..(m1 - m0) as i64 {
+            let k = (m0 + j as f64) * half;
+            if k > x && k < hi {
+                let vk = tri(period, k);
+                acc += 0.5 * (v + vk) * (k - x);
+                (x, v) = (k, vk);
+            }
+        }
+        let vh = tri(period, hi);
+        acc += 0.5 * (v + vh) * (hi - x);
+        return acc / (hi - lo);
+    }
+    // Many periods: the antiderivative in units of the period, P² T(X/P) with
+    // T(u) = ⌊u⌋/8 + q(u − ⌊u⌋), q(s) = s²/4 (s < ½), 1/8 − (1 − s)²/4 (s ≥ ½).
+    let big_t = |u: f64| {
+        let k = u.floor();
+        let s = u - k;
+        let q = if s < 0.5 {
+            0.25 * s * s
+        } else {
+            0.125 - 0.25 * (1.0 - s) * (1.0 - s)
+        };
+        0.125 * k + q
+    };
+    let (ua, ub) = (lo / period, hi / period);
+    period * (big_t(ub) - big_t(ua)) / (ub - ua)
+}
+
 /// Signed area of the polygon's part in the bright wedges of a Siemens star.
 fn star_bright_area(poly: &[Pt], spokes: u32, c: Pt, s: &mut Scratch) -> f64 {
     let width = PI / spokes as f64;
@@ -655,6 +731,13 @@ fn star_bright_area(poly: &[Pt], spokes: u32, c: Pt, s: &mut Scratch) -> f64 {
             (lo / width).floor() as i64 - 1,
             (hi / width).floor() as i64 + 1,
         )
+    };
+    // Each wedge once: with few spokes the margins can wrap round to the same wedge (one
+    // spoke: wedges 0 and 2 are both the bright half-plane, counted twice before).
+    let (k0, k1) = if k1 - k0 + 1 >= wedges {
+        (0, wedges - 1)
+    } else {
+        (k0, k1)
     };
     let mut total = 0.0;
     for k in k0..=k1 {
@@ -737,6 +820,54 @@ mod tests {
                 let b = brute(t, &tri(), 1500);
                 assert!((exact - b).abs() < 3e-3, "{t:?}: {exact} vs {b}");
             }
+        }
+    }
+
+    /// A 1-spoke star is the half-plane Y ≥ Y0 bright: a triangle right of the centre
+    /// and across Y0 (no vertex at the centre) reads low + (high − low) × its share above
+    /// Y0, by hand; before, the wedge list wrapped round and counted that half twice.
+    #[test]
+    fn one_spoke_star_is_a_half_plane() {
+        let t = Texture::from_parts("star", &[1.0, 0.0, 1.0, 0.0, 0.0], None).unwrap();
+        // Triangle (1, −1), (3, −1), (1, 3): area 4; above Y = 0 the triangle (1, 0),
+        // (2.5, 0), (1, 3) of area 2.25.
+        let p = [[1.0, -1.0], [3.0, -1.0], [1.0, 3.0]];
+        let v = t.average(&p, &mut Scratch::default());
+        assert!((v - 2.25 / 4.0).abs() < 1e-12, "{v}");
+    }
+
+    /// A sinusoid of tiny frequency is its value at the origin, mean + amplitude sin φ,
+    /// over a small polygon anywhere near it (before: 1e-20 read black, 1e-15 off 0.5 %).
+    #[test]
+    fn slow_sinusoid_is_its_value_at_the_origin() {
+        let p = tri();
+        for f in [1e-300, 1e-20, 1e-15, 1e-9] {
+            let t = Texture::from_parts("sinusoid", &[f, 0.5, 0.4, 0.3], None).unwrap();
+            let v = t.average(&p, &mut Scratch::default());
+            let want = 0.5 + 0.4 * 0.3f64.sin();
+            assert!((v - want).abs() < 1e-6, "{f}: {v} vs {want}");
+        }
+    }
+
+    /// Bars of extreme frequencies: far finer than the polygon, the mean (low + high)/2
+    /// (before: a panic, capacity overflow, from 1e18 on); far wider, the bar the polygon
+    /// lies in (X ≥ 0: high; before: 1.45 × high at 5e-324).
+    #[test]
+    fn bars_of_extreme_frequencies() {
+        let p = tri(); // X in [0.13, 2.71]
+        let mut s = Scratch::default();
+        for f in [1e18, 1e30, 1e300] {
+            let t = Texture::from_parts("bars", &[f, 0.1, 0.9], None).unwrap();
+            let v = t.average(&p, &mut s);
+            assert!((v - 0.5).abs() < 1e-9, "{f}: {v}");
+        }
+        for f in [5e-324, 1e-300, 1e-20] {
+            let t = Texture::from_parts("bars", &[f, 0.1, 0.9], None).unwrap();
+            let v = t.average(&p, &mut s);
+            assert!((v - 0.9).abs() < 1e-9, "{f}: {v}");
+            let left: Vec<Pt> = p.iter().map(|q| [-q[0], q[1]]).rev().collect();
+            let v = t.average(&left, &mut s);
+            assert!((v - 0.1).abs() < 1e-9, "{f} left: {v}");
         }
     }
 

@@ -18,7 +18,7 @@ use crate::imaging::recorder::Recorder;
 pub use crate::imaging::recorder::{CellGrid, System, OUTSIDE_SHARE};
 use crate::imaging::render::exact::{
     footprint_of, mean_ray, mean_ray_of, pixel_offset, polygon, profile, ray_set_area,
-    tilted_profile, tilted_profile_of, Profile,
+    tilted_profile, tilted_profile_of, Profile, Tilt,
 };
 use crate::imaging::render::{Chan, Work};
 use crate::imaging::scene::{Scene, Surface};
@@ -573,7 +573,12 @@ fn build_general(
         let ch = &design.channels[i];
         let chan = Chan::new(design, ch, crate::imaging::render::DEFAULT_TOL);
         let (rows, cols) = crate::imaging::render::raw_shape(ch);
-        let reach = chan.reach();
+        let px = crate::imaging::render::Pixels {
+            design,
+            chan: &chan,
+            scene: &scene,
+            tol: 1.0,
+        };
         let map_once = crate::imaging::render::map_seen_once(&chan, surface);
         let sees = lenses_seeing(design, ch, surface, grid);
         let step = crate::infra::parallel::chunk_items(n_threads, (cols as u128) * 4000);
@@ -599,9 +604,7 @@ fn build_general(
                             if let Some(r) = wk.rec.as_deref_mut() {
                                 r.reset(chan.norm);
                             }
-                            crate::imaging::render::pixel_value(
-                                design, &chan, &scene, 1.0, a as u32, b as u32, reach, wk,
-                            );
+                            crate::imaging::render::pixel_value(&px, a as u32, b as u32, wk);
                             if wk.rec.as_deref_mut().is_some_and(|r| r.take(&mut s)) {
                                 s.end_row(i, b * cols + a);
                             }
@@ -777,7 +780,15 @@ fn build_tilted(
                         .into_par_iter()
                         .map(|b| {
                             let c = center(b, axis);
-                            tilted_profile(&chan, chan.types[t].0, c, theta(b), zp, gt, ns, edge_t)
+                            tilted_profile(
+                                &chan,
+                                chan.types[t].0,
+                                c,
+                                theta(b),
+                                Tilt { z0: zp, g: gt },
+                                ns,
+                                edge_t,
+                            )
                         })
                         .collect::<Vec<_>>(),
                 );
@@ -832,8 +843,10 @@ fn build_tilted(
                                     chan.types[t].0,
                                     center(a, 1 - axis),
                                     theta(a),
-                                    slab_z(k),
-                                    go,
+                                    Tilt {
+                                        z0: slab_z(k),
+                                        g: go,
+                                    },
                                     nco,
                                     |n| o0 + n as f64 * h,
                                 )
@@ -955,8 +968,7 @@ fn build_tilted(
                                 chan.types[t].0,
                                 c,
                                 theta(it as u32),
-                                zp,
-                                gp,
+                                Tilt { z0: zp, g: gp },
                                 ns,
                                 edge_t,
                             ) {
@@ -1034,9 +1046,15 @@ fn build_tilted(
                                 let Some((zp, gp)) = along_t(wo, ao) else {
                                     continue 'pixel;
                                 };
-                                let Some(tj) =
-                                    tilted_profile(&chan, alpha, ct, tht, zp, gp, ns, edge_t)
-                                else {
+                                let Some(tj) = tilted_profile(
+                                    &chan,
+                                    alpha,
+                                    ct,
+                                    tht,
+                                    Tilt { z0: zp, g: gp },
+                                    ns,
+                                    edge_t,
+                                ) else {
                                     continue 'pixel;
                                 };
                                 // The part's widest footprint along o over the slabs it
@@ -1055,8 +1073,10 @@ fn build_tilted(
                                         &chan,
                                         co,
                                         &part,
-                                        slab_z(k),
-                                        go,
+                                        Tilt {
+                                            z0: slab_z(k),
+                                            g: go,
+                                        },
                                         nco,
                                         |n| o0 + n as f64 * h,
                                     ) else {

@@ -1,6 +1,7 @@
 //! The 2-D forward model: a scene (texture, surface, background) and the raws of every
 //! channel of a design (docs/render.md).
 
+use std::borrow::Cow;
 use std::sync::Arc;
 
 use numpy::{PyArray2, PyArrayMethods, PyReadonlyArray2};
@@ -22,18 +23,22 @@ pub(crate) struct RenderScene {
     pub(crate) inner: Arc<Scene>,
 }
 
-/// A C-contiguous copy of a 2-D float array's values and its shape.
-fn array_parts(a: &PyReadonlyArray2<'_, f64>) -> (Vec<f64>, usize, usize) {
+/// A 2-D float array's values in C order (borrowed when the array is C-contiguous, as
+/// the Python side passes them: a random texture's 1e8 cells are not copied once more
+/// before the core's own tables) and its shape.
+fn array_parts<'a>(a: &'a PyReadonlyArray2<'_, f64>) -> (Cow<'a, [f64]>, usize, usize) {
     let view = a.as_array();
     let (r, c) = view.dim();
-    (view.iter().copied().collect(), r, c)
+    match a.as_slice() {
+        Ok(v) => (Cow::Borrowed(v), r, c),
+        Err(_) => (Cow::Owned(view.iter().copied().collect()), r, c),
+    }
 }
 
 #[pymethods]
 impl RenderScene {
     #[new]
     #[pyo3(signature = (texture, texture_params, texture_image, surface, surface_params, depth_map, background))]
-    #[allow(clippy::too_many_arguments)]
     fn new(
         texture: &str,
         texture_params: Vec<f64>,
@@ -47,14 +52,14 @@ impl RenderScene {
         let tex = Texture::from_parts(
             texture,
             &texture_params,
-            image.as_ref().map(|(v, r, c)| (v.as_slice(), *r, *c)),
+            image.as_ref().map(|(v, r, c)| (&v[..], *r, *c)),
         )
         .map_err(to_py)?;
         let map = depth_map.as_ref().map(array_parts);
         let surf = Surface::from_parts(
             surface,
             &surface_params,
-            map.as_ref().map(|(v, r, c)| (v.as_slice(), *r, *c)),
+            map.as_ref().map(|(v, r, c)| (&v[..], *r, *c)),
         )
         .map_err(to_py)?;
         let scene = Scene::new(tex, surf, background).map_err(to_py)?;
@@ -72,8 +77,9 @@ impl RenderScene {
 
 /// Every channel's raw image of `scene` (docs/model.md §10 layout), one float64 array per
 /// channel. `tol`: the general route's error target per pixel, relative to a fully lit
-/// pixel under a white albedo. `own_lens`: each pixel takes its own lens's light alone
-/// (on a sensor layout, not its neighbours'; the depth sweep's test of clean pixels).
+/// pixel under the scene's largest albedo. `own_lens`: each pixel takes its own lens's
+/// light alone (on a sensor layout, not its neighbours'; the depth sweep's test of clean
+/// pixels).
 /// `progress(done, total)` is called on the main thread while the render runs.
 #[pyfunction]
 #[pyo3(signature = (design, scene, tol=core_render::DEFAULT_TOL, n_threads=None, progress=None, own_lens=false))]

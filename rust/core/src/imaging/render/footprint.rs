@@ -174,11 +174,10 @@ impl Lens<'_> {
         }
     }
 
-    /// ρ(P) (before the channel's norm) and the signature of W(P): the bits of the labels
-    /// of its edges (0 and 0 when W(P) is empty).
-    fn eval(&self, p: Pt, s: &mut Scratch) -> (f64, u32) {
+    /// W(P) at depth z = Z(P) into `s.a`, a counter-clockwise polygon each of whose
+    /// vertices carries the label of the edge that leaves it; false when W(P) is empty.
+    fn w_set(&self, p: Pt, z: f64, s: &mut Scratch) -> bool {
         let chan = self.chan;
-        let (z, grad) = self.depth_grad(p);
         let l = chan.ch.l;
         let gl = z / l;
         let bz = 1.0 - z / chan.f_main + z / l;
@@ -216,7 +215,7 @@ impl Lens<'_> {
             // n · ξ ≤ d with ξ = (B w − P)/gl − c: B n · w ≤ gl (d + n · c) + n · P.
             let b = gl * d + n[0] * p[0] + n[1] * p[1];
             if !half([bz * n[0], bz * n[1]], b, CELL + k as u8) {
-                return (0.0, 0);
+                return false;
             }
         }
         // σ_i = k w_i − α (P_i/gl + c_i) in [lo_i, hi_i].
@@ -226,15 +225,15 @@ impl Lens<'_> {
             let mut n = [0.0; 2];
             n[i] = k;
             if !half(n, self.hi[i] + o, PIX + 2 * i as u8) {
-                return (0.0, 0);
+                return false;
             }
             n[i] = -k;
             if !half(n, -(self.lo[i] + o), PIX + 2 * i as u8 + 1) {
-                return (0.0, 0);
+                return false;
             }
         }
         if !(hi[0].0 > lo[0].0 && hi[1].0 > lo[1].0) {
-            return (0.0, 0);
+            return false;
         }
         let (a, b) = (&mut s.a, &mut s.b);
         a.clear();
@@ -249,15 +248,27 @@ impl Lens<'_> {
             clip(a, b, n, d, lab);
             std::mem::swap(a, b);
             if a.len() < 3 {
-                return (0.0, 0);
+                return false;
             }
         }
         if chan.shape == Aperture::Circle {
             clip_disc(chan, a, b);
             if a.len() < 3 {
-                return (0.0, 0);
+                return false;
             }
         }
+        true
+    }
+
+    /// ρ(P) (before the channel's norm) and the signature of W(P): the bits of the labels
+    /// of its edges (0 and 0 when W(P) is empty).
+    fn eval(&self, p: Pt, s: &mut Scratch) -> (f64, u32) {
+        let (z, grad) = self.depth_grad(p);
+        if !self.w_set(p, z, s) {
+            return (0.0, 0);
+        }
+        let l = self.chan.ch.l;
+        let a = &s.a;
         // Area, first moment and the labels of the edges of non-zero length.
         let (mut ar, mut mx, mut my) = (0.0, 0.0, 0.0);
         let o = a[0].0;
@@ -482,7 +493,6 @@ fn clip_disc(chan: &Chan, a: &mut Vec<(Pt, u8)>, b: &mut Vec<(Pt, u8)>) {
 /// offset) on the surface `surf` into `rec`: each grid cell's ∫ ρ. A lit node off the grid
 /// (or off a depth map's extent, where the rays miss the surface), or on a tilted plane
 /// rays that cannot meet it on the grid or its margin, mark the row as not kept.
-#[allow(clippy::too_many_arguments)]
 pub(crate) fn record(
     chan: &Chan,
     c: Pt,
@@ -587,7 +597,6 @@ fn meet(a: [f64; 4], b: [f64; 4]) -> Option<[f64; 4]> {
 
 /// ∫ ρ over each grid cell (and sub-cell lattice) that meets the box `bx`, into `rec`; the
 /// lattice's pitch set by the footprint box `size`.
-#[allow(clippy::too_many_arguments)]
 fn integrate(
     lens: &Lens,
     bx: [f64; 4],
@@ -802,7 +811,6 @@ fn same(cs: &[(f64, u32); 4], mid: (f64, u32)) -> bool {
 /// same edges of W; otherwise the sum of the rule over the four quarters, accepted when it
 /// is within `tol` of the whole box's rule, else each quarter whose nodes disagree is
 /// refined the same way with half the tolerance, to [`MAX_DEPTH`] quarterings.
-#[allow(clippy::too_many_arguments)]
 fn cell_rule(
     lens: &Lens,
     (x0, x1, y0, y1): (f64, f64, f64, f64),

@@ -1,0 +1,320 @@
+//! The exact route (module doc of [`super`]): a fronto-parallel plane, rect cells, a
+//! square aperture, the ideal layout and an image (or constant) texture. A pixel's ray set
+//! is the product of its x and y polygons, so its value is Σ_cells T · I_x · I_y with I the
+//! areas of the 1-D ray sets between the cell's edges ([`Profile`]). The profiles (also
+//! on a tilted plane, [`tilted_profile`]) serve the reconstruction's maps too.
+
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use rayon::prelude::*;
+
+use super::chan::Chan;
+use super::{raw_shape, SendPtr};
+use crate::imaging::scene::Scene;
+use crate::imaging::texture::{ImageTexture, Texture};
+use crate::infra::error::{Error, Result};
+use crate::infra::parallel::{checkpoint, for_chunks};
+use crate::infra::polygon::{clip_into, signed_area, Pt};
+use crate::model::design::{Design, Layout};
+
+/// Areas of one pixel's 1-D ray set (x, w) between consecutive cell edges of one axis:
+/// `first` the index of the first cell, then the areas; plus the areas before the
+/// first edge and after the last (outside the texture) and the total.
+pub(crate) struct Profile {
+    pub first: usize,
+    pub areas: Vec<f64>,
+    pub total: f64,
+}
+
+/// The offset θ of raw column (or row) i from its lens image's centre, on the ideal
+/// layout with q pixels a lens.
+pub(crate) fn pixel_offset(mu: f64, q: u32, i: u32) -> f64 {
+    mu * ((i % q) as f64 - (q as f64 - 1.0) / 2.0)
+}
+
+/// The area of a pixel's 1-D ray set (the [`polygon`] below): its profile's total.
+pub(crate) fn ray_set_area(chan: &Chan, alpha: f64, theta: f64) -> f64 {
+    signed_area(&polygon(chan, alpha, theta)).max(0.0)
+}
+
+/// The mean ray of a pixel's 1-D ray set (lens centre c, offset θ, type α): its scene
+/// coordinate on the fronto-parallel plane at depth z is w̄ − z ā (the coordinate is
+/// affine in the ray, so its mean is the centroid's), returned as (w̄, ā); None for an
+/// empty set.
+pub(crate) fn mean_ray(chan: &Chan, alpha: f64, c: f64, theta: f64) -> Option<(f64, f64)> {
+    mean_ray_of(chan, c, &polygon(chan, alpha, theta))
+}
+
+/// The slope a = w/F + (c + ξ − w)/L of the ray q = (ξ, w) behind the lens centred at
+/// c: the ray is P(Z) = w − Z a.
+fn slope(chan: &Chan, c: f64, q: Pt) -> f64 {
+    q[1] / chan.f_main + (c + q[0] - q[1]) / chan.ch.l
+}
+
+/// [`mean_ray`] of any polygon of rays in (ξ, w) behind the lens centred at c.
+pub(crate) fn mean_ray_of(chan: &Chan, c: f64, poly: &[Pt]) -> Option<(f64, f64)> {
+    if signed_area(poly) <= 0.0 {
+        return None;
+    }
+    let q = crate::infra::polygon::centroid(poly);
+    Some((q[1], slope(chan, c, q)))
+}
+
+/// The scene coordinates [lo, hi] over which a polygon of rays in (ξ, w) behind the lens
+/// centred at c meets the fronto-parallel plane at depth z: the extremes of an affine
+/// function over the polygon, at its vertices; None for an empty polygon.
+pub(crate) fn footprint_of(chan: &Chan, c: f64, poly: &[Pt], z: f64) -> Option<(f64, f64)> {
+    if signed_area(poly) <= 0.0 {
+        return None;
+    }
+    let xs = |q: &Pt| q[1] - z * slope(chan, c, *q);
+    let lo = poly.iter().map(xs).fold(f64::INFINITY, f64::min);
+    let hi = poly.iter().map(xs).fold(f64::NEG_INFINITY, f64::max);
+    Some((lo, hi))
+}
+
+/// The 1-D ray-set polygon in (ξ, w) (ξ = x − c) of a pixel at offset θ from its lens
+/// image centre: |ξ| ≤ d/2, |w| ≤ D/2, |α ξ − (v/L) w − θ| ≤ μ/2.
+pub(crate) fn polygon(chan: &Chan, alpha: f64, theta: f64) -> Vec<Pt> {
+    let (h, r, mu, vl) = (chan.hx, chan.r_ap, chan.ch.mu, chan.vl);
+    let mut p = vec![[-h, -r], [h, -r], [h, r], [-h, r]];
+    let mut t = Vec::new();
+    clip_into(&p, &mut t, |q| {
+        mu / 2.0 - (alpha * q[0] - vl * q[1] - theta)
+    });
+    clip_into(&t, &mut p, |q| {
+        mu / 2.0 + (alpha * q[0] - vl * q[1] - theta)
+    });
+    p
+}
+
+/// The profile of a pixel (lens centre c, offset θ, type α) against cell edges
+/// `edge(i)` for i = 0..=n (ascending), on the plane at depth z: the scene coordinate is
+/// X = B w − (z/L)(c + ξ), B = 1 − z/F + z/L.
+pub(crate) fn profile(
+    chan: &Chan,
+    alpha: f64,
+    c: f64,
+    theta: f64,
+    z: f64,
+    n: usize,
+    edge: impl Fn(usize) -> f64,
+) -> Profile {
+    tilted_profile(chan, alpha, c, theta, Tilt { z0: z, g: 0.0 }, n, edge)
+        .expect("a fronto-parallel plane at z > 0 is met by every ray")
+}
+
+/// The plane Z = z0 + g Y of one axis's profiles (g = 0: fronto-parallel at z0), Y the
+/// scene coordinate along the axis the edges cut.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Tilt {
+    pub z0: f64,
+    pub g: f64,
+}
+
+/// The profile against the edges of the axis along which the plane Z = z0 + g Y tilts
+/// (g = 0: the fronto-parallel plane at z0). A ray of this axis, P(Z) = w − Z a with
+/// a = w/F + (c + ξ − w)/L, meets the plane at Y = (w − z0 a) / (1 + g a) when
+/// 1 + g a > 0, and there Y ≤ e exactly when w − Z_e a ≤ e, Z_e = z0 + g e: the
+/// fronto-parallel condition at the edge's own depth, a straight cut of the polygon. So
+/// the areas between edges stay exact. None when some ray of the pixel runs parallel
+/// to the plane or meets it behind the main lens (1 + g a ≤ 0 or Z ≤ 0 somewhere).
+pub(crate) fn tilted_profile(
+    chan: &Chan,
+    alpha: f64,
+    c: f64,
+    theta: f64,
+    plane: Tilt,
+    n: usize,
+    edge: impl Fn(usize) -> f64,
+) -> Option<Profile> {
+    tilted_profile_of(chan, c, &polygon(chan, alpha, theta), plane, n, edge)
+}
+
+/// [`tilted_profile`] of any polygon of rays in (ξ, w) behind the lens centred at c (a
+/// part of a pixel's ray set).
+pub(crate) fn tilted_profile_of(
+    chan: &Chan,
+    c: f64,
+    poly: &[Pt],
+    plane: Tilt,
+    n: usize,
+    edge: impl Fn(usize) -> f64,
+) -> Option<Profile> {
+    let Tilt { z0, g } = plane;
+    let total = signed_area(poly);
+    if total <= 0.0 {
+        return Some(Profile {
+            first: 0,
+            areas: Vec::new(),
+            total: 0.0,
+        });
+    }
+    let a_of = |q: Pt| slope(chan, c, q);
+    // The scene coordinate of the fronto-parallel plane at depth z.
+    let xs = |q: Pt, z: f64| q[1] - z * a_of(q);
+    // Y is a linear-fractional function of (ξ, w): extreme at the polygon's vertices.
+    let mut lo = f64::INFINITY;
+    let mut hi = f64::NEG_INFINITY;
+    for &q in poly {
+        let den = 1.0 + g * a_of(q);
+        let y = (q[1] - z0 * a_of(q)) / den;
+        if !(den > 0.0 && z0 + g * y > 0.0 && y.is_finite()) {
+            return None;
+        }
+        lo = lo.min(y);
+        hi = hi.max(y);
+    }
+    let mut tmp = Vec::new();
+    // A(e): the area of the polygon whose rays meet the plane at Y ≤ e.
+    let below = |e: f64, tmp: &mut Vec<Pt>| -> f64 {
+        if e <= lo {
+            return 0.0;
+        }
+        if e >= hi {
+            return total;
+        }
+        let z = z0 + g * e;
+        clip_into(poly, tmp, |q| e - xs(q, z));
+        signed_area(tmp)
+    };
+    // Cells i whose [edge(i), edge(i+1)] meets [lo, hi].
+    let (e0, en) = (edge(0), edge(n));
+    let step = (en - e0) / n as f64;
+    let i0 = (((lo - e0) / step).floor().max(0.0) as usize).min(n);
+    let i1 = (((hi - e0) / step).ceil().max(0.0) as usize).min(n);
+    let mut areas = Vec::with_capacity(i1.saturating_sub(i0));
+    let mut prev = below(edge(i0), &mut tmp);
+    for i in i0..i1 {
+        let a = below(edge(i + 1), &mut tmp);
+        areas.push(a - prev);
+        prev = a;
+    }
+    Some(Profile {
+        first: i0,
+        areas,
+        total,
+    })
+}
+
+/// The exact route over one channel's raw, parallel over rows.
+pub(super) fn render_channel(
+    _design: &Design,
+    chan: &Chan,
+    scene: &Scene,
+    raw: &mut [f64],
+    n_threads: Option<usize>,
+    done: &AtomicUsize,
+) -> Result<()> {
+    let ch = chan.ch;
+    let z = scene.surface.fronto().unwrap_or(f64::NAN);
+    let Layout::Ideal { q } = ch.layout else {
+        return Err(Error::param(
+            "layout",
+            "sensor",
+            "the ideal layout (exact route)",
+        ));
+    };
+    let constant;
+    let tex: &ImageTexture = match &scene.texture {
+        Texture::Image(im) => im,
+        Texture::Constant(v) => {
+            constant = ImageTexture::new(&[*v], 1, 1, [-1.0, 1.0, -1.0, 1.0])?;
+            &constant
+        }
+        _ => {
+            return Err(Error::param(
+                "texture",
+                "analytic",
+                "an image texture (exact route)",
+            ))
+        }
+    };
+    let (rows, cols) = raw_shape(ch);
+    let (tx0, tx1, ty0, ty1) = tex.extent();
+    let (tr, tc) = tex.shape();
+    let hx = (tx1 - tx0) / tc as f64;
+    let hy = (ty1 - ty0) / tr as f64;
+    let theta = |i: u32| pixel_offset(ch.mu, q, i);
+    // X profiles per type and column a; Y profiles (top-down texture rows: edge i at
+    // Y1 − i hy, so flip: bottom-up row index) per type and row b.
+    let nt = chan.types.len();
+    let px: Vec<Vec<Profile>> = (0..nt)
+        .map(|t| {
+            (0..cols as u32)
+                .into_par_iter()
+                .map(|a| {
+                    let c = ch.lens_center(a / q, 0)[0];
+                    profile(chan, chan.types[t].0, c, theta(a), z, tc, |i| {
+                        tx0 + i as f64 * hx
+                    })
+                })
+                .collect()
+        })
+        .collect();
+    let py: Vec<Vec<Profile>> = (0..nt)
+        .map(|t| {
+            (0..rows as u32)
+                .into_par_iter()
+                .map(|b| {
+                    let c = ch.lens_center(0, b / q)[1];
+                    profile(chan, chan.types[t].0, c, theta(b), z, tr, |i| {
+                        ty0 + i as f64 * hy
+                    })
+                })
+                .collect()
+        })
+        .collect();
+    let mean = tex.mean_value();
+    let norm = chan.norm;
+    let step = crate::infra::parallel::chunk_items(n_threads, (cols as u128) * 64);
+    let raw_ptr = SendPtr(raw.as_mut_ptr());
+    for_chunks(n_threads, rows, step, |range| {
+        let start = range.start;
+        // SAFETY: each chunk writes its own disjoint rows of `raw`.
+        let chunk = unsafe {
+            std::slice::from_raw_parts_mut(raw_ptr.get().add(start * cols), range.len() * cols)
+        };
+        chunk.par_chunks_mut(cols).enumerate().try_for_each_init(
+            || vec![vec![0.0; tc]; nt],
+            |tmps, (i, row)| -> Result<()> {
+                checkpoint()?;
+                let b = start + i;
+                let k = b as u32 / q;
+                // Per type: tmp[i] = Σ_rows Iy[row] T[row][i] (bottom-up rows) and
+                // the y-area inside the texture.
+                let mut ay_in = vec![0.0; nt];
+                for t in 0..nt {
+                    let yp = &py[t][b];
+                    let tmp = &mut tmps[t];
+                    tmp.iter_mut().for_each(|v| *v = 0.0);
+                    for (r, &ay) in yp.areas.iter().enumerate() {
+                        let bu = yp.first + r;
+                        if ay == 0.0 {
+                            continue;
+                        }
+                        ay_in[t] += ay;
+                        for (tv, &v) in tmp.iter_mut().zip(tex.row_bottom_up(bu)) {
+                            *tv += ay * v;
+                        }
+                    }
+                }
+                for (a, out) in row.iter_mut().enumerate() {
+                    let t = ch.lens_type(a as u32 / q, k);
+                    let (xp, yp) = (&px[t][a], &py[t][b]);
+                    let tmp = &tmps[t];
+                    let mut inside = 0.0;
+                    let mut ax_in = 0.0;
+                    for (m, &ax) in xp.areas.iter().enumerate() {
+                        inside += tmp[xp.first + m] * ax;
+                        ax_in += ax;
+                    }
+                    let out_area = xp.total * yp.total - ax_in * ay_in[t];
+                    *out = norm * (inside + mean * out_area);
+                }
+                done.fetch_add(1, Ordering::Relaxed);
+                Ok(())
+            },
+        )
+    })
+}

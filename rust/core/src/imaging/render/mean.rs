@@ -1,0 +1,297 @@
+//! The inner integral of the general route: the mean albedo over the scene image of one
+//! node's polygon of rays, exact on a fronto-parallel plane ([`Texture::average`]), on
+//! slanted planes and depth maps through strips or pieces small enough that the map to
+//! the scene is affine within each to the error budget (docs/render.md).
+
+use super::chan::{Chan, Work};
+use crate::imaging::scene::{Scene, Surface};
+#[cfg(doc)]
+use crate::imaging::texture::Texture;
+use crate::infra::polygon::{bounds, clip_box, clip_into, signed_area, Pt};
+
+/// Relative depth variation across one mapped piece of a polygon on a curved or slanted
+/// surface (the map to the scene is treated as affine within a piece).
+const PIECE_DEPTH_RTOL: f64 = 2e-4;
+/// Most pieces per axis a polygon is cut into.
+const MAX_PIECES: usize = 24;
+/// On a plane: the relative depth span of one strip of a polygon (along the depth's level
+/// lines), where the ray map's density is treated as constant (it varies as the cube of
+/// depth: an error of at most about 1.5 × this × the albedo's range within the strip).
+const STRIP_DEPTH_RTOL: f64 = 5e-4;
+/// Most strips a polygon is cut into.
+const MAX_STRIPS: usize = 64;
+
+/// The mean albedo over the scene image of the polygon `wk.poly` (local cell coordinates
+/// ξ, x = c + ξ), each vertex's ray having main-lens point `w_of(ξ)`.
+pub(super) fn scene_mean(
+    chan: &Chan,
+    scene: &Scene,
+    c: Pt,
+    w_of: impl Fn(Pt) -> Pt,
+    wk: &mut Work,
+) -> f64 {
+    let l = chan.ch.l;
+    let f = chan.f_main;
+    let a_of = |xi: Pt, w: Pt| {
+        [
+            w[0] / f + (c[0] + xi[0] - w[0]) / l,
+            w[1] / f + (c[1] + xi[1] - w[1]) / l,
+        ]
+    };
+    if let Some(z) = scene.surface.fronto() {
+        wk.mapped.clear();
+        for &xi in &wk.poly {
+            let w = w_of(xi);
+            let a = a_of(xi, w);
+            wk.mapped.push([w[0] - z * a[0], w[1] - z * a[1]]);
+        }
+        // (Never in record mode: on a plane the record is `footprint`'s.)
+        return scene.texture.average(&wk.mapped, &mut wk.tex);
+    }
+    // Slanted or curved: hits at the vertices decide how finely to cut.
+    let hits = vertex_hits(scene, &w_of, &a_of, wk);
+    if hits.misses == wk.poly.len() {
+        // Check the centroid before declaring the whole polygon background.
+        let ctr = crate::infra::polygon::centroid(&wk.poly);
+        let w = w_of(ctr);
+        if scene.surface.hit(w, a_of(ctr, w)).is_none() {
+            if let Some(r) = wk.rec.as_deref_mut() {
+                r.add_background(signed_area(&wk.poly));
+                return 0.0;
+            }
+            return scene.background;
+        }
+    }
+    let total_area = signed_area(&wk.poly);
+    let src = std::mem::take(&mut wk.poly);
+    let acc = if matches!(scene.surface, Surface::Plane { .. })
+        && hits.misses == 0
+        && hits.zmax > hits.zmin
+    {
+        strips_integral(scene, &src, &hits, (&w_of, &a_of), wk)
+    } else {
+        pieces_integral(scene, &src, &hits, (&w_of, &a_of), wk)
+    };
+    wk.poly = src;
+    acc / total_area
+}
+
+/// Where the rays of the vertices of `wk.poly` meet the surface: their depths (also in
+/// `wk.zs`), the box of their scene points, and how many miss it.
+struct Hits {
+    zmin: f64,
+    zmax: f64,
+    misses: usize,
+    pmin: Pt,
+    pmax: Pt,
+}
+
+fn vertex_hits(
+    scene: &Scene,
+    w_of: &impl Fn(Pt) -> Pt,
+    a_of: &impl Fn(Pt, Pt) -> Pt,
+    wk: &mut Work,
+) -> Hits {
+    let mut zmin = f64::INFINITY;
+    let mut zmax = f64::NEG_INFINITY;
+    let mut misses = 0;
+    let mut pmin = [f64::INFINITY; 2];
+    let mut pmax = [f64::NEG_INFINITY; 2];
+    wk.zs.clear();
+    for &xi in &wk.poly {
+        let w = w_of(xi);
+        match scene.surface.hit(w, a_of(xi, w)) {
+            Some((z, p)) => {
+                wk.zs.push(z);
+                zmin = zmin.min(z);
+                zmax = zmax.max(z);
+                for k in 0..2 {
+                    pmin[k] = pmin[k].min(p[k]);
+                    pmax[k] = pmax[k].max(p[k]);
+                }
+            }
+            None => misses += 1,
+        }
+    }
+    Hits {
+        zmin,
+        zmax,
+        misses,
+        pmin,
+        pmax,
+    }
+}
+
+/// ∫ T over the polygon `src` on a plane that all its vertices' rays meet: the depth's
+/// level lines over the polygon are (nearly: exactly for a fixed main-lens point)
+/// parallel, and the ray map's density varies across them only. Strips along them, each
+/// of relative depth span [`STRIP_DEPTH_RTOL`] at most.
+fn strips_integral(
+    scene: &Scene,
+    src: &[Pt],
+    hits: &Hits,
+    (w_of, a_of): (&impl Fn(Pt) -> Pt, &impl Fn(Pt, Pt) -> Pt),
+    wk: &mut Work,
+) -> f64 {
+    let (zmin, zmax) = (hits.zmin, hits.zmax);
+    let n = ((zmax - zmin) / zmin / STRIP_DEPTH_RTOL).ceil() as usize;
+    let n = n.clamp(1, MAX_STRIPS);
+    let g = depth_gradient(src, &wk.zs);
+    let proj = |p: Pt| g[0] * p[0] + g[1] * p[1];
+    let (t0, t1) = src
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &p| {
+            (a.min(proj(p)), b.max(proj(p)))
+        });
+    let mut acc = 0.0;
+    for k in 0..n {
+        let lo = t0 + (t1 - t0) * k as f64 / n as f64;
+        let hi = t0 + (t1 - t0) * (k + 1) as f64 / n as f64;
+        if n > 1 {
+            clip_into(src, &mut wk.tmp, |p| proj(p) - lo);
+            clip_into(&wk.tmp, &mut wk.piece, |p| hi - proj(p));
+        } else {
+            wk.piece.clear();
+            wk.piece.extend_from_slice(src);
+        }
+        acc += piece_value(scene, w_of, a_of, wk);
+    }
+    acc
+}
+
+/// ∫ T over the polygon `src` on a slanted plane some rays miss, or a depth map: cut into
+/// n × n pieces, n set by the relative depth span ([`PIECE_DEPTH_RTOL`]), the map's cells
+/// the image spans, and misses (at most [`MAX_PIECES`]).
+fn pieces_integral(
+    scene: &Scene,
+    src: &[Pt],
+    hits: &Hits,
+    (w_of, a_of): (&impl Fn(Pt) -> Pt, &impl Fn(Pt, Pt) -> Pt),
+    wk: &mut Work,
+) -> f64 {
+    let Hits {
+        zmin,
+        zmax,
+        misses,
+        pmin,
+        pmax,
+    } = *hits;
+    let mut n = if zmin.is_finite() {
+        ((zmax - zmin) / zmin / PIECE_DEPTH_RTOL).sqrt().ceil() as usize
+    } else {
+        1
+    };
+    if let Surface::Map(m) = &scene.surface {
+        let cell = m.cell();
+        let span = ((pmax[0] - pmin[0]) / cell[0]).max((pmax[1] - pmin[1]) / cell[1]);
+        if span.is_finite() {
+            n = n.max(span.ceil() as usize);
+        }
+    }
+    if misses > 0 {
+        n = n.max(4);
+    }
+    let n = n.clamp(1, MAX_PIECES);
+    let (x0, x1, y0, y1) = bounds(src);
+    let mut acc = 0.0;
+    for i in 0..n {
+        for j in 0..n {
+            let (px0, px1) = (
+                x0 + (x1 - x0) * i as f64 / n as f64,
+                x0 + (x1 - x0) * (i + 1) as f64 / n as f64,
+            );
+            let (py0, py1) = (
+                y0 + (y1 - y0) * j as f64 / n as f64,
+                y0 + (y1 - y0) * (j + 1) as f64 / n as f64,
+            );
+            wk.piece.clear();
+            wk.piece.extend_from_slice(src);
+            if n > 1 {
+                clip_box(&mut wk.piece, &mut wk.tmp, px0, px1, py0, py1);
+            }
+            acc += piece_value(scene, w_of, a_of, wk);
+        }
+    }
+    acc
+}
+
+/// ∫ T over the ray set `wk.piece` (cell coordinates ξ) of one node, the piece's image
+/// treated as the polygon of its vertices' hits (in record mode: recorded, 0 returned).
+fn piece_value(
+    scene: &Scene,
+    w_of: &impl Fn(Pt) -> Pt,
+    a_of: &impl Fn(Pt, Pt) -> Pt,
+    wk: &mut Work,
+) -> f64 {
+    let area = signed_area(&wk.piece);
+    if area <= 0.0 {
+        return 0.0;
+    }
+    wk.mapped.clear();
+    let mut miss = false;
+    for &xi in &wk.piece {
+        let w = w_of(xi);
+        match scene.surface.hit(w, a_of(xi, w)) {
+            Some((_, p)) => wk.mapped.push(p),
+            None => {
+                miss = true;
+                break;
+            }
+        }
+    }
+    if let Some(r) = wk.rec.as_deref_mut() {
+        if !miss {
+            r.add(&wk.mapped, area);
+        } else {
+            let ctr = crate::infra::polygon::centroid(&wk.piece);
+            let w = w_of(ctr);
+            match scene.surface.hit(w, a_of(ctr, w)) {
+                Some((_, p)) => r.add_point(p, area),
+                None => r.add_background(area),
+            }
+        }
+        return 0.0;
+    }
+    let v = if miss {
+        let ctr = crate::infra::polygon::centroid(&wk.piece);
+        let w = w_of(ctr);
+        match scene.surface.hit(w, a_of(ctr, w)) {
+            Some((_, p)) => scene.texture.at(p),
+            None => scene.background,
+        }
+    } else {
+        scene.texture.average(&wk.mapped, &mut wk.tex)
+    };
+    area * v
+}
+
+/// The direction of steepest depth increase over a polygon (least squares through its
+/// vertices' hit depths `zs`); any unit vector when they are flat.
+fn depth_gradient(poly: &[Pt], zs: &[f64]) -> Pt {
+    let n = poly.len() as f64;
+    let m = poly
+        .iter()
+        .fold([0.0, 0.0], |s, p| [s[0] + p[0] / n, s[1] + p[1] / n]);
+    let zm = zs.iter().sum::<f64>() / n;
+    let (mut sxx, mut sxy, mut syy, mut sxz, mut syz) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for (p, &z) in poly.iter().zip(zs) {
+        let (dx, dy, dz) = (p[0] - m[0], p[1] - m[1], z - zm);
+        sxx += dx * dx;
+        sxy += dx * dy;
+        syy += dy * dy;
+        sxz += dx * dz;
+        syz += dy * dz;
+    }
+    let det = sxx * syy - sxy * sxy;
+    let g = if det.abs() > 1e-300 {
+        [(syy * sxz - sxy * syz) / det, (sxx * syz - sxy * sxz) / det]
+    } else {
+        [sxz, syz]
+    };
+    let norm = (g[0] * g[0] + g[1] * g[1]).sqrt();
+    if norm > 0.0 && norm.is_finite() {
+        [g[0] / norm, g[1] / norm]
+    } else {
+        [1.0, 0.0]
+    }
+}
