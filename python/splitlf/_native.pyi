@@ -69,6 +69,7 @@ __all__ = [
     "samples_2d",
     "seen_region",
     "solve_normal",
+    "reconstruct",
     "surface_system",
     "depth_sweep",
 ]
@@ -482,6 +483,15 @@ def solve_normal(
     n_threads: int | None = None,
     progress: Callable[[int, int], object] | None = None,
 ) -> tuple[_F64, int, float]: ...
+
+def reconstruct(
+    design: DesignCore,
+    images: list[_F64],
+    surface: tuple[str, list[float], _F64 | None],
+    options: dict[str, Any],
+    progress: Callable[[str, int, int, list[str]], object] | None = None,
+) -> tuple[_F64, tuple[float, float, float, float], float, int, int, float, int,
+           list[int] | None]: ...
 
 
 def depth_sweep(

@@ -107,6 +107,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
         inverse::reconstruct::surface_system,
         inverse::reconstruct::reconstruction_factors,
         inverse::reconstruct::solve_normal,
+        inverse::reconstruct::reconstruct,
         inverse::reconstruct::cell_averages,
         inverse::depth::depth_sweep,
         infra::arrays::available_memory,
