@@ -5,14 +5,13 @@ known surface: the core builds the sparse linear map A (row = raw pixel, column 
 entry = what the pixel records when the cell alone is white), with the forward model's own
 integration, so that ``A t`` is ``render``'s raw of the image texture t: on the exact route
 (a fronto-parallel plane, rect cells, a square aperture, the ideal layout) as per-axis
-factors (``_native.reconstruction_factors``), otherwise as explicit rows
-(``_native.surface_system``): from the tilted route for a tilted plane on those designs
+factors, otherwise as explicit rows: from the tilted route for a tilted plane on those designs
 (wide pixels cut into parts where it tilts along both axes), from the general route in
 record mode for the rest (planes too steep along both axes even for parts, depth maps,
 hex arrays, circular apertures, sensor layouts: on planes, and on depth maps that every
-ray meets once, each pixel's footprint density over the cells). The core's
-matrix-free conjugate gradients (``_native.solve_normal``, SciPy's ``cg`` iteration, in
-parallel) solve the regularised least squares
+ray meets once, each pixel's footprint density over the cells). The core's matrix-free
+conjugate gradients (SciPy's ``cg`` iteration, in parallel) solve the regularised least
+squares
 
     min_t  sum_rows ((A t - raw) / sigma)^2  +  lambda * |D t|^2
 
