@@ -34,6 +34,8 @@ sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parent / "tests"))
 
 from exact_render import axis_weights  # noqa: E402
+from factored_parts import parts as _parts  # noqa: E402
+from factored_parts import sigma as _sigma  # noqa: E402
 from timing import timed_call  # noqa: E402
 
 import splitlf  # noqa: E402
@@ -43,7 +45,6 @@ from splitlf.inverse.reconstruct import (  # noqa: E402
     CG_NOISE_TOL,
     CG_RTOL,
     DEFAULT_REGULARIZATION,
-    _sigma,
 )
 
 Z = 1000.0
@@ -187,8 +188,6 @@ def peak_rss_mib(fn: Any) -> tuple[float, Any]:
 def map_bytes(raw: splitlf.Raw, region: tuple[float, ...]) -> tuple[int, int]:
     """Bytes of the factored map the solve holds (its factors) and of the explicit CSR map
     it stands for (8 B a value, 4 B a column, per kept pixel nnz_y x nnz_x)."""
-    from splitlf.inverse.reconstruct import _parts
-
     d = raw.design
     x0, y1, h, nx, ny = _native.cell_grid(region, d.resolution_step(Z))
     pad = math.ceil(_native.pixel_span(d.core, Z, None) / h)

@@ -9,10 +9,10 @@ from typing import Any
 import numpy as np
 import pytest
 from exact_render import axis_weights
+from factored_parts import parts as _parts
 
 import splitlf
 from splitlf import _native, measure
-from splitlf.inverse.reconstruct import _parts
 
 
 def seed_small(kx: int = 10, ky: int = 8) -> splitlf.Design:
@@ -536,35 +536,30 @@ def test_reconstruct_a_monte_carlo_raw_of_a_slanted_plane(gx: float, gy: float) 
     assert p > flat + 5.0, (p, flat)
 
 
-def test_too_large_suggests_tiles() -> None:
-    """A map that does not fit is reported with a tile size that would: the region's
-    padded side scaled by sqrt(0.8 limit / need), less the padding."""
-    from splitlf.errors import TooLargeError
-    from splitlf.inverse.reconstruct import _tiles_hint
+def _memory_limit(monkeypatch: pytest.MonkeyPatch, limit: int) -> None:
+    """reconstruct's one native call with a memory limit of ``limit`` bytes."""
+    real = _native.reconstruct
 
-    e = TooLargeError("too large.", what="the map", nbytes=400 * 2**20, limit=100 * 2**20)
-    hint = _tiles_hint(e, 1000, 1000, 10, 0.05)
-    side = int(1020 * np.sqrt(0.8 * 100 / 400)) - 20
-    assert isinstance(hint, TooLargeError) and hint.bytes == e.bytes
-    assert f"tiles of at most {side} x {side} cells (tile={side})" in str(hint)
-    assert "1000 x 1000" in str(hint) and hint.tile == side
+    def call(design: Any, images: Any, surface: Any, options: dict, progress: Any = None) -> Any:
+        return real(design, images, surface, {**options, "memory_limit": limit}, progress)
+
+    monkeypatch.setattr(_native, "reconstruct", call)
 
 
-def test_too_large_by_the_padding_suggests_a_coarser_step() -> None:
-    """When the padding alone does not fit (the multi-focus design of docs/compare.md at
-    300 mm: 64 x 64 cells padded by 1,155 per side, 12.2 GB), a tile would be a cell or
-    two: the hint says tiles do not help and names a step sqrt(need / (0.8 limit)) times
-    coarser, and reconstruct's fallback re-raises it rather than tiling."""
-    from splitlf.errors import TooLargeError
-    from splitlf.inverse.reconstruct import MIN_TILE, _tiles_hint
-
-    e = TooLargeError("too large.", what="the map", nbytes=12_163_760_088,
-                      limit=11_157_381_120)
-    hint = _tiles_hint(e, 64, 64, 1155, 0.0155)
-    coarse = 0.0155 * np.sqrt(12_163_760_088 / (0.8 * 11_157_381_120))
-    assert hint.tile < MIN_TILE and "tiles would not help" in str(hint)
-    assert f"step={coarse:.3g}" in str(hint) and "tile=" not in str(hint)
-    assert "padded by 1155 per side" in str(hint)
+def test_too_large_by_the_padding_suggests_a_coarser_step(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """When the padding alone does not fit, a tile would be a cell or two: the error says
+    tiles do not help and names a step sqrt(need / (0.8 limit)) times coarser, and
+    reconstruct raises it rather than tiling (the hint's formula: the core's unit test)."""
+    design = seed_small(6, 5)
+    raw = splitlf.render(design, splitlf.Scene(flat(0.5), 400.0))
+    _memory_limit(monkeypatch, 1000)
+    with pytest.raises(splitlf.errors.TooLargeError) as e:
+        splitlf.reconstruct(raw, 400.0, region=(-0.5, 0.5, -0.5, 0.5), step=0.05)
+    coarse = 0.05 * np.sqrt(e.value.bytes / (0.8 * 1000))
+    assert "tiles would not help" in str(e.value) and "tile=" not in str(e.value)
+    assert f"step={coarse:.3g}" in str(e.value), (coarse, str(e.value))
+    assert e.value.limit == 1000 and e.value.bytes > 1000
 
 
 @pytest.fixture(scope="module")
@@ -602,36 +597,111 @@ def test_tiles_are_the_one_solve(tiled_scene: Any, z: float) -> None:
 
 def test_a_solve_too_large_falls_back_to_tiles(tiled_scene: Any,
                                                monkeypatch: pytest.MonkeyPatch) -> None:
-    """When one solve would not fit, reconstruct takes the tiles its error suggests (and
-    with an explicit tile it raises instead)."""
-    from splitlf import reconstruction
-    from splitlf.errors import TooLargeError
-
+    """When one solve would not fit, reconstruct takes the tiles its plan suggests (and
+    with an explicit tile too large it raises, naming a tile that would fit)."""
     design, tex, noise = tiled_scene
     raw = splitlf.render(design, splitlf.Scene(tex, 1000.0, background=0.5), noise=noise)
-    real = _native.solve_normal
-    limit = 220 * 220  # cells of a padded grid that "fit" (the margin is 79 cells a side)
-
-    def solve(shape: tuple[int, int], *args: Any) -> Any:
-        need = shape[0] * shape[1]
-        if need > limit:
-            raise TooLargeError("too large.", what="the solve", nbytes=need, limit=limit)
-        return real(shape, *args)
-
-    monkeypatch.setattr(reconstruction._native, "solve_normal", solve)
     kw: dict[str, Any] = {"region": (-4.0, 4.0, -3.0, 3.0), "noise": noise}
+    one = splitlf.reconstruct(raw, 1000.0, **kw)
+    _memory_limit(monkeypatch, 1)
+    with pytest.raises(splitlf.errors.TooLargeError) as e:
+        splitlf.reconstruct(raw, 1000.0, **kw)
+    with pytest.raises(splitlf.errors.TooLargeError) as e16:
+        splitlf.reconstruct(raw, 1000.0, tile=16, **kw)
+    assert e16.value.bytes < e.value.bytes
+    monkeypatch.undo()
+    _memory_limit(monkeypatch, (e16.value.bytes + e.value.bytes) // 2)
     rec = splitlf.reconstruct(raw, 1000.0, **kw)
-    ny, nx = rec.image.shape
-    side = int(np.sqrt(0.8 * limit)) - 158  # the hint: 0.8 of the limit, less the margin
-    assert rec.tiles == -(-nx // side) * -(-ny // side) > 1, (rec.tiles, side, nx, ny)
-    with pytest.raises(TooLargeError, match="tile="):
-        splitlf.reconstruct(raw, 1000.0, tile=60, **kw)  # 60 + 8 + 158 > 220
-    monkeypatch.setattr(reconstruction._native, "solve_normal", real)
+    assert rec.tiles > 1 and rec.image.shape == one.image.shape, rec.tiles
+    assert float(np.sqrt(np.mean((rec.image - one.image) ** 2))) < 0.05
+    with pytest.raises(splitlf.errors.TooLargeError, match="tile="):
+        splitlf.reconstruct(raw, 1000.0, tile=200, **kw)
+    monkeypatch.undo()
     for bad in (0, 15):
         with pytest.raises(splitlf.errors.InvalidParameter, match="tile"):
             splitlf.reconstruct(raw, 1000.0, tile=bad, **kw)
     with pytest.raises(TypeError, match="tile"):
         splitlf.reconstruct(raw, 1000.0, tile=16.0, **kw)  # type: ignore[arg-type]
+
+
+def test_reconstruct_is_one_native_call(monkeypatch: pytest.MonkeyPatch) -> None:
+    """After the Python checks, a reconstruction (also a tiled one) is one call into the
+    core: every function of splitlf._native is wrapped to count its calls."""
+    design = seed_small(6, 5)
+    raw = splitlf.render(design, splitlf.Scene(flat(0.5), 400.0))
+    calls: list[str] = []
+    for name in dir(_native):
+        f = getattr(_native, name)
+        if callable(f) and not isinstance(f, type) and not name.startswith("_"):
+            def counted(*a: Any, _f: Any = f, _n: str = name, **k: Any) -> Any:
+                calls.append(_n)
+                return _f(*a, **k)
+            monkeypatch.setattr(_native, name, counted)
+    for kw in ({}, {"tile": 16}, {"depth": splitlf.Plane(400.0, 0.5, 0.0)}):
+        depth = kw.pop("depth", 400.0)
+        calls.clear()
+        splitlf.reconstruct(raw, depth, region=(-1.0, 1.0, -1.0, 1.0), step=0.05, **kw)
+        assert calls == ["reconstruct"], calls
+
+
+def test_regularization_beyond_the_data_is_refused() -> None:
+    """regularization=1e300 once returned an image of -1.9e5: the prior drowned the data
+    and CG lost its precision. It is refused, naming the range; at the range's top the
+    image is the data's weighted mean (the limit of an infinite prior: the constant c
+    minimising sum w (c A 1 - y)^2 is the albedo of a flat scene, 0.4)."""
+    design = seed_small(6, 5)
+    raw = splitlf.render(design, splitlf.Scene(flat(0.4), 400.0))
+    kw: dict[str, Any] = {"region": (-1.0, 1.0, -1.0, 1.0), "step": 0.1}
+    with pytest.raises(splitlf.errors.InvalidParameter, match="regularization") as e:
+        splitlf.reconstruct(raw, 400.0, regularization=1e300, **kw)
+    top = float(str(e.value).split("(0, ")[1].split("]")[0])
+    assert 1e3 < top < 1e300
+    rec = splitlf.reconstruct(raw, 400.0, regularization=0.999 * top, **kw)
+    assert np.max(np.abs(rec.image - 0.4)) < 1e-3, np.max(np.abs(rec.image - 0.4))
+
+
+def test_slow_runs_are_announced_and_refused(monkeypatch: pytest.MonkeyPatch,
+                                             caplog: pytest.LogCaptureFixture) -> None:
+    """The grid's size and the expected work are logged before the work; a run expected
+    past MAX_SECONDS is refused (TooLargeError naming allow_slow) unless allow_slow=True."""
+    import logging
+
+    from splitlf.inverse import reconstruct as module
+
+    design = seed_small(6, 5)
+    raw = splitlf.render(design, splitlf.Scene(flat(0.5), 400.0))
+    kw: dict[str, Any] = {"region": (-1.0, 1.0, -1.0, 1.0), "step": 0.05}
+    with caplog.at_level(logging.INFO, logger="splitlf.reconstruct"):
+        rec = splitlf.reconstruct(raw, 400.0, **kw)
+    ny, nx = rec.image.shape
+    assert any(f"{nx} x {ny} cells" in r.getMessage() and "expected" in r.getMessage()
+               for r in caplog.records), [r.getMessage() for r in caplog.records]
+    monkeypatch.setattr(module, "MAX_SECONDS", 1e-9)
+    with pytest.raises(splitlf.errors.TooLargeError, match="allow_slow=True"):
+        splitlf.reconstruct(raw, 400.0, **kw)
+    again = splitlf.reconstruct(raw, 400.0, allow_slow=True, **kw)
+    assert np.array_equal(again.image, rec.image)
+    with pytest.raises(TypeError, match="allow_slow"):
+        splitlf.reconstruct(raw, 400.0, allow_slow=1, **kw)  # type: ignore[arg-type]
+
+
+def test_mtf50_of_an_edge_outside_the_region_is_refused() -> None:
+    """An edge whose line misses the region (X = 100 mm against a region of X in [-1, 1]:
+    every cell on one side) once gave an MTF50 of 1.32; it is refused, naming the edge."""
+    design = seed_small(6, 5)
+    raw = splitlf.render(design, splitlf.Scene(flat(0.5), 400.0))
+    rec = splitlf.reconstruct(raw, 400.0, region=(-1.0, 1.0, -1.0, 1.0), step=0.05)
+    for center in ((100.0, 0.0), (0.0, -50.0), (1.5, 0.0)):
+        with pytest.raises(splitlf.errors.InvalidParameter, match="edge"):
+            measure.mtf50(rec, splitlf.SlantedEdge(angle=5.0, center=center))
+
+
+def test_repr_is_short() -> None:
+    design = seed_small(6, 5)
+    raw = splitlf.render(design, splitlf.Scene(flat(0.5), 400.0))
+    rec = splitlf.reconstruct(raw, 400.0, region=(-1.0, 1.0, -1.0, 1.0), step=0.05)
+    text = repr(rec)
+    assert len(text) < 400 and "array" not in text and "40 x 40 cells" in text, text
 
 
 def _two_types() -> splitlf.Design:

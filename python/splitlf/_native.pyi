@@ -72,6 +72,7 @@ __all__ = [
     "samples_2d",
     "seen_region",
     "solve_normal",
+    "reconstruct",
     "surface_system",
     "estimate_depth",
     "depth_whites",
@@ -475,6 +476,15 @@ def solve_normal(
     n_threads: int | None = None,
     progress: Callable[[int, int], object] | None = None,
 ) -> tuple[_F64, int, float]: ...
+
+def reconstruct(
+    design: DesignCore,
+    images: list[_F64],
+    surface: tuple[str, list[float], _F64 | None],
+    options: dict[str, Any],
+    progress: Callable[[str, int, int, list[str]], object] | None = None,
+) -> tuple[_F64, tuple[float, float, float, float], float, int, int, float, int,
+           list[int] | None]: ...
 
 
 def estimate_depth(

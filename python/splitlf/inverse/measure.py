@@ -87,7 +87,8 @@ def mtf50(rec: Reconstruction, edge: SlantedEdge) -> float:
     edge-spread function, its derivative (the line spread) under a Hann window, the FFT's
     modulus normalised at zero frequency, and the first crossing of 0.5, linearly
     interpolated. ``nan`` when the transfer never falls to half below the cells' Nyquist
-    frequency (1 / (2 step))."""
+    frequency (1 / (2 step)). An edge whose line does not cross the region (cells more
+    than a step from it on both sides) raises :class:`~splitlf.errors.InvalidParameter`."""
     if not isinstance(rec, Reconstruction):
         raise TypeError(f"rec must be a splitlf.Reconstruction, got {type(rec).__name__}")
     if not isinstance(edge, SlantedEdge):
@@ -99,6 +100,12 @@ def mtf50(rec: Reconstruction, edge: SlantedEdge) -> float:
     X, Y = np.meshgrid(xs, ys)
     a = math.radians(edge.angle)
     dist = (X - edge.center[0]) * math.cos(a) - (Y - edge.center[1]) * math.sin(a)
+    if not (dist.min() < -h and dist.max() > h):
+        x0, x1, y0, y1 = rec.extent
+        raise InvalidParameter.of(
+            "edge", f"center {tuple(edge.center)}, angle {edge.angle:g} deg",
+            f"an edge crossing the reconstruction's region X [{x0:.6g}, {x1:.6g}], "
+            f"Y [{y0:.6g}, {y1:.6g}] mm with cells on both sides")
     bin_w = h / OVERSAMPLE
     idx = np.round(dist / bin_w).astype(np.int64)
     lo, hi = idx.min(), idx.max()

@@ -5,14 +5,13 @@ known surface: the core builds the sparse linear map A (row = raw pixel, column 
 entry = what the pixel records when the cell alone is white), with the forward model's own
 integration, so that ``A t`` is ``render``'s raw of the image texture t: on the exact route
 (a fronto-parallel plane, rect cells, a square aperture, the ideal layout) as per-axis
-factors (``_native.reconstruction_factors``), otherwise as explicit rows
-(``_native.surface_system``): from the tilted route for a tilted plane on those designs
+factors, otherwise as explicit rows: from the tilted route for a tilted plane on those designs
 (wide pixels cut into parts where it tilts along both axes), from the general route in
 record mode for the rest (planes too steep along both axes even for parts, depth maps,
 hex arrays, circular apertures, sensor layouts: on planes, and on depth maps that every
-ray meets once, each pixel's footprint density over the cells). The core's
-matrix-free conjugate gradients (``_native.solve_normal``, SciPy's ``cg`` iteration, in
-parallel) solve the regularised least squares
+ray meets once, each pixel's footprint density over the cells). The core's matrix-free
+conjugate gradients (SciPy's ``cg`` iteration, in parallel) solve the regularised least
+squares
 
     min_t  sum_rows ((A t - raw) / sigma)^2  +  lambda * |D t|^2
 
@@ -24,19 +23,21 @@ regulariser's weight never depends on the number of rows: more data never hurts.
 from __future__ import annotations
 
 import dataclasses
+import logging
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
 from .. import _native, _validate
 from .._noise import options as _noise
+from .._progress import Show
 from .._progress import progress_bar as _progress
 from .._progress import progress_flag as _progress_flag
 from .._validate import channels as _channels
 from .._validate import extent as _extent
-from ..errors import InvalidParameter, TooLargeError
+from ..errors import InvalidParameter
 from ..imaging.render import DepthMap, Plane, Raw
 from ..model.design import Design
 
@@ -61,9 +62,14 @@ CG_NOISE_TOL = 1e-3
 TILE_OVERLAP = 8
 #: The least tile side (cells).
 MIN_TILE = 16
+#: A reconstruction expected to take longer than this (seconds, an upper bound at
+#: CG_MAX_ITER iterations) is refused unless ``allow_slow=True``: a few minutes.
+MAX_SECONDS = 180.0
+
+_log = logging.getLogger("splitlf.reconstruct")
 
 
-@dataclasses.dataclass(frozen=True, eq=False)
+@dataclasses.dataclass(frozen=True, eq=False, repr=False)
 class Reconstruction:
     """A reconstructed albedo image: ``image`` (2-D float64, row 0 at the top = largest Y,
     column 0 at the left, like a texture) of cells of pitch ``step`` (mm) uniform over
@@ -94,6 +100,20 @@ class Reconstruction:
     def __post_init__(self) -> None:
         self.image.setflags(write=False)
 
+    def __repr__(self) -> str:
+        """A short summary (never the arrays): shape, extent, step, surface, channels and
+        what the solve did."""
+        ny, nx = self.image.shape
+        x0, x1, y0, y1 = self.extent
+        depth = (f"{self.depth:g} mm" if isinstance(self.depth, float)
+                 else type(self.depth).__name__)
+        types = "" if self.lens_types is None else f", lens_types={self.lens_types}"
+        return (f"Reconstruction({ny} x {nx} cells of {self.step:.4g} mm over X "
+                f"[{x0:.4g}, {x1:.4g}], Y [{y0:.4g}, {y1:.4g}] mm, depth {depth}, "
+                f"channels={self.channels}{types}, rows={self.rows}, "
+                f"iterations={self.iterations}, residual={self.residual:.2e}, "
+                f"regularization={self.regularization:g}, tiles={self.tiles})")
+
 
 def _depth(depth: Any) -> float | Plane | DepthMap:
     """A fronto-parallel plane as its depth (mm); a slanted Plane or a DepthMap as given."""
@@ -112,249 +132,58 @@ def _depth(depth: Any) -> float | Plane | DepthMap:
     return z
 
 
-def _depth_range(surface: float | Plane | DepthMap, ext: Extent) -> tuple[float, float]:
-    """The least and greatest depth of the surface over the rectangle ``ext`` (a depth
-    map's over its whole extent: a bound)."""
-    if isinstance(surface, float):
-        return surface, surface
-    if isinstance(surface, Plane):
-        return surface.depths(ext)
-    return float(surface.depth.min()), float(surface.depth.max())
-
-
-def _reference_depth(surface: float | Plane | DepthMap, region: Extent | None) -> float:
-    """The depth that sizes the defaults: a plane's depth at the region's centre (on the
-    axis, X = Y = 0, without a region), a depth map's median."""
-    if isinstance(surface, float):
-        return surface
-    if isinstance(surface, Plane):
-        if region is None:
-            return surface.z0
-        x0, x1, y0, y1 = region
-        return surface.z0 + surface.gx * 0.5 * (x0 + x1) + surface.gy * 0.5 * (y0 + y1)
-    return float(np.median(surface.depth))
-
-
-def _exact(design: Design, surface: float | Plane | DepthMap, chans: tuple[int, ...]) -> bool:
-    """Whether the map can be built in factored form (the forward model's exact route)."""
-    if not isinstance(surface, float) or design.aperture != "square":
-        return False
-    res = design.resolved()
-    return all(res[c - 1]["grid"] == "rect" and res[c - 1]["layout"] == "ideal" for c in chans)
-
-
-def _type_count(design: Design, chans: tuple[int, ...]) -> int:
-    """The most lens types of any of the channels (a channel without ``f``: one)."""
-    res = design.resolved()
-    return max(len(res[i - 1]["f"]) for i in chans)
-
-
-def _lens_types(design: Design, chans: tuple[int, ...], lens_types: Any
-                ) -> tuple[int, ...] | None:
-    """The lens types kept (numbered from 1), or None for every type."""
+def _lens_types(lens_types: Any) -> list[int] | None:
+    """The lens type numbers given (from 1), their types checked; the core checks them
+    against the channels' lens types."""
     if lens_types is None:
         return None
-    n = _type_count(design, chans)
     if isinstance(lens_types, (int, np.integer)) and not isinstance(lens_types, bool):
         lens_types = (lens_types,)
     if (not isinstance(lens_types, Sequence) or isinstance(lens_types, str)
             or not lens_types):
         raise TypeError("lens_types must be None, a lens type number or a non-empty "
                         f"sequence of them, got {lens_types!r}")
-    out: list[int] = []
     for t in lens_types:
         if isinstance(t, bool) or not isinstance(t, (int, np.integer)):
             raise TypeError(f"lens_types must hold integers, got {t!r}")
-        if not 1 <= t <= n:
-            raise InvalidParameter.of("lens_types", int(t),
-                                      f"lens type numbers in 1..{n} (the chosen channels' "
-                                      "lens types)")
-        if int(t) in out:
-            raise InvalidParameter.of("lens_types", int(t), "each lens type at most once")
-        out.append(int(t))
-    return None if sorted(out) == list(range(1, n + 1)) else tuple(sorted(out))
+    return [int(t) for t in lens_types]
 
 
-def _sigma(y: np.ndarray, noise: Mapping[str, float] | None, white: np.ndarray
-           ) -> tuple[np.ndarray, str]:
-    """Per-row noise sigma: Poisson(N v)/N plus read noise r/N (render's model), or the
-    floor NOISE_FLOOR x white for noise-free raws; never below the floor."""
-    floor = NOISE_FLOOR * white
-    if noise is None:
-        return floor, f"noise-free: sigma = {NOISE_FLOOR:g} of white"
-    n, r = noise["photons"], noise["read_noise"]
-    var = np.maximum(y, 0.0) / n + (r / n) ** 2
-    return np.maximum(np.sqrt(var), floor), f"photons {n:g}, read noise {r:g}"
+def _reporter(show: Show) -> tuple[Callable[[str, int, int, list[str]], None], list[Any]]:
+    """The core's progress callback (phase, done, total, notes): each note (the grid's size
+    and the expected work, before the work starts) logged on ``splitlf.reconstruct``, and
+    with ``show`` a report per phase (a bar on a terminal, sparse lines elsewhere: the
+    map's raw rows, the solve's iterations). Returns
+    it and the list holding the open bar (closed by the caller)."""
+    bars: list[Any] = []
+    names = {"map": ("splitlf reconstruct (map)", "block"),
+             "solve": ("splitlf reconstruct (CG)", "step")}
+    state = {"phase": ""}
 
+    def report(phase: str, done: int, total: int, notes: list[str]) -> None:
+        for note in notes:
+            _log.info("%s", note)
+        if not show or phase not in names:
+            return
+        if phase != state["phase"]:
+            for bar in bars:
+                bar.close()
+            bars.clear()
+            bar, _ = _progress(show, *names[phase])
+            if bar is not None:
+                bars.append(bar)
+            state["phase"] = phase
+        for bar in bars:
+            bar.report(done, total)
 
-def _csr(m: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
-    """A SciPy CSR matrix as the core's (indptr, indices, data, number of columns)."""
-    return (np.ascontiguousarray(m.indptr, dtype=np.uint64),
-            np.ascontiguousarray(m.indices, dtype=np.uint32),
-            np.ascontiguousarray(m.data, dtype=np.float64), int(m.shape[1]))
-
-
-@dataclasses.dataclass
-class _Part:
-    """The pixels of one lens type of one channel that see only the grid: the map's rows
-    norm (y row b) ⊗ (x row a), restricted to the raw rows and columns with such pixels."""
-
-    norm: float
-    px: Any  # CSR, (raw columns kept, grid columns)
-    py: Any  # CSR, (raw rows kept, grid rows from the top)
-    mask: np.ndarray  # (rows kept, columns kept): the pixel is a row of the map
-    y: np.ndarray  # the raw values at the mask
-    white: float  # the channel's share (a fully lit white pixel)
-
-    def seam(self, w: np.ndarray) -> tuple[Any, ...]:
-        """The core's factored block (norm, px, py, weights, values) for row weights w."""
-        wf, yf = np.zeros(self.mask.shape), np.zeros(self.mask.shape)
-        wf[self.mask], yf[self.mask] = w, self.y
-        return (self.norm, _csr(self.px), _csr(self.py), wf.ravel(), yf.ravel())
-
-
-@dataclasses.dataclass
-class _Rows:
-    """Explicit rows of the map (any surface, any design) over the padded grid's cells, as
-    the core's CSR arrays, the raw values of its rows and each row's fully lit white
-    value."""
-
-    csr: tuple[np.ndarray, np.ndarray, np.ndarray, int]
-    y: np.ndarray
-    white: np.ndarray
-
-    @property
-    def mask(self) -> np.ndarray:
-        return np.ones(self.y.shape, dtype=bool)
-
-    def seam(self, w: np.ndarray) -> tuple[Any, ...]:
-        """The core's block of explicit rows (A, weights, values)."""
-        return (self.csr, np.ascontiguousarray(w, dtype=np.float64), self.y)
-
-
-def _tiles_hint(e: TooLargeError, nx: int, ny: int, pad: int, step: float) -> TooLargeError:
-    """``e`` with a suggested tile: the region's cells scaled by the share of the need
-    that fits (each tile is padded by ``pad`` cells of its own, so tiles overlap by that).
-    When the padding alone is past what fits (a tile below ``MIN_TILE``), tiles cannot
-    help: a coarser step is suggested instead (a row's entries scale as the inverse square
-    of the step, the pixels do not change)."""
-    if not (e.bytes and e.limit) or e.bytes <= 0:
-        return e
-    scale = math.sqrt(0.8 * e.limit / e.bytes)
-    side = max(1, int(math.sqrt((nx + 2 * pad) * (ny + 2 * pad)) * scale) - 2 * pad)
-    head = f"{e} The region is {nx} x {ny} cells (padded by {pad} per side)"
-    if side < MIN_TILE:
-        coarse = step / scale
-        msg = (f"{head}: tiles would not help, the padding (a pixel's span on the surface, "
-               f"{pad} cells) needs the memory; use a coarser step (at least about "
-               f"{coarse:.3g} mm, step={coarse:.3g}), or fewer channels.")
-    else:
-        msg = f"{head}: reconstruct it in tiles of at most {side} x {side} cells (tile={side})."
-    out = TooLargeError(msg, what=e.what, nbytes=e.bytes, limit=e.limit)
-    out.tile = side  # type: ignore[attr-defined]
-    return out
-
-
-def _rows(raw: Raw, chans: tuple[int, ...], surface: Plane | DepthMap | float, grid: tuple,
-          n_threads: int | None, progress: Any, types: tuple[int, ...] | None = None
-          ) -> list[_Rows]:
-    design = raw.design
-    plane = surface if not isinstance(surface, float) else Plane(surface)
-    kind, params, depth_map = plane.seam()
-    scene = _native.RenderScene("constant", [0.0], None, kind, params, depth_map, 0.0)
-    chan, pix, indptr, indices, data = _native.surface_system(
-        design.core, scene, grid, list(chans), n_threads, progress,
-        None if types is None else list(types))
-    if chan.size == 0:
-        return []
-    shares = np.array([c["share"] for c in design.resolved()])
-    ch = chan.astype(np.int64)
-    # Each row's raw value, read from its own channel's image (no copy of whole raws).
-    y = np.empty(chan.size)
-    for c in np.unique(ch):
-        sel = ch == c
-        y[sel] = raw.images[c].ravel()[pix[sel].astype(np.int64)]
-    return [_Rows(csr=(indptr, indices, data, grid[3] * grid[4]), y=y, white=shares[ch])]
-
-
-def _parts(raw: Raw, chans: tuple[int, ...], z: float, grid: tuple,
-           kept_types: tuple[int, ...] | None = None) -> list[_Part]:
-    from scipy import sparse
-
-    design = raw.design
-    gnx, gny = grid[3], grid[4]
-    shares = [c["share"] for c in design.resolved()]
-    parts = []
-    for c in chans:
-        norm, types, xs, ys = _native.reconstruction_factors(design.core, z, grid, c)
-        img = raw.images[c - 1]
-        rows, cols = types.shape
-        for t, ((xi, xj, xd, tx), (yi, yj, yd, ty)) in enumerate(zip(xs, ys, strict=True)):
-            if kept_types is not None and t + 1 not in kept_types:
-                continue
-            px = sparse.csr_matrix((xd, xj.astype(np.int64), xi.astype(np.int64)),
-                                   shape=(cols, gnx))
-            py = sparse.csr_matrix((yd, yj.astype(np.int64), yi.astype(np.int64)),
-                                   shape=(rows, gny))
-            sx = np.asarray(px.sum(axis=1)).ravel()
-            sy = np.asarray(py.sum(axis=1)).ravel()
-            # Only raw rows and columns whose rays reach the grid can hold rows of the map:
-            # the masks below are over those, not over the whole raw.
-            rows_in = np.flatnonzero((ty > 0.0) & (sy > 0.0))
-            cols_in = np.flatnonzero((tx > 0.0) & (sx > 0.0))
-            total = ty[rows_in, None] * tx[None, cols_in]
-            inside = sy[rows_in, None] * sx[None, cols_in]
-            kept = ((types[np.ix_(rows_in, cols_in)] == t)
-                    & (total - inside <= _native.OUTSIDE_SHARE * total))
-            r_any, c_any = kept.any(axis=1), kept.any(axis=0)
-            if not r_any.any():
-                continue
-            r_sel, c_sel = rows_in[r_any], cols_in[c_any]
-            mask = kept[np.ix_(r_any, c_any)]
-            parts.append(_Part(norm=norm, px=px[c_sel], py=py[r_sel], mask=mask,
-                               y=img[np.ix_(r_sel, c_sel)][mask], white=shares[c - 1]))
-    return parts
-
-
-def _tiled(raw: Raw, surface: float | Plane | DepthMap, grid: tuple, tile: int, lam: float,
-           chans: tuple[int, ...], noise: Mapping[str, float] | None, n_threads: int | None,
-           progress: bool | None, types: tuple[int, ...] | None = None) -> Reconstruction:
-    """The grid (X0, Y1, step, nx, ny) solved in tiles of at most ``tile`` cells per side,
-    each solve reaching TILE_OVERLAP cells into its neighbours (cropped)."""
-    x0, y1, h, nx, ny = grid
-    out = np.empty((ny, nx))
-    rows = iterations = count = 0
-    resid = 0.0
-    noise_text = ""
-    for j0 in range(0, ny, tile):
-        for i0 in range(0, nx, tile):
-            j1, i1 = min(ny, j0 + tile), min(nx, i0 + tile)
-            e0, e1 = max(0, i0 - TILE_OVERLAP), min(nx, i1 + TILE_OVERLAP)
-            f0, f1 = max(0, j0 - TILE_OVERLAP), min(ny, j1 + TILE_OVERLAP)
-            sub = (x0 + e0 * h, x0 + e1 * h, y1 - f1 * h, y1 - f0 * h)
-            r = _reconstruct(raw, surface, region=sub, step=h, regularization=lam,
-                             channels=chans, noise=noise, tile=None, n_threads=n_threads,
-                             progress=progress, lens_types=types)
-            if r.image.shape != (f1 - f0, e1 - e0):
-                raise RuntimeError(f"a tile's grid {r.image.shape} is not its cells "
-                                   f"{(f1 - f0, e1 - e0)}")
-            out[j0:j1, i0:i1] = r.image[j0 - f0:j1 - f0, i0 - e0:i1 - e0]
-            rows += r.rows
-            iterations = max(iterations, r.iterations)
-            resid = max(resid, r.residual)
-            noise_text = r.noise
-            count += 1
-    return Reconstruction(image=out, extent=(x0, x0 + nx * h, y1 - ny * h, y1), step=h,
-                          design=raw.design, depth=surface, channels=chans, rows=rows,
-                          iterations=iterations, residual=resid, regularization=lam,
-                          noise=noise_text, tiles=count, lens_types=types)
+    return report, bars
 
 
 def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None = None,
                 regularization: float | None = None, channels: Any = None,
                 noise: Mapping[str, float] | None = None, tile: int | None = None,
                 n_threads: int | None = None, progress: bool | None = None,
-                lens_types: Any = None) -> Reconstruction:
+                lens_types: Any = None, allow_slow: bool = False) -> Reconstruction:
     """The albedo on a grid of cells over ``region`` of the surface ``depth``, from the raw
     (docs/model.md §11, docs/reconstruct.md).
 
@@ -388,138 +217,57 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
       together (None: one solve, or tiles of the size that fits when one would not)
     - ``n_threads``: threads of the general route's map and of the solve (None: all
       cores; the result does not depend on it)
-    - ``progress``: tqdm bars of the map and of the solve's iterations (None: only when
-      stderr is a terminal)
+    - ``progress``: reports of the map and of the solve's iterations (None: a bar when
+      stderr is a terminal); the grid's size, the memory plan and the expected time are
+      logged (``logging``, logger ``splitlf.reconstruct``, level INFO) before the work
+    - ``allow_slow``: run a reconstruction expected to take more than ``MAX_SECONDS``
+      (an upper bound at ``CG_MAX_ITER`` iterations, from the plan's entries); without
+      it such a run is refused before it starts
 
     Cells within one pixel's span (``_native.pixel_span``) beyond the region are solved
-    for too and cropped, so that every pixel that sees the region is explained. Raises
-    ``TypeError``, :class:`~splitlf.errors.InvalidParameter`,
-    :class:`~splitlf.errors.TooLargeError` (not even a tile's solve would fit) and
+    for too and cropped, so that every pixel that sees the region is explained. The whole
+    reconstruction is one core call (``_native.reconstruct``: the grid, the map, the
+    weights, the solve, the tiles) after the types are checked here. Raises
+    ``TypeError``, :class:`~splitlf.errors.InvalidParameter` (also a ``regularization``
+    so large that the prior drowns the data: the message states the range for the raw
+    and grid), :class:`~splitlf.errors.TooLargeError` (not even a tile's solve would fit;
+    or, without ``allow_slow``, a run expected to exceed ``MAX_SECONDS``) and
     ``KeyboardInterrupt``.
     """
-    if tile is not None and (isinstance(tile, bool) or not isinstance(tile, int | np.integer)):
-        raise TypeError(f"tile must be None or an integer number of cells, got {tile!r}")
-    if tile is not None and tile < MIN_TILE:
-        raise InvalidParameter.of("tile", tile, f"an integer >= {MIN_TILE} (cells) or None")
-    kw: dict[str, Any] = {"region": region, "step": step, "regularization": regularization,
-                          "channels": channels, "noise": noise, "n_threads": n_threads,
-                          "progress": progress, "lens_types": lens_types}
-    try:
-        return _reconstruct(raw, depth, tile=None if tile is None else int(tile), **kw)
-    except TooLargeError as e:
-        side = getattr(e, "tile", None)
-        if tile is not None or side is None or side < MIN_TILE:
-            raise
-        # One solve would not fit: tiles of the size that does.
-        return _reconstruct(raw, depth, tile=int(side), **kw)
-
-
-def _reconstruct(raw: Raw, depth: Any, *, region: Any, step: float | None,
-                 regularization: float | None, channels: Any,
-                 noise: Mapping[str, float] | None, tile: int | None,
-                 n_threads: int | None, progress: bool | None,
-                 lens_types: Any = None) -> Reconstruction:
-    """:func:`reconstruct` over its region: one solve, or tiles of at most ``tile`` cells
-    per side."""
     if not isinstance(raw, Raw):
         raise TypeError(f"raw must be a splitlf.Raw, got {type(raw).__name__}")
+    if tile is not None and (isinstance(tile, bool) or not isinstance(tile, int | np.integer)):
+        raise TypeError(f"tile must be None or an integer number of cells, got {tile!r}")
+    if not isinstance(allow_slow, bool):
+        raise TypeError(f"allow_slow must be True or False, got {allow_slow!r}")
     design = raw.design
     surface = _depth(depth)
     chans = _channels(design, channels)
-    types = _lens_types(design, chans, lens_types)
     noise_ = _noise(noise)
     lam = DEFAULT_REGULARIZATION if regularization is None else _validate.real(
         regularization, "regularization")
-    if not (math.isfinite(lam) and lam > 0.0):
-        raise InvalidParameter.of("regularization", lam, "a finite value > 0")
     _validate.n_threads(n_threads)
-    show = _progress_flag(progress)
-    core = design.core
-    given = None if region is None else _extent(region, "region")
-    z_ref = _reference_depth(surface, given)
-    if isinstance(surface, Plane):
-        # Before the defaults (the step is delta at z_ref): a plane deeper than F over a
-        # region may be nearer than F on the axis. The padded region is checked below.
-        zlo, where, hint = ((z_ref, "on the axis", "; a plane nearer than F on the axis "
-                             "needs a region") if given is None else
-                            (_depth_range(surface, given)[0], "least depth over the region",
-                             ""))
-        if zlo <= design.F:
-            raise InvalidParameter.of("depth", f"{zlo:.6g} mm ({where})",
-                                      f"depths > F = {design.F:g} mm everywhere in the "
-                                      f"region{hint}")
-    if step is None:
-        step_ = design.resolution_step(z_ref)
-    else:
-        step_ = _validate.positive_length(step, "step")
-    if given is not None:
-        ext = given
-    else:
-        ext = _native.seen_region(core, z_ref, list(chans))
-        if isinstance(surface, DepthMap):
-            m = surface.extent
-            ext = (max(ext[0], m[0]), min(ext[1], m[1]), max(ext[2], m[2]), min(ext[3], m[3]))
-            if not (ext[0] < ext[1] and ext[2] < ext[3]):
-                raise InvalidParameter.of("region", "none", "a region: the depth map's extent "
-                                          "lies outside what the channels see; give one")
-    x0, y1, h, nx, ny = _native.cell_grid(ext, step_)
-    inner: Extent = (x0, x0 + nx * h, y1 - ny * h, y1)
-    if tile is not None and (nx > tile or ny > tile):
-        return _tiled(raw, surface, (x0, y1, h, nx, ny), tile, lam, chans, noise, n_threads,
-                      progress, types)
-    # Pad by the widest pixel span over the surface's depths there (twice: the padded
-    # region's depth range can be wider).
-    padded = inner
-    pad = 0
-    for _ in range(2):
-        zlo, zhi = _depth_range(surface, padded)
-        if zlo <= design.F:
-            raise InvalidParameter.of(
-                "depth", f"{zlo:.6g} mm (least depth over the region)",
-                f"depths > F = {design.F:g} mm everywhere in the region")
-        pad = math.ceil(max(_native.pixel_span(core, zlo, list(chans)),
-                            _native.pixel_span(core, zhi, list(chans))) / h)
-        padded = (inner[0] - pad * h, inner[1] + pad * h, inner[2] - pad * h, inner[3] + pad * h)
-    gx0, gy1, _, gnx, gny = _native.cell_grid(padded, h)
-    exact = _exact(design, surface, chans)
-    bar = None
+    plane = surface if not isinstance(surface, float) else Plane(surface)
+    options = {
+        "channels": list(chans), "lens_types": _lens_types(lens_types),
+        "region": None if region is None else _extent(region, "region"),
+        "step": None if step is None else _validate.positive_length(step, "step"),
+        "regularization": lam, "tile": None if tile is None else int(tile),
+        "noise": None if noise_ is None else (noise_["photons"], noise_["read_noise"]),
+        "allow_slow": allow_slow, "n_threads": n_threads,
+        "settings": (NOISE_FLOOR, CG_RTOL, CG_MAX_ITER, CG_NOISE_TOL, TILE_OVERLAP, MIN_TILE,
+                     MAX_SECONDS)}
+    report, bars = _reporter(_progress_flag(progress))
     try:
-        parts: Sequence[_Part | _Rows]
-        try:
-            if exact:
-                assert isinstance(surface, float)
-                parts = _parts(raw, chans, surface, (gx0, gy1, h, gnx, gny), types)
-            else:
-                bar, report = _progress(show, "splitlf reconstruct (map)", "block")
-                parts = _rows(raw, chans, surface, (gx0, gy1, h, gnx, gny), n_threads,
-                              report, types)
-                if bar is not None:
-                    bar.close()
-                    bar = None
-        except TooLargeError as e:
-            raise _tiles_hint(e, nx, ny, pad, h) from None
-        rows = sum(int(p.mask.sum()) for p in parts)
-        if rows == 0:
-            raise InvalidParameter.of(
-                "region", f"({inner[0]:.6g}, {inner[1]:.6g}, {inner[2]:.6g}, {inner[3]:.6g})",
-                "a region some pixel of the chosen channels"
-                + ("" if types is None else " and lens types") + " sees")
-        factored: list[tuple[Any, ...]] = []
-        explicit: list[tuple[Any, ...]] = []
-        for p in parts:
-            sigma, noise_text = _sigma(p.y, noise_, np.broadcast_to(p.white, p.y.shape))
-            (factored if isinstance(p, _Part) else explicit).append(p.seam(1.0 / sigma ** 2))
-        bar, report = _progress(show, "splitlf reconstruct (CG)", "step")
-        try:
-            t, iterations, resid = _native.solve_normal(
-                (gny, gnx), lam, factored, explicit, CG_RTOL, CG_MAX_ITER,
-                0.0 if noise_ is None else CG_NOISE_TOL, n_threads, report)
-        except TooLargeError as e:
-            raise _tiles_hint(e, nx, ny, pad, h) from None
+        image, extent, h, rows, iterations, resid, tiles, types = _native.reconstruct(
+            design.core, [np.asarray(i, dtype=np.float64) for i in raw.images], plane.seam(),
+            options, report)
     finally:
-        if bar is not None:
+        for bar in bars:
             bar.close()
-    img = t[pad:pad + ny, pad:pad + nx].copy()
-    return Reconstruction(image=img, extent=inner, step=h, design=design, depth=surface,
+    noise_text = (f"noise-free: sigma = {NOISE_FLOOR:g} of white" if noise_ is None else
+                  f"photons {noise_['photons']:g}, read noise {noise_['read_noise']:g}")
+    return Reconstruction(image=image, extent=extent, step=h, design=design, depth=surface,
                           channels=chans, rows=rows, iterations=iterations, residual=resid,
-                          regularization=lam, noise=noise_text, lens_types=types)
+                          regularization=lam, noise=noise_text, tiles=tiles,
+                          lens_types=None if types is None else tuple(types))

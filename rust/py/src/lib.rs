@@ -116,6 +116,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
         inverse::reconstruct::surface_system,
         inverse::reconstruct::reconstruction_factors,
         inverse::reconstruct::solve_normal,
+        inverse::reconstruct::reconstruct,
         inverse::reconstruct::cell_averages,
         inverse::depth::estimate_depth,
         inverse::depth::depth_whites,

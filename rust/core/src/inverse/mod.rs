@@ -4,6 +4,8 @@
 //! estimates depth from a raw ([`depth`]) (§11). Uses every room below it.
 
 pub mod depth;
+pub mod plan;
+pub mod reconstruct;
 pub mod simulate;
 pub mod solve;
 pub mod system;

@@ -42,6 +42,17 @@ fn supported(design: &Design, ch: &Channel) -> std::result::Result<(), &'static 
     Ok(())
 }
 
+/// Can the map of these channels (numbered from 0) be built in factored form, the exact
+/// route (on a fronto-parallel plane)? The first channel's reason when not.
+pub fn exact(design: &Design, channels: &[usize]) -> Result<()> {
+    for &i in channels {
+        if let Err(need) = supported(design, channel(design, i)?) {
+            return Err(unsupported(i, need));
+        }
+    }
+    Ok(())
+}
+
 /// The default region: the rectangle of the plane at depth z that each of `channels` sees
 /// through at least half its aperture per axis. A point P is seen from main-lens point w
 /// through array point x = (B w − P) L / z (B = 1 − z/F + z/L); for |w| ≤ r/2 that x lies

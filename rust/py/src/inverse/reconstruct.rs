@@ -5,7 +5,9 @@ use std::sync::Arc;
 
 use numpy::{IntoPyArray, PyArray1};
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
 
+use splitlf_core::inverse::reconstruct as rc;
 use splitlf_core::inverse::solve;
 use splitlf_core::inverse::system::{self, CellGrid};
 
@@ -416,4 +418,182 @@ pub(crate) fn solve_normal<'py>(
         sol.cells.into_iter(),
     )?;
     Ok((cells, sol.iterations, sol.residual))
+}
+
+/// The reconstruction's progress for Python: called by the seam's signal checks, it
+/// passes `callback(phase, done, total, notes)` the core's phase ("plan", "map", "solve",
+/// "done"), its work done and total, and the notes written since the last call.
+#[pyclass(module = "splitlf._native")]
+struct Forward {
+    callback: Py<PyAny>,
+    state: Arc<rc::Progress>,
+}
+
+impl Forward {
+    fn send(&self, py: Python<'_>, finished: bool) -> PyResult<()> {
+        use std::sync::atomic::Ordering::Relaxed;
+        let notes: Vec<String> =
+            std::mem::take(&mut *self.state.notes.lock().unwrap_or_else(|p| p.into_inner()));
+        let phase = if finished {
+            "done"
+        } else {
+            ["plan", "map", "solve"][self.state.phase.load(Relaxed).min(2)]
+        };
+        let total = self.state.total.load(Relaxed);
+        let done = self.state.done.load(Relaxed).min(total);
+        self.callback.call1(py, (phase, done, total, notes))?;
+        Ok(())
+    }
+}
+
+#[pymethods]
+impl Forward {
+    fn __call__(&self, py: Python<'_>, _done: usize, _total: usize) -> PyResult<()> {
+        self.send(py, false)
+    }
+}
+
+/// An option of [`reconstruct`]'s dict, None when absent or None.
+fn option<'py, T: FromPyObjectOwned<'py>>(
+    options: &Bound<'py, PyDict>,
+    key: &str,
+) -> PyResult<Option<T>> {
+    match options.get_item(key)? {
+        Some(v) if !v.is_none() => Ok(Some(v.extract().map_err(Into::into)?)),
+        _ => Ok(None),
+    }
+}
+
+/// Numbers from 1 to indices from 0 (a number below 1 named as given).
+fn from_one(field: &'static str, v: Vec<i64>) -> PyResult<Vec<usize>> {
+    v.into_iter()
+        .map(|t| {
+            usize::try_from(t.saturating_sub(1))
+                .map_err(|_| to_py(splitlf_core::Error::param(field, t, "numbers from 1")))
+        })
+        .collect()
+}
+
+type Reconstructed<'py> = (
+    Bound<'py, numpy::PyArray2<f64>>,
+    (f64, f64, f64, f64),
+    f64,
+    usize,
+    usize,
+    f64,
+    usize,
+    Option<Vec<usize>>,
+);
+
+/// A whole reconstruction in one call (`splitlf_core::inverse::reconstruct`): `images`
+/// the raw's channels, `surface` (kind, params, depth map or None) as `RenderScene` takes
+/// it, `options` a dict of channels and lens_types (numbered from 1; None: all),
+/// region, step, regularization, noise ((photons, read noise) or None), tile, allow_slow,
+/// n_threads, memory_limit (bytes, tests) and settings (noise_floor, rtol, max_iter,
+/// noise_tol, overlap, min_tile, max_seconds). `progress(phase, done, total, notes)` is
+/// called at the signal checks and once at the end. Returns (image, extent, step, rows,
+/// iterations, residual, tiles, lens types from 1 or None).
+#[pyfunction]
+#[pyo3(signature = (design, images, surface, options, progress=None))]
+pub(crate) fn reconstruct<'py>(
+    py: Python<'py>,
+    design: &DesignCore,
+    images: Vec<numpy::PyReadonlyArray2<'py, f64>>,
+    surface: (String, Vec<f64>, Option<numpy::PyReadonlyArray2<'py, f64>>),
+    options: &Bound<'py, PyDict>,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Reconstructed<'py>> {
+    let images: Vec<Vec<f64>> = images
+        .iter()
+        .map(|a| a.as_array().iter().copied().collect())
+        .collect();
+    let map = surface.2.as_ref().map(|a| {
+        let v = a.as_array();
+        let (r, c) = v.dim();
+        (v.iter().copied().collect::<Vec<f64>>(), r, c)
+    });
+    let settings: (f64, f64, usize, f64, usize, usize, f64) = option(options, "settings")?
+        .ok_or_else(|| pyo3::exceptions::PyTypeError::new_err("options need settings"))?;
+    let channels = match option::<Vec<i64>>(options, "channels")? {
+        Some(v) => from_one("channels", v)?,
+        None => (0..design.inner.channels.len()).collect(),
+    };
+    let lens_types = option::<Vec<i64>>(options, "lens_types")?
+        .map(|v| from_one("lens_types", v))
+        .transpose()?;
+    let regularization: f64 = option(options, "regularization")?
+        .ok_or_else(|| pyo3::exceptions::PyTypeError::new_err("options need regularization"))?;
+    let n_threads = threads_arg(options.get_item("n_threads")?.as_ref())?;
+    let noise: Option<(f64, f64)> = option(options, "noise")?;
+    let region: Option<(f64, f64, f64, f64)> = option(options, "region")?;
+    let d = design.inner.clone();
+    let state = Arc::new(rc::Progress::default());
+    let forward = progress
+        .map(|callback| {
+            Py::new(
+                py,
+                Forward {
+                    callback,
+                    state: Arc::clone(&state),
+                },
+            )
+        })
+        .transpose()?;
+    let report = forward.as_ref().map(|f| crate::infra::interrupt::Progress {
+        callback: f.clone_ref(py).into_any(),
+        done: Arc::new(std::sync::atomic::AtomicUsize::new(0)),
+        total: 1,
+    });
+    let request = rc::Request {
+        design: &d,
+        images: images.iter().map(Vec::as_slice).collect(),
+        surface: rc::SurfaceSpec {
+            kind: &surface.0,
+            params: &surface.1,
+            map: map.as_ref().map(|(v, r, c)| (v.as_slice(), *r, *c)),
+        },
+        channels,
+        lens_types,
+        region: region.map(|r| [r.0, r.1, r.2, r.3]),
+        step: option(options, "step")?,
+        regularization,
+        noise: noise.map(|(n, r)| [n, r]),
+        tile: option(options, "tile")?,
+        allow_slow: option(options, "allow_slow")?.unwrap_or(false),
+        n_threads,
+        memory_limit: option(options, "memory_limit")?,
+        settings: rc::Settings {
+            noise_floor: settings.0,
+            rtol: settings.1,
+            max_iter: settings.2,
+            noise_tol: settings.3,
+            overlap: settings.4,
+            min_tile: settings.5,
+            max_seconds: settings.6,
+        },
+    };
+    let st = Arc::clone(&state);
+    let result = run_reporting(py, "depth", report, move || rc::reconstruct(&request, &st));
+    if let Some(f) = &forward {
+        f.borrow(py).send(py, true)?;
+    }
+    let out = result?;
+    let image = crate::infra::arrays::filled::<f64, numpy::ndarray::Ix2>(
+        py,
+        &[out.ny, out.nx],
+        "the reconstruction",
+        out.image.into_iter(),
+    )?;
+    let e = out.extent;
+    Ok((
+        image,
+        (e[0], e[1], e[2], e[3]),
+        out.step,
+        out.rows,
+        out.iterations,
+        out.residual,
+        out.tiles,
+        out.lens_types
+            .map(|v| v.into_iter().map(|t| t + 1).collect()),
+    ))
 }

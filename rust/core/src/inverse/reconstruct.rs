@@ -1,0 +1,800 @@
+//! A whole reconstruction in one call (docs/model.md §11, docs/reconstruct.md): the grid of
+//! cells over the region (rounded out to whole cells, padded by a pixel's span), the map's
+//! rows (per-axis factors on the exact route, explicit rows from [`system::build_surface`]
+//! otherwise), each row's weight from the raw's noise, the solve ([`solve::solve`]) and
+//! the crop; tiles when one solve would not fit. Its rules are stated here once: which
+//! route a map takes ([`system::exact`]), the lens types kept, the surface deeper than F
+//! over the padded region, the memory plan before any large buffer, the prior weight's
+//! meaningful range and the expected work.
+
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
+
+use crate::imaging::scene::Surface;
+use crate::infra::error::{Error, Result};
+use crate::infra::memory;
+use crate::inverse::plan::Estimate;
+use crate::inverse::solve::{self, Block, Csr};
+use crate::inverse::system::{self, CellGrid, OUTSIDE_SHARE};
+use crate::model::design::Design;
+
+/// The numbers a reconstruction is configured with (the Python package's constants).
+#[derive(Clone, Copy, Debug)]
+pub struct Settings {
+    /// The noise floor, a share of a fully lit white pixel (1 sigma).
+    pub noise_floor: f64,
+    /// CG's stop on the normal equations' relative residual.
+    pub rtol: f64,
+    /// At most this many CG iterations.
+    pub max_iter: usize,
+    /// With a known noise: the stop at this share of the noise's expected norm.
+    pub noise_tol: f64,
+    /// Cells by which a tile's solve reaches into its neighbours.
+    pub overlap: usize,
+    /// The least tile side (cells).
+    pub min_tile: usize,
+    /// The expected time (s) beyond which a reconstruction is refused unless allowed.
+    pub max_seconds: f64,
+}
+
+/// The surface as the caller gives it: "plane" with (z0, gx, gy), or "depthmap" with its
+/// extent and its depths (row-major, rows, columns).
+#[derive(Clone, Copy, Debug)]
+pub struct SurfaceSpec<'a> {
+    pub kind: &'a str,
+    pub params: &'a [f64],
+    pub map: Option<(&'a [f64], usize, usize)>,
+}
+
+/// One reconstruction's inputs: the raw (every channel's image, row-major), the surface,
+/// the channels and lens types (numbered from 0; lens types None: every type), the region
+/// (None: what the channels see), the step (None: δ at the reference depth), λ, the
+/// noise (photons, read noise; None: noise-free), the tile side (None: one solve, or the
+/// tiles that fit), whether a slow run is allowed, the threads and a memory limit below
+/// what is available (tests).
+#[derive(Clone, Debug)]
+pub struct Request<'a> {
+    pub design: &'a Design,
+    pub images: Vec<&'a [f64]>,
+    pub surface: SurfaceSpec<'a>,
+    pub channels: Vec<usize>,
+    pub lens_types: Option<Vec<usize>>,
+    pub region: Option<[f64; 4]>,
+    pub step: Option<f64>,
+    pub regularization: f64,
+    pub noise: Option<[f64; 2]>,
+    pub tile: Option<usize>,
+    pub allow_slow: bool,
+    pub n_threads: Option<usize>,
+    pub memory_limit: Option<u128>,
+    pub settings: Settings,
+}
+
+/// The result: the cells (ny × nx, row-major from the top) over `extent`, the solve's
+/// rows, iterations (the most of any tile), residual (the largest), the tiles, and the
+/// lens types kept (None: every type).
+#[derive(Clone, Debug)]
+pub struct Outcome {
+    pub image: Vec<f64>,
+    pub nx: usize,
+    pub ny: usize,
+    pub extent: [f64; 4],
+    pub step: f64,
+    pub rows: usize,
+    pub iterations: usize,
+    pub residual: f64,
+    pub tiles: usize,
+    pub lens_types: Option<Vec<usize>>,
+}
+
+/// What a running reconstruction reports: its phase (0 planning, 1 the map, 2 the solve),
+/// the work done and the phase's total, and notes (the grid's size and expected work)
+/// for the caller to show.
+#[derive(Debug, Default)]
+pub struct Progress {
+    pub phase: AtomicUsize,
+    pub done: AtomicUsize,
+    pub total: AtomicUsize,
+    pub notes: Mutex<Vec<String>>,
+}
+
+impl Progress {
+    fn start(&self, phase: usize, total: usize) {
+        self.done.store(0, Ordering::Relaxed);
+        self.total.store(total, Ordering::Relaxed);
+        self.phase.store(phase, Ordering::Relaxed);
+    }
+
+    fn note(&self, text: String) {
+        self.notes
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .push(text);
+    }
+}
+
+/// The checked inputs shared by every tile.
+struct Plan<'a> {
+    req: &'a Request<'a>,
+    surface: Surface,
+    types: Option<Vec<usize>>,
+}
+
+/// Reconstruct: the checks, the grid, then one solve or tiles (see the module doc).
+pub fn reconstruct(req: &Request<'_>, progress: &Progress) -> Result<Outcome> {
+    let d = req.design;
+    if req.channels.is_empty() {
+        return Err(Error::param("channels", "none", "at least one channel"));
+    }
+    for &c in &req.channels {
+        if c >= d.channels.len() {
+            return Err(Error::param(
+                "channels",
+                c + 1,
+                format!("channel numbers in 1..={}", d.channels.len()),
+            ));
+        }
+    }
+    if req.images.len() != d.channels.len() {
+        return Err(Error::param(
+            "raw",
+            format!("{} images", req.images.len()),
+            format!("one image per channel ({})", d.channels.len()),
+        ));
+    }
+    for (i, (img, ch)) in req.images.iter().zip(&d.channels).enumerate() {
+        let (r, c) = crate::imaging::render::raw_shape(ch);
+        if img.len() != r * c {
+            return Err(Error::param(
+                "raw",
+                format!("channel {} of {} values", i + 1, img.len()),
+                format!("the channel's {r} x {c} pixels"),
+            ));
+        }
+    }
+    let lam = req.regularization;
+    if !(lam.is_finite() && lam > 0.0) {
+        return Err(Error::param("regularization", lam, "a finite value > 0"));
+    }
+    if let Some([n, r]) = req.noise {
+        if !(n.is_finite() && n > 0.0 && r.is_finite() && r >= 0.0) {
+            return Err(Error::param(
+                "noise",
+                format!("photons {n}, read noise {r}"),
+                "photons finite > 0 and read noise finite >= 0",
+            ));
+        }
+    }
+    if let Some(t) = req.tile {
+        if t < req.settings.min_tile {
+            return Err(Error::param(
+                "tile",
+                t,
+                format!("an integer >= {} (cells) or None", req.settings.min_tile),
+            ));
+        }
+    }
+    let s = req.surface;
+    let surface = Surface::from_parts(s.kind, s.params, s.map)?;
+    let types = lens_types(d, &req.channels, req.lens_types.as_deref())?;
+    let plan = Plan {
+        req,
+        surface,
+        types,
+    };
+    let grid = plan.grid(req.region)?;
+    match req.tile {
+        Some(t) if grid.nx > t || grid.ny > t => plan.tiled(&grid, t, progress),
+        Some(_) => plan.hinted(&grid, progress, false),
+        None => plan.hinted(&grid, progress, true),
+    }
+}
+
+/// The lens types kept (from 0), checked against the channels' types; None for every
+/// type (also when every type is listed).
+fn lens_types(d: &Design, chans: &[usize], types: Option<&[usize]>) -> Result<Option<Vec<usize>>> {
+    let Some(ts) = types else { return Ok(None) };
+    let n = chans
+        .iter()
+        .map(|&i| d.channels[i].f.len())
+        .max()
+        .unwrap_or(1);
+    if ts.is_empty() {
+        return Err(Error::param("lens_types", "none", "at least one lens type"));
+    }
+    let mut out: Vec<usize> = Vec::with_capacity(ts.len());
+    for &t in ts {
+        if t >= n {
+            return Err(Error::param(
+                "lens_types",
+                t + 1,
+                format!("lens type numbers in 1..{n} (the chosen channels' lens types)"),
+            ));
+        }
+        if out.contains(&t) {
+            return Err(Error::param(
+                "lens_types",
+                t + 1,
+                "each lens type at most once",
+            ));
+        }
+        out.push(t);
+    }
+    out.sort_unstable();
+    Ok((out.len() < n).then_some(out))
+}
+
+/// The median of the values (the mean of the two middle ones for an even count).
+fn median(values: &[f64]) -> f64 {
+    let mut v = values.to_vec();
+    v.sort_unstable_by(f64::total_cmp);
+    let n = v.len();
+    if n == 0 {
+        return f64::NAN;
+    }
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        (v[n / 2 - 1] + v[n / 2]) / 2.0
+    }
+}
+
+/// A suggestion for a reconstruction too large for one solve.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Hint {
+    /// Tiles of at most this many cells per side.
+    Tiles(usize),
+    /// Tiles would not help (the padding alone does not fit): a step at least this coarse.
+    Coarser(f64),
+    /// Nothing to suggest.
+    None,
+}
+
+/// The tile that would fit, from the need and the limit: the region's padded side scaled
+/// by √(0.8 limit / need), less the padding; when that is below `min_tile`, a coarser
+/// step (a row's entries scale as the inverse square of the step).
+pub fn tiles_hint(
+    bytes: u128,
+    limit: u128,
+    nx: usize,
+    ny: usize,
+    pad: usize,
+    step: f64,
+    min_tile: usize,
+) -> Hint {
+    if bytes == 0 || limit == 0 {
+        return Hint::None;
+    }
+    let scale = (0.8 * limit as f64 / bytes as f64).sqrt();
+    let padded = (((nx + 2 * pad) * (ny + 2 * pad)) as f64).sqrt();
+    let side = ((padded * scale) as usize).saturating_sub(2 * pad).max(1);
+    if side < min_tile {
+        Hint::Coarser(step / scale)
+    } else {
+        Hint::Tiles(side)
+    }
+}
+
+impl Hint {
+    fn text(&self, nx: usize, ny: usize, pad: usize) -> String {
+        let head = format!("the region is {nx} x {ny} cells (padded by {pad} per side)");
+        match *self {
+            Hint::Tiles(side) => {
+                format!("{head}: reconstruct it in tiles of at most {side} x {side} cells (tile={side})")
+            }
+            Hint::Coarser(c) => {
+                // Three significant digits.
+                let digits = (2 - c.abs().log10().floor() as i64).max(0) as usize;
+                format!(
+                    "{head}: tiles would not help, the padding (a pixel's span on the \
+                     surface, {pad} cells) needs the memory; use a coarser step (at least \
+                     about {c:.digits$} mm, step={c:.digits$}), or fewer channels"
+                )
+            }
+            Hint::None => head,
+        }
+    }
+}
+
+impl Plan<'_> {
+    /// The depth range of the surface over the extent (a depth map's whole range).
+    fn depths(&self, ext: [f64; 4]) -> (f64, f64) {
+        match &self.surface {
+            Surface::Plane { z0, g } => {
+                let [x0, x1, y0, y1] = ext;
+                let z = [[x0, y0], [x0, y1], [x1, y0], [x1, y1]]
+                    .map(|p| z0 + g[0] * p[0] + g[1] * p[1]);
+                (
+                    z.iter().copied().fold(f64::INFINITY, f64::min),
+                    z.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+                )
+            }
+            Surface::Map(m) => (m.zmin, m.zmax),
+        }
+    }
+
+    /// Refuse a surface not deeper than F at `zlo` (`where`: which depth it is).
+    fn deeper_than_f(&self, zlo: f64, place: &str, hint: &str) -> Result<()> {
+        let f = self.req.design.f_main;
+        if zlo.is_nan() || zlo <= f {
+            return Err(Error::param(
+                "depth",
+                format!("{zlo:.6} mm ({place})"),
+                format!("depths > F = {f} mm everywhere in the region{hint}"),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The grid over the region (given, or what the channels see at the reference depth)
+    /// at the step (given, or δ at the reference depth).
+    fn grid(&self, region: Option<[f64; 4]>) -> Result<CellGrid> {
+        let d = self.req.design;
+        if let Some(r) = region {
+            if !(r.iter().all(|v| v.is_finite()) && r[1] > r[0] && r[3] > r[2]) {
+                return Err(Error::param(
+                    "region",
+                    format!("({}, {}, {}, {})", r[0], r[1], r[2], r[3]),
+                    "finite (X0, X1, Y0, Y1) with X0 < X1 and Y0 < Y1 (mm)",
+                ));
+            }
+        }
+        let z_ref = match (&self.surface, region) {
+            (Surface::Plane { z0, .. }, None) => *z0,
+            (Surface::Plane { z0, g }, Some([x0, x1, y0, y1])) => {
+                z0 + g[0] * (0.5 * (x0 + x1)) + g[1] * (0.5 * (y0 + y1))
+            }
+            (Surface::Map(_), _) => median(self.req.surface.map.map_or(&[][..], |m| m.0)),
+        };
+        if let Surface::Plane { g, .. } = &self.surface {
+            if g != &[0.0, 0.0] {
+                match region {
+                    None => self.deeper_than_f(
+                        z_ref,
+                        "on the axis",
+                        "; a plane nearer than F on the axis needs a region",
+                    )?,
+                    Some(r) => {
+                        self.deeper_than_f(self.depths(r).0, "least depth over the region", "")?
+                    }
+                }
+            }
+        }
+        let step = match self.req.step {
+            Some(h) if h.is_finite() && h > 0.0 => h,
+            Some(h) => return Err(Error::param("step", h, "a finite length > 0 (mm)")),
+            None => {
+                crate::model::optics::check_design_depths(d.f_main, &[z_ref])?;
+                d.resolution_step(z_ref)
+            }
+        };
+        let ext = match region {
+            Some(r) => r,
+            None => {
+                let mut e = system::seen_region(d, &self.req.channels, z_ref)?;
+                if let Surface::Map(m) = &self.surface {
+                    let me = m.extent();
+                    e = [
+                        e[0].max(me[0]),
+                        e[1].min(me[1]),
+                        e[2].max(me[2]),
+                        e[3].min(me[3]),
+                    ];
+                    if !(e[0] < e[1] && e[2] < e[3]) {
+                        return Err(Error::param(
+                            "region",
+                            "none",
+                            "a region: the depth map's extent lies outside what the \
+                             channels see; give one",
+                        ));
+                    }
+                }
+                e
+            }
+        };
+        CellGrid::covering(ext, step)
+    }
+
+    /// The padding (cells) of the grid: the widest pixel span over the surface's depths
+    /// there (twice: the padded region's depth range can be wider), and the padded grid.
+    fn pad(&self, inner: &CellGrid) -> Result<(usize, CellGrid)> {
+        let h = inner.step;
+        let e = inner.extent();
+        let mut padded = e;
+        let mut pad = 0usize;
+        for _ in 0..2 {
+            let (zlo, zhi) = self.depths(padded);
+            self.deeper_than_f(zlo, "least depth over the region", "")?;
+            let span = |z| system::pixel_span(self.req.design, &self.req.channels, z);
+            pad = (span(zlo)?.max(span(zhi)?) / h).ceil() as usize;
+            let p = pad as f64 * h;
+            padded = [e[0] - p, e[1] + p, e[2] - p, e[3] + p];
+        }
+        Ok((pad, CellGrid::covering(padded, h)?))
+    }
+
+    /// The grid solved in tiles of at most `tile` cells per side, each reaching `overlap`
+    /// cells into its neighbours (cropped).
+    fn tiled(&self, grid: &CellGrid, tile: usize, progress: &Progress) -> Result<Outcome> {
+        let (nx, ny, h) = (grid.nx, grid.ny, grid.step);
+        let ov = self.req.settings.overlap;
+        let mut out = memory::try_vec("the reconstruction", nx * ny, 0.0)?;
+        let (mut rows, mut iterations, mut tiles, mut resid) = (0, 0, 0, 0.0f64);
+        for j0 in (0..ny).step_by(tile) {
+            for i0 in (0..nx).step_by(tile) {
+                let (j1, i1) = ((j0 + tile).min(ny), (i0 + tile).min(nx));
+                let (e0, e1) = (i0.saturating_sub(ov), (i1 + ov).min(nx));
+                let (f0, f1) = (j0.saturating_sub(ov), (j1 + ov).min(ny));
+                let sub = [
+                    grid.x0 + e0 as f64 * h,
+                    grid.x0 + e1 as f64 * h,
+                    grid.y1 - f1 as f64 * h,
+                    grid.y1 - f0 as f64 * h,
+                ];
+                let g = CellGrid::covering(sub, h)?;
+                if (g.ny, g.nx) != (f1 - f0, e1 - e0) {
+                    return Err(Error::param(
+                        "tile",
+                        format!("a grid of {} x {}", g.ny, g.nx),
+                        format!("its cells {} x {}", f1 - f0, e1 - e0),
+                    ));
+                }
+                let r = self.hinted(&g, progress, false)?;
+                for j in j0..j1 {
+                    let src = &r.image[(j - f0) * r.nx + (i0 - e0)..(j - f0) * r.nx + (i1 - e0)];
+                    out[j * nx + i0..j * nx + i1].copy_from_slice(src);
+                }
+                rows += r.rows;
+                iterations = iterations.max(r.iterations);
+                resid = resid.max(r.residual);
+                tiles += 1;
+            }
+        }
+        Ok(Outcome {
+            image: out,
+            nx,
+            ny,
+            extent: grid.extent(),
+            step: h,
+            rows,
+            iterations,
+            residual: resid,
+            tiles,
+            lens_types: self.types.clone(),
+        })
+    }
+
+    /// [`Plan::one`] with a suggestion when it does not fit: tiles of the size that fits
+    /// (taken when `retry`), or a coarser step when tiles would not help.
+    fn hinted(&self, grid: &CellGrid, progress: &Progress, retry: bool) -> Result<Outcome> {
+        match self.one(grid, progress) {
+            Err(Error::TooLarge { what, bytes, limit }) => {
+                let pad = self.pad(grid)?.0;
+                let min = self.req.settings.min_tile;
+                let hint = tiles_hint(bytes, limit, grid.nx, grid.ny, pad, grid.step, min);
+                match hint {
+                    Hint::Tiles(side) if retry => self.shrinking(grid, side, progress),
+                    h => Err(Error::TooLarge {
+                        what: format!("{what} ({})", h.text(grid.nx, grid.ny, pad)),
+                        bytes,
+                        limit,
+                    }),
+                }
+            }
+            other => other,
+        }
+    }
+
+    /// Tiles of `side` cells, or smaller ones (by thirds, down to the least tile) while a
+    /// tile's plan does not fit: the padding does not shrink with the tile, so the hint's
+    /// side (the cells' share that fits) can be too large. A refusal comes from a tile's
+    /// plan, before its work.
+    fn shrinking(&self, grid: &CellGrid, side: usize, progress: &Progress) -> Result<Outcome> {
+        let min = self.req.settings.min_tile;
+        let mut side = side.max(min);
+        loop {
+            match self.tiled(grid, side, progress) {
+                Err(Error::TooLarge { .. }) if side > min => side = (side * 2 / 3).max(min),
+                other => return other,
+            }
+        }
+    }
+
+    /// One solve over the grid (padded here).
+    fn one(&self, inner: &CellGrid, progress: &Progress) -> Result<Outcome> {
+        let req = self.req;
+        let (pad, grid) = self.pad(inner)?;
+        let fronto = self.surface.fronto();
+        let exact = fronto.is_some() && system::exact(req.design, &req.channels).is_ok();
+        let limit = memory::available().min(req.memory_limit.unwrap_or(u128::MAX));
+        let threads = crate::infra::parallel::threads(req.n_threads);
+        let zlo = self.depths(grid.extent()).0;
+        let plan = Estimate::new(req.design, &req.channels, &grid, pad, zlo, exact, threads);
+        let s = req.settings;
+        progress.note(plan.describe(inner, pad, s.max_iter));
+        let too_large = |bytes: u128| {
+            (bytes > limit).then(|| Error::TooLarge {
+                what: "the reconstruction's map and solve".into(),
+                bytes,
+                limit,
+            })
+        };
+        if let Some(e) = too_large(plan.bytes()) {
+            return Err(e);
+        }
+        if !req.allow_slow {
+            plan.check_time(s.max_seconds, s.max_iter)?;
+        }
+        progress.start(1, plan.raw_rows);
+        let blocks = match fronto {
+            Some(z) if exact => self.factored(z, &grid)?,
+            _ => self.explicit(&grid, &progress.done)?,
+        };
+        // The explicit map is known now: its transpose (the solve's copy) must fit too.
+        let map: u128 = blocks
+            .iter()
+            .map(|b| match b {
+                Block::Rows { a, .. } => {
+                    2 * system::system_bytes(a.nrows() as u128, a.data.len() as u128)
+                }
+                Block::Factored { .. } => 0,
+            })
+            .sum();
+        if let Some(e) = too_large(map + plan.bytes()) {
+            return Err(e);
+        }
+        let rows: usize = blocks.iter().map(block_rows).sum();
+        if rows == 0 {
+            let [x0, x1, y0, y1] = inner.extent();
+            return Err(Error::param(
+                "region",
+                format!("({x0:.6}, {x1:.6}, {y0:.6}, {y1:.6})"),
+                format!(
+                    "a region some pixel of the chosen channels{} sees",
+                    if self.types.is_some() {
+                        " and lens types"
+                    } else {
+                        ""
+                    }
+                ),
+            ));
+        }
+        check_regularization(req.regularization, &blocks, grid.cells())?;
+        let normal = solve::Normal::new(grid.nx, grid.ny, req.regularization, blocks)?;
+        let stop = solve::Stop {
+            rtol: s.rtol,
+            noise: if req.noise.is_some() {
+                s.noise_tol
+            } else {
+                0.0
+            },
+            max_iter: s.max_iter,
+        };
+        progress.start(2, s.max_iter);
+        let sol = solve::solve(&normal, stop, req.n_threads, &progress.done)?;
+        let mut image = Vec::with_capacity(inner.cells());
+        for j in pad..pad + inner.ny {
+            image.extend_from_slice(&sol.cells[j * grid.nx + pad..j * grid.nx + pad + inner.nx]);
+        }
+        Ok(Outcome {
+            image,
+            nx: inner.nx,
+            ny: inner.ny,
+            extent: inner.extent(),
+            step: inner.step,
+            rows,
+            iterations: sol.iterations,
+            residual: sol.residual,
+            tiles: 1,
+            lens_types: self.types.clone(),
+        })
+    }
+
+    /// A row's weight 1/σ²: σ the raw's noise at value y (Poisson(N v)/N plus read noise
+    /// r/N, render's model), never below the floor (a share of the channel's white).
+    fn weight(&self, y: f64, white: f64) -> f64 {
+        let floor = self.req.settings.noise_floor * white;
+        let sigma = match self.req.noise {
+            None => floor,
+            Some([n, r]) => ((y.max(0.0) / n + (r / n) * (r / n)).sqrt()).max(floor),
+        };
+        1.0 / (sigma * sigma)
+    }
+
+    /// The exact route's blocks: per channel and lens type kept, the pixels that see only
+    /// the grid, as the factors restricted to the raw rows and columns holding them.
+    fn factored(&self, z: f64, grid: &CellGrid) -> Result<Vec<Block>> {
+        let d = self.req.design;
+        let mut blocks = vec![];
+        for &c in &self.req.channels {
+            let f = system::factors(d, c, z, grid)?;
+            let img = self.req.images[c];
+            let white = d.channels[c].share;
+            for (t, (px, py)) in f.x.iter().zip(&f.y).enumerate() {
+                if self.types.as_ref().is_some_and(|ts| !ts.contains(&t)) {
+                    continue;
+                }
+                let sx: Vec<f64> = row_sums(px);
+                let sy: Vec<f64> = row_sums(py);
+                let rows_in: Vec<usize> = (0..f.rows)
+                    .filter(|&b| py.total[b] > 0.0 && sy[b] > 0.0)
+                    .collect();
+                let cols_in: Vec<usize> = (0..f.cols)
+                    .filter(|&a| px.total[a] > 0.0 && sx[a] > 0.0)
+                    .collect();
+                let kept = |b: usize, a: usize| {
+                    let total = py.total[b] * px.total[a];
+                    let inside = sy[b] * sx[a];
+                    f.types[b * f.cols + a] as usize == t && total - inside <= OUTSIDE_SHARE * total
+                };
+                let r_sel: Vec<usize> = rows_in
+                    .iter()
+                    .copied()
+                    .filter(|&b| cols_in.iter().any(|&a| kept(b, a)))
+                    .collect();
+                if r_sel.is_empty() {
+                    continue;
+                }
+                let c_sel: Vec<usize> = cols_in
+                    .iter()
+                    .copied()
+                    .filter(|&a| rows_in.iter().any(|&b| kept(b, a)))
+                    .collect();
+                let n = r_sel.len() * c_sel.len();
+                let (mut w, mut y) = (vec![0.0; n], vec![0.0; n]);
+                for (i, &b) in r_sel.iter().enumerate() {
+                    for (k, &a) in c_sel.iter().enumerate() {
+                        if kept(b, a) {
+                            let v = img[b * f.cols + a];
+                            y[i * c_sel.len() + k] = v;
+                            w[i * c_sel.len() + k] = self.weight(v, white);
+                        }
+                    }
+                }
+                blocks.push(Block::Factored {
+                    norm: f.norm,
+                    px: select(px, &c_sel, grid.nx)?,
+                    py: select(py, &r_sel, grid.ny)?,
+                    w,
+                    y,
+                });
+            }
+        }
+        Ok(blocks)
+    }
+
+    /// The explicit rows of the tilted or general route, weighted.
+    fn explicit(&self, grid: &CellGrid, done: &AtomicUsize) -> Result<Vec<Block>> {
+        let d = self.req.design;
+        let sys = system::build_surface(
+            d,
+            &self.req.channels,
+            &self.surface,
+            grid,
+            self.types.as_deref(),
+            self.req.n_threads,
+            done,
+        )?;
+        if sys.channel.is_empty() {
+            return Ok(vec![]);
+        }
+        let n = sys.channel.len();
+        let (mut w, mut y) = (Vec::with_capacity(n), Vec::with_capacity(n));
+        for (&c, &p) in sys.channel.iter().zip(&sys.pixel) {
+            let v = self.req.images[c as usize][p as usize];
+            y.push(v);
+            w.push(self.weight(v, d.channels[c as usize].share));
+        }
+        let indptr = sys.indptr.iter().map(|&v| v as usize).collect();
+        let a = Csr::new("rows", indptr, sys.indices, sys.data, grid.cells())?;
+        Ok(vec![Block::Rows { a, w, y }])
+    }
+}
+
+/// λ beyond this many times the data's mean weight per cell (trace(AᵀWA) / cells) drowns
+/// the data: the normal equations' condition grows past what the solve resolves.
+pub const MAX_PRIOR_SHARE: f64 = 1e6;
+
+/// Refuse a prior weight whose solve is not meaningful (see [`MAX_PRIOR_SHARE`]).
+fn check_regularization(lam: f64, blocks: &[Block], cells: usize) -> Result<()> {
+    let sq = |c: &Csr, r: usize| {
+        c.data[c.indptr[r]..c.indptr[r + 1]]
+            .iter()
+            .map(|v| v * v)
+            .sum::<f64>()
+    };
+    let trace: f64 = blocks
+        .iter()
+        .map(|b| match b {
+            Block::Factored {
+                norm, px, py, w, ..
+            } => {
+                let nc = px.nrows();
+                (0..py.nrows())
+                    .map(|b| {
+                        let yb = sq(py, b);
+                        (0..nc).map(|a| w[b * nc + a] * sq(px, a)).sum::<f64>() * yb
+                    })
+                    .sum::<f64>()
+                    * norm
+                    * norm
+            }
+            Block::Rows { a, w, .. } => (0..a.nrows()).map(|r| w[r] * sq(a, r)).sum(),
+        })
+        .sum();
+    let most = MAX_PRIOR_SHARE * trace / cells.max(1) as f64;
+    if lam > most {
+        return Err(Error::param(
+            "regularization",
+            lam,
+            format!(
+                "a finite value in (0, {most:.3e}] for this raw and grid ({MAX_PRIOR_SHARE:.0e} \
+                 times the data's mean weight per cell: beyond it the prior drowns the data \
+                 and the solve loses its precision)"
+            ),
+        ));
+    }
+    Ok(())
+}
+
+fn block_rows(b: &Block) -> usize {
+    match b {
+        Block::Factored { w, .. } => w.iter().filter(|&&v| v != 0.0).count(),
+        Block::Rows { a, .. } => a.nrows(),
+    }
+}
+
+/// Each row's sum of entries, in order.
+fn row_sums(p: &system::AxisProfiles) -> Vec<f64> {
+    p.indptr
+        .windows(2)
+        .map(|r| {
+            p.data[r[0] as usize..r[1] as usize]
+                .iter()
+                .fold(0.0, |s, v| s + v)
+        })
+        .collect()
+}
+
+/// The rows `sel` of an axis's profiles as a checked CSR matrix over `ncols` columns.
+fn select(p: &system::AxisProfiles, sel: &[usize], ncols: usize) -> Result<Csr> {
+    let mut indptr = Vec::with_capacity(sel.len() + 1);
+    indptr.push(0);
+    let (mut indices, mut data) = (vec![], vec![]);
+    for &r in sel {
+        let (lo, hi) = (p.indptr[r] as usize, p.indptr[r + 1] as usize);
+        indices.extend_from_slice(&p.indices[lo..hi]);
+        data.extend_from_slice(&p.data[lo..hi]);
+        indptr.push(data.len());
+    }
+    Csr::new("factors", indptr, indices, data, ncols)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The hint's tile: the padded side scaled by √(0.8 limit / need), less the padding
+    /// (1020 √0.2 − 20 = 436 for a 1000² region padded by 10, needing four times the
+    /// limit); a coarser step √(need / 0.8 limit) times the step when that is below 16.
+    #[test]
+    fn tiles_hint_is_the_share_that_fits() {
+        let side = (1020.0 * (0.8f64 * 100.0 / 400.0).sqrt()) as usize - 20;
+        assert_eq!(
+            tiles_hint(400, 100, 1000, 1000, 10, 0.05, 16),
+            Hint::Tiles(side)
+        );
+        let Hint::Coarser(c) = tiles_hint(12_163_760_088, 11_157_381_120, 64, 64, 1155, 0.0155, 16)
+        else {
+            panic!("tiles suggested")
+        };
+        let want = 0.0155 * (12_163_760_088f64 / (0.8 * 11_157_381_120f64)).sqrt();
+        assert!((c - want).abs() < 1e-12 * want, "{c} {want}");
+    }
+
+    #[test]
+    fn median_of_odd_and_even_counts() {
+        assert_eq!(median(&[3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(&[4.0, 1.0, 2.0, 3.0]), 2.5);
+    }
+}
