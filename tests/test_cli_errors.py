@@ -474,3 +474,26 @@ def test_a_malformed_npy_is_one_line_not_a_memory_error(tmp_path, capsys):
     assert (code, out) == (2, "")
     assert err.startswith(f"splitlf render: error: {bad}: ") and err.count("\n") == 1
     assert not (tmp_path / "r.npz").exists()
+
+
+def test_a_long_reconstruct_is_announced_and_refused_without_allow_slow(tmp_path, capsys):
+    """A full seed raw reconstructed without --region (issue 46): the grid's size and the
+    expected time are printed before any work, and a run expected to take more than the
+    library's MAX_SECONDS is refused in one line that names --allow-slow, exit 2, before
+    the map is built (the refusal comes within a few seconds)."""
+    pytest.importorskip("scipy")
+    raw = tmp_path / "raw.npz"
+    assert run_cli(["render", "seed", "--texture", "random", "--depth", "1000", "-o",
+                    str(raw)], capsys)[0] == 0
+    t0 = time.perf_counter()
+    code, out, err = run_cli(["reconstruct", str(raw), "--depth", "1000", "-o",
+                              str(tmp_path / "img.png")], capsys)
+    assert time.perf_counter() - t0 < 30
+    assert (code, out) == (2, "")
+    lines = err.splitlines()
+    assert len(lines) == 2
+    assert re.match(r"splitlf reconstruct: \d+ x \d+ cells of [\d.]+ mm", lines[0])
+    assert "expected at most" in lines[0]
+    assert lines[1].startswith("splitlf reconstruct: error: ") and "--allow-slow" in lines[1]
+    assert "allow_slow=True" not in err
+    assert not (tmp_path / "img.png").exists()

@@ -4,10 +4,12 @@ docs/reconstruct.md)."""
 from __future__ import annotations
 
 import argparse
+import logging
 import sys
 from typing import Any
 
 from ._common import (
+    CliError,
     array_output,
     array_targets,
     channels_option,
@@ -77,8 +79,28 @@ def _slow(args: argparse.Namespace) -> dict[str, bool]:
     return {"allow_slow": True} if args.allow_slow else {}
 
 
+class _PlanLines(logging.Handler):
+    """The library's notes on stderr, one line each (the stream of the moment, so a
+    replaced ``sys.stderr`` gets them)."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        print(f"splitlf {record.getMessage()}", file=sys.stderr, flush=True)
+
+
+def _say_the_plan() -> None:
+    """The library logs the grid's size, the memory plan and the expected time before
+    the work (logger ``splitlf.reconstruct``, INFO): the command line prints them on
+    stderr, so a long run is announced before it starts."""
+    log = logging.getLogger("splitlf.reconstruct")
+    if not any(isinstance(h, _PlanLines) for h in log.handlers):
+        log.addHandler(_PlanLines())
+    log.setLevel(logging.INFO)
+
+
 def run(args: argparse.Namespace) -> int:
     need("scipy", "reconstruct", "reconstruct")
+    _say_the_plan()
+    from ..errors import TooLargeError
     from ..imaging.render import Raw
     from ..inverse.reconstruct import reconstruct
     from ..plot.image import image
@@ -87,11 +109,14 @@ def run(args: argparse.Namespace) -> int:
     raw = Raw.load(args.raw)
     depth = parse_render_depth(args.depth, args.extent)
     region = None if args.region is None else floats(args.region, 4, "--region")
-    rec = reconstruct(raw, depth, region=region, step=args.step,
-                      channels=channels_option(args), noise=args.noise,
-                      regularization=args.regularization, tile=args.tile,
-                      n_threads=args.threads, progress=None,
-                      lens_types=_lens_types_option(args), **_slow(args))
+    try:
+        rec = reconstruct(raw, depth, region=region, step=args.step,
+                          channels=channels_option(args), noise=args.noise,
+                          regularization=args.regularization, tile=args.tile,
+                          n_threads=args.threads, progress=None,
+                          lens_types=_lens_types_option(args), **_slow(args))
+    except TooLargeError as e:  # the library's advice, in the command line's words
+        raise CliError(str(e).replace("allow_slow=True", "--allow-slow")) from None
     write_array(args, out, npy, rec.image, figure_picture(lambda ax: image(rec, ax)))
     summary = {"path": str(out), "npy": None if npy is None else str(npy),
                "shape": list(rec.image.shape), "extent": list(rec.extent), "step": rec.step,
