@@ -594,8 +594,14 @@ impl Texture {
                     let xm = 0.5 * (a[0] + b[0]);
                     let half = 0.5 * (b[0] - a[0]);
                     let (u, h) = (w * xm, w * half);
-                    let wave = cp * (xm * (0.5 * u).sin() * sinc(0.5 * u) + u.cos() * half * c1(h))
-                        + sp * xm * sinc(u) * sinc(h);
+                    // Two transcendental calls an edge (as the direct formula needs): sin
+                    // and cos of u/2 give sin u and cos u, sin h gives sinc h and c1(h).
+                    let (s2, c2) = (0.5 * u).sin_cos();
+                    let (sin_u, cos_u) = (2.0 * s2 * c2, 1.0 - 2.0 * s2 * s2);
+                    let sin_h = h.sin();
+                    let wave = cp
+                        * (xm * s2 * sinc_of(0.5 * u, s2) + cos_u * half * c1_of(h, sin_h))
+                        + sp * xm * sinc_of(u, sin_u) * sinc_of(h, sin_h);
                     t += dy * (mean * xm + amplitude * wave);
                 }
                 t
@@ -643,21 +649,21 @@ impl Texture {
     }
 }
 
-/// sin x / x.
-fn sinc(x: f64) -> f64 {
+/// sin x / x (`sin_x` = sin x).
+fn sinc_of(x: f64, sin_x: f64) -> f64 {
     if x.abs() < 1e-4 {
         1.0 - x * x / 6.0
     } else {
-        x.sin() / x
+        sin_x / x
     }
 }
 
-/// (1 − sinc h)/h, without cancellation for small h.
-fn c1(h: f64) -> f64 {
+/// (1 − sinc h)/h, without cancellation for small h (`sin_h` = sin h).
+fn c1_of(h: f64, sin_h: f64) -> f64 {
     if h.abs() < 1e-3 {
         h / 6.0 - h * h * h / 120.0
     } else {
-        (1.0 - h.sin() / h) / h
+        (1.0 - sin_h / h) / h
     }
 }
 
