@@ -152,7 +152,7 @@ def forward(design: Design, z: float, source: str, origin: float, step: float,
     t2 = np.ascontiguousarray(np.atleast_2d(t), dtype=np.float64)
     o, h = _validate.real(origin, "origin"), _validate.real(step, "step")
     lo, hi = _field(o, h, t2.shape[1], field)
-    r = _native.design_render(subject.core, _validate.real(z, "z"), src, o, h, lo, hi, t2,
+    r = _native.design_render(subject.core, _validate.real(z, "z"), src, (o, h), (lo, hi), t2,
                               _validate.n_threads(n_threads))
     return (r.values[0] if t.ndim == 1 else r.values), r.pixels
 
@@ -173,8 +173,8 @@ def system_matrix(design: Design, z: float, source: str, origin: float, step: fl
     o, h = _validate.real(origin, "origin"), _validate.real(step, "step")
     n = _int(n_cells, "n_cells", 1)
     lo, hi = _field(o, h, n, field)
-    a = _native.design_system_matrix(subject.core, _validate.real(z, "z"), src, o, h, n, lo,
-                                     hi, _validate.n_threads(n_threads))
+    a = _native.design_system_matrix(subject.core, _validate.real(z, "z"), src, (o, h, n),
+                                     (lo, hi), _validate.n_threads(n_threads))
     return sp.csr_matrix((a.data, a.indices, a.indptr), shape=a.shape), a.pixels
 
 
@@ -490,11 +490,11 @@ def _image_systems(core: Any, z: float, sources: Mapping[str, str],
         origin = grid.origin + first * delta
         field = (origin + delta, origin + (n - 1) * delta)
         y = _native.design_render(
-            core, z, src, origin, delta / oversample, *field,
+            core, z, src, (origin, delta / oversample), field,
             np.ascontiguousarray(fine[:, first * oversample:(first + n) * oversample]),
             threads).values
         images[key] = _add_noise(y, noise, rng)
-        a = _native.design_system_matrix(core, z, src, origin, delta, n, *field, threads)
+        a = _native.design_system_matrix(core, z, src, (origin, delta, n), field, threads)
         mats[key] = sp.csr_matrix((a.data, a.indices, a.indptr), shape=a.shape)
     images[union] = np.hstack([images[k] for k in lf])
     mats[union] = sp.vstack([mats[k] for k in lf]).tocsr()

@@ -59,24 +59,19 @@ pub(crate) struct SystemMatrixArrays {
 }
 
 /// System matrix of a design's source ("channel<c>", "conventional<c>") at depth z on the
-/// grid (origin, step, n_cells), rows the pixels whose kernels lie in [field_lo, field_hi].
+/// grid (origin, step, n_cells), rows the pixels whose kernels lie in the field [lo, hi].
 #[pyfunction]
-#[pyo3(signature = (design, z, source, origin, step, n_cells, field_lo, field_hi, n_threads=None))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (design, z, source, grid, field, n_threads=None))]
 pub(crate) fn design_system_matrix(
     py: Python<'_>,
     design: &DesignCore,
     z: f64,
     source: &str,
-    origin: f64,
-    step: f64,
-    n_cells: usize,
-    field_lo: f64,
-    field_hi: f64,
+    grid: (f64, f64, usize),
+    field: (f64, f64),
     n_threads: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<SystemMatrixArrays> {
-    let cells = (origin, step, n_cells);
-    let (px, grid, field) = forward_model(&design.inner, source, cells, (field_lo, field_hi))?;
+    let (px, grid, field) = forward_model(&design.inner, source, grid, field)?;
     let threads = threads_arg(n_threads)?;
     let sys = run(py, || {
         simulate::system_matrix_of(&px, z, grid, field, threads)
@@ -100,25 +95,23 @@ pub(crate) struct RenderArrays {
 }
 
 /// Noise-free pixel values of a design's source ("channel<c>", "conventional<c>") at depth
-/// z for textures (n_tex, n_cells) constant on each cell of the grid.
+/// z for textures (n_tex, n_cells) constant on each cell of the grid (origin, step), rows
+/// the pixels whose kernels lie in the field [lo, hi] (the GIL token comes from `textures`).
 #[pyfunction]
-#[pyo3(signature = (design, z, source, origin, step, field_lo, field_hi, textures, n_threads=None))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (design, z, source, grid, field, textures, n_threads=None))]
 pub(crate) fn design_render(
-    py: Python<'_>,
     design: &DesignCore,
     z: f64,
     source: &str,
-    origin: f64,
-    step: f64,
-    field_lo: f64,
-    field_hi: f64,
+    grid: (f64, f64),
+    field: (f64, f64),
     textures: PyReadonlyArray2<'_, f64>,
     n_threads: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<RenderArrays> {
+    let py = textures.py();
     let (n_tex, n_cells) = textures.as_array().dim();
-    let cells = (origin, step, n_cells);
-    let (px, grid, field) = forward_model(&design.inner, source, cells, (field_lo, field_hi))?;
+    let cells = (grid.0, grid.1, n_cells);
+    let (px, grid, field) = forward_model(&design.inner, source, cells, field)?;
     let threads = threads_arg(n_threads)?;
     let flat = as_flat(&textures, "textures")?;
     let (values, pixels) = run(py, || {

@@ -1,0 +1,127 @@
+//! The compressed-row matrices a solve's blocks are given in (the map's factors, its
+//! explicit rows) and their transposes.
+
+use crate::infra::error::{Error, Result};
+use crate::infra::memory;
+
+/// A sparse matrix in compressed rows: row i's entries are `indices[indptr[i]..indptr[i+1]]`
+/// (columns, < `ncols`) and the same range of `data`.
+#[derive(Clone, Debug)]
+pub struct Csr {
+    pub indptr: Vec<usize>,
+    pub indices: Vec<u32>,
+    pub data: Vec<f64>,
+    pub ncols: usize,
+}
+
+impl Csr {
+    /// A checked CSR matrix: `indptr` starts at 0, never decreases and ends at the number of
+    /// entries; every column index < `ncols`; every entry finite. `field` names it in errors.
+    pub fn new(
+        field: &'static str,
+        indptr: Vec<usize>,
+        indices: Vec<u32>,
+        data: Vec<f64>,
+        ncols: usize,
+    ) -> Result<Csr> {
+        let ok_ptr = indptr.first() == Some(&0)
+            && indptr.windows(2).all(|w| w[0] <= w[1])
+            && indptr.last() == Some(&indices.len())
+            && indices.len() == data.len();
+        if !ok_ptr {
+            return Err(Error::param(
+                field,
+                format!(
+                    "indptr of {} entries over {} indices",
+                    indptr.len(),
+                    indices.len()
+                ),
+                "a CSR matrix: indptr from 0, non-decreasing, ending at the number of entries",
+            ));
+        }
+        if let Some(&c) = indices.iter().find(|&&c| c as usize >= ncols) {
+            return Err(Error::param(field, c, format!("column indices < {ncols}")));
+        }
+        if let Some(&v) = data.iter().find(|v| !v.is_finite()) {
+            return Err(Error::param(field, v, "finite entries"));
+        }
+        Ok(Csr {
+            indptr,
+            indices,
+            data,
+            ncols,
+        })
+    }
+
+    pub fn nrows(&self) -> usize {
+        self.indptr.len() - 1
+    }
+
+    pub(super) fn row(&self, i: usize) -> (&[u32], &[f64]) {
+        let r = self.indptr[i]..self.indptr[i + 1];
+        (&self.indices[r.clone()], &self.data[r])
+    }
+
+    /// The transpose, its rows' entries in increasing column order.
+    pub fn transpose(&self) -> Result<Csr> {
+        let nnz = self.indices.len();
+        let mut count = memory::try_vec("a transposed factor", self.ncols + 1, 0usize)?;
+        for &c in &self.indices {
+            count[c as usize + 1] += 1;
+        }
+        for i in 0..self.ncols {
+            count[i + 1] += count[i];
+        }
+        let indptr = count.clone();
+        let mut next = count;
+        let mut indices = memory::try_vec("a transposed factor", nnz, 0u32)?;
+        let mut data = memory::try_vec("a transposed factor", nnz, 0.0f64)?;
+        for i in 0..self.nrows() {
+            let (cols, vals) = self.row(i);
+            for (&c, &v) in cols.iter().zip(vals) {
+                let k = &mut next[c as usize];
+                indices[*k] = i as u32;
+                data[*k] = v;
+                *k += 1;
+            }
+        }
+        Ok(Csr {
+            indptr,
+            indices,
+            data,
+            ncols: self.nrows(),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bad_input_names_its_field() {
+        let field = |r: Result<Csr>| r.unwrap_err().parameter_name().unwrap();
+        assert_eq!(
+            field(Csr::new("px", vec![0, 2], vec![0], vec![1.0], 3)),
+            "px"
+        );
+        assert_eq!(
+            field(Csr::new("px", vec![0, 1], vec![3], vec![1.0], 3)),
+            "px"
+        );
+        assert_eq!(
+            field(Csr::new("py", vec![0, 1], vec![0], vec![f64::NAN], 3)),
+            "py"
+        );
+    }
+
+    #[test]
+    fn transpose_is_the_transpose() {
+        let a = Csr::new("a", vec![0, 2, 2, 3], vec![1, 3, 0], vec![1.0, 2.0, 3.0], 4).unwrap();
+        let t = a.transpose().unwrap();
+        assert_eq!(t.indptr, vec![0, 1, 2, 2, 3]);
+        assert_eq!(t.indices, vec![2, 0, 0]);
+        assert_eq!(t.data, vec![3.0, 1.0, 2.0]);
+        assert_eq!(t.ncols, 3);
+    }
+}

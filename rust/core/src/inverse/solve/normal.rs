@@ -1,0 +1,236 @@
+//! The blocks of a solve and the normal equations they make over the grid: each block
+//! checked against the grid and prepared for products (transposes, spans, pieces), and
+//! the scratch one product needs (sized before it is allocated).
+
+use crate::infra::error::{Error, Result};
+use crate::infra::memory;
+
+use super::csr::Csr;
+use super::pieces::{Band, Fast};
+
+/// A block of the map's rows, with each row's weight w (1/σ², 0 for a pixel that is not a
+/// row) and raw value y.
+#[derive(Clone, Debug)]
+pub enum Block {
+    /// Rows `norm · (py row b ⊗ px row a)` for the nr × nc raw window (b, a), `w` and `y`
+    /// row-major over the window; `px` maps raw columns to grid columns, `py` raw rows to
+    /// grid rows from the top.
+    Factored {
+        norm: f64,
+        px: Csr,
+        py: Csr,
+        w: Vec<f64>,
+        y: Vec<f64>,
+    },
+    /// Explicit rows over the grid's cells (row-major, row 0 at the top).
+    Rows { a: Csr, w: Vec<f64>, y: Vec<f64> },
+}
+
+/// A block ready for products: its transposes (for the pass over output rows) and a
+/// factored block's x factor as spans (plain and squared).
+pub(super) struct Prepared {
+    pub(super) block: Block,
+    /// Factored: pyᵀ (grid rows → raw rows); Rows: Aᵀ (cells → rows).
+    pub(super) back: Csr,
+    pub(super) spans: Option<(Band, Band)>,
+    /// A factored block's y factor in pieces (None for Rows blocks).
+    pub(super) fast: Option<Fast>,
+}
+
+impl Prepared {
+    /// The y factor's pieces if a pass runs through them: a product (A t formed) of a
+    /// factored block always does (its runs from T's prefix sums, its dense entries through
+    /// `back_dense`, the runs back by [`Normal::sweep`]); the right-hand side and the
+    /// diagonal use py whole. The one place this choice is made.
+    pub(super) fn pieces(&self, product: bool) -> Option<&Fast> {
+        self.fast.as_ref().filter(|_| product)
+    }
+}
+
+/// The normal equations of one solve over an nx × ny grid of cells.
+pub struct Normal {
+    pub(super) nx: usize,
+    pub(super) ny: usize,
+    pub(super) lam: f64,
+    pub(super) blocks: Vec<Prepared>,
+    /// Whether a product has y runs to read and sweep (some block is factored): then the
+    /// column-chunked prefix sums exist.
+    pub(super) runs: bool,
+}
+
+/// The scratch of one product: per block, a Factored block's (nr × nx) back-projected rows
+/// or a Rows block's weighted residuals; and two column-chunked (ny + 1) × nx arrays for
+/// the factored blocks' runs (see [`Normal::prefix`] and [`Normal::sweep`]).
+pub struct Work {
+    pub(super) scratch: Vec<Vec<f64>>,
+    pub(super) s0: Vec<f64>,
+    pub(super) s1: Vec<f64>,
+}
+
+/// Columns per chunk of the column-wise sweeps (prefix sums over grid rows): fixed, so
+/// the sums' order does not depend on the thread count.
+pub(super) const CW: usize = 64;
+
+fn check_weights(field: &'static str, v: &[f64], n: usize, nonneg: bool) -> Result<()> {
+    if v.len() != n {
+        return Err(Error::param(
+            field,
+            v.len(),
+            format!("{n} values (one per row)"),
+        ));
+    }
+    if let Some(&x) = v.iter().find(|x| !x.is_finite() || (nonneg && **x < 0.0)) {
+        let allowed = if nonneg {
+            "finite values ≥ 0"
+        } else {
+            "finite values"
+        };
+        return Err(Error::param(field, x, allowed));
+    }
+    Ok(())
+}
+
+impl Normal {
+    /// The normal equations of `blocks` over the nx × ny grid with prior weight `lam`,
+    /// every block checked against the grid.
+    pub fn new(nx: usize, ny: usize, lam: f64, blocks: Vec<Block>) -> Result<Normal> {
+        if nx == 0 || ny == 0 {
+            return Err(Error::param(
+                "grid",
+                format!("{nx} x {ny}"),
+                "at least 1 x 1 cells",
+            ));
+        }
+        if !(lam.is_finite() && lam > 0.0) {
+            return Err(Error::param("regularization", lam, "a finite value > 0"));
+        }
+        let cells = nx
+            .checked_mul(ny)
+            .filter(|&n| n < u32::MAX as usize)
+            .ok_or_else(|| Error::param("grid", format!("{nx} x {ny}"), "fewer than 2^32 cells"))?;
+        let mut prepared = Vec::with_capacity(blocks.len());
+        for block in blocks {
+            let back = match &block {
+                Block::Factored { norm, px, py, w, y } => {
+                    if !norm.is_finite() {
+                        return Err(Error::param("norm", norm, "a finite value"));
+                    }
+                    if px.ncols != nx || py.ncols != ny {
+                        return Err(Error::param(
+                            "factors",
+                            format!("{} x {} grid columns x rows", px.ncols, py.ncols),
+                            format!("the grid's {nx} x {ny}"),
+                        ));
+                    }
+                    let n = px.nrows() * py.nrows();
+                    check_weights("weights", w, n, true)?;
+                    check_weights("values", y, n, false)?;
+                    let spans = Some((Band::new(px, false)?, Band::new(px, true)?));
+                    (py.transpose()?, spans, Some(Fast::new(py)?))
+                }
+                Block::Rows { a, w, y } => {
+                    if a.ncols != cells {
+                        return Err(Error::param("rows", a.ncols, format!("{cells} columns")));
+                    }
+                    check_weights("weights", w, a.nrows(), true)?;
+                    check_weights("values", y, a.nrows(), false)?;
+                    (a.transpose()?, None, None)
+                }
+            };
+            let (back, spans, fast) = back;
+            prepared.push(Prepared {
+                block,
+                back,
+                spans,
+                fast,
+            });
+        }
+        let runs = prepared.iter().any(|p| p.fast.is_some());
+        Ok(Normal {
+            nx,
+            ny,
+            lam,
+            blocks: prepared,
+            runs,
+        })
+    }
+
+    pub fn cells(&self) -> usize {
+        self.nx * self.ny
+    }
+
+    /// Bytes of one product's scratch (what [`Normal::apply`] holds besides its vectors).
+    pub(super) fn work_bytes(&self) -> u128 {
+        (self
+            .blocks
+            .iter()
+            .map(|p| self.scratch_len(p) as u128)
+            .sum::<u128>()
+            + 2 * self.chunked_len() as u128)
+            * 8
+    }
+
+    /// Values of one column-chunked array (0 without factored blocks): chunk k holds
+    /// columns k·CW .. (k + 1)·CW of grid rows 0..=ny, row-major.
+    fn chunked_len(&self) -> usize {
+        if self.runs {
+            self.nx.div_ceil(CW) * CW * (self.ny + 1)
+        } else {
+            0
+        }
+    }
+
+    /// Values of one block's scratch: a Factored block's nr × nx back-projected rows, a
+    /// Rows block's one value a row.
+    fn scratch_len(&self, p: &Prepared) -> usize {
+        match &p.block {
+            Block::Factored { py, .. } => py.nrows() * self.nx,
+            Block::Rows { a, .. } => a.nrows(),
+        }
+    }
+
+    pub(super) fn work(&self) -> Result<Work> {
+        let scratch = self
+            .blocks
+            .iter()
+            .map(|p| memory::try_vec("the solve's work arrays", self.scratch_len(p), 0.0))
+            .collect::<Result<_>>()?;
+        let n = self.chunked_len();
+        Ok(Work {
+            scratch,
+            s0: memory::try_vec("the solve's work arrays", n, 0.0)?,
+            s1: memory::try_vec("the solve's work arrays", n, 0.0)?,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::inverse::solve::testing::factored;
+
+    #[test]
+    fn bad_input_names_its_field() {
+        let (block, ..) = factored(9, 8);
+        let e = |nx, lam, b: Block| {
+            Normal::new(nx, 8, lam, vec![b])
+                .err()
+                .unwrap()
+                .parameter_name()
+                .unwrap()
+        };
+        assert_eq!(e(9, 0.0, block.clone()), "regularization");
+        assert_eq!(e(10, 1.0, block.clone()), "factors");
+        let Block::Factored { norm, px, py, w, y } = block else {
+            unreachable!()
+        };
+        let short = Block::Factored {
+            norm,
+            px,
+            py,
+            w: w[1..].to_vec(),
+            y,
+        };
+        assert_eq!(e(9, 1.0, short), "weights");
+    }
+}
