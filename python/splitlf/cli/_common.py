@@ -487,3 +487,10 @@ def evolution_options(p: argparse.ArgumentParser, maxiter: int, popsize: int) ->
                    help=f"generations of differential evolution (default {maxiter})")
     p.add_argument("--popsize", type=integer_type("population multiplier", 1, 10_000),
                    default=popsize, help=f"population per free field (default {popsize})")
+
+
+def described(doc: str | None) -> str:
+    """A command's ``--help`` description: its module docstring after the summary line
+    (each command module's docstring is its summary, a blank line, then what the command
+    does)."""
+    return (doc or "").partition("\n\n")[2].strip()

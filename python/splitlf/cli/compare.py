@@ -1,5 +1,12 @@
 """``splitlf compare``: optimise every architecture on one sensor and compare them
-(docs/compare.md)."""
+(docs/compare.md).
+
+Build the plain light field camera, the split sensor, a three-way split, a multi-focus
+hex camera and a conventional camera on the sensor and main lens of a preset, optimise
+each light field architecture for one objective (differential evolution, small budgets),
+set the conventional camera's focus, and compare the optimised designs over the depths:
+sharp fraction, covering radius, light per pixel, MTF50 (docs/compare.md).
+"""
 
 from __future__ import annotations
 
@@ -18,6 +25,7 @@ from ._common import (
     check_suffix,
     depth_type,
     depths_option,
+    described,
     evolution_options,
     json_text,
     log_depths,
@@ -36,21 +44,13 @@ from ._common import (
 COMPARE_FILES = ("table.csv", "curves.csv")
 
 
-#: What ``splitlf compare --help`` says the command does.
-DESCRIPTION = (
-    "Build the plain light field camera, the split sensor, a three-way split, a multi-focus "
-    "hex camera and a conventional camera on the sensor and main lens of a preset, optimise "
-    "each light field architecture for one objective (differential evolution, small "
-    "budgets), set the conventional camera's focus, and compare the optimised designs over "
-    "the depths: sharp fraction, covering radius, light per pixel, MTF50 (docs/compare.md)."
-)
 
 
 def add_parser(subparsers: Any) -> None:
     from ..study.compare import ARCHITECTURES
     from ..study.compare import PRESETS as SENSORS
 
-    p = subparsers.add_parser("compare", description=DESCRIPTION,
+    p = subparsers.add_parser("compare", description=described(__doc__),
                               help="optimise every architecture on one sensor and compare them")
     p.add_argument("--preset", choices=SENSORS, default="seed",
                    help="whose sensor and main lens: seed (36 x 24 mm, 9 um, F 80 mm) or "

@@ -1,4 +1,9 @@
-"""``splitlf depth``: a depth map from a raw file alone (docs/model.md §11, docs/depth.md)."""
+"""``splitlf depth``: a depth map from a raw file alone (docs/model.md §11, docs/depth.md).
+
+Estimate the scene's depth from a raw file alone (a plane sweep: docs/model.md §11,
+docs/depth.md) and write it as a colour map (cells the method does not stand behind in
+grey) or an array.
+"""
 
 from __future__ import annotations
 
@@ -16,6 +21,7 @@ from ._common import (
     array_targets,
     channels_option,
     check_output,
+    described,
     figure_picture,
     floats,
     grid_options,
@@ -26,16 +32,10 @@ from ._common import (
     write_array,
 )
 
-#: What ``splitlf depth --help`` says the command does.
-DESCRIPTION = (
-    "Estimate the scene's depth from a raw file alone (a plane sweep: docs/model.md §11, "
-    "docs/depth.md) and write it as a colour map (cells the method does not stand behind in "
-    "grey) or an array."
-)
-
 
 def add_parser(subparsers: Any) -> None:
-    p = subparsers.add_parser("depth", help="a depth map from a raw file", description=DESCRIPTION)
+    p = subparsers.add_parser("depth", help="a depth map from a raw file",
+                              description=described(__doc__))
     p.add_argument("raw", metavar="RAW.npz", help="a raw file (splitlf render, Raw.save)")
     p.add_argument("--depths", required=True, metavar="ZMIN:ZMAX",
                    help="the candidate range in mm (uniform in 1/z), or Z1,Z2,... the "

@@ -1,22 +1,20 @@
-"""``splitlf explore``: the interactive design explorer in the browser (docs/explore.md)."""
+"""``splitlf explore``: the interactive design explorer in the browser (docs/explore.md).
+
+Start the design explorer (docs/explore.md), a local web app, for a preset, a [design]
+or [camera] TOML file, or the seed design, and print its URL. It binds 127.0.0.1 and
+accepts only pages and websockets addressed to it. Ctrl-C stops it.
+"""
 
 from __future__ import annotations
 
 import argparse
 from typing import Any
 
-from ._common import CliError, design_source, integer_type, load_subject, named_design
-
-#: What ``splitlf explore --help`` says the command does.
-DESCRIPTION = (
-    "Start the design explorer (docs/explore.md), a local web app, for a preset, a [design] "
-    "or [camera] TOML file, or the seed design, and print its URL. It binds 127.0.0.1 and "
-    "accepts only pages and websockets addressed to it. Ctrl-C stops it."
-)
+from ._common import CliError, described, design_source, integer_type, load_subject, named_design
 
 
 def add_parser(subparsers: Any) -> None:
-    p = subparsers.add_parser("explore", description=DESCRIPTION,
+    p = subparsers.add_parser("explore", description=described(__doc__),
                               help="the interactive design explorer in the browser")
     design_source(p, "start from")
     p.add_argument("--port", type=integer_type("port", 0, 65535), default=5006,

@@ -1,4 +1,12 @@
-"""``splitlf figures``: every figure of a design, written to a folder."""
+"""``splitlf figures``: every figure of a design, written to a folder.
+
+Write the paper's figures (1, 4, 5), the samples figure, the microlens images on the
+sensor and the 2-D sample map for the camera (the seed design unless --config). A
+general design (--preset, or a --config file with a [design] table;
+docs/architectures.md) gets Figs. 1 and 5 per channel and lens type, its microlens
+images and its sample map. Every option is checked, and no existing file is overwritten
+without --force, before the folder is created.
+"""
 
 from __future__ import annotations
 
@@ -14,6 +22,7 @@ from ._common import (
     check_folder,
     check_output,
     depth_type,
+    described,
     design_source,
     integer_type,
     load_subject,
@@ -28,19 +37,10 @@ DPI_RANGE = (10, 1000)
 _dpi = integer_type("dpi", *DPI_RANGE)
 
 
-#: What ``splitlf figures --help`` says the command does.
-DESCRIPTION = (
-    "Write the paper's figures (1, 4, 5), the samples figure, the microlens images on the "
-    "sensor and the 2-D sample map for the camera (the seed design unless --config). A "
-    "general design (--preset, or a --config file with a [design] table; "
-    "docs/architectures.md) gets Figs. 1 and 5 per channel and lens type, its microlens "
-    "images and its sample map. Every option is checked, and no existing file is "
-    "overwritten without --force, before the folder is created."
-)
 
 
 def add_parser(subparsers: Any) -> None:
-    p = subparsers.add_parser("figures", description=DESCRIPTION,
+    p = subparsers.add_parser("figures", description=described(__doc__),
                               help="write every figure of a design")
     design_source(p, "draw")
     threads_option(p, "threads of the core for every figure")

@@ -1,5 +1,11 @@
 """``splitlf optimise``: the best design for an objective under constraints
-(docs/optimise.md)."""
+(docs/optimise.md).
+
+Search the free fields of the camera (the seed design unless --config or --preset) with
+differential evolution, polished locally, for the design that optimises a figure of
+merit subject to constraints (docs/optimise.md); write it as a TOML that report --config
+reads (a [design] file for a design base).
+"""
 
 from __future__ import annotations
 
@@ -15,6 +21,7 @@ from ._common import (
     check_output,
     check_suffix,
     depths_option,
+    described,
     design_source,
     evolution_options,
     json_text,
@@ -35,17 +42,10 @@ from ._common import (
 _f_number = real_type("f-number", 0.0, "a finite number > 0")
 
 
-#: What ``splitlf optimise --help`` says the command does.
-DESCRIPTION = (
-    "Search the free fields of the camera (the seed design unless --config or --preset) "
-    "with differential evolution, polished locally, for the design that optimises a figure "
-    "of merit subject to constraints (docs/optimise.md); write it as a TOML that report "
-    "--config reads (a [design] file for a design base)."
-)
 
 
 def add_parser(subparsers: Any) -> None:
-    p = subparsers.add_parser("optimise", description=DESCRIPTION,
+    p = subparsers.add_parser("optimise", description=described(__doc__),
                               help="the best design for an objective (inverse design)")
     design_source(p, "optimise around")
     threads_option(p, "threads of the core for in-process evaluation")

@@ -1,5 +1,9 @@
 """``splitlf reconstruct``: a super-resolved image from a raw file (docs/model.md §11,
-docs/reconstruct.md)."""
+docs/reconstruct.md).
+
+Reconstruct the albedo on a grid of cells over a region of a known surface from a raw
+file (docs/model.md §11, docs/reconstruct.md) and write it as a picture or an array.
+"""
 
 from __future__ import annotations
 
@@ -13,6 +17,7 @@ from ._common import (
     array_output,
     array_targets,
     channels_option,
+    described,
     figure_picture,
     floats,
     grid_options,
@@ -27,15 +32,9 @@ from ._common import (
     write_array,
 )
 
-#: What ``splitlf reconstruct --help`` says the command does.
-DESCRIPTION = (
-    "Reconstruct the albedo on a grid of cells over a region of a known surface from a raw "
-    "file (docs/model.md §11, docs/reconstruct.md) and write it as a picture or an array."
-)
-
 
 def add_parser(subparsers: Any) -> None:
-    p = subparsers.add_parser("reconstruct", description=DESCRIPTION,
+    p = subparsers.add_parser("reconstruct", description=described(__doc__),
                               help="a super-resolved image from a raw file")
     p.add_argument("raw", metavar="RAW.npz", help="a raw file (splitlf render, Raw.save)")
     p.add_argument("--depth", required=True, metavar="SPEC",
@@ -87,13 +86,16 @@ class _PlanLines(logging.Handler):
         print(f"splitlf {record.getMessage()}", file=sys.stderr, flush=True)
 
 
+_PLAN_LINES = _PlanLines()
+
+
 def _say_the_plan() -> None:
     """The library logs the grid's size, the memory plan and the expected time before
     the work (logger ``splitlf.reconstruct``, INFO): the command line prints them on
     stderr, so a long run is announced before it starts."""
     log = logging.getLogger("splitlf.reconstruct")
-    if not any(isinstance(h, _PlanLines) for h in log.handlers):
-        log.addHandler(_PlanLines())
+    if _PLAN_LINES not in log.handlers:
+        log.addHandler(_PLAN_LINES)
     log.setLevel(logging.INFO)
 
 

@@ -1,5 +1,10 @@
 """``splitlf render``: the raw sensor images of a textured scene (docs/model.md §10,
-docs/render.md)."""
+docs/render.md).
+
+Render what each channel's sensor records for a textured surface (docs/model.md §10) and
+write the raws to an .npz file that splitlf.Raw.load reads (and, with --png, a picture
+of them with a zoom on a few micro-images).
+"""
 
 from __future__ import annotations
 
@@ -17,6 +22,7 @@ from ._common import (
     CliError,
     check_output,
     check_suffix,
+    described,
     json_text,
     load_npy,
     named_design,
@@ -29,16 +35,9 @@ from ._common import (
     threads_option,
 )
 
-#: What ``splitlf render --help`` says the command does.
-DESCRIPTION = (
-    "Render what each channel's sensor records for a textured surface (docs/model.md §10) "
-    "and write the raws to an .npz file that splitlf.Raw.load reads (and, with --png, a "
-    "picture of them with a zoom on a few micro-images)."
-)
-
 
 def add_parser(subparsers: Any) -> None:
-    p = subparsers.add_parser("render", description=DESCRIPTION,
+    p = subparsers.add_parser("render", description=described(__doc__),
                               help="the raw sensor images of a textured scene")
     p.add_argument("design", metavar="DESIGN",
                    help=f"a preset ({', '.join(PRESETS)}) or a TOML file with a [design] "

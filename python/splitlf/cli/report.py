@@ -1,4 +1,11 @@
-"""``splitlf report``: where a design is sharp and how densely it samples."""
+"""``splitlf report``: where a design is sharp and how densely it samples.
+
+Print where the design (the seed design unless --config or --preset) is sharp and how
+densely it samples: a summary of the design, its out-of-focus planes, the depth of field
+of each channel (each half of the split sensor) and of their union, and the worst
+resolution. --full adds every field of every channel, its lens types and the coincidence
+planes where docs/model.md §6 holds.
+"""
 
 from __future__ import annotations
 
@@ -8,6 +15,7 @@ from typing import Any
 
 from ..study.report import format_report, report_data
 from ._common import (
+    described,
     design_source,
     json_text,
     load_subject,
@@ -16,18 +24,9 @@ from ._common import (
     threshold_option,
 )
 
-#: What ``splitlf report --help`` says the command does.
-DESCRIPTION = (
-    "Print where the design (the seed design unless --config or --preset) is sharp and how "
-    "densely it samples: a summary of the design, its out-of-focus planes, the depth of "
-    "field of each channel (each half of the split sensor) and of their union, and the "
-    "worst resolution. --full adds every field of every channel, its lens types and the "
-    "coincidence planes where docs/model.md §6 holds."
-)
-
 
 def add_parser(subparsers: Any) -> None:
-    p = subparsers.add_parser("report", description=DESCRIPTION,
+    p = subparsers.add_parser("report", description=described(__doc__),
                               help="where a design is sharp and how densely it samples")
     design_source(p, "report")
     threads_option(p, "threads for the coincidence planes and the resolution figures")

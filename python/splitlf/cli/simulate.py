@@ -1,5 +1,12 @@
 """``splitlf simulate``: super-resolution simulation at one or more depths
-(docs/simulate.md)."""
+(docs/simulate.md).
+
+Image a textured plane with half 1, half 2, the split sensor and the conventional
+camera, reconstruct it with known depth and print RMSE, PSNR and MTF50
+(docs/simulate.md). A general design with rect grids (--preset, or a --config file with
+a [design] table) is simulated per channel, for their union and for the conventional
+camera on channel 1's array plane.
+"""
 
 from __future__ import annotations
 
@@ -16,6 +23,7 @@ from ._common import (
     check_output,
     check_suffix,
     depth_type,
+    described,
     design_source,
     integer_type,
     json_text,
@@ -40,18 +48,10 @@ SIMULATE_WINDOW = 256
 _n_depths = integer_type("depth count", *SIMULATE_N_RANGE)
 
 
-#: What ``splitlf simulate --help`` says the command does.
-DESCRIPTION = (
-    "Image a textured plane with half 1, half 2, the split sensor and the conventional "
-    "camera, reconstruct it with known depth and print RMSE, PSNR and MTF50 "
-    "(docs/simulate.md). A general design with rect grids (--preset, or a --config file "
-    "with a [design] table) is simulated per channel, for their union and for the "
-    "conventional camera on channel 1's array plane."
-)
 
 
 def add_parser(subparsers: Any) -> None:
-    p = subparsers.add_parser("simulate", description=DESCRIPTION,
+    p = subparsers.add_parser("simulate", description=described(__doc__),
                               help="super-resolution simulation at one or more depths")
     design_source(p, "simulate")
     threads_option(p, "threads of the core")

@@ -1,4 +1,10 @@
-"""``splitlf sweep``: figures of merit over a grid of designs, from a sweep TOML file."""
+"""``splitlf sweep``: figures of merit over a grid of designs, from a sweep TOML file.
+
+Full-factorial design sweep from a TOML file with [grid], [depths] (min, max, num;
+log-spaced), [options] and an optional base: a [camera] table, or a [design] table whose
+fields the grid names by path ("channels[2].L" = [...]; docs/architectures.md). Without
+a base in the file: --preset, --config, or the seed design.
+"""
 
 from __future__ import annotations
 
@@ -18,6 +24,7 @@ from ._common import (
     CliError,
     check_output,
     check_suffix,
+    described,
     design_source,
     json_text,
     load_subject,
@@ -28,17 +35,9 @@ from ._common import (
     threads_option,
 )
 
-#: What ``splitlf sweep --help`` says the command does.
-DESCRIPTION = (
-    "Full-factorial design sweep from a TOML file with [grid], [depths] (min, max, num; "
-    "log-spaced), [options] and an optional base: a [camera] table, or a [design] table "
-    "whose fields the grid names by path (\"channels[2].L\" = [...]; docs/architectures.md). "
-    "Without a base in the file: --preset, --config, or the seed design."
-)
-
 
 def add_parser(subparsers: Any) -> None:
-    p = subparsers.add_parser("sweep", description=DESCRIPTION,
+    p = subparsers.add_parser("sweep", description=described(__doc__),
                               help="figures of merit over a grid of designs")
     design_source(p, "sweep around")
     threads_option(p, "threads of the core for in-process sweeps")

@@ -1,5 +1,12 @@
 """``splitlf trace``: every pixel's ray-space polygon, written to an .npz file
-(docs/model.md §3-4)."""
+(docs/model.md §3-4).
+
+Trace every pixel of both halves along one axis (docs/model.md §3-4) and write the
+arrays of splitlf.trace, prefixed half1_/half2_, with the camera as TOML, to an .npz
+file. A general design with rect grids (--preset, or a --config file with a [design]
+table) is traced channel by channel, prefixed channel1_, channel2_, ..., with the design
+as TOML (design_toml).
+"""
 
 from __future__ import annotations
 
@@ -16,6 +23,7 @@ from ._common import (
     CliError,
     check_output,
     check_suffix,
+    described,
     design_source,
     json_text,
     load_subject,
@@ -26,18 +34,10 @@ from ._common import (
 TRACE_FIELDS = ("vertices", "n_vertices", "area", "centroid", "lens", "pixel", "chief", "lit")
 
 
-#: What ``splitlf trace --help`` says the command does.
-DESCRIPTION = (
-    "Trace every pixel of both halves along one axis (docs/model.md §3-4) and write the "
-    "arrays of splitlf.trace, prefixed half1_/half2_, with the camera as TOML, to an .npz "
-    "file. A general design with rect grids (--preset, or a --config file with a [design] "
-    "table) is traced channel by channel, prefixed channel1_, channel2_, ..., with the "
-    "design as TOML (design_toml)."
-)
 
 
 def add_parser(subparsers: Any) -> None:
-    p = subparsers.add_parser("trace", description=DESCRIPTION,
+    p = subparsers.add_parser("trace", description=described(__doc__),
                               help="write every pixel's ray-space polygon to .npz")
     design_source(p, "trace")
     threads_option(p, "threads of the trace")
