@@ -584,13 +584,7 @@ impl Texture {
                 // with c1(h) = (1 − sinc h)/h.
                 let w = 2.0 * PI * frequency;
                 let (cp, sp) = (phase.cos(), phase.sin());
-                let mut t = 0.0;
-                for i in 0..n {
-                    let (a, b) = (poly[i], poly[(i + 1) % n]);
-                    let dy = b[1] - a[1];
-                    if dy == 0.0 {
-                        continue;
-                    }
+                edge_integral(poly, |a, b| {
                     let xm = 0.5 * (a[0] + b[0]);
                     let half = 0.5 * (b[0] - a[0]);
                     let (u, h) = (w * xm, w * half);
@@ -602,9 +596,8 @@ impl Texture {
                     let wave = cp
                         * (xm * s2 * sinc_of(0.5 * u, s2) + cos_u * half * c1_of(h, sin_h))
                         + sp * xm * sinc_of(u, sin_u) * sinc_of(h, sin_h);
-                    t += dy * (mean * xm + amplitude * wave);
-                }
-                t
+                    mean * xm + amplitude * wave
+                })
             }
             Texture::Bars {
                 frequency,
@@ -616,17 +609,10 @@ impl Texture {
                 // the edge's X range): no loop over the bars, any frequency.
                 let period = (1.0 / frequency).min(f64::MAX);
                 let mean = 0.5 * (low + high);
-                let mut t = 0.0;
-                for i in 0..n {
-                    let (a, b) = (poly[i], poly[(i + 1) % n]);
-                    let dy = b[1] - a[1];
-                    if dy == 0.0 {
-                        continue;
-                    }
+                edge_integral(poly, |a, b| {
                     let xm = 0.5 * (a[0] + b[0]);
-                    t += dy * (mean * xm + (high - low) * tri_mean(period, a[0], b[0]));
-                }
-                t
+                    mean * xm + (high - low) * tri_mean(period, a[0], b[0])
+                })
             }
             Texture::Edge {
                 normal,
@@ -647,6 +633,21 @@ impl Texture {
             } => low * area + (high - low) * star_bright_area(poly, *spokes, *center, s),
         }
     }
+}
+
+/// ∮ G dY around a polygon from G's mean along each edge, `mean_g(a, b)` (an edge with
+/// dy = 0 adds nothing): the textures whose antiderivative G(X) along X is closed form.
+fn edge_integral(poly: &[Pt], mean_g: impl Fn(Pt, Pt) -> f64) -> f64 {
+    let n = poly.len();
+    let mut t = 0.0;
+    for i in 0..n {
+        let (a, b) = (poly[i], poly[(i + 1) % n]);
+        let dy = b[1] - a[1];
+        if dy != 0.0 {
+            t += dy * mean_g(a, b);
+        }
+    }
+    t
 }
 
 /// sin x / x (`sin_x` = sin x).
