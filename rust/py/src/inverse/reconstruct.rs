@@ -120,16 +120,21 @@ fn raw_rows(d: &splitlf_core::Design, channels: &[usize]) -> usize {
         .sum()
 }
 
-/// A map build's shared hand-off: the threads, channels and grid checked, `build` run
-/// without the GIL (progress counting raw rows, Ctrl-C polled), the map as CSR arrays.
-#[allow(clippy::too_many_arguments)]
-fn build_map<'py>(
-    py: Python<'py>,
-    design: &DesignCore,
+/// What Python asks of a map build: the design, the grid (X0, Y1, step, nx, ny), the
+/// channels (numbered from 1; None: all), the threads and the progress callback.
+struct MapRequest<'a, 'py> {
+    design: &'a DesignCore,
     grid: (f64, f64, f64, usize, usize),
     channels: Option<Vec<i64>>,
-    n_threads: Option<&Bound<'py, PyAny>>,
+    n_threads: Option<&'a Bound<'py, PyAny>>,
     progress: Option<Py<PyAny>>,
+}
+
+/// A map build's shared hand-off: the threads, channels and grid checked, `build` run
+/// without the GIL (progress counting raw rows, Ctrl-C polled), the map as CSR arrays.
+fn build_map<'py>(
+    py: Python<'py>,
+    req: MapRequest<'_, 'py>,
     field: &'static str,
     build: impl FnOnce(
             &splitlf_core::Design,
@@ -140,11 +145,11 @@ fn build_map<'py>(
         ) -> splitlf_core::Result<system::System>
         + Send,
 ) -> PyResult<Csr<'py>> {
-    let threads = threads_arg(n_threads)?;
-    let ch = channel_indices(design, channels)?;
-    let g = checked_grid(grid)?;
-    let d = design.inner.clone();
-    let (report, counter) = counted(progress, raw_rows(&d, &ch));
+    let threads = threads_arg(req.n_threads)?;
+    let ch = channel_indices(req.design, req.channels)?;
+    let g = checked_grid(req.grid)?;
+    let d = req.design.inner.clone();
+    let (report, counter) = counted(req.progress, raw_rows(&d, &ch));
     let sys = run_reporting(py, field, report, move || {
         build(&d, &ch, &g, threads, &counter)
     })?;
@@ -165,16 +170,16 @@ pub(crate) fn reconstruction_system<'py>(
     n_threads: Option<&Bound<'py, PyAny>>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Csr<'py>> {
-    build_map(
-        py,
+    let req = MapRequest {
         design,
         grid,
         channels,
         n_threads,
         progress,
-        "z",
-        move |d, ch, g, t, c| system::build(d, ch, z, g, t, c),
-    )
+    };
+    build_map(py, req, "z", move |d, ch, g, t, c| {
+        system::build(d, ch, z, g, t, c)
+    })
 }
 
 /// The map for any surface over the grid (X0, Y1, step, nx, ny): the scene's surface (its
@@ -184,18 +189,16 @@ pub(crate) fn reconstruction_system<'py>(
 #[pyfunction]
 #[pyo3(signature = (design, scene, grid, channels=None, n_threads=None, progress=None,
                     lens_types=None))]
-#[allow(clippy::too_many_arguments)]
 pub(crate) fn surface_system<'py>(
-    py: Python<'py>,
     design: &DesignCore,
-    scene: &crate::imaging::render::RenderScene,
+    scene: &Bound<'py, crate::imaging::render::RenderScene>,
     grid: (f64, f64, f64, usize, usize),
     channels: Option<Vec<i64>>,
     n_threads: Option<&Bound<'py, PyAny>>,
     progress: Option<Py<PyAny>>,
     lens_types: Option<Vec<i64>>,
 ) -> PyResult<Csr<'py>> {
-    let sc = Arc::clone(&scene.inner);
+    let sc = Arc::clone(&scene.get().inner);
     let types: Option<Vec<usize>> = lens_types
         .map(|v| {
             v.into_iter()
@@ -213,16 +216,16 @@ pub(crate) fn surface_system<'py>(
                 .collect::<PyResult<Vec<usize>>>()
         })
         .transpose()?;
-    build_map(
-        py,
+    let req = MapRequest {
         design,
         grid,
         channels,
         n_threads,
         progress,
-        "depth",
-        move |d, ch, g, t, c| system::build_surface(d, ch, &sc.surface, g, types.as_deref(), t, c),
-    )
+    };
+    build_map(scene.py(), req, "depth", move |d, ch, g, t, c| {
+        system::build_surface(d, ch, &sc.surface, g, types.as_deref(), t, c)
+    })
 }
 
 type Axis<'py> = (
