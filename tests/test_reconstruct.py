@@ -137,10 +137,11 @@ def test_core_solve_is_the_direct_solution() -> None:
     explicit = [((indptr, indices, data, nx * ny), w, y)]
     scale = float(np.max(np.abs(want)))
     for blocks in ((factored, []), ([], explicit)):
-        got, its, resid = _native.solve_normal((ny, nx), lam, *blocks, 1e-13, 20_000)
+        got, its, resid = _native.solve_normal((ny, nx), lam, blocks, (1e-13, 20_000, 0.0))
         assert 0 < its < 20_000 and resid <= 1e-12
         assert np.max(np.abs(got - want)) <= 1e-8 * scale, np.max(np.abs(got - want))
-        one, its1, _ = _native.solve_normal((ny, nx), lam, *blocks, 1e-13, 20_000, n_threads=1)
+        one, its1, _ = _native.solve_normal((ny, nx), lam, blocks, (1e-13, 20_000, 0.0),
+                                          n_threads=1)
         assert its1 == its and np.array_equal(one, got)
 
 
@@ -151,7 +152,7 @@ def test_solve_refuses_bad_blocks() -> None:
     val = np.array([1.0, 0.5])
     one = np.ones(4)
     good = (2.0, (ptr, idx, val, 2), (ptr, idx, val, 2), one, one)
-    got, _, _ = _native.solve_normal((2, 2), 1.0, [good], [], 1e-10, 100)
+    got, _, _ = _native.solve_normal((2, 2), 1.0, ([good], []), (1e-10, 100, 0.0))
     assert got.shape == (2, 2) and np.all(np.isfinite(got))
     bad_cases = {
         "px": (2.0, (ptr, np.array([0, 5], dtype=np.uint32), val, 2), good[2], one, one),
@@ -162,16 +163,17 @@ def test_solve_refuses_bad_blocks() -> None:
     }
     for field, block in bad_cases.items():
         with pytest.raises(splitlf.errors.InvalidParameter, match=field):
-            _native.solve_normal((2, 2), 1.0, [block], [], 1e-10, 100)
+            _native.solve_normal((2, 2), 1.0, ([block], []), (1e-10, 100, 0.0))
     with pytest.raises(splitlf.errors.InvalidParameter, match="weights"):
-        _native.solve_normal((2, 2), 1.0, [], [((ptr, idx, val, 4), one, one[:2])], 1e-10, 100)
+        _native.solve_normal((2, 2), 1.0, ([], [((ptr, idx, val, 4), one, one[:2])]),
+                             (1e-10, 100, 0.0))
     with pytest.raises(splitlf.errors.InvalidParameter, match="regularization"):
-        _native.solve_normal((2, 2), 0.0, [good], [], 1e-10, 100)
+        _native.solve_normal((2, 2), 0.0, ([good], []), (1e-10, 100, 0.0))
     with pytest.raises(splitlf.errors.InvalidParameter, match="rtol"):
-        _native.solve_normal((2, 2), 1.0, [good], [], float("nan"), 100)
+        _native.solve_normal((2, 2), 1.0, ([good], []), (float("nan"), 100, 0.0))
     for bad in (-1.0, float("nan"), float("inf")):
         with pytest.raises(splitlf.errors.InvalidParameter, match="noise_tol"):
-            _native.solve_normal((2, 2), 1.0, [good], [], 1e-10, 100, bad)
+            _native.solve_normal((2, 2), 1.0, ([good], []), (1e-10, 100, bad))
 
 
 def test_constant_albedo_reconstructs_constant() -> None:

@@ -463,11 +463,9 @@ _CsrIn = tuple[npt.NDArray[np.uint64], npt.NDArray[np.uint32], _F64, int]
 def solve_normal(
     shape: tuple[int, int],
     regularization: float,
-    factored: list[tuple[float, _CsrIn, _CsrIn, _F64, _F64]],
-    rows: list[tuple[_CsrIn, _F64, _F64]],
-    rtol: float,
-    max_iter: int,
-    noise_tol: float = 0.0,
+    blocks: tuple[list[tuple[float, _CsrIn, _CsrIn, _F64, _F64]],
+                  list[tuple[_CsrIn, _F64, _F64]]],
+    stop: tuple[float, int, float],
     n_threads: int | None = None,
     progress: Callable[[int, int], object] | None = None,
 ) -> tuple[_F64, int, float]: ...

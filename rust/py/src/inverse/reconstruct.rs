@@ -364,28 +364,27 @@ fn csr_in(field: &'static str, c: &CsrIn<'_>) -> PyResult<solve::Csr> {
 }
 
 /// Solve the regularised least squares of a reconstruction over a grid of `shape` (ny, nx)
-/// cells: blocks of factored rows and of explicit rows (see `splitlf_core::inverse::solve`), prior
-/// weight `regularization`, conjugate gradients to `rtol`, to `noise_tol` of the noise's
-/// expected norm in the right-hand side (0: not used), or `max_iter` steps. Returns
+/// cells: `blocks` = (factored blocks, blocks of explicit rows) (see `splitlf_core::inverse::solve`), prior
+/// weight `regularization`, conjugate gradients until `stop` = (rtol, max_iter, noise_tol):
+/// to `rtol`, to `noise_tol` of the noise's expected norm in the right-hand side (0: not
+/// used), or `max_iter` steps. Returns
 /// (cells (ny, nx), iterations, the normal equations' relative residual).
 /// `progress(done, total)` counts iterations out of `max_iter`.
 #[pyfunction]
-#[pyo3(signature = (shape, regularization, factored, rows, rtol, max_iter, noise_tol=0.0, n_threads=None, progress=None))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (shape, regularization, blocks, stop, n_threads=None, progress=None))]
 pub(crate) fn solve_normal<'py>(
     py: Python<'py>,
     shape: (usize, usize),
     regularization: f64,
-    factored: Vec<FactoredIn<'py>>,
-    rows: Vec<RowsIn<'py>>,
-    rtol: f64,
-    max_iter: usize,
-    noise_tol: f64,
+    blocks: (Vec<FactoredIn<'py>>, Vec<RowsIn<'py>>),
+    stop: (f64, usize, f64),
     n_threads: Option<&Bound<'py, PyAny>>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<(Bound<'py, numpy::PyArray2<f64>>, usize, f64)> {
     let threads = threads_arg(n_threads)?;
     let (ny, nx) = shape;
+    let (rtol, max_iter, noise_tol) = stop;
+    let (factored, rows) = blocks;
     let mut blocks = Vec::with_capacity(factored.len() + rows.len());
     for (norm, px, pyf, w, y) in &factored {
         blocks.push(solve::Block::Factored {
