@@ -8,9 +8,12 @@ aborted the process or raised PanicException.
 from __future__ import annotations
 
 import sys
+import time
 
 import pytest
 from _subprocess import run_python
+
+import splitlf
 
 pytestmark = pytest.mark.skipif(sys.platform != "linux", reason="RLIMIT_AS and /proc")
 
@@ -81,3 +84,19 @@ def test_new_samples_memory_estimate_bounds_peak_rss(sample):
     assert estimate.returncode == 0 and used.returncode == 0, estimate.stderr + used.stderr
     need, peak = int(estimate.stdout), int(used.stdout)
     assert 0 < peak <= need, (peak, need)
+
+
+def test_a_fine_reconstruct_grid_is_refused_before_allocating():
+    """Issue 46: reconstruct(step=1e-3) on a full seed raw passed the memory guard's plan
+    and grew past 6 GB. The core's plan (rust/core/src/inverse/reconstruct.rs) counts
+    what the map and the solve allocate and refuses before allocating: at once, with
+    TooLargeError, both without a region (over the memory) and over a 4 x 3 mm region
+    (16,120^2 padded cells: over the time limit unless allow_slow)."""
+    pytest.importorskip("scipy")
+    d = splitlf.Design.preset("seed")
+    raw = splitlf.render(d, splitlf.Scene(0.5, 1000.0), progress=False)
+    for kw in ({}, {"region": (-2.0, 2.0, -1.5, 1.5)}):
+        t0 = time.perf_counter()
+        with pytest.raises(splitlf.TooLargeError):
+            splitlf.reconstruct(raw, 1000.0, step=1e-3, progress=False, **kw)
+        assert time.perf_counter() - t0 < 5.0
