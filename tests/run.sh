@@ -3,9 +3,9 @@
 # (the installed package is what pytest imports).
 #
 #   bash tests/run.sh            lint, Rust tests, the Python tests but the slow tier
-#                                (about 8 minutes on 2 cores)
+#                                (about 5 minutes on 2 cores once built)
 #   bash tests/run.sh --slow     the slow tier only: the long studies and Monte-Carlo
-#                                accuracy runs (pytest marker `slow`; about 20 minutes)
+#                                accuracy runs (pytest marker `slow`; tests/conftest.py)
 #   bash tests/run.sh --all      both
 #
 # Any other argument goes to pytest (e.g. `bash tests/run.sh -k render -x`).
