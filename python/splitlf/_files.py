@@ -37,7 +37,7 @@ else:  # pragma: no cover - Python 3.10 (the tomli backport)
     import tomli as tomllib
 
 __all__ = ["MAX_TOML_BYTES", "atomic_output", "check_new", "check_writable", "open_regular",
-           "read_npy", "read_toml", "text_file"]
+           "probe_folder", "read_npy", "read_toml", "text_file"]
 
 #: Largest TOML file read (a design or sweep file is a few kB; this refuses a runaway input
 #: such as /dev/zero or a mistaken data file before reading it).
@@ -73,15 +73,22 @@ def check_writable(path: str | os.PathLike[str], force: bool = True, hint: str =
     the trial, e.g. a read-only file system) naming the folder when it cannot be written.
     """
     p = check_new(path, force, hint)
+    probe_folder(p.parent, p)
+    return p
+
+
+def probe_folder(folder: Path, target: Path) -> None:
+    """Create and remove a trial file in ``folder``, where ``target`` is to be written: a
+    read-only, unpermitted or full folder is found now. Raises the ``OSError`` of the trial
+    (same type and errno), its message naming ``target`` and the folder."""
     try:
-        fd, name = tempfile.mkstemp(dir=p.parent, prefix=f".{p.name}.", suffix=".check")
+        fd, name = tempfile.mkstemp(dir=folder, prefix=f".{target.name}.", suffix=".check")
     except OSError as e:
         reason = e.strerror or type(e).__name__
-        raise type(e)(e.errno, f"{p}: folder {p.parent} is not writable ({reason})") from None
+        raise type(e)(e.errno, f"{target}: folder {folder} is not writable ({reason})") from None
     os.close(fd)
     with contextlib.suppress(FileNotFoundError):
         os.unlink(name)
-    return p
 
 
 def _mode_for(path: Path) -> int:

@@ -9,7 +9,6 @@ import argparse
 import json
 import math
 import os
-import tempfile
 from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
@@ -17,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from .. import _native
-from .._files import atomic_output, check_writable, read_npy, read_toml
+from .._files import atomic_output, check_writable, probe_folder, read_npy, read_toml
 from ..errors import InvalidParameter, SplitlfError
 from ..model.camera import Camera
 from ..model.design import PRESETS, Design
@@ -119,19 +118,10 @@ def check_folder(folder: Path, option: str = "--out") -> None:
         base = base.parent
     if not base.is_dir():
         raise CliError(f"{option} {folder}: {base} is not a folder")
-    _probe(base, folder)
-
-
-def _probe(folder: Path, target: Path) -> None:
-    """Create and remove a trial file in ``folder``: CliError naming ``target`` and the
-    folder when that fails (read-only, no permission, full)."""
     try:
-        fd, name = tempfile.mkstemp(dir=folder, prefix=".splitlf-check.", suffix=".tmp")
+        probe_folder(base, folder)
     except OSError as e:
-        reason = e.strerror or type(e).__name__
-        raise CliError(f"{target}: folder {folder} is not writable ({reason})") from None
-    os.close(fd)
-    os.unlink(name)
+        raise CliError(e.strerror) from None
 
 
 def integer_type(what: str, lo: int, hi: int) -> Callable[[str], int]:
