@@ -4,6 +4,7 @@
 //! In object space the ray with main-lens point w and array-plane point x (plane L) is the
 //! line P(z) = w − z a, a = w/F + (x − w)/L (the thin main lens deflects it by −w/F).
 
+use crate::imaging::grid::SampleGrid;
 use crate::imaging::texture::Texture;
 use crate::infra::error::{Error, Result};
 use crate::infra::polygon::Pt;
@@ -20,14 +21,7 @@ const BISECTIONS: usize = 80;
 /// extent's edge; no surface outside the extent.
 #[derive(Debug, Clone)]
 pub struct DepthMap {
-    x0: f64,
-    x1: f64,
-    y0: f64,
-    y1: f64,
-    rows: usize,
-    cols: usize,
-    hx: f64,
-    hy: f64,
+    grid: SampleGrid,
     /// Bottom-up rows.
     z: Vec<f64>,
     pub zmin: f64,
@@ -36,26 +30,12 @@ pub struct DepthMap {
 
 impl DepthMap {
     pub fn new(values: &[f64], rows: usize, cols: usize, extent: [f64; 4]) -> Result<DepthMap> {
-        if rows == 0 || cols == 0 || rows.saturating_mul(cols) > MAX_DEPTH_SAMPLES {
-            return Err(Error::param(
-                "depth_map",
-                format!("{rows} x {cols}"),
-                format!("a non-empty 2-D array of at most {MAX_DEPTH_SAMPLES} depths"),
-            ));
-        }
-        let [x0, x1, y0, y1] = extent;
-        if !(extent.iter().all(|v| v.is_finite())
-            && x1 > x0
-            && y1 > y0
-            && (x1 - x0).is_finite()
-            && (y1 - y0).is_finite())
-        {
-            return Err(Error::param(
-                "extent",
-                format!("({x0}, {x1}, {y0}, {y1})"),
-                "finite X0 < X1 and Y0 < Y1 (mm)",
-            ));
-        }
+        let grid = SampleGrid::new(
+            "depth_map",
+            (rows, cols),
+            extent,
+            (MAX_DEPTH_SAMPLES, "depths"),
+        )?;
         let mut z = crate::infra::memory::try_vec("the depth map", rows * cols, 0.0)?;
         let (mut zmin, mut zmax) = (f64::INFINITY, f64::NEG_INFINITY);
         for r in 0..rows {
@@ -70,14 +50,7 @@ impl DepthMap {
             }
         }
         Ok(DepthMap {
-            x0,
-            x1,
-            y0,
-            y1,
-            rows,
-            cols,
-            hx: (x1 - x0) / cols as f64,
-            hy: (y1 - y0) / rows as f64,
+            grid,
             z,
             zmin,
             zmax,
@@ -86,18 +59,18 @@ impl DepthMap {
 
     /// The extent (X0, X1, Y0, Y1).
     pub fn extent(&self) -> [f64; 4] {
-        [self.x0, self.x1, self.y0, self.y1]
+        self.grid.extent()
     }
 
     /// Cell size (hx, hy).
     pub fn cell(&self) -> [f64; 2] {
-        [self.hx, self.hy]
+        [self.grid.hx, self.grid.hy]
     }
 
     /// h(X, Y), None outside the extent.
     pub fn depth(&self, p: Pt) -> Option<f64> {
-        (p[0] >= self.x0 && p[0] <= self.x1 && p[1] >= self.y0 && p[1] <= self.y1)
-            .then(|| self.depth_grad(p).0)
+        let g = &self.grid;
+        (p[0] >= g.x0 && p[0] <= g.x1 && p[1] >= g.y0 && p[1] <= g.y1).then(|| self.depth_grad(p).0)
     }
 
     /// h(X, Y) and its gradient at any point: inside the extent the surface's own (the
@@ -106,8 +79,9 @@ impl DepthMap {
     /// extent's edge (p clamped to the extent; there is no surface there, and the
     /// continuation only tells where the rays that miss the surface go).
     pub fn depth_grad(&self, p: Pt) -> (f64, Pt) {
-        let x = p[0].clamp(self.x0, self.x1);
-        let y = p[1].clamp(self.y0, self.y1);
+        let g = &self.grid;
+        let x = p[0].clamp(g.x0, g.x1);
+        let y = p[1].clamp(g.y0, g.y1);
         // (lower sample, upper sample, fraction, d fraction / d coordinate).
         let axis = |t: f64, n: usize, h: f64| -> (usize, usize, f64, f64) {
             if n == 1 || t < 0.0 {
@@ -120,9 +94,9 @@ impl DepthMap {
             let i = t.floor() as usize;
             (i, i + 1, t - i as f64, 1.0 / h)
         };
-        let (i0, i1, fx, dx) = axis((x - self.x0) / self.hx - 0.5, self.cols, self.hx);
-        let (b0, b1, fy, dy) = axis((y - self.y0) / self.hy - 0.5, self.rows, self.hy);
-        let v = |b: usize, i: usize| self.z[b * self.cols + i];
+        let (i0, i1, fx, dx) = axis((x - g.x0) / g.hx - 0.5, g.cols, g.hx);
+        let (b0, b1, fy, dy) = axis((y - g.y0) / g.hy - 0.5, g.rows, g.hy);
+        let v = |b: usize, i: usize| self.z[b * g.cols + i];
         let lo = v(b0, i0) * (1.0 - fx) + v(b0, i1) * fx;
         let hi = v(b1, i0) * (1.0 - fx) + v(b1, i1) * fx;
         let gx = ((v(b0, i1) - v(b0, i0)) * (1.0 - fy) + (v(b1, i1) - v(b1, i0)) * fy) * dx;
@@ -133,17 +107,18 @@ impl DepthMap {
     /// Bounds (least, greatest) on h over the box [X0, X1, Y0, Y1] (clamped to the
     /// extent, as `depth_grad` continues it): the samples of every patch that meets it.
     pub fn range_over(&self, b: [f64; 4]) -> (f64, f64) {
+        let g = &self.grid;
         let idx = |lo: f64, hi: f64, o: f64, h: f64, n: usize| -> (usize, usize) {
             let m = (n - 1) as f64;
             let a = ((lo - o) / h - 0.5).floor().clamp(0.0, m);
             let b = ((hi - o) / h - 0.5).ceil().clamp(0.0, m);
             (a as usize, b as usize)
         };
-        let (i0, i1) = idx(b[0], b[1], self.x0, self.hx, self.cols);
-        let (r0, r1) = idx(b[2], b[3], self.y0, self.hy, self.rows);
+        let (i0, i1) = idx(b[0], b[1], g.x0, g.hx, g.cols);
+        let (r0, r1) = idx(b[2], b[3], g.y0, g.hy, g.rows);
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
         for r in r0..=r1 {
-            for &v in &self.z[r * self.cols + i0..=r * self.cols + i1] {
+            for &v in &self.z[r * g.cols + i0..=r * g.cols + i1] {
                 lo = lo.min(v);
                 hi = hi.max(v);
             }
@@ -154,10 +129,11 @@ impl DepthMap {
     /// The sample-centre lines along one axis (0: X, 1: Y), where the surface's gradient
     /// may jump: (first line, spacing, count).
     pub fn creases(&self, axis: usize) -> (f64, f64, usize) {
+        let g = &self.grid;
         if axis == 0 {
-            (self.x0 + 0.5 * self.hx, self.hx, self.cols)
+            (g.x0 + 0.5 * g.hx, g.hx, g.cols)
         } else {
-            (self.y0 + 0.5 * self.hy, self.hy, self.rows)
+            (g.y0 + 0.5 * g.hy, g.hy, g.rows)
         }
     }
 
@@ -168,7 +144,8 @@ impl DepthMap {
     /// convex). Checked per bilinear patch with interval bounds (the gradient's range over
     /// the patch times P − w's), with a margin of 1 % of the patch's least depth.
     pub fn seen_once(&self, r: f64) -> bool {
-        let (cols, rows) = (self.cols, self.rows);
+        let grid = &self.grid;
+        let (cols, rows) = (grid.cols, grid.rows);
         let v = |b: usize, i: usize| self.z[b * cols + i];
         let span = |a: [f64; 2], b: [f64; 2]| {
             let q = [a[0] * b[0], a[0] * b[1], a[1] * b[0], a[1] * b[1]];
@@ -184,20 +161,20 @@ impl DepthMap {
                     [p.min(q), p.max(q)]
                 };
                 let gx = if i1 > i {
-                    slope((v(b, i), v(b, i1)), (v(b1, i), v(b1, i1)), self.hx)
+                    slope((v(b, i), v(b, i1)), (v(b1, i), v(b1, i1)), grid.hx)
                 } else {
                     [0.0, 0.0]
                 };
                 let gy = if b1 > b {
-                    slope((v(b, i), v(b1, i)), (v(b, i1), v(b1, i1)), self.hy)
+                    slope((v(b, i), v(b1, i)), (v(b, i1), v(b1, i1)), grid.hy)
                 } else {
                     [0.0, 0.0]
                 };
                 // The patch's X and Y ranges (the border strips' gradient is 0).
-                let xa = self.x0 + (i as f64 + 0.5) * self.hx;
-                let xb = self.x0 + (i1 as f64 + 0.5) * self.hx;
-                let ya = self.y0 + (b as f64 + 0.5) * self.hy;
-                let yb = self.y0 + (b1 as f64 + 0.5) * self.hy;
+                let xa = grid.x0 + (i as f64 + 0.5) * grid.hx;
+                let xb = grid.x0 + (i1 as f64 + 0.5) * grid.hx;
+                let ya = grid.y0 + (b as f64 + 0.5) * grid.hy;
+                let yb = grid.y0 + (b1 as f64 + 0.5) * grid.hy;
                 let zmin = v(b, i).min(v(b, i1)).min(v(b1, i)).min(v(b1, i1));
                 let lead = span(gx, [xa - r, xb + r]) + span(gy, [ya - r, yb + r]);
                 // (NaN fails too.)

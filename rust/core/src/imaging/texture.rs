@@ -14,6 +14,7 @@
 
 use std::f64::consts::PI;
 
+use crate::imaging::grid::SampleGrid;
 use crate::infra::error::{Error, Result};
 use crate::infra::polygon::{angular_span, centroid, clip_into, signed_area, Pt};
 
@@ -26,14 +27,7 @@ pub const MAX_SPOKES: u32 = 100_000;
 /// row 0 at the top (y1); the array's mean outside. Stored bottom-up with row prefix sums.
 #[derive(Debug, Clone)]
 pub struct ImageTexture {
-    x0: f64,
-    x1: f64,
-    y0: f64,
-    y1: f64,
-    rows: usize,
-    cols: usize,
-    hx: f64,
-    hy: f64,
+    grid: SampleGrid,
     mean: f64,
     /// The largest value.
     max: f64,
@@ -124,24 +118,12 @@ fn count(kind: &str, params: &[f64], n: usize) -> Result<()> {
 impl ImageTexture {
     /// `values` row-major [row][col], row 0 at the top.
     pub fn new(values: &[f64], rows: usize, cols: usize, extent: [f64; 4]) -> Result<Self> {
-        if rows == 0 || cols == 0 || rows.saturating_mul(cols) > MAX_TEXTURE_CELLS {
-            return Err(Error::param(
-                "texture_image",
-                format!("{rows} x {cols}"),
-                format!("a non-empty 2-D array of at most {MAX_TEXTURE_CELLS} cells"),
-            ));
-        }
-        let [x0, x1, y0, y1] = extent;
-        for (n, v) in [("X0", x0), ("X1", x1), ("Y0", y0), ("Y1", y1)] {
-            finite(n, v)?;
-        }
-        if !(x1 > x0 && y1 > y0 && (x1 - x0).is_finite() && (y1 - y0).is_finite()) {
-            return Err(Error::param(
-                "extent",
-                format!("({x0}, {x1}, {y0}, {y1})"),
-                "X0 < X1 and Y0 < Y1 (mm)",
-            ));
-        }
+        let grid = SampleGrid::new(
+            "texture_image",
+            (rows, cols),
+            extent,
+            (MAX_TEXTURE_CELLS, "cells"),
+        )?;
         let mut sum = 0.0;
         let mut max = 0.0f64;
         for &v in values {
@@ -150,8 +132,7 @@ impl ImageTexture {
             max = max.max(v);
         }
         let mean = sum / values.len() as f64;
-        let hx = (x1 - x0) / cols as f64;
-        let hy = (y1 - y0) / rows as f64;
+        let hx = grid.hx;
         let mut flipped = crate::infra::memory::try_vec("the texture", rows * cols, 0.0)?;
         let mut prefix =
             crate::infra::memory::try_vec("the texture's row sums", rows * (cols + 1), 0.0)?;
@@ -168,14 +149,7 @@ impl ImageTexture {
             p[cols] = acc;
         }
         Ok(ImageTexture {
-            x0,
-            x1,
-            y0,
-            y1,
-            rows,
-            cols,
-            hx,
-            hy,
+            grid,
             mean,
             max,
             prefix,
@@ -185,12 +159,13 @@ impl ImageTexture {
 
     /// (X0, X1, Y0, Y1).
     pub fn extent(&self) -> (f64, f64, f64, f64) {
-        (self.x0, self.x1, self.y0, self.y1)
+        let [x0, x1, y0, y1] = self.grid.extent();
+        (x0, x1, y0, y1)
     }
 
     /// (rows, cols).
     pub fn shape(&self) -> (usize, usize) {
-        (self.rows, self.cols)
+        (self.grid.rows, self.grid.cols)
     }
 
     /// The mean albedo (used outside the extent).
@@ -200,50 +175,53 @@ impl ImageTexture {
 
     /// Bottom-up row b (b = rows − 1 − r) of the values.
     pub fn row_bottom_up(&self, b: usize) -> &[f64] {
-        &self.values[b * self.cols..(b + 1) * self.cols]
+        &self.values[b * self.grid.cols..(b + 1) * self.grid.cols]
     }
 
     fn at(&self, p: Pt) -> f64 {
+        let g = &self.grid;
         let (x, y) = (p[0], p[1]);
-        if !(x >= self.x0 && x < self.x1 && y >= self.y0 && y < self.y1) {
+        if !(x >= g.x0 && x < g.x1 && y >= g.y0 && y < g.y1) {
             return self.mean;
         }
-        let i = (((x - self.x0) / self.hx) as usize).min(self.cols - 1);
-        let b = (((y - self.y0) / self.hy) as usize).min(self.rows - 1);
-        self.values[b * self.cols + i]
+        let i = (((x - g.x0) / g.hx) as usize).min(g.cols - 1);
+        let b = (((y - g.y0) / g.hy) as usize).min(g.rows - 1);
+        self.values[b * g.cols + i]
     }
 
     /// G_b(X) = ∫_{x0}^{X} T dX' on bottom-up row b (None: outside the rows, mean).
     #[inline]
     fn g(&self, b: Option<usize>, x: f64) -> f64 {
+        let g = &self.grid;
         let Some(b) = b else {
-            return self.mean * (x - self.x0);
+            return self.mean * (x - g.x0);
         };
-        if x <= self.x0 {
-            return self.mean * (x - self.x0);
+        if x <= g.x0 {
+            return self.mean * (x - g.x0);
         }
-        let p = &self.prefix[b * (self.cols + 1)..(b + 1) * (self.cols + 1)];
-        if x >= self.x1 {
-            return p[self.cols] + self.mean * (x - self.x1);
+        let p = &self.prefix[b * (g.cols + 1)..(b + 1) * (g.cols + 1)];
+        if x >= g.x1 {
+            return p[g.cols] + self.mean * (x - g.x1);
         }
-        let i = (((x - self.x0) / self.hx) as usize).min(self.cols - 1);
-        p[i] + self.values[b * self.cols + i] * (x - (self.x0 + i as f64 * self.hx))
+        let i = (((x - g.x0) / g.hx) as usize).min(g.cols - 1);
+        p[i] + self.values[b * g.cols + i] * (x - (g.x0 + i as f64 * g.hx))
     }
 
     /// Column-edge knots of G strictly between xa and xb (either order), in order from xa.
     fn knots(&self, xa: f64, xb: f64, out: &mut Vec<f64>) {
+        let g = &self.grid;
         out.clear();
         let (lo, hi) = if xa < xb { (xa, xb) } else { (xb, xa) };
-        let lo_c = lo.max(self.x0);
-        let hi_c = hi.min(self.x1);
+        let lo_c = lo.max(g.x0);
+        let hi_c = hi.min(g.x1);
         if hi_c < lo_c {
             return;
         }
         // Knots X0 + i hx for i in [i0, i1] with lo < knot < hi.
-        let i0 = ((lo_c - self.x0) / self.hx).floor().max(0.0) as usize;
-        let i1 = (((hi_c - self.x0) / self.hx).ceil() as usize).min(self.cols);
+        let i0 = ((lo_c - g.x0) / g.hx).floor().max(0.0) as usize;
+        let i1 = (((hi_c - g.x0) / g.hx).ceil() as usize).min(g.cols);
         for i in i0..=i1 {
-            let k = self.x0 + i as f64 * self.hx;
+            let k = g.x0 + i as f64 * g.hx;
             if k > lo && k < hi {
                 out.push(k);
             }
@@ -255,6 +233,7 @@ impl ImageTexture {
 
     /// ∫ G dY along the segment a → b.
     fn edge(&self, a: Pt, b: Pt, knots: &mut Vec<f64>) -> f64 {
+        let g = &self.grid;
         let dy = b[1] - a[1];
         if dy == 0.0 {
             return 0.0;
@@ -265,27 +244,27 @@ impl ImageTexture {
         let mut cuts: [f64; 2] = [ylo, yhi];
         // Row index (bottom-up) of a y strictly inside the rows, else None.
         let row_of = |y: f64| -> Option<usize> {
-            if y > self.y0 && y < self.y1 {
-                Some((((y - self.y0) / self.hy) as usize).min(self.rows - 1))
+            if y > g.y0 && y < g.y1 {
+                Some((((y - g.y0) / g.hy) as usize).min(g.rows - 1))
             } else {
                 None
             }
         };
         let x_at = |y: f64| a[0] + (b[0] - a[0]) * ((y - a[1]) / dy);
         // Walk the y-pieces from ylo up to yhi.
-        let first = if ylo <= self.y0 {
+        let first = if ylo <= g.y0 {
             None
         } else {
-            Some(((ylo - self.y0) / self.hy).floor() as i64)
+            Some(((ylo - g.y0) / g.hy).floor() as i64)
         };
         let mut y = ylo;
         let mut k = first; // index of the row-edge cell containing y (None: below y0)
         while y < yhi {
             // Next cut above y.
             let next = match k {
-                None => self.y0,
-                Some(k) if k >= self.rows as i64 => f64::INFINITY,
-                Some(k) => self.y0 + (k + 1) as f64 * self.hy,
+                None => g.y0,
+                Some(k) if k >= g.rows as i64 => f64::INFINITY,
+                Some(k) => g.y0 + (k + 1) as f64 * g.hy,
             };
             let next = if next <= y {
                 y + f64::MIN_POSITIVE
