@@ -5,7 +5,7 @@
 //! line P(z) = w − z a, a = w/F + (x − w)/L (the thin main lens deflects it by −w/F).
 
 use crate::imaging::grid::SampleGrid;
-use crate::imaging::texture::Texture;
+use crate::imaging::texture::{count_params, Texture};
 use crate::infra::error::{Error, Result};
 use crate::infra::polygon::Pt;
 
@@ -204,17 +204,7 @@ impl Surface {
         params: &[f64],
         map: Option<(&[f64], usize, usize)>,
     ) -> Result<Surface> {
-        let need = |n: usize| -> Result<()> {
-            if params.len() == n {
-                Ok(())
-            } else {
-                Err(Error::param(
-                    "surface_params",
-                    format!("{} values", params.len()),
-                    format!("{n} values for a {kind:?} surface"),
-                ))
-            }
-        };
+        let need = |n: usize| count_params("surface_params", kind, params, n);
         match (kind, map) {
             ("plane", None) => {
                 need(3)?;

@@ -103,14 +103,17 @@ fn positive(name: &'static str, x: f64) -> Result<f64> {
     }
 }
 
-fn count(kind: &str, params: &[f64], n: usize) -> Result<()> {
+/// `n` parameters for a `kind` of texture or surface, else an error on `name`
+/// ("texture_params", "surface_params").
+pub(crate) fn count_params(name: &'static str, kind: &str, params: &[f64], n: usize) -> Result<()> {
     if params.len() == n {
         Ok(())
     } else {
+        let noun = name.trim_end_matches("_params");
         Err(Error::param(
-            "texture_params",
+            name,
             format!("{} values", params.len()),
-            format!("{n} values for a {kind:?} texture"),
+            format!("{n} values for a {kind:?} {noun}"),
         ))
     }
 }
@@ -324,11 +327,11 @@ impl Texture {
         }
         match kind {
             "constant" => {
-                count(kind, params, 1)?;
+                count_params("texture_params", kind, params, 1)?;
                 Ok(Texture::Constant(albedo("albedo", params[0])?))
             }
             "image" => {
-                count(kind, params, 4)?;
+                count_params("texture_params", kind, params, 4)?;
                 let Some((v, rows, cols)) = image else {
                     return Err(Error::param(
                         "texture_image",
@@ -342,7 +345,7 @@ impl Texture {
                 )?)))
             }
             "sinusoid" => {
-                count(kind, params, 4)?;
+                count_params("texture_params", kind, params, 4)?;
                 let frequency = positive("frequency", params[0])?;
                 let mean = albedo("mean", params[1])?;
                 let amplitude = albedo("amplitude", params[2])?;
@@ -362,7 +365,7 @@ impl Texture {
                 })
             }
             "bars" => {
-                count(kind, params, 3)?;
+                count_params("texture_params", kind, params, 3)?;
                 Ok(Texture::Bars {
                     frequency: positive("frequency", params[0])?,
                     low: albedo("low", params[1])?,
@@ -370,7 +373,7 @@ impl Texture {
                 })
             }
             "edge" => {
-                count(kind, params, 5)?;
+                count_params("texture_params", kind, params, 5)?;
                 let a = finite("angle", params[0])?.to_radians();
                 Ok(Texture::Edge {
                     normal: [a.cos(), -a.sin()],
@@ -380,7 +383,7 @@ impl Texture {
                 })
             }
             "star" => {
-                count(kind, params, 5)?;
+                count_params("texture_params", kind, params, 5)?;
                 let s = params[0];
                 if !(s.fract() == 0.0 && s >= 1.0 && s <= MAX_SPOKES as f64) {
                     return Err(Error::param(
