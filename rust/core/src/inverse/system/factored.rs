@@ -7,13 +7,12 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use rayon::prelude::*;
 
-use super::{channel, supported, unsupported, CellGrid, System, OUTSIDE_SHARE};
-use crate::imaging::recorder::Chunks;
+use super::{append_rows, channel, supported, unsupported, CellGrid, System, OUTSIDE_SHARE};
 use crate::imaging::render::exact::{pixel_offset, profile, Profile};
 use crate::imaging::render::Chan;
 use crate::infra::error::{Error, Result};
 use crate::infra::memory;
-use crate::infra::parallel::{checkpoint, for_chunks};
+use crate::infra::parallel::checkpoint;
 use crate::model::design::{Design, Layout};
 
 /// One axis's profiles of one lens type against a grid's cell edges, as compressed sparse
@@ -216,51 +215,45 @@ pub fn build(
         )?;
         // Rows in parallel chunks, each chunk's entries in its own buffers, then appended.
         let step = crate::infra::parallel::chunk_items(n_threads, (cols as u128) * 64);
-        let parts = Chunks::default();
         let norm = chan.norm;
         let nx = grid.nx;
-        for_chunks(n_threads, rows, step, |range| {
-            let chunk: Result<Vec<System>> = range
-                .clone()
-                .into_par_iter()
-                .map(|b| -> Result<System> {
-                    checkpoint()?;
-                    let mut s = System {
-                        indptr: Vec::with_capacity(counts[b].0),
-                        ..System::default()
-                    };
-                    s.data.reserve(counts[b].1);
-                    s.indices.reserve(counts[b].1);
-                    for a in 0..cols {
-                        let t = typ(a, b);
-                        let (xp, yp) = (&pr.px[t][a], &pr.py[t][b]);
-                        if !kept(xp, yp) {
+        append_rows(
+            &mut out,
+            (n_threads, rows, step),
+            || (),
+            |_, b| {
+                checkpoint()?;
+                let mut s = System {
+                    indptr: Vec::with_capacity(counts[b].0),
+                    ..System::default()
+                };
+                s.data.reserve(counts[b].1);
+                s.indices.reserve(counts[b].1);
+                for a in 0..cols {
+                    let t = typ(a, b);
+                    let (xp, yp) = (&pr.px[t][a], &pr.py[t][b]);
+                    if !kept(xp, yp) {
+                        continue;
+                    }
+                    // Top-down rows of the grid: bottom-up row bu is row ny − 1 − bu.
+                    for (m, &ay) in yp.areas.iter().enumerate().rev() {
+                        if ay == 0.0 {
                             continue;
                         }
-                        // Top-down rows of the grid: bottom-up row bu is row ny − 1 − bu.
-                        for (m, &ay) in yp.areas.iter().enumerate().rev() {
-                            if ay == 0.0 {
-                                continue;
-                            }
-                            let row = grid.ny - 1 - (yp.first + m);
-                            for (n, &ax) in xp.areas.iter().enumerate() {
-                                if ax != 0.0 {
-                                    s.indices.push((row * nx + xp.first + n) as u32);
-                                    s.data.push(norm * ax * ay);
-                                }
+                        let row = grid.ny - 1 - (yp.first + m);
+                        for (n, &ax) in xp.areas.iter().enumerate() {
+                            if ax != 0.0 {
+                                s.indices.push((row * nx + xp.first + n) as u32);
+                                s.data.push(norm * ax * ay);
                             }
                         }
-                        s.end_row(i, b * cols + a);
                     }
-                    done.fetch_add(1, Ordering::Relaxed);
-                    Ok(s)
-                })
-                .collect();
-            let chunk = chunk?;
-            parts.push(range.start, chunk);
-            Ok(())
-        })?;
-        out.append_chunks(parts);
+                    s.end_row(i, b * cols + a);
+                }
+                done.fetch_add(1, Ordering::Relaxed);
+                Ok(s)
+            },
+        )?;
     }
     Ok(out)
 }

@@ -4,17 +4,15 @@
 
 use std::sync::atomic::AtomicUsize;
 
-use rayon::prelude::*;
-
 use super::tilted::build_tilted;
-use super::{channel, row_done, supported, CellGrid, Job, System};
-use crate::imaging::recorder::{Chunks, Recorder};
+use super::{append_rows, channel, row_done, supported, CellGrid, Job, System};
+use crate::imaging::recorder::Recorder;
 use crate::imaging::render::{Chan, Work};
 use crate::imaging::scene::{Scene, Surface};
 use crate::imaging::texture::Texture;
 use crate::infra::error::{Error, Result};
 use crate::infra::memory;
-use crate::infra::parallel::{checkpoint, for_chunks};
+use crate::infra::parallel::checkpoint;
 use crate::model::design::{Channel, Design, Grid, Layout};
 
 /// Bytes of the per-worker buffers of [`build_surface`] (a grid-sized accumulator each).
@@ -225,43 +223,34 @@ pub(super) fn build_general(
         let map_once = crate::imaging::render::map_seen_once(&chan, surface);
         let sees = lenses_seeing(design, ch, surface, grid);
         let step = crate::infra::parallel::chunk_items(n_threads, (cols as u128) * 4000);
-        let parts = Chunks::default();
         let bytes = std::sync::atomic::AtomicU64::new((out.data.len() * 12) as u64);
-        for_chunks(n_threads, rows, step, |range| {
-            let chunk: Result<Vec<System>> = range
-                .clone()
-                .into_par_iter()
-                .map_init(
-                    || Recorder::new(*grid).map(|r| Work::recording(Box::new(r), map_once)),
-                    |wk, b| -> Result<System> {
-                        let wk = wk.as_mut().map_err(|e| e.clone())?;
-                        let mut s = System::default();
-                        for a in 0..cols {
-                            checkpoint()?;
-                            if !pixel_may_see(design, &chan, &sees, a as u32, b as u32) {
-                                continue;
-                            }
-                            if types.is_some() && !keeps(design.pixel(ch, a as u32, b as u32).t) {
-                                continue;
-                            }
-                            if let Some(r) = wk.rec.as_deref_mut() {
-                                r.reset(chan.norm);
-                            }
-                            crate::imaging::render::pixel_value(&px, a as u32, b as u32, wk);
-                            if wk.rec.as_deref_mut().is_some_and(|r| r.take(&mut s)) {
-                                s.end_row(i, b * cols + a);
-                            }
-                        }
-                        row_done(&s, &bytes, done)?;
-                        Ok(s)
-                    },
-                )
-                .collect();
-            let chunk = chunk?;
-            parts.push(range.start, chunk);
-            Ok(())
-        })?;
-        out.append_chunks(parts);
+        append_rows(
+            &mut out,
+            (n_threads, rows, step),
+            || Recorder::new(*grid).map(|r| Work::recording(Box::new(r), map_once)),
+            |wk, b| {
+                let wk = wk.as_mut().map_err(|e| e.clone())?;
+                let mut s = System::default();
+                for a in 0..cols {
+                    checkpoint()?;
+                    if !pixel_may_see(design, &chan, &sees, a as u32, b as u32) {
+                        continue;
+                    }
+                    if types.is_some() && !keeps(design.pixel(ch, a as u32, b as u32).t) {
+                        continue;
+                    }
+                    if let Some(r) = wk.rec.as_deref_mut() {
+                        r.reset(chan.norm);
+                    }
+                    crate::imaging::render::pixel_value(&px, a as u32, b as u32, wk);
+                    if wk.rec.as_deref_mut().is_some_and(|r| r.take(&mut s)) {
+                        s.end_row(i, b * cols + a);
+                    }
+                }
+                row_done(&s, &bytes, done)?;
+                Ok(s)
+            },
+        )?;
     }
     Ok(out)
 }

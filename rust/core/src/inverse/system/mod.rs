@@ -23,9 +23,11 @@ use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 
 use rayon::prelude::*;
 
+use crate::imaging::recorder::Chunks;
 pub use crate::imaging::recorder::{CellGrid, System, OUTSIDE_SHARE};
 use crate::infra::error::{Error, Result};
 use crate::infra::memory;
+use crate::infra::parallel::for_chunks;
 use crate::model::design::{Aperture, Channel, Design, Grid, Layout};
 
 mod factored;
@@ -54,6 +56,29 @@ fn row_done(s: &System, bytes: &AtomicU64, done: &AtomicUsize) -> Result<()> {
     let have = bytes.fetch_add(add, Ordering::Relaxed) as u128;
     memory::check("the reconstruction's system matrix", have + add as u128)?;
     done.fetch_add(1, Ordering::Relaxed);
+    Ok(())
+}
+
+/// Append to `out` the rows of one channel's raw, built on the pool of `n_threads` in
+/// chunks of `step` raw rows (a checkpoint between chunks): raw row b's rows are
+/// `row(state, b)`, each worker holding its own `init()` state; appended in raw-row order.
+fn append_rows<T: Send>(
+    out: &mut System,
+    (n_threads, rows, step): (Option<usize>, usize, usize),
+    init: impl Fn() -> T + Sync + Send,
+    row: impl Fn(&mut T, usize) -> Result<System> + Sync + Send,
+) -> Result<()> {
+    let parts = Chunks::default();
+    for_chunks(n_threads, rows, step, |range| {
+        let chunk: Result<Vec<System>> = range
+            .clone()
+            .into_par_iter()
+            .map_init(&init, &row)
+            .collect();
+        parts.push(range.start, chunk?);
+        Ok(())
+    })?;
+    out.append_chunks(parts);
     Ok(())
 }
 

@@ -4,16 +4,13 @@
 
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 
-use rayon::prelude::*;
-
 use super::slabs::{profiles, Line, Profiles, Slabs};
-use super::{row_done, Job, System, OUTSIDE_SHARE};
-use crate::imaging::recorder::Chunks;
+use super::{append_rows, row_done, Job, System, OUTSIDE_SHARE};
 use crate::imaging::render::exact::{
     footprint_of, mean_ray_of, polygon, tilted_profile, tilted_profile_of, Tilt,
 };
 use crate::infra::error::Result;
-use crate::infra::parallel::{checkpoint, for_chunks};
+use crate::infra::parallel::checkpoint;
 use crate::infra::polygon::Pt;
 
 /// The most parts per axis of (ξ, w) a pixel's o ray set is cut into on the tilted route
@@ -349,22 +346,18 @@ pub(super) fn build_tilted(
             keeps,
         };
         let step = crate::infra::parallel::chunk_items(job.n_threads, (ln.cols as u128) * 256);
-        let parts = Chunks::default();
         let bytes = AtomicU64::new((out.data.len() * 12) as u64);
-        for_chunks(job.n_threads, ln.rows, step, |range| {
-            let chunk: Result<Vec<System>> = range
-                .clone()
-                .into_par_iter()
-                .map(|b| rows.row(b, &steep, &bytes, job.done))
-                .collect();
-            parts.push(range.start, chunk?);
-            Ok(())
-        })?;
+        let chunks = (job.n_threads, ln.rows, step);
+        append_rows(
+            &mut out,
+            chunks,
+            || (),
+            |_, b| rows.row(b, &steep, &bytes, job.done),
+        )?;
         if steep.load(Ordering::Relaxed) {
             job.done.store(done_before, Ordering::Relaxed);
             return Ok(None);
         }
-        out.append_chunks(parts);
     }
     Ok(Some(out))
 }
