@@ -9,11 +9,11 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use rayon::prelude::*;
 
 use super::chan::Chan;
-use super::{raw_shape, SendPtr};
+use super::{fill_rows, raw_shape};
 use crate::imaging::scene::Scene;
 use crate::imaging::texture::{ImageTexture, Texture};
 use crate::infra::error::{Error, Result};
-use crate::infra::parallel::{checkpoint, for_chunks};
+use crate::infra::parallel::checkpoint;
 use crate::infra::polygon::{clip_into, signed_area, Pt};
 use crate::model::design::{Design, Layout};
 
@@ -268,53 +268,47 @@ pub(super) fn render_channel(
     let mean = tex.mean_value();
     let norm = chan.norm;
     let step = crate::infra::parallel::chunk_items(n_threads, (cols as u128) * 64);
-    let raw_ptr = SendPtr(raw.as_mut_ptr());
-    for_chunks(n_threads, rows, step, |range| {
-        let start = range.start;
-        // SAFETY: each chunk writes its own disjoint rows of `raw`.
-        let chunk = unsafe {
-            std::slice::from_raw_parts_mut(raw_ptr.get().add(start * cols), range.len() * cols)
-        };
-        chunk.par_chunks_mut(cols).enumerate().try_for_each_init(
-            || vec![vec![0.0; tc]; nt],
-            |tmps, (i, row)| -> Result<()> {
-                checkpoint()?;
-                let b = start + i;
-                let k = b as u32 / q;
-                // Per type: tmp[i] = Σ_rows Iy[row] T[row][i] (bottom-up rows) and
-                // the y-area inside the texture.
-                let mut ay_in = vec![0.0; nt];
-                for t in 0..nt {
-                    let yp = &py[t][b];
-                    let tmp = &mut tmps[t];
-                    tmp.iter_mut().for_each(|v| *v = 0.0);
-                    for (r, &ay) in yp.areas.iter().enumerate() {
-                        let bu = yp.first + r;
-                        if ay == 0.0 {
-                            continue;
-                        }
-                        ay_in[t] += ay;
-                        for (tv, &v) in tmp.iter_mut().zip(tex.row_bottom_up(bu)) {
-                            *tv += ay * v;
-                        }
+    fill_rows(
+        raw,
+        (rows, cols),
+        (n_threads, step),
+        || vec![vec![0.0; tc]; nt],
+        |tmps, b, row| {
+            checkpoint()?;
+            let k = b as u32 / q;
+            // Per type: tmp[i] = Σ_rows Iy[row] T[row][i] (bottom-up rows) and
+            // the y-area inside the texture.
+            let mut ay_in = vec![0.0; nt];
+            for t in 0..nt {
+                let yp = &py[t][b];
+                let tmp = &mut tmps[t];
+                tmp.iter_mut().for_each(|v| *v = 0.0);
+                for (r, &ay) in yp.areas.iter().enumerate() {
+                    let bu = yp.first + r;
+                    if ay == 0.0 {
+                        continue;
+                    }
+                    ay_in[t] += ay;
+                    for (tv, &v) in tmp.iter_mut().zip(tex.row_bottom_up(bu)) {
+                        *tv += ay * v;
                     }
                 }
-                for (a, out) in row.iter_mut().enumerate() {
-                    let t = ch.lens_type(a as u32 / q, k);
-                    let (xp, yp) = (&px[t][a], &py[t][b]);
-                    let tmp = &tmps[t];
-                    let mut inside = 0.0;
-                    let mut ax_in = 0.0;
-                    for (m, &ax) in xp.areas.iter().enumerate() {
-                        inside += tmp[xp.first + m] * ax;
-                        ax_in += ax;
-                    }
-                    let out_area = xp.total * yp.total - ax_in * ay_in[t];
-                    *out = norm * (inside + mean * out_area);
+            }
+            for (a, out) in row.iter_mut().enumerate() {
+                let t = ch.lens_type(a as u32 / q, k);
+                let (xp, yp) = (&px[t][a], &py[t][b]);
+                let tmp = &tmps[t];
+                let mut inside = 0.0;
+                let mut ax_in = 0.0;
+                for (m, &ax) in xp.areas.iter().enumerate() {
+                    inside += tmp[xp.first + m] * ax;
+                    ax_in += ax;
                 }
-                done.fetch_add(1, Ordering::Relaxed);
-                Ok(())
-            },
-        )
-    })
+                let out_area = xp.total * yp.total - ax_in * ay_in[t];
+                *out = norm * (inside + mean * out_area);
+            }
+            done.fetch_add(1, Ordering::Relaxed);
+            Ok(())
+        },
+    )
 }

@@ -7,17 +7,15 @@
 use std::f64::consts::PI;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use rayon::prelude::*;
-
 use super::adaptive::{adaptive, over_boxes, QBox};
 use super::chan::{Chan, Work};
 use super::footprint;
 use super::kinks::{bilinear, box_cuts, texture_kinks, Sweep};
 use super::mean::scene_mean;
-use super::{raw_shape, RenderOptions, SendPtr};
+use super::{fill_rows, raw_shape, RenderOptions};
 use crate::imaging::scene::{Scene, Surface};
 use crate::infra::error::Result;
-use crate::infra::parallel::{checkpoint, for_chunks};
+use crate::infra::parallel::checkpoint;
 use crate::infra::polygon::{angular_span, bounds, clip_box, clip_into, signed_area, Pt};
 use crate::model::design::{Aperture, Design, Grid, Layout};
 
@@ -60,32 +58,27 @@ pub(super) fn general_channel(
         tol: lens_tol(chan, scene, tol),
     };
     let step = crate::infra::parallel::chunk_items(n_threads, per_row);
-    let raw_ptr = SendPtr(raw.as_mut_ptr());
-    for_chunks(n_threads, rows, step, |range| {
-        let start = range.start;
-        // SAFETY: each chunk writes its own disjoint rows of `raw`.
-        let chunk = unsafe {
-            std::slice::from_raw_parts_mut(raw_ptr.get().add(start * cols), range.len() * cols)
-        };
-        chunk.par_chunks_mut(cols).enumerate().try_for_each_init(
-            || Work::new(scene.surface.fronto().is_some()),
-            |wk, (i, row)| -> Result<()> {
+    fill_rows(
+        raw,
+        (rows, cols),
+        (n_threads, step),
+        || Work::new(scene.surface.fronto().is_some()),
+        |wk, b, row| {
+            checkpoint()?;
+            let b = b as u32;
+            for (a, out) in row.iter_mut().enumerate() {
+                // A pixel can take milliseconds (depth maps): check for Ctrl-C per pixel.
                 checkpoint()?;
-                let b = (start + i) as u32;
-                for (a, out) in row.iter_mut().enumerate() {
-                    // A pixel can take milliseconds (depth maps): check for Ctrl-C per pixel.
-                    checkpoint()?;
-                    *out = if own {
-                        own_lens_value(&px, a as u32, b, wk)
-                    } else {
-                        pixel_value(&px, a as u32, b, wk)
-                    };
-                }
-                done.fetch_add(1, Ordering::Relaxed);
-                Ok(())
-            },
-        )
-    })
+                *out = if own {
+                    own_lens_value(&px, a as u32, b, wk)
+                } else {
+                    pixel_value(&px, a as u32, b, wk)
+                };
+            }
+            done.fetch_add(1, Ordering::Relaxed);
+            Ok(())
+        },
+    )
 }
 
 /// The adaptive rule's absolute target per lens (before the channel's norm) for an error

@@ -35,6 +35,8 @@
 
 use std::sync::atomic::AtomicUsize;
 
+use rayon::prelude::*;
+
 use crate::imaging::scene::{Scene, Surface};
 use crate::imaging::texture::Texture;
 use crate::infra::error::{Error, Result};
@@ -317,12 +319,37 @@ pub fn render_into(
 }
 
 #[derive(Clone, Copy)]
-pub(super) struct SendPtr(pub(super) *mut f64);
+struct SendPtr(*mut f64);
 // SAFETY: used only to hand disjoint row ranges of one buffer to the chunks of one call.
 unsafe impl Send for SendPtr {}
 unsafe impl Sync for SendPtr {}
 impl SendPtr {
-    pub(super) fn get(self) -> *mut f64 {
+    fn get(self) -> *mut f64 {
         self.0
     }
+}
+
+/// Fill `raw`, `rows` × `cols` values, on the pool of `n_threads` in chunks of `step`
+/// rows (a checkpoint between chunks), the rows of a chunk in parallel: `row(state, b,
+/// values)` writes raw row b, each worker holding its own `init()` state.
+pub(super) fn fill_rows<T>(
+    raw: &mut [f64],
+    (rows, cols): (usize, usize),
+    (n_threads, step): (Option<usize>, usize),
+    init: impl Fn() -> T + Sync + Send,
+    row: impl Fn(&mut T, usize, &mut [f64]) -> Result<()> + Sync + Send,
+) -> Result<()> {
+    debug_assert_eq!(raw.len(), rows * cols);
+    let raw_ptr = SendPtr(raw.as_mut_ptr());
+    crate::infra::parallel::for_chunks(n_threads, rows, step, |range| {
+        let start = range.start;
+        // SAFETY: each chunk writes its own disjoint rows of `raw`.
+        let chunk = unsafe {
+            std::slice::from_raw_parts_mut(raw_ptr.get().add(start * cols), range.len() * cols)
+        };
+        chunk
+            .par_chunks_mut(cols)
+            .enumerate()
+            .try_for_each_init(&init, |state, (i, values)| row(state, start + i, values))
+    })
 }
