@@ -35,6 +35,13 @@ fn array_parts<'a>(a: &'a PyReadonlyArray2<'_, f64>) -> (Cow<'a, [f64]>, usize, 
     }
 }
 
+/// An optional array's parts as the core's constructors take them: (values, rows, cols).
+fn values<'a>(
+    parts: &'a Option<(Cow<'_, [f64]>, usize, usize)>,
+) -> Option<(&'a [f64], usize, usize)> {
+    parts.as_ref().map(|(v, r, c)| (&v[..], *r, *c))
+}
+
 #[pymethods]
 impl RenderScene {
     #[new]
@@ -49,19 +56,9 @@ impl RenderScene {
         background: f64,
     ) -> PyResult<Self> {
         let image = texture_image.as_ref().map(array_parts);
-        let tex = Texture::from_parts(
-            texture,
-            &texture_params,
-            image.as_ref().map(|(v, r, c)| (&v[..], *r, *c)),
-        )
-        .map_err(to_py)?;
+        let tex = Texture::from_parts(texture, &texture_params, values(&image)).map_err(to_py)?;
         let map = depth_map.as_ref().map(array_parts);
-        let surf = Surface::from_parts(
-            surface,
-            &surface_params,
-            map.as_ref().map(|(v, r, c)| (&v[..], *r, *c)),
-        )
-        .map_err(to_py)?;
+        let surf = Surface::from_parts(surface, &surface_params, values(&map)).map_err(to_py)?;
         let scene = Scene::new(tex, surf, background).map_err(to_py)?;
         Ok(RenderScene {
             inner: Arc::new(scene),
