@@ -116,6 +116,15 @@ def integer(value: Any, name: str, kind: str = "an integer") -> int:
     return int(value)
 
 
+def integer_in(value: Any, name: str, lo: int, hi: int, kind: str = "an integer") -> int:
+    """An integer (:func:`integer`; ``kind`` words its ``TypeError``) in [lo, hi], else
+    :class:`InvalidParameter` naming the range."""
+    n = integer(value, name, kind)
+    if not lo <= n <= hi:
+        raise InvalidParameter.of(name, n, f"an integer in [{lo}, {hi}]")
+    return n
+
+
 def channel_number(design: Any, half: Any, channel: Any) -> int:
     """The channel number: exactly one of ``half`` and ``channel`` (two names of one
     number: the split sensor's half i is its channel i), in [1, C]; errors name the

@@ -26,15 +26,6 @@ def _design(design: Any) -> Any:
     return _validate.design(design)
 
 
-def _positive_int(name: str, value: Any, hi: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-        raise TypeError(f"{name} must be an integer, got {type(value).__name__} {value!r}")
-    n = int(value)
-    if not 1 <= n <= hi:
-        raise InvalidParameter.of(name, n, f"an integer in [1, {hi}]")
-    return n
-
-
 def _crop(shape: tuple[int, int], half: tuple[int, int]) -> tuple[slice, slice]:
     """Rows and columns of the centred crop of ``2 half + 1`` pixels (clipped to the grid)."""
     (my, mx), (hy, hx) = shape, half
@@ -59,7 +50,7 @@ def microlens_images(design: Any, channel: int | None = None, lenses: int = 6, a
     ``TypeError``/``ValueError`` for bad arguments, ``ImportError`` without matplotlib.
     """
     des = _design(design)
-    lenses = _positive_int("lenses", lenses, 200)
+    lenses = _validate.integer_in(lenses, "lenses", 1, 200)
     if channel is None:
         n = len(des.channels)
         if ax is None:
@@ -74,8 +65,8 @@ def microlens_images(design: Any, channel: int | None = None, lenses: int = 6, a
                              f"got {len(ax)}")
         return [_microlens_images(des, c, lenses, a, n_threads) for c, a in
                 enumerate(ax, start=1)]
-    return _microlens_images(des, _positive_int("channel", channel, len(des.channels)),
-                             lenses, ax, n_threads)
+    channel = _validate.integer_in(channel, "channel", 1, len(des.channels))
+    return _microlens_images(des, channel, lenses, ax, n_threads)
 
 
 def _microlens_images(des: Any, channel: int, lenses: int, ax: Any,

@@ -4,27 +4,17 @@ image in grey, with a zoom on a few micro-images at its centre."""
 from __future__ import annotations
 
 import math
-import numbers
 from typing import Any
 
 import numpy as np
 
-from ..errors import InvalidParameter
+from .. import _validate
 from ._mpl import channel_name, pyplot
 
 __all__ = ["raw"]
 
 #: Most lens pitches the zoom spans per axis.
 MAX_ZOOM = 100
-
-
-def _int(name: str, value: Any, hi: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-        raise TypeError(f"{name} must be an integer, got {type(value).__name__} {value!r}")
-    n = int(value)
-    if not 1 <= n <= hi:
-        raise InvalidParameter.of(name, n, f"an integer in [1, {hi}]")
-    return n
 
 
 def _pitch(ch: dict[str, Any]) -> tuple[float, float]:
@@ -103,8 +93,9 @@ def raw(raw: Any, channel: int | None = None, zoom: int = 3, ax: Any = None) -> 
     if not isinstance(raw, Raw):
         raise TypeError(f"raw must be a splitlf.Raw, got {type(raw).__name__}")
     n = len(raw.images)
-    chans = list(range(1, n + 1)) if channel is None else [_int("channel", channel, n)]
-    zoom = _int("zoom", zoom, MAX_ZOOM)
+    chans = (list(range(1, n + 1)) if channel is None
+             else [_validate.integer_in(channel, "channel", 1, n)])
+    zoom = _validate.integer_in(zoom, "zoom", 1, MAX_ZOOM)
     if ax is None:
         rows0, cols0 = raw.images[chans[0] - 1].shape
         width = 9.0
