@@ -94,6 +94,24 @@ def _steps_antiderivative(breaks: np.ndarray, values: np.ndarray, x: np.ndarray
 
 # -- the textures ----------------------------------------------------------------------------
 
+class _TwoTones:
+    """What the textures of two albedos share (:class:`BarChart`, :class:`SlantedEdge`,
+    :class:`SiemensStar`): ``low`` and ``high`` checked, over equal shares of the plane."""
+
+    low: float
+    high: float
+
+    def _check_tones(self) -> None:
+        albedo(self.low, "low")
+        albedo(self.high, "high")
+
+    @property
+    def mean(self) -> float:
+        """The mean albedo (low + high) / 2: the bars, the two sides of the edge and the
+        star's bright and dark sectors each cover half the plane."""
+        return 0.5 * (float(self.low) + float(self.high))
+
+
 @dataclasses.dataclass(frozen=True)
 class Sinusoid:
     """mean + amplitude sin(2 pi frequency X + phase), constant along Y; frequency in
@@ -129,7 +147,7 @@ class Sinusoid:
 
 
 @dataclasses.dataclass(frozen=True)
-class BarChart:
+class BarChart(_TwoTones):
     """A square wave along X, constant along Y: ``high`` on the first half of each period,
     ``low`` on the second; ``frequency`` in bar pairs (cycles) per mm on the object, a bar
     edge at X = 0 (high on [0, 1/(2 frequency))).
@@ -143,13 +161,7 @@ class BarChart:
 
     def __post_init__(self) -> None:
         _positive(self.frequency, "frequency")
-        albedo(self.low, "low")
-        albedo(self.high, "high")
-
-    @property
-    def mean(self) -> float:
-        """The mean albedo (low + high) / 2."""
-        return 0.5 * (float(self.low) + float(self.high))
+        self._check_tones()
 
     def antiderivative(self, x: np.ndarray) -> np.ndarray:
         """The integral of the albedo along X from 0 to each X in ``x`` [mm] (any shape)."""
@@ -164,7 +176,7 @@ class BarChart:
 
 
 @dataclasses.dataclass(frozen=True)
-class SlantedEdge:
+class SlantedEdge(_TwoTones):
     """Two albedos either side of a straight edge through ``center`` (X0, Y0) [mm], at
     ``angle`` degrees from the +Y axis turning towards +X (0: a vertical edge): ``high``
     where (X - X0) cos(angle) - (Y - Y0) sin(angle) >= 0 (the side of +X), ``low``
@@ -181,14 +193,8 @@ class SlantedEdge:
 
     def __post_init__(self) -> None:
         _finite(self.angle, "angle")
-        albedo(self.low, "low")
-        albedo(self.high, "high")
+        self._check_tones()
         object.__setattr__(self, "center", _center(self.center))
-
-    @property
-    def mean(self) -> float:
-        """The mean albedo (low + high) / 2 (the edge halves the plane)."""
-        return 0.5 * (float(self.low) + float(self.high))
 
     def albedo(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """The albedo at the points (x, y) [mm] (broadcast arrays)."""
@@ -222,7 +228,7 @@ class SlantedEdge:
 
 
 @dataclasses.dataclass(frozen=True)
-class SiemensStar:
+class SiemensStar(_TwoTones):
     """A Siemens star of ``spokes`` bright sectors centred at ``center`` (X0, Y0) [mm]:
     with the polar angle t = atan2(Y - Y0, X - X0) in [0, 2 pi), the albedo is ``high``
     where floor(t spokes / pi) is even, ``low`` elsewhere (the first bright sector starts
@@ -238,18 +244,11 @@ class SiemensStar:
     center: tuple[float, float] = (0.0, 0.0)
 
     def __post_init__(self) -> None:
-        n = _validate.integer(self.spokes, "spokes", f"an integer in [1, {MAX_SPOKES}]")
-        if not 1 <= n <= MAX_SPOKES:
-            raise InvalidParameter.of("spokes", n, f"an integer in [1, {MAX_SPOKES}]")
+        n = _validate.integer_in(self.spokes, "spokes", 1, MAX_SPOKES,
+                                 f"an integer in [1, {MAX_SPOKES}]")
         object.__setattr__(self, "spokes", n)
-        albedo(self.low, "low")
-        albedo(self.high, "high")
+        self._check_tones()
         object.__setattr__(self, "center", _center(self.center))
-
-    @property
-    def mean(self) -> float:
-        """The mean albedo (low + high) / 2 (bright and dark sectors are equal)."""
-        return 0.5 * (float(self.low) + float(self.high))
 
     def albedo(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """The albedo at the points (x, y) [mm] (broadcast arrays)."""
