@@ -9,6 +9,7 @@ import argparse
 import json
 import math
 import os
+import sys
 from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
@@ -378,6 +379,34 @@ def design_source(p: argparse.ArgumentParser, what: str) -> None:
     g.add_argument("--preset", choices=PRESETS, default=None, metavar="NAME",
                    help=f"{what} a named design instead: {', '.join(PRESETS)} "
                    "(docs/architectures.md)")
+
+
+def design_command(subparsers: Any, name: str, doc: str | None, *, summary: str, design: str,
+                   threads: str | None = None) -> argparse.ArgumentParser:
+    """The parser of a command that works on one design: its ``--help`` from the module
+    docstring ``doc`` (:func:`described`), ``summary`` in the list of commands, the design
+    source (``design`` says what the command does with it) and, when ``threads`` says what
+    they run, ``--threads``."""
+    p = subparsers.add_parser(name, description=described(doc), help=summary)
+    design_source(p, design)
+    if threads is not None:
+        threads_option(p, threads)
+    return p
+
+
+def print_result(args: argparse.Namespace, out: Path | None, document: Callable[[], Any],
+                 table: Callable[[], str]) -> int:
+    """Print what a command that may also write ``out`` found: with ``--json`` its JSON
+    document (with the path it wrote, if any), else the path it wrote, else its table.
+    ``document`` and ``table`` are only called when printed. Returns 0."""
+    if args.json:
+        doc = document()
+        sys.stdout.write(json_text(doc if out is None else {"path": str(out), **doc}))
+    elif out is not None:
+        print(out)
+    else:
+        sys.stdout.write(table())
+    return 0
 
 
 def threads_option(p: argparse.ArgumentParser, what: str) -> None:

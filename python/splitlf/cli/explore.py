@@ -10,13 +10,19 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from ._common import CliError, described, design_source, integer_type, load_subject, named_design
+from ._common import (
+    CliError,
+    design_command,
+    integer_type,
+    load_subject,
+    named_design,
+)
 
 
 def add_parser(subparsers: Any) -> None:
-    p = subparsers.add_parser("explore", description=described(__doc__),
-                              help="the interactive design explorer in the browser")
-    design_source(p, "start from")
+    p = design_command(subparsers, "explore", __doc__,
+                       summary="the interactive design explorer in the browser",
+                       design="start from")
     p.add_argument("--port", type=integer_type("port", 0, 65535), default=5006,
                    help="TCP port, an integer in [0, 65535]; 0 picks a free one (default 5006)")
     p.add_argument("--compare", default=None, metavar="NAME|FILE.toml",

@@ -22,12 +22,10 @@ from ._common import (
     check_folder,
     check_output,
     depth_type,
-    described,
-    design_source,
+    design_command,
     integer_type,
     load_subject,
     output_group,
-    threads_option,
 )
 
 #: Resolution of ``splitlf figures`` [dots per inch]: the allowed range.
@@ -40,10 +38,9 @@ _dpi = integer_type("dpi", *DPI_RANGE)
 
 
 def add_parser(subparsers: Any) -> None:
-    p = subparsers.add_parser("figures", description=described(__doc__),
-                              help="write every figure of a design")
-    design_source(p, "draw")
-    threads_option(p, "threads of the core for every figure")
+    p = design_command(subparsers, "figures", __doc__,
+                       summary="write every figure of a design", design="draw",
+                       threads="threads of the core for every figure")
     p.add_argument("--z", type=depth_type, default=None, metavar="MM",
                    help="depth of the sample map [mm], > F (default: channel 1's "
                    "out-of-focus plane with several channels, twice it with one)")

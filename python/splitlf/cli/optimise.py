@@ -21,8 +21,7 @@ from ._common import (
     check_output,
     check_suffix,
     depths_option,
-    described,
-    design_source,
+    design_command,
     evolution_options,
     json_text,
     load_subject,
@@ -36,7 +35,6 @@ from ._common import (
     scheduler_option,
     search,
     seed_type,
-    threads_option,
 )
 
 _f_number = real_type("f-number", 0.0, "a finite number > 0")
@@ -45,10 +43,10 @@ _f_number = real_type("f-number", 0.0, "a finite number > 0")
 
 
 def add_parser(subparsers: Any) -> None:
-    p = subparsers.add_parser("optimise", description=described(__doc__),
-                              help="the best design for an objective (inverse design)")
-    design_source(p, "optimise around")
-    threads_option(p, "threads of the core for in-process evaluation")
+    p = design_command(subparsers, "optimise", __doc__,
+                       summary="the best design for an objective (inverse design)",
+                       design="optimise around",
+                       threads="threads of the core for in-process evaluation")
     p.add_argument("--free", action="append", required=True, metavar="NAME=LOW:HIGH",
                    help="a free field and its bounds (repeat; a camera field such as kappa, "
                    "or a design's by path such as channels[2].L; counts such as Q are "

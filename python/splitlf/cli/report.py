@@ -15,21 +15,19 @@ from typing import Any
 
 from ..study.report import format_report, report_data
 from ._common import (
-    described,
-    design_source,
+    design_command,
     json_text,
     load_subject,
     output_group,
-    threads_option,
     threshold_option,
 )
 
 
 def add_parser(subparsers: Any) -> None:
-    p = subparsers.add_parser("report", description=described(__doc__),
-                              help="where a design is sharp and how densely it samples")
-    design_source(p, "report")
-    threads_option(p, "threads for the coincidence planes and the resolution figures")
+    p = design_command(subparsers, "report", __doc__,
+                       summary="where a design is sharp and how densely it samples",
+                       design="report",
+                       threads="threads for the coincidence planes and the resolution figures")
     threshold_option(p)
     p.add_argument("--full", action="store_true",
                    help="every field of every channel, its lens types and the coincidence "

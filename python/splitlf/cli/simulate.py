@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -23,8 +22,7 @@ from ._common import (
     check_output,
     check_suffix,
     depth_type,
-    described,
-    design_source,
+    design_command,
     integer_type,
     json_text,
     load_npy,
@@ -32,9 +30,9 @@ from ._common import (
     need,
     output_group,
     photons_type,
+    print_result,
     read_noise_type,
     seed_type,
-    threads_option,
     write_text,
 )
 
@@ -51,10 +49,9 @@ _n_depths = integer_type("depth count", *SIMULATE_N_RANGE)
 
 
 def add_parser(subparsers: Any) -> None:
-    p = subparsers.add_parser("simulate", description=described(__doc__),
-                              help="super-resolution simulation at one or more depths")
-    design_source(p, "simulate")
-    threads_option(p, "threads of the core")
+    p = design_command(subparsers, "simulate", __doc__,
+                       summary="super-resolution simulation at one or more depths",
+                       design="simulate", threads="threads of the core")
     where = p.add_mutually_exclusive_group()
     where.add_argument("--z", type=depth_type, default=1000.0, metavar="MM",
                        help="depth of the plane in mm (default 1000)")
@@ -158,10 +155,4 @@ def run(args: argparse.Namespace) -> int:
            "results": rows}
     if out is not None:
         write_text(out, json_text(doc), args.force)
-    if args.json:
-        sys.stdout.write(json_text(doc if out is None else {"path": str(out), **doc}))
-    elif out is not None:
-        print(out)
-    else:
-        sys.stdout.write(_simulate_table(rows, source, args))
-    return 0
+    return print_result(args, out, lambda: doc, lambda: _simulate_table(rows, source, args))

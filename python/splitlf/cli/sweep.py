@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -24,23 +23,21 @@ from ._common import (
     CliError,
     check_output,
     check_suffix,
-    described,
-    design_source,
+    design_command,
     json_text,
     load_subject,
     merits_2d_options,
     need,
     output_group,
+    print_result,
     scheduler_option,
-    threads_option,
 )
 
 
 def add_parser(subparsers: Any) -> None:
-    p = subparsers.add_parser("sweep", description=described(__doc__),
-                              help="figures of merit over a grid of designs")
-    design_source(p, "sweep around")
-    threads_option(p, "threads of the core for in-process sweeps")
+    p = design_command(subparsers, "sweep", __doc__,
+                       summary="figures of merit over a grid of designs", design="sweep around",
+                       threads="threads of the core for in-process sweeps")
     p.add_argument("--grid", required=True, metavar="SWEEP.toml",
                    help="the sweep file: [grid], [depths], [options], [camera] or [design]")
     scheduler_option(p)
@@ -253,11 +250,5 @@ def run(args: argparse.Namespace) -> int:
     ds = _run_sweep(base, spec, args.scheduler, args.threads)
     if out is not None:
         _write_sweep(ds, out, args.force)
-    if args.json:
-        doc = _sweep_document(ds)
-        sys.stdout.write(json_text(doc if out is None else {"path": str(out), **doc}))
-    elif out is not None:
-        print(out)
-    else:
-        sys.stdout.write(_sweep_table(ds, base, spec))
-    return 0
+    return print_result(args, out, lambda: _sweep_document(ds),
+                        lambda: _sweep_table(ds, base, spec))

@@ -23,12 +23,10 @@ from ._common import (
     CliError,
     check_output,
     check_suffix,
-    described,
-    design_source,
+    design_command,
     json_text,
     load_subject,
     output_group,
-    threads_option,
 )
 
 TRACE_FIELDS = ("vertices", "n_vertices", "area", "centroid", "lens", "pixel", "chief", "lit")
@@ -37,10 +35,9 @@ TRACE_FIELDS = ("vertices", "n_vertices", "area", "centroid", "lens", "pixel", "
 
 
 def add_parser(subparsers: Any) -> None:
-    p = subparsers.add_parser("trace", description=described(__doc__),
-                              help="write every pixel's ray-space polygon to .npz")
-    design_source(p, "trace")
-    threads_option(p, "threads of the trace")
+    p = design_command(subparsers, "trace", __doc__,
+                       summary="write every pixel's ray-space polygon to .npz", design="trace",
+                       threads="threads of the trace")
     p.add_argument("--axis", choices=("x", "y"), default="x",
                    help="the sensor axis traced (default: x)")
     output_group(p, "output file (default: trace.npz)", "FILE.npz", "trace.npz",
