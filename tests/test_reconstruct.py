@@ -262,8 +262,12 @@ def test_bad_input() -> None:
     region = (-1.0, 1.0, -1.0, 1.0)
     with pytest.raises(splitlf.InvalidParameter, match="step"):
         splitlf.reconstruct(raw, 1000.0, region=region, step=0.0)
-    with pytest.raises(splitlf.InvalidParameter, match="depth|z"):
+    # A plane nearer than F: the core's depth check, its error naming reconstruct's own
+    # parameter (the label the binding gives the core call), index 0 of the one depth.
+    with pytest.raises(splitlf.InvalidParameter, match=r"invalid depth depth\[0\] = 50: "
+                       rf"depths must be > F = {design.F:g} mm") as info:
         splitlf.reconstruct(raw, 50.0, region=region)
+    assert (info.value.name, info.value.index, info.value.value) == ("depth", 0, 50.0)
     with pytest.raises(splitlf.InvalidParameter, match="depth"):
         splitlf.reconstruct(raw, float("nan"), region=region)
     with pytest.raises(splitlf.InvalidParameter, match="depth"):

@@ -404,6 +404,8 @@ pub(crate) fn solve_normal<'py>(
     }
     drop((factored, rows));
     let (report, counter) = counted(progress, max_iter);
+    // The label names the depth parameter in an invalid-depth error: the solve takes no
+    // depth, so it raises none and the label is unused (reconstruct's, as below).
     let sol = run_reporting(py, "depth", report, move || {
         let normal = solve::Normal::new(nx, ny, regularization, blocks)?;
         let stop = solve::Stop {
@@ -575,6 +577,7 @@ pub(crate) fn reconstruct<'py>(
         },
     };
     let st = Arc::clone(&state);
+    // An invalid depth (a plane nearer than F) is named `depth`, reconstruct's parameter.
     let result = run_reporting(py, "depth", report, move || rc::reconstruct(&request, &st));
     if let Some(f) = &forward {
         f.borrow(py).send(py, true)?;
