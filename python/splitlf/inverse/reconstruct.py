@@ -17,7 +17,9 @@ squares
 
 with sigma the raw's noise per pixel (from ``noise``, or a stated floor for noise-free
 raws), D the differences between neighbouring cells and lambda a fixed prior weight. The
-regulariser's weight never depends on the number of rows: more data never hurts.
+regulariser's weight never depends on the number of rows: more data never hurts. With
+``prior="huber"`` or ``"tv"`` the square of each difference is replaced by an
+edge-preserving penalty, solved by reweighted passes of the same CG in the core.
 """
 
 from __future__ import annotations
