@@ -522,7 +522,7 @@ impl Plan<'_> {
         let plan = Estimate::new(req.design, &req.channels, &grid, pad, zlo, exact, threads);
         let s = req.settings;
         // The iteration cap over every pass of the prior.
-        let cap = s.max_iter * self.prior.passes;
+        let cap = s.max_iter.saturating_mul(self.prior.passes);
         progress.note(plan.describe(inner, pad, cap));
         let too_large = |bytes: u128| {
             (bytes > limit).then(|| Error::TooLarge {
