@@ -68,6 +68,8 @@ SLOW = {
     'test_docs.py::test_markdown_code_blocks_run[optimise.md]': 28,
     'test_fuzz.py::test_new_samples_union_bounds': 5,
     'test_fuzz.py::test_union_max_gap_at_most_each_half': 5,
+    'test_prior.py::test_reconstruct_passes_the_prior_through': 10,
+    'test_prior.py::test_tiles_take_the_prior': 15,
     'test_reconstruct.py::test_depth_map_seen_once_against_monte_carlo': 61,
     'test_reconstruct.py::test_general_map_is_the_render_on_a_slanted_plane': 21,
     'test_reconstruct.py::test_general_map_is_the_render_on_hex_and_circle': 37,

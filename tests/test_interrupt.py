@@ -50,6 +50,11 @@ LONG_CALLS = {
                    "S.channels)); R = splitlf.render(E, splitlf.Scene("
                    "splitlf.RandomAlbedo(1.0), 1000.0)); splitlf.reconstruct(R, 1000.0, "
                    "region=(-1, 1, -1, 1), step=0.01, regularization=1e-9)",
+    "reconstruct_tv": "E = S.replace(channels=tuple(c.replace(Kx=10, Ky=8) for c in "
+                      "S.channels)); R = splitlf.render(E, splitlf.Scene("
+                      "splitlf.RandomAlbedo(1.0), 1000.0)); splitlf.reconstruct(R, 1000.0, "
+                      "region=(-1, 1, -1, 1), step=0.01, regularization=1e-9, prior='tv', "
+                      "allow_slow=True)",
 }
 
 SETUP = """

@@ -462,7 +462,7 @@ _CsrIn = tuple[npt.NDArray[np.uint64], npt.NDArray[np.uint32], _F64, int]
 
 def solve_normal(
     shape: tuple[int, int],
-    regularization: float,
+    regularization: float | tuple[float, str, float, int, float],
     blocks: tuple[list[tuple[float, _CsrIn, _CsrIn, _F64, _F64]],
                   list[tuple[_CsrIn, _F64, _F64]]],
     stop: tuple[float, int, float],
@@ -476,7 +476,7 @@ def reconstruct(
     surface: tuple[str, list[float], _F64 | None],
     options: dict[str, Any],
     progress: Callable[[str, int, int, list[str]], object] | None = None,
-) -> tuple[_F64, tuple[float, float, float, float], float, int, int, float, int,
+) -> tuple[_F64, tuple[float, float, float, float], float, int, int, float, int, int,
            list[int] | None]: ...
 
 

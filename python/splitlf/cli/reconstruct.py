@@ -72,7 +72,7 @@ def _lens_types_option(args: argparse.Namespace) -> tuple[int, ...] | None:
     return None if args.lens_types is None else ints(args.lens_types, "--lens-types")
 
 
-def _slow(args: argparse.Namespace) -> dict[str, bool]:
+def _slow(args: argparse.Namespace) -> dict[str, Any]:
     """``allow_slow=True`` with ``--allow-slow``, else nothing: the library's default
     (refuse a reconstruction expected to take more than a few minutes)."""
     return {"allow_slow": True} if args.allow_slow else {}

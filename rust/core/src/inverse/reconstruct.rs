@@ -49,9 +49,10 @@ pub struct SurfaceSpec<'a> {
 /// One reconstruction's inputs: the raw (every channel's image, row-major), the surface,
 /// the channels and lens types (numbered from 0; lens types None: every type), the region
 /// (None: what the channels see), the step (None: δ at the reference depth), λ, the
-/// noise (photons, read noise; None: noise-free), the tile side (None: one solve, or the
-/// tiles that fit), whether a slow run is allowed, the threads and a memory limit below
-/// what is available (tests).
+/// noise (photons, read noise; None: noise-free), the prior on the cells' differences
+/// (quadratic, or edge-preserving, solved in passes by the solve), the tile side (None:
+/// one solve, or the tiles that fit), whether a slow run is allowed, the threads and a
+/// memory limit below what is available (tests).
 #[derive(Clone, Debug)]
 pub struct Request<'a> {
     pub design: &'a Design,
@@ -63,6 +64,7 @@ pub struct Request<'a> {
     pub step: Option<f64>,
     pub regularization: f64,
     pub noise: Option<[f64; 2]>,
+    pub prior: solve::Prior,
     pub tile: Option<usize>,
     pub allow_slow: bool,
     pub n_threads: Option<usize>,
@@ -71,8 +73,9 @@ pub struct Request<'a> {
 }
 
 /// The result: the cells (ny × nx, row-major from the top) over `extent`, the solve's
-/// rows, iterations (the most of any tile), residual (the largest), the tiles, and the
-/// lens types kept (None: every type).
+/// rows, iterations (the most of any tile, over every pass of the prior), residual (the
+/// largest), the prior's passes (the most of any tile), the tiles, and the lens types
+/// kept (None: every type).
 #[derive(Clone, Debug)]
 pub struct Outcome {
     pub image: Vec<f64>,
@@ -83,6 +86,7 @@ pub struct Outcome {
     pub rows: usize,
     pub iterations: usize,
     pub residual: f64,
+    pub passes: usize,
     pub tiles: usize,
     pub lens_types: Option<Vec<usize>>,
 }
@@ -118,6 +122,7 @@ struct Plan<'a> {
     req: &'a Request<'a>,
     surface: Surface,
     types: Option<Vec<usize>>,
+    prior: solve::Prior,
 }
 
 /// Reconstruct: the checks, the grid, then one solve or tiles (see the module doc).
@@ -174,6 +179,7 @@ pub fn reconstruct(req: &Request<'_>, progress: &Progress) -> Result<Outcome> {
             ));
         }
     }
+    let prior = req.prior.checked()?;
     let s = req.surface;
     let surface = Surface::from_parts(s.kind, s.params, s.map)?;
     let types = lens_types(d, &req.channels, req.lens_types.as_deref())?;
@@ -181,6 +187,7 @@ pub fn reconstruct(req: &Request<'_>, progress: &Progress) -> Result<Outcome> {
         req,
         surface,
         types,
+        prior,
     };
     let grid = plan.grid(req.region)?;
     match req.tile {
@@ -420,6 +427,7 @@ impl Plan<'_> {
         let ov = self.req.settings.overlap;
         let mut out = memory::try_vec("the reconstruction", nx * ny, 0.0)?;
         let (mut rows, mut iterations, mut tiles, mut resid) = (0, 0, 0, 0.0f64);
+        let mut passes = 0;
         for j0 in (0..ny).step_by(tile) {
             for i0 in (0..nx).step_by(tile) {
                 let (j1, i1) = ((j0 + tile).min(ny), (i0 + tile).min(nx));
@@ -447,6 +455,7 @@ impl Plan<'_> {
                 rows += r.rows;
                 iterations = iterations.max(r.iterations);
                 resid = resid.max(r.residual);
+                passes = passes.max(r.passes);
                 tiles += 1;
             }
         }
@@ -459,6 +468,7 @@ impl Plan<'_> {
             rows,
             iterations,
             residual: resid,
+            passes,
             tiles,
             lens_types: self.types.clone(),
         })
@@ -511,7 +521,9 @@ impl Plan<'_> {
         let zlo = self.depths(grid.extent()).0;
         let plan = Estimate::new(req.design, &req.channels, &grid, pad, zlo, exact, threads);
         let s = req.settings;
-        progress.note(plan.describe(inner, pad, s.max_iter));
+        // The iteration cap over every pass of the prior.
+        let cap = s.max_iter.saturating_mul(self.prior.passes);
+        progress.note(plan.describe(inner, pad, cap));
         let too_large = |bytes: u128| {
             (bytes > limit).then(|| Error::TooLarge {
                 what: "the reconstruction's map and solve".into(),
@@ -523,7 +535,7 @@ impl Plan<'_> {
             return Err(e);
         }
         if !req.allow_slow {
-            plan.check_time(s.max_seconds, s.max_iter)?;
+            plan.check_time(s.max_seconds, cap)?;
         }
         progress.start(1, plan.raw_rows);
         let blocks = match fronto {
@@ -560,7 +572,8 @@ impl Plan<'_> {
             ));
         }
         check_regularization(req.regularization, &blocks, grid.cells())?;
-        let normal = solve::Normal::new(grid.nx, grid.ny, req.regularization, blocks)?;
+        let normal = solve::Normal::new(grid.nx, grid.ny, req.regularization, blocks)?
+            .with_prior(self.prior)?;
         let stop = solve::Stop {
             rtol: s.rtol,
             noise: if req.noise.is_some() {
@@ -570,7 +583,7 @@ impl Plan<'_> {
             },
             max_iter: s.max_iter,
         };
-        progress.start(2, s.max_iter);
+        progress.start(2, cap);
         let sol = solve::solve(&normal, stop, req.n_threads, &progress.done)?;
         let mut image = Vec::with_capacity(inner.cells());
         for j in pad..pad + inner.ny {
@@ -585,6 +598,7 @@ impl Plan<'_> {
             rows,
             iterations: sol.iterations,
             residual: sol.residual,
+            passes: sol.passes,
             tiles: 1,
             lens_types: self.types.clone(),
         })

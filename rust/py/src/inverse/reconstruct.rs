@@ -363,25 +363,41 @@ fn csr_in(field: &'static str, c: &CsrIn<'_>) -> PyResult<solve::Csr> {
     .map_err(to_py)
 }
 
+/// The prior of [`solve_normal`]: its weight λ alone (quadratic), or (λ, name, threshold,
+/// passes, tol) (see `splitlf_core::inverse::solve::Prior`).
+#[derive(FromPyObject)]
+pub(crate) enum RegularizationIn {
+    Weight(f64),
+    Prior((f64, String, f64, usize, f64)),
+}
+
 /// Solve the regularised least squares of a reconstruction over a grid of `shape` (ny, nx)
 /// cells: `blocks` = (factored blocks, blocks of explicit rows) (see `splitlf_core::inverse::solve`), prior
-/// weight `regularization`, conjugate gradients until `stop` = (rtol, max_iter, noise_tol):
+/// `regularization` (its weight λ for the quadratic prior, or (λ, name, threshold,
+/// passes, tol) for any prior), conjugate gradients until `stop` = (rtol, max_iter, noise_tol):
 /// to `rtol`, to `noise_tol` of the noise's expected norm in the right-hand side (0: not
-/// used), or `max_iter` steps. Returns
-/// (cells (ny, nx), iterations, the normal equations' relative residual).
-/// `progress(done, total)` counts iterations out of `max_iter`.
+/// used), or `max_iter` steps (in each pass of an edge-preserving prior). Returns
+/// (cells (ny, nx), iterations over every pass, the normal equations' relative residual).
+/// `progress(done, total)` counts iterations out of `max_iter` times the passes.
 #[pyfunction]
 #[pyo3(signature = (shape, regularization, blocks, stop, n_threads=None, progress=None))]
 pub(crate) fn solve_normal<'py>(
     py: Python<'py>,
     shape: (usize, usize),
-    regularization: f64,
+    regularization: RegularizationIn,
     blocks: (Vec<FactoredIn<'py>>, Vec<RowsIn<'py>>),
     stop: (f64, usize, f64),
     n_threads: Option<&Bound<'py, PyAny>>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<(Bound<'py, numpy::PyArray2<f64>>, usize, f64)> {
     let threads = threads_arg(n_threads)?;
+    let (regularization, prior) = match regularization {
+        RegularizationIn::Weight(lam) => (lam, None),
+        RegularizationIn::Prior((lam, name, threshold, passes, tol)) => {
+            (lam, Some((name, threshold, passes, tol)))
+        }
+    };
+    let prior = prior_arg(prior)?;
     let (ny, nx) = shape;
     let (rtol, max_iter, noise_tol) = stop;
     let (factored, rows) = blocks;
@@ -403,11 +419,11 @@ pub(crate) fn solve_normal<'py>(
         });
     }
     drop((factored, rows));
-    let (report, counter) = counted(progress, max_iter);
+    let (report, counter) = counted(progress, max_iter.saturating_mul(prior.passes));
     // The label names the depth parameter in an invalid-depth error: the solve takes no
     // depth, so it raises none and the label is unused (reconstruct's, as below).
     let sol = run_reporting(py, "depth", report, move || {
-        let normal = solve::Normal::new(nx, ny, regularization, blocks)?;
+        let normal = solve::Normal::new(nx, ny, regularization, blocks)?.with_prior(prior)?;
         let stop = solve::Stop {
             rtol,
             noise: noise_tol,
@@ -422,6 +438,16 @@ pub(crate) fn solve_normal<'py>(
         sol.cells.into_iter(),
     )?;
     Ok((cells, sol.iterations, sol.residual))
+}
+
+/// The prior from (name, threshold, passes, tol), checked (None: quadratic).
+fn prior_arg(prior: Option<(String, f64, usize, f64)>) -> PyResult<solve::Prior> {
+    match prior {
+        None => Ok(solve::Prior::quadratic()),
+        Some((name, threshold, passes, tol)) => {
+            solve::Prior::from_parts(&name, threshold, passes, tol).map_err(to_py)
+        }
+    }
 }
 
 /// The reconstruction's progress for Python: called by the seam's signal checks, it
@@ -486,17 +512,19 @@ type Reconstructed<'py> = (
     usize,
     f64,
     usize,
+    usize,
     Option<Vec<usize>>,
 );
 
 /// A whole reconstruction in one call (`splitlf_core::inverse::reconstruct`): `images`
 /// the raw's channels, `surface` (kind, params, depth map or None) as `RenderScene` takes
 /// it, `options` a dict of channels and lens_types (numbered from 1; None: all),
-/// region, step, regularization, noise ((photons, read noise) or None), tile, allow_slow,
+/// region, step, regularization, noise ((photons, read noise) or None), prior ((name,
+/// threshold, passes, tol) or None: quadratic), tile, allow_slow,
 /// n_threads, memory_limit (bytes, tests) and settings (noise_floor, rtol, max_iter,
 /// noise_tol, overlap, min_tile, max_seconds). `progress(phase, done, total, notes)` is
 /// called at the signal checks and once at the end. Returns (image, extent, step, rows,
-/// iterations, residual, tiles, lens types from 1 or None).
+/// iterations, residual, the prior's passes, tiles, lens types from 1 or None).
 #[pyfunction]
 #[pyo3(signature = (design, images, surface, options, progress=None))]
 pub(crate) fn reconstruct<'py>(
@@ -530,6 +558,7 @@ pub(crate) fn reconstruct<'py>(
     let n_threads = threads_arg(options.get_item("n_threads")?.as_ref())?;
     let noise: Option<(f64, f64)> = option(options, "noise")?;
     let region: Option<(f64, f64, f64, f64)> = option(options, "region")?;
+    let prior = prior_arg(option(options, "prior")?)?;
     let d = design.inner.clone();
     let state = Arc::new(rc::Progress::default());
     let forward = progress
@@ -562,6 +591,7 @@ pub(crate) fn reconstruct<'py>(
         step: option(options, "step")?,
         regularization,
         noise: noise.map(|(n, r)| [n, r]),
+        prior,
         tile: option(options, "tile")?,
         allow_slow: option(options, "allow_slow")?.unwrap_or(false),
         n_threads,
@@ -597,6 +627,7 @@ pub(crate) fn reconstruct<'py>(
         out.rows,
         out.iterations,
         out.residual,
+        out.passes,
         out.tiles,
         out.lens_types
             .map(|v| v.into_iter().map(|t| t + 1).collect()),

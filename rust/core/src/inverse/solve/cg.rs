@@ -8,14 +8,18 @@ use crate::infra::memory;
 use crate::infra::parallel;
 
 use super::kernels::{dot, norm};
-use super::normal::Normal;
+use super::normal::{Normal, Work};
 
-/// The solve's result: the cells (row-major, row 0 at the top), the iterations CG took and
-/// the normal equations' relative residual ‖(AᵀWA + λDᵀD) t − AᵀWy‖ / ‖AᵀWy‖ at the end.
+/// The solve's result: the cells (row-major, row 0 at the top), the iterations CG took (over
+/// every pass), the normal equations' relative residual ‖(AᵀWA + λDᵀD) t − AᵀWy‖ / ‖AᵀWy‖
+/// at the end (of the last pass's weighted equations), the prior's passes (1 for the
+/// quadratic prior) and the RMS change of the cells over the last pass (0 after one).
 pub struct Solution {
     pub cells: Vec<f64>,
     pub iterations: usize,
     pub residual: f64,
+    pub passes: usize,
+    pub change: f64,
 }
 
 /// Wall time of one batch of iterations between two interrupt checks on the calling thread.
@@ -24,7 +28,7 @@ const BATCH: std::time::Duration = std::time::Duration::from_millis(40);
 /// When [`solve`] stops: after `max_iter` steps, or once ‖r‖ < max(rtol ‖AᵀWy‖,
 /// noise ν), where ν = √trace(AᵀWA) is the expected norm of the noise's part of AᵀWy when
 /// W is the rows' inverse noise variance (E[AᵀW n nᵀ W A] = AᵀWA): `noise` = 0 for a
-/// raw whose noise is not known.
+/// raw whose noise is not known. Under an edge-preserving prior, each pass stops so.
 #[derive(Clone, Copy, Debug)]
 pub struct Stop {
     pub rtol: f64,
@@ -43,11 +47,143 @@ impl Stop {
     }
 }
 
+/// The vectors of a solve: the right-hand side b, the Jacobi diagonal, the data's part of
+/// it (kept for the passes after the first; empty with one pass), the previous pass's
+/// cells (and AᵀWA·1 at the start), the cells x, the residual r, the direction p and the
+/// product q; this pass's iterations, the last ρ, the stop's threshold and ‖b‖.
+struct State {
+    b: Vec<f64>,
+    diag: Vec<f64>,
+    data: Vec<f64>,
+    prev: Vec<f64>,
+    x: Vec<f64>,
+    r: Vec<f64>,
+    p: Vec<f64>,
+    q: Vec<f64>,
+    it: usize,
+    rho_prev: f64,
+    tol: f64,
+    bn: f64,
+}
+
+impl State {
+    fn new(n: usize, passes: bool) -> Result<State> {
+        let vec = |v: f64| memory::try_vec("the solve's vectors", n, v);
+        Ok(State {
+            b: vec(0.0)?,
+            diag: vec(0.0)?,
+            data: if passes { vec(0.0)? } else { vec![] },
+            prev: vec(0.0)?,
+            x: vec(0.0)?,
+            r: vec(0.0)?,
+            p: vec(0.0)?,
+            q: vec(0.0)?,
+            it: 0,
+            rho_prev: 0.0,
+            tol: 0.0,
+            bn: 0.0,
+        })
+    }
+
+    /// The right-hand side, the diagonal, the start and its residual; false when b = 0
+    /// (then x = 0 and there is nothing to do).
+    fn start(&mut self, normal: &Normal, work: &mut Work, rtol: f64, noise: f64) -> bool {
+        normal.rhs(work, &mut self.b);
+        let trace = normal.diagonal(work, &mut self.diag);
+        if !self.data.is_empty() {
+            self.data.copy_from_slice(&self.diag);
+        }
+        normal.add_prior_diagonal(work, &mut self.diag);
+        // AᵀWA·1 into prev, with p (not needed before the first step) as the ones.
+        let seen = &mut self.prev;
+        self.p.fill(1.0);
+        normal.apply(&self.p, work, seen);
+        let mean = self.b.iter().sum::<f64>() / seen.iter().sum::<f64>().max(1e-300);
+        self.x
+            .par_iter_mut()
+            .zip(self.b.par_iter().zip(seen.par_iter()))
+            .for_each(|(x, (&b, &s))| *x = if s > 0.0 { b / s } else { mean });
+        self.bn = norm(&self.b);
+        if self.bn == 0.0 {
+            self.x.fill(0.0);
+            return false;
+        }
+        self.tol = (rtol * self.bn).max(noise * trace.sqrt());
+        self.residual(normal, work);
+        true
+    }
+
+    /// r = b − (the normal matrix) x, and CG restarted (the next step is a steepest one).
+    fn residual(&mut self, normal: &Normal, work: &mut Work) {
+        normal.apply(&self.x, work, &mut self.q);
+        self.r
+            .par_iter_mut()
+            .zip(self.b.par_iter().zip(self.q.par_iter()))
+            .for_each(|(r, (&b, &q))| *r = b - q);
+        self.it = 0;
+    }
+
+    /// One CG step.
+    fn step(&mut self, normal: &Normal, work: &mut Work) {
+        // z = r / diag, kept in q until the product overwrites it.
+        self.q
+            .par_iter_mut()
+            .zip(self.r.par_iter().zip(self.diag.par_iter()))
+            .for_each(|(z, (&r, &d))| *z = r / if d > 0.0 { d } else { 1.0 });
+        let rho = dot(&self.r, &self.q);
+        if self.it == 0 {
+            self.p.copy_from_slice(&self.q);
+        } else {
+            let beta = rho / self.rho_prev;
+            self.p
+                .par_iter_mut()
+                .zip(self.q.par_iter())
+                .for_each(|(p, &z)| *p = beta * *p + z);
+        }
+        normal.apply(&self.p, work, &mut self.q);
+        let alpha = rho / dot(&self.p, &self.q);
+        self.x
+            .par_iter_mut()
+            .zip(self.p.par_iter())
+            .for_each(|(x, &p)| *x += alpha * p);
+        self.r
+            .par_iter_mut()
+            .zip(self.q.par_iter())
+            .for_each(|(r, &q)| *r -= alpha * q);
+        (self.it, self.rho_prev) = (self.it + 1, rho);
+    }
+
+    /// The next IRLS pass: the cells kept as the previous ones, the prior's weights from
+    /// them, the diagonal and the residual of the reweighted equations (warm start).
+    fn next_pass(&mut self, normal: &Normal, work: &mut Work) -> Result<()> {
+        self.prev.copy_from_slice(&self.x);
+        normal.reweight(&self.x, work)?;
+        self.diag.copy_from_slice(&self.data);
+        normal.add_prior_diagonal(work, &mut self.diag);
+        self.residual(normal, work);
+        Ok(())
+    }
+
+    /// RMS of x − prev.
+    fn change(&self) -> f64 {
+        let s: f64 = self
+            .x
+            .iter()
+            .zip(&self.prev)
+            .map(|(a, b)| (a - b) * (a - b))
+            .sum();
+        (s / self.x.len().max(1) as f64).sqrt()
+    }
+}
+
 /// Solve the normal equations by Jacobi-preconditioned conjugate gradients, SciPy's `cg`
 /// iteration: start from the normalised back-projection (AᵀWy / AᵀWA·1; cells no row sees
 /// start at Σ AᵀWy / Σ AᵀWA·1), stop as `stop` says (with `stop.noise` = 0, SciPy's
-/// ‖r‖ < rtol ‖AᵀWy‖). `done` counts iterations (progress); Ctrl-C is checked between
-/// batches of about 40 ms.
+/// ‖r‖ < rtol ‖AᵀWy‖). Under an edge-preserving prior ([`super::Prior`]) this is the
+/// first pass, and each further pass solves the reweighted equations from the last cells
+/// until the cells move by less than the prior's `tol` or its passes are spent. `done`
+/// counts iterations (progress, over every pass); Ctrl-C is checked between batches of
+/// about 40 ms and between passes.
 pub fn solve(
     normal: &Normal,
     stop: Stop,
@@ -66,69 +202,40 @@ pub fn solve(
         return Err(Error::param("noise_tol", noise, "a finite value >= 0"));
     }
     let n = normal.cells();
+    let prior = normal.prior();
+    let vectors = if prior.passes > 1 { 8 } else { 7 };
     memory::check(
         "the solve's vectors",
-        memory::bytes_of::<f64>(7 * n as u128) + normal.work_bytes(),
+        memory::bytes_of::<f64>(vectors * n as u128) + normal.work_bytes(),
     )?;
-    let vec = |v: f64| memory::try_vec("the solve's vectors", n, v);
     let mut work = normal.work()?;
-    let (mut b, mut diag, mut seen, mut x) = (vec(0.0)?, vec(0.0)?, vec(0.0)?, vec(0.0)?);
-    let (mut r, mut p, mut q) = (vec(0.0)?, vec(0.0)?, vec(0.0)?);
-    let (mut iterations, mut rho_prev) = (0usize, 0.0f64);
-    let mut first = true;
-    let (mut tol, mut bn) = (0.0, 0.0);
+    let mut s = State::new(n, prior.passes > 1)?;
+    let (mut first, mut iterations, mut passes, mut change) = (true, 0usize, 0usize, 0.0);
     parallel::repeat_until(n_threads, || {
         if first {
             first = false;
-            normal.rhs(&mut work, &mut b);
-            let trace = normal.diagonal(&mut work, &mut diag);
-            // AᵀWA·1, with p (not needed before the first step) as the ones: the seven
-            // vectors the memory check counts are all the solve holds.
-            p.fill(1.0);
-            normal.apply(&p, &mut work, &mut seen);
-            let mean = b.iter().sum::<f64>() / seen.iter().sum::<f64>().max(1e-300);
-            x.par_iter_mut()
-                .zip(b.par_iter().zip(seen.par_iter()))
-                .for_each(|(x, (&b, &s))| *x = if s > 0.0 { b / s } else { mean });
-            bn = norm(&b);
-            if bn == 0.0 {
-                x.fill(0.0);
-                return Ok(true);
-            }
-            tol = (rtol * bn).max(noise * trace.sqrt());
-            normal.apply(&x, &mut work, &mut q);
-            r.par_iter_mut()
-                .zip(b.par_iter().zip(q.par_iter()))
-                .for_each(|(r, (&b, &q))| *r = b - q);
-            return Ok(false);
+            let go = s.start(normal, &mut work, rtol, noise);
+            passes = 1;
+            return Ok(!go);
         }
         let start = std::time::Instant::now();
         loop {
-            if iterations >= max_iter || norm(&r) < tol {
-                return Ok(true);
+            if s.it >= max_iter || norm(&s.r) < s.tol {
+                if passes >= prior.passes {
+                    return Ok(true);
+                }
+                if passes > 1 {
+                    change = s.change();
+                    if change <= prior.tol {
+                        return Ok(true);
+                    }
+                }
+                s.next_pass(normal, &mut work)?;
+                passes += 1;
+                return Ok(false);
             }
-            // z = r / diag, kept in q until the product overwrites it.
-            q.par_iter_mut()
-                .zip(r.par_iter().zip(diag.par_iter()))
-                .for_each(|(z, (&r, &d))| *z = r / if d > 0.0 { d } else { 1.0 });
-            let rho = dot(&r, &q);
-            if iterations == 0 {
-                p.copy_from_slice(&q);
-            } else {
-                let beta = rho / rho_prev;
-                p.par_iter_mut()
-                    .zip(q.par_iter())
-                    .for_each(|(p, &z)| *p = beta * *p + z);
-            }
-            normal.apply(&p, &mut work, &mut q);
-            let alpha = rho / dot(&p, &q);
-            x.par_iter_mut()
-                .zip(p.par_iter())
-                .for_each(|(x, &p)| *x += alpha * p);
-            r.par_iter_mut()
-                .zip(q.par_iter())
-                .for_each(|(r, &q)| *r -= alpha * q);
-            (iterations, rho_prev) = (iterations + 1, rho);
+            s.step(normal, &mut work);
+            iterations += 1;
             done.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
             parallel::checkpoint()?;
             if start.elapsed() >= BATCH {
@@ -137,6 +244,9 @@ pub fn solve(
         }
     })?;
     // The true residual of the result (not the recurrence's).
+    let State {
+        x, b, mut q, bn, ..
+    } = s;
     normal.apply(&x, &mut work, &mut q);
     q.iter_mut().zip(&b).for_each(|(q, b)| *q -= b);
     let residual = if bn > 0.0 { norm(&q) / bn } else { 0.0 };
@@ -144,6 +254,8 @@ pub fn solve(
         cells: x,
         iterations,
         residual,
+        passes,
+        change,
     })
 }
 
@@ -293,6 +405,154 @@ mod tests {
             };
             assert!(e.to_string().contains("noise_tol"), "{e}");
         }
+    }
+
+    /// The gradient of the objective Σ w (row · t − y)² + λ Σ_e ρ(r_e) at t, from the dense
+    /// rows and ρ' written out here (Huber's: 2r, or 2 s sign r beyond s; TV's: r/ε, or
+    /// sign r beyond ε).
+    fn gradient(
+        dense: &[Vec<f64>],
+        w: &[f64],
+        y: &[f64],
+        (nx, ny, lam): (usize, usize, f64),
+        penalty: crate::inverse::solve::Penalty,
+        t: &[f64],
+    ) -> Vec<f64> {
+        use crate::inverse::solve::Penalty;
+        let mut g = vec![0.0; nx * ny];
+        for ((row, &w), &y) in dense.iter().zip(w).zip(y) {
+            let res: f64 = row.iter().zip(t).map(|(a, b)| a * b).sum::<f64>() - y;
+            for (g, a) in g.iter_mut().zip(row) {
+                *g += 2.0 * w * res * a;
+            }
+        }
+        let d = |r: f64| match penalty {
+            Penalty::Quadratic => 2.0 * r,
+            Penalty::Huber { threshold: s } => 2.0 * r.clamp(-s, s),
+            Penalty::Tv { smoothing: e } => (r / e).clamp(-1.0, 1.0),
+        };
+        for j in 0..ny {
+            for i in 0..nx {
+                let c = j * nx + i;
+                for (ok, o) in [(i + 1 < nx, c + 1), (j + 1 < ny, c + nx)] {
+                    if ok {
+                        let r = t[o] - t[c];
+                        g[o] += lam * d(r);
+                        g[c] -= lam * d(r);
+                    }
+                }
+            }
+        }
+        g
+    }
+
+    /// IRLS reaches the edge-preserving objective's minimum: its gradient (written out
+    /// independently above) vanishes at the cells, in both forms of the map, for Huber and
+    /// TV with thresholds that some differences exceed; and each pass's objective is no
+    /// higher than the last's (the weights make a quadratic majorant).
+    #[test]
+    fn irls_reaches_the_edge_preserving_optimum() {
+        use crate::inverse::solve::{Penalty, Prior};
+        let (nx, ny, lam) = (9, 8, 0.02);
+        let (block, dense, w, y) = factored(nx, ny);
+        let rows = rows_of(&dense, w.clone(), y.clone());
+        for penalty in [
+            Penalty::Huber { threshold: 0.05 },
+            Penalty::Tv { smoothing: 0.02 },
+        ] {
+            for b in [block.clone(), rows.clone()] {
+                let prior = Prior {
+                    penalty,
+                    passes: 500,
+                    tol: 1e-13,
+                };
+                let normal = Normal::new(nx, ny, lam, vec![b])
+                    .unwrap()
+                    .with_prior(prior)
+                    .unwrap();
+                let done = AtomicUsize::new(0);
+                let s = solve(&normal, Stop::relative(1e-14, 10_000), None, &done).unwrap();
+                assert!(s.passes > 3 && s.passes < 500, "{} passes", s.passes);
+                assert!(s.change <= 1e-13);
+                assert_eq!(
+                    done.load(std::sync::atomic::Ordering::Relaxed),
+                    s.iterations
+                );
+                let g = gradient(&dense, &w, &y, (nx, ny, lam), penalty, &s.cells);
+                let gmax = g.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                // Some differences are beyond the threshold: the prior is not quadratic here.
+                let beyond = (0..nx * ny - 1)
+                    .filter(|&c| (s.cells[c + 1] - s.cells[c]).abs() > 0.05)
+                    .count();
+                assert!(beyond > 5, "{beyond}");
+                assert!(gmax < 1e-9, "{penalty:?}: gradient {gmax}");
+            }
+        }
+    }
+
+    /// The quadratic prior is the solve it was: `with_prior(quadratic)` gives the same bits
+    /// as no prior given, and the weighted difference operator with every weight 1 is the
+    /// unweighted one bit for bit.
+    #[test]
+    fn quadratic_prior_is_the_plain_solve() {
+        use crate::inverse::solve::{Penalty, Prior};
+        let (nx, ny, lam) = (9, 8, 0.2);
+        let (block, ..) = factored(nx, ny);
+        let plain = Normal::new(nx, ny, lam, vec![block.clone()]).unwrap();
+        let quad = Normal::new(nx, ny, lam, vec![block.clone()])
+            .unwrap()
+            .with_prior(Prior::quadratic())
+            .unwrap();
+        let run = |n: &Normal| {
+            solve(n, Stop::relative(1e-12, 10_000), None, &AtomicUsize::new(0))
+                .unwrap()
+                .cells
+        };
+        assert_eq!(run(&plain), run(&quad));
+        // Weights all 1 (Huber with a threshold no difference reaches).
+        let huge = Prior {
+            penalty: Penalty::Huber { threshold: 1e9 },
+            passes: 2,
+            tol: 0.0,
+        };
+        let huber = Normal::new(nx, ny, lam, vec![block])
+            .unwrap()
+            .with_prior(huge)
+            .unwrap();
+        let t: Vec<f64> = (0..nx * ny)
+            .map(|k| ((k * 29) % 13) as f64 / 13.0)
+            .collect();
+        let (mut a, mut b) = (vec![0.0; nx * ny], vec![0.0; nx * ny]);
+        let mut work = plain.work().unwrap();
+        plain.apply(&t, &mut work, &mut a);
+        let mut work = huber.work().unwrap();
+        huber.reweight(&t, &mut work).unwrap();
+        assert!(work.edges.is_some());
+        huber.apply(&t, &mut work, &mut b);
+        assert_eq!(a, b);
+        let (mut da, mut db) = (vec![0.5; nx * ny], vec![0.5; nx * ny]);
+        plain.add_prior_diagonal(&plain.work().unwrap(), &mut da);
+        huber.add_prior_diagonal(&work, &mut db);
+        assert_eq!(da, db);
+    }
+
+    #[test]
+    fn bad_priors_name_their_field() {
+        use crate::inverse::solve::Prior;
+        let name = |r: Result<Prior>| r.err().unwrap().parameter_name().unwrap();
+        assert_eq!(name(Prior::from_parts("l1", 0.1, 10, 1e-3)), "prior");
+        for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            assert_eq!(name(Prior::from_parts("huber", bad, 10, 1e-3)), "threshold");
+            assert_eq!(name(Prior::from_parts("tv", bad, 10, 1e-3)), "threshold");
+        }
+        assert_eq!(
+            name(Prior::from_parts("huber", 0.1, 0, 1e-3)),
+            "prior_passes"
+        );
+        assert_eq!(name(Prior::from_parts("tv", 0.1, 5, f64::NAN)), "prior_tol");
+        // The quadratic prior takes no threshold and runs one pass.
+        let q = Prior::from_parts("quadratic", f64::NAN, 7, 0.0).unwrap();
+        assert_eq!(q, Prior::quadratic());
     }
 
     #[test]

@@ -43,4 +43,4 @@ mod testing;
 
 pub use cg::{solve, Solution, Stop};
 pub use csr::Csr;
-pub use normal::{Block, Normal, Work};
+pub use normal::{Block, Normal, Penalty, Prior, Work};

@@ -47,11 +47,118 @@ impl Prepared {
     }
 }
 
+/// The penalty on each first difference r of neighbouring cells (docs/model.md §11): the
+/// prior term is λ Σ_e ρ(r_e).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Penalty {
+    /// ρ(r) = r² (the normal equations are linear: one solve).
+    Quadratic,
+    /// Huber's: ρ(r) = r² for |r| ≤ s, 2 s |r| − s² beyond (quadratic near 0, linear
+    /// beyond the threshold s, so an edge costs in proportion to its height).
+    Huber { threshold: f64 },
+    /// Total variation, smoothed at ε: ρ(r) = r² / (2ε) for |r| ≤ ε, |r| − ε/2 beyond
+    /// (Huber's with s = ε, divided by 2ε: |r| but for a rounded tip).
+    Tv { smoothing: f64 },
+}
+
+/// The prior: its penalty and, for an edge-preserving one, the outer loop that solves it
+/// by iteratively reweighted least squares (IRLS): at most `passes` conjugate-gradient
+/// solves of the normal equations with per-difference weights w_e = ρ'(r_e) / (2 r_e)
+/// from the previous pass's cells (the first pass is the quadratic prior's solve), each
+/// warm-started from the previous cells, until the cells move by less than `tol` (RMS
+/// over the cells) from one pass to the next.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Prior {
+    pub penalty: Penalty,
+    pub passes: usize,
+    pub tol: f64,
+}
+
+impl Prior {
+    /// The quadratic prior λ |D t|² (one solve).
+    pub fn quadratic() -> Prior {
+        Prior {
+            penalty: Penalty::Quadratic,
+            passes: 1,
+            tol: 0.0,
+        }
+    }
+
+    /// A prior by name ("quadratic", "huber", "tv") with its threshold (Huber's s, TV's
+    /// smoothing ε; ignored by the quadratic prior) and the outer loop's passes and stop,
+    /// each checked.
+    pub fn from_parts(name: &str, threshold: f64, passes: usize, tol: f64) -> Result<Prior> {
+        let positive = |v: f64| v.is_finite() && v > 0.0;
+        let penalty = match name {
+            "quadratic" => Penalty::Quadratic,
+            "huber" | "tv" if !positive(threshold) => {
+                return Err(Error::param("threshold", threshold, "a finite value > 0"))
+            }
+            "huber" => Penalty::Huber { threshold },
+            "tv" => Penalty::Tv {
+                smoothing: threshold,
+            },
+            _ => {
+                return Err(Error::param(
+                    "prior",
+                    name,
+                    "one of \"quadratic\", \"huber\", \"tv\"",
+                ))
+            }
+        };
+        if passes == 0 {
+            return Err(Error::param("prior_passes", passes, "an integer >= 1"));
+        }
+        if !(tol.is_finite() && tol >= 0.0) {
+            return Err(Error::param("prior_tol", tol, "a finite value >= 0"));
+        }
+        let passes = if penalty == Penalty::Quadratic {
+            1
+        } else {
+            passes
+        };
+        Ok(Prior {
+            penalty,
+            passes,
+            tol,
+        })
+    }
+
+    /// The prior checked as [`Prior::from_parts`] checks it (one pass if quadratic).
+    pub fn checked(self) -> Result<Prior> {
+        let (name, threshold) = match self.penalty {
+            Penalty::Quadratic => ("quadratic", 1.0),
+            Penalty::Huber { threshold } => ("huber", threshold),
+            Penalty::Tv { smoothing } => ("tv", smoothing),
+        };
+        Prior::from_parts(name, threshold, self.passes, self.tol)
+    }
+
+    /// The IRLS weight w = ρ'(r) / (2 r) of a difference r (1 for the quadratic prior):
+    /// the prior's quadratic majorant at r, so that each pass lowers the objective.
+    #[inline]
+    pub(super) fn weight(&self, r: f64) -> f64 {
+        let a = r.abs();
+        match self.penalty {
+            Penalty::Quadratic => 1.0,
+            Penalty::Huber { threshold } => {
+                if a <= threshold {
+                    1.0
+                } else {
+                    threshold / a
+                }
+            }
+            Penalty::Tv { smoothing } => 0.5 / a.max(smoothing),
+        }
+    }
+}
+
 /// The normal equations of one solve over an nx × ny grid of cells.
 pub struct Normal {
     pub(super) nx: usize,
     pub(super) ny: usize,
     pub(super) lam: f64,
+    pub(super) prior: Prior,
     pub(super) blocks: Vec<Prepared>,
     /// Whether a product has y runs to read and sweep (some block is factored): then the
     /// column-chunked prefix sums exist.
@@ -60,11 +167,20 @@ pub struct Normal {
 
 /// The scratch of one product: per block, a Factored block's (nr × nx) back-projected rows
 /// or a Rows block's weighted residuals; and two column-chunked (ny + 1) × nx arrays for
-/// the factored blocks' runs (see [`Normal::prefix`] and [`Normal::sweep`]).
+/// the factored blocks' runs (see [`Normal::prefix`] and [`Normal::sweep`]); and the
+/// prior's per-difference weights when they are not all 1 (an IRLS pass after the first).
 pub struct Work {
     pub(super) scratch: Vec<Vec<f64>>,
     pub(super) s0: Vec<f64>,
     pub(super) s1: Vec<f64>,
+    pub(super) edges: Option<Edges>,
+}
+
+/// The weights of the differences: `x` along grid rows (cell (j, i) with (j, i + 1), at
+/// j·(nx − 1) + i), `y` down the columns (cell (j, i) with (j + 1, i), at j·nx + i).
+pub struct Edges {
+    pub(super) x: Vec<f64>,
+    pub(super) y: Vec<f64>,
 }
 
 /// Columns per chunk of the column-wise sweeps (prefix sums over grid rows): fixed, so
@@ -150,9 +266,29 @@ impl Normal {
             nx,
             ny,
             lam,
+            prior: Prior::quadratic(),
             blocks: prepared,
             runs,
         })
+    }
+
+    /// The same normal equations under `prior` ([`Prior::checked`]).
+    pub fn with_prior(mut self, prior: Prior) -> Result<Normal> {
+        self.prior = prior.checked()?;
+        Ok(self)
+    }
+
+    pub fn prior(&self) -> Prior {
+        self.prior
+    }
+
+    /// Values of the prior's weights (0 for the quadratic prior, whose weights are all 1).
+    pub(super) fn edges_len(&self) -> usize {
+        if self.prior.penalty == Penalty::Quadratic {
+            0
+        } else {
+            (self.nx - 1) * self.ny + self.nx * (self.ny - 1)
+        }
     }
 
     pub fn cells(&self) -> usize {
@@ -166,7 +302,8 @@ impl Normal {
             .iter()
             .map(|p| self.scratch_len(p) as u128)
             .sum::<u128>()
-            + 2 * self.chunked_len() as u128)
+            + 2 * self.chunked_len() as u128
+            + self.edges_len() as u128)
             * 8
     }
 
@@ -200,6 +337,7 @@ impl Normal {
             scratch,
             s0: memory::try_vec("the solve's work arrays", n, 0.0)?,
             s1: memory::try_vec("the solve's work arrays", n, 0.0)?,
+            edges: None,
         })
     }
 }

@@ -12,7 +12,7 @@ use super::csr::Csr;
 #[cfg(target_arch = "x86_64")]
 use super::kernels::dot_slices_avx2;
 use super::kernels::{axpy, dot_slices};
-use super::normal::{Block, Normal, Work, CW};
+use super::normal::{Block, Edges, Normal, Work, CW};
 use super::pieces::{Band, Pieces};
 
 /// One raw row b of a factored block: u = (py row b) · T (for products on py's pieces: its
@@ -248,8 +248,9 @@ impl Normal {
     #[inline(always)]
     fn gather_row(&self, work: &Work, squared: bool, t: Option<&[f64]>, j: usize, o: &mut [f64]) {
         let (nx, ny, lam) = (self.nx, self.ny, self.lam);
-        match t {
-            Some(t) => {
+        match (t, &work.edges) {
+            (Some(t), Some(e)) => self.weighted_prior_row(t, e, j, o),
+            (Some(t), None) => {
                 let row = |r: usize| &t[r * nx..(r + 1) * nx];
                 let here = row(j);
                 for i in 0..nx {
@@ -269,7 +270,7 @@ impl Normal {
                     o[i] = lam * g;
                 }
             }
-            None => o.fill(0.0),
+            (None, _) => o.fill(0.0),
         }
         for (p, scratch) in self.blocks.iter().zip(&work.scratch) {
             match &p.block {
@@ -308,6 +309,94 @@ impl Normal {
         }
     }
 
+    /// Row j of λ Dᵀ diag(w) D t, the prior's part of a product under the weights `e`.
+    #[inline(always)]
+    fn weighted_prior_row(&self, t: &[f64], e: &Edges, j: usize, o: &mut [f64]) {
+        let (nx, ny, lam) = (self.nx, self.ny, self.lam);
+        let row = |r: usize| &t[r * nx..(r + 1) * nx];
+        let here = row(j);
+        let wx = &e.x[j * (nx - 1)..(j + 1) * (nx - 1)];
+        for i in 0..nx {
+            let mut g = 0.0;
+            if i > 0 {
+                g += wx[i - 1] * (here[i] - here[i - 1]);
+            }
+            if i + 1 < nx {
+                g += wx[i] * (here[i] - here[i + 1]);
+            }
+            if j > 0 {
+                g += e.y[(j - 1) * nx + i] * (here[i] - row(j - 1)[i]);
+            }
+            if j + 1 < ny {
+                g += e.y[j * nx + i] * (here[i] - row(j + 1)[i]);
+            }
+            o[i] = lam * g;
+        }
+    }
+
+    /// The prior's weights at the cells t ([`Prior::weight`] of each difference) into
+    /// `work` (allocated on first use).
+    pub(super) fn reweight(&self, t: &[f64], work: &mut Work) -> crate::infra::error::Result<()> {
+        let (nx, ny) = (self.nx, self.ny);
+        if work.edges.is_none() {
+            let what = "the prior's weights";
+            work.edges = Some(Edges {
+                x: crate::infra::memory::try_vec(what, (nx - 1) * ny, 1.0)?,
+                y: crate::infra::memory::try_vec(what, nx * (ny - 1), 1.0)?,
+            });
+        }
+        let Some(e) = work.edges.as_mut() else {
+            return Ok(());
+        };
+        let prior = self.prior;
+        if nx > 1 {
+            e.x.par_chunks_mut(nx - 1).enumerate().for_each(|(j, w)| {
+                let r = &t[j * nx..(j + 1) * nx];
+                for (i, w) in w.iter_mut().enumerate() {
+                    *w = prior.weight(r[i + 1] - r[i]);
+                }
+            });
+        }
+        e.y.par_chunks_mut(nx).enumerate().for_each(|(j, w)| {
+            let (a, b) = (&t[j * nx..(j + 1) * nx], &t[(j + 1) * nx..(j + 2) * nx]);
+            for (i, w) in w.iter_mut().enumerate() {
+                *w = prior.weight(b[i] - a[i]);
+            }
+        });
+        Ok(())
+    }
+
+    /// out += diag(λ Dᵀ diag(w) D): λ times each cell's neighbours (all weights 1), or the
+    /// sum of its differences' weights in `work`.
+    pub(super) fn add_prior_diagonal(&self, work: &Work, out: &mut [f64]) {
+        let (nx, ny) = (self.nx, self.ny);
+        for (c, d) in out.iter_mut().enumerate() {
+            let (j, i) = (c / nx, c % nx);
+            match &work.edges {
+                None => {
+                    let n = (i > 0) as u8 + (i + 1 < nx) as u8 + (j > 0) as u8 + (j + 1 < ny) as u8;
+                    *d += self.lam * n as f64;
+                }
+                Some(e) => {
+                    let mut s = 0.0;
+                    if i > 0 {
+                        s += e.x[j * (nx - 1) + i - 1];
+                    }
+                    if i + 1 < nx {
+                        s += e.x[j * (nx - 1) + i];
+                    }
+                    if j > 0 {
+                        s += e.y[(j - 1) * nx + i];
+                    }
+                    if j + 1 < ny {
+                        s += e.y[j * nx + i];
+                    }
+                    *d += self.lam * s;
+                }
+            }
+        }
+    }
+
     /// out = (Aᵀ W A + λ DᵀD) t.
     pub fn apply(&self, t: &[f64], work: &mut Work, out: &mut [f64]) {
         if self.runs {
@@ -332,22 +421,15 @@ impl Normal {
         self.gather(work, false, None, out);
     }
 
-    /// diag(Aᵀ W A + λ DᵀD) into `out`; returns trace(Aᵀ W A), the data part's sum
-    /// (taken before the prior is added).
+    /// diag(Aᵀ W A) into `out` (the prior's part is [`Normal::add_prior_diagonal`]);
+    /// returns trace(Aᵀ W A).
     pub(super) fn diagonal(&self, work: &mut Work, out: &mut [f64]) -> f64 {
         self.rows_into(None, work, true, |b, k, _| match b {
             Block::Factored { norm, w, .. } => w[k] * norm * norm,
             Block::Rows { w, .. } => w[k],
         });
         self.gather(work, true, None, out);
-        let trace = out.iter().sum::<f64>();
-        let (nx, ny) = (self.nx, self.ny);
-        for (c, d) in out.iter_mut().enumerate() {
-            let (j, i) = (c / nx, c % nx);
-            let n = (i > 0) as u8 + (i + 1 < nx) as u8 + (j > 0) as u8 + (j + 1 < ny) as u8;
-            *d += self.lam * n as f64;
-        }
-        trace
+        out.iter().sum::<f64>()
     }
 }
 
