@@ -15,9 +15,12 @@ squares
 
     min_t  sum_rows ((A t - raw) / sigma)^2  +  lambda * |D t|^2
 
-with sigma the raw's noise per pixel (from ``noise``, or a stated floor for noise-free
-raws), D the differences between neighbouring cells and lambda a fixed prior weight. The
-regulariser's weight never depends on the number of rows: more data never hurts.
+with sigma the raw's noise per pixel (from ``noise``, or the noise model the raw carries,
+or estimated from the data; a stated floor for noise-free raws), D the differences
+between neighbouring cells and lambda the prior's weight: chosen per call from the data
+(the unbiased predictive risk for a known noise, generalised cross-validation for an
+unknown one, searched in the core over log lambda on the region's central part), or
+fixed by the caller.
 """
 
 from __future__ import annotations
@@ -31,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from .. import _native, _validate
-from .._noise import options as _noise
+from .._noise import stated as _stated
 from .._progress import Show
 from .._progress import progress_bar as _progress
 from .._progress import progress_flag as _progress_flag
@@ -46,9 +49,25 @@ Extent = tuple[float, float, float, float]
 #: The noise (fraction of a fully lit white pixel, 1 sigma) assumed for a raw given without
 #: ``noise``: the forward model's stated accuracy (docs/render.md).
 NOISE_FLOOR = 1e-3
-#: The default weight lambda of the smoothness prior: neighbouring cells' albedos differ by
-#: about 1/sqrt(lambda) = 0.5 (a prior as wide as the albedo range's half).
-DEFAULT_REGULARIZATION = 4.0
+#: The choice of lambda from the data (docs/reconstruct.md, "The prior's weight"): the
+#: bracket searched, for weights 1/sigma^2 (lambda ~ 1/s^2 for neighbouring cells' albedos
+#: differing by about s: s from 0.003 to 30); capped at the data's range (the refusal of
+#: too large a ``regularization``).
+CHOOSE_BRACKET = (1e-3, 1e5)
+#: The photon counts an estimate of the noise can find (widening the bracket's search
+#: when the noise is not known: lambda / N is searched).
+CHOOSE_PHOTONS = (10.0, 1e7)
+#: Golden-section steps in log lambda after the scan over decades.
+CHOOSE_GOLDEN_STEPS = 6
+#: Rademacher probes of the trace estimate (the fit's degrees of freedom) at each lambda.
+CHOOSE_PROBES = 4
+#: The choice is made on the region's central part, at most this many cells a side
+#: (tiles take the same lambda).
+CHOOSE_SIDE = 64
+#: Each of the choice's solves stops at this many iterations at most.
+CHOOSE_MAX_ITER = 1000
+#: The probe solves' relative stop.
+CHOOSE_PROBE_RTOL = 1e-6
 #: Conjugate-gradient stop: the residual of the normal equations relative to their
 #: right-hand side.
 CG_RTOL = 1e-10
@@ -79,9 +98,17 @@ class Reconstruction:
     ``channels`` (numbered from 1) of ``design`` and their lenses of ``lens_types``
     (numbered from 1; None: every type); and what the solve did: ``rows`` (raw
     pixels used), ``iterations``, ``residual`` (the normal equations' relative residual),
-    ``regularization`` (lambda), ``noise`` (the per-pixel sigma model used) and ``tiles``
-    (the solves: 1, or the tiles of a tiled reconstruction, whose ``rows`` is then summed
-    over the tiles, ``iterations`` the most and ``residual`` the largest of any tile)."""
+    ``regularization`` (lambda), ``regularization_rule`` (how it was set: ``"fixed"``
+    (given), ``"upre"`` (the unbiased predictive risk, a known noise) or ``"gcv"``
+    (generalised cross-validation, an unknown noise)), ``noise`` (the per-pixel sigma model
+    used, as text), ``noise_model`` (it as ``{"photons": N, "read_noise": r}``, photons
+    ``inf`` for noise-free), ``noise_source`` (``"given"``: the call's ``noise``;
+    ``"raw"``: carried by the raw; ``"estimated"``: from the data, read noise taken as 0),
+    ``choice`` (the lambdas the choice tried, in order, as (lambda, score, RSS, df,
+    iterations) in the search's units; empty for a fixed lambda and a known noise) and
+    ``tiles`` (the solves: 1, or the tiles of a tiled reconstruction, whose ``rows`` is
+    then summed over the tiles, ``iterations`` the most and ``residual`` the largest of any
+    tile)."""
 
     image: np.ndarray
     extent: Extent
@@ -96,6 +123,10 @@ class Reconstruction:
     noise: str
     tiles: int = 1
     lens_types: tuple[int, ...] | None = None
+    regularization_rule: str = "fixed"
+    noise_model: dict[str, float] | None = None
+    noise_source: str = "given"
+    choice: tuple[tuple[float, float, float, float, int], ...] = ()
 
     def __post_init__(self) -> None:
         self.image.setflags(write=False)
@@ -112,7 +143,8 @@ class Reconstruction:
                 f"[{x0:.4g}, {x1:.4g}], Y [{y0:.4g}, {y1:.4g}] mm, depth {depth}, "
                 f"channels={self.channels}{types}, rows={self.rows}, "
                 f"iterations={self.iterations}, residual={self.residual:.2e}, "
-                f"regularization={self.regularization:g}, tiles={self.tiles})")
+                f"regularization={self.regularization:g} ({self.regularization_rule}), "
+                f"noise {self.noise} ({self.noise_source}), tiles={self.tiles})")
 
 
 def _depth(depth: Any) -> float | Plane | DepthMap:
@@ -198,15 +230,21 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
     - ``step``: the cell pitch, mm (None: delta(z) = mu_1 z / L_1, the sensor's step, at
       the reference depth: a plane's depth at the region's centre (on the axis without a
       region), a depth map's median)
-    - ``regularization``: lambda, the smoothness prior's weight (None:
-      ``DEFAULT_REGULARIZATION``); it does not depend on the number of pixels
+    - ``regularization``: lambda, the smoothness prior's weight (None: chosen from the
+      data per call, in the core: the unbiased predictive risk RSS + 2 df - m when the
+      noise is known, generalised cross-validation m RSS / (m - df)^2 when it is not,
+      df the fit's degrees of freedom by a Hutchinson trace estimate; searched over
+      decades of ``CHOOSE_BRACKET`` then by golden section in log lambda, on the
+      region's central ``CHOOSE_SIDE`` cells; docs/reconstruct.md). A number fixes it
     - ``channels``: channel numbers from 1 (None: every channel)
     - ``lens_types``: lens type numbers from 1 (a multi-focus array's types, in the order
       of the channel's ``f``): only the pixels under lenses of these types are used
       (None: every type)
     - ``noise``: the raw's noise, as for :func:`splitlf.render` (``{"photons": N,
-      "read_noise": r}``); None: noise-free, weighted as ``NOISE_FLOOR`` of white. It also
-      sets the solve's stop: with a known noise the CG stops once its residual is
+      "read_noise": r}``; ``{"photons": math.inf}``: noise-free, weighted as
+      ``NOISE_FLOOR`` of white); None: the noise model the raw carries (``raw.noise``),
+      and when it carries none, estimated from the data (photon noise, N fitted by GCV's
+      RSS / (m - df); read noise taken as 0). It also sets the solve's stop: with a known noise the CG stops once its residual is
       ``CG_NOISE_TOL`` of the noise's expected norm in the right-hand side (measured: the
       image moves from the fully converged one by 0.1–2 % of its error against the
       truth, docs/reconstruct.md step 3), or at ``CG_RTOL`` of the right-hand side,
@@ -243,9 +281,12 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
     design = raw.design
     surface = _depth(depth)
     chans = _channels(design, channels)
-    noise_ = _noise(noise)
-    lam = DEFAULT_REGULARIZATION if regularization is None else _validate.real(
-        regularization, "regularization")
+    noise_, source = _stated(noise), "given"
+    if noise_ is None:
+        noise_, source = raw.noise, "raw"
+    if noise_ is None:
+        source = "estimated"
+    lam = None if regularization is None else _validate.real(regularization, "regularization")
     _validate.n_threads(n_threads)
     plane = surface if not isinstance(surface, float) else Plane(surface)
     options = {
@@ -256,18 +297,26 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
         "noise": None if noise_ is None else (noise_["photons"], noise_["read_noise"]),
         "allow_slow": allow_slow, "n_threads": n_threads,
         "settings": (NOISE_FLOOR, CG_RTOL, CG_MAX_ITER, CG_NOISE_TOL, TILE_OVERLAP, MIN_TILE,
-                     MAX_SECONDS)}
+                     MAX_SECONDS),
+        "choose": (*CHOOSE_BRACKET, CHOOSE_PHOTONS, CHOOSE_GOLDEN_STEPS, CHOOSE_PROBES, CHOOSE_SIDE,
+                   CHOOSE_MAX_ITER, CHOOSE_PROBE_RTOL)}
     report, bars = _reporter(_progress_flag(progress))
     try:
-        image, extent, h, rows, iterations, resid, tiles, types = _native.reconstruct(
+        image, extent, h, rows, iterations, resid, tiles, types, chosen = _native.reconstruct(
             design.core, [np.asarray(i, dtype=np.float64) for i in raw.images], plane.seam(),
             options, report)
     finally:
         for bar in bars:
             bar.close()
-    noise_text = (f"noise-free: sigma = {NOISE_FLOOR:g} of white" if noise_ is None else
-                  f"photons {noise_['photons']:g}, read noise {noise_['read_noise']:g}")
+    lam_used, rule, (photons, read), _, trials = chosen
+    noise_text = (f"noise-free: sigma = {NOISE_FLOOR:g} of white" if photons == math.inf else
+                  f"photons {photons:g}, read noise {read:g}")
+    _log.info("reconstruct: lambda %.6g (%s), noise %s (%s)", lam_used, rule, noise_text,
+              source)
     return Reconstruction(image=image, extent=extent, step=h, design=design, depth=surface,
                           channels=chans, rows=rows, iterations=iterations, residual=resid,
-                          regularization=lam, noise=noise_text, tiles=tiles,
-                          lens_types=None if types is None else tuple(types))
+                          regularization=lam_used, noise=noise_text, tiles=tiles,
+                          lens_types=None if types is None else tuple(types),
+                          regularization_rule=rule,
+                          noise_model={"photons": photons, "read_noise": read},
+                          noise_source=source, choice=tuple(trials))

@@ -13,6 +13,7 @@ use std::sync::Mutex;
 use crate::imaging::scene::Surface;
 use crate::infra::error::{Error, Result};
 use crate::infra::memory;
+use crate::inverse::choose::{self, Rule};
 use crate::inverse::plan::Estimate;
 use crate::inverse::solve::{self, Block, Csr};
 use crate::inverse::system::{self, CellGrid, OUTSIDE_SHARE};
@@ -35,6 +36,34 @@ pub struct Settings {
     pub min_tile: usize,
     /// The expected time (s) beyond which a reconstruction is refused unless allowed.
     pub max_seconds: f64,
+    /// How λ is chosen from the data when it is not given ([`choose`]).
+    pub choose: ChooseSettings,
+}
+
+/// The choice of λ ([`choose`]): the bracket of λ for weights in inverse-variance units
+/// (capped at [`MAX_PRIOR_SHARE`] times the data's mean weight per cell), the range of
+/// photon counts an estimate of the noise can find (it widens the bracket when the noise
+/// is not known), the golden-section steps, the trace probes, the central sub-grid's side
+/// (cells) it is made on, each of its solves' iteration cap and the probes' stop.
+#[derive(Clone, Copy, Debug)]
+pub struct ChooseSettings {
+    pub lo: f64,
+    pub hi: f64,
+    pub photons: [f64; 2],
+    pub golden_steps: usize,
+    pub probes: usize,
+    pub side: usize,
+    pub max_iter: usize,
+    pub probe_rtol: f64,
+}
+
+/// The raw's noise as a reconstruction takes it: not known (estimated from the data),
+/// noise-free (weighted as the floor), or photon noise N with read noise r (electrons).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Noise {
+    Unknown,
+    Free,
+    Photons([f64; 2]),
 }
 
 /// The surface as the caller gives it: "plane" with (z0, gx, gy), or "depthmap" with its
@@ -48,8 +77,8 @@ pub struct SurfaceSpec<'a> {
 
 /// One reconstruction's inputs: the raw (every channel's image, row-major), the surface,
 /// the channels and lens types (numbered from 0; lens types None: every type), the region
-/// (None: what the channels see), the step (None: δ at the reference depth), λ, the
-/// noise (photons, read noise; None: noise-free), the tile side (None: one solve, or the
+/// (None: what the channels see), the step (None: δ at the reference depth), λ (None:
+/// chosen from the data, [`choose`]), the noise, the tile side (None: one solve, or the
 /// tiles that fit), whether a slow run is allowed, the threads and a memory limit below
 /// what is available (tests).
 #[derive(Clone, Debug)]
@@ -61,8 +90,8 @@ pub struct Request<'a> {
     pub lens_types: Option<Vec<usize>>,
     pub region: Option<[f64; 4]>,
     pub step: Option<f64>,
-    pub regularization: f64,
-    pub noise: Option<[f64; 2]>,
+    pub regularization: Option<f64>,
+    pub noise: Noise,
     pub tile: Option<usize>,
     pub allow_slow: bool,
     pub n_threads: Option<usize>,
@@ -85,6 +114,14 @@ pub struct Outcome {
     pub residual: f64,
     pub tiles: usize,
     pub lens_types: Option<Vec<usize>>,
+    /// The prior's weight used, and how it was set: "fixed" (given), "upre" or "gcv".
+    pub regularization: f64,
+    pub rule: &'static str,
+    /// The noise used (Free or Photons) and whether it was estimated here.
+    pub noise: Noise,
+    pub estimated: bool,
+    /// The λ the choice tried, in order (empty for a fixed λ with a known noise).
+    pub trials: Vec<choose::Trial>,
 }
 
 /// What a running reconstruction reports: its phase (0 planning, 1 the map, 2 the solve),
@@ -113,11 +150,22 @@ impl Progress {
     }
 }
 
-/// The checked inputs shared by every tile.
+/// The checked inputs shared by every tile, with λ and the noise as the solves take them
+/// (chosen or estimated once, before the tiles).
 struct Plan<'a> {
     req: &'a Request<'a>,
     surface: Surface,
     types: Option<Vec<usize>>,
+    lam: f64,
+    noise: Noise,
+}
+
+/// A grid's normal equations: the padding, the padded grid, the equations and the rows.
+struct Equations {
+    pad: usize,
+    grid: CellGrid,
+    normal: solve::Normal,
+    rows: usize,
 }
 
 /// Reconstruct: the checks, the grid, then one solve or tiles (see the module doc).
@@ -152,11 +200,12 @@ pub fn reconstruct(req: &Request<'_>, progress: &Progress) -> Result<Outcome> {
             ));
         }
     }
-    let lam = req.regularization;
-    if !(lam.is_finite() && lam > 0.0) {
-        return Err(Error::param("regularization", lam, "a finite value > 0"));
+    if let Some(lam) = req.regularization {
+        if !(lam.is_finite() && lam > 0.0) {
+            return Err(Error::param("regularization", lam, "a finite value > 0"));
+        }
     }
-    if let Some([n, r]) = req.noise {
+    if let Noise::Photons([n, r]) = req.noise {
         if !(n.is_finite() && n > 0.0 && r.is_finite() && r >= 0.0) {
             return Err(Error::param(
                 "noise",
@@ -177,17 +226,29 @@ pub fn reconstruct(req: &Request<'_>, progress: &Progress) -> Result<Outcome> {
     let s = req.surface;
     let surface = Surface::from_parts(s.kind, s.params, s.map)?;
     let types = lens_types(d, &req.channels, req.lens_types.as_deref())?;
-    let plan = Plan {
+    let mut plan = Plan {
         req,
         surface,
         types,
+        lam: req.regularization.unwrap_or(1.0),
+        noise: req.noise,
     };
     let grid = plan.grid(req.region)?;
-    match req.tile {
+    let fixed = req.regularization.is_some() && req.noise != Noise::Unknown;
+    let (rule, trials) = if fixed {
+        ("fixed", vec![])
+    } else {
+        plan.choose(&grid, progress)?
+    };
+    let mut out = match req.tile {
         Some(t) if grid.nx > t || grid.ny > t => plan.tiled(&grid, t, progress),
         Some(_) => plan.hinted(&grid, progress, false),
         None => plan.hinted(&grid, progress, true),
-    }
+    }?;
+    out.rule = rule;
+    out.trials = trials;
+    out.estimated = req.noise == Noise::Unknown;
+    Ok(out)
 }
 
 /// The lens types kept (from 0), checked against the channels' types; None for every
@@ -461,6 +522,11 @@ impl Plan<'_> {
             residual: resid,
             tiles,
             lens_types: self.types.clone(),
+            regularization: self.lam,
+            rule: "fixed",
+            noise: self.noise,
+            estimated: false,
+            trials: vec![],
         })
     }
 
@@ -500,8 +566,177 @@ impl Plan<'_> {
         }
     }
 
-    /// One solve over the grid (padded here).
-    fn one(&self, inner: &CellGrid, progress: &Progress) -> Result<Outcome> {
+    /// The expected seconds of one solve over the grid at the iteration cap.
+    fn expected(&self, inner: &CellGrid) -> Result<f64> {
+        let req = self.req;
+        let (pad, grid) = self.pad(inner)?;
+        let exact =
+            self.surface.fronto().is_some() && system::exact(req.design, &req.channels).is_ok();
+        let threads = crate::infra::parallel::threads(req.n_threads);
+        let zlo = self.depths(grid.extent()).0;
+        let plan = Estimate::new(req.design, &req.channels, &grid, pad, zlo, exact, threads);
+        Ok(plan.seconds(req.settings.max_iter))
+    }
+
+    /// The central part of the grid, at most `side` cells a side (the whole grid when it
+    /// is no larger).
+    fn central(grid: &CellGrid, side: usize) -> Result<CellGrid> {
+        if grid.nx <= side && grid.ny <= side {
+            return Ok(*grid);
+        }
+        let (sx, sy) = (grid.nx.min(side), grid.ny.min(side));
+        let (i0, j0) = ((grid.nx - sx) / 2, (grid.ny - sy) / 2);
+        let h = grid.step;
+        let sub = [
+            grid.x0 + i0 as f64 * h,
+            grid.x0 + (i0 + sx) as f64 * h,
+            grid.y1 - (j0 + sy) as f64 * h,
+            grid.y1 - j0 as f64 * h,
+        ];
+        CellGrid::covering(sub, h)
+    }
+
+    /// One search for λ on the grid's central part by `rule` at the plan's noise; the
+    /// expected time of the search and of `main` seconds planned.
+    fn search(
+        &self,
+        sub: &CellGrid,
+        rule: Rule,
+        main: f64,
+        progress: &Progress,
+    ) -> Result<choose::Choice> {
+        let c = self.req.settings.choose;
+        let mut cfg = choose::Config {
+            lo: c.lo,
+            hi: c.hi,
+            golden_steps: c.golden_steps,
+            probes: c.probes,
+            data: self.stop(c.max_iter),
+            probe: solve::Stop::relative(c.probe_rtol, c.max_iter),
+        };
+        // The floor of a noise-free raw is the noise the risk is measured against.
+        cfg.data.noise = self.req.settings.noise_tol;
+        if self.noise == Noise::Unknown {
+            // The search's weights are photon noise at N = 1: λ in them is λ / N, for the
+            // photon counts the estimate can find.
+            cfg.lo /= c.photons[1];
+            cfg.hi /= c.photons[0];
+        }
+        let iters = choose::most_trials(&cfg) * (1 + c.probes) * c.max_iter;
+        let mut eq = self.equations(sub, progress, iters, main, None)?;
+        let mut work = eq.normal.work()?;
+        let mut diag = vec![0.0; eq.normal.cells()];
+        let mean = eq.normal.diagonal(&mut work, &mut diag) / eq.grid.cells().max(1) as f64;
+        drop((work, diag));
+        cfg.hi = cfg.hi.min(MAX_PRIOR_SHARE * mean);
+        cfg.lo = cfg.lo.min(cfg.hi / 10.0);
+        progress.start(2, iters);
+        let choice = choose::choose(
+            &mut eq.normal,
+            rule,
+            cfg,
+            self.req.n_threads,
+            &progress.done,
+        )?;
+        for t in &choice.trials {
+            progress.note(format!(
+                "reconstruct: choosing the prior's weight ({}): lambda {:.4e}: score {:.6e}, \
+                 RSS {:.6e}, df {:.1} of {} rows, {} iterations",
+                rule.name(),
+                t.lam,
+                t.score,
+                t.rss,
+                t.df,
+                choice.rows,
+                t.iterations
+            ));
+        }
+        Ok(choice)
+    }
+
+    /// Choose λ (when not given) and estimate the noise (when not known) on the central
+    /// part of the grid, once for every tile, by GCV: on the noise's weights when it is
+    /// known; on the weights of photon noise at N = 1 when not, whose factor RSS/(m − df)
+    /// is then 1/N̂. Then λ = N̂ λ₁; when N̂ puts more than 1 % of the raw's pixels under
+    /// the floor (the weights are then no longer N̂ times the search's), λ is chosen again
+    /// at N̂.
+    /// Returns the rule and the λ tried.
+    fn choose(
+        &mut self,
+        grid: &CellGrid,
+        progress: &Progress,
+    ) -> Result<(&'static str, Vec<choose::Trial>)> {
+        let s = self.req.settings;
+        let sub = Self::central(grid, s.choose.side)?;
+        let main = self.expected(grid)?;
+        let known = self.noise != Noise::Unknown;
+        // GCV also for a known noise: the stated noise leaves out the model's own error
+        // (a texture no grid holds, a renderer's), which GCV's scale takes in (measured:
+        // UPRE at the stated N = 2000 chose λ 5-30 times too small on Monte-Carlo raws).
+        let rule = Rule::Gcv;
+        let first = self.search(&sub, rule, main, progress)?;
+        let mut trials = first.trials.clone();
+        if known {
+            self.lam = first.lam;
+            return Ok((rule.name(), trials));
+        }
+        let photons = if first.scale > 0.0 {
+            1.0 / first.scale
+        } else {
+            f64::INFINITY
+        };
+        self.noise = if photons.is_finite() && photons <= MAX_PHOTONS {
+            Noise::Photons([photons, 0.0])
+        } else {
+            Noise::Free
+        };
+        progress.note(format!(
+            "reconstruct: noise estimated from the data (GCV at lambda {:.4e}): photons {photons:.6e}",
+            first.lam
+        ));
+        if let Some(lam) = self.req.regularization {
+            self.lam = lam;
+            return Ok(("fixed", trials));
+        }
+        if self.noise == Noise::Photons([photons, 0.0]) && self.floored(photons) <= 0.01 {
+            self.lam = first.lam * photons;
+            return Ok((Rule::Gcv.name(), trials));
+        }
+        let again = self.search(&sub, Rule::Gcv, main, progress)?;
+        trials.extend(again.trials);
+        self.lam = again.lam;
+        Ok((Rule::Gcv.name(), trials))
+    }
+
+    /// The share of the chosen channels' pixels whose photon noise at N would lie under
+    /// the floor.
+    fn floored(&self, n: f64) -> f64 {
+        let d = self.req.design;
+        let (mut under, mut all) = (0usize, 0usize);
+        for &c in &self.req.channels {
+            let floor = self.req.settings.noise_floor * d.channels[c].share;
+            let img = self.req.images[c];
+            under += img
+                .iter()
+                .filter(|&&y| y.max(0.0) / n < floor * floor)
+                .count();
+            all += img.len();
+        }
+        under as f64 / all.max(1) as f64
+    }
+
+    /// The normal equations over the grid (padded here) at λ = `lam` (checked against
+    /// the data; None: 1, unchecked, for the choice of λ), weighted by `self.noise`, after
+    /// the plan's checks (memory; time for `iters` iterations and `extra` seconds of other
+    /// solves, unless a slow run is allowed).
+    fn equations(
+        &self,
+        inner: &CellGrid,
+        progress: &Progress,
+        iters: usize,
+        extra: f64,
+        lam: Option<f64>,
+    ) -> Result<Equations> {
         let req = self.req;
         let (pad, grid) = self.pad(inner)?;
         let fronto = self.surface.fronto();
@@ -523,7 +758,7 @@ impl Plan<'_> {
             return Err(e);
         }
         if !req.allow_slow {
-            plan.check_time(s.max_seconds, s.max_iter)?;
+            plan.check_time_with(s.max_seconds, iters, extra)?;
         }
         progress.start(1, plan.raw_rows);
         let blocks = match fronto {
@@ -559,19 +794,51 @@ impl Plan<'_> {
                 ),
             ));
         }
-        check_regularization(req.regularization, &blocks, grid.cells())?;
-        let normal = solve::Normal::new(grid.nx, grid.ny, req.regularization, blocks)?;
-        let stop = solve::Stop {
+        if let Some(lam) = lam {
+            check_regularization(lam, &blocks, grid.cells())?;
+        }
+        let normal = solve::Normal::new(grid.nx, grid.ny, lam.unwrap_or(1.0), blocks)?;
+        Ok(Equations {
+            pad,
+            grid,
+            normal,
+            rows,
+        })
+    }
+
+    /// The solve's stop: the noise stop for a raw of photon noise (given or estimated),
+    /// the relative stop alone for a noise-free one.
+    fn stop(&self, max_iter: usize) -> solve::Stop {
+        let s = self.req.settings;
+        solve::Stop {
             rtol: s.rtol,
-            noise: if req.noise.is_some() {
+            noise: if matches!(self.noise, Noise::Photons(_)) {
                 s.noise_tol
             } else {
                 0.0
             },
-            max_iter: s.max_iter,
-        };
+            max_iter,
+        }
+    }
+
+    /// One solve over the grid (padded here).
+    fn one(&self, inner: &CellGrid, progress: &Progress) -> Result<Outcome> {
+        let eq = self.equations(
+            inner,
+            progress,
+            self.req.settings.max_iter,
+            0.0,
+            Some(self.lam),
+        )?;
+        let s = self.req.settings;
         progress.start(2, s.max_iter);
-        let sol = solve::solve(&normal, stop, req.n_threads, &progress.done)?;
+        let sol = solve::solve(
+            &eq.normal,
+            self.stop(s.max_iter),
+            self.req.n_threads,
+            &progress.done,
+        )?;
+        let (pad, grid) = (eq.pad, eq.grid);
         let mut image = Vec::with_capacity(inner.cells());
         for j in pad..pad + inner.ny {
             image.extend_from_slice(&sol.cells[j * grid.nx + pad..j * grid.nx + pad + inner.nx]);
@@ -582,11 +849,16 @@ impl Plan<'_> {
             ny: inner.ny,
             extent: inner.extent(),
             step: inner.step,
-            rows,
+            rows: eq.rows,
             iterations: sol.iterations,
             residual: sol.residual,
             tiles: 1,
             lens_types: self.types.clone(),
+            regularization: self.lam,
+            rule: "fixed",
+            noise: self.noise,
+            estimated: false,
+            trials: vec![],
         })
     }
 
@@ -594,10 +866,13 @@ impl Plan<'_> {
     /// r/N, render's model), never below the floor (a share of the channel's white).
     fn weight(&self, y: f64, white: f64) -> f64 {
         let floor = self.req.settings.noise_floor * white;
-        let sigma = match self.req.noise {
-            None => floor,
-            Some([n, r]) => ((y.max(0.0) / n + (r / n) * (r / n)).sqrt()).max(floor),
+        let [n, r] = match self.noise {
+            Noise::Free => return 1.0 / (floor * floor),
+            Noise::Photons(p) => p,
+            // Not known yet: its shape (photon noise) with N = 1, scaled once estimated.
+            Noise::Unknown => [1.0, 0.0],
         };
+        let sigma = ((y.max(0.0) / n + (r / n) * (r / n)).sqrt()).max(floor);
         1.0 / (sigma * sigma)
     }
 
@@ -694,6 +969,10 @@ impl Plan<'_> {
 /// λ beyond this many times the data's mean weight per cell (trace(AᵀWA) / cells) drowns
 /// the data: the normal equations' condition grows past what the solve resolves.
 pub const MAX_PRIOR_SHARE: f64 = 1e6;
+
+/// The largest photon count of the noise model (the Python package's `MAX_PHOTONS`): an
+/// estimate beyond it is taken as noise-free.
+pub const MAX_PHOTONS: f64 = 1e15;
 
 /// Refuse a prior weight whose solve is not meaningful (see [`MAX_PRIOR_SHARE`]).
 fn check_regularization(lam: f64, blocks: &[Block], cells: usize) -> Result<()> {

@@ -54,6 +54,27 @@ pub fn solve(
     n_threads: Option<usize>,
     done: &std::sync::atomic::AtomicUsize,
 ) -> Result<Solution> {
+    solve_from(normal, Start::default(), stop, n_threads, done)
+}
+
+/// Where [`solve_from`] starts: the right-hand side (None: AᵀWy) and the first iterate
+/// (None: the normalised back-projection of the right-hand side). A warm start (the
+/// solution at a nearby λ) and other right-hand sides (a trace estimate's probe) serve
+/// the choice of λ (`inverse::choose`).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Start<'a> {
+    pub rhs: Option<&'a [f64]>,
+    pub x0: Option<&'a [f64]>,
+}
+
+/// [`solve`] from `start`.
+pub fn solve_from(
+    normal: &Normal,
+    start: Start<'_>,
+    stop: Stop,
+    n_threads: Option<usize>,
+    done: &std::sync::atomic::AtomicUsize,
+) -> Result<Solution> {
     let Stop {
         rtol,
         noise,
@@ -66,6 +87,15 @@ pub fn solve(
         return Err(Error::param("noise_tol", noise, "a finite value >= 0"));
     }
     let n = normal.cells();
+    for (field, v) in [("rhs", start.rhs), ("x0", start.x0)] {
+        if v.is_some_and(|v| v.len() != n) {
+            return Err(Error::param(
+                field,
+                "a vector",
+                format!("{n} values (one per cell)"),
+            ));
+        }
+    }
     memory::check(
         "the solve's vectors",
         memory::bytes_of::<f64>(7 * n as u128) + normal.work_bytes(),
@@ -80,16 +110,23 @@ pub fn solve(
     parallel::repeat_until(n_threads, || {
         if first {
             first = false;
-            normal.rhs(&mut work, &mut b);
+            match start.rhs {
+                Some(v) => b.copy_from_slice(v),
+                None => normal.rhs(&mut work, &mut b),
+            }
             let trace = normal.diagonal(&mut work, &mut diag);
-            // AᵀWA·1, with p (not needed before the first step) as the ones: the seven
-            // vectors the memory check counts are all the solve holds.
-            p.fill(1.0);
-            normal.apply(&p, &mut work, &mut seen);
-            let mean = b.iter().sum::<f64>() / seen.iter().sum::<f64>().max(1e-300);
-            x.par_iter_mut()
-                .zip(b.par_iter().zip(seen.par_iter()))
-                .for_each(|(x, (&b, &s))| *x = if s > 0.0 { b / s } else { mean });
+            if let Some(v) = start.x0 {
+                x.copy_from_slice(v);
+            } else {
+                // AᵀWA·1, with p (not needed before the first step) as the ones: the seven
+                // vectors the memory check counts are all the solve holds.
+                p.fill(1.0);
+                normal.apply(&p, &mut work, &mut seen);
+                let mean = b.iter().sum::<f64>() / seen.iter().sum::<f64>().max(1e-300);
+                x.par_iter_mut()
+                    .zip(b.par_iter().zip(seen.par_iter()))
+                    .for_each(|(x, (&b, &s))| *x = if s > 0.0 { b / s } else { mean });
+            }
             bn = norm(&b);
             if bn == 0.0 {
                 x.fill(0.0);

@@ -324,7 +324,7 @@ impl Normal {
     }
 
     /// Aᵀ W y.
-    pub(super) fn rhs(&self, work: &mut Work, out: &mut [f64]) {
+    pub fn rhs(&self, work: &mut Work, out: &mut [f64]) {
         self.rows_into(None, work, false, |b, k, _| match b {
             Block::Factored { norm, w, y, .. } => w[k] * norm * y[k],
             Block::Rows { w, y, .. } => w[k] * y[k],
@@ -334,7 +334,7 @@ impl Normal {
 
     /// diag(Aᵀ W A + λ DᵀD) into `out`; returns trace(Aᵀ W A), the data part's sum
     /// (taken before the prior is added).
-    pub(super) fn diagonal(&self, work: &mut Work, out: &mut [f64]) -> f64 {
+    pub fn diagonal(&self, work: &mut Work, out: &mut [f64]) -> f64 {
         self.rows_into(None, work, true, |b, k, _| match b {
             Block::Factored { norm, w, .. } => w[k] * norm * norm,
             Block::Rows { w, .. } => w[k],
