@@ -44,9 +44,9 @@ from .. import _native, _validate
 from .._files import atomic_output
 from .._noise import NOISE_FREE
 from .._noise import add_noise as _add_noise
-from .._noise import stated as _stated
 from .._noise import options as _noise
 from .._noise import seed as _seed
+from .._noise import stated as _stated
 from .._progress import progress_bar as _progress
 from .._progress import progress_flag as _progress_flag
 from .._validate import extent as _extent

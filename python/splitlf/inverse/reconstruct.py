@@ -65,7 +65,7 @@ CHOOSE_PROBES = 4
 #: (tiles take the same lambda).
 CHOOSE_SIDE = 64
 #: Each of the choice's solves stops at this many iterations at most.
-CHOOSE_MAX_ITER = 1000
+CHOOSE_MAX_ITER = 500
 #: The probe solves' relative stop.
 CHOOSE_PROBE_RTOL = 1e-6
 #: Conjugate-gradient stop: the residual of the normal equations relative to their
@@ -244,7 +244,8 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
       "read_noise": r}``; ``{"photons": math.inf}``: noise-free, weighted as
       ``NOISE_FLOOR`` of white); None: the noise model the raw carries (``raw.noise``),
       and when it carries none, estimated from the data (photon noise, N fitted by GCV's
-      RSS / (m - df); read noise taken as 0). It also sets the solve's stop: with a known noise the CG stops once its residual is
+      RSS / (m - df); read noise taken as 0). It also sets the solve's stop: with a
+      known noise the CG stops once its residual is
       ``CG_NOISE_TOL`` of the noise's expected norm in the right-hand side (measured: the
       image moves from the fully converged one by 0.1–2 % of its error against the
       truth, docs/reconstruct.md step 3), or at ``CG_RTOL`` of the right-hand side,
@@ -283,7 +284,7 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
     chans = _channels(design, channels)
     noise_, source = _stated(noise), "given"
     if noise_ is None:
-        noise_, source = raw.noise, "raw"
+        noise_, source = _stated(raw.noise), "raw"
     if noise_ is None:
         source = "estimated"
     lam = None if regularization is None else _validate.real(regularization, "regularization")

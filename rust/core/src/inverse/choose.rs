@@ -336,8 +336,9 @@ mod tests {
         for c in 0..n {
             for r in c + 1..n {
                 let f = h[r][c] / h[c][c];
-                for k in c..n {
-                    h[r][k] -= f * h[c][k];
+                let pivot = h[c].clone();
+                for (q, p) in h[r][c..].iter_mut().zip(&pivot[c..]) {
+                    *q -= f * p;
                 }
                 b[r] -= f * b[c];
             }
@@ -422,9 +423,9 @@ mod tests {
                 }
             }
             let mut df = 0.0;
-            for i in 0..n {
-                let col: Vec<f64> = (0..n).map(|j| nmat[j][i]).collect();
-                df += solve_dense(h.clone(), col)[i];
+            for (i, row) in nmat.iter().enumerate() {
+                // N is symmetric: its column i is its row i.
+                df += solve_dense(h.clone(), row.clone())[i];
             }
             let rhs: Vec<f64> = (0..n)
                 .map(|i| (0..m).map(|r| dense[r][i] * w[r] * y[r]).sum())
