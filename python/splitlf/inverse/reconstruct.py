@@ -68,6 +68,9 @@ CHOOSE_SIDE = 64
 CHOOSE_MAX_ITER = 500
 #: The probe solves' relative stop.
 CHOOSE_PROBE_RTOL = 1e-6
+#: The iterations the whole choice may take (its solves summed): no lambda is tried once
+#: the next one's solves could exceed it; the time plan counts the choice at this many.
+CHOOSE_BUDGET = 20_000
 #: Conjugate-gradient stop: the residual of the normal equations relative to their
 #: right-hand side.
 CG_RTOL = 1e-10
@@ -300,7 +303,7 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
         "settings": (NOISE_FLOOR, CG_RTOL, CG_MAX_ITER, CG_NOISE_TOL, TILE_OVERLAP, MIN_TILE,
                      MAX_SECONDS),
         "choose": (*CHOOSE_BRACKET, CHOOSE_PHOTONS, CHOOSE_GOLDEN_STEPS, CHOOSE_PROBES, CHOOSE_SIDE,
-                   CHOOSE_MAX_ITER, CHOOSE_PROBE_RTOL)}
+                   CHOOSE_MAX_ITER, CHOOSE_PROBE_RTOL, CHOOSE_BUDGET)}
     report, bars = _reporter(_progress_flag(progress))
     try:
         image, extent, h, rows, iterations, resid, tiles, types, chosen = _native.reconstruct(

@@ -44,7 +44,8 @@ impl Rule {
 }
 
 /// How the search runs: the bracket of λ (both > 0), the golden-section steps, the
-/// probes, and each solve's stop (the data's: `data`, whose `noise` is τ for a W in
+/// probes, the iterations the whole search may take (`budget`: no λ is tried once the
+/// next one's solves, each at its cap, could exceed it), and each solve's stop (the data's: `data`, whose `noise` is τ for a W in
 /// inverse-variance units and scaled by the running noise estimate under GCV; the probes':
 /// `probe`, relative).
 #[derive(Clone, Copy, Debug)]
@@ -53,6 +54,7 @@ pub struct Config {
     pub hi: f64,
     pub golden_steps: usize,
     pub probes: usize,
+    pub budget: usize,
     pub data: Stop,
     pub probe: Stop,
 }
@@ -82,13 +84,6 @@ impl Choice {
     pub fn solves(&self, probes: usize) -> usize {
         self.trials.len() * (1 + probes)
     }
-}
-
-/// At most this many λ are tried: the decades of the widest bracket accepted (10⁻¹² to
-/// 10¹² times the data's mean weight per cell) and the golden-section steps.
-pub fn most_trials(cfg: &Config) -> usize {
-    let decades = (cfg.hi / cfg.lo).log10().ceil().max(0.0) as usize + 1;
-    decades.min(25) + cfg.golden_steps + 1
 }
 
 /// out = DᵀD t over the nx × ny grid (horizontal and vertical neighbours).
@@ -153,9 +148,16 @@ struct Search<'a> {
     u: Vec<Option<Vec<f64>>>,
     scale: Option<f64>,
     trials: Vec<Trial>,
+    used: usize,
 }
 
 impl Search<'_> {
+    /// Whether the next λ's solves, each at its cap, could exceed the budget.
+    fn exhausted(&self) -> bool {
+        let next = self.cfg.data.max_iter + self.cfg.probes * self.cfg.probe.max_iter;
+        self.used + next > self.cfg.budget
+    }
+
     /// N t = (N + λR) t − λ R t.
     fn data_product(&mut self, t: &[f64]) -> Result<Vec<f64>> {
         let ((nx, ny), lam) = (self.normal.shape(), self.normal.regularization());
@@ -200,6 +202,7 @@ impl Search<'_> {
             self.u[k] = Some(s.cells);
         }
         df /= self.probes.len().max(1) as f64;
+        self.used += iterations;
         let m = self.rows as f64;
         let score = match self.rule {
             Rule::Upre => rss + 2.0 * df - m,
@@ -256,6 +259,7 @@ pub fn choose(
         u: vec![None; cfg.probes],
         scale: None,
         trials: vec![],
+        used: 0,
     };
     for k in 0..cfg.probes {
         let z = rademacher(n, 0x5eed + k as u64);
@@ -272,6 +276,9 @@ pub fn choose(
     }
     let mut scores: Vec<(f64, f64)> = vec![];
     for &e in &grid {
+        if !scores.is_empty() && search.exhausted() {
+            break;
+        }
         let s = search.trial(10f64.powf(e))?;
         scores.push((e, s));
         let best = scores
@@ -293,9 +300,18 @@ pub fn choose(
     let g = (5f64.sqrt() - 1.0) / 2.0;
     let mut c1 = d - g * (d - a);
     let mut c2 = a + g * (d - a);
+    if cfg.golden_steps == 0 || search.exhausted() {
+        return finish(search, rows);
+    }
     let mut f1 = search.trial(10f64.powf(c1))?;
+    if search.exhausted() {
+        return finish(search, rows);
+    }
     let mut f2 = search.trial(10f64.powf(c2))?;
     for _ in 0..cfg.golden_steps.saturating_sub(1) {
+        if search.exhausted() {
+            break;
+        }
         if f1 <= f2 {
             (d, c2, f2) = (c2, c1, f1);
             c1 = d - g * (d - a);
@@ -306,6 +322,11 @@ pub fn choose(
             f2 = search.trial(10f64.powf(c2))?;
         }
     }
+    finish(search, rows)
+}
+
+/// The λ of the least score tried, the equations left at it.
+fn finish(search: Search<'_>, rows: usize) -> Result<Choice> {
     let least = search
         .trials
         .iter()
@@ -314,7 +335,7 @@ pub fn choose(
         .ok_or_else(|| Error::param("regularization", "no trial", "a bracket of λ"))?;
     let m = rows as f64;
     let scale = least.rss / (m - least.df).max(1.0);
-    let trials = std::mem::take(&mut search.trials);
+    let Search { normal, trials, .. } = search;
     normal.set_regularization(least.lam)?;
     Ok(Choice {
         lam: least.lam,
@@ -397,6 +418,7 @@ mod tests {
             hi: 1e3,
             golden_steps: 8,
             probes: 8,
+            budget: 1_000_000,
             data: Stop::relative(1e-13, 10_000),
             probe: Stop::relative(1e-13, 10_000),
         };

@@ -44,7 +44,8 @@ pub struct Settings {
 /// (capped at [`MAX_PRIOR_SHARE`] times the data's mean weight per cell), the range of
 /// photon counts an estimate of the noise can find (it widens the bracket when the noise
 /// is not known), the golden-section steps, the trace probes, the central sub-grid's side
-/// (cells) it is made on, each of its solves' iteration cap and the probes' stop.
+/// (cells) it is made on, each of its solves' iteration cap, the probes' stop and the
+/// search's budget of iterations.
 #[derive(Clone, Copy, Debug)]
 pub struct ChooseSettings {
     pub lo: f64,
@@ -55,6 +56,8 @@ pub struct ChooseSettings {
     pub side: usize,
     pub max_iter: usize,
     pub probe_rtol: f64,
+    /// The iterations the whole search may take (the time plan counts them).
+    pub budget: usize,
 }
 
 /// The raw's noise as a reconstruction takes it: not known (estimated from the data),
@@ -611,6 +614,7 @@ impl Plan<'_> {
             hi: c.hi,
             golden_steps: c.golden_steps,
             probes: c.probes,
+            budget: c.budget,
             data: self.stop(c.max_iter),
             probe: solve::Stop::relative(c.probe_rtol, c.max_iter),
         };
@@ -622,7 +626,7 @@ impl Plan<'_> {
             cfg.lo /= c.photons[1];
             cfg.hi /= c.photons[0];
         }
-        let iters = choose::most_trials(&cfg) * (1 + c.probes) * c.max_iter;
+        let iters = c.budget;
         let mut eq = self.equations(sub, progress, iters, main, None)?;
         let mut work = eq.normal.work()?;
         let mut diag = vec![0.0; eq.normal.cells()];
@@ -673,7 +677,13 @@ impl Plan<'_> {
         // GCV also for a known noise: the stated noise leaves out the model's own error
         // (a texture no grid holds, a renderer's), which GCV's scale takes in (measured:
         // UPRE at the stated N = 2000 chose λ 5-30 times too small on Monte-Carlo raws).
-        let rule = Rule::Gcv;
+        // A noise-free raw has no noise for GCV to measure (its residual is rounding): its
+        // floor is taken as the noise, by UPRE.
+        let rule = if self.noise == Noise::Free {
+            Rule::Upre
+        } else {
+            Rule::Gcv
+        };
         let first = self.search(&sub, rule, main, progress)?;
         let mut trials = first.trials.clone();
         if known {
