@@ -561,7 +561,9 @@ def test_too_large_by_the_padding_suggests_a_coarser_step(
     raw = splitlf.render(design, splitlf.Scene(flat(0.5), 400.0))
     _memory_limit(monkeypatch, 1000)
     with pytest.raises(splitlf.errors.TooLargeError) as e:
-        splitlf.reconstruct(raw, 400.0, region=(-0.5, 0.5, -0.5, 0.5), step=0.05)
+        # (a fixed lambda: the choice's own sub-grid would be refused first, unhinted)
+        splitlf.reconstruct(raw, 400.0, region=(-0.5, 0.5, -0.5, 0.5), step=0.05,
+                            regularization=4.0)
     coarse = 0.05 * np.sqrt(e.value.bytes / (0.8 * 1000))
     assert "tiles would not help" in str(e.value) and "tile=" not in str(e.value)
     assert f"step={coarse:.3g}" in str(e.value), (coarse, str(e.value))
@@ -607,7 +609,9 @@ def test_a_solve_too_large_falls_back_to_tiles(tiled_scene: Any,
     with an explicit tile too large it raises, naming a tile that would fit)."""
     design, tex, noise = tiled_scene
     raw = splitlf.render(design, splitlf.Scene(tex, 1000.0, background=0.5), noise=noise)
-    kw: dict[str, Any] = {"region": (-4.0, 4.0, -3.0, 3.0), "noise": noise}
+    # A fixed lambda: the choice's own sub-grid would be refused first, without the hint.
+    kw: dict[str, Any] = {"region": (-4.0, 4.0, -3.0, 3.0), "noise": noise,
+                          "regularization": 4.0}
     one = splitlf.reconstruct(raw, 1000.0, **kw)
     _memory_limit(monkeypatch, 1)
     with pytest.raises(splitlf.errors.TooLargeError) as e:
@@ -740,7 +744,8 @@ def test_lens_types_use_only_their_lenses(which: str) -> None:
     n_types = len(design.resolved()[0]["f"])
     kw: dict[str, Any] = {"region": (-1.0, 1.0, -0.8, 0.8) if rect else (-0.8, 0.8, -0.6, 0.6),
                           "step": (2.0 if rect else 4.0) * design.resolution_step(z),
-                          "noise": {"photons": 2000.0, "read_noise": 0.0}}  # fewer iterations
+                          "noise": {"photons": 2000.0, "read_noise": 0.0},  # fewer iterations
+                          "regularization": 4.0}
     tex = splitlf.Image(np.random.default_rng(7).random((40, 40)), 8.0)
     raw = splitlf.render(design, splitlf.Scene(tex, surface, background=0.5))
     # Each pixel's lens type from its lens (j, k) by docs/model.md §9's rule: (j + k) mod T
@@ -831,7 +836,9 @@ def test_plane_nearer_than_f_in_the_view_is_taken_over_its_region() -> None:
         for i, k in enumerate(mine):
             assert abs(got[k] - mc[i]) <= 4.0 * se[i] + 2e-4 * white, (c, got[k], mc[i], se[i])
     raw = splitlf.Raw(design, (np.full((64 * 15, 6 * 15), 0.5),) * 2)
-    rec = splitlf.reconstruct(raw, surface, region=region, channels=(1,), progress=False)
+    # (the former default: noise-free at the floor, lambda = 4; the subject is the map)
+    rec = splitlf.reconstruct(raw, surface, region=region, channels=(1,), progress=False,
+                              noise={"photons": np.inf}, regularization=4.0)
     assert rec.step == pytest.approx(design.resolution_step(700.0))
     # each half takes half the light (share 0.5): a raw of 0.5 is an albedo of 1
     assert float(np.median(rec.image)) == pytest.approx(1.0, rel=0.01)
