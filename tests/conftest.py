@@ -44,7 +44,20 @@ def _no_progress_lines(monkeypatch):
 #: here, by node id, so that a parametrized test's slow cases go to the slow tier and its
 #: quick ones stay in the default run.
 SLOW = {
-    'test_cli.py::test_reconstruct_cli_matches_api': 66,
+    'test_reconstruct.py::test_tiles_are_the_one_solve[642.0]': 26,
+    'test_reconstruct.py::test_tiles_are_the_one_solve[1000.0]': 38,
+    'test_reconstruct_noise.py::test_fixed_lambda_is_the_chosen_one_bit_for_bit': 26,
+    'test_reconstruct_noise.py::test_cli_carries_the_noise': 14,
+    'test_reconstruct_noise.py::test_more_data_never_hurts_at_the_chosen_weights[642.0-True]': 123,
+    'test_reconstruct_noise.py::test_more_data_never_hurts_at_the_chosen_weights[642.0-False]': 264,
+    'test_reconstruct_noise.py::test_more_data_never_hurts_at_the_chosen_weights[1000.0-True]': 137,
+    ('test_reconstruct_noise.py::test_more_data_never_hurts_at_the_chosen_weights'
+     '[1000.0-False]'): 227,
+    'test_reconstruct_noise.py::test_chosen_weight_is_near_the_oracle[642.0-True]': 22,
+    'test_reconstruct_noise.py::test_chosen_weight_is_near_the_oracle[642.0-False]': 43,
+    'test_reconstruct_noise.py::test_chosen_weight_is_near_the_oracle[1000.0-True]': 35,
+    'test_reconstruct_noise.py::test_chosen_weight_is_near_the_oracle[1000.0-False]': 80,
+    'test_cli.py::test_reconstruct_cli_matches_api': 74,
     'test_cli_errors.py::test_simulate_no_conventional': 6,
     'test_compare.py::test_mtf50_where_the_simulation_applies': 31,
     'test_depth.py::test_bad_input': 5,

@@ -311,12 +311,14 @@ def test_reconstruct_cli_matches_api(tmp_path, capsys):
                          capsys=capsys)
     png = tmp_path / "img.png"
     args = ["reconstruct", str(raw_path), "--depth", "800", "--region=-1.5,1.5,-1,1",
-            "--channels", "1,2", "-o", str(png), "--npy", "--json"]
+            "--channels", "1,2", "-o", str(png), "--npy", "--json", "--regularization", "4"]
     code, out, _ = run(args, capsys)
     assert code == 0
     summary = json.loads(out)
     image = np.load(tmp_path / "img.npy")
-    rec = splitlf.reconstruct(splitlf.Raw.load(raw_path), 800.0, region=(-1.5, 1.5, -1.0, 1.0))
+    rec = splitlf.reconstruct(splitlf.Raw.load(raw_path), 800.0, region=(-1.5, 1.5, -1.0, 1.0),
+                              regularization=4.0)
+    assert summary["regularization_rule"] == "fixed" and summary["noise_source"] == "raw"
     assert np.array_equal(image, rec.image)
     assert summary["shape"] == list(rec.image.shape) and png.stat().st_size > 0
     assert summary["tiles"] == 1
@@ -330,7 +332,7 @@ def test_reconstruct_cli_matches_api(tmp_path, capsys):
     # --tile: the API's tiled image; a tile below 16 cells is refused by name.
     code, out, _ = run([*args, "--force", "--tile", "16"], capsys)
     tiled = splitlf.reconstruct(splitlf.Raw.load(raw_path), 800.0,
-                                region=(-1.5, 1.5, -1.0, 1.0), tile=16)
+                                region=(-1.5, 1.5, -1.0, 1.0), tile=16, regularization=4.0)
     assert code == 0 and json.loads(out)["tiles"] == tiled.tiles > 1
     assert np.array_equal(np.load(tmp_path / "img.npy"), tiled.image)
     with pytest.raises(SystemExit) as e:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import ast
 import json
+import math
 import os
 import re
 import signal
@@ -449,7 +450,10 @@ def test_reconstruct_allow_slow_reaches_the_library(tmp_path, monkeypatch, capsy
         seen.append(kwargs)
         return SimpleNamespace(image=np.zeros((2, 3)), extent=(0.0, 3.0, 0.0, 2.0), step=1.0,
                                depth=depth, channels=(1,), rows=6, iterations=1,
-                               residual=0.0, regularization=4.0, noise="floor", tiles=1)
+                               residual=0.0, regularization=4.0, noise="floor", tiles=1,
+                               regularization_rule="fixed",
+                               noise_model={"photons": math.inf, "read_noise": 0.0},
+                               noise_source="raw")
 
     monkeypatch.setattr(rec_module, "reconstruct", fake)
     monkeypatch.setattr(render_module.Raw, "load", staticmethod(lambda path: path))

@@ -225,7 +225,10 @@ def test_progress_counts_every_pass(small: Any) -> None:
                "noise": (noise["photons"], 0.0), "allow_slow": False, "n_threads": None,
                "prior": ("tv", 0.01, 7, 1e-3),
                "settings": (rc.NOISE_FLOOR, rc.CG_RTOL, rc.CG_MAX_ITER, rc.CG_NOISE_TOL,
-                            rc.TILE_OVERLAP, rc.MIN_TILE, rc.MAX_SECONDS)}
+                            rc.TILE_OVERLAP, rc.MIN_TILE, rc.MAX_SECONDS),
+               "choose": (*rc.CHOOSE_BRACKET, rc.CHOOSE_PHOTONS, rc.CHOOSE_GOLDEN_STEPS,
+                          rc.CHOOSE_PROBES, rc.CHOOSE_SIDE, rc.CHOOSE_MAX_ITER,
+                          rc.CHOOSE_PROBE_RTOL, rc.CHOOSE_BUDGET)}
     out = _native.reconstruct(raw.design.core, [np.asarray(i) for i in raw.images],
                               splitlf.Plane(1000.0).seam(), options, callback)
     iterations, passes = out[4], out[6]

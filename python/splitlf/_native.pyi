@@ -477,7 +477,9 @@ def reconstruct(
     options: dict[str, Any],
     progress: Callable[[str, int, int, list[str]], object] | None = None,
 ) -> tuple[_F64, tuple[float, float, float, float], float, int, int, float, int, int,
-           list[int] | None]: ...
+           list[int] | None,
+           tuple[float, str, tuple[float, float], bool,
+                 list[tuple[float, float, float, float, int]]]]: ...
 
 
 def estimate_depth(

@@ -46,10 +46,11 @@ def add_parser(subparsers: Any) -> None:
     grid_options(p, "what every channel sees through half its aperture",
                  "the sensor step mu_1 z / L_1")
     p.add_argument("--noise", type=noise_type, default=None, metavar="N[,READ]",
-                   help="the raw's noise, as given to render (default: noise-free)")
+                   help="the raw's noise, as given to render (default: the noise model the "
+                   "raw file carries; for a file without one, estimated from the data)")
     p.add_argument("--regularization", type=real_type(
         "regularization", 0.0, "a finite weight > 0"), default=None, metavar="LAMBDA",
-        help="the smoothness prior's weight (default 4)")
+        help="the smoothness prior's weight (default: chosen from the data by GCV)")
     p.add_argument("--tile", type=integer_type("tile", 16, 10**9), default=None,
                    metavar="CELLS",
                    help="at most this many cells per side in one solve (default: one "
@@ -124,6 +125,9 @@ def run(args: argparse.Namespace) -> int:
                "shape": list(rec.image.shape), "extent": list(rec.extent), "step": rec.step,
                "depth": rec.depth, "channels": list(rec.channels), "rows": rec.rows,
                "iterations": rec.iterations, "residual": rec.residual,
-               "regularization": rec.regularization, "noise": rec.noise, "tiles": rec.tiles}
+               "regularization": rec.regularization,
+               "regularization_rule": rec.regularization_rule, "noise": rec.noise,
+               "noise_model": rec.noise_model, "noise_source": rec.noise_source,
+               "tiles": rec.tiles}
     sys.stdout.write(json_text(summary) if args.json else f"{out}\n")
     return 0

@@ -22,7 +22,10 @@ Raw files (:meth:`Raw.save`, :meth:`Raw.load`): an uncompressed NumPy ``.npz`` a
 - ``format``: the string ``"splitlf-raw/1"``;
 - ``design``: the design as TOML text (:meth:`splitlf.Design.to_toml` of its general
   form, a ``[design]`` table);
-- ``channel1``, ..., ``channelC``: each channel's raw, float64 [row, col].
+- ``channel1``, ..., ``channelC``: each channel's raw, float64 [row, col];
+- ``noise`` (optional; absent: not stated, as in files written before it existed): the
+  noise model the raw carries (:attr:`Raw.noise`), float64 [photons, read_noise], photons
+  ``inf`` for a noise-free raw.
 """
 
 from __future__ import annotations
@@ -39,9 +42,11 @@ import numpy as np
 
 from .. import _native, _validate
 from .._files import atomic_output
+from .._noise import NOISE_FREE
 from .._noise import add_noise as _add_noise
 from .._noise import options as _noise
 from .._noise import seed as _seed
+from .._noise import stated as _stated
 from .._progress import progress_bar as _progress
 from .._progress import progress_flag as _progress_flag
 from .._validate import extent as _extent
@@ -279,24 +284,35 @@ class Raw:
     [m_y, m_x]). Values are in §10's units (a full-aperture pixel of pitch mu_1 under a
     white albedo reads 1; each channel includes its ``share``).
 
+    ``noise`` is the noise model the raw carries: None (not stated: a reconstruction
+    estimates it from the data) or ``{"photons": N, "read_noise": r}`` as
+    :func:`render` takes it, with ``photons`` = ``math.inf`` (and ``read_noise`` 0) for a
+    noise-free raw. :func:`render` records what it drew (``{"photons": inf, "read_noise":
+    0}`` without ``noise``); :meth:`save` and :meth:`load` keep it.
+
     Built by :func:`render`, or directly to wrap raws from elsewhere (another renderer, a
-    real camera): ``images`` a sequence of one array per channel (copied). Raises
-    ``TypeError`` and :class:`~splitlf.errors.InvalidParameter` (named ``images`` for the
-    count, ``images[i]`` for a shape or a value that is not finite)."""
+    real camera): ``images`` a sequence of one array per channel (copied), ``noise`` as
+    above (default None). Raises ``TypeError`` and
+    :class:`~splitlf.errors.InvalidParameter` (named ``images`` for the count,
+    ``images[i]`` for a shape or a value that is not finite, ``noise`` or ``noise photons``
+    / ``noise read_noise`` for a bad noise model)."""
 
     design: Design
     images: tuple[np.ndarray, ...]
+    noise: Mapping[str, float] | None = None
 
     def __post_init__(self) -> None:
         self._check(copy=True)
 
     @classmethod
-    def _adopt(cls, design: Design, images: Sequence[np.ndarray]) -> Raw:
+    def _adopt(cls, design: Design, images: Sequence[np.ndarray],
+               noise: Mapping[str, float] | None = None) -> Raw:
         """A Raw of arrays this package made (the core's raws, a loaded file): checked
         like any, but kept without a copy (a render's peak memory stays the raws')."""
         raw = object.__new__(cls)
         object.__setattr__(raw, "design", design)
         object.__setattr__(raw, "images", images)
+        object.__setattr__(raw, "noise", noise)
         raw._check(copy=False)
         return raw
 
@@ -312,13 +328,17 @@ class Raw:
                                       f"one array per channel: {len(shapes)}")
         object.__setattr__(self, "images", tuple(_image(a, i, s, copy) for i, (a, s)
                                                  in enumerate(zip(imgs, shapes, strict=True))))
+        object.__setattr__(self, "noise", _stated(self.noise, "noise"))
 
     def __repr__(self) -> str:
         """A short summary (each channel's shape and value range), not the arrays."""
         chans = ", ".join(f"{a.shape[0]}x{a.shape[1]} in [{float(a.min()):.4g}, "
                           f"{float(a.max()):.4g}]" if a.size else f"{a.shape}"
                           for a in self.images)
-        return f"Raw({len(self.images)} channel(s): {chans})"
+        noise = ("" if self.noise is None else
+                 f", noise photons {self.noise['photons']:g}, read noise "
+                 f"{self.noise['read_noise']:g}")
+        return f"Raw({len(self.images)} channel(s): {chans}{noise})"
 
     def channel(self, i: int) -> np.ndarray:
         """Channel ``i``'s raw (channels numbered from 1)."""
@@ -336,6 +356,8 @@ class Raw:
         arrays: dict[str, Any] = {"format": np.array(FORMAT),
                                   "design": np.array(self.design.design.to_toml())}
         arrays.update({f"channel{i}": a for i, a in enumerate(self.images, 1)})
+        if self.noise is not None:
+            arrays["noise"] = np.array([self.noise["photons"], self.noise["read_noise"]])
         with atomic_output(path, force=force) as tmp, open(tmp, "wb") as fh:
             np.savez(fh, **arrays)
 
@@ -373,7 +395,7 @@ def _read_raw(name: str, npz: Any) -> Raw:
         raise ValueError("no design TOML text (key 'design')")
     design = _design_from_text(name, str(npz["design"]))
     channels = [f"channel{i}" for i in range(1, len(design.channels) + 1)]
-    extra = sorted(keys - {"format", "design", *channels})
+    extra = sorted(keys - {"format", "design", "noise", *channels})
     missing = [c for c in channels if c not in keys]
     if missing or extra:
         raise ValueError(f"the arrays {sorted(keys - {'format', 'design'})} do not match "
@@ -386,7 +408,14 @@ def _read_raw(name: str, npz: Any) -> Raw:
         raise TooLargeError(f"its raws need {nbytes / 2**30:.1f} GiB, more than the "
                             f"{limit / 2**30:.1f} GiB available", what="Raw.load",
                             nbytes=nbytes, limit=limit)
-    return Raw._adopt(design, tuple(npz[c] for c in channels))
+    noise = None
+    if "noise" in keys:
+        v = npz["noise"]
+        if v.shape != (2,) or v.dtype.kind != "f":
+            raise ValueError(f"the noise model (key 'noise') has shape {v.shape} and dtype "
+                             f"{v.dtype}: needs 2 floats, [photons, read_noise]")
+        noise = {"photons": float(v[0]), "read_noise": float(v[1])}
+    return Raw._adopt(design, tuple(npz[c] for c in channels), noise)
 
 
 def _check_headers(npz: Any, channels: list[str], shapes: list[tuple[int, int]]) -> None:
@@ -490,7 +519,8 @@ def render(design: Design, scene: Scene, *, noise: Mapping[str, float] | None = 
     - ``scene``: a :class:`Scene`; a :class:`~splitlf.RandomAlbedo` texture is drawn on
       cells covering everything the pixels see (``_native.render_extent`` over the
       scene's depths)
-    - ``noise``: None (noise-free) or ``{"photons": N, "read_noise": r}`` as in
+    - ``noise``: None (noise-free: the raw records ``{"photons": inf, "read_noise": 0}``)
+      or ``{"photons": N, "read_noise": r}`` (recorded on the raw, ``Raw.noise``) as in
       :func:`~splitlf.simulate`: counts Poisson(N value) plus Gaussian read noise of r
       electrons rms, divided by N (N finite in (0, 1e15], r finite >= 0)
     - ``seed``: an integer >= 0 (or None: fresh entropy); the texture is drawn by
@@ -533,4 +563,4 @@ def render(design: Design, scene: Scene, *, noise: Mapping[str, float] | None = 
     images = list(images)
     for i, a in enumerate(images):  # in place: one channel's noise draws at a time
         images[i] = _add_noise(np.asarray(a), noise_, noise_rng)
-    return Raw._adopt(subject, tuple(images))
+    return Raw._adopt(subject, tuple(images), dict(NOISE_FREE) if noise_ is None else noise_)

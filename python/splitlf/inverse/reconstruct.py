@@ -15,11 +15,14 @@ squares
 
     min_t  sum_rows ((A t - raw) / sigma)^2  +  lambda * |D t|^2
 
-with sigma the raw's noise per pixel (from ``noise``, or a stated floor for noise-free
-raws), D the differences between neighbouring cells and lambda a fixed prior weight. The
-regulariser's weight never depends on the number of rows: more data never hurts. With
-``prior="huber"`` or ``"tv"`` the square of each difference is replaced by an
-edge-preserving penalty, solved by reweighted passes of the same CG in the core.
+with sigma the raw's noise per pixel (from ``noise``, or the noise model the raw carries,
+or estimated from the data; a stated floor for noise-free raws), D the differences
+between neighbouring cells and lambda the prior's weight: chosen per call from the data
+(generalised cross-validation for a raw of photon noise, known or not; the unbiased
+predictive risk against the floor for a noise-free raw; searched in the core over log
+lambda on the region's central part), or fixed by the caller. With ``prior="huber"`` or
+``"tv"`` the square of each difference is replaced by an edge-preserving penalty, solved
+by reweighted passes of the same CG in the core (lambda chosen for the quadratic prior).
 """
 
 from __future__ import annotations
@@ -33,7 +36,7 @@ from typing import Any
 import numpy as np
 
 from .. import _native, _validate
-from .._noise import options as _noise
+from .._noise import stated as _stated
 from .._progress import Show
 from .._progress import progress_bar as _progress
 from .._progress import progress_flag as _progress_flag
@@ -48,9 +51,28 @@ Extent = tuple[float, float, float, float]
 #: The noise (fraction of a fully lit white pixel, 1 sigma) assumed for a raw given without
 #: ``noise``: the forward model's stated accuracy (docs/render.md).
 NOISE_FLOOR = 1e-3
-#: The default weight lambda of the smoothness prior: neighbouring cells' albedos differ by
-#: about 1/sqrt(lambda) = 0.5 (a prior as wide as the albedo range's half).
-DEFAULT_REGULARIZATION = 4.0
+#: The choice of lambda from the data (docs/reconstruct.md, "The prior's weight"): the
+#: bracket searched, for weights 1/sigma^2 (lambda ~ 1/s^2 for neighbouring cells' albedos
+#: differing by about s: s from 0.003 to 30); capped at the data's range (the refusal of
+#: too large a ``regularization``).
+CHOOSE_BRACKET = (1e-3, 1e5)
+#: The photon counts an estimate of the noise can find (widening the bracket's search
+#: when the noise is not known: lambda / N is searched).
+CHOOSE_PHOTONS = (10.0, 1e7)
+#: Golden-section steps in log lambda after the scan over decades.
+CHOOSE_GOLDEN_STEPS = 6
+#: Rademacher probes of the trace estimate (the fit's degrees of freedom) at each lambda.
+CHOOSE_PROBES = 4
+#: The choice is made on the region's central part, at most this many cells a side
+#: (tiles take the same lambda).
+CHOOSE_SIDE = 64
+#: Each of the choice's solves stops at this many iterations at most.
+CHOOSE_MAX_ITER = 500
+#: The probe solves' relative stop.
+CHOOSE_PROBE_RTOL = 1e-6
+#: The iterations the whole choice may take (its solves summed): no lambda is tried once
+#: the next one's solves could exceed it; the time plan counts the choice at this many.
+CHOOSE_BUDGET = 20_000
 #: Conjugate-gradient stop: the residual of the normal equations relative to their
 #: right-hand side.
 CG_RTOL = 1e-10
@@ -95,12 +117,19 @@ class Reconstruction:
     ``channels`` (numbered from 1) of ``design`` and their lenses of ``lens_types``
     (numbered from 1; None: every type); and what the solve did: ``rows`` (raw
     pixels used), ``iterations``, ``residual`` (the normal equations' relative residual),
-    ``regularization`` (lambda), ``noise`` (the per-pixel sigma model used), ``tiles``
-    (the solves: 1, or the tiles of a tiled reconstruction, whose ``rows`` is then summed
-    over the tiles, ``iterations`` the most and ``residual`` the largest of any tile),
-    ``prior`` (its name), ``threshold`` (Huber's s or TV's epsilon; None for the quadratic
-    prior) and ``passes`` (the prior's reweighted solves, the most of any tile; iterations
-    count every pass)."""
+    ``regularization`` (lambda), ``regularization_rule`` (how it was set: ``"fixed"``
+    (given), ``"gcv"`` (generalised cross-validation: a raw of photon noise, known or
+    estimated) or ``"upre"`` (the unbiased predictive risk: a noise-free raw)), ``noise``
+    (the per-pixel sigma model used, as text), ``noise_model`` (it as ``{"photons": N,
+    "read_noise": r}``, photons ``inf`` for noise-free), ``noise_source`` (``"given"``: the
+    call's ``noise``; ``"raw"``: carried by the raw; ``"estimated"``: from the data, read
+    noise taken as 0), ``choice`` (the lambdas the choice tried, in order, as (lambda,
+    score, RSS, df, iterations) in the search's units; empty for a fixed lambda and a known
+    noise), ``tiles`` (the solves: 1, or the tiles of a tiled reconstruction, whose
+    ``rows`` is then summed over the tiles, ``iterations`` the most and ``residual`` the
+    largest of any tile), ``prior`` (its name), ``threshold`` (Huber's s or TV's epsilon;
+    None for the quadratic prior) and ``passes`` (the prior's reweighted solves, the most
+    of any tile; iterations count every pass)."""
 
     image: np.ndarray
     extent: Extent
@@ -118,6 +147,10 @@ class Reconstruction:
     prior: str = "quadratic"
     threshold: float | None = None
     passes: int = 1
+    regularization_rule: str = "fixed"
+    noise_model: dict[str, float] | None = None
+    noise_source: str = "given"
+    choice: tuple[tuple[float, float, float, float, int], ...] = ()
 
     def __post_init__(self) -> None:
         self.image.setflags(write=False)
@@ -134,7 +167,8 @@ class Reconstruction:
                 f"[{x0:.4g}, {x1:.4g}], Y [{y0:.4g}, {y1:.4g}] mm, depth {depth}, "
                 f"channels={self.channels}{types}, rows={self.rows}, "
                 f"iterations={self.iterations}, residual={self.residual:.2e}, "
-                f"regularization={self.regularization:g}, {self._prior_text()}"
+                f"regularization={self.regularization:g} ({self.regularization_rule}), "
+                f"noise {self.noise} ({self.noise_source}), {self._prior_text()}"
                 f"tiles={self.tiles})")
 
     def _prior_text(self) -> str:
@@ -244,14 +278,20 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
     - ``step``: the cell pitch, mm (None: delta(z) = mu_1 z / L_1, the sensor's step, at
       the reference depth: a plane's depth at the region's centre (on the axis without a
       region), a depth map's median)
-    - ``regularization``: lambda, the smoothness prior's weight (None:
-      ``DEFAULT_REGULARIZATION``); it does not depend on the number of pixels
+    - ``regularization``: lambda, the smoothness prior's weight (None: chosen from the
+      data per call, in the core: generalised cross-validation m RSS / (m - df)^2 for a
+      raw of photon noise, known or not (it also takes in the model's own error), the
+      unbiased predictive risk RSS + 2 df - m against the floor for a noise-free raw, df
+      the fit's degrees of freedom by a Hutchinson trace estimate; searched over decades
+      of ``CHOOSE_BRACKET`` then by golden section in log lambda, on the region's central
+      ``CHOOSE_SIDE`` cells; docs/reconstruct.md). A number fixes it
     - ``prior``: the penalty on the differences r of neighbouring cells, times lambda:
       ``"quadratic"`` (r^2, the default), ``"huber"`` (r^2 up to ``threshold``, linear
       beyond: edges keep their height) or ``"tv"`` (|r|, rounded below ``threshold``).
       The edge-preserving two are solved in the core by iteratively reweighted least
       squares: at most ``PRIOR_PASSES`` solves, each warm-started, until the cells move
-      by less than ``PRIOR_TOL`` RMS (docs/reconstruct.md)
+      by less than ``PRIOR_TOL`` RMS (docs/reconstruct.md); a data-chosen lambda is the
+      quadratic prior's
     - ``threshold``: Huber's s or TV's epsilon, in albedo (a share of white); None: the
       prior's default (``HUBER_THRESHOLD``, ``TV_SMOOTHING``); must be None for the
       quadratic prior
@@ -260,8 +300,11 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
       of the channel's ``f``): only the pixels under lenses of these types are used
       (None: every type)
     - ``noise``: the raw's noise, as for :func:`splitlf.render` (``{"photons": N,
-      "read_noise": r}``); None: noise-free, weighted as ``NOISE_FLOOR`` of white. It also
-      sets the solve's stop: with a known noise the CG stops once its residual is
+      "read_noise": r}``; ``{"photons": math.inf}``: noise-free, weighted as
+      ``NOISE_FLOOR`` of white); None: the noise model the raw carries (``raw.noise``),
+      and when it carries none, estimated from the data (photon noise, N fitted by GCV's
+      RSS / (m - df); read noise taken as 0). It also sets the solve's stop: with a
+      known noise the CG stops once its residual is
       ``CG_NOISE_TOL`` of the noise's expected norm in the right-hand side (measured: the
       image moves from the fully converged one by 0.1–2 % of its error against the
       truth, docs/reconstruct.md step 3), or at ``CG_RTOL`` of the right-hand side,
@@ -298,9 +341,12 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
     design = raw.design
     surface = _depth(depth)
     chans = _channels(design, channels)
-    noise_ = _noise(noise)
-    lam = DEFAULT_REGULARIZATION if regularization is None else _validate.real(
-        regularization, "regularization")
+    noise_, source = _stated(noise), "given"
+    if noise_ is None:
+        noise_, source = _stated(raw.noise), "raw"
+    if noise_ is None:
+        source = "estimated"
+    lam = None if regularization is None else _validate.real(regularization, "regularization")
     prior_, threshold_ = _prior(prior, threshold)
     _validate.n_threads(n_threads)
     plane = surface if not isinstance(surface, float) else Plane(surface)
@@ -313,19 +359,28 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
         "noise": None if noise_ is None else (noise_["photons"], noise_["read_noise"]),
         "allow_slow": allow_slow, "n_threads": n_threads,
         "settings": (NOISE_FLOOR, CG_RTOL, CG_MAX_ITER, CG_NOISE_TOL, TILE_OVERLAP, MIN_TILE,
-                     MAX_SECONDS)}
+                     MAX_SECONDS),
+        "choose": (*CHOOSE_BRACKET, CHOOSE_PHOTONS, CHOOSE_GOLDEN_STEPS, CHOOSE_PROBES, CHOOSE_SIDE,
+                   CHOOSE_MAX_ITER, CHOOSE_PROBE_RTOL, CHOOSE_BUDGET)}
     report, bars = _reporter(_progress_flag(progress))
     try:
-        image, extent, h, rows, iterations, resid, passes, tiles, types = _native.reconstruct(
-            design.core, [np.asarray(i, dtype=np.float64) for i in raw.images], plane.seam(),
-            options, report)
+        image, extent, h, rows, iterations, resid, passes, tiles, types, chosen = (
+            _native.reconstruct(
+                design.core, [np.asarray(i, dtype=np.float64) for i in raw.images],
+                plane.seam(), options, report))
     finally:
         for bar in bars:
             bar.close()
-    noise_text = (f"noise-free: sigma = {NOISE_FLOOR:g} of white" if noise_ is None else
-                  f"photons {noise_['photons']:g}, read noise {noise_['read_noise']:g}")
+    lam_used, rule, (photons, read), _, trials = chosen
+    noise_text = (f"noise-free: sigma = {NOISE_FLOOR:g} of white" if photons == math.inf else
+                  f"photons {photons:g}, read noise {read:g}")
+    _log.info("reconstruct: lambda %.6g (%s), noise %s (%s)", lam_used, rule, noise_text,
+              source)
     return Reconstruction(image=image, extent=extent, step=h, design=design, depth=surface,
                           channels=chans, rows=rows, iterations=iterations, residual=resid,
-                          regularization=lam, noise=noise_text, tiles=tiles,
-                          lens_types=None if types is None else tuple(types), prior=prior_,
+                          regularization=lam_used, noise=noise_text, tiles=tiles,
+                          lens_types=None if types is None else tuple(types),
+                          regularization_rule=rule,
+                          noise_model={"photons": photons, "read_noise": read},
+                          noise_source=source, choice=tuple(trials), prior=prior_,
                           threshold=threshold_, passes=passes)

@@ -3,6 +3,7 @@
 //! least squares by matrix-free conjugate gradients ([`solve`]) and the plane sweep that
 //! estimates depth from a raw ([`depth`]) (§11). Uses every room below it.
 
+pub mod choose;
 pub mod depth;
 pub mod plan;
 pub mod reconstruct;

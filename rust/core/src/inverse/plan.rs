@@ -149,7 +149,13 @@ impl Estimate {
 
     /// Refuse a run expected to take more than `max_seconds`.
     pub fn check_time(&self, max_seconds: f64, max_iter: usize) -> Result<()> {
-        let s = self.seconds(max_iter);
+        self.check_time_with(max_seconds, max_iter, 0.0)
+    }
+
+    /// Refuse a run expected to take more than `max_seconds` with `extra` seconds of
+    /// other work (the choice of λ's solves on a sub-grid, the main solve after it).
+    pub fn check_time_with(&self, max_seconds: f64, max_iter: usize, extra: f64) -> Result<()> {
+        let s = self.seconds(max_iter) + extra;
         if s > max_seconds {
             return Err(Error::TooMuchWork {
                 what: format!(

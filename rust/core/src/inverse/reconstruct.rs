@@ -13,7 +13,10 @@ use std::sync::Mutex;
 use crate::imaging::scene::Surface;
 use crate::infra::error::{Error, Result};
 use crate::infra::memory;
+use crate::inverse::choose;
 use crate::inverse::plan::Estimate;
+
+mod choice;
 use crate::inverse::solve::{self, Block, Csr};
 use crate::inverse::system::{self, CellGrid, OUTSIDE_SHARE};
 use crate::model::design::Design;
@@ -35,6 +38,37 @@ pub struct Settings {
     pub min_tile: usize,
     /// The expected time (s) beyond which a reconstruction is refused unless allowed.
     pub max_seconds: f64,
+    /// How λ is chosen from the data when it is not given ([`choose`]).
+    pub choose: ChooseSettings,
+}
+
+/// The choice of λ ([`choose`]): the bracket of λ for weights in inverse-variance units
+/// (capped at [`MAX_PRIOR_SHARE`] times the data's mean weight per cell), the range of
+/// photon counts an estimate of the noise can find (it widens the bracket when the noise
+/// is not known), the golden-section steps, the trace probes, the central sub-grid's side
+/// (cells) it is made on, each of its solves' iteration cap, the probes' stop and the
+/// search's budget of iterations.
+#[derive(Clone, Copy, Debug)]
+pub struct ChooseSettings {
+    pub lo: f64,
+    pub hi: f64,
+    pub photons: [f64; 2],
+    pub golden_steps: usize,
+    pub probes: usize,
+    pub side: usize,
+    pub max_iter: usize,
+    pub probe_rtol: f64,
+    /// The iterations the whole search may take (the time plan counts them).
+    pub budget: usize,
+}
+
+/// The raw's noise as a reconstruction takes it: not known (estimated from the data),
+/// noise-free (weighted as the floor), or photon noise N with read noise r (electrons).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Noise {
+    Unknown,
+    Free,
+    Photons([f64; 2]),
 }
 
 /// The surface as the caller gives it: "plane" with (z0, gx, gy), or "depthmap" with its
@@ -48,8 +82,8 @@ pub struct SurfaceSpec<'a> {
 
 /// One reconstruction's inputs: the raw (every channel's image, row-major), the surface,
 /// the channels and lens types (numbered from 0; lens types None: every type), the region
-/// (None: what the channels see), the step (None: δ at the reference depth), λ, the
-/// noise (photons, read noise; None: noise-free), the prior on the cells' differences
+/// (None: what the channels see), the step (None: δ at the reference depth), λ (None:
+/// chosen from the data, [`choose`]), the noise, the prior on the cells' differences
 /// (quadratic, or edge-preserving, solved in passes by the solve), the tile side (None:
 /// one solve, or the tiles that fit), whether a slow run is allowed, the threads and a
 /// memory limit below what is available (tests).
@@ -62,8 +96,8 @@ pub struct Request<'a> {
     pub lens_types: Option<Vec<usize>>,
     pub region: Option<[f64; 4]>,
     pub step: Option<f64>,
-    pub regularization: f64,
-    pub noise: Option<[f64; 2]>,
+    pub regularization: Option<f64>,
+    pub noise: Noise,
     pub prior: solve::Prior,
     pub tile: Option<usize>,
     pub allow_slow: bool,
@@ -89,6 +123,14 @@ pub struct Outcome {
     pub passes: usize,
     pub tiles: usize,
     pub lens_types: Option<Vec<usize>>,
+    /// The prior's weight used, and how it was set: "fixed" (given), "upre" or "gcv".
+    pub regularization: f64,
+    pub rule: &'static str,
+    /// The noise used (Free or Photons) and whether it was estimated here.
+    pub noise: Noise,
+    pub estimated: bool,
+    /// The λ the choice tried, in order (empty for a fixed λ with a known noise).
+    pub trials: Vec<choose::Trial>,
 }
 
 /// What a running reconstruction reports: its phase (0 planning, 1 the map, 2 the solve),
@@ -117,12 +159,23 @@ impl Progress {
     }
 }
 
-/// The checked inputs shared by every tile.
+/// The checked inputs shared by every tile, with λ and the noise as the solves take them
+/// (chosen or estimated once, before the tiles).
 struct Plan<'a> {
     req: &'a Request<'a>,
     surface: Surface,
     types: Option<Vec<usize>>,
     prior: solve::Prior,
+    lam: f64,
+    noise: Noise,
+}
+
+/// A grid's normal equations: the padding, the padded grid, the equations and the rows.
+struct Equations {
+    pad: usize,
+    grid: CellGrid,
+    normal: solve::Normal,
+    rows: usize,
 }
 
 /// Reconstruct: the checks, the grid, then one solve or tiles (see the module doc).
@@ -157,11 +210,12 @@ pub fn reconstruct(req: &Request<'_>, progress: &Progress) -> Result<Outcome> {
             ));
         }
     }
-    let lam = req.regularization;
-    if !(lam.is_finite() && lam > 0.0) {
-        return Err(Error::param("regularization", lam, "a finite value > 0"));
+    if let Some(lam) = req.regularization {
+        if !(lam.is_finite() && lam > 0.0) {
+            return Err(Error::param("regularization", lam, "a finite value > 0"));
+        }
     }
-    if let Some([n, r]) = req.noise {
+    if let Noise::Photons([n, r]) = req.noise {
         if !(n.is_finite() && n > 0.0 && r.is_finite() && r >= 0.0) {
             return Err(Error::param(
                 "noise",
@@ -183,18 +237,30 @@ pub fn reconstruct(req: &Request<'_>, progress: &Progress) -> Result<Outcome> {
     let s = req.surface;
     let surface = Surface::from_parts(s.kind, s.params, s.map)?;
     let types = lens_types(d, &req.channels, req.lens_types.as_deref())?;
-    let plan = Plan {
+    let mut plan = Plan {
         req,
         surface,
         types,
         prior,
+        lam: req.regularization.unwrap_or(1.0),
+        noise: req.noise,
     };
     let grid = plan.grid(req.region)?;
-    match req.tile {
+    let fixed = req.regularization.is_some() && req.noise != Noise::Unknown;
+    let (rule, trials) = if fixed {
+        ("fixed", vec![])
+    } else {
+        plan.choose(&grid, progress)?
+    };
+    let mut out = match req.tile {
         Some(t) if grid.nx > t || grid.ny > t => plan.tiled(&grid, t, progress),
         Some(_) => plan.hinted(&grid, progress, false),
         None => plan.hinted(&grid, progress, true),
-    }
+    }?;
+    out.rule = rule;
+    out.trials = trials;
+    out.estimated = req.noise == Noise::Unknown;
+    Ok(out)
 }
 
 /// The lens types kept (from 0), checked against the channels' types; None for every
@@ -471,6 +537,11 @@ impl Plan<'_> {
             passes,
             tiles,
             lens_types: self.types.clone(),
+            regularization: self.lam,
+            rule: "fixed",
+            noise: self.noise,
+            estimated: false,
+            trials: vec![],
         })
     }
 
@@ -510,8 +581,18 @@ impl Plan<'_> {
         }
     }
 
-    /// One solve over the grid (padded here).
-    fn one(&self, inner: &CellGrid, progress: &Progress) -> Result<Outcome> {
+    /// The normal equations over the grid (padded here) at λ = `lam` (checked against
+    /// the data; None: 1, unchecked, for the choice of λ), weighted by `self.noise`, after
+    /// the plan's checks (memory; time for `iters` iterations and `extra` seconds of other
+    /// solves, unless a slow run is allowed).
+    fn equations(
+        &self,
+        inner: &CellGrid,
+        progress: &Progress,
+        iters: usize,
+        extra: f64,
+        lam: Option<f64>,
+    ) -> Result<Equations> {
         let req = self.req;
         let (pad, grid) = self.pad(inner)?;
         let fronto = self.surface.fronto();
@@ -521,8 +602,11 @@ impl Plan<'_> {
         let zlo = self.depths(grid.extent()).0;
         let plan = Estimate::new(req.design, &req.channels, &grid, pad, zlo, exact, threads);
         let s = req.settings;
-        // The iteration cap over every pass of the prior.
-        let cap = s.max_iter.saturating_mul(self.prior.passes);
+        // The iteration cap: the image's over every pass of the prior; the choice's budget.
+        let cap = match lam {
+            Some(_) => iters.saturating_mul(self.prior.passes),
+            None => iters,
+        };
         progress.note(plan.describe(inner, pad, cap));
         let too_large = |bytes: u128| {
             (bytes > limit).then(|| Error::TooLarge {
@@ -535,7 +619,7 @@ impl Plan<'_> {
             return Err(e);
         }
         if !req.allow_slow {
-            plan.check_time(s.max_seconds, cap)?;
+            plan.check_time_with(s.max_seconds, cap, extra)?;
         }
         progress.start(1, plan.raw_rows);
         let blocks = match fronto {
@@ -571,20 +655,59 @@ impl Plan<'_> {
                 ),
             ));
         }
-        check_regularization(req.regularization, &blocks, grid.cells())?;
-        let normal = solve::Normal::new(grid.nx, grid.ny, req.regularization, blocks)?
-            .with_prior(self.prior)?;
-        let stop = solve::Stop {
+        if let Some(lam) = lam {
+            check_regularization(lam, &blocks, grid.cells())?;
+        }
+        // The choice of λ (lam None) solves with the quadratic prior; the image's solve
+        // with the prior asked for.
+        let normal = solve::Normal::new(grid.nx, grid.ny, lam.unwrap_or(1.0), blocks)?;
+        let normal = match lam {
+            Some(_) => normal.with_prior(self.prior)?,
+            None => normal,
+        };
+        Ok(Equations {
+            pad,
+            grid,
+            normal,
+            rows,
+        })
+    }
+
+    /// The solve's stop: the noise stop for a raw of photon noise (given or estimated),
+    /// the relative stop alone for a noise-free one.
+    fn stop(&self, max_iter: usize) -> solve::Stop {
+        let s = self.req.settings;
+        solve::Stop {
             rtol: s.rtol,
-            noise: if req.noise.is_some() {
+            noise: if matches!(self.noise, Noise::Photons(_)) {
                 s.noise_tol
             } else {
                 0.0
             },
-            max_iter: s.max_iter,
-        };
+            max_iter,
+        }
+    }
+
+    /// One solve over the grid (padded here).
+    fn one(&self, inner: &CellGrid, progress: &Progress) -> Result<Outcome> {
+        let eq = self.equations(
+            inner,
+            progress,
+            self.req.settings.max_iter,
+            0.0,
+            Some(self.lam),
+        )?;
+        let s = self.req.settings;
+        // The iteration cap over every pass of the prior.
+        let cap = s.max_iter.saturating_mul(self.prior.passes);
         progress.start(2, cap);
-        let sol = solve::solve(&normal, stop, req.n_threads, &progress.done)?;
+        let sol = solve::solve(
+            &eq.normal,
+            self.stop(s.max_iter),
+            self.req.n_threads,
+            &progress.done,
+        )?;
+        let (pad, grid) = (eq.pad, eq.grid);
         let mut image = Vec::with_capacity(inner.cells());
         for j in pad..pad + inner.ny {
             image.extend_from_slice(&sol.cells[j * grid.nx + pad..j * grid.nx + pad + inner.nx]);
@@ -595,12 +718,17 @@ impl Plan<'_> {
             ny: inner.ny,
             extent: inner.extent(),
             step: inner.step,
-            rows,
+            rows: eq.rows,
             iterations: sol.iterations,
             residual: sol.residual,
             passes: sol.passes,
             tiles: 1,
             lens_types: self.types.clone(),
+            regularization: self.lam,
+            rule: "fixed",
+            noise: self.noise,
+            estimated: false,
+            trials: vec![],
         })
     }
 
@@ -608,10 +736,13 @@ impl Plan<'_> {
     /// r/N, render's model), never below the floor (a share of the channel's white).
     fn weight(&self, y: f64, white: f64) -> f64 {
         let floor = self.req.settings.noise_floor * white;
-        let sigma = match self.req.noise {
-            None => floor,
-            Some([n, r]) => ((y.max(0.0) / n + (r / n) * (r / n)).sqrt()).max(floor),
+        let [n, r] = match self.noise {
+            Noise::Free => return 1.0 / (floor * floor),
+            Noise::Photons(p) => p,
+            // Not known yet: its shape (photon noise) with N = 1, scaled once estimated.
+            Noise::Unknown => [1.0, 0.0],
         };
+        let sigma = ((y.max(0.0) / n + (r / n) * (r / n)).sqrt()).max(floor);
         1.0 / (sigma * sigma)
     }
 
@@ -708,6 +839,10 @@ impl Plan<'_> {
 /// λ beyond this many times the data's mean weight per cell (trace(AᵀWA) / cells) drowns
 /// the data: the normal equations' condition grows past what the solve resolves.
 pub const MAX_PRIOR_SHARE: f64 = 1e6;
+
+/// The largest photon count of the noise model (the Python package's `MAX_PHOTONS`): an
+/// estimate beyond it is taken as noise-free.
+pub const MAX_PHOTONS: f64 = 1e15;
 
 /// Refuse a prior weight whose solve is not meaningful (see [`MAX_PRIOR_SHARE`]).
 fn check_regularization(lam: f64, blocks: &[Block], cells: usize) -> Result<()> {

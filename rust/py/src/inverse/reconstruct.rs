@@ -514,15 +514,31 @@ type Reconstructed<'py> = (
     usize,
     usize,
     Option<Vec<usize>>,
+    Choice,
+);
+
+/// How λ and the noise were set: (λ, rule, (photons, read noise) with photons = inf for
+/// noise-free, whether the noise was estimated, the λ tried as (λ, score, RSS, df,
+/// iterations)).
+type Choice = (
+    f64,
+    &'static str,
+    (f64, f64),
+    bool,
+    Vec<(f64, f64, f64, f64, usize)>,
 );
 
 /// A whole reconstruction in one call (`splitlf_core::inverse::reconstruct`): `images`
 /// the raw's channels, `surface` (kind, params, depth map or None) as `RenderScene` takes
 /// it, `options` a dict of channels and lens_types (numbered from 1; None: all),
-/// region, step, regularization, noise ((photons, read noise) or None), prior ((name,
-/// threshold, passes, tol) or None: quadratic), tile, allow_slow,
-/// n_threads, memory_limit (bytes, tests) and settings (noise_floor, rtol, max_iter,
-/// noise_tol, overlap, min_tile, max_seconds). `progress(phase, done, total, notes)` is
+/// region, step, regularization (None: chosen from the data), noise ((photons, read
+/// noise), photons = inf for noise-free; None: not known, estimated), prior ((name,
+/// threshold, passes, tol) or None: quadratic), tile, allow_slow, n_threads,
+/// memory_limit (bytes, tests), settings (noise_floor, rtol, max_iter, noise_tol,
+/// overlap, min_tile, max_seconds) and choose (the bracket's lo and hi, the photon counts
+/// an estimate can find (lo, hi), golden-section steps, probes, the sub-grid's side, each
+/// search solve's iteration cap, the probes' rtol, the search's budget of iterations).
+/// `progress(phase, done, total, notes)` is
 /// called at the signal checks and once at the end. Returns (image, extent, step, rows,
 /// iterations, residual, the prior's passes, tiles, lens types from 1 or None).
 #[pyfunction]
@@ -546,6 +562,9 @@ pub(crate) fn reconstruct<'py>(
     });
     let settings: (f64, f64, usize, f64, usize, usize, f64) = option(options, "settings")?
         .ok_or_else(|| pyo3::exceptions::PyTypeError::new_err("options need settings"))?;
+    let choose: (f64, f64, (f64, f64), usize, usize, usize, usize, f64, usize) =
+        option(options, "choose")?
+            .ok_or_else(|| pyo3::exceptions::PyTypeError::new_err("options need choose"))?;
     let channels = match option::<Vec<i64>>(options, "channels")? {
         Some(v) => from_one("channels", v)?,
         None => (0..design.inner.channels.len()).collect(),
@@ -553,8 +572,7 @@ pub(crate) fn reconstruct<'py>(
     let lens_types = option::<Vec<i64>>(options, "lens_types")?
         .map(|v| from_one("lens_types", v))
         .transpose()?;
-    let regularization: f64 = option(options, "regularization")?
-        .ok_or_else(|| pyo3::exceptions::PyTypeError::new_err("options need regularization"))?;
+    let regularization: Option<f64> = option(options, "regularization")?;
     let n_threads = threads_arg(options.get_item("n_threads")?.as_ref())?;
     let noise: Option<(f64, f64)> = option(options, "noise")?;
     let region: Option<(f64, f64, f64, f64)> = option(options, "region")?;
@@ -590,7 +608,11 @@ pub(crate) fn reconstruct<'py>(
         region: region.map(|r| [r.0, r.1, r.2, r.3]),
         step: option(options, "step")?,
         regularization,
-        noise: noise.map(|(n, r)| [n, r]),
+        noise: match noise {
+            None => rc::Noise::Unknown,
+            Some((n, _)) if n == f64::INFINITY => rc::Noise::Free,
+            Some((n, r)) => rc::Noise::Photons([n, r]),
+        },
         prior,
         tile: option(options, "tile")?,
         allow_slow: option(options, "allow_slow")?.unwrap_or(false),
@@ -604,6 +626,17 @@ pub(crate) fn reconstruct<'py>(
             overlap: settings.4,
             min_tile: settings.5,
             max_seconds: settings.6,
+            choose: rc::ChooseSettings {
+                lo: choose.0,
+                hi: choose.1,
+                photons: [choose.2 .0, choose.2 .1],
+                golden_steps: choose.3,
+                probes: choose.4,
+                side: choose.5,
+                max_iter: choose.6,
+                probe_rtol: choose.7,
+                budget: choose.8,
+            },
         },
     };
     let st = Arc::clone(&state);
@@ -631,5 +664,18 @@ pub(crate) fn reconstruct<'py>(
         out.tiles,
         out.lens_types
             .map(|v| v.into_iter().map(|t| t + 1).collect()),
+        (
+            out.regularization,
+            out.rule,
+            match out.noise {
+                rc::Noise::Photons([n, r]) => (n, r),
+                _ => (f64::INFINITY, 0.0),
+            },
+            out.estimated,
+            out.trials
+                .iter()
+                .map(|t| (t.lam, t.score, t.rss, t.df, t.iterations))
+                .collect(),
+        ),
     ))
 }

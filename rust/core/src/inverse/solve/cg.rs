@@ -87,22 +87,30 @@ impl State {
 
     /// The right-hand side, the diagonal, the start and its residual; false when b = 0
     /// (then x = 0 and there is nothing to do).
-    fn start(&mut self, normal: &Normal, work: &mut Work, rtol: f64, noise: f64) -> bool {
-        normal.rhs(work, &mut self.b);
+    fn start(&mut self, normal: &Normal, work: &mut Work, from: Start, tols: (f64, f64)) -> bool {
+        let (rtol, noise) = tols;
+        match from.rhs {
+            Some(v) => self.b.copy_from_slice(v),
+            None => normal.rhs(work, &mut self.b),
+        }
         let trace = normal.diagonal(work, &mut self.diag);
         if !self.data.is_empty() {
             self.data.copy_from_slice(&self.diag);
         }
         normal.add_prior_diagonal(work, &mut self.diag);
-        // AᵀWA·1 into prev, with p (not needed before the first step) as the ones.
-        let seen = &mut self.prev;
-        self.p.fill(1.0);
-        normal.apply(&self.p, work, seen);
-        let mean = self.b.iter().sum::<f64>() / seen.iter().sum::<f64>().max(1e-300);
-        self.x
-            .par_iter_mut()
-            .zip(self.b.par_iter().zip(seen.par_iter()))
-            .for_each(|(x, (&b, &s))| *x = if s > 0.0 { b / s } else { mean });
+        if let Some(v) = from.x0 {
+            self.x.copy_from_slice(v);
+        } else {
+            // AᵀWA·1 into prev, with p (not needed before the first step) as the ones.
+            let seen = &mut self.prev;
+            self.p.fill(1.0);
+            normal.apply(&self.p, work, seen);
+            let mean = self.b.iter().sum::<f64>() / seen.iter().sum::<f64>().max(1e-300);
+            self.x
+                .par_iter_mut()
+                .zip(self.b.par_iter().zip(seen.par_iter()))
+                .for_each(|(x, (&b, &s))| *x = if s > 0.0 { b / s } else { mean });
+        }
         self.bn = norm(&self.b);
         if self.bn == 0.0 {
             self.x.fill(0.0);
@@ -190,6 +198,27 @@ pub fn solve(
     n_threads: Option<usize>,
     done: &std::sync::atomic::AtomicUsize,
 ) -> Result<Solution> {
+    solve_from(normal, Start::default(), stop, n_threads, done)
+}
+
+/// Where [`solve_from`] starts: the right-hand side (None: AᵀWy) and the first iterate
+/// (None: the normalised back-projection of the right-hand side). A warm start (the
+/// solution at a nearby λ) and other right-hand sides (a trace estimate's probe) serve
+/// the choice of λ (`inverse::choose`).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Start<'a> {
+    pub rhs: Option<&'a [f64]>,
+    pub x0: Option<&'a [f64]>,
+}
+
+/// [`solve`] from `start`.
+pub fn solve_from(
+    normal: &Normal,
+    start: Start<'_>,
+    stop: Stop,
+    n_threads: Option<usize>,
+    done: &std::sync::atomic::AtomicUsize,
+) -> Result<Solution> {
     let Stop {
         rtol,
         noise,
@@ -204,6 +233,15 @@ pub fn solve(
     let n = normal.cells();
     let prior = normal.prior();
     let vectors = if prior.passes > 1 { 8 } else { 7 };
+    for (field, v) in [("rhs", start.rhs), ("x0", start.x0)] {
+        if v.is_some_and(|v| v.len() != n) {
+            return Err(Error::param(
+                field,
+                "a vector",
+                format!("{n} values (one per cell)"),
+            ));
+        }
+    }
     memory::check(
         "the solve's vectors",
         memory::bytes_of::<f64>(vectors * n as u128) + normal.work_bytes(),
@@ -214,7 +252,7 @@ pub fn solve(
     parallel::repeat_until(n_threads, || {
         if first {
             first = false;
-            let go = s.start(normal, &mut work, rtol, noise);
+            let go = s.start(normal, &mut work, start, (rtol, noise));
             passes = 1;
             return Ok(!go);
         }

@@ -41,6 +41,6 @@ mod product;
 #[cfg(test)]
 mod testing;
 
-pub use cg::{solve, Solution, Stop};
+pub use cg::{solve, solve_from, Solution, Start, Stop};
 pub use csr::Csr;
 pub use normal::{Block, Normal, Penalty, Prior, Work};

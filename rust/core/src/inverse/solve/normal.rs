@@ -295,6 +295,40 @@ impl Normal {
         self.nx * self.ny
     }
 
+    /// The grid's columns and rows.
+    pub fn shape(&self) -> (usize, usize) {
+        (self.nx, self.ny)
+    }
+
+    /// The prior's weight λ.
+    pub fn regularization(&self) -> f64 {
+        self.lam
+    }
+
+    /// The same equations at another prior weight (the blocks' preparation kept).
+    pub fn set_regularization(&mut self, lam: f64) -> Result<()> {
+        if !(lam.is_finite() && lam > 0.0) {
+            return Err(Error::param("regularization", lam, "a finite value > 0"));
+        }
+        self.lam = lam;
+        Ok(())
+    }
+
+    /// The rows (weight > 0) and Σ w y² over them.
+    pub fn data_sums(&self) -> (usize, f64) {
+        let (mut m, mut s) = (0usize, 0.0);
+        for p in &self.blocks {
+            let (Block::Factored { w, y, .. } | Block::Rows { w, y, .. }) = &p.block;
+            for (&w, &y) in w.iter().zip(y) {
+                if w > 0.0 {
+                    m += 1;
+                    s += w * y * y;
+                }
+            }
+        }
+        (m, s)
+    }
+
     /// Bytes of one product's scratch (what [`Normal::apply`] holds besides its vectors).
     pub(super) fn work_bytes(&self) -> u128 {
         (self
@@ -326,7 +360,7 @@ impl Normal {
         }
     }
 
-    pub(super) fn work(&self) -> Result<Work> {
+    pub fn work(&self) -> Result<Work> {
         let scratch = self
             .blocks
             .iter()

@@ -413,7 +413,7 @@ impl Normal {
     }
 
     /// Aᵀ W y.
-    pub(super) fn rhs(&self, work: &mut Work, out: &mut [f64]) {
+    pub fn rhs(&self, work: &mut Work, out: &mut [f64]) {
         self.rows_into(None, work, false, |b, k, _| match b {
             Block::Factored { norm, w, y, .. } => w[k] * norm * y[k],
             Block::Rows { w, y, .. } => w[k] * y[k],
@@ -423,7 +423,7 @@ impl Normal {
 
     /// diag(Aᵀ W A) into `out` (the prior's part is [`Normal::add_prior_diagonal`]);
     /// returns trace(Aᵀ W A).
-    pub(super) fn diagonal(&self, work: &mut Work, out: &mut [f64]) -> f64 {
+    pub fn diagonal(&self, work: &mut Work, out: &mut [f64]) -> f64 {
         self.rows_into(None, work, true, |b, k, _| match b {
             Block::Factored { norm, w, .. } => w[k] * norm * norm,
             Block::Rows { w, .. } => w[k],

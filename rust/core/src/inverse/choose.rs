@@ -1,0 +1,493 @@
+//! The prior's weight λ chosen from the data (docs/reconstruct.md, "The prior's weight"):
+//! for the normal equations (AᵀWA + λDᵀD) t = AᵀWy of one grid, the λ that minimises a
+//! predictive risk in the data, searched over log λ.
+//!
+//! Write N = AᵀWA, R = DᵀD, t_λ the solution, RSS(λ) = Σ_rows w (A t_λ − y)² and
+//! df(λ) = trace((N + λR)⁻¹ N) the fit's degrees of freedom (the trace of the hat matrix
+//! W^½ A (N + λR)⁻¹ Aᵀ W^½), m the rows:
+//! - [`Rule::Upre`] (Mallows' C_p / the unbiased predictive risk estimate, SURE for a
+//!   linear estimator) when W is the inverse noise variance (a noise given, carried by the
+//!   raw, or the floor of a noise-free raw): U(λ) = RSS + 2 df − m;
+//! - [`Rule::Gcv`] (generalised cross-validation) when the noise's scale is not known
+//!   (W known up to a factor): V(λ) = m RSS / (m − df)²; then RSS / (m − df) at the
+//!   chosen λ estimates the factor (the rows' noise variance in W's units).
+//!
+//! RSS comes from the solution without a forward product: tᵀNt − 2 tᵀAᵀWy + Σ w y².
+//! df is a Hutchinson estimate: the mean of zᵀ (N + λR)⁻¹ N z over fixed Rademacher probes
+//! z over the cells (the same probes at every λ, so the estimate's error changes smoothly
+//! with λ and does not move the minimum about). Each λ costs one solve for t and one per
+//! probe, each warm-started from the nearest λ already solved.
+//!
+//! The search: λ over decades from the top of the bracket down (large λ converge fast and
+//! warm-start the next), stopped two decades past the least score, then a golden-section
+//! search in log λ over the two decades around the least.
+
+use crate::infra::error::{Error, Result};
+use crate::infra::parallel;
+
+use super::solve::{self, Normal, Start, Stop};
+
+/// Which risk the search minimises (see the module doc).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Rule {
+    Upre,
+    Gcv,
+}
+
+impl Rule {
+    pub fn name(self) -> &'static str {
+        match self {
+            Rule::Upre => "upre",
+            Rule::Gcv => "gcv",
+        }
+    }
+}
+
+/// How the search runs: the bracket of λ (both > 0), the golden-section steps, the
+/// probes, the iterations the whole search may take (`budget`: no λ is tried once the
+/// next one's solves, each at its cap, could exceed it), and each solve's stop (the data's: `data`, whose `noise` is τ for a W in
+/// inverse-variance units and scaled by the running noise estimate under GCV; the probes':
+/// `probe`, relative).
+#[derive(Clone, Copy, Debug)]
+pub struct Config {
+    pub lo: f64,
+    pub hi: f64,
+    pub golden_steps: usize,
+    pub probes: usize,
+    pub budget: usize,
+    pub data: Stop,
+    pub probe: Stop,
+}
+
+/// One λ tried: its score, RSS, df, and the solves' iterations.
+#[derive(Clone, Copy, Debug)]
+pub struct Trial {
+    pub lam: f64,
+    pub score: f64,
+    pub rss: f64,
+    pub df: f64,
+    pub iterations: usize,
+}
+
+/// The search's result: the λ of the least score, the rows, the noise factor RSS/(m − df)
+/// there, and every λ tried in order.
+#[derive(Clone, Debug)]
+pub struct Choice {
+    pub lam: f64,
+    pub rows: usize,
+    pub scale: f64,
+    pub trials: Vec<Trial>,
+}
+
+impl Choice {
+    /// The solves the search made (one for the data and one per probe, per λ).
+    pub fn solves(&self, probes: usize) -> usize {
+        self.trials.len() * (1 + probes)
+    }
+}
+
+/// out = DᵀD t over the nx × ny grid (horizontal and vertical neighbours).
+fn prior(t: &[f64], nx: usize, ny: usize, out: &mut [f64]) {
+    for j in 0..ny {
+        for i in 0..nx {
+            let c = j * nx + i;
+            let mut s = 0.0;
+            if i > 0 {
+                s += t[c] - t[c - 1];
+            }
+            if i + 1 < nx {
+                s += t[c] - t[c + 1];
+            }
+            if j > 0 {
+                s += t[c] - t[c - nx];
+            }
+            if j + 1 < ny {
+                s += t[c] - t[c + nx];
+            }
+            out[c] = s;
+        }
+    }
+}
+
+/// A Rademacher vector (±1) of n values from `seed` (SplitMix64).
+fn rademacher(n: usize, seed: u64) -> Vec<f64> {
+    let mut x = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0xD1B5_4A32_D192_ED03;
+    (0..n)
+        .map(|_| {
+            x = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = x;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            z ^= z >> 31;
+            if z >> 63 == 0 {
+                1.0
+            } else {
+                -1.0
+            }
+        })
+        .collect()
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(a, b)| a * b).sum()
+}
+
+/// The search's state: the equations, their fixed parts (AᵀWy, Σ w y², the rows, the
+/// probes and N z for each), and the last solutions (warm starts).
+struct Search<'a> {
+    normal: &'a mut Normal,
+    rule: Rule,
+    cfg: Config,
+    threads: Option<usize>,
+    done: &'a std::sync::atomic::AtomicUsize,
+    b: Vec<f64>,
+    yy: f64,
+    rows: usize,
+    probes: Vec<(Vec<f64>, Vec<f64>)>,
+    x: Option<Vec<f64>>,
+    u: Vec<Option<Vec<f64>>>,
+    scale: Option<f64>,
+    trials: Vec<Trial>,
+    used: usize,
+}
+
+impl Search<'_> {
+    /// Whether the next λ's solves, each at its cap, could exceed the budget.
+    fn exhausted(&self) -> bool {
+        let next = self.cfg.data.max_iter + self.cfg.probes * self.cfg.probe.max_iter;
+        self.used + next > self.cfg.budget
+    }
+
+    /// N t = (N + λR) t − λ R t.
+    fn data_product(&mut self, t: &[f64]) -> Result<Vec<f64>> {
+        let ((nx, ny), lam) = (self.normal.shape(), self.normal.regularization());
+        let mut work = self.normal.work()?;
+        let mut out = vec![0.0; t.len()];
+        self.normal.apply(t, &mut work, &mut out);
+        let mut r = vec![0.0; t.len()];
+        prior(t, nx, ny, &mut r);
+        out.iter_mut().zip(&r).for_each(|(o, r)| *o -= lam * r);
+        Ok(out)
+    }
+
+    /// The score at λ (and its trial kept).
+    fn trial(&mut self, lam: f64) -> Result<f64> {
+        self.normal.set_regularization(lam)?;
+        let mut data = self.cfg.data;
+        if self.rule == Rule::Gcv {
+            // W is right up to the factor `scale`: the noise's norm scales with its root.
+            match self.scale {
+                Some(s) => data.noise *= s.sqrt(),
+                None => data.noise = 0.0,
+            }
+        }
+        let start = Start {
+            rhs: None,
+            x0: self.x.as_deref(),
+        };
+        let sol = solve::solve_from(self.normal, start, data, self.threads, self.done)?;
+        let mut iterations = sol.iterations;
+        let nt = self.data_product(&sol.cells)?;
+        let rss = (dot(&sol.cells, &nt) - 2.0 * dot(&sol.cells, &self.b) + self.yy).max(0.0);
+        self.x = Some(sol.cells);
+        let mut df = 0.0;
+        for k in 0..self.probes.len() {
+            let start = Start {
+                rhs: Some(&self.probes[k].1),
+                x0: self.u[k].as_deref(),
+            };
+            let s = solve::solve_from(self.normal, start, self.cfg.probe, self.threads, self.done)?;
+            iterations += s.iterations;
+            df += dot(&self.probes[k].0, &s.cells);
+            self.u[k] = Some(s.cells);
+        }
+        df /= self.probes.len().max(1) as f64;
+        self.used += iterations;
+        let m = self.rows as f64;
+        let score = match self.rule {
+            Rule::Upre => rss + 2.0 * df - m,
+            Rule::Gcv => m * rss / ((m - df).max(1.0) * (m - df).max(1.0)),
+        };
+        if self.rule == Rule::Gcv && rss > 0.0 {
+            self.scale = Some(rss / (m - df).max(1.0));
+        }
+        self.trials.push(Trial {
+            lam,
+            score,
+            rss,
+            df,
+            iterations,
+        });
+        parallel::checkpoint()?;
+        Ok(score)
+    }
+}
+
+/// Choose λ for `normal` by `rule` (see the module doc); `normal` is left at the chosen
+/// λ. `done` counts the solves' iterations.
+pub fn choose(
+    normal: &mut Normal,
+    rule: Rule,
+    cfg: Config,
+    threads: Option<usize>,
+    done: &std::sync::atomic::AtomicUsize,
+) -> Result<Choice> {
+    if !(cfg.lo > 0.0 && cfg.hi > cfg.lo && cfg.hi.is_finite()) {
+        return Err(Error::param(
+            "regularization",
+            format!("a bracket [{}, {}]", cfg.lo, cfg.hi),
+            "0 < lo < hi finite",
+        ));
+    }
+    let n = normal.cells();
+    let (rows, yy) = normal.data_sums();
+    let mut work = normal.work()?;
+    let mut b = vec![0.0; n];
+    normal.rhs(&mut work, &mut b);
+    drop(work);
+    let mut search = Search {
+        normal,
+        rule,
+        cfg,
+        threads,
+        done,
+        b,
+        yy,
+        rows,
+        probes: vec![],
+        x: None,
+        u: vec![None; cfg.probes],
+        scale: None,
+        trials: vec![],
+        used: 0,
+    };
+    for k in 0..cfg.probes {
+        let z = rademacher(n, 0x5eed + k as u64);
+        let nz = search.data_product(&z)?;
+        search.probes.push((z, nz));
+    }
+    // Decades from the top down, stopped two past the least score.
+    let (l0, l1) = (cfg.lo.log10(), cfg.hi.log10());
+    let mut grid = vec![];
+    let mut e = l1;
+    while e >= l0 - 1e-9 && grid.len() < 25 {
+        grid.push(e);
+        e -= 1.0;
+    }
+    let mut scores: Vec<(f64, f64)> = vec![];
+    for &e in &grid {
+        if !scores.is_empty() && search.exhausted() {
+            break;
+        }
+        let s = search.trial(10f64.powf(e))?;
+        scores.push((e, s));
+        let best = scores
+            .iter()
+            .enumerate()
+            .min_by(|a, b| a.1 .1.total_cmp(&b.1 .1))
+            .map_or(0, |(i, _)| i);
+        if scores.len() >= best + 3 {
+            break;
+        }
+    }
+    let best = scores
+        .iter()
+        .copied()
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .ok_or_else(|| Error::param("regularization", "no bracket", "a bracket of λ"))?;
+    // Golden section over the decades either side of the least (within the bracket).
+    let (mut a, mut d) = ((best.0 - 1.0).max(l0), (best.0 + 1.0).min(l1));
+    let g = (5f64.sqrt() - 1.0) / 2.0;
+    let mut c1 = d - g * (d - a);
+    let mut c2 = a + g * (d - a);
+    if cfg.golden_steps == 0 || search.exhausted() {
+        return finish(search, rows);
+    }
+    let mut f1 = search.trial(10f64.powf(c1))?;
+    if search.exhausted() {
+        return finish(search, rows);
+    }
+    let mut f2 = search.trial(10f64.powf(c2))?;
+    for _ in 0..cfg.golden_steps.saturating_sub(1) {
+        if search.exhausted() {
+            break;
+        }
+        if f1 <= f2 {
+            (d, c2, f2) = (c2, c1, f1);
+            c1 = d - g * (d - a);
+            f1 = search.trial(10f64.powf(c1))?;
+        } else {
+            (a, c1, f1) = (c1, c2, f2);
+            c2 = a + g * (d - a);
+            f2 = search.trial(10f64.powf(c2))?;
+        }
+    }
+    finish(search, rows)
+}
+
+/// The λ of the least score tried, the equations left at it.
+fn finish(search: Search<'_>, rows: usize) -> Result<Choice> {
+    let least = search
+        .trials
+        .iter()
+        .min_by(|a, b| a.score.total_cmp(&b.score))
+        .copied()
+        .ok_or_else(|| Error::param("regularization", "no trial", "a bracket of λ"))?;
+    let m = rows as f64;
+    let scale = least.rss / (m - least.df).max(1.0);
+    let Search { normal, trials, .. } = search;
+    normal.set_regularization(least.lam)?;
+    Ok(Choice {
+        lam: least.lam,
+        rows,
+        scale,
+        trials,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::inverse::solve::{Block, Csr};
+    use std::sync::atomic::AtomicUsize;
+
+    /// Dense helpers for the exact df and RSS of a small problem.
+    fn solve_dense(mut h: Vec<Vec<f64>>, mut b: Vec<f64>) -> Vec<f64> {
+        let n = b.len();
+        for c in 0..n {
+            for r in c + 1..n {
+                let f = h[r][c] / h[c][c];
+                let pivot = h[c].clone();
+                for (q, p) in h[r][c..].iter_mut().zip(&pivot[c..]) {
+                    *q -= f * p;
+                }
+                b[r] -= f * b[c];
+            }
+        }
+        let mut x = vec![0.0; n];
+        for c in (0..n).rev() {
+            let s: f64 = (c + 1..n).map(|k| h[c][k] * x[k]).sum();
+            x[c] = (b[c] - s) / h[c][c];
+        }
+        x
+    }
+
+    /// A random blur of a 6 × 5 grid seen by 80 noisy rows: the search's RSS and df at
+    /// each λ against the dense hat matrix (df within 3 Hutchinson standard errors of 8
+    /// probes, RSS to 10⁻⁸), and the chosen λ the least of a fine dense scan's score
+    /// within a tenth of a decade of score.
+    #[test]
+    fn trials_are_the_dense_risk() {
+        let (nx, ny, m) = (6usize, 5usize, 80usize);
+        let n = nx * ny;
+        let u = rademacher(4 * m * n, 3);
+        let mut dense = vec![vec![0.0; n]; m];
+        let (mut indptr, mut indices, mut data) = (vec![0usize], vec![], vec![]);
+        for (r, row) in dense.iter_mut().enumerate() {
+            let c0 = (r * 7) % n;
+            for k in 0..4 {
+                let c = (c0 + k) % n;
+                row[c] += 0.5 + 0.2 * u[r * 4 + k];
+            }
+            for (c, &v) in row.iter().enumerate() {
+                if v != 0.0 {
+                    indices.push(c as u32);
+                    data.push(v);
+                }
+            }
+            indptr.push(data.len());
+        }
+        let truth: Vec<f64> = (0..n)
+            .map(|c| 0.5 + 0.3 * ((c as f64) * 0.7).sin())
+            .collect();
+        let y: Vec<f64> = dense
+            .iter()
+            .enumerate()
+            .map(|(r, row)| dot(row, &truth) + 0.05 * u[m * n + r])
+            .collect();
+        let w = vec![400.0; m];
+        let a = Csr::new("rows", indptr, indices, data, n).unwrap();
+        let block = Block::Rows {
+            a,
+            w: w.clone(),
+            y: y.clone(),
+        };
+        let mut normal = Normal::new(nx, ny, 1.0, vec![block]).unwrap();
+        let cfg = Config {
+            lo: 1e-3,
+            hi: 1e3,
+            golden_steps: 8,
+            probes: 8,
+            budget: 1_000_000,
+            data: Stop::relative(1e-13, 10_000),
+            probe: Stop::relative(1e-13, 10_000),
+        };
+        let done = AtomicUsize::new(0);
+        let c = choose(&mut normal, Rule::Upre, cfg, Some(1), &done).unwrap();
+        let hat = |lam: f64| {
+            let mut nmat = vec![vec![0.0; n]; n];
+            for (row, &wr) in dense.iter().zip(&w) {
+                for i in 0..n {
+                    for j in 0..n {
+                        nmat[i][j] += wr * row[i] * row[j];
+                    }
+                }
+            }
+            let mut h = nmat.clone();
+            let mut e = vec![0.0; n];
+            for i in 0..n {
+                e.fill(0.0);
+                e[i] = 1.0;
+                let mut r = vec![0.0; n];
+                prior(&e, nx, ny, &mut r);
+                for j in 0..n {
+                    h[j][i] += lam * r[j];
+                }
+            }
+            let mut df = 0.0;
+            for (i, row) in nmat.iter().enumerate() {
+                // N is symmetric: its column i is its row i.
+                df += solve_dense(h.clone(), row.clone())[i];
+            }
+            let rhs: Vec<f64> = (0..n)
+                .map(|i| (0..m).map(|r| dense[r][i] * w[r] * y[r]).sum())
+                .collect();
+            let t = solve_dense(h, rhs);
+            let rss: f64 = (0..m)
+                .map(|r| w[r] * (dot(&dense[r], &t) - y[r]).powi(2))
+                .sum();
+            (rss, df)
+        };
+        for t in &c.trials {
+            let (rss, df) = hat(t.lam);
+            assert!((t.rss - rss).abs() <= 1e-8 * rss.max(1.0), "{t:?} {rss}");
+            // Hutchinson's variance is at most 2 ‖M‖_F² ≤ 2 n per probe.
+            let se = (2.0 * n as f64 / cfg.probes as f64).sqrt();
+            assert!((t.df - df).abs() <= 3.0 * se, "{t:?} {df}");
+        }
+        let scan = (0..=120)
+            .map(|k| 10f64.powf(-3.0 + k as f64 * 0.05))
+            .map(|l| {
+                let (rss, df) = hat(l);
+                (l, rss + 2.0 * df - m as f64)
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .unwrap();
+        let (rss, df) = hat(c.lam);
+        assert!(
+            rss + 2.0 * df - m as f64 <= scan.1 + 1.5,
+            "{} vs {scan:?}",
+            c.lam
+        );
+        assert_eq!(normal.regularization(), c.lam);
+    }
+
+    #[test]
+    fn rademacher_is_balanced_and_fixed() {
+        let z = rademacher(10_000, 1);
+        assert!(z.iter().all(|&v| v == 1.0 || v == -1.0));
+        assert!(z.iter().sum::<f64>().abs() < 300.0);
+        assert_eq!(z, rademacher(10_000, 1));
+        assert_ne!(z, rademacher(10_000, 2));
+    }
+}
