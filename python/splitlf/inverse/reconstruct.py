@@ -78,7 +78,7 @@ class Reconstruction:
     column 0 at the left, like a texture) of cells of pitch ``step`` (mm) uniform over
     ``extent`` = (X0, X1, Y0, Y1) in object-space mm, on the surface ``depth`` (a depth in
     mm for a fronto-parallel plane, else the :class:`~splitlf.Plane` or
-    :class:`~splitlf.DepthMap` given), from
+    :class:`~splitlf.DepthMap` given; for an estimate, its surface), from
     ``channels`` (numbered from 1) of ``design`` and their lenses of ``lens_types``
     (numbered from 1; None: every type); and what the solve did: ``rows`` (raw
     pixels used), ``iterations``, ``residual`` (the normal equations' relative residual),

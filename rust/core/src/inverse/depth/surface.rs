@@ -388,6 +388,11 @@ pub fn surface(inp: &Input<'_>) -> Result<Surface> {
             "a finite half-side >= 0 (mm)",
         ));
     }
+    // The buffers (the weights, the CG's vectors, a map per round): about 16 of n.
+    crate::infra::memory::check(
+        "the depth surface's buffers",
+        crate::infra::memory::bytes_of::<f64>(16 * n as u128),
+    )?;
     // Checks the depths and the extent.
     DepthMap::new(inp.depth, rows, cols, inp.extent)?;
     let all = vec![true; n];
