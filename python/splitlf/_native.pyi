@@ -17,6 +17,7 @@ __all__ = [
     "DEPTH_DEFAULT_STEP",
     "DEPTH_MAX_CANDIDATES",
     "DEPTH_MAX_WINDOW",
+    "PAD_NEAREST",
     "DesignCore",
     "DesignCurvesArrays",
     "DesignDepthOfFieldIntervals",
@@ -76,6 +77,7 @@ __all__ = [
     "surface_system",
     "estimate_depth",
     "depth_whites",
+    "depth_surface",
 ]
 
 __version__: str
@@ -101,6 +103,7 @@ MIN_RENDER_TOL: float
 DEPTH_DEFAULT_STEP: float
 DEPTH_MAX_CANDIDATES: int
 DEPTH_MAX_WINDOW: int
+PAD_NEAREST: float
 
 _F64 = npt.NDArray[np.float64]
 _I64 = npt.NDArray[np.int64]
@@ -504,3 +507,10 @@ def estimate_depth(
 def depth_whites(
     design: DesignCore, min_own_share: float, n_threads: int | None = None
 ) -> list[npt.NDArray[np.float64]]: ...
+def depth_surface(
+    design: DesignCore,
+    depth: npt.NDArray[np.float64],
+    extent: tuple[float, float, float, float],
+    confidence: npt.NDArray[np.float64] | None = None,
+    confident: npt.NDArray[np.bool_] | None = None,
+) -> tuple[npt.NDArray[np.float64], int, int, float]: ...

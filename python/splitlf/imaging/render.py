@@ -184,6 +184,23 @@ class DepthMap:
         """The native scene's surface: ("depthmap", [X0, X1, Y0, Y1], depth)."""
         return "depthmap", list(self.extent), self.depth
 
+    def surface(self, design: Design) -> DepthMap:
+        """The surface this map stands for, as one that every ray through ``design``'s
+        main lens meets at most once (docs/depth.md, "The estimate's surface";
+        ``_native.depth_surface``): confident cells hold their depth (weighted by their
+        ``confidence``), the others follow their neighbours, a jump between confident
+        cells on both sides stays a jump (as steep as the condition allows), and slopes
+        are limited to what every ray meets once, so that :func:`~splitlf.reconstruct`
+        takes the fast footprint route on it. Without ``confident`` every cell counts as
+        confident (weight ``confidence``, or 1). Returns a new :class:`DepthMap` over the
+        same extent and cells, without confidence (it is a surface, not an estimate).
+        Raises ``TypeError`` and ``KeyboardInterrupt``."""
+        if not isinstance(design, Design):
+            raise TypeError(f"design must be a splitlf.Design, got {type(design).__name__}")
+        z, _, _, _ = _native.depth_surface(design.core, self.depth, self.extent,
+                                           self.confidence, self.confident)
+        return DepthMap(z, self.extent)
+
 
 def _surface(value: Any) -> Plane | DepthMap:
     if isinstance(value, Plane | DepthMap):

@@ -100,6 +100,9 @@ PRIOR_PASSES = 10
 PRIOR_TOL = 1e-3
 #: The least tile side (cells).
 MIN_TILE = 16
+#: A tilted plane's padded grid reaches no nearer than this many times F: its padding
+#: stops there (docs/reconstruct.md step 2).
+PAD_NEAREST: float = _native.PAD_NEAREST
 #: A reconstruction expected to take longer than this (seconds, an upper bound at
 #: CG_MAX_ITER iterations) is refused unless ``allow_slow=True``: a few minutes.
 MAX_SECONDS = 180.0
@@ -113,7 +116,7 @@ class Reconstruction:
     column 0 at the left, like a texture) of cells of pitch ``step`` (mm) uniform over
     ``extent`` = (X0, X1, Y0, Y1) in object-space mm, on the surface ``depth`` (a depth in
     mm for a fronto-parallel plane, else the :class:`~splitlf.Plane` or
-    :class:`~splitlf.DepthMap` given), from
+    :class:`~splitlf.DepthMap` given; for an estimate, its surface), from
     ``channels`` (numbered from 1) of ``design`` and their lenses of ``lens_types``
     (numbered from 1; None: every type); and what the solve did: ``rows`` (raw
     pixels used), ``iterations``, ``residual`` (the normal equations' relative residual),
@@ -269,9 +272,13 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
 
     - ``raw``: a :class:`splitlf.Raw` (rendered, loaded or wrapped)
     - ``depth``: the surface: a depth (mm), a :class:`splitlf.Plane` (slanted or not) or a
-      :class:`splitlf.DepthMap`, deeper than F over the region (padded by a pixel's span);
-      a tilted plane may be nearer than F elsewhere in the view, where ``render`` would
-      refuse it
+      :class:`splitlf.DepthMap`, deeper than F over the region; a tilted plane may be
+      nearer than F elsewhere in the view, where ``render`` would refuse it, and its
+      padding (a pixel's span beyond the region) is clipped where the plane comes nearer
+      than ``PAD_NEAREST`` F (docs/reconstruct.md step 2). A depth map with a
+      ``confidence`` (an estimate, :func:`splitlf.estimate_depth`) is taken as its
+      surface, :meth:`DepthMap.surface` (a map every ray meets once: the fast route); the
+      result's ``depth`` is that surface
     - ``region``: (X0, X1, Y0, Y1) mm (None: what each chosen channel sees through at
       least half its aperture at the reference depth, ``_native.seen_region``; for a
       depth map, within its extent); rounded out to whole cells
@@ -340,6 +347,9 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
         raise TypeError(f"allow_slow must be True or False, got {allow_slow!r}")
     design = raw.design
     surface = _depth(depth)
+    if isinstance(surface, DepthMap) and surface.confidence is not None:
+        # An estimate: reconstruct on the surface it stands for (docs/depth.md).
+        surface = surface.surface(design)
     chans = _channels(design, channels)
     noise_, source = _stated(noise), "given"
     if noise_ is None:

@@ -49,6 +49,10 @@ fn constants(m: &Bound<'_, PyModule>) -> PyResult<()> {
         "DEPTH_DEFAULT_STEP",
         splitlf_core::inverse::depth::DEFAULT_STEP,
     )?;
+    m.add(
+        "PAD_NEAREST",
+        splitlf_core::inverse::reconstruct::PAD_NEAREST,
+    )?;
     m.add("DEPTH_MAX_WINDOW", splitlf_core::inverse::depth::MAX_RADIUS)?;
     m.add(
         "DEPTH_MAX_CANDIDATES",
@@ -120,6 +124,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
         inverse::reconstruct::cell_averages,
         inverse::depth::estimate_depth,
         inverse::depth::depth_whites,
+        inverse::depth::depth_surface,
         infra::arrays::available_memory,
     );
     Ok(())

@@ -144,6 +144,26 @@ impl DepthMap {
     /// convex). Checked per bilinear patch with interval bounds (the gradient's range over
     /// the patch times P − w's), with a margin of 1 % of the patch's least depth.
     pub fn seen_once(&self, r: f64) -> bool {
+        // Patches between centres (b, i)..(b + 1, i + 1); one row or column: its own.
+        (0..self.grid.rows.saturating_sub(1).max(1)).all(|b| {
+            (0..self.grid.cols.saturating_sub(1).max(1)).all(|i| self.patch_faces(b, i, r))
+        })
+    }
+
+    /// [`DepthMap::seen_once`]'s condition on one bilinear patch, between the sample
+    /// rows b and b + 1 (counted from the bottom) and the columns i and i + 1 (a map of
+    /// one row or column: the patch is that row or column).
+    pub fn patch_faces(&self, b: usize, i: usize, r: f64) -> bool {
+        let (lead, zmin) = self.patch_lead(b, i, r);
+        // (NaN fails too.)
+        lead.partial_cmp(&(0.99 * zmin)) == Some(std::cmp::Ordering::Less)
+    }
+
+    /// The two sides of [`DepthMap::patch_faces`]'s condition on the patch (b, i): the
+    /// bound on g · (P − w) over the patch and |w| ≤ r (the gradient's range times
+    /// P − w's), and the patch's least depth; it faces every such w when the first is
+    /// below 0.99 times the second.
+    pub fn patch_lead(&self, b: usize, i: usize, r: f64) -> (f64, f64) {
         let grid = &self.grid;
         let (cols, rows) = (grid.cols, grid.rows);
         let v = |b: usize, i: usize| self.z[b * cols + i];
@@ -151,39 +171,30 @@ impl DepthMap {
             let q = [a[0] * b[0], a[0] * b[1], a[1] * b[0], a[1] * b[1]];
             q.iter().copied().fold(f64::NEG_INFINITY, f64::max)
         };
-        // Patches between centres (b, i)..(b + 1, i + 1); one row or column: its own.
-        for b in 0..rows.saturating_sub(1).max(1) {
-            for i in 0..cols.saturating_sub(1).max(1) {
-                let (b1, i1) = ((b + 1).min(rows - 1), (i + 1).min(cols - 1));
-                // The range of a difference quotient between two pairs of samples.
-                let slope = |a: (f64, f64), b: (f64, f64), h: f64| {
-                    let (p, q) = ((a.1 - a.0) / h, (b.1 - b.0) / h);
-                    [p.min(q), p.max(q)]
-                };
-                let gx = if i1 > i {
-                    slope((v(b, i), v(b, i1)), (v(b1, i), v(b1, i1)), grid.hx)
-                } else {
-                    [0.0, 0.0]
-                };
-                let gy = if b1 > b {
-                    slope((v(b, i), v(b1, i)), (v(b, i1), v(b1, i1)), grid.hy)
-                } else {
-                    [0.0, 0.0]
-                };
-                // The patch's X and Y ranges (the border strips' gradient is 0).
-                let xa = grid.x0 + (i as f64 + 0.5) * grid.hx;
-                let xb = grid.x0 + (i1 as f64 + 0.5) * grid.hx;
-                let ya = grid.y0 + (b as f64 + 0.5) * grid.hy;
-                let yb = grid.y0 + (b1 as f64 + 0.5) * grid.hy;
-                let zmin = v(b, i).min(v(b, i1)).min(v(b1, i)).min(v(b1, i1));
-                let lead = span(gx, [xa - r, xb + r]) + span(gy, [ya - r, yb + r]);
-                // (NaN fails too.)
-                if lead.partial_cmp(&(0.99 * zmin)) != Some(std::cmp::Ordering::Less) {
-                    return false;
-                }
-            }
-        }
-        true
+        let (b1, i1) = ((b + 1).min(rows - 1), (i + 1).min(cols - 1));
+        // The range of a difference quotient between two pairs of samples.
+        let slope = |a: (f64, f64), b: (f64, f64), h: f64| {
+            let (p, q) = ((a.1 - a.0) / h, (b.1 - b.0) / h);
+            [p.min(q), p.max(q)]
+        };
+        let gx = if i1 > i {
+            slope((v(b, i), v(b, i1)), (v(b1, i), v(b1, i1)), grid.hx)
+        } else {
+            [0.0, 0.0]
+        };
+        let gy = if b1 > b {
+            slope((v(b, i), v(b1, i)), (v(b, i1), v(b1, i1)), grid.hy)
+        } else {
+            [0.0, 0.0]
+        };
+        // The patch's X and Y ranges (the border strips' gradient is 0).
+        let xa = grid.x0 + (i as f64 + 0.5) * grid.hx;
+        let xb = grid.x0 + (i1 as f64 + 0.5) * grid.hx;
+        let ya = grid.y0 + (b as f64 + 0.5) * grid.hy;
+        let yb = grid.y0 + (b1 as f64 + 0.5) * grid.hy;
+        let zmin = v(b, i).min(v(b, i1)).min(v(b1, i)).min(v(b1, i1));
+        let lead = span(gx, [xa - r, xb + r]) + span(gy, [ya - r, yb + r]);
+        (lead, zmin)
     }
 }
 

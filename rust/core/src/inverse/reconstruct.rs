@@ -159,6 +159,35 @@ impl Progress {
     }
 }
 
+/// A padded tilted plane reaches at least this many times F deep: where the padding would
+/// come nearer, it is clipped ([`Plan::clip`]). A tenth of F beyond the model's own limit
+/// (depths > F, docs/model.md) leaves room for the grid's rounding and keeps the padded
+/// cells' pixel spans (finite at F) from growing with the clip.
+pub const PAD_NEAREST: f64 = 1.1;
+
+/// The padded grid around a region: the grid and its padding in cells (left, right,
+/// bottom, top).
+struct Padded {
+    grid: CellGrid,
+    sides: [usize; 4],
+}
+
+impl Padded {
+    /// The grid of `inner`'s cells padded by `sides` cells (left, right, bottom, top).
+    fn around(inner: &CellGrid, sides: [usize; 4]) -> Result<Padded> {
+        let h = inner.step;
+        let [l, r, b, t] = sides.map(|v| v as f64 * h);
+        let [x0, x1, y0, y1] = inner.extent();
+        let grid = CellGrid::covering([x0 - l, x1 + r, y0 - b, y1 + t], h)?;
+        Ok(Padded { grid, sides })
+    }
+
+    /// The widest padding (cells).
+    fn most(&self) -> usize {
+        self.sides.iter().copied().max().unwrap_or(0)
+    }
+}
+
 /// The checked inputs shared by every tile, with λ and the noise as the solves take them
 /// (chosen or estimated once, before the tiles).
 struct Plan<'a> {
@@ -170,9 +199,10 @@ struct Plan<'a> {
     noise: Noise,
 }
 
-/// A grid's normal equations: the padding, the padded grid, the equations and the rows.
+/// A grid's normal equations: the padding per side (cells: left, right, bottom, top), the
+/// padded grid, the equations and the rows.
 struct Equations {
-    pad: usize,
+    sides: [usize; 4],
     grid: CellGrid,
     normal: solve::Normal,
     rows: usize,
@@ -470,20 +500,57 @@ impl Plan<'_> {
 
     /// The padding (cells) of the grid: the widest pixel span over the surface's depths
     /// there (twice: the padded region's depth range can be wider), and the padded grid.
-    fn pad(&self, inner: &CellGrid) -> Result<(usize, CellGrid)> {
+    /// A tilted plane's padding is clipped where the plane comes nearer than
+    /// [`PAD_NEAREST`] F ([`Plan::clip`]); the region itself must be deeper than F.
+    fn pad(&self, inner: &CellGrid) -> Result<Padded> {
         let h = inner.step;
         let e = inner.extent();
-        let mut padded = e;
-        let mut pad = 0usize;
+        let (zlo, _) = self.depths(e);
+        self.deeper_than_f(zlo, "least depth over the region", "")?;
+        let mut padded = Padded::around(inner, [0; 4])?;
         for _ in 0..2 {
-            let (zlo, zhi) = self.depths(padded);
-            self.deeper_than_f(zlo, "least depth over the region", "")?;
+            let (zlo, zhi) = self.depths(padded.grid.extent());
+            self.deeper_than_f(zlo, "least depth over the padded region", "")?;
             let span = |z| system::pixel_span(self.req.design, &self.req.channels, z);
-            pad = (span(zlo)?.max(span(zhi)?) / h).ceil() as usize;
-            let p = pad as f64 * h;
-            padded = [e[0] - p, e[1] + p, e[2] - p, e[3] + p];
+            let pad = (span(zlo)?.max(span(zhi)?) / h).ceil() as usize;
+            padded = Padded::around(inner, self.clip(inner, pad))?;
         }
-        Ok((pad, CellGrid::covering(padded, h)?))
+        Ok(padded)
+    }
+
+    /// The padding (cells: left, right, bottom, top) of `pad` cells per side, clipped on
+    /// the sides toward which a tilted plane comes nearer, so that the padded grid stays
+    /// at least [`PAD_NEAREST`] F deep (the region's own cells are never clipped: a region
+    /// between F and that depth gets no padding on those sides). The rows of pixels that
+    /// would see beyond the clipped grid are dropped as for any pixel seeing off the grid.
+    fn clip(&self, inner: &CellGrid, pad: usize) -> [usize; 4] {
+        let Surface::Plane { g, .. } = &self.surface else {
+            return [pad; 4];
+        };
+        let (zi, _) = self.depths(inner.extent());
+        let reach = (g[0].abs() + g[1].abs()) * inner.step;
+        let nearest = PAD_NEAREST * self.req.design.f_main;
+        if reach == 0.0 || zi - pad as f64 * reach >= nearest {
+            return [pad; 4];
+        }
+        // Cells of padding toward the nearer sides: the corner there drops by `reach` per
+        // cell (one cell of slack for the rounding).
+        let keep = ((zi - nearest) / reach - 1.0)
+            .floor()
+            .clamp(0.0, pad as f64) as usize;
+        let side = |gi: f64, toward_low: bool| {
+            if gi == 0.0 || (gi > 0.0) != toward_low {
+                pad
+            } else {
+                keep
+            }
+        };
+        [
+            side(g[0], true),
+            side(g[0], false),
+            side(g[1], true),
+            side(g[1], false),
+        ]
     }
 
     /// The grid solved in tiles of at most `tile` cells per side, each reaching `overlap`
@@ -550,7 +617,7 @@ impl Plan<'_> {
     fn hinted(&self, grid: &CellGrid, progress: &Progress, retry: bool) -> Result<Outcome> {
         match self.one(grid, progress) {
             Err(Error::TooLarge { what, bytes, limit }) => {
-                let pad = self.pad(grid)?.0;
+                let pad = self.pad(grid)?.most();
                 let min = self.req.settings.min_tile;
                 let hint = tiles_hint(bytes, limit, grid.nx, grid.ny, pad, grid.step, min);
                 match hint {
@@ -594,7 +661,8 @@ impl Plan<'_> {
         lam: Option<f64>,
     ) -> Result<Equations> {
         let req = self.req;
-        let (pad, grid) = self.pad(inner)?;
+        let padded = self.pad(inner)?;
+        let (pad, sides, grid) = (padded.most(), padded.sides, padded.grid);
         let fronto = self.surface.fronto();
         let exact = fronto.is_some() && system::exact(req.design, &req.channels).is_ok();
         let limit = memory::available().min(req.memory_limit.unwrap_or(u128::MAX));
@@ -666,7 +734,7 @@ impl Plan<'_> {
             None => normal,
         };
         Ok(Equations {
-            pad,
+            sides,
             grid,
             normal,
             rows,
@@ -707,10 +775,10 @@ impl Plan<'_> {
             self.req.n_threads,
             &progress.done,
         )?;
-        let (pad, grid) = (eq.pad, eq.grid);
+        let ([left, _, _, top], grid) = (eq.sides, eq.grid);
         let mut image = Vec::with_capacity(inner.cells());
-        for j in pad..pad + inner.ny {
-            image.extend_from_slice(&sol.cells[j * grid.nx + pad..j * grid.nx + pad + inner.nx]);
+        for j in top..top + inner.ny {
+            image.extend_from_slice(&sol.cells[j * grid.nx + left..j * grid.nx + left + inner.nx]);
         }
         Ok(Outcome {
             image,

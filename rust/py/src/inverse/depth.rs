@@ -1,7 +1,7 @@
 //! Depth from the raw: the core's whole estimate in one call (docs/model.md §11,
 //! docs/depth.md).
 
-use numpy::{PyArray2, PyArray4, PyReadonlyArray2};
+use numpy::{PyArray2, PyArray4, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 
 use splitlf_core::inverse::depth;
@@ -137,4 +137,46 @@ pub(crate) fn depth_whites<'py>(
             filled::<f64, numpy::Ix2>(py, &[r, c], "the depth sweep's whites", v.iter().copied())
         })
         .collect()
+}
+
+/// The surface of a depth estimate that every ray through the design's main lens meets
+/// at most once (`splitlf_core::inverse::depth::surface`): from its depths (rows from the
+/// top, mm) over `extent`, its confidence and confident cells (None: every cell, fully):
+/// (the surface's depths, the stiffening rounds, the edges cut as jumps, the last
+/// resort's scale).
+#[pyfunction]
+#[pyo3(signature = (design, depth, extent, confidence=None, confident=None))]
+pub(crate) fn depth_surface<'py>(
+    py: Python<'py>,
+    design: &DesignCore,
+    depth: PyReadonlyArray2<'py, f64>,
+    extent: (f64, f64, f64, f64),
+    confidence: Option<PyReadonlyArray2<'py, f64>>,
+    confident: Option<PyReadonlyArray2<'py, bool>>,
+) -> PyResult<(Bound<'py, PyArray2<f64>>, usize, usize, f64)> {
+    let shape = depth.shape();
+    let (rows, cols) = (shape[0], shape[1]);
+    let z = depth.as_slice().map_err(internal)?;
+    let c = confidence
+        .as_ref()
+        .map(|a| a.as_slice())
+        .transpose()
+        .map_err(internal)?;
+    let k = confident
+        .as_ref()
+        .map(|a| a.as_slice())
+        .transpose()
+        .map_err(internal)?;
+    let inp = depth::surface::Input {
+        depth: z,
+        confidence: c,
+        confident: k,
+        rows,
+        cols,
+        extent: [extent.0, extent.1, extent.2, extent.3],
+        r: depth::surface::aperture_box(&design.inner),
+    };
+    let s = run_as(py, "depths", || depth::surface::surface(&inp))?;
+    let arr = filled::<f64, numpy::Ix2>(py, &[rows, cols], "the surface", s.depth.into_iter())?;
+    Ok((arr, s.rounds, s.cuts, s.scale))
 }

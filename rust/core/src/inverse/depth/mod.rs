@@ -67,6 +67,7 @@ mod estimate;
 mod fold;
 mod layer;
 mod micro;
+pub mod surface;
 mod whites;
 
 use std::collections::BTreeMap;

@@ -14,7 +14,8 @@ impl Plan<'_> {
     /// The expected seconds of one solve over the grid at the iteration cap.
     pub(super) fn expected(&self, inner: &CellGrid) -> Result<f64> {
         let req = self.req;
-        let (pad, grid) = self.pad(inner)?;
+        let padded = self.pad(inner)?;
+        let (pad, grid) = (padded.most(), padded.grid);
         let exact =
             self.surface.fronto().is_some() && system::exact(req.design, &req.channels).is_ok();
         let threads = crate::infra::parallel::threads(req.n_threads);
