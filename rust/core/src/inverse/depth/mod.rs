@@ -48,10 +48,12 @@
 //!
 //! Each channel's estimate per cell is the candidate of least cost, refined by the vertex
 //! of the symmetric V through it and its two neighbours ([`vertex`]), and its confidence
-//! the contrast 1 − min / m', m' the least of the curve's mean and of its least local
-//! minimum more than n/16 candidates away (a second dip of the same depth makes a cell
-//! ambiguous). A textureless patch costs the same (its noise) at every depth: its contrast
-//! is small. Each cell takes the estimate of its most confident channel: the channels'
+//! ([`confidence`]) the least of the contrast 1 − min / m', m' the least of the curve's
+//! mean and of its least local minimum more than n/16 candidates away (a second dip of the
+//! same depth makes a cell ambiguous; a textureless patch costs the same, its noise, at
+//! every depth), and of the resolution: how narrow the dip is in relative depth against
+//! the least cost (a shallow dip is not trusted); 0 where the least cost is at an end of
+//! the candidates. Each cell takes the estimate of its most confident channel: the channels'
 //! blurs differ, so their values of one patch are never compared, and a channel that sees
 //! no texture at some depth has a shallow, sloping curve that would add rival minima to a
 //! sum.
@@ -102,6 +104,11 @@ const KEEP_MINIMA: usize = 4;
 /// A rival minimum lies more than n / RIVAL_SEPARATION (at least 2) candidates from the
 /// least cost.
 const RIVAL_SEPARATION: u32 = 16;
+/// The relative depth width of a cost curve's dip (see [`confidence`]) at which its
+/// resolution is ½: measured on Monte-Carlo and `render` raws with photon noise
+/// (docs/depth.md), the widest at which the cells called confident keep a 90th percentile
+/// relative error within 5 %.
+pub const WIDTH_AT_HALF: f64 = 0.045;
 /// Largest window radius, in cells.
 pub const MAX_RADIUS: usize = 64;
 /// Most candidate depths of a sweep (each is a pass over every lens: 4096 take minutes on
@@ -135,8 +142,8 @@ pub struct Sweep {
     pub depth: Vec<f64>,
     /// The refined candidate index (fractional); NaN where no candidate had a cost.
     pub index: Vec<f64>,
-    /// 1 − min / min(mean, rival minimum) of the cost curve (see the module's doc), in
-    /// [0, 1]; 0 where no candidate had a cost.
+    /// The least of the cost curve's contrast and resolution ([`confidence`]), in [0, 1];
+    /// 0 where no candidate had a cost or the least cost is at an end of the candidates.
     pub confidence: Vec<f64>,
     /// The least cost; NaN where no candidate had a cost.
     pub min_cost: Vec<f64>,
@@ -452,15 +459,7 @@ fn finish(
             if fold.arg[e] == u32::MAX {
                 continue;
             }
-            // The contrast against the curve's mean and against its least local minimum
-            // away from the best (a curve with two dips of one depth is ambiguous).
-            let mean = fold.sum[e] / fold.count[e] as f64;
-            let against = mean.min(fold.rival(e, sep));
-            let conf = if against > 0.0 && against.is_finite() {
-                (1.0 - fold.min[e] / against).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
+            let conf = confidence(&fold, e, sep, candidates);
             if best.map_or(true, |(c, _)| conf > c) {
                 best = Some((conf, ch));
             }
@@ -484,6 +483,47 @@ fn finish(
         s.channel[cell] = ch as u8;
     }
     s
+}
+
+/// The confidence of entry e's curve (docs/depth.md, step 6): the least of its contrast and
+/// its resolution, 0 where its least cost is at the first or last candidate (a minimum
+/// the candidates do not bracket: the truth may lie beyond them) or has no neighbour.
+/// - The contrast 1 − min / min(mean, rival), the rival the least local minimum more than
+///   `sep` candidates away: a textureless window costs its noise at every depth (near 0),
+///   a curve with two dips of one depth is ambiguous.
+/// - The resolution 1 / (1 + (w / [`WIDTH_AT_HALF`])²), w = Δ ln z · √(min / a) the
+///   relative depth over which the parabola through the least cost and its neighbours l, r
+///   (curvature a = (l + r − 2 min) / 2 per candidate², Δ ln z the candidates' relative
+///   step there) rises by the least cost itself, the cost's own scale of noise and
+///   mismatch: a shallow dip (a smooth texture, a far depth where the disparity per
+///   candidate is small) is not trusted, however far it lies below the curve's mean.
+/// - 0 where a neighbour of the least cost is above the curve's mean: a step in the curve
+///   (measured: a cost 4× the mean beside a false dip at the grid's edge), not a dip.
+fn confidence(fold: &Fold, e: usize, sep: u32, candidates: &[f64]) -> f64 {
+    let (k, m, l, r) = (fold.arg[e] as usize, fold.min[e], fold.left[e], fold.right[e]);
+    let n = candidates.len();
+    if k == 0 || k + 1 >= n || !(l.is_finite() && r.is_finite()) {
+        return 0.0;
+    }
+    let mean = fold.sum[e] / fold.count[e] as f64;
+    let against = mean.min(fold.rival(e, sep));
+    if !(against > 0.0 && against.is_finite()) {
+        return 0.0;
+    }
+    // A neighbour above the curve's mean: a step in the curve, not a dip.
+    if l.max(r) > mean {
+        return 0.0;
+    }
+    let contrast = (1.0 - m / against).clamp(0.0, 1.0);
+    let a = 0.5 * (l + r - 2.0 * m);
+    let step = 0.5 * (candidates[k + 1] / candidates[k - 1]).ln();
+    let resolution = if a > 0.0 {
+        let w = step * (m.max(0.0) / a).sqrt() / WIDTH_AT_HALF;
+        1.0 / (1.0 + w * w)
+    } else {
+        0.0
+    };
+    contrast.min(resolution)
 }
 
 /// The offset in (−½, ½) of a cost curve's minimum from the candidate of least cost m,
