@@ -57,7 +57,7 @@ def mc_raw(design: splitlf.Design, texture: tuple, surface: tuple, seed: int,
 # -- the sweep against NumPy ------------------------------------------------------------------
 
 #: The core's constants (rust/core/src/inverse/depth/mod.rs), restated.
-MIN_WHITE, MIN_WEIGHT, M_CAP = 0.05, 2.0, 48.0
+MIN_WHITE, MIN_WEIGHT, M_CAP, WIDTH_AT_HALF = 0.05, 2.0, 48.0, 0.045
 
 
 def lens_number(channel: int, j: int, k: int) -> float:
@@ -193,11 +193,14 @@ def reference_volume(design: splitlf.Design, raw: splitlf.Raw, grid: tuple, cand
     return out
 
 
-def reference_confidence(curves: np.ndarray) -> np.ndarray:
-    """1 - min / min(mean, rival) per curve (candidates first): the rival is the least of
-    the 4 least local minima (lower than the cost before it, not above the one after; a
-    missing cost counts as +inf) that lies more than max(2, n / 16) candidates from the
-    least cost."""
+def reference_confidence(curves: np.ndarray, cand: np.ndarray) -> np.ndarray:
+    """The least of the contrast 1 - min / min(mean, rival) and the resolution per curve
+    (candidates first): the rival is the least of the 4 least local minima (lower than the
+    cost before it, not above the one after; a missing cost counts as +inf) that lies more
+    than max(2, n / 16) candidates from the least cost; the resolution 1 / (1 + (w / 0.045)^2),
+    w = (ln z_k+1 - ln z_k-1) / 2 * sqrt(min / a), a = (l + r - 2 min) / 2 (the parabola
+    through the least cost and its neighbours); 0 where the least cost is at an end of the
+    candidates or a neighbour is above the curve's mean."""
     c = np.where(np.isfinite(curves), curves, np.inf)
     n = c.shape[0]
     k = np.argmin(c, axis=0)
@@ -214,16 +217,33 @@ def reference_confidence(curves: np.ndarray) -> np.ndarray:
     far4 = np.take_along_axis(np.broadcast_to(far, c.shape), order, 0) & np.isfinite(least)
     rival = np.where(far4.any(0), np.take_along_axis(least, np.argmax(far4, 0)[None], 0)[0],
                      np.inf)
+    mean = np.nanmean(np.where(np.isfinite(curves), curves, np.nan), 0)
     with np.errstate(invalid="ignore", divide="ignore"):
-        against = np.minimum(np.nanmean(np.where(np.isfinite(curves), curves, np.nan), 0), rival)
-        return np.where((against > 0) & np.isfinite(against), np.clip(1 - m / against, 0, 1), 0.0)
+        against = np.minimum(mean, rival)
+        contrast = np.where((against > 0) & np.isfinite(against), np.clip(1 - m / against, 0, 1),
+                            0.0)
+    # the resolution: the parabola through the least cost and its neighbours rises by the
+    # least cost over w (relative depth); 1 / (1 + (w / 0.045)^2)
+    kk = np.clip(k, 1, n - 2)
+    left = np.take_along_axis(c, (kk - 1)[None], 0)[0]
+    right = np.take_along_axis(c, (kk + 1)[None], 0)[0]
+    a = (left + right - 2 * m) / 2
+    step = 0.5 * np.log(cand[kk + 1] / cand[kk - 1])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        w = step * np.sqrt(np.maximum(m, 0) / a) / WIDTH_AT_HALF
+        resolution = np.where(a > 0, 1 / (1 + w * w), 0.0)
+    # none at an end of the candidates, nor beside a cost above the curve's mean (a step)
+    usable = (k > 0) & (k < n - 1) & np.isfinite(left + right) & (np.maximum(left, right)
+                                                                  <= mean)
+    return np.where(usable, np.minimum(contrast, resolution), 0.0)
 
 
 def sweep_request(channels: list[int], cand: np.ndarray, window: int, **kw: object
                   ) -> dict[str, object]:
     """The core's request for a sweep that keeps its cost volume."""
     return {"channels": channels, "candidates": [float(z) for z in cand], "window": window,
-            "min_own_share": 0.99, "keep_volume": True, "region": None, "step": None, **kw}
+            "min_own_share": 0.99, "keep_volume": True, "region": None, "step": None,
+            "tilt": False, **kw}
 
 
 def test_sweep_matches_numpy_reference(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -246,7 +266,7 @@ def test_sweep_matches_numpy_reference(monkeypatch: pytest.MonkeyPatch) -> None:
     ok = ~np.isnan(ref)
     assert ok.mean() > 0.9
     np.testing.assert_allclose(vol[ok], ref[ok], rtol=1e-9, atol=1e-15)
-    rc = reference_confidence(ref)
+    rc = reference_confidence(ref, cand)
     best = np.argmax(rc, axis=0)  # the first on a tie
     assert np.array_equal(chan, best + 1)
     np.testing.assert_allclose(conf, np.take_along_axis(rc, best[None], 0)[0], atol=1e-9)

@@ -69,6 +69,7 @@ mod estimate;
 mod fold;
 mod layer;
 mod micro;
+mod tilt;
 mod whites;
 
 use std::collections::BTreeMap;
@@ -128,12 +129,14 @@ pub struct Images<'a> {
 }
 
 /// What a sweep covers: the grid, the increasing candidate depths, the window's radius
-/// (cells: (2 radius + 1)² cells pooled), and whether the whole cost volume is kept.
+/// (cells: (2 radius + 1)² cells pooled), whether the whole cost volume is kept, and
+/// whether the window is pooled again along the surface's local slope ([`tilt`]).
 pub struct Plan<'a> {
     pub grid: CellGrid,
     pub candidates: &'a [f64],
     pub radius: usize,
     pub keep_volume: bool,
+    pub tilt: bool,
 }
 
 /// The result of a sweep, row-major over the grid (row 0 at the top, Y1).
@@ -288,8 +291,18 @@ fn sweep_bytes(
     } else {
         0
     };
-    let layers = (1 + AHEAD_PER_WORKER as u128) * entries * 8;
+    let mut layers = (1 + AHEAD_PER_WORKER as u128) * entries * 8;
+    // The tilted pooling's cells' own costs: a pair of f32 per widened cell, channel and
+    // candidate, and each layer's in flight.
+    let cells = ex.0 as u128 * ex.1 as u128 * channels as u128 * 8;
+    let tilt = if plan.tilt {
+        layers += (1 + AHEAD_PER_WORKER as u128) * cells;
+        cells * plan.candidates.len() as u128
+    } else {
+        0
+    };
     micro
+        + tilt
         + workers as u128 * (Layer::bytes(ex, channels, lenses, boxes) + layers)
         + entries * Fold::BYTES_PER_ENTRY
         + grid.cells() as u128 * OUTPUT_BYTES_PER_CELL
@@ -317,16 +330,35 @@ pub fn sweep(
     let mi = micro::collect(design, images, &plan.grid, plan.radius, zs, n_threads)?;
     let bytes = sweep_bytes(design, plan, chosen, workers, Some(&mi));
     memory::check("the depth sweep", bytes)?;
-    let (mut fold, volume) = run(&mi, plan, workers, n_threads, done)?;
+    let (mut fold, volume, cells) = run(&mi, plan, workers, n_threads, done)?;
     fold.end(candidates.len() as u32);
-    Ok(finish(fold, nch, candidates, mi.pixels, volume))
+    let mut s = finish(fold, nch, candidates, mi.pixels, volume);
+    if let Some(values) = cells {
+        checkpoint()?;
+        let costs = tilt::CellCosts {
+            values: &values,
+            channels: nch,
+            n: candidates.len(),
+        };
+        tilt::refine(
+            &mut s,
+            &costs,
+            &plan.grid,
+            plan.radius,
+            candidates,
+            n_threads,
+        )?;
+    }
+    Ok(s)
 }
 
 /// The layers computed and not yet folded, the fold and the volume.
 struct Folding {
     fold: Fold,
     volume: Option<Vec<f64>>,
-    pending: BTreeMap<usize, Vec<f64>>,
+    /// The cells' own costs of every candidate folded (the tilted pooling's).
+    cells: Option<Vec<f32>>,
+    pending: BTreeMap<usize, (Vec<f64>, Option<Vec<f32>>)>,
     /// The next candidate to fold.
     next: usize,
     /// A worker stopped (with an error): the others stop waiting.
@@ -336,15 +368,22 @@ struct Folding {
 impl Folding {
     /// Fold every pending layer that is next in order.
     fn fold_ready(&mut self) {
-        while let Some(l) = self.pending.remove(&self.next) {
+        while let Some((l, c)) = self.pending.remove(&self.next) {
             self.fold.add(self.next as u32, &l);
             if let Some(v) = self.volume.as_mut() {
                 v.extend_from_slice(&l);
+            }
+            if let (Some(v), Some(c)) = (self.cells.as_mut(), c) {
+                v.extend_from_slice(&c);
             }
             self.next += 1;
         }
     }
 }
+
+/// What [`run`] returns: the fold, the cost volume when kept, and the cells' own costs
+/// when the window is tilted.
+type Swept = (Fold, Option<Vec<f64>>, Option<Vec<f32>>);
 
 /// Sweep the candidates in parallel: each worker takes the next candidate in turn (once
 /// it is at most [`AHEAD_PER_WORKER`] × workers beyond the next to fold) and folds, under
@@ -355,9 +394,19 @@ fn run(
     workers: usize,
     n_threads: Option<usize>,
     done: &AtomicUsize,
-) -> Result<(Fold, Option<Vec<f64>>)> {
+) -> Result<Swept> {
     let (grid, n) = (&plan.grid, plan.candidates.len());
     let entries = grid.cells() * mi.channels;
+    let ex = (grid.nx + 2 * plan.radius, grid.ny + 2 * plan.radius);
+    let per_layer = ex.0 * ex.1 * mi.channels * 2;
+    let cells = if plan.tilt {
+        Some(memory::try_with_capacity(
+            "the depth sweep's cells' costs",
+            per_layer * n,
+        )?)
+    } else {
+        None
+    };
     let volume = if plan.keep_volume {
         Some(memory::try_with_capacity(
             "the depth sweep's cost volume",
@@ -369,6 +418,7 @@ fn run(
     let state = Mutex::new(Folding {
         fold: Fold::new(entries),
         volume,
+        cells,
         pending: BTreeMap::new(),
         next: 0,
         failed: false,
@@ -377,7 +427,6 @@ fn run(
     let ahead = AHEAD_PER_WORKER * workers.max(1);
     let next = AtomicUsize::new(0);
     let poisoned = || Error::param("n_threads", 1, "a worker that does not panic");
-    let ex = (grid.nx + 2 * plan.radius, grid.ny + 2 * plan.radius);
     let work = || -> Result<()> {
         let mut buf = Layer::new(ex, mi.channels);
         loop {
@@ -401,6 +450,7 @@ fn run(
             }
             checkpoint()?;
             let mut out = vec![0.0; entries];
+            let mut own = plan.tilt.then(|| vec![0.0f32; per_layer]);
             layer::layer(
                 mi,
                 grid,
@@ -408,10 +458,11 @@ fn run(
                 plan.candidates[k],
                 &mut buf,
                 &mut out,
+                own.as_deref_mut(),
             );
             done.fetch_add(1, Ordering::Relaxed);
             let mut st = state.lock().map_err(|_| poisoned())?;
-            st.pending.insert(k, out);
+            st.pending.insert(k, (out, own));
             st.fold_ready();
             folded.notify_all();
         }
@@ -427,7 +478,7 @@ fn run(
         })
     })?;
     let st = state.into_inner().map_err(|_| poisoned())?;
-    Ok((st.fold, st.volume))
+    Ok((st.fold, st.volume, st.cells))
 }
 
 /// Refine each channel's minimum in each cell, derive its depth and confidence, and keep
@@ -500,7 +551,12 @@ fn finish(
 /// - 0 where a neighbour of the least cost is above the curve's mean: a step in the curve
 ///   (measured: a cost 4× the mean beside a false dip at the grid's edge), not a dip.
 fn confidence(fold: &Fold, e: usize, sep: u32, candidates: &[f64]) -> f64 {
-    let (k, m, l, r) = (fold.arg[e] as usize, fold.min[e], fold.left[e], fold.right[e]);
+    let (k, m, l, r) = (
+        fold.arg[e] as usize,
+        fold.min[e],
+        fold.left[e],
+        fold.right[e],
+    );
     let n = candidates.len();
     if k == 0 || k + 1 >= n || !(l.is_finite() && r.is_finite()) {
         return 0.0;
