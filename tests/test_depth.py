@@ -318,19 +318,26 @@ def design() -> splitlf.Design:
 @pytest.mark.slow
 @pytest.mark.parametrize(("z", "median", "p90", "confident"),
                          [(400.0, 0.01, 0.03, 0.8), (1000.0, 0.01, 0.03, 0.8),
-                          (1600.0, 0.02, 0.06, 0.6)])
+                          (1600.0, 0.02, 0.06, 0.0)])
 def test_fronto_plane_depth(design: splitlf.Design, z: float, median: float, p90: float,
                             confident: float) -> None:
     """A textured plane (i.i.d. cells of 10 delta(z)) rendered by the Monte-Carlo
-    renderer with photon noise N = 2000, over what half 1 sees through half its aperture.
-    Measured: 400 mm median 0.04 %, p90 0.11 %; 1000 mm 0.15 %, 0.37 %; 1600 mm 1.03 %,
-    1.97 %; all cells confident."""
+    renderer with photon noise N = 2000, over what half 1 sees through half its aperture:
+    the estimate (every cell, confident or not) within the bounds, and the cells called
+    confident within 5 % at the 90th percentile. Measured: 400 mm median 0.04 %, p90
+    0.11 %; 1000 mm 0.15 %, 0.37 %; 1600 mm 1.03 %, 1.97 %. At 1600 mm the cost's dip
+    spans about 10 % of the depth (docs/depth.md step 6's resolution): no cell is called
+    confident (before: all, and on the default region and a photograph 93 % with a 90th
+    percentile of 70 %)."""
     tex, mct = random_image(design, z, 10 * design.resolution_step(z), seed=int(z))
     raw = mc_raw(design, mct, ("plane", [z, 0.0, 0.0]), seed=int(z) + 1)
     region = _native.seen_region(design.core, z, [1])
     est = splitlf.estimate_depth(raw, depths=DEPTHS, region=region)
-    e = measure.depth_errors(est, z)
-    assert e["median"] <= median and e["p90"] <= p90 and e["confident"] >= confident, e
+    rel = np.abs(est.sweep.estimate / z - 1.0)
+    assert np.median(rel) <= median and np.percentile(rel, 90) <= p90, rel
+    assert est.confident.mean() >= confident, est.confident.mean()
+    if est.confident.any():
+        assert np.percentile(rel[est.confident], 90) <= 0.05
     assert np.all(np.isfinite(est.depth))
     assert est.sweep.candidates.size == 64 and est.sweep.samples > 0
 
@@ -576,3 +583,107 @@ def test_fine_grid_is_refused_before_allocating() -> None:
     kind, nbytes = r.stdout.split()
     assert kind == "TooLargeError"
     assert int(nbytes) >= 5 * 15 * 4_000_000 * 8
+
+
+# -- confidence that means what it says ----------------------------------------------------
+
+def photograph(design: splitlf.Design, z: float, cell: float) -> splitlf.Image:
+    """scikit-image's "camera" photograph (albedo 0.1 to 0.9, bilinear) over what the
+    design sees at z, in cells of `cell` mm: smooth areas and strong edges."""
+    from scipy.ndimage import zoom
+    from skimage import data
+
+    x0, x1, y0, y1 = _native.render_extent(design.core, z)
+    cols = int((2 * max(abs(x0), abs(x1)) + 2 * cell) / cell)
+    rows = int((2 * max(abs(y0), abs(y1)) + 2 * cell) / cell)
+    p = data.camera().astype(np.float64) / 255.0
+    img = 0.1 + 0.8 * zoom(p, (rows / p.shape[0], cols / p.shape[1]), order=1)
+    return splitlf.Image(img, cols * cell)
+
+
+def cut(name: str, kx: int, ky: int) -> splitlf.Design:
+    d = splitlf.Design.preset(name)
+    kw = {} if name == "seed" else {"Mx": None, "My": None}
+    return d.replace(channels=tuple(c.replace(Kx=kx, Ky=ky, **kw) for c in d.channels))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("name", "k", "z", "texture", "depths", "confident"), [
+    ("seed", (10, 8), 400.0, "random", (250.0, 4000.0), 0.9),
+    ("seed", (10, 8), 1000.0, "photo", (250.0, 4000.0), 0.1),
+    ("seed", (10, 8), 1600.0, "photo", (250.0, 4000.0), 0.0),
+    ("lytro-illum", (16, 14), 400.0, "random", (200.0, 4000.0), 0.9),
+    ("lytro-illum", (16, 14), 1000.0, "random", (200.0, 4000.0), 0.8),
+    ("raytrix-r12", (10, 9), 600.0, 2.0, (200.0, 4000.0), 0.05),
+])
+def test_confident_cells_are_within_5_percent(name: str, k: tuple[int, int], z: float,
+                                              texture: object, depths: tuple[float, float],
+                                              confident: float) -> None:
+    """Every preset (cut), a plane inside its range: the cells called confident have a 90th
+    percentile relative error within 5 %. `render`'s raws with photon noise N = 2000
+    (the Monte-Carlo renderer draws the ideal rect layout alone, and these cases would take
+    it minutes; the sweep's model, chief rays or centroid rays and lens-to-lens spreads, is
+    not the render's 4-D integral); textures of i.i.d. cells of 10 delta(z) ("random"),
+    scikit-image's photograph in 0.05 mm cells ("photo"), or i.i.d. cells of the given mm.
+    Measured (confident share / their p90): seed 400 mm 100 % / 0.27 %, 1000 mm photo 30 %
+    / 0.75 % (its p90 over every cell: 14.9 %), 1600 mm photo 0 % (before the resolution
+    term: 93 % / 70 %); Illum 400 mm 100 % / 1.13 %, 1000 mm 92 % / 2.7 %; R12 600 mm 10 % /
+    2.7 %. Not met (left out): the R12 at 450 mm (cells of 1 mm), 45 % / 8.8 %."""
+    d = cut(name, *k)
+    if texture == "random":
+        tex = random_image(d, z, 10 * d.resolution_step(z), seed=int(z))[0]
+    elif texture == "photo":
+        tex = photograph(d, z, 0.05)
+    else:
+        tex = splitlf.RandomAlbedo(cell=float(texture))  # type: ignore[arg-type]
+    raw = splitlf.render(d, splitlf.Scene(tex, z), noise={"photons": PHOTONS}, seed=3)
+    est = splitlf.estimate_depth(raw, depths=depths, progress=False)
+    rel = np.abs(est.sweep.estimate / z - 1.0)
+    assert est.confident.mean() >= confident, est.confident.mean()
+    if est.confident.any():
+        assert np.percentile(rel[est.confident], 90) <= 0.05, (
+            np.percentile(rel[est.confident], 90), est.confident.mean())
+
+
+@pytest.mark.slow
+def test_illum_photograph_confidence() -> None:
+    """lytro-illum cut to 40 x 34 lenses, scikit-image's photograph (0.05 mm cells) on a
+    plane at 1 m, `render` with photon noise N = 2000 (too large for the Monte-Carlo
+    renderer in reasonable time), 64 candidates from 200 mm to 4 m. Before the resolution
+    term of the confidence (docs/depth.md step 6) 46 % of the cells were called confident
+    with a 90th percentile error of 39 %: false dips near 200-300 mm (the own-pixel
+    trough) and at the candidate beyond the truth. Measured now: 12 % confident, 90th
+    percentile 3.4 %."""
+    d = cut("lytro-illum", 40, 34)
+    z = 1000.0
+    raw = splitlf.render(d, splitlf.Scene(photograph(d, z, 0.05), z),
+                         noise={"photons": PHOTONS}, seed=3, progress=False)
+    est = splitlf.estimate_depth(raw, depths=(200.0, 4000.0), progress=False)
+    rel = np.abs(est.sweep.estimate / z - 1.0)
+    assert 0.02 <= est.confident.mean() <= 0.5, est.confident.mean()
+    assert np.percentile(rel[est.confident], 90) <= 0.05
+    # the cells the method does not stand behind include the bad ones
+    assert np.mean(rel[~est.confident] > 0.05) > 0.3
+
+
+@pytest.mark.slow
+def test_tilted_window_on_a_steep_plane(design: splitlf.Design) -> None:
+    """A plane through 900 mm at 40 mm of depth per mm of Y (769 to 1031 mm over half 1's
+    region), Monte-Carlo raw with N = 2000: the signed median error of five bands of rows
+    spreads over 1.19 points with the fronto-parallel 13 x 13 window and over 0.51 with the
+    window along the slope (docs/depth.md step 7); every band within 1 % either way."""
+    z0, gy = 900.0, 40.0
+    _, mct = random_image(design, z0, 10 * design.resolution_step(z0), seed=9)
+    raw = mc_raw(design, mct, ("plane", [z0, 0.0, gy]), seed=10)
+    region = _native.seen_region(design.core, z0, [1])
+    spreads = []
+    for tilt in (False, True):
+        est = splitlf.estimate_depth(raw, depths=DEPTHS, region=region, tilt=tilt)
+        _, _, ya, yb = est.extent
+        ny = est.depth.shape[0]
+        ys = yb - (np.arange(ny) + 0.5) * (yb - ya) / ny
+        err = est.sweep.estimate / (z0 + gy * ys)[:, None] - 1.0
+        bands = [float(np.median(err[r])) for r in np.array_split(np.arange(ny), 5)]
+        assert max(abs(b) for b in bands) <= 0.01, bands
+        spreads.append(max(bands) - min(bands))
+    assert spreads[1] < 0.7 * spreads[0], spreads
