@@ -64,7 +64,7 @@ SLOW = {
     'test_depth.py::test_end_to_end_image_at_1m': 21,
     'test_depth_surface.py::test_image_from_the_estimates_own_surface': 67,
     'test_depth.py::test_fronto_plane_depth[1000.0-0.01-0.03-0.8]': 20,
-    'test_depth.py::test_fronto_plane_depth[1600.0-0.02-0.06-0.6]': 21,
+    'test_depth.py::test_fronto_plane_depth[1600.0-0.02-0.06-0.0]': 21,
     'test_depth.py::test_fronto_plane_depth[400.0-0.01-0.03-0.8]': 20,
     'test_depth.py::test_sensor_layout_keeps_pixels_of_one_lens': 21,
     'test_depth.py::test_slanted_plane_depth': 19,

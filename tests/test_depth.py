@@ -57,7 +57,7 @@ def mc_raw(design: splitlf.Design, texture: tuple, surface: tuple, seed: int,
 # -- the sweep against NumPy ------------------------------------------------------------------
 
 #: The core's constants (rust/core/src/inverse/depth/mod.rs), restated.
-MIN_WHITE, MIN_WEIGHT, M_CAP = 0.05, 2.0, 48.0
+MIN_WHITE, MIN_WEIGHT, M_CAP, WIDTH_AT_HALF = 0.05, 2.0, 48.0, 0.045
 
 
 def lens_number(channel: int, j: int, k: int) -> float:
@@ -193,11 +193,14 @@ def reference_volume(design: splitlf.Design, raw: splitlf.Raw, grid: tuple, cand
     return out
 
 
-def reference_confidence(curves: np.ndarray) -> np.ndarray:
-    """1 - min / min(mean, rival) per curve (candidates first): the rival is the least of
-    the 4 least local minima (lower than the cost before it, not above the one after; a
-    missing cost counts as +inf) that lies more than max(2, n / 16) candidates from the
-    least cost."""
+def reference_confidence(curves: np.ndarray, cand: np.ndarray) -> np.ndarray:
+    """The least of the contrast 1 - min / min(mean, rival) and the resolution per curve
+    (candidates first): the rival is the least of the 4 least local minima (lower than the
+    cost before it, not above the one after; a missing cost counts as +inf) that lies more
+    than max(2, n / 16) candidates from the least cost; the resolution 1 / (1 + (w / 0.045)^2),
+    w = (ln z_k+1 - ln z_k-1) / 2 * sqrt(min / a), a = (l + r - 2 min) / 2 (the parabola
+    through the least cost and its neighbours); 0 where the least cost is at an end of the
+    candidates or a neighbour is above the curve's mean."""
     c = np.where(np.isfinite(curves), curves, np.inf)
     n = c.shape[0]
     k = np.argmin(c, axis=0)
@@ -214,16 +217,33 @@ def reference_confidence(curves: np.ndarray) -> np.ndarray:
     far4 = np.take_along_axis(np.broadcast_to(far, c.shape), order, 0) & np.isfinite(least)
     rival = np.where(far4.any(0), np.take_along_axis(least, np.argmax(far4, 0)[None], 0)[0],
                      np.inf)
+    mean = np.nanmean(np.where(np.isfinite(curves), curves, np.nan), 0)
     with np.errstate(invalid="ignore", divide="ignore"):
-        against = np.minimum(np.nanmean(np.where(np.isfinite(curves), curves, np.nan), 0), rival)
-        return np.where((against > 0) & np.isfinite(against), np.clip(1 - m / against, 0, 1), 0.0)
+        against = np.minimum(mean, rival)
+        contrast = np.where((against > 0) & np.isfinite(against), np.clip(1 - m / against, 0, 1),
+                            0.0)
+    # the resolution: the parabola through the least cost and its neighbours rises by the
+    # least cost over w (relative depth); 1 / (1 + (w / 0.045)^2)
+    kk = np.clip(k, 1, n - 2)
+    left = np.take_along_axis(c, (kk - 1)[None], 0)[0]
+    right = np.take_along_axis(c, (kk + 1)[None], 0)[0]
+    a = (left + right - 2 * m) / 2
+    step = 0.5 * np.log(cand[kk + 1] / cand[kk - 1])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        w = step * np.sqrt(np.maximum(m, 0) / a) / WIDTH_AT_HALF
+        resolution = np.where(a > 0, 1 / (1 + w * w), 0.0)
+    # none at an end of the candidates, nor beside a cost above the curve's mean (a step)
+    usable = (k > 0) & (k < n - 1) & np.isfinite(left + right) & (np.maximum(left, right)
+                                                                  <= mean)
+    return np.where(usable, np.minimum(contrast, resolution), 0.0)
 
 
 def sweep_request(channels: list[int], cand: np.ndarray, window: int, **kw: object
                   ) -> dict[str, object]:
     """The core's request for a sweep that keeps its cost volume."""
     return {"channels": channels, "candidates": [float(z) for z in cand], "window": window,
-            "min_own_share": 0.99, "keep_volume": True, "region": None, "step": None, **kw}
+            "min_own_share": 0.99, "keep_volume": True, "region": None, "step": None,
+            "tilt": False, **kw}
 
 
 def test_sweep_matches_numpy_reference(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -246,7 +266,7 @@ def test_sweep_matches_numpy_reference(monkeypatch: pytest.MonkeyPatch) -> None:
     ok = ~np.isnan(ref)
     assert ok.mean() > 0.9
     np.testing.assert_allclose(vol[ok], ref[ok], rtol=1e-9, atol=1e-15)
-    rc = reference_confidence(ref)
+    rc = reference_confidence(ref, cand)
     best = np.argmax(rc, axis=0)  # the first on a tie
     assert np.array_equal(chan, best + 1)
     np.testing.assert_allclose(conf, np.take_along_axis(rc, best[None], 0)[0], atol=1e-9)
@@ -298,19 +318,26 @@ def design() -> splitlf.Design:
 @pytest.mark.slow
 @pytest.mark.parametrize(("z", "median", "p90", "confident"),
                          [(400.0, 0.01, 0.03, 0.8), (1000.0, 0.01, 0.03, 0.8),
-                          (1600.0, 0.02, 0.06, 0.6)])
+                          (1600.0, 0.02, 0.06, 0.0)])
 def test_fronto_plane_depth(design: splitlf.Design, z: float, median: float, p90: float,
                             confident: float) -> None:
     """A textured plane (i.i.d. cells of 10 delta(z)) rendered by the Monte-Carlo
-    renderer with photon noise N = 2000, over what half 1 sees through half its aperture.
-    Measured: 400 mm median 0.04 %, p90 0.11 %; 1000 mm 0.15 %, 0.37 %; 1600 mm 1.03 %,
-    1.97 %; all cells confident."""
+    renderer with photon noise N = 2000, over what half 1 sees through half its aperture:
+    the estimate (every cell, confident or not) within the bounds, and the cells called
+    confident within 5 % at the 90th percentile. Measured: 400 mm median 0.04 %, p90
+    0.11 %; 1000 mm 0.15 %, 0.37 %; 1600 mm 1.03 %, 1.97 %. At 1600 mm the cost's dip
+    spans about 10 % of the depth (docs/depth.md step 6's resolution): no cell is called
+    confident (before: all, and on the default region and a photograph 93 % with a 90th
+    percentile of 70 %)."""
     tex, mct = random_image(design, z, 10 * design.resolution_step(z), seed=int(z))
     raw = mc_raw(design, mct, ("plane", [z, 0.0, 0.0]), seed=int(z) + 1)
     region = _native.seen_region(design.core, z, [1])
     est = splitlf.estimate_depth(raw, depths=DEPTHS, region=region)
-    e = measure.depth_errors(est, z)
-    assert e["median"] <= median and e["p90"] <= p90 and e["confident"] >= confident, e
+    rel = np.abs(est.sweep.estimate / z - 1.0)
+    assert np.median(rel) <= median and np.percentile(rel, 90) <= p90, rel
+    assert est.confident.mean() >= confident, est.confident.mean()
+    if est.confident.any():
+        assert np.percentile(rel[est.confident], 90) <= 0.05
     assert np.all(np.isfinite(est.depth))
     assert est.sweep.candidates.size == 64 and est.sweep.samples > 0
 
@@ -427,9 +454,16 @@ def test_sensor_layout_keeps_pixels_of_one_lens(monkeypatch: pytest.MonkeyPatch)
     the sweep's model, chief rays and lens-to-lens spreads, is far cruder than the
     renderer's 4-D integral). Half its lit pixels take light through two lenses, a blend
     of two footprints far apart on the plane; the sweep keeps only those with at least
-    MIN_OWN_SHARE of their white through their own lens. Measured: median 2.0-2.6 %, 90th
+    MIN_OWN_SHARE of their white through their own lens. Measured over the confident cells
+    (before the confidence's resolution term, docs/depth.md step 6): median 2.0-2.6 %, 90th
     percentile 3.6-5.1 % over texture seeds 3, 5, 7; with every pixel (the whites alone)
-    3.8-4.0 % and 6.2-7.3 %."""
+    3.8-4.0 % and 6.2-7.3 %. Now over every cell's estimate (with every pixel no cell is
+    confident): median 2.2 %, p90 3.8 % against 4.1 % and 7.5 % (seed 3)."""
+
+    def errors(est: splitlf.DepthMap) -> tuple[float, float]:
+        rel = np.abs(est.sweep.estimate / z - 1.0)
+        return float(np.median(rel)), float(np.percentile(rel, 90))
+
     import splitlf.inverse.depth as de
 
     r12 = splitlf.Design.preset("raytrix-r12")
@@ -444,13 +478,12 @@ def test_sensor_layout_keeps_pixels_of_one_lens(monkeypatch: pytest.MonkeyPatch)
     dropped = np.count_nonzero(lit & (kept == 0.0)) / np.count_nonzero(lit)
     assert 0.2 < dropped < 0.8, dropped
     np.testing.assert_array_equal(kept[kept > 0], whites[kept > 0])
-    est = splitlf.estimate_depth(raw, depths=(200.0, 4000.0))
-    e = measure.depth_errors(est, z)
-    assert e["median"] <= 0.032 and e["p90"] <= 0.06, e
+    e = errors(splitlf.estimate_depth(raw, depths=(200.0, 4000.0)))
+    assert e[0] <= 0.032 and e[1] <= 0.06, e
     monkeypatch.setattr(de, "MIN_OWN_SHARE", 0.0)  # every pixel: the whites alone
     np.testing.assert_array_equal(de._sweep_whites(d)[0], whites)
-    every = measure.depth_errors(splitlf.estimate_depth(raw, depths=(200.0, 4000.0)), z)
-    assert every["median"] > e["median"] and every["p90"] > e["p90"], (every, e)
+    every = errors(splitlf.estimate_depth(raw, depths=(200.0, 4000.0)))
+    assert every[0] > e[0] and every[1] > e[1], (every, e)
 
 
 # -- one native call, the limits ---------------------------------------------------------
@@ -556,3 +589,107 @@ def test_fine_grid_is_refused_before_allocating() -> None:
     kind, nbytes = r.stdout.split()
     assert kind == "TooLargeError"
     assert int(nbytes) >= 5 * 15 * 4_000_000 * 8
+
+
+# -- confidence that means what it says ----------------------------------------------------
+
+def photograph(design: splitlf.Design, z: float, cell: float) -> splitlf.Image:
+    """scikit-image's "camera" photograph (albedo 0.1 to 0.9, bilinear) over what the
+    design sees at z, in cells of `cell` mm: smooth areas and strong edges."""
+    from scipy.ndimage import zoom
+    from skimage import data
+
+    x0, x1, y0, y1 = _native.render_extent(design.core, z)
+    cols = int((2 * max(abs(x0), abs(x1)) + 2 * cell) / cell)
+    rows = int((2 * max(abs(y0), abs(y1)) + 2 * cell) / cell)
+    p = data.camera().astype(np.float64) / 255.0
+    img = 0.1 + 0.8 * zoom(p, (rows / p.shape[0], cols / p.shape[1]), order=1)
+    return splitlf.Image(img, cols * cell)
+
+
+def cut(name: str, kx: int, ky: int) -> splitlf.Design:
+    d = splitlf.Design.preset(name)
+    kw = {} if name == "seed" else {"Mx": None, "My": None}
+    return d.replace(channels=tuple(c.replace(Kx=kx, Ky=ky, **kw) for c in d.channels))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("name", "k", "z", "texture", "depths", "confident"), [
+    ("seed", (10, 8), 400.0, "random", (250.0, 4000.0), 0.9),
+    ("seed", (10, 8), 1000.0, "photo", (250.0, 4000.0), 0.1),
+    ("seed", (10, 8), 1600.0, "photo", (250.0, 4000.0), 0.0),
+    ("lytro-illum", (16, 14), 400.0, "random", (200.0, 4000.0), 0.9),
+    ("lytro-illum", (16, 14), 1000.0, "random", (200.0, 4000.0), 0.8),
+    ("raytrix-r12", (10, 9), 600.0, 2.0, (200.0, 4000.0), 0.05),
+])
+def test_confident_cells_are_within_5_percent(name: str, k: tuple[int, int], z: float,
+                                              texture: object, depths: tuple[float, float],
+                                              confident: float) -> None:
+    """Every preset (cut), a plane inside its range: the cells called confident have a 90th
+    percentile relative error within 5 %. `render`'s raws with photon noise N = 2000
+    (the Monte-Carlo renderer draws the ideal rect layout alone, and these cases would take
+    it minutes; the sweep's model, chief rays or centroid rays and lens-to-lens spreads, is
+    not the render's 4-D integral); textures of i.i.d. cells of 10 delta(z) ("random"),
+    scikit-image's photograph in 0.05 mm cells ("photo"), or i.i.d. cells of the given mm.
+    Measured (confident share / their p90): seed 400 mm 100 % / 0.27 %, 1000 mm photo 30 %
+    / 0.75 % (its p90 over every cell: 14.9 %), 1600 mm photo 0 % (before the resolution
+    term: 93 % / 70 %); Illum 400 mm 100 % / 1.13 %, 1000 mm 92 % / 2.7 %; R12 600 mm 10 % /
+    2.7 %. Not met (left out): the R12 at 450 mm (cells of 1 mm), 45 % / 8.8 %."""
+    d = cut(name, *k)
+    if texture == "random":
+        tex = random_image(d, z, 10 * d.resolution_step(z), seed=int(z))[0]
+    elif texture == "photo":
+        tex = photograph(d, z, 0.05)
+    else:
+        tex = splitlf.RandomAlbedo(cell=float(texture))  # type: ignore[arg-type]
+    raw = splitlf.render(d, splitlf.Scene(tex, z), noise={"photons": PHOTONS}, seed=3)
+    est = splitlf.estimate_depth(raw, depths=depths, progress=False)
+    rel = np.abs(est.sweep.estimate / z - 1.0)
+    assert est.confident.mean() >= confident, est.confident.mean()
+    if est.confident.any():
+        assert np.percentile(rel[est.confident], 90) <= 0.05, (
+            np.percentile(rel[est.confident], 90), est.confident.mean())
+
+
+@pytest.mark.slow
+def test_illum_photograph_confidence() -> None:
+    """lytro-illum cut to 40 x 34 lenses, scikit-image's photograph (0.05 mm cells) on a
+    plane at 1 m, `render` with photon noise N = 2000 (too large for the Monte-Carlo
+    renderer in reasonable time), 64 candidates from 200 mm to 4 m. Before the resolution
+    term of the confidence (docs/depth.md step 6) 46 % of the cells were called confident
+    with a 90th percentile error of 39 %: false dips near 200-300 mm (the own-pixel
+    trough) and at the candidate beyond the truth. Measured now: 12 % confident, 90th
+    percentile 3.4 %."""
+    d = cut("lytro-illum", 40, 34)
+    z = 1000.0
+    raw = splitlf.render(d, splitlf.Scene(photograph(d, z, 0.05), z),
+                         noise={"photons": PHOTONS}, seed=3, progress=False)
+    est = splitlf.estimate_depth(raw, depths=(200.0, 4000.0), progress=False)
+    rel = np.abs(est.sweep.estimate / z - 1.0)
+    assert 0.02 <= est.confident.mean() <= 0.5, est.confident.mean()
+    assert np.percentile(rel[est.confident], 90) <= 0.05
+    # the cells the method does not stand behind include the bad ones
+    assert np.mean(rel[~est.confident] > 0.05) > 0.3
+
+
+@pytest.mark.slow
+def test_tilted_window_on_a_steep_plane(design: splitlf.Design) -> None:
+    """A plane through 900 mm at 40 mm of depth per mm of Y (769 to 1031 mm over half 1's
+    region), Monte-Carlo raw with N = 2000: the signed median error of five bands of rows
+    spreads over 1.19 points with the fronto-parallel 13 x 13 window and over 0.51 with the
+    window along the slope (docs/depth.md step 7); every band within 1 % either way."""
+    z0, gy = 900.0, 40.0
+    _, mct = random_image(design, z0, 10 * design.resolution_step(z0), seed=9)
+    raw = mc_raw(design, mct, ("plane", [z0, 0.0, gy]), seed=10)
+    region = _native.seen_region(design.core, z0, [1])
+    spreads = []
+    for tilt in (False, True):
+        est = splitlf.estimate_depth(raw, depths=DEPTHS, region=region, tilt=tilt)
+        _, _, ya, yb = est.extent
+        ny = est.depth.shape[0]
+        ys = yb - (np.arange(ny) + 0.5) * (yb - ya) / ny
+        err = est.sweep.estimate / (z0 + gy * ys)[:, None] - 1.0
+        bands = [float(np.median(err[r])) for r in np.array_split(np.arange(ny), 5)]
+        assert max(abs(b) for b in bands) <= 0.01, bands
+        spreads.append(max(bands) - min(bands))
+    assert spreads[1] < 0.7 * spreads[0], spreads

@@ -40,7 +40,8 @@ DEFAULT_CANDIDATES = 64
 DEFAULT_WINDOW = 6
 #: The default grid pitch, in delta(z) (docs/model.md §9) at the reference depth.
 DEFAULT_STEP: float = _native.DEPTH_DEFAULT_STEP
-#: Cells whose confidence (1 - min / mean of the cost curve) is at least this are confident.
+#: Cells whose confidence (the least of the cost curve's contrast and resolution,
+#: docs/depth.md step 6) is at least this are confident.
 DEFAULT_MIN_CONFIDENCE = 0.5
 #: On a sensor layout the sweep keeps a pixel only when at least this share of its white
 #: comes through its own lens: the rest also see a neighbouring lens's footprint, far away
@@ -149,7 +150,8 @@ def _candidates(design: Design, depths: Any, n: Any) -> np.ndarray:
 def estimate_depth(raw: Raw, *, depths: Any, region: Any = None, step: float | None = None,
                    candidates: int = DEFAULT_CANDIDATES, window: int = DEFAULT_WINDOW,
                    min_confidence: float = DEFAULT_MIN_CONFIDENCE, channels: Any = None,
-                   n_threads: int | None = None, progress: bool | None = None) -> DepthMap:
+                   tilt: bool = False, n_threads: int | None = None,
+                   progress: bool | None = None) -> DepthMap:
     """The depth of the scene over a region, from the raw alone (docs/depth.md).
 
     - ``raw``: a :class:`~splitlf.Raw` (rendered or wrapped)
@@ -163,14 +165,22 @@ def estimate_depth(raw: Raw, *, depths: Any, region: Any = None, step: float | N
       reference depth)
     - ``window``: costs are pooled over (2 window + 1)^2 cells (an integer in
       [0, 64])
-    - ``min_confidence``: the least confidence of a confident cell, in [0, 1]
+    - ``min_confidence``: the least confidence of a confident cell, in [0, 1] (at the
+      default 0.5: the cost curve's least value at most half its mean and its rival
+      minimum, and its dip narrow enough in relative depth, docs/depth.md step 6)
+    - ``tilt``: pool each cell's window again along the surface's local slope, fitted to
+      the confident cells' fronto-parallel estimates (docs/depth.md step 7: it narrows the
+      spread of a steep slope's band errors, costs about 1.5x the time and 8 bytes per
+      cell, channel and candidate; default False, the fronto-parallel window's estimate)
     - ``channels``: the channels used (numbered from 1; default all)
     - ``progress``: a tqdm bar over the candidates (None: only when stderr is a terminal)
 
     Returns a :class:`~splitlf.DepthMap` with ``depth`` (mm, row 0 at the top; cells
     that are not confident take the depth of the nearest confident cell, so the map can
-    be handed to :func:`~splitlf.reconstruct`), ``confidence`` (1 - min / min(mean,
-    rival minimum) of the most confident channel's cost curve, in [0, 1]), ``confident``
+    be handed to :func:`~splitlf.reconstruct`), ``confidence`` (the least of the most
+    confident channel's cost-curve contrast, 1 - min / min(mean, rival minimum), and its
+    resolution, 1 / (1 + (w / 0.045)^2) with w the dip's width in relative depth; 0 where
+    the least cost is at an end of the candidates; in [0, 1]), ``confident``
     (bool) and ``sweep`` (a :class:`DepthSweep`).
     A raw without texture (all zeros, a uniform albedo) gives no confident cell.
     Raises ``TypeError``, :class:`~splitlf.errors.InvalidParameter` naming the parameter,
@@ -186,9 +196,11 @@ def estimate_depth(raw: Raw, *, depths: Any, region: Any = None, step: float | N
     if not 0.0 <= mc <= 1.0:
         raise InvalidParameter.of("min_confidence", mc, "a value in [0, 1]")
     radius = _window(window)
+    if not isinstance(tilt, bool | np.bool_):
+        raise TypeError(f"tilt must be True or False, got {tilt!r}")
     request: dict[str, Any] = {
         "channels": list(chans), "candidates": [float(z) for z in cand], "window": radius,
-        "min_own_share": MIN_OWN_SHARE, "keep_volume": False,
+        "min_own_share": MIN_OWN_SHARE, "keep_volume": False, "tilt": bool(tilt),
         "step": None if step is None else _validate.positive_length(step, "step"),
         "region": None if region is None else _extent(region, "region")}
     _validate.n_threads(n_threads)

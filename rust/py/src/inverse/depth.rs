@@ -16,7 +16,8 @@ use crate::model::design::DesignCore;
 /// An estimate's request, from a dict (Python has checked the types and ranges; the core
 /// checks again): `channels` (numbered from 1), `candidates` (mm, increasing), `region`
 /// ((X0, X1, Y0, Y1) mm or None: the default), `step` (mm or None: the default),
-/// `window` (radius, cells), `min_own_share` and `keep_volume`.
+/// `window` (radius, cells), `min_own_share`, `keep_volume` and `tilt` (the window pooled
+/// again along the surface's local slope).
 #[derive(FromPyObject)]
 #[pyo3(from_item_all)]
 pub(crate) struct DepthRequest {
@@ -27,6 +28,7 @@ pub(crate) struct DepthRequest {
     window: usize,
     min_own_share: f64,
     keep_volume: bool,
+    tilt: bool,
 }
 
 type EstimateTuple<'py> = (
@@ -71,6 +73,7 @@ pub(crate) fn estimate_depth<'py>(
         radius: request.window,
         min_own_share: request.min_own_share,
         keep_volume: request.keep_volume,
+        tilt: request.tilt,
     };
     let d = &design.inner;
     let (report, counter) = counted(progress, req.candidates.len());

@@ -22,7 +22,8 @@ const CALLER_BYTES_PER_CELL: u128 = 48;
 /// through half its aperture at the reference depth, else what the first sees so), the
 /// grid's pitch (None: [`DEFAULT_STEP`] δ at the reference depth), the window's radius,
 /// the least share of a sensor-layout pixel's white that must come through its own lens,
-/// and whether to keep the whole cost volume.
+/// whether to keep the whole cost volume, and whether to pool the window again along the
+/// surface's local slope (docs/depth.md, step 7).
 pub struct Request {
     pub channels: Vec<usize>,
     pub candidates: Vec<f64>,
@@ -31,6 +32,7 @@ pub struct Request {
     pub radius: usize,
     pub min_own_share: f64,
     pub keep_volume: bool,
+    pub tilt: bool,
 }
 
 /// The sweep's result on its grid.
@@ -107,6 +109,7 @@ pub fn estimate(
         candidates: &req.candidates,
         radius: req.radius,
         keep_volume: req.keep_volume,
+        tilt: req.tilt,
     };
     let workers = threads(n_threads);
     let caller = grid.cells() as u128 * CALLER_BYTES_PER_CELL

@@ -206,6 +206,9 @@ impl Widened {
 /// missing). Compiled twice, for the baseline and for AVX2 (chosen at run time): its loops
 /// are element-wise or summed in order, and Rust never fuses a multiply and an add, so the
 /// two give the same bits; AVX2 does four cells (and four divisions) at a time.
+/// With `cells`, also each cell's own (unpooled) spread over the channel's scale and its
+/// degrees of freedom, per channel over the widened grid (for the tilted pooling,
+/// [`super::tilt`]).
 pub(super) fn layer(
     mi: &Micro,
     grid: &CellGrid,
@@ -213,15 +216,24 @@ pub(super) fn layer(
     z: f64,
     buf: &mut Layer,
     out: &mut [f64],
+    cells: Option<&mut [f32]>,
 ) {
     crate::infra::simd::dispatch(
         #[inline(always)]
-        |_| layer_in(mi, grid, radius, z, buf, out),
+        |_| layer_in(mi, grid, radius, z, buf, out, cells),
     )
 }
 
 #[inline(always)]
-fn layer_in(mi: &Micro, grid: &CellGrid, radius: usize, z: f64, buf: &mut Layer, out: &mut [f64]) {
+fn layer_in(
+    mi: &Micro,
+    grid: &CellGrid,
+    radius: usize,
+    z: f64,
+    buf: &mut Layer,
+    out: &mut [f64],
+    cells: Option<&mut [f32]>,
+) {
     let wd = Widened::of(grid, radius);
     buf.clear_sums();
     buf.extents.clear();
@@ -239,7 +251,30 @@ fn layer_in(mi: &Micro, grid: &CellGrid, radius: usize, z: f64, buf: &mut Layer,
         add_lens(l, (ex, ey), z, &wd, buf);
     }
     buf.extents = extents;
-    costs(mi.channels, grid, radius, buf, out);
+    let scale = costs(mi.channels, grid, radius, buf, out);
+    if let Some(cells) = cells {
+        cell_costs(buf, &scale, cells);
+    }
+}
+
+/// Each widened cell's own spread (over the channel's scale) and degrees of freedom, as
+/// pairs, per channel: what [`costs`] pools over the window.
+#[inline(always)]
+fn cell_costs(buf: &Layer, scale: &[f64], cells: &mut [f32]) {
+    let per = buf.s0.len() / scale.len().max(1);
+    for (k, pair) in cells.chunks_exact_mut(2).enumerate() {
+        let s0 = buf.s0[k];
+        let (spread, dof) = if s0 > 0.0 {
+            (
+                (buf.s2[k] - buf.s1[k] * buf.s1[k] / s0).max(0.0) + buf.s4[k],
+                (s0 - buf.s3[k] / s0).max(0.0) + buf.s5[k],
+            )
+        } else {
+            (0.0, 0.0)
+        };
+        pair[0] = (spread * scale[k / per]) as f32;
+        pair[1] = dof as f32;
+    }
 }
 
 /// Per channel the keep rate: M_CAP over the mean number of its lenses whose footprints
@@ -500,9 +535,9 @@ fn add_cells(
 /// about their mean and of their degrees of freedom (for independent values of variance
 /// σ² per unit weight, E[spread] = σ² (S0 − Σ Ω² / S0), so the pooled ratio is unbiased
 /// however few lenses a cell has: a lone lens adds 0 to both), pooled over each cell's
-/// window, over the channel's scale ([`scales`]).
+/// window, over the channel's scale ([`scales`], returned).
 #[inline(always)]
-fn costs(nch: usize, grid: &CellGrid, r: usize, buf: &mut Layer, out: &mut [f64]) {
+fn costs(nch: usize, grid: &CellGrid, r: usize, buf: &mut Layer, out: &mut [f64]) -> Vec<f64> {
     let (enx, eny) = (grid.nx + 2 * r, grid.ny + 2 * r);
     let pc = enx + 1;
     let plane = pc * (eny + 1);
@@ -551,6 +586,7 @@ fn costs(nch: usize, grid: &CellGrid, r: usize, buf: &mut Layer, out: &mut [f64]
             }
         }
     }
+    scale
 }
 
 /// Per channel the spread of all its lens values over the widened grid at this depth

@@ -48,10 +48,12 @@
 //!
 //! Each channel's estimate per cell is the candidate of least cost, refined by the vertex
 //! of the symmetric V through it and its two neighbours ([`vertex`]), and its confidence
-//! the contrast 1 − min / m', m' the least of the curve's mean and of its least local
-//! minimum more than n/16 candidates away (a second dip of the same depth makes a cell
-//! ambiguous). A textureless patch costs the same (its noise) at every depth: its contrast
-//! is small. Each cell takes the estimate of its most confident channel: the channels'
+//! ([`confidence`]) the least of the contrast 1 − min / m', m' the least of the curve's
+//! mean and of its least local minimum more than n/16 candidates away (a second dip of the
+//! same depth makes a cell ambiguous; a textureless patch costs the same, its noise, at
+//! every depth), and of the resolution: how narrow the dip is in relative depth against
+//! the least cost (a shallow dip is not trusted); 0 where the least cost is at an end of
+//! the candidates. Each cell takes the estimate of its most confident channel: the channels'
 //! blurs differ, so their values of one patch are never compared, and a channel that sees
 //! no texture at some depth has a shallow, sloping curve that would add rival minima to a
 //! sum.
@@ -68,6 +70,7 @@ mod fold;
 mod layer;
 mod micro;
 pub mod surface;
+mod tilt;
 mod whites;
 
 use std::collections::BTreeMap;
@@ -103,6 +106,11 @@ const KEEP_MINIMA: usize = 4;
 /// A rival minimum lies more than n / RIVAL_SEPARATION (at least 2) candidates from the
 /// least cost.
 const RIVAL_SEPARATION: u32 = 16;
+/// The relative depth width of a cost curve's dip (see [`confidence`]) at which its
+/// resolution is ½: measured on Monte-Carlo and `render` raws with photon noise
+/// (docs/depth.md), the widest at which the cells called confident keep a 90th percentile
+/// relative error within 5 %.
+pub const WIDTH_AT_HALF: f64 = 0.045;
 /// Largest window radius, in cells.
 pub const MAX_RADIUS: usize = 64;
 /// Most candidate depths of a sweep (each is a pass over every lens: 4096 take minutes on
@@ -122,12 +130,14 @@ pub struct Images<'a> {
 }
 
 /// What a sweep covers: the grid, the increasing candidate depths, the window's radius
-/// (cells: (2 radius + 1)² cells pooled), and whether the whole cost volume is kept.
+/// (cells: (2 radius + 1)² cells pooled), whether the whole cost volume is kept, and
+/// whether the window is pooled again along the surface's local slope ([`tilt`]).
 pub struct Plan<'a> {
     pub grid: CellGrid,
     pub candidates: &'a [f64],
     pub radius: usize,
     pub keep_volume: bool,
+    pub tilt: bool,
 }
 
 /// The result of a sweep, row-major over the grid (row 0 at the top, Y1).
@@ -136,8 +146,8 @@ pub struct Sweep {
     pub depth: Vec<f64>,
     /// The refined candidate index (fractional); NaN where no candidate had a cost.
     pub index: Vec<f64>,
-    /// 1 − min / min(mean, rival minimum) of the cost curve (see the module's doc), in
-    /// [0, 1]; 0 where no candidate had a cost.
+    /// The least of the cost curve's contrast and resolution ([`confidence`]), in [0, 1];
+    /// 0 where no candidate had a cost or the least cost is at an end of the candidates.
     pub confidence: Vec<f64>,
     /// The least cost; NaN where no candidate had a cost.
     pub min_cost: Vec<f64>,
@@ -282,8 +292,18 @@ fn sweep_bytes(
     } else {
         0
     };
-    let layers = (1 + AHEAD_PER_WORKER as u128) * entries * 8;
+    let mut layers = (1 + AHEAD_PER_WORKER as u128) * entries * 8;
+    // The tilted pooling's cells' own costs: a pair of f32 per widened cell, channel and
+    // candidate, and each layer's in flight.
+    let cells = ex.0 as u128 * ex.1 as u128 * channels as u128 * 8;
+    let tilt = if plan.tilt {
+        layers += (1 + AHEAD_PER_WORKER as u128) * cells;
+        cells * plan.candidates.len() as u128
+    } else {
+        0
+    };
     micro
+        + tilt
         + workers as u128 * (Layer::bytes(ex, channels, lenses, boxes) + layers)
         + entries * Fold::BYTES_PER_ENTRY
         + grid.cells() as u128 * OUTPUT_BYTES_PER_CELL
@@ -311,16 +331,35 @@ pub fn sweep(
     let mi = micro::collect(design, images, &plan.grid, plan.radius, zs, n_threads)?;
     let bytes = sweep_bytes(design, plan, chosen, workers, Some(&mi));
     memory::check("the depth sweep", bytes)?;
-    let (mut fold, volume) = run(&mi, plan, workers, n_threads, done)?;
+    let (mut fold, volume, cells) = run(&mi, plan, workers, n_threads, done)?;
     fold.end(candidates.len() as u32);
-    Ok(finish(fold, nch, candidates, mi.pixels, volume))
+    let mut s = finish(fold, nch, candidates, mi.pixels, volume);
+    if let Some(values) = cells {
+        checkpoint()?;
+        let costs = tilt::CellCosts {
+            values: &values,
+            channels: nch,
+            n: candidates.len(),
+        };
+        tilt::refine(
+            &mut s,
+            &costs,
+            &plan.grid,
+            plan.radius,
+            candidates,
+            n_threads,
+        )?;
+    }
+    Ok(s)
 }
 
 /// The layers computed and not yet folded, the fold and the volume.
 struct Folding {
     fold: Fold,
     volume: Option<Vec<f64>>,
-    pending: BTreeMap<usize, Vec<f64>>,
+    /// The cells' own costs of every candidate folded (the tilted pooling's).
+    cells: Option<Vec<f32>>,
+    pending: BTreeMap<usize, (Vec<f64>, Option<Vec<f32>>)>,
     /// The next candidate to fold.
     next: usize,
     /// A worker stopped (with an error): the others stop waiting.
@@ -330,15 +369,22 @@ struct Folding {
 impl Folding {
     /// Fold every pending layer that is next in order.
     fn fold_ready(&mut self) {
-        while let Some(l) = self.pending.remove(&self.next) {
+        while let Some((l, c)) = self.pending.remove(&self.next) {
             self.fold.add(self.next as u32, &l);
             if let Some(v) = self.volume.as_mut() {
                 v.extend_from_slice(&l);
+            }
+            if let (Some(v), Some(c)) = (self.cells.as_mut(), c) {
+                v.extend_from_slice(&c);
             }
             self.next += 1;
         }
     }
 }
+
+/// What [`run`] returns: the fold, the cost volume when kept, and the cells' own costs
+/// when the window is tilted.
+type Swept = (Fold, Option<Vec<f64>>, Option<Vec<f32>>);
 
 /// Sweep the candidates in parallel: each worker takes the next candidate in turn (once
 /// it is at most [`AHEAD_PER_WORKER`] × workers beyond the next to fold) and folds, under
@@ -349,9 +395,19 @@ fn run(
     workers: usize,
     n_threads: Option<usize>,
     done: &AtomicUsize,
-) -> Result<(Fold, Option<Vec<f64>>)> {
+) -> Result<Swept> {
     let (grid, n) = (&plan.grid, plan.candidates.len());
     let entries = grid.cells() * mi.channels;
+    let ex = (grid.nx + 2 * plan.radius, grid.ny + 2 * plan.radius);
+    let per_layer = ex.0 * ex.1 * mi.channels * 2;
+    let cells = if plan.tilt {
+        Some(memory::try_with_capacity(
+            "the depth sweep's cells' costs",
+            per_layer * n,
+        )?)
+    } else {
+        None
+    };
     let volume = if plan.keep_volume {
         Some(memory::try_with_capacity(
             "the depth sweep's cost volume",
@@ -363,6 +419,7 @@ fn run(
     let state = Mutex::new(Folding {
         fold: Fold::new(entries),
         volume,
+        cells,
         pending: BTreeMap::new(),
         next: 0,
         failed: false,
@@ -371,7 +428,6 @@ fn run(
     let ahead = AHEAD_PER_WORKER * workers.max(1);
     let next = AtomicUsize::new(0);
     let poisoned = || Error::param("n_threads", 1, "a worker that does not panic");
-    let ex = (grid.nx + 2 * plan.radius, grid.ny + 2 * plan.radius);
     let work = || -> Result<()> {
         let mut buf = Layer::new(ex, mi.channels);
         loop {
@@ -395,6 +451,7 @@ fn run(
             }
             checkpoint()?;
             let mut out = vec![0.0; entries];
+            let mut own = plan.tilt.then(|| vec![0.0f32; per_layer]);
             layer::layer(
                 mi,
                 grid,
@@ -402,10 +459,11 @@ fn run(
                 plan.candidates[k],
                 &mut buf,
                 &mut out,
+                own.as_deref_mut(),
             );
             done.fetch_add(1, Ordering::Relaxed);
             let mut st = state.lock().map_err(|_| poisoned())?;
-            st.pending.insert(k, out);
+            st.pending.insert(k, (out, own));
             st.fold_ready();
             folded.notify_all();
         }
@@ -421,7 +479,7 @@ fn run(
         })
     })?;
     let st = state.into_inner().map_err(|_| poisoned())?;
-    Ok((st.fold, st.volume))
+    Ok((st.fold, st.volume, st.cells))
 }
 
 /// Refine each channel's minimum in each cell, derive its depth and confidence, and keep
@@ -453,15 +511,7 @@ fn finish(
             if fold.arg[e] == u32::MAX {
                 continue;
             }
-            // The contrast against the curve's mean and against its least local minimum
-            // away from the best (a curve with two dips of one depth is ambiguous).
-            let mean = fold.sum[e] / fold.count[e] as f64;
-            let against = mean.min(fold.rival(e, sep));
-            let conf = if against > 0.0 && against.is_finite() {
-                (1.0 - fold.min[e] / against).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
+            let conf = confidence(&fold, e, sep, candidates);
             if best.map_or(true, |(c, _)| conf > c) {
                 best = Some((conf, ch));
             }
@@ -485,6 +535,52 @@ fn finish(
         s.channel[cell] = ch as u8;
     }
     s
+}
+
+/// The confidence of entry e's curve (docs/depth.md, step 6): the least of its contrast and
+/// its resolution, 0 where its least cost is at the first or last candidate (a minimum
+/// the candidates do not bracket: the truth may lie beyond them) or has no neighbour.
+/// - The contrast 1 − min / min(mean, rival), the rival the least local minimum more than
+///   `sep` candidates away: a textureless window costs its noise at every depth (near 0),
+///   a curve with two dips of one depth is ambiguous.
+/// - The resolution 1 / (1 + (w / [`WIDTH_AT_HALF`])²), w = Δ ln z · √(min / a) the
+///   relative depth over which the parabola through the least cost and its neighbours l, r
+///   (curvature a = (l + r − 2 min) / 2 per candidate², Δ ln z the candidates' relative
+///   step there) rises by the least cost itself, the cost's own scale of noise and
+///   mismatch: a shallow dip (a smooth texture, a far depth where the disparity per
+///   candidate is small) is not trusted, however far it lies below the curve's mean.
+/// - 0 where a neighbour of the least cost is above the curve's mean: a step in the curve
+///   (measured: a cost 4× the mean beside a false dip at the grid's edge), not a dip.
+fn confidence(fold: &Fold, e: usize, sep: u32, candidates: &[f64]) -> f64 {
+    let (k, m, l, r) = (
+        fold.arg[e] as usize,
+        fold.min[e],
+        fold.left[e],
+        fold.right[e],
+    );
+    let n = candidates.len();
+    if k == 0 || k + 1 >= n || !(l.is_finite() && r.is_finite()) {
+        return 0.0;
+    }
+    let mean = fold.sum[e] / fold.count[e] as f64;
+    let against = mean.min(fold.rival(e, sep));
+    if !(against > 0.0 && against.is_finite()) {
+        return 0.0;
+    }
+    // A neighbour above the curve's mean: a step in the curve, not a dip.
+    if l.max(r) > mean {
+        return 0.0;
+    }
+    let contrast = (1.0 - m / against).clamp(0.0, 1.0);
+    let a = 0.5 * (l + r - 2.0 * m);
+    let step = 0.5 * (candidates[k + 1] / candidates[k - 1]).ln();
+    let resolution = if a > 0.0 {
+        let w = step * (m.max(0.0) / a).sqrt() / WIDTH_AT_HALF;
+        1.0 / (1.0 + w * w)
+    } else {
+        0.0
+    };
+    contrast.min(resolution)
 }
 
 /// The offset in (−½, ½) of a cost curve's minimum from the candidate of least cost m,
