@@ -13,7 +13,7 @@ public API is used, so the same script measures any build installed in the inter
 that runs it (``python -c "import splitlf"`` must point at the build to measure).
 
     python benches/instructions.py W1 W3            # counts for the installed build, JSON
-    python benches/instructions.py --wall 5 W1      # wall medians of 5 calls instead
+    python benches/instructions.py --wall 5 W1      # wall and CPU times of 5 calls instead
     python benches/instructions.py --compare /work/venv/base/bin/python W1 W2
         # counts under both interpreters (the other build first), then wall-clock rounds
         # alternating the two interpreters' processes; prints JSON and a Markdown table
@@ -31,6 +31,7 @@ import argparse
 import ctypes
 import json
 import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -207,23 +208,27 @@ def _where(python: str) -> str:
                           check=True, capture_output=True, text=True).stdout.strip()
 
 
-def wall(name: str, calls: int) -> list[float]:
-    """Seconds of `calls` calls after one warm-up call, in this process."""
+def wall(name: str, calls: int) -> dict[str, list[float]]:
+    """Wall and CPU seconds (user + system, all threads of this process) of `calls` calls
+    after one warm-up call, in this process."""
     call = WORKLOADS[name][1]()
     call()
-    times = []
+    out: dict[str, list[float]] = {"times_s": [], "cpu_s": []}
     for _ in range(calls):
-        t0 = time.perf_counter()
+        c0, t0 = resource.getrusage(resource.RUSAGE_SELF), time.perf_counter()
         call()
-        times.append(time.perf_counter() - t0)
-    return times
+        t1, c1 = time.perf_counter(), resource.getrusage(resource.RUSAGE_SELF)
+        out["times_s"].append(t1 - t0)
+        out["cpu_s"].append(c1.ru_utime - c0.ru_utime + c1.ru_stime - c0.ru_stime)
+    return out
 
 
-def _wall_in(python: str, name: str, calls: int) -> float:
-    """Median of `calls` calls in a fresh process of `python`."""
+def _wall_in(python: str, name: str, calls: int) -> tuple[float, float]:
+    """Medians of the wall and CPU times of `calls` calls in a fresh process of `python`."""
     r = subprocess.run([python, str(Path(__file__).resolve()), "--wall", str(calls), name],
                        check=True, capture_output=True, text=True)
-    return float(statistics.median(json.loads(r.stdout)[0]["times_s"]))
+    doc = json.loads(r.stdout)[0]
+    return statistics.median(doc["times_s"]), statistics.median(doc["cpu_s"])
 
 
 def compare(old: str, new: str, names: list[str], rounds: int, calls: int,
@@ -247,26 +252,32 @@ def compare(old: str, new: str, names: list[str], rounds: int, calls: int,
 def _alternate(old: str, new: str, name: str, rounds: int, calls: int) -> dict[str, Any]:
     """Wall medians of fresh processes of the two interpreters, alternating."""
     t: dict[str, list[float]] = {"old": [], "new": []}
+    cpu: dict[str, list[float]] = {"old": [], "new": []}
     load = [os.getloadavg()[0]]
     for r in range(rounds):
         order = [("old", old), ("new", new)][:: 1 if r % 2 == 0 else -1]
         for side, py in order:
-            t[side].append(_wall_in(py, name, calls))
+            w, c = _wall_in(py, name, calls)
+            t[side].append(w)
+            cpu[side].append(c)
         load.append(os.getloadavg()[0])
     return {"wall_old_s": t["old"], "wall_new_s": t["new"],
             "wall_ratio": statistics.median(t["new"]) / statistics.median(t["old"]),
+            "cpu_old_s": cpu["old"], "cpu_new_s": cpu["new"],
+            "cpu_ratio": statistics.median(cpu["new"]) / statistics.median(cpu["old"]),
             "load_1min": [round(x, 2) for x in load]}
 
 
 def markdown(rows: list[dict[str, Any]], noise: float = 0.03) -> str:
-    lines = ["| workload | what | instructions new / old | wall median new / old | verdict |",
-             "|---|---|---|---|---|"]
+    lines = ["| workload | what | instructions new / old | wall median new / old | "
+             "CPU median new / old | verdict |", "|---|---|---|---|---|---|"]
     for r in rows:
         ir, wr = r.get("instructions_ratio"), r.get("wall_ratio")
         worse = ir > 1 + noise if ir is not None else wr is not None and wr > 1.15
         lines.append(f"| {r['workload']} | {r['what']} | "
                      + (f"{ir:.4f}" if ir is not None else "(not counted)") + " | "
-                     + (f"{wr:.3f}" if wr is not None else "(not timed)")
+                     + (f"{wr:.3f}" if wr is not None else "(not timed)") + " | "
+                     + (f"{r['cpu_ratio']:.3f}" if "cpu_ratio" in r else "(not timed)")
                      + f" | {'slower' if worse else 'not slower'} |")
     return "\n".join(lines)
 
@@ -295,7 +306,7 @@ def main() -> None:
         print(json.dumps(rows, indent=1))
         print(markdown(rows))
     elif args.wall:
-        print(json.dumps([{"workload": n, "times_s": wall(n, args.wall)} for n in names]))
+        print(json.dumps([{"workload": n, **wall(n, args.wall)} for n in names]))
     else:
         print(json.dumps([count(n, keep=args.keep) for n in names], indent=1))
 
