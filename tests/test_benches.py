@@ -87,3 +87,44 @@ def test_quick_benchmarks_run(tmp_path):
     assert set(w12) == {f"{c}_x{k}" for c in ("sample_grid", "footprints_kernel")
                         for k in (2, 8)}, set(w12)
     assert all(0 < v < 100 for v in w12.values()) and "W12 (" in table
+
+
+def test_results_markdown_keeps_the_hand_written_tail(tmp_path, monkeypatch):
+    """run.py's rewrite of RESULTS.md keeps the part from KEPT_MARKER on (the issue-46
+    before/after table measured by benches/instructions.py) and nothing before it."""
+    monkeypatch.syspath_prepend(str(BENCHES))
+    import run
+
+    path = tmp_path / "RESULTS.md"
+    tail = f"{run.KEPT_MARKER}\n\n## Measured elsewhere\n\n| a | b |\n|---|---|\n| 1 | 2 |"
+    path.write_text("# Benchmark results\n\nold generated table\n\n" + tail + "\n")
+    doc = {"results": [], "quick": True, "commit": "abc",
+           "machine": {"cores": 2, "platform": "test"}}
+    run.write_markdown(doc, path)
+    text = path.read_text()
+    assert text.endswith(tail + "\n") and "old generated table" not in text
+    run.write_markdown(doc, path)  # idempotent: kept once, not twice
+    assert path.read_text() == text
+    (tmp_path / "plain.md").write_text("# Benchmark results\n\nno marker\n")
+    run.write_markdown(doc, tmp_path / "plain.md")
+    assert "no marker" not in (tmp_path / "plain.md").read_text()
+
+
+@pytest.mark.skipif(subprocess.run(["sh", "-c", "command -v valgrind && command -v cc"],
+                                   capture_output=True).returncode != 0,
+                    reason="valgrind or cc missing")
+def test_instruction_counts_repeat():
+    """benches/instructions.py: W1's call (curves of 10^6 depths, 11 arrays) counted twice
+    under callgrind agrees to 1e-3 and is at least one instruction per output value;
+    W12's is not W1's (the count is the workload's own call)."""
+    def count(name: str) -> int:
+        r = subprocess.run([sys.executable, str(BENCHES / "instructions.py"), name],
+                           check=True, capture_output=True, text=True)
+        (row,) = json.loads(r.stdout)
+        assert row["workload"] == name
+        return int(row["instructions"])
+
+    a, b = count("W1"), count("W1")
+    assert abs(a - b) <= 1e-3 * a
+    assert a >= 11 * 10**6
+    assert abs(count("W12") / a - 1.0) > 0.1

@@ -535,12 +535,13 @@ impl Texture {
         if area.abs() <= 1e-12 * scale * scale || !area.is_finite() {
             return self.at(centroid(poly));
         }
-        let v = self.integral(poly, area, scratch) / area;
+        let v = self.integral(poly, area, x1 - x0, scratch) / area;
         v.max(0.0)
     }
 
-    /// ∫ T over a polygon of signed area `area` (same orientation sign as `area`).
-    fn integral(&self, poly: &[Pt], area: f64, s: &mut Scratch) -> f64 {
+    /// ∫ T over a polygon of signed area `area` (same orientation sign as `area`) and
+    /// extent `x_span` along X.
+    fn integral(&self, poly: &[Pt], area: f64, x_span: f64, s: &mut Scratch) -> f64 {
         let n = poly.len();
         match self {
             Texture::Constant(c) => c * area,
@@ -557,29 +558,13 @@ impl Texture {
                 amplitude,
                 phase,
             } => {
-                // G(X) = mean X + amplitude (cos φ − cos(w X + φ))/w: the constant
-                // cos φ / w drops out of ∮ G dY but keeps the sum free of the cancellation
-                // of terms ~ amplitude / w when w is tiny (a frequency of 1e-20 read black).
-                // Its mean along an edge, X = xm + t dx/2 (t ∈ [−1, 1]), u = w xm,
-                // h = w dx/2: (cos φ − cos(u + φ) sinc h)/w
-                //   = cos φ (xm sin(u/2) sinc(u/2) + cos u (dx/2) c1(h)) + sin φ xm sinc u sinc h
-                // with c1(h) = (1 − sinc h)/h.
-                let w = 2.0 * PI * frequency;
-                let (cp, sp) = (phase.cos(), phase.sin());
-                edge_integral(poly, |a, b| {
-                    let xm = 0.5 * (a[0] + b[0]);
-                    let half = 0.5 * (b[0] - a[0]);
-                    let (u, h) = (w * xm, w * half);
-                    // Two transcendental calls an edge (as the direct formula needs): sin
-                    // and cos of u/2 give sin u and cos u, sin h gives sinc h and c1(h).
-                    let (s2, c2) = (0.5 * u).sin_cos();
-                    let (sin_u, cos_u) = (2.0 * s2 * c2, 1.0 - 2.0 * s2 * s2);
-                    let sin_h = h.sin();
-                    let wave = cp
-                        * (xm * s2 * sinc_of(0.5 * u, s2) + cos_u * half * c1_of(h, sin_h))
-                        + sp * xm * sinc_of(u, sin_u) * sinc_of(h, sin_h);
-                    mean * xm + amplitude * wave
-                })
+                let wave = Wave {
+                    w: 2.0 * PI * frequency,
+                    mean: *mean,
+                    amplitude: *amplitude,
+                    phase: *phase,
+                };
+                sinusoid_integral(poly, x_span, &wave)
             }
             Texture::Bars {
                 frequency,
@@ -630,6 +615,67 @@ fn edge_integral(poly: &[Pt], mean_g: impl Fn(Pt, Pt) -> f64) -> f64 {
         }
     }
     t
+}
+
+/// The least w × (the polygon's X extent) at which [`sinusoid_integral`] takes the direct
+/// form: its rounding error, ~n ε amplitude |dY| / w over n edges, is then below
+/// n ε / `SINUSOID_DIRECT_MIN` ≈ 1.3e-13 (n = 6) of amplitude × the polygon's bounding box.
+const SINUSOID_DIRECT_MIN: f64 = 1e-2;
+
+/// A sinusoid mean + amplitude sin(w X + φ), w = 2π frequency.
+struct Wave {
+    w: f64,
+    mean: f64,
+    amplitude: f64,
+    phase: f64,
+}
+
+/// ∮ G dY for the sinusoid `wave` over a polygon spanning `x_span` along X.
+///
+/// Where the polygon spans at least [`SINUSOID_DIRECT_MIN`] / w along X: the direct form,
+/// G(X) = mean X − amplitude cos(w X + φ)/w, whose mean along an edge (X = xm + t dx/2,
+/// t ∈ [−1, 1], h = w dx/2) is mean xm − amplitude cos(w xm + φ) sinc(h) / w — one sine,
+/// one cosine and one division an edge (929d86a's arithmetic, bit for bit).
+/// Narrower (w tiny): the direct form's terms ~ amplitude / w cancel (a frequency of
+/// 1e-20 read black), so G(X) = mean X + amplitude (cos φ − cos(w X + φ))/w, with the
+/// constant cos φ / w, which drops out of ∮ G dY, folded in without cancellation: with
+/// u = w xm, its mean along an edge is
+///   cos φ (xm sin(u/2) sinc(u/2) + cos u (dx/2) c1(h)) + sin φ xm sinc u sinc h,
+/// c1(h) = (1 − sinc h)/h: the same two transcendental calls an edge, but four divisions
+/// instead of one and more products (sinusoid renders ran ~1.7× slower on it).
+fn sinusoid_integral(poly: &[Pt], x_span: f64, wave: &Wave) -> f64 {
+    let Wave {
+        w,
+        mean,
+        amplitude,
+        phase,
+    } = *wave;
+    if w * x_span >= SINUSOID_DIRECT_MIN {
+        return edge_integral(poly, |a, b| {
+            let xm = 0.5 * (a[0] + b[0]);
+            let h = 0.5 * w * (b[0] - a[0]);
+            let sinc = if h.abs() < 1e-8 {
+                1.0 - h * h / 6.0
+            } else {
+                h.sin() / h
+            };
+            mean * xm - amplitude / w * (w * xm + phase).cos() * sinc
+        });
+    }
+    let (cp, sp) = (phase.cos(), phase.sin());
+    edge_integral(poly, |a, b| {
+        let xm = 0.5 * (a[0] + b[0]);
+        let half = 0.5 * (b[0] - a[0]);
+        let (u, h) = (w * xm, w * half);
+        // Two transcendental calls an edge: sin and cos of u/2 give sin u and cos u, sin h
+        // gives sinc h and c1(h).
+        let (s2, c2) = (0.5 * u).sin_cos();
+        let (sin_u, cos_u) = (2.0 * s2 * c2, 1.0 - 2.0 * s2 * s2);
+        let sin_h = h.sin();
+        let wave = cp * (xm * s2 * sinc_of(0.5 * u, s2) + cos_u * half * c1_of(h, sin_h))
+            + sp * xm * sinc_of(u, sin_u) * sinc_of(h, sin_h);
+        mean * xm + amplitude * wave
+    })
 }
 
 /// sin x / x (`sin_x` = sin x).
@@ -835,6 +881,49 @@ mod tests {
             let v = t.average(&p, &mut Scratch::default());
             let want = 0.5 + 0.4 * 0.3f64.sin();
             assert!((v - want).abs() < 1e-6, "{f}: {v} vs {want}");
+        }
+    }
+
+    /// Both forms of the sinusoid's integral against the closed form over a rectangle
+    /// [x0, x1] × [y0, y1], by hand: (y1 − y0) (mean (x1 − x0) + 2 amplitude/w ·
+    /// sin(w xm + φ) sin(w (x1 − x0)/2)), xm the centre (cos a − cos b as a product: no
+    /// cancellation at tiny w); frequencies on both sides of the switch and at it.
+    #[test]
+    fn sinusoid_forms_match_the_rectangle_closed_form() {
+        let (x0, x1, y0, y1) = (0.7, 1.9, -0.4, 0.8);
+        let rect = [[x0, y0], [x1, y0], [x1, y1], [x0, y1]];
+        let (mean, amp, phase) = (0.5, 0.4, 0.3);
+        let switch = SINUSOID_DIRECT_MIN / (2.0 * PI * (x1 - x0));
+        let mut s = Scratch::default();
+        for f in [
+            1e-15,
+            1e-6,
+            0.5 * switch,
+            switch * (1.0 - 1e-12),
+            switch,
+            2.0 * switch,
+            0.3,
+            1.3,
+            40.0,
+        ] {
+            let w = 2.0 * PI * f;
+            let xm = 0.5 * (x0 + x1);
+            let want = (y1 - y0)
+                * (mean * (x1 - x0)
+                    + 2.0 * amp / w * (w * xm + phase).sin() * (0.5 * w * (x1 - x0)).sin());
+            let t = Texture::from_parts("sinusoid", &[f, mean, amp, phase], None).unwrap();
+            let area = (x1 - x0) * (y1 - y0);
+            for poly in [
+                rect.to_vec(),
+                rect.iter().rev().copied().collect::<Vec<_>>(),
+            ] {
+                let got = t.integral(&poly, signed_area(&poly), x1 - x0, &mut s);
+                let sign = signed_area(&poly).signum();
+                assert!(
+                    (got - sign * want).abs() < 1e-13 * area,
+                    "{f}: {got} vs {want}"
+                );
+            }
         }
     }
 
