@@ -32,7 +32,7 @@ def test_padding_is_clipped_where_the_plane_comes_near_f(
         caplog.clear()
         with caplog.at_level(logging.INFO, logger="splitlf.reconstruct"):
             r = splitlf.reconstruct(raw, p, region=region, step=step, channels=chans,
-                                    progress=False)
+                                    regularization=4.0, progress=False)
         assert r.rows > 0 and r.image.shape == (41, 2)
         note = next(m for m in caplog.messages if "padded by" in m)
         pad, nx, ny = map(int, re.search(r"padded by (\d+) per side to (\d+) x (\d+)",
