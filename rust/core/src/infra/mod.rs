@@ -1,9 +1,11 @@
 //! Infrastructure: what every domain uses and that knows no optics. The error type that
 //! maps to Python's exceptions ([`error`]), the rayon pool with its thread count and
 //! Ctrl-C flag ([`parallel`]), memory budgets and fallible allocation ([`memory`]),
-//! small SIMD kernels ([`simd`]) and the one polygon geometry of the crate ([`polygon`]).
+//! small SIMD kernels ([`simd`]), the one polygon geometry of the crate ([`polygon`]) and
+//! its one compressed-row matrix ([`csr`]).
 //! Uses nothing else of the crate.
 
+pub mod csr;
 pub mod error;
 pub mod memory;
 pub mod parallel;

@@ -19,8 +19,9 @@
 
 use rayon::prelude::*;
 
+use crate::infra::csr::Csr;
 use crate::infra::error::{Error, Result};
-use crate::infra::memory::{self, try_vec, try_with_capacity};
+use crate::infra::memory::{self, try_vec};
 use crate::infra::parallel::{check_threads, chunk_items, for_chunks, with_threads};
 use crate::model::design::Design;
 use crate::model::lens::conjugate;
@@ -334,20 +335,10 @@ pub fn kernel_support_of(px: &Pixels, z: f64, n_threads: Option<usize>) -> Resul
     })?
 }
 
-/// A sparse matrix in compressed sparse row form (SciPy's `csr_matrix((data, indices,
-/// indptr), shape)`).
-#[derive(Debug, Clone, PartialEq)]
-pub struct Csr {
-    pub rows: usize,
-    pub cols: usize,
-    pub indptr: Vec<i64>,
-    pub indices: Vec<i64>,
-    pub data: Vec<f64>,
-}
-
 /// System matrix and the pixels its rows stand for.
 #[derive(Debug, Clone, PartialEq)]
 pub struct System {
+    /// Rows the pixels, columns the grid's cells.
     pub matrix: Csr,
     /// Pixel index along x of each row (see [`Kernel::pixel`]).
     pub pixels: Vec<u32>,
@@ -403,27 +394,8 @@ fn system_unchecked(px: &Pixels, z: f64, grid: Grid, field: (f64, f64)) -> Resul
             r
         })
         .collect();
-    let what = "system matrix";
-    let mut indptr = try_with_capacity(what, rows.len() + 1)?;
-    let total: usize = rows.iter().map(Vec::len).sum();
-    let mut indices = try_with_capacity(what, total)?;
-    let mut data = try_with_capacity(what, total)?;
-    indptr.push(0i64);
-    for r in &rows {
-        for &(c, v) in r {
-            indices.push(c as i64);
-            data.push(v);
-        }
-        indptr.push(indices.len() as i64);
-    }
     Ok(System {
-        matrix: Csr {
-            rows: rows.len(),
-            cols: grid.n,
-            indptr,
-            indices,
-            data,
-        },
+        matrix: Csr::from_rows("system matrix", &rows, grid.n)?,
         pixels: ks.iter().map(|k| k.pixel).collect(),
     })
 }
@@ -461,36 +433,36 @@ pub fn render_of(
     let n_tex = textures.len() / grid.n;
     let sys = with_threads(n_threads, || system_unchecked(px, z, grid, field))??;
     let m = &sys.matrix;
-    check_rendered(n_tex, m.rows)?;
+    let n_pix = m.nrows();
+    check_rendered(n_tex, n_pix)?;
     // (n_pix, n_tex) in parallel over pixels, in chunks of pixels with an interrupt
     // checkpoint between them, then transposed to (n_tex, n_pix).
-    let mut by_pixel = try_vec("rendered values", m.rows * n_tex, 0.0)?;
-    let per_row = (m.data.len() / m.rows.max(1)).max(1) as u128;
+    let mut by_pixel = try_vec("rendered values", n_pix * n_tex, 0.0)?;
+    let per_row = (m.data.len() / n_pix.max(1)).max(1) as u128;
     let step = chunk_items(n_threads, per_row * n_tex as u128);
-    for_chunks(n_threads, m.rows, step, |r| {
+    for_chunks(n_threads, n_pix, step, |r| {
         let first = r.start;
         by_pixel[r.start * n_tex..r.end * n_tex]
             .par_chunks_mut(n_tex)
             .enumerate()
             .with_min_len(16)
             .for_each(|(o, out)| {
-                let p = first + o;
-                let span = m.indptr[p] as usize..m.indptr[p + 1] as usize;
+                let (cells, vals) = m.row(first + o);
                 for (t, o) in out.iter_mut().enumerate() {
                     let tex = &textures[t * grid.n..(t + 1) * grid.n];
-                    *o = m.indices[span.clone()]
+                    *o = cells
                         .iter()
-                        .zip(&m.data[span.clone()])
+                        .zip(vals)
                         .map(|(&c, &v)| v * tex[c as usize])
                         .sum();
                 }
             });
         Ok(())
     })?;
-    let mut values = try_vec("rendered values", m.rows * n_tex, 0.0)?;
-    for p in 0..m.rows {
+    let mut values = try_vec("rendered values", n_pix * n_tex, 0.0)?;
+    for p in 0..n_pix {
         for t in 0..n_tex {
-            values[t * m.rows + p] = by_pixel[p * n_tex + t];
+            values[t * n_pix + p] = by_pixel[p * n_tex + t];
         }
     }
     Ok((values, sys.pixels))
@@ -537,7 +509,7 @@ mod tests {
                 let grid = grid_around(&d, z, 1500, 2);
                 let field = (grid.edge(0), grid.edge(grid.n));
                 let sys = system_matrix_of(&px, z, grid, field, Some(2)).unwrap();
-                assert!(sys.matrix.rows > 100, "{src:?} {z}");
+                assert!(sys.matrix.nrows() > 100, "{src:?} {z}");
                 let ks = kernels_of(&px, z).unwrap();
                 let traced = trace_line(line).unwrap();
                 let area = |p: u32| {
@@ -550,9 +522,7 @@ mod tests {
                 };
                 for (r, &p) in sys.pixels.iter().enumerate().step_by(37) {
                     let m = &sys.matrix;
-                    let s: f64 = m.data[m.indptr[r] as usize..m.indptr[r + 1] as usize]
-                        .iter()
-                        .sum();
+                    let s: f64 = m.row(r).1.iter().sum();
                     let want = px.transmission() * area(p) / (d.aperture * line.mu);
                     assert!(close(s, want, 1e-9), "{src:?} z={z} px={p}: {s} vs {want}");
                     let k = ks.iter().find(|k| k.pixel == p).unwrap();
@@ -636,10 +606,10 @@ mod tests {
             assert_eq!(pf, sys.pixels);
             let m = &sys.matrix;
             for (r, &got) in vf.iter().enumerate() {
-                let span = m.indptr[r] as usize..m.indptr[r + 1] as usize;
-                let want: f64 = m.indices[span.clone()]
+                let (cells, vals) = m.row(r);
+                let want: f64 = cells
                     .iter()
-                    .zip(&m.data[span])
+                    .zip(vals)
                     .map(|(&c, &v)| v * t[c as usize])
                     .sum();
                 assert!(close(got, want, 1e-10), "{src:?} {r}: {got} {want}");
@@ -709,13 +679,11 @@ mod tests {
                     let g = Grid::new(-1500.0 * step, step, 3000).unwrap();
                     let f = (g.edge(0), g.edge(g.n));
                     let sys = system_matrix_of(&px, z, g, f, Some(2)).unwrap();
-                    assert!(sys.matrix.rows > 20, "{src:?} {z}");
+                    assert!(sys.matrix.nrows() > 20, "{src:?} {z}");
                     let area = trace_line(line).unwrap().area;
                     let m = &sys.matrix;
                     for (r, &p) in sys.pixels.iter().enumerate() {
-                        let s: f64 = m.data[m.indptr[r] as usize..m.indptr[r + 1] as usize]
-                            .iter()
-                            .sum();
+                        let s: f64 = m.row(r).1.iter().sum();
                         let want = if px.conventional {
                             d.aperture * line.mu * line.v_ref / line.l / (d.aperture * mu1)
                         } else {

@@ -77,13 +77,17 @@ pub(crate) fn design_system_matrix(
         simulate::system_matrix_of(&px, z, grid, field, threads)
     })?;
     let m = sys.matrix;
+    let what = "system_matrix";
+    // SciPy's csr_matrix((data, indices, indptr), shape) with int64 index arrays.
+    let int64 = |v: &[usize]| filled::<i64, _>(py, &[v.len()], what, v.iter().map(|&k| k as i64));
+    let indices = m.indices.iter().map(|&c| c as i64);
     let px = sys.pixels.iter().map(|&p| p as i64);
     Ok(SystemMatrixArrays {
-        indptr: m.indptr.into_pyarray(py).unbind(),
-        indices: m.indices.into_pyarray(py).unbind(),
+        indptr: int64(&m.indptr)?.unbind(),
+        indices: filled::<i64, _>(py, &[m.indices.len()], what, indices)?.unbind(),
+        shape: (m.nrows(), m.ncols),
         data: m.data.into_pyarray(py).unbind(),
-        pixels: filled::<i64, _>(py, &[sys.pixels.len()], "system_matrix", px)?.unbind(),
-        shape: (m.rows, m.cols),
+        pixels: filled::<i64, _>(py, &[sys.pixels.len()], what, px)?.unbind(),
     })
 }
 

@@ -22,7 +22,7 @@
 //! on the thread count.
 //!
 //! The parts, by concept:
-//! - `csr`: the compressed-row matrices the blocks are given in ([`Csr`]);
+//! - the blocks are given as [`Csr`] matrices (the crate's one, in [`crate::infra::csr`]);
 //! - `pieces`: a factor's rows cut for fast products (dense spans, affine runs, the y
 //!   runs as events over grid rows);
 //! - `kernels`: the fixed-order dot products and axpy every pass is made of;
@@ -33,7 +33,6 @@
 //!   included ([`Stop`]).
 
 mod cg;
-mod csr;
 mod kernels;
 mod normal;
 mod pieces;
@@ -41,6 +40,6 @@ mod product;
 #[cfg(test)]
 mod testing;
 
+pub use crate::infra::csr::Csr;
 pub use cg::{solve, solve_from, Solution, Start, Stop};
-pub use csr::Csr;
 pub use normal::{Block, Normal, Penalty, Prior, Work};

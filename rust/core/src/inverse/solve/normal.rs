@@ -5,8 +5,8 @@
 use crate::infra::error::{Error, Result};
 use crate::infra::memory;
 
-use super::csr::Csr;
 use super::pieces::{Band, Fast};
+use crate::infra::csr::Csr;
 
 /// A block of the map's rows, with each row's weight w (1/σ², 0 for a pixel that is not a
 /// row) and raw value y.

@@ -5,7 +5,7 @@
 use crate::infra::error::{Error, Result};
 use crate::infra::memory;
 
-use super::csr::Csr;
+use crate::infra::csr::Csr;
 
 /// A matrix's rows as dense spans: row i covers columns `first[i] ..` with the values
 /// `data[ptr[i]..ptr[i + 1]]` (zeros inside a span kept). The x factor's rows are one

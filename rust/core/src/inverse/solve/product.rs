@@ -8,12 +8,12 @@ use rayon::prelude::*;
 
 use crate::infra::simd;
 
-use super::csr::Csr;
 #[cfg(target_arch = "x86_64")]
 use super::kernels::dot_slices_avx2;
 use super::kernels::{axpy, dot_slices};
 use super::normal::{Block, Edges, Normal, Work, CW};
 use super::pieces::{Band, Pieces};
+use crate::infra::csr::Csr;
 
 /// One raw row b of a factored block: u = (py row b) · T (for products on py's pieces: its
 /// dense entries as rows of T, its runs from T's column-wise prefix sums), then for each pixel a of the row

@@ -1,8 +1,8 @@
 //! Blocks the parts' tests share: a small factored block and the same rows given
 //! explicitly.
 
-use super::csr::Csr;
 use super::normal::Block;
+use crate::infra::csr::Csr;
 
 /// A small factored block: nr × nc raw window over an nx × ny grid, each pixel's x and
 /// y rows a contiguous run of 2–4 cells, some pixels not rows (weight 0).

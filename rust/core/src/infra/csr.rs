@@ -1,12 +1,12 @@
-//! The compressed-row matrices a solve's blocks are given in (the map's factors, its
-//! explicit rows) and their transposes.
+//! The crate's one compressed-row matrix ([`Csr`]): a solve's blocks are given in it (the
+//! map's factors, its explicit rows), and the 1-D simulation's system matrix is one.
 
 use crate::infra::error::{Error, Result};
 use crate::infra::memory;
 
 /// A sparse matrix in compressed rows: row i's entries are `indices[indptr[i]..indptr[i+1]]`
 /// (columns, < `ncols`) and the same range of `data`.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Csr {
     pub indptr: Vec<usize>,
     pub indices: Vec<u32>,
@@ -53,11 +53,36 @@ impl Csr {
         })
     }
 
+    /// The matrix of `rows`, each row's (column, value) entries in order, over `ncols`
+    /// columns, its arrays allocated fallibly (`what` names it in errors). The rows are the
+    /// builder's own and unchecked: columns < `ncols`, values finite.
+    pub fn from_rows(what: &'static str, rows: &[Vec<(u32, f64)>], ncols: usize) -> Result<Csr> {
+        let nnz: usize = rows.iter().map(Vec::len).sum();
+        let mut indptr = memory::try_with_capacity(what, rows.len() + 1)?;
+        let mut indices = memory::try_with_capacity(what, nnz)?;
+        let mut data = memory::try_with_capacity(what, nnz)?;
+        indptr.push(0);
+        for r in rows {
+            for &(c, v) in r {
+                indices.push(c);
+                data.push(v);
+            }
+            indptr.push(indices.len());
+        }
+        Ok(Csr {
+            indptr,
+            indices,
+            data,
+            ncols,
+        })
+    }
+
     pub fn nrows(&self) -> usize {
         self.indptr.len() - 1
     }
 
-    pub(super) fn row(&self, i: usize) -> (&[u32], &[f64]) {
+    /// Row i's columns and values.
+    pub fn row(&self, i: usize) -> (&[u32], &[f64]) {
         let r = self.indptr[i]..self.indptr[i + 1];
         (&self.indices[r.clone()], &self.data[r])
     }
@@ -113,6 +138,19 @@ mod tests {
             field(Csr::new("py", vec![0, 1], vec![0], vec![f64::NAN], 3)),
             "py"
         );
+    }
+
+    #[test]
+    fn from_rows_is_the_checked_matrix_of_its_rows() {
+        let rows = vec![vec![(1, 1.0), (3, 2.0)], vec![], vec![(0, 3.0)]];
+        let a = Csr::from_rows("a", &rows, 4).unwrap();
+        let want = Csr::new("a", vec![0, 2, 2, 3], vec![1, 3, 0], vec![1.0, 2.0, 3.0], 4);
+        assert_eq!(a, want.unwrap());
+        assert_eq!(a.nrows(), 3);
+        assert_eq!(a.row(0), (&[1u32, 3][..], &[1.0, 2.0][..]));
+        assert_eq!(a.row(1), (&[][..], &[][..]));
+        let empty = Csr::from_rows("a", &[], 4).unwrap();
+        assert_eq!((empty.nrows(), empty.indptr), (0, vec![0]));
     }
 
     #[test]
