@@ -49,12 +49,14 @@ pub(super) fn scene_mean(
         return scene.texture.average(&wk.mapped, &mut wk.tex);
     }
     // Slanted or curved: hits at the vertices decide how finely to cut.
-    let hits = vertex_hits(scene, &w_of, &a_of, wk);
+    let rays = Rays { scene, w_of, a_of };
+    let hits = vertex_hits(&rays, wk);
     if hits.misses == wk.poly.len() {
         // Check the centroid before declaring the whole polygon background.
-        let ctr = crate::infra::polygon::centroid(&wk.poly);
-        let w = w_of(ctr);
-        if scene.surface.hit(w, a_of(ctr, w)).is_none() {
+        if rays
+            .hit(crate::infra::polygon::centroid(&wk.poly))
+            .is_none()
+        {
             if let Some(r) = wk.rec.as_deref_mut() {
                 r.add_background(signed_area(&wk.poly));
                 return 0.0;
@@ -68,12 +70,28 @@ pub(super) fn scene_mean(
         && hits.misses == 0
         && hits.zmax > hits.zmin
     {
-        strips_integral(scene, &src, &hits, (&w_of, &a_of), wk)
+        strips_integral(&rays, &src, &hits, wk)
     } else {
-        pieces_integral(scene, &src, &hits, (&w_of, &a_of), wk)
+        pieces_integral(&rays, &src, &hits, wk)
     };
     wk.poly = src;
     acc / total_area
+}
+
+/// The rays of one node's polygon: cell point ξ's ray leaves main-lens point `w_of(ξ)` with
+/// slope `a_of(ξ, w)` toward the scene.
+struct Rays<'a, W, A> {
+    scene: &'a Scene,
+    w_of: W,
+    a_of: A,
+}
+
+impl<W: Fn(Pt) -> Pt, A: Fn(Pt, Pt) -> Pt> Rays<'_, W, A> {
+    /// Where the ray of cell point ξ meets the surface: its depth and scene point.
+    fn hit(&self, xi: Pt) -> Option<(f64, Pt)> {
+        let w = (self.w_of)(xi);
+        self.scene.surface.hit(w, (self.a_of)(xi, w))
+    }
 }
 
 /// Where the rays of the vertices of `wk.poly` meet the surface: their depths (also in
@@ -86,12 +104,7 @@ struct Hits {
     pmax: Pt,
 }
 
-fn vertex_hits(
-    scene: &Scene,
-    w_of: &impl Fn(Pt) -> Pt,
-    a_of: &impl Fn(Pt, Pt) -> Pt,
-    wk: &mut Work,
-) -> Hits {
+fn vertex_hits(rays: &Rays<impl Fn(Pt) -> Pt, impl Fn(Pt, Pt) -> Pt>, wk: &mut Work) -> Hits {
     let mut zmin = f64::INFINITY;
     let mut zmax = f64::NEG_INFINITY;
     let mut misses = 0;
@@ -99,8 +112,7 @@ fn vertex_hits(
     let mut pmax = [f64::NEG_INFINITY; 2];
     wk.zs.clear();
     for &xi in &wk.poly {
-        let w = w_of(xi);
-        match scene.surface.hit(w, a_of(xi, w)) {
+        match rays.hit(xi) {
             Some((z, p)) => {
                 wk.zs.push(z);
                 zmin = zmin.min(z);
@@ -127,10 +139,9 @@ fn vertex_hits(
 /// parallel, and the ray map's density varies across them only. Strips along them, each
 /// of relative depth span [`STRIP_DEPTH_RTOL`] at most.
 fn strips_integral(
-    scene: &Scene,
+    rays: &Rays<impl Fn(Pt) -> Pt, impl Fn(Pt, Pt) -> Pt>,
     src: &[Pt],
     hits: &Hits,
-    (w_of, a_of): (&impl Fn(Pt) -> Pt, &impl Fn(Pt, Pt) -> Pt),
     wk: &mut Work,
 ) -> f64 {
     let (zmin, zmax) = (hits.zmin, hits.zmax);
@@ -154,7 +165,7 @@ fn strips_integral(
             wk.piece.clear();
             wk.piece.extend_from_slice(src);
         }
-        acc += piece_value(scene, w_of, a_of, wk);
+        acc += piece_value(rays, wk);
     }
     acc
 }
@@ -163,10 +174,9 @@ fn strips_integral(
 /// n × n pieces, n set by the relative depth span ([`PIECE_DEPTH_RTOL`]), the map's cells
 /// the image spans, and misses (at most [`MAX_PIECES`]).
 fn pieces_integral(
-    scene: &Scene,
+    rays: &Rays<impl Fn(Pt) -> Pt, impl Fn(Pt, Pt) -> Pt>,
     src: &[Pt],
     hits: &Hits,
-    (w_of, a_of): (&impl Fn(Pt) -> Pt, &impl Fn(Pt, Pt) -> Pt),
     wk: &mut Work,
 ) -> f64 {
     let Hits {
@@ -181,7 +191,7 @@ fn pieces_integral(
     } else {
         1
     };
-    if let Surface::Map(m) = &scene.surface {
+    if let Surface::Map(m) = &rays.scene.surface {
         let cell = m.cell();
         let span = ((pmax[0] - pmin[0]) / cell[0]).max((pmax[1] - pmin[1]) / cell[1]);
         if span.is_finite() {
@@ -209,7 +219,7 @@ fn pieces_integral(
             if n > 1 {
                 clip_box(&mut wk.piece, &mut wk.tmp, px0, px1, py0, py1);
             }
-            acc += piece_value(scene, w_of, a_of, wk);
+            acc += piece_value(rays, wk);
         }
     }
     acc
@@ -217,12 +227,7 @@ fn pieces_integral(
 
 /// ∫ T over the ray set `wk.piece` (cell coordinates ξ) of one node, the piece's image
 /// treated as the polygon of its vertices' hits (in record mode: recorded, 0 returned).
-fn piece_value(
-    scene: &Scene,
-    w_of: &impl Fn(Pt) -> Pt,
-    a_of: &impl Fn(Pt, Pt) -> Pt,
-    wk: &mut Work,
-) -> f64 {
+fn piece_value(rays: &Rays<impl Fn(Pt) -> Pt, impl Fn(Pt, Pt) -> Pt>, wk: &mut Work) -> f64 {
     let area = signed_area(&wk.piece);
     if area <= 0.0 {
         return 0.0;
@@ -230,8 +235,7 @@ fn piece_value(
     wk.mapped.clear();
     let mut miss = false;
     for &xi in &wk.piece {
-        let w = w_of(xi);
-        match scene.surface.hit(w, a_of(xi, w)) {
+        match rays.hit(xi) {
             Some((_, p)) => wk.mapped.push(p),
             None => {
                 miss = true;
@@ -243,19 +247,16 @@ fn piece_value(
         if !miss {
             r.add(&wk.mapped, area);
         } else {
-            let ctr = crate::infra::polygon::centroid(&wk.piece);
-            let w = w_of(ctr);
-            match scene.surface.hit(w, a_of(ctr, w)) {
+            match rays.hit(crate::infra::polygon::centroid(&wk.piece)) {
                 Some((_, p)) => r.add_point(p, area),
                 None => r.add_background(area),
             }
         }
         return 0.0;
     }
+    let scene = rays.scene;
     let v = if miss {
-        let ctr = crate::infra::polygon::centroid(&wk.piece);
-        let w = w_of(ctr);
-        match scene.surface.hit(w, a_of(ctr, w)) {
+        match rays.hit(crate::infra::polygon::centroid(&wk.piece)) {
             Some((_, p)) => scene.texture.at(p),
             None => scene.background,
         }
