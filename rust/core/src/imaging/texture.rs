@@ -441,10 +441,9 @@ impl Texture {
         let corners = [[x0, y0], [x1, y0], [x1, y1], [x0, y1]];
         match self {
             Texture::Edge { normal, center, .. } => {
-                let side = |p: &Pt| normal[0] * (p[0] - center[0]) + normal[1] * (p[1] - center[1]);
                 let (lo, hi) = corners
                     .iter()
-                    .map(side)
+                    .map(|&p| edge_side(normal, center, p))
                     .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
                         (a.min(v), b.max(v))
                     });
@@ -502,7 +501,7 @@ impl Texture {
                 low,
                 high,
             } => {
-                if normal[0] * (p[0] - center[0]) + normal[1] * (p[1] - center[1]) >= 0.0 {
+                if edge_side(normal, center, p) >= 0.0 {
                     *high
                 } else {
                     *low
@@ -587,9 +586,7 @@ impl Texture {
                 low,
                 high,
             } => {
-                clip_into(poly, &mut s.a, |p| {
-                    normal[0] * (p[0] - center[0]) + normal[1] * (p[1] - center[1])
-                });
+                clip_into(poly, &mut s.a, |p| edge_side(normal, center, p));
                 low * area + (high - low) * signed_area(&s.a)
             }
             Texture::Star {
@@ -600,6 +597,12 @@ impl Texture {
             } => low * area + (high - low) * star_bright_area(poly, *spokes, *center, s),
         }
     }
+}
+
+/// An edge's side of point p: its offset from the edge's line along the unit normal
+/// (≥ 0 on the `high` side).
+fn edge_side(normal: &Pt, center: &Pt, p: Pt) -> f64 {
+    normal[0] * (p[0] - center[0]) + normal[1] * (p[1] - center[1])
 }
 
 /// ∮ G dY around a polygon from G's mean along each edge, `mean_g(a, b)` (an edge with
