@@ -9,6 +9,7 @@ use crate::imaging::recorder::CellGrid;
 use crate::infra::error::Result;
 use crate::infra::memory;
 use crate::infra::parallel::for_chunks;
+use crate::infra::random::splitmix64;
 use crate::model::design::{Aperture, Channel, Design, Grid, Layout};
 use crate::sampling::line::{Axis, Line};
 use crate::sampling::rayspace::{axis_samples, Sample};
@@ -96,18 +97,10 @@ pub(super) struct Micro {
     pub(super) box_max: (usize, usize),
 }
 
-/// SplitMix64's finaliser: a fixed pseudo-random number per lens.
-fn splitmix(mut x: u64) -> u64 {
-    x = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    x ^ (x >> 31)
-}
-
 /// The lens's number in [0, 1): SplitMix64 of j | k << 24 | channel << 48.
 fn lens_u(channel: usize, j: u32, k: u32) -> f64 {
     let key = j as u64 | (k as u64) << 24 | (channel as u64) << 48;
-    (splitmix(key) >> 11) as f64 / (1u64 << 53) as f64
+    (splitmix64(key) >> 11) as f64 / (1u64 << 53) as f64
 }
 
 /// A lens's extent along one axis at depth z: (min, max) of its finite positions and its
