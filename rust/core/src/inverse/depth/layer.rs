@@ -220,41 +220,30 @@ pub(super) fn layer(
 ) {
     crate::infra::simd::dispatch(
         #[inline(always)]
-        |_| layer_in(mi, grid, radius, z, buf, out, cells),
+        |_| {
+            let wd = Widened::of(grid, radius);
+            buf.clear_sums();
+            buf.extents.clear();
+            buf.extents
+                .extend(mi.lenses.iter().map(|l| [l.extent(0, z), l.extent(1, z)]));
+            let keep = keep_rates(mi, &buf.extents, &wd);
+            let extents = std::mem::take(&mut buf.extents);
+            for (l, &[ex, ey]) in mi.lenses.iter().zip(&extents) {
+                if l.u >= keep[l.ch] {
+                    continue;
+                }
+                let (Some(ex), Some(ey)) = (ex, ey) else {
+                    continue;
+                };
+                add_lens(l, (ex, ey), z, &wd, buf);
+            }
+            buf.extents = extents;
+            let scale = costs(mi.channels, grid, radius, buf, out);
+            if let Some(cells) = cells {
+                cell_costs(buf, &scale, cells);
+            }
+        },
     )
-}
-
-#[inline(always)]
-fn layer_in(
-    mi: &Micro,
-    grid: &CellGrid,
-    radius: usize,
-    z: f64,
-    buf: &mut Layer,
-    out: &mut [f64],
-    cells: Option<&mut [f32]>,
-) {
-    let wd = Widened::of(grid, radius);
-    buf.clear_sums();
-    buf.extents.clear();
-    buf.extents
-        .extend(mi.lenses.iter().map(|l| [l.extent(0, z), l.extent(1, z)]));
-    let keep = keep_rates(mi, &buf.extents, &wd);
-    let extents = std::mem::take(&mut buf.extents);
-    for (l, &[ex, ey]) in mi.lenses.iter().zip(&extents) {
-        if l.u >= keep[l.ch] {
-            continue;
-        }
-        let (Some(ex), Some(ey)) = (ex, ey) else {
-            continue;
-        };
-        add_lens(l, (ex, ey), z, &wd, buf);
-    }
-    buf.extents = extents;
-    let scale = costs(mi.channels, grid, radius, buf, out);
-    if let Some(cells) = cells {
-        cell_costs(buf, &scale, cells);
-    }
 }
 
 /// Each widened cell's own spread (over the channel's scale) and degrees of freedom, as
