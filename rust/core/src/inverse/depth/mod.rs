@@ -400,22 +400,15 @@ fn run(
     let entries = grid.cells() * mi.channels;
     let ex = (grid.nx + 2 * plan.radius, grid.ny + 2 * plan.radius);
     let per_layer = ex.0 * ex.1 * mi.channels * 2;
-    let cells = if plan.tilt {
-        Some(memory::try_with_capacity(
-            "the depth sweep's cells' costs",
-            per_layer * n,
-        )?)
-    } else {
-        None
-    };
-    let volume = if plan.keep_volume {
-        Some(memory::try_with_capacity(
-            "the depth sweep's cost volume",
-            entries * n,
-        )?)
-    } else {
-        None
-    };
+    // The cells' costs for the tilted pooling and the cost volume, each only when asked.
+    let cells = plan
+        .tilt
+        .then(|| memory::try_with_capacity("the depth sweep's cells' costs", per_layer * n))
+        .transpose()?;
+    let volume = plan
+        .keep_volume
+        .then(|| memory::try_with_capacity("the depth sweep's cost volume", entries * n))
+        .transpose()?;
     let state = Mutex::new(Folding {
         fold: Fold::new(entries),
         volume,
