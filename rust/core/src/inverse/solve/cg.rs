@@ -596,17 +596,11 @@ mod tests {
     #[test]
     fn zero_data_gives_zero_cells() {
         let (nx, ny) = (9, 8);
-        let (block, ..) = factored(nx, ny);
-        let Block::Factored { norm, px, py, w, y } = block else {
+        let (mut zero, ..) = factored(nx, ny);
+        let Block::Factored { y, .. } = &mut zero else {
             unreachable!()
         };
-        let zero = Block::Factored {
-            norm,
-            px,
-            py,
-            w,
-            y: vec![0.0; y.len()],
-        };
+        y.fill(0.0);
         let normal = Normal::new(nx, ny, 1.0, vec![zero]).unwrap();
         let s = solve(
             &normal,
