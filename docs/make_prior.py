@@ -37,7 +37,14 @@ matplotlib.use("Agg")  # a script, not the library: it may pick a backend
 
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-from make_fig2 import DEPTHS, NOISE, central, designs, natural  # noqa: E402  docs/, its folder
+from make_fig2 import (  # noqa: E402  docs/, its folder
+    DEPTHS,
+    NOISE,
+    central,
+    designs,
+    image_rows,
+    natural,
+)
 
 import splitlf  # noqa: E402
 from splitlf import _native, measure  # noqa: E402
@@ -142,14 +149,7 @@ def figure(out: dict, shown: dict) -> None:
     cols = ("truth", *PRIORS)
     fig = plt.figure(figsize=(12, 9), layout="constrained")
     grid = fig.add_gridspec(len(SHOWN) + 1, len(cols), height_ratios=[1] * len(SHOWN) + [1.2])
-    for r, z in enumerate(SHOWN):
-        for c, name in enumerate(cols):
-            ax = fig.add_subplot(grid[r, c])
-            ax.imshow(shown[z, name], cmap="gray", vmin=0.0, vmax=1.0,
-                      interpolation="nearest")
-            ax.set_xticks([])
-            ax.set_yticks([])
-            ax.set_title(f"split, {z:.0f} mm: {name}", fontsize=9)
+    image_rows(fig, grid, shown, cols, SHOWN)
     z = np.array(out["depths"])
     nyq = np.array(out["nyquist"])
     ax_p = fig.add_subplot(grid[-1, :2])
@@ -174,7 +174,7 @@ def figure(out: dict, shown: dict) -> None:
         ax.grid(True, which="both", alpha=0.3)
     ax_p.legend(fontsize=7, ncol=2)
     fig.suptitle("Edge-preserving priors against the quadratic one, each at its oracle "
-                 "weight (seed 24 x 16 lenses, N = 2000)")
+                 "weight (seed 24 x 16 lenses, N = 2000; images: the split sensor's)")
     fig.savefig(HERE / "prior.png", dpi=100)
     plt.close(fig)
 
