@@ -3,6 +3,7 @@
 //! from [`crate::inverse::system`] (which builds maps from [`crate::imaging::render`]) so that the renderer
 //! can hold a recorder without the two modules depending on each other.
 
+use crate::infra::csr::Csr;
 use crate::infra::error::{Error, Result};
 use crate::infra::memory;
 use crate::infra::polygon::{area_above, bounds, centroid, clip_into, signed_area, Pt};
@@ -72,15 +73,13 @@ impl CellGrid {
 /// grid (its value must be explained by the grid's cells alone).
 pub const OUTSIDE_SHARE: f64 = 1e-9;
 
-/// The map as compressed sparse rows, one row per kept pixel.
-#[derive(Debug, Default, Clone)]
+/// The map, one row per kept pixel: per row the channel (from 0) and the pixel's flat
+/// index b · cols + a in its raw, and the rows over the grid's cells.
+#[derive(Debug, Clone)]
 pub struct System {
-    /// Per row: the channel (from 0) and the pixel's flat index b · cols + a in its raw.
     pub channel: Vec<u32>,
     pub pixel: Vec<u64>,
-    pub indptr: Vec<u64>,
-    pub indices: Vec<u32>,
-    pub data: Vec<f64>,
+    pub rows: Csr,
 }
 
 /// Row chunks handed in by parallel workers, each tagged with its first raw row.
@@ -97,11 +96,21 @@ impl Chunks {
 }
 
 impl System {
+    /// A map of no rows over `cells` cells, to be built row by row (entries pushed on
+    /// `rows`, then [`System::end_row`]).
+    pub fn new(cells: usize) -> System {
+        System {
+            channel: Vec::new(),
+            pixel: Vec::new(),
+            rows: Csr::empty(cells),
+        }
+    }
+
     /// Close the row being written: pixel `pixel` (flat index) of channel `channel`.
     pub(crate) fn end_row(&mut self, channel: usize, pixel: usize) {
         self.channel.push(channel as u32);
         self.pixel.push(pixel as u64);
-        self.indptr.push(self.data.len() as u64);
+        self.rows.end_row();
     }
 
     /// Append the row chunks in raw-row order.
@@ -113,12 +122,9 @@ impl System {
         parts.sort_by_key(|p| p.0);
         for (_, chunk) in parts {
             for s in chunk {
-                let base = self.data.len() as u64;
                 self.channel.extend_from_slice(&s.channel);
                 self.pixel.extend_from_slice(&s.pixel);
-                self.indptr.extend(s.indptr.iter().map(|&p| base + p));
-                self.indices.extend_from_slice(&s.indices);
-                self.data.extend_from_slice(&s.data);
+                self.rows.append(&s.rows);
             }
         }
     }
@@ -320,8 +326,8 @@ impl Recorder {
         for &k in &self.touched {
             let v = self.vals[k as usize];
             if v != 0.0 {
-                s.indices.push(k);
-                s.data.push(v);
+                s.rows.indices.push(k);
+                s.rows.data.push(v);
             }
         }
         true

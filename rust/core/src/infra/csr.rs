@@ -53,28 +53,52 @@ impl Csr {
         })
     }
 
+    /// A matrix of no rows over `ncols` columns, to be built row by row: a row's entries
+    /// pushed on `indices` and `data`, then [`Csr::end_row`]. Such rows are the builder's
+    /// own and unchecked: columns < `ncols`, values finite.
+    pub fn empty(ncols: usize) -> Csr {
+        Csr {
+            indptr: vec![0],
+            indices: Vec::new(),
+            data: Vec::new(),
+            ncols,
+        }
+    }
+
+    /// Close the row being written (the entries pushed since the last row).
+    pub fn end_row(&mut self) {
+        self.indptr.push(self.data.len());
+    }
+
+    /// Append the rows of `other` (over the same columns) below this matrix's.
+    pub fn append(&mut self, other: &Csr) {
+        let base = self.data.len();
+        self.indptr
+            .extend(other.indptr[1..].iter().map(|&p| base + p));
+        self.indices.extend_from_slice(&other.indices);
+        self.data.extend_from_slice(&other.data);
+    }
+
     /// The matrix of `rows`, each row's (column, value) entries in order, over `ncols`
-    /// columns, its arrays allocated fallibly (`what` names it in errors). The rows are the
-    /// builder's own and unchecked: columns < `ncols`, values finite.
+    /// columns, its arrays allocated fallibly (`what` names it in errors); unchecked, as
+    /// the rows of [`Csr::empty`].
     pub fn from_rows(what: &'static str, rows: &[Vec<(u32, f64)>], ncols: usize) -> Result<Csr> {
         let nnz: usize = rows.iter().map(Vec::len).sum();
-        let mut indptr = memory::try_with_capacity(what, rows.len() + 1)?;
-        let mut indices = memory::try_with_capacity(what, nnz)?;
-        let mut data = memory::try_with_capacity(what, nnz)?;
-        indptr.push(0);
+        let mut m = Csr {
+            indptr: memory::try_with_capacity(what, rows.len() + 1)?,
+            indices: memory::try_with_capacity(what, nnz)?,
+            data: memory::try_with_capacity(what, nnz)?,
+            ncols,
+        };
+        m.indptr.push(0);
         for r in rows {
             for &(c, v) in r {
-                indices.push(c);
-                data.push(v);
+                m.indices.push(c);
+                m.data.push(v);
             }
-            indptr.push(indices.len());
+            m.end_row();
         }
-        Ok(Csr {
-            indptr,
-            indices,
-            data,
-            ncols,
-        })
+        Ok(m)
     }
 
     pub fn nrows(&self) -> usize {
@@ -150,7 +174,27 @@ mod tests {
         assert_eq!(a.row(0), (&[1u32, 3][..], &[1.0, 2.0][..]));
         assert_eq!(a.row(1), (&[][..], &[][..]));
         let empty = Csr::from_rows("a", &[], 4).unwrap();
+        assert_eq!(empty, Csr::empty(4));
         assert_eq!((empty.nrows(), empty.indptr), (0, vec![0]));
+    }
+
+    /// Rows built one by one and appended in two parts are the matrix of all the rows.
+    #[test]
+    fn rows_built_and_appended_are_the_matrix() {
+        let mut top = Csr::empty(4);
+        top.indices.extend([1, 3]);
+        top.data.extend([1.0, 2.0]);
+        top.end_row();
+        top.end_row();
+        let mut bottom = Csr::empty(4);
+        bottom.indices.push(0);
+        bottom.data.push(3.0);
+        bottom.end_row();
+        top.append(&bottom);
+        let want = Csr::new("a", vec![0, 2, 2, 3], vec![1, 3, 0], vec![1.0, 2.0, 3.0], 4);
+        assert_eq!(top, want.unwrap());
+        top.append(&Csr::empty(4));
+        assert_eq!(top.nrows(), 3);
     }
 
     #[test]

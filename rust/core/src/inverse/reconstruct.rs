@@ -817,8 +817,8 @@ impl Plan<'_> {
             y.push(v);
             w.push(self.weight(v, d.channels[c as usize].share));
         }
-        let indptr = sys.indptr.iter().map(|&v| v as usize).collect();
-        let a = Csr::new("rows", indptr, sys.indices, sys.data, grid.cells())?;
+        let r = sys.rows;
+        let a = Csr::new("rows", r.indptr, r.indices, r.data, grid.cells())?;
         Ok(vec![Block::Rows { a, w, y }])
     }
 }
@@ -882,13 +882,8 @@ fn block_rows(b: &Block) -> usize {
 
 /// Each row's sum of entries, in order.
 fn row_sums(p: &system::AxisProfiles) -> Vec<f64> {
-    p.indptr
-        .windows(2)
-        .map(|r| {
-            p.data[r[0] as usize..r[1] as usize]
-                .iter()
-                .fold(0.0, |s, v| s + v)
-        })
+    (0..p.rows.nrows())
+        .map(|r| p.rows.row(r).1.iter().fold(0.0, |s, v| s + v))
         .collect()
 }
 
@@ -898,9 +893,9 @@ fn select(p: &system::AxisProfiles, sel: &[usize], ncols: usize) -> Result<Csr> 
     indptr.push(0);
     let (mut indices, mut data) = (vec![], vec![]);
     for &r in sel {
-        let (lo, hi) = (p.indptr[r] as usize, p.indptr[r + 1] as usize);
-        indices.extend_from_slice(&p.indices[lo..hi]);
-        data.extend_from_slice(&p.data[lo..hi]);
+        let (cells, entries) = p.rows.row(r);
+        indices.extend_from_slice(cells);
+        data.extend_from_slice(entries);
         indptr.push(data.len());
     }
     Csr::new("factors", indptr, indices, data, ncols)

@@ -93,10 +93,12 @@ pub(crate) fn checked_grid(grid: (f64, f64, f64, usize, usize)) -> PyResult<Cell
     Ok(g)
 }
 
+/// (channel, pixel, indptr, indices, data); indptr's usize is NumPy's uint64 on the 64-bit
+/// platforms the package builds for.
 type Csr<'py> = (
     Bound<'py, PyArray1<u32>>,
     Bound<'py, PyArray1<u64>>,
-    Bound<'py, PyArray1<u64>>,
+    Bound<'py, PyArray1<usize>>,
     Bound<'py, PyArray1<u32>>,
     Bound<'py, PyArray1<f64>>,
 );
@@ -106,9 +108,9 @@ fn csr(py: Python<'_>, sys: system::System) -> Csr<'_> {
     (
         sys.channel.into_pyarray(py),
         sys.pixel.into_pyarray(py),
-        sys.indptr.into_pyarray(py),
-        sys.indices.into_pyarray(py),
-        sys.data.into_pyarray(py),
+        sys.rows.indptr.into_pyarray(py),
+        sys.rows.indices.into_pyarray(py),
+        sys.rows.data.into_pyarray(py),
     )
 }
 
@@ -229,7 +231,7 @@ pub(crate) fn surface_system<'py>(
 }
 
 type Axis<'py> = (
-    Bound<'py, PyArray1<u64>>,
+    Bound<'py, PyArray1<usize>>,
     Bound<'py, PyArray1<u32>>,
     Bound<'py, PyArray1<f64>>,
     Bound<'py, PyArray1<f64>>,
@@ -265,9 +267,9 @@ pub(crate) fn reconstruction_factors<'py>(
         .map_err(crate::infra::errors::internal)?;
     let axis = |a: system::AxisProfiles| -> Axis<'py> {
         (
-            a.indptr.into_pyarray(py),
-            a.indices.into_pyarray(py),
-            a.data.into_pyarray(py),
+            a.rows.indptr.into_pyarray(py),
+            a.rows.indices.into_pyarray(py),
+            a.rows.data.into_pyarray(py),
             a.total.into_pyarray(py),
         )
     };

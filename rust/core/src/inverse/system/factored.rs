@@ -10,20 +10,19 @@ use rayon::prelude::*;
 use super::{append_rows, channel, supported, unsupported, CellGrid, System, OUTSIDE_SHARE};
 use crate::imaging::render::exact::{pixel_offset, profile, Profile};
 use crate::imaging::render::Chan;
+use crate::infra::csr::Csr;
 use crate::infra::error::{Error, Result};
 use crate::infra::memory;
 use crate::infra::parallel::checkpoint;
 use crate::model::design::{Design, Layout};
 
-/// One axis's profiles of one lens type against a grid's cell edges, as compressed sparse
-/// rows: row = raw column (x) or raw row (y), column = grid column (x) or grid row from the
-/// top (y), entry = the area of the pixel's 1-D ray polygon between the cell's edges; with
-/// each row's total area (inside the grid or not).
-#[derive(Debug, Default, Clone)]
+/// One axis's profiles of one lens type against a grid's cell edges: `rows`, row = raw
+/// column (x) or raw row (y), column = grid column (x) or grid row from the top (y), entry
+/// = the area of the pixel's 1-D ray polygon between the cell's edges; with each row's
+/// total area (inside the grid or not).
+#[derive(Debug, Clone)]
 pub struct AxisProfiles {
-    pub indptr: Vec<u64>,
-    pub indices: Vec<u32>,
-    pub data: Vec<f64>,
+    pub rows: Csr,
     pub total: Vec<f64>,
 }
 
@@ -40,10 +39,11 @@ pub struct Factors {
     pub cols: usize,
 }
 
-fn axis_csr(p: &[Profile], flip: Option<usize>) -> AxisProfiles {
+/// The profiles `p` against `cells` cells, numbered from the far end when `flip`.
+fn axis_csr(p: &[Profile], cells: usize, flip: bool) -> AxisProfiles {
     let mut out = AxisProfiles {
-        indptr: vec![0],
-        ..AxisProfiles::default()
+        rows: Csr::empty(cells),
+        total: Vec::with_capacity(p.len()),
     };
     for pr in p {
         let mut row: Vec<(u32, f64)> = pr
@@ -53,15 +53,15 @@ fn axis_csr(p: &[Profile], flip: Option<usize>) -> AxisProfiles {
             .filter(|(_, &v)| v != 0.0)
             .map(|(m, &v)| {
                 let k = pr.first + m;
-                (flip.map_or(k, |n| n - 1 - k) as u32, v)
+                (if flip { cells - 1 - k } else { k } as u32, v)
             })
             .collect();
         row.sort_by_key(|e| e.0);
         for (k, v) in row {
-            out.indices.push(k);
-            out.data.push(v);
+            out.rows.indices.push(k);
+            out.rows.data.push(v);
         }
-        out.indptr.push(out.data.len() as u64);
+        out.rows.end_row();
         out.total.push(pr.total);
     }
     out
@@ -95,8 +95,8 @@ pub fn factors(design: &Design, i: usize, z: f64, grid: &CellGrid) -> Result<Fac
     }
     Ok(Factors {
         norm: chan.norm,
-        x: pr.px.iter().map(|p| axis_csr(p, None)).collect(),
-        y: pr.py.iter().map(|p| axis_csr(p, Some(grid.ny))).collect(),
+        x: pr.px.iter().map(|p| axis_csr(p, grid.nx, false)).collect(),
+        y: pr.py.iter().map(|p| axis_csr(p, grid.ny, true)).collect(),
         types,
         rows,
         cols,
@@ -174,10 +174,7 @@ pub fn build(
             return Err(unsupported(i, need));
         }
     }
-    let mut out = System {
-        indptr: vec![0],
-        ..System::default()
-    };
+    let mut out = System::new(grid.cells());
     for &i in channels {
         let ch = &design.channels[i];
         let Layout::Ideal { q } = ch.layout else {
@@ -208,7 +205,7 @@ pub fn build(
         let (n_rows, nnz) = counts.iter().fold((0u128, 0u128), |(r, z), &(a, b)| {
             (r + a as u128, z + b as u128)
         });
-        let have = (out.channel.len() as u128, out.data.len() as u128);
+        let have = (out.channel.len() as u128, out.rows.data.len() as u128);
         memory::check(
             "the reconstruction's system matrix",
             super::system_bytes(have.0 + n_rows, have.1 + nnz),
@@ -223,12 +220,10 @@ pub fn build(
             || (),
             |_, b| {
                 checkpoint()?;
-                let mut s = System {
-                    indptr: Vec::with_capacity(counts[b].0),
-                    ..System::default()
-                };
-                s.data.reserve(counts[b].1);
-                s.indices.reserve(counts[b].1);
+                let mut s = System::new(grid.cells());
+                s.rows.indptr.reserve(counts[b].0);
+                s.rows.data.reserve(counts[b].1);
+                s.rows.indices.reserve(counts[b].1);
                 for a in 0..cols {
                     let t = typ(a, b);
                     let (xp, yp) = (&pr.px[t][a], &pr.py[t][b]);
@@ -243,8 +238,8 @@ pub fn build(
                         let row = grid.ny - 1 - (yp.first + m);
                         for (n, &ax) in xp.areas.iter().enumerate() {
                             if ax != 0.0 {
-                                s.indices.push((row * nx + xp.first + n) as u32);
-                                s.data.push(norm * ax * ay);
+                                s.rows.indices.push((row * nx + xp.first + n) as u32);
+                                s.rows.data.push(norm * ax * ay);
                             }
                         }
                     }
@@ -298,9 +293,11 @@ mod tests {
         render_into(&d, &scene, RenderOptions::default(), None, &done, outs).unwrap();
         let mut worst = 0.0f64;
         for r in 0..sys.channel.len() {
-            let (lo, hi) = (sys.indptr[r] as usize, sys.indptr[r + 1] as usize);
-            let v: f64 = (lo..hi)
-                .map(|k| sys.data[k] * vals[sys.indices[k] as usize])
+            let (cells, entries) = sys.rows.row(r);
+            let v: f64 = cells
+                .iter()
+                .zip(entries)
+                .map(|(&k, &e)| e * vals[k as usize])
                 .sum();
             let want = raws[sys.channel[r] as usize][sys.pixel[r] as usize];
             worst = worst.max((v - want).abs());

@@ -206,10 +206,7 @@ pub(super) fn build_general(
         ext,
     )?;
     let scene = Scene::new(Texture::Image(Box::new(lines)), surface.clone(), 0.0)?;
-    let mut out = System {
-        indptr: vec![0],
-        ..System::default()
-    };
+    let mut out = System::new(grid.cells());
     for &i in channels {
         let ch = &design.channels[i];
         let chan = Chan::new(design, ch, crate::imaging::render::DEFAULT_TOL);
@@ -223,14 +220,14 @@ pub(super) fn build_general(
         let map_once = crate::imaging::render::map_seen_once(&chan, surface);
         let sees = lenses_seeing(design, ch, surface, grid);
         let step = crate::infra::parallel::chunk_items(n_threads, (cols as u128) * 4000);
-        let bytes = std::sync::atomic::AtomicU64::new((out.data.len() * 12) as u64);
+        let bytes = std::sync::atomic::AtomicU64::new((out.rows.data.len() * 12) as u64);
         append_rows(
             &mut out,
             (n_threads, rows, step),
             || Recorder::new(*grid).map(|r| Work::recording(Box::new(r), map_once)),
             |wk, b| {
                 let wk = wk.as_mut().map_err(|e| e.clone())?;
-                let mut s = System::default();
+                let mut s = System::new(grid.cells());
                 for a in 0..cols {
                     checkpoint()?;
                     if !pixel_may_see(design, &chan, &sees, a as u32, b as u32) {
@@ -276,7 +273,7 @@ mod tests {
         let grid = CellGrid::covering([-0.5, 0.5, 5.2, 6.0], 0.05).unwrap();
         let sys = build_surface(&d, &[0, 1], &surface, &grid, None, None, &done).unwrap();
         assert!(!sys.channel.is_empty());
-        assert!(sys.data.iter().all(|v| v.is_finite() && *v > 0.0));
+        assert!(sys.rows.data.iter().all(|v| v.is_finite() && *v > 0.0));
         let near = CellGrid::covering([-0.5, 0.5, 0.3, 6.0], 0.05).unwrap();
         let err = build_surface(&d, &[0, 1], &surface, &near, None, None, &done).unwrap_err();
         let msg = err.to_string();
@@ -334,11 +331,13 @@ mod tests {
             let rows = |s: &System| -> std::collections::HashMap<(u32, u64), (f64, f64)> {
                 (0..s.channel.len())
                     .map(|r| {
-                        let (lo, hi) = (s.indptr[r] as usize, s.indptr[r + 1] as usize);
-                        let at: f64 = (lo..hi)
-                            .map(|k| s.data[k] * vals[s.indices[k] as usize])
+                        let (cells, entries) = s.rows.row(r);
+                        let at: f64 = cells
+                            .iter()
+                            .zip(entries)
+                            .map(|(&k, &e)| e * vals[k as usize])
                             .sum();
-                        let sum: f64 = s.data[lo..hi].iter().sum();
+                        let sum: f64 = entries.iter().sum();
                         ((s.channel[r], s.pixel[r]), (at, sum))
                     })
                     .collect()
@@ -391,8 +390,8 @@ mod tests {
         let rows = |s: &System| -> std::collections::HashMap<(u32, u64), Vec<(u32, f64)>> {
             (0..s.channel.len())
                 .map(|r| {
-                    let (lo, hi) = (s.indptr[r] as usize, s.indptr[r + 1] as usize);
-                    let e = (lo..hi).map(|k| (s.indices[k], s.data[k])).collect();
+                    let (cells, entries) = s.rows.row(r);
+                    let e = cells.iter().copied().zip(entries.iter().copied()).collect();
                     ((s.channel[r], s.pixel[r]), e)
                 })
                 .collect()

@@ -52,7 +52,7 @@ struct Job<'a> {
 /// A raw row's entries are done: count their bytes against the memory limit (`bytes`
 /// holds the map's so far) and the row for progress.
 fn row_done(s: &System, bytes: &AtomicU64, done: &AtomicUsize) -> Result<()> {
-    let add = (s.data.len() * 12) as u64;
+    let add = (s.rows.data.len() * 12) as u64;
     let have = bytes.fetch_add(add, Ordering::Relaxed) as u128;
     memory::check("the reconstruction's system matrix", have + add as u128)?;
     done.fetch_add(1, Ordering::Relaxed);

@@ -59,7 +59,7 @@ impl Rows<'_> {
         done: &AtomicUsize,
     ) -> Result<System> {
         checkpoint()?;
-        let mut s = System::default();
+        let mut s = System::new(self.sl.nx * self.sl.ny);
         if steep.load(Ordering::Relaxed) {
             return Ok(s);
         }
@@ -78,10 +78,10 @@ impl Rows<'_> {
             let mut last = u32::MAX;
             for &(idx, v) in entries.iter() {
                 if idx == last {
-                    *s.data.last_mut().expect("an entry was pushed") += norm * v;
+                    *s.rows.data.last_mut().expect("an entry was pushed") += norm * v;
                 } else {
-                    s.indices.push(idx);
-                    s.data.push(norm * v);
+                    s.rows.indices.push(idx);
+                    s.rows.data.push(norm * v);
                     last = idx;
                 }
             }
@@ -332,10 +332,7 @@ pub(super) fn build_tilted(
     // handled so far are then uncounted and the plane handed back.
     let steep = AtomicBool::new(false);
     let done_before = job.done.load(Ordering::Relaxed);
-    let mut out = System {
-        indptr: vec![0],
-        ..System::default()
-    };
+    let mut out = System::new(job.grid.cells());
     for &i in job.channels {
         let ln = Line::open(job.design, i, sl.axis);
         let pr = profiles(&sl, &ln, keeps)?;
@@ -346,7 +343,7 @@ pub(super) fn build_tilted(
             keeps,
         };
         let step = crate::infra::parallel::chunk_items(job.n_threads, (ln.cols as u128) * 256);
-        let bytes = AtomicU64::new((out.data.len() * 12) as u64);
+        let bytes = AtomicU64::new((out.rows.data.len() * 12) as u64);
         let chunks = (job.n_threads, ln.rows, step);
         append_rows(
             &mut out,
