@@ -50,7 +50,7 @@ pub struct Settings {
 /// photon counts an estimate of the noise can find (it widens the bracket when the noise
 /// is not known), the golden-section steps, the trace probes, the central sub-grid's side
 /// (cells) it is made on, each of its solves' iteration cap, the probes' stop and the
-/// search's budget of iterations.
+/// search's budget of iterations, and the weight on the fit's degrees of freedom.
 #[derive(Clone, Copy, Debug)]
 pub struct ChooseSettings {
     pub lo: f64,
@@ -63,6 +63,8 @@ pub struct ChooseSettings {
     pub probe_rtol: f64,
     /// The iterations the whole search may take (the time plan counts them).
     pub budget: usize,
+    /// The weight ρ ≥ 1 on the degrees of freedom in the risk ([`choose::Config`]).
+    pub df_weight: f64,
 }
 
 /// The raw's noise as a reconstruction takes it: not known (estimated from the data),
