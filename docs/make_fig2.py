@@ -3,17 +3,20 @@
 The seed design cut to 24 x 16 lenses per half and a conventional camera on the same
 sensor (one half's pixels, all the light, focused where half 1's array is imaged: 642 mm)
 look at fronto-parallel planes from 300 mm to 2 m. At each depth two scenes are rendered
-(splitlf.render, exact route) with photon noise (N = 2000 photo-electrons for white):
+(splitlf.render, exact route) with photon noise (N = 2000 and 20,000 photo-electrons
+for white, two draws each):
 a natural image (scikit-image's "camera", 512 x 512 texture cells, each well under a tenth
 of the reconstruction's cell) and a 5-degree slanted edge (analytic, no cells at all).
 Neither is representable on the reconstruction's grid (the grid is delta(z), the sensor's
 step; the data's texture is finer or continuous): no inverse crime. Each raw is
-reconstructed with the known depth (splitlf.reconstruct, the noise model given) from
+reconstructed with the known depth (splitlf.reconstruct: the raw carries its noise
+model, and each camera's weight is chosen from its data) from
 half 1 alone, half 2 alone, the split sensor, and the conventional camera, over the same
 region (the central half, per axis, of what both arrays image), and measured against the truth
 (splitlf.measure: PSNR on the image, MTF50 on the edge).
 
-Run: python docs/make_fig2.py (about 5 minutes on 2 cores).
+Run: python docs/make_fig2.py (two photon counts, N = 2000 and 20,000, two noise draws
+each; the time is in docs/fig2.json).
 """
 
 from __future__ import annotations
@@ -37,7 +40,10 @@ from splitlf import _native, measure  # noqa: E402
 HERE = Path(__file__).parent
 DEPTHS = (300.0, 400.0, 500.0, 642.0, 800.0, 1000.0, 1400.0, 2000.0)
 SHOWN = (400.0, 642.0, 1000.0)
-NOISE = {"photons": 2000.0, "read_noise": 0.0}
+PHOTONS = (2000.0, 20000.0)
+DRAWS = 2
+#: The first noise level, for the studies that take one (make_prior.py, make_fig2_designs.py).
+NOISE = {"photons": PHOTONS[0], "read_noise": 0.0}
 CAMERAS = ("half 1", "half 2", "split", "conventional")
 
 
@@ -68,45 +74,90 @@ def natural(width: float) -> splitlf.Image:
 def main() -> None:
     t0 = time.perf_counter()
     split, conv = designs()
-    out: dict = {"depths": list(DEPTHS), "psnr": {c: [] for c in CAMERAS},
-                 "mtf50": {c: [] for c in CAMERAS}, "nyquist": [], "region": []}
+    out: dict = {"depths": list(DEPTHS), "nyquist": [], "region": [], "runs": {}}
     shown: dict = {}
-    for i, z in enumerate(DEPTHS):
+    for z in DEPTHS:
         region = central(split, z)
-        span = _native.pixel_span(split.core, z, None)
-        tex = natural(2.0 * (max(abs(v) for v in region) + 2.0 * span))
-        edge = splitlf.SlantedEdge(5.0, 0.1, 0.9)
-        step = split.resolution_step(z)
-        out["nyquist"].append(1.0 / (2.0 * step))
+        out["nyquist"].append(1.0 / (2.0 * split.resolution_step(z)))
         out["region"].append(list(region))
-        for scene_i, texture in enumerate((tex, edge)):
-            sc = splitlf.Scene(texture, z)
-            raws = {"split": splitlf.render(split, sc, noise=NOISE, seed=10 * i + scene_i),
-                    "conventional": splitlf.render(conv, sc, noise=NOISE,
-                                                   seed=10 * i + scene_i + 5)}
-            for cam in CAMERAS:
-                raw = raws["conventional" if cam == "conventional" else "split"]
-                channels = {"half 1": 1, "half 2": 2}.get(cam)
-                rec = splitlf.reconstruct(raw, z, region=region, channels=channels,
-                                          noise=NOISE)
-                measured(out, shown, cam, rec, texture, z in SHOWN)
-        print(f"{z:6.0f} mm  " + "  ".join(
-            f"{c}: {out['psnr'][c][-1]:5.1f} dB {out['mtf50'][c][-1]:6.2f} c/mm"
-            for c in CAMERAS), flush=True)
+    for n_i, photons in enumerate(PHOTONS):
+        for draw in range(DRAWS):
+            key = f"{photons:.0f}/{draw}"
+            run = out["runs"][key] = {m: {c: [] for c in CAMERAS}
+                                      for m in ("psnr", "mtf50", "lambda_psnr", "lambda_mtf")}
+            for i, z in enumerate(DEPTHS):
+                seed = 1000 * draw + 100 * n_i + 10 * i
+                one_depth(split, conv, z, photons, seed, run,
+                          shown if (n_i, draw) == (0, 0) else None)
+                print(f"N {photons:6.0f} draw {draw} {z:6.0f} mm  " + "  ".join(
+                    f"{c}: {run['psnr'][c][-1]:5.2f} dB {run['mtf50'][c][-1]:6.2f} c/mm "
+                    f"(lambda {run['lambda_psnr'][c][-1]:.3g})" for c in CAMERAS), flush=True)
+    out["verdict"] = verdict(out)
+    out["seconds"] = time.perf_counter() - t0
     (HERE / "fig2.json").write_text(json.dumps(out, indent=1) + "\n")
     figure(out, shown)
+    print(json.dumps(out["verdict"], indent=1))
     print(f"docs/fig2.png, docs/fig2.json in {time.perf_counter() - t0:.0f} s")
 
 
-def measured(out: dict, shown: dict, cam: str, rec: splitlf.Reconstruction, texture: Any,
-             show: bool) -> None:
-    """A reconstruction's measure into ``out``: PSNR of the natural image (kept in
-    ``shown`` with its truth when ``show``), MTF50 of the slanted edge."""
+def one_depth(split: splitlf.Design, conv: splitlf.Design, z: float, photons: float,
+              seed: int, run: dict, shown: dict | None) -> None:
+    """Both scenes at depth ``z`` rendered with photon noise N = ``photons`` (the raws
+    carry it), each camera reconstructed at its own data-chosen weight, into ``run``."""
+    region = central(split, z)
+    span = _native.pixel_span(split.core, z, None)
+    tex = natural(2.0 * (max(abs(v) for v in region) + 2.0 * span))
+    edge = splitlf.SlantedEdge(5.0, 0.1, 0.9)
+    noise = {"photons": photons, "read_noise": 0.0}
+    for scene_i, texture in enumerate((tex, edge)):
+        sc = splitlf.Scene(texture, z)
+        raws = {"split": splitlf.render(split, sc, noise=noise, seed=seed + scene_i),
+                "conventional": splitlf.render(conv, sc, noise=noise, seed=seed + scene_i + 5)}
+        for cam in CAMERAS:
+            raw = raws["conventional" if cam == "conventional" else "split"]
+            channels = {"half 1": 1, "half 2": 2}.get(cam)
+            rec = splitlf.reconstruct(raw, z, region=region, channels=channels,
+                                      progress=False)
+            assert rec.noise_source == "raw" and rec.regularization_rule == "gcv"
+            measured(run, shown if z in SHOWN else None, cam, rec, texture)
+
+
+def verdict(out: dict) -> dict:
+    """At 642 mm (half 1's out-of-focus plane), per photon count: the split sensor's gain
+    over half 1 and over the better half, by PSNR (dB) and MTF50 (share of Nyquist), each
+    draw's and their spread (a gain smaller than the spread between the two draws' gains
+    is no gain); and half 1's dip against its mean at 500 and 800 mm."""
+    k = out["depths"].index(642.0)
+    nyq = out["nyquist"]
+    res: dict = {}
+    for photons in PHOTONS:
+        runs = [out["runs"][f"{photons:.0f}/{d}"] for d in range(DRAWS)]
+        row: dict = {}
+        for m in ("psnr", "mtf50"):
+            scale = (lambda v, j: v) if m == "psnr" else (lambda v, j: v / nyq[j])
+            at = [{c: scale(r[m][c][k], k) for c in CAMERAS} for r in runs]
+            gain1 = [a["split"] - a["half 1"] for a in at]
+            gainb = [a["split"] - max(a["half 1"], a["half 2"]) for a in at]
+            off = [0.5 * (scale(r[m]["half 1"][k - 1], k - 1) + scale(r[m]["half 1"][k + 1], k + 1))
+                   for r in runs]
+            row[m] = {"at_642": at, "split_minus_half1": gain1, "split_minus_better_half": gainb,
+                      "draw_spread_split_minus_half1": max(gain1) - min(gain1),
+                      "half1_dip": [a["half 1"] - o for a, o in zip(at, off, strict=True)]}
+        res[f"{photons:.0f}"] = row
+    return res
+
+
+def measured(out: dict, shown: dict | None, cam: str, rec: splitlf.Reconstruction,
+             texture: Any) -> None:
+    """A reconstruction's measure and chosen weight into ``out``: PSNR of the natural image
+    (kept in ``shown`` with its truth when given), MTF50 of the slanted edge."""
     if isinstance(texture, splitlf.SlantedEdge):
         out["mtf50"][cam].append(measure.mtf50(rec, texture))
+        out["lambda_mtf"][cam].append(rec.regularization)
         return
     out["psnr"][cam].append(measure.psnr(rec, texture))
-    if show:
+    out["lambda_psnr"][cam].append(rec.regularization)
+    if shown is not None:
         z = rec.depth
         shown[z, cam] = rec.image
         shown[z, "truth"] = measure.truth(rec, texture)
@@ -128,6 +179,8 @@ def image_rows(fig: plt.Figure, grid: Any, shown: dict, cols: tuple[str, ...],
 
 
 def figure(out: dict, shown: dict) -> None:
+    """The images of the first draw at N = 2000 at the SHOWN depths, then MTF50 and PSNR
+    against depth: each camera's mean over the draws, N = 2000 solid, N = 20,000 dotted."""
     cols = ("truth",) + CAMERAS
     fig = plt.figure(figsize=(12, 10.5), layout="constrained")
     grid = fig.add_gridspec(len(SHOWN) + 1, len(cols), height_ratios=[1] * len(SHOWN) + [1.3])
@@ -136,9 +189,15 @@ def figure(out: dict, shown: dict) -> None:
     nyq = np.array(out["nyquist"])
     ax_m = fig.add_subplot(grid[-1, : len(cols) // 2 + 1])
     ax_p = fig.add_subplot(grid[-1, len(cols) // 2 + 1:])
-    for cam, style in zip(CAMERAS, ("-o", "-s", "-^", "--d"), strict=True):
-        ax_m.plot(z, np.array(out["mtf50"][cam]) / nyq, style, label=cam, ms=4)
-        ax_p.plot(z, out["psnr"][cam], style, label=cam, ms=4)
+    colours = dict(zip(CAMERAS, ("C0", "C1", "C2", "C3"), strict=True))
+    for photons, line in zip(PHOTONS, ("-", ":"), strict=True):
+        runs = [out["runs"][f"{photons:.0f}/{d}"] for d in range(DRAWS)]
+        for cam, mark in zip(CAMERAS, ("o", "s", "^", "d"), strict=True):
+            mtf = np.mean([np.array(r["mtf50"][cam], dtype=float) for r in runs], axis=0)
+            psnr = np.mean([r["psnr"][cam] for r in runs], axis=0)
+            label = f"{cam}, N = {photons:.0f}"
+            ax_m.plot(z, mtf / nyq, line + mark, color=colours[cam], label=label, ms=4)
+            ax_p.plot(z, psnr, line + mark, color=colours[cam], label=label, ms=4)
     for ax in (ax_m, ax_p):
         ax.set_xscale("log")
         ax.set_xlabel("depth z [mm]")
@@ -146,9 +205,10 @@ def figure(out: dict, shown: dict) -> None:
         ax.grid(True, which="both", alpha=0.3)
     ax_m.set_ylabel("MTF50 / sensor Nyquist 1/(2 delta(z))")
     ax_p.set_ylabel("PSNR [dB]")
-    ax_m.legend(fontsize=8)
-    fig.suptitle("Seed (24 x 16 lenses per half), photon noise N = 2000, known depth: "
-                 "half 1's out-of-focus band at 642 mm and the split sensor's cure")
+    ax_m.legend(fontsize=7, ncol=2)
+    fig.suptitle("Seed (24 x 16 lenses per half), known depth, each camera at its data-chosen "
+                 "weight: half 1's out-of-focus band at 642 mm and the split sensor's cure "
+                 f"(images: N = {PHOTONS[0]:.0f}; curves: mean of {DRAWS} draws)")
     fig.savefig(HERE / "fig2.png", dpi=110)
     plt.close(fig)
 

@@ -109,7 +109,8 @@ def main() -> None:
     out: dict = {"preset": preset, "lenses": list(setup["lenses"]), "band_mm": band,
                  "step": setup["step"],
                  "depths": list(setup["depths"]), "psnr": {c: [] for c in cams},
-                 "mtf50": {c: [] for c in cams}, "nyquist": [], "region": [],
+                 "mtf50": {c: [] for c in cams}, "lambda_psnr": {c: [] for c in cams},
+                 "lambda_mtf": {c: [] for c in cams}, "nyquist": [], "region": [],
                  "seconds": {c: 0.0 for c in cams}}
     shown: dict = {}
     for i, z in enumerate(setup["depths"]):
@@ -129,7 +130,8 @@ def main() -> None:
                                           step=setup["step"] * lf.resolution_step(z),
                                           lens_types=types)
                 out["seconds"][cam] += time.perf_counter() - t1
-                seedfig.measured(out, shown, cam, rec, texture, z in setup["shown"])
+                seedfig.measured(out, shown if z in setup["shown"] else None, cam, rec,
+                                 texture)
         print(f"{z:6.0f} mm  " + "  ".join(  # nan: no MTF50 (sharp to the cells' Nyquist)
             f"{c}: {out['psnr'][c][-1]:5.1f} dB {out['mtf50'][c][-1] / out['nyquist'][-1]:5.3f}"
             for c in cams) + f"  ({time.perf_counter() - t0:.0f} s)", flush=True)

@@ -76,7 +76,7 @@ def test_image_from_the_estimates_own_surface() -> None:
     (DepthMap.surface, automatically), and the image's PSNR over the confident cells is
     within 1.5 dB of the image's with the known plane. Monte-Carlo raw (tests/mc_render.py),
     N = 2000; half 1; the seed cut to 10 x 12 lenses; the depth estimated over what half 1
-    sees, the image over the central half of it."""
+    sees, the image over the central half of it; each image at its data-chosen weight."""
     d = seed_small(10, 12)
     z0, gy = 1000.0, 10.0
     plane = splitlf.Plane(z0, 0.0, gy)
@@ -84,13 +84,14 @@ def test_image_from_the_estimates_own_surface() -> None:
     raw = mc_raw(d, mct, ("plane", [z0, 0.0, gy]), seed=22)
     seen = _native.seen_region(d.core, z0, [1])
     est = splitlf.estimate_depth(raw, depths=(250.0, 4000.0), region=seen)
-    # lambda fixed for both: the subject is the surface (the data-chosen weight fails on
-    # an estimated map: docs/reconstruct.md, "Where it fails").
+    # Each at its data-chosen weight: GCV on the known plane, weighted GCV on the
+    # estimate's surface (docs/reconstruct.md, "An estimated surface").
     kw = {"region": tuple(0.5 * v for v in seen), "step": d.resolution_step(z0),
-          "noise": {"photons": PHOTONS, "read_noise": 0.0}, "channels": (1,),
-          "regularization": 4.0}
+          "noise": {"photons": PHOTONS, "read_noise": 0.0}, "channels": (1,)}
     known = splitlf.reconstruct(raw, plane, **kw)  # type: ignore[arg-type]
     found = splitlf.reconstruct(raw, est, **kw)  # type: ignore[arg-type]
+    assert known.regularization_rule == "gcv"
+    assert found.regularization_rule == "weighted gcv"
     assert isinstance(found.depth, splitlf.DepthMap) and found.depth.confidence is None
     assert found.extent == known.extent
     # The estimate's confidence at the image's cells (nearest estimate cell).

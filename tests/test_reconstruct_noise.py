@@ -111,6 +111,32 @@ def test_fixed_lambda_is_the_chosen_one_bit_for_bit() -> None:
     assert fixed.iterations == chosen.iterations
 
 
+def test_chosen_lambda_is_held_to_the_grids_largest(monkeypatch: Any) -> None:
+    """The choice searches on the region's central sub-grid, whose largest accepted
+    lambda (1e6 times the data's mean weight per cell) can exceed the whole grid's: a
+    region mostly unseen (80 mm across, the 6 x 6-lens cut sees under 9) and a bracket
+    above both caps force it. The chosen lambda is then held to the grid's largest, which
+    a fixed lambda at the search's best exceeds (refused by name) and a fixed lambda at
+    the held value reproduces bit for bit."""
+    import splitlf.inverse.reconstruct as rc
+
+    monkeypatch.setattr(rc, "CHOOSE_BRACKET", (1e12, 1e13))
+    monkeypatch.setattr(rc, "CHOOSE_SIDE", 8)
+    d = seed_small(6, 6)
+    raw = splitlf.render(d, splitlf.Scene(splitlf.Sinusoid(1.0, 0.5, 0.4), 1000.0),
+                         noise={"photons": 2000.0}, seed=3, progress=False)
+    kw: dict[str, Any] = {"region": (-40.0, 40.0, -40.0, 40.0), "step": 1.6, "progress": False}
+    chosen = splitlf.reconstruct(raw, 1000.0, **kw)
+    best = min(chosen.choice, key=lambda t: t[1])[0]
+    assert chosen.regularization < best
+    with pytest.raises(splitlf.errors.InvalidParameter, match="regularization"):
+        splitlf.reconstruct(raw, 1000.0, regularization=best, **kw)
+    fixed = splitlf.reconstruct(raw, 1000.0, regularization=chosen.regularization, **kw)
+    assert np.array_equal(fixed.image, chosen.image)
+    with pytest.raises(splitlf.errors.InvalidParameter, match="regularization"):
+        splitlf.reconstruct(raw, 1000.0, regularization=chosen.regularization * 1.001, **kw)
+
+
 # -- accuracy on Monte-Carlo raws (slow tier) ----------------------------------------------
 
 

@@ -60,7 +60,7 @@ CHOOSE_BRACKET = (1e-3, 1e5)
 #: when the noise is not known: lambda / N is searched).
 CHOOSE_PHOTONS = (10.0, 1e7)
 #: Golden-section steps in log lambda after the scan over decades.
-CHOOSE_GOLDEN_STEPS = 6
+CHOOSE_GOLDEN_STEPS = 4
 #: Rademacher probes of the trace estimate (the fit's degrees of freedom) at each lambda.
 CHOOSE_PROBES = 4
 #: The choice is made on the region's central part, at most this many cells a side
@@ -73,6 +73,13 @@ CHOOSE_PROBE_RTOL = 1e-6
 #: The iterations the whole choice may take (its solves summed): no lambda is tried once
 #: the next one's solves could exceed it; the time plan counts the choice at this many.
 CHOOSE_BUDGET = 20_000
+#: The weight rho on the fit's degrees of freedom in the risk (weighted GCV:
+#: m RSS / (m - rho df)^2; UPRE: RSS + 2 rho df - m) for a known surface: plain GCV / UPRE.
+CHOOSE_DF_WEIGHT = 1.0
+#: rho for the surface of a depth estimate, whose depth errors make the model inexact:
+#: plain GCV fits them and under-smooths (lambda 0.1 against about 16 by the truth,
+#: 3.7 dB against 16 dB, docs/reconstruct.md "An estimated surface").
+CHOOSE_DF_WEIGHT_ESTIMATE = 2.0
 #: Conjugate-gradient stop: the residual of the normal equations relative to their
 #: right-hand side.
 CG_RTOL = 1e-10
@@ -122,7 +129,9 @@ class Reconstruction:
     pixels used), ``iterations``, ``residual`` (the normal equations' relative residual),
     ``regularization`` (lambda), ``regularization_rule`` (how it was set: ``"fixed"``
     (given), ``"gcv"`` (generalised cross-validation: a raw of photon noise, known or
-    estimated) or ``"upre"`` (the unbiased predictive risk: a noise-free raw)), ``noise``
+    estimated) or ``"upre"`` (the unbiased predictive risk: a noise-free raw); ``"weighted
+    gcv"`` / ``"weighted upre"`` on an estimate's surface: df weighted by
+    ``CHOOSE_DF_WEIGHT_ESTIMATE``), ``noise``
     (the per-pixel sigma model used, as text), ``noise_model`` (it as ``{"photons": N,
     "read_noise": r}``, photons ``inf`` for noise-free), ``noise_source`` (``"given"``: the
     call's ``noise``; ``"raw"``: carried by the raw; ``"estimated"``: from the data, read
@@ -347,9 +356,12 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
         raise TypeError(f"allow_slow must be True or False, got {allow_slow!r}")
     design = raw.design
     surface = _depth(depth)
+    df_weight = CHOOSE_DF_WEIGHT
     if isinstance(surface, DepthMap) and surface.confidence is not None:
-        # An estimate: reconstruct on the surface it stands for (docs/depth.md).
+        # An estimate: reconstruct on the surface it stands for (docs/depth.md), and
+        # choose lambda for a model known to be inexact (its depth's error).
         surface = surface.surface(design)
+        df_weight = CHOOSE_DF_WEIGHT_ESTIMATE
     chans = _channels(design, channels)
     noise_, source = _stated(noise), "given"
     if noise_ is None:
@@ -371,7 +383,7 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
         "settings": (NOISE_FLOOR, CG_RTOL, CG_MAX_ITER, CG_NOISE_TOL, TILE_OVERLAP, MIN_TILE,
                      MAX_SECONDS),
         "choose": (*CHOOSE_BRACKET, CHOOSE_PHOTONS, CHOOSE_GOLDEN_STEPS, CHOOSE_PROBES, CHOOSE_SIDE,
-                   CHOOSE_MAX_ITER, CHOOSE_PROBE_RTOL, CHOOSE_BUDGET)}
+                   CHOOSE_MAX_ITER, CHOOSE_PROBE_RTOL, CHOOSE_BUDGET, df_weight)}
     report, bars = _reporter(_progress_flag(progress))
     try:
         image, extent, h, rows, iterations, resid, passes, tiles, types, chosen = (
@@ -382,6 +394,8 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
         for bar in bars:
             bar.close()
     lam_used, rule, (photons, read), _, trials = chosen
+    if rule != "fixed" and df_weight != 1.0:
+        rule = f"weighted {rule}"
     noise_text = (f"noise-free: sigma = {NOISE_FLOOR:g} of white" if photons == math.inf else
                   f"photons {photons:g}, read noise {read:g}")
     _log.info("reconstruct: lambda %.6g (%s), noise %s (%s)", lam_used, rule, noise_text,

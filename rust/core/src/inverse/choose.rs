@@ -7,7 +7,7 @@
 //! W^½ A (N + λR)⁻¹ Aᵀ W^½), m the rows:
 //! - [`Rule::Upre`] (Mallows' C_p / the unbiased predictive risk estimate, SURE for a
 //!   linear estimator) when W is the inverse noise variance (a noise given, carried by the
-//!   raw, or the floor of a noise-free raw): U(λ) = RSS + 2 df − m;
+//!   raw, or the floor of a noise-free raw): U(λ) = RSS + 2ρ df − m;
 //! - [`Rule::Gcv`] (generalised cross-validation) when the noise's scale is not known
 //!   (W known up to a factor): V(λ) = m RSS / (m − df)²; then RSS / (m − df) at the
 //!   chosen λ estimates the factor (the rows' noise variance in W's units).
@@ -19,7 +19,7 @@
 //! probe, each warm-started from the nearest λ already solved.
 //!
 //! The search: λ over decades from the top of the bracket down (large λ converge fast and
-//! warm-start the next), stopped two decades past the least score, then a golden-section
+//! warm-start the next), stopped one decade past the least score, then a golden-section
 //! search in log λ over the two decades around the least.
 
 use crate::infra::error::{Error, Result};
@@ -57,6 +57,8 @@ pub struct Config {
     pub budget: usize,
     pub data: Stop,
     pub probe: Stop,
+    /// ρ ≥ 1: the weight on df in the score (module doc).
+    pub df_weight: f64,
 }
 
 /// One λ tried: its score, RSS, df, and the solves' iterations.
@@ -204,9 +206,10 @@ impl Search<'_> {
         df /= self.probes.len().max(1) as f64;
         self.used += iterations;
         let m = self.rows as f64;
+        let rho = self.cfg.df_weight;
         let score = match self.rule {
-            Rule::Upre => rss + 2.0 * df - m,
-            Rule::Gcv => m * rss / ((m - df).max(1.0) * (m - df).max(1.0)),
+            Rule::Upre => rss + 2.0 * rho * df - m,
+            Rule::Gcv => m * rss / ((m - rho * df).max(1.0) * (m - rho * df).max(1.0)),
         };
         if self.rule == Rule::Gcv && rss > 0.0 {
             self.scale = Some(rss / (m - df).max(1.0));
@@ -232,6 +235,13 @@ pub fn choose(
     threads: Option<usize>,
     done: &std::sync::atomic::AtomicUsize,
 ) -> Result<Choice> {
+    if !(cfg.df_weight >= 1.0 && cfg.df_weight.is_finite()) {
+        return Err(Error::param(
+            "df_weight",
+            cfg.df_weight.to_string(),
+            "finite and at least 1",
+        ));
+    }
     if !(cfg.lo > 0.0 && cfg.hi > cfg.lo && cfg.hi.is_finite()) {
         return Err(Error::param(
             "regularization",
@@ -266,7 +276,7 @@ pub fn choose(
         let nz = search.data_product(&z)?;
         search.probes.push((z, nz));
     }
-    // Decades from the top down, stopped two past the least score.
+    // Decades from the top down, stopped one past the least score.
     let (l0, l1) = (cfg.lo.log10(), cfg.hi.log10());
     let mut grid = vec![];
     let mut e = l1;
@@ -286,7 +296,7 @@ pub fn choose(
             .enumerate()
             .min_by(|a, b| a.1 .1.total_cmp(&b.1 .1))
             .map_or(0, |(i, _)| i);
-        if scores.len() >= best + 3 {
+        if scores.len() >= best + 2 {
             break;
         }
     }
@@ -375,9 +385,20 @@ mod tests {
     /// A random blur of a 6 × 5 grid seen by 80 noisy rows: the search's RSS and df at
     /// each λ against the dense hat matrix (df within 3 Hutchinson standard errors of 8
     /// probes, RSS to 10⁻⁸), and the chosen λ the least of a fine dense scan's score
-    /// within a tenth of a decade of score.
+    /// (with the df weight ρ) within a tenth of a decade of score.
     #[test]
     fn trials_are_the_dense_risk() {
+        dense_risk(1.0);
+    }
+
+    /// The same with ρ = 2: the least of the weighted score, at a larger λ than ρ = 1's.
+    #[test]
+    fn weighted_trials_are_the_dense_weighted_risk() {
+        assert!(dense_risk(2.0) > dense_risk(1.0));
+    }
+
+    /// `trials_are_the_dense_risk` at ρ; the chosen λ.
+    fn dense_risk(df_weight: f64) -> f64 {
         let (nx, ny, m) = (6usize, 5usize, 80usize);
         let n = nx * ny;
         let u = rademacher(4 * m * n, 3);
@@ -421,6 +442,7 @@ mod tests {
             budget: 1_000_000,
             data: Stop::relative(1e-13, 10_000),
             probe: Stop::relative(1e-13, 10_000),
+            df_weight,
         };
         let done = AtomicUsize::new(0);
         let c = choose(&mut normal, Rule::Upre, cfg, Some(1), &done).unwrap();
@@ -469,17 +491,18 @@ mod tests {
             .map(|k| 10f64.powf(-3.0 + k as f64 * 0.05))
             .map(|l| {
                 let (rss, df) = hat(l);
-                (l, rss + 2.0 * df - m as f64)
+                (l, rss + 2.0 * df_weight * df - m as f64)
             })
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .unwrap();
         let (rss, df) = hat(c.lam);
         assert!(
-            rss + 2.0 * df - m as f64 <= scan.1 + 1.5,
+            rss + 2.0 * df_weight * df - m as f64 <= scan.1 + 1.5,
             "{} vs {scan:?}",
             c.lam
         );
         assert_eq!(normal.regularization(), c.lam);
+        c.lam
     }
 
     #[test]

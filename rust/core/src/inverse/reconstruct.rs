@@ -50,7 +50,7 @@ pub struct Settings {
 /// photon counts an estimate of the noise can find (it widens the bracket when the noise
 /// is not known), the golden-section steps, the trace probes, the central sub-grid's side
 /// (cells) it is made on, each of its solves' iteration cap, the probes' stop and the
-/// search's budget of iterations.
+/// search's budget of iterations, and the weight on the fit's degrees of freedom.
 #[derive(Clone, Copy, Debug)]
 pub struct ChooseSettings {
     pub lo: f64,
@@ -63,6 +63,8 @@ pub struct ChooseSettings {
     pub probe_rtol: f64,
     /// The iterations the whole search may take (the time plan counts them).
     pub budget: usize,
+    /// The weight ρ ≥ 1 on the degrees of freedom in the risk ([`choose::Config`]).
+    pub df_weight: f64,
 }
 
 /// The raw's noise as a reconstruction takes it: not known (estimated from the data),
@@ -480,6 +482,8 @@ impl Plan<'_> {
         let mut out = memory::try_vec("the reconstruction", nx * ny, 0.0)?;
         let (mut rows, mut iterations, mut tiles, mut resid) = (0, 0, 0, 0.0f64);
         let mut passes = 0;
+        // A data-chosen λ held to a tile's cap (`equations`): the least any tile used.
+        let mut lam_used = self.lam;
         for j0 in (0..ny).step_by(tile) {
             for i0 in (0..nx).step_by(tile) {
                 let (j1, i1) = ((j0 + tile).min(ny), (i0 + tile).min(nx));
@@ -508,6 +512,7 @@ impl Plan<'_> {
                 iterations = iterations.max(r.iterations);
                 resid = resid.max(r.residual);
                 passes = passes.max(r.passes);
+                lam_used = lam_used.min(r.regularization);
                 tiles += 1;
             }
         }
@@ -523,7 +528,7 @@ impl Plan<'_> {
             passes,
             tiles,
             lens_types: self.types.clone(),
-            regularization: self.lam,
+            regularization: lam_used,
             rule: "fixed",
             noise: self.noise,
             estimated: false,
@@ -642,9 +647,25 @@ impl Plan<'_> {
                 ),
             ));
         }
-        if let Some(lam) = lam {
-            check_regularization(lam, &blocks, grid.cells())?;
-        }
+        let lam = match lam {
+            // A data-chosen λ was searched on the central sub-grid, whose cap differs from
+            // this grid's: it is held to this grid's (the most smoothing the solve keeps).
+            Some(l) if self.req.regularization.is_none() => {
+                let most = max_regularization(&blocks, grid.cells());
+                if l > most {
+                    progress.note(format!(
+                        "reconstruct: the chosen lambda {l:.4e} held to this grid's largest \
+                         {most:.4e}"
+                    ));
+                }
+                Some(l.min(most))
+            }
+            Some(l) => {
+                check_regularization(l, &blocks, grid.cells())?;
+                Some(l)
+            }
+            None => None,
+        };
         // The choice of λ (lam None) solves with the quadratic prior; the image's solve
         // with the prior asked for.
         let normal = solve::Normal::new(grid.nx, grid.ny, lam.unwrap_or(1.0), blocks)?;
@@ -711,7 +732,7 @@ impl Plan<'_> {
             passes: sol.passes,
             tiles: 1,
             lens_types: self.types.clone(),
-            regularization: self.lam,
+            regularization: eq.normal.regularization(),
             rule: "fixed",
             noise: self.noise,
             estimated: false,
@@ -833,6 +854,24 @@ pub const MAX_PHOTONS: f64 = 1e15;
 
 /// Refuse a prior weight whose solve is not meaningful (see [`MAX_PRIOR_SHARE`]).
 fn check_regularization(lam: f64, blocks: &[Block], cells: usize) -> Result<()> {
+    let most = max_regularization(blocks, cells);
+    if lam > most {
+        return Err(Error::param(
+            "regularization",
+            lam,
+            format!(
+                "a finite value in (0, {most:.3e}] for this raw and grid ({MAX_PRIOR_SHARE:.0e} \
+                 times the data's mean weight per cell: beyond it the prior drowns the data \
+                 and the solve loses its precision)"
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// The largest λ a solve over `blocks` on `cells` cells takes: [`MAX_PRIOR_SHARE`] times
+/// the data's mean weight per cell.
+fn max_regularization(blocks: &[Block], cells: usize) -> f64 {
     let sq = |c: &Csr, r: usize| {
         c.data[c.indptr[r]..c.indptr[r + 1]]
             .iter()
@@ -858,19 +897,7 @@ fn check_regularization(lam: f64, blocks: &[Block], cells: usize) -> Result<()> 
             Block::Rows { a, w, .. } => (0..a.nrows()).map(|r| w[r] * sq(a, r)).sum(),
         })
         .sum();
-    let most = MAX_PRIOR_SHARE * trace / cells.max(1) as f64;
-    if lam > most {
-        return Err(Error::param(
-            "regularization",
-            lam,
-            format!(
-                "a finite value in (0, {most:.3e}] for this raw and grid ({MAX_PRIOR_SHARE:.0e} \
-                 times the data's mean weight per cell: beyond it the prior drowns the data \
-                 and the solve loses its precision)"
-            ),
-        ));
-    }
-    Ok(())
+    MAX_PRIOR_SHARE * trace / cells.max(1) as f64
 }
 
 fn block_rows(b: &Block) -> usize {

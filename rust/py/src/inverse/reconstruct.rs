@@ -539,7 +539,8 @@ type Choice = (
 /// memory_limit (bytes, tests), settings (noise_floor, rtol, max_iter, noise_tol,
 /// overlap, min_tile, max_seconds) and choose (the bracket's lo and hi, the photon counts
 /// an estimate can find (lo, hi), golden-section steps, probes, the sub-grid's side, each
-/// search solve's iteration cap, the probes' rtol, the search's budget of iterations).
+/// search solve's iteration cap, the probes' rtol, the search's budget of iterations,
+/// the weight on the degrees of freedom).
 /// `progress(phase, done, total, notes)` is
 /// called at the signal checks and once at the end. Returns (image, extent, step, rows,
 /// iterations, residual, the prior's passes, tiles, lens types from 1 or None).
@@ -564,9 +565,19 @@ pub(crate) fn reconstruct<'py>(
     });
     let settings: (f64, f64, usize, f64, usize, usize, f64) = option(options, "settings")?
         .ok_or_else(|| pyo3::exceptions::PyTypeError::new_err("options need settings"))?;
-    let choose: (f64, f64, (f64, f64), usize, usize, usize, usize, f64, usize) =
-        option(options, "choose")?
-            .ok_or_else(|| pyo3::exceptions::PyTypeError::new_err("options need choose"))?;
+    let choose: (
+        f64,
+        f64,
+        (f64, f64),
+        usize,
+        usize,
+        usize,
+        usize,
+        f64,
+        usize,
+        f64,
+    ) = option(options, "choose")?
+        .ok_or_else(|| pyo3::exceptions::PyTypeError::new_err("options need choose"))?;
     let channels = match option::<Vec<i64>>(options, "channels")? {
         Some(v) => from_one("channels", v)?,
         None => (0..design.inner.channels.len()).collect(),
@@ -638,6 +649,7 @@ pub(crate) fn reconstruct<'py>(
                 max_iter: choose.6,
                 probe_rtol: choose.7,
                 budget: choose.8,
+                df_weight: choose.9,
             },
         },
     };

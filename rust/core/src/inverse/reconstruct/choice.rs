@@ -58,6 +58,7 @@ impl Plan<'_> {
             golden_steps: c.golden_steps,
             probes: c.probes,
             budget: c.budget,
+            df_weight: c.df_weight,
             data: self.stop(c.max_iter),
             probe: solve::Stop::relative(c.probe_rtol, c.max_iter),
         };
