@@ -88,45 +88,19 @@ impl Choice {
     }
 }
 
-/// out = DᵀD t over the nx × ny grid (horizontal and vertical neighbours).
+/// out = DᵀD t over the nx × ny grid (the solve's own prior rows at λ = 1).
 fn prior(t: &[f64], nx: usize, ny: usize, out: &mut [f64]) {
-    for j in 0..ny {
-        for i in 0..nx {
-            let c = j * nx + i;
-            let mut s = 0.0;
-            if i > 0 {
-                s += t[c] - t[c - 1];
-            }
-            if i + 1 < nx {
-                s += t[c] - t[c + 1];
-            }
-            if j > 0 {
-                s += t[c] - t[c - nx];
-            }
-            if j + 1 < ny {
-                s += t[c] - t[c + nx];
-            }
-            out[c] = s;
-        }
+    for (j, o) in out.chunks_mut(nx).enumerate() {
+        super::solve::prior_row(t, (nx, ny), j, 1.0, o);
     }
 }
 
-/// A Rademacher vector (±1) of n values from `seed` (SplitMix64).
+/// A Rademacher vector (±1) of n values from `seed`: the sign bit of a SplitMix64 stream.
 fn rademacher(n: usize, seed: u64) -> Vec<f64> {
-    let mut x = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0xD1B5_4A32_D192_ED03;
-    (0..n)
-        .map(|_| {
-            x = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = x;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            z ^= z >> 31;
-            if z >> 63 == 0 {
-                1.0
-            } else {
-                -1.0
-            }
-        })
+    let state = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0xD1B5_4A32_D192_ED03;
+    crate::infra::random::splitmix64_stream(state)
+        .take(n)
+        .map(|z| if z >> 63 == 0 { 1.0 } else { -1.0 })
         .collect()
 }
 

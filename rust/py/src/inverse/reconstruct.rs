@@ -530,6 +530,21 @@ type Choice = (
     Vec<(f64, f64, f64, f64, usize)>,
 );
 
+/// The `choose` option as Python passes it: (lo, hi, (photons lo, hi), golden_steps,
+/// probes, side, max_iter, probe_rtol, budget, df_weight).
+type ChooseTuple = (
+    f64,
+    f64,
+    (f64, f64),
+    usize,
+    usize,
+    usize,
+    usize,
+    f64,
+    usize,
+    f64,
+);
+
 /// A whole reconstruction in one call (`splitlf_core::inverse::reconstruct`): `images`
 /// the raw's channels, `surface` (kind, params, depth map or None) as `RenderScene` takes
 /// it, `options` a dict of channels and lens_types (numbered from 1; None: all),
@@ -565,18 +580,7 @@ pub(crate) fn reconstruct<'py>(
     });
     let settings: (f64, f64, usize, f64, usize, usize, f64) = option(options, "settings")?
         .ok_or_else(|| pyo3::exceptions::PyTypeError::new_err("options need settings"))?;
-    let choose: (
-        f64,
-        f64,
-        (f64, f64),
-        usize,
-        usize,
-        usize,
-        usize,
-        f64,
-        usize,
-        f64,
-    ) = option(options, "choose")?
+    let choose: ChooseTuple = option(options, "choose")?
         .ok_or_else(|| pyo3::exceptions::PyTypeError::new_err("options need choose"))?;
     let channels = match option::<Vec<i64>>(options, "channels")? {
         Some(v) => from_one("channels", v)?,

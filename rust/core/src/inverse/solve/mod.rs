@@ -43,3 +43,4 @@ mod testing;
 pub use crate::infra::csr::Csr;
 pub use cg::{solve, solve_from, Solution, Start, Stop};
 pub use normal::{Block, Normal, Penalty, Prior, Work};
+pub(crate) use product::prior_row;

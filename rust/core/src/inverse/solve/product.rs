@@ -250,26 +250,7 @@ impl Normal {
         let (nx, ny, lam) = (self.nx, self.ny, self.lam);
         match (t, &work.edges) {
             (Some(t), Some(e)) => self.weighted_prior_row(t, e, j, o),
-            (Some(t), None) => {
-                let row = |r: usize| &t[r * nx..(r + 1) * nx];
-                let here = row(j);
-                for i in 0..nx {
-                    let mut g = 0.0;
-                    if i > 0 {
-                        g += here[i] - here[i - 1];
-                    }
-                    if i + 1 < nx {
-                        g += here[i] - here[i + 1];
-                    }
-                    if j > 0 {
-                        g += here[i] - row(j - 1)[i];
-                    }
-                    if j + 1 < ny {
-                        g += here[i] - row(j + 1)[i];
-                    }
-                    o[i] = lam * g;
-                }
-            }
+            (Some(t), None) => prior_row(t, (nx, ny), j, lam, o),
             (None, _) => o.fill(0.0),
         }
         for (p, scratch) in self.blocks.iter().zip(&work.scratch) {
@@ -430,6 +411,30 @@ impl Normal {
         });
         self.gather(work, true, None, out);
         out.iter().sum::<f64>()
+    }
+}
+
+/// Row j of λ DᵀD t over the nx × ny grid (first differences to the horizontal and
+/// vertical neighbours): o = λ Σ_neighbours (t − t_neighbour).
+#[inline(always)]
+pub(crate) fn prior_row(t: &[f64], (nx, ny): (usize, usize), j: usize, lam: f64, o: &mut [f64]) {
+    let row = |r: usize| &t[r * nx..(r + 1) * nx];
+    let here = row(j);
+    for i in 0..nx {
+        let mut g = 0.0;
+        if i > 0 {
+            g += here[i] - here[i - 1];
+        }
+        if i + 1 < nx {
+            g += here[i] - here[i + 1];
+        }
+        if j > 0 {
+            g += here[i] - row(j - 1)[i];
+        }
+        if j + 1 < ny {
+            g += here[i] - row(j + 1)[i];
+        }
+        o[i] = lam * g;
     }
 }
 
