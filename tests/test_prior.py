@@ -228,7 +228,7 @@ def test_progress_counts_every_pass(small: Any) -> None:
                             rc.TILE_OVERLAP, rc.MIN_TILE, rc.MAX_SECONDS),
                "choose": (*rc.CHOOSE_BRACKET, rc.CHOOSE_PHOTONS, rc.CHOOSE_GOLDEN_STEPS,
                           rc.CHOOSE_PROBES, rc.CHOOSE_SIDE, rc.CHOOSE_MAX_ITER,
-                          rc.CHOOSE_PROBE_RTOL, rc.CHOOSE_BUDGET)}
+                          rc.CHOOSE_PROBE_RTOL, rc.CHOOSE_BUDGET, rc.CHOOSE_DF_WEIGHT)}
     out = _native.reconstruct(raw.design.core, [np.asarray(i) for i in raw.images],
                               splitlf.Plane(1000.0).seam(), options, callback)
     iterations, passes = out[4], out[6]
