@@ -9,8 +9,15 @@
 //!   linear estimator) when W is the inverse noise variance (a noise given, carried by the
 //!   raw, or the floor of a noise-free raw): U(λ) = RSS + 2ρ df − m;
 //! - [`Rule::Gcv`] (generalised cross-validation) when the noise's scale is not known
-//!   (W known up to a factor): V(λ) = m RSS / (m − df)²; then RSS / (m − df) at the
+//!   (W known up to a factor): V(λ) = m RSS / (m − ρ df)²; then RSS / (m − df) at the
 //!   chosen λ estimates the factor (the rows' noise variance in W's units).
+//!
+//! ρ ([`Config::df_weight`]) is 1 for plain UPRE/GCV. A caller whose model is inexact
+//! (rows built on an estimated depth surface, wrong where the estimate is wrong) passes
+//! ρ > 1, "weighted GCV": plain GCV fits the model's error as if it were signal and its
+//! score keeps falling to the bracket's bottom; charging each degree of freedom more
+//! holds the choice where the image, not the model's error, is fitted
+//! (docs/reconstruct.md, "The prior's weight").
 //!
 //! RSS comes from the solution without a forward product: tᵀNt − 2 tᵀAᵀWy + Σ w y².
 //! df is a Hutchinson estimate: the mean of zᵀ (N + λR)⁻¹ N z over fixed Rademacher probes
