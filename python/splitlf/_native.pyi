@@ -407,7 +407,7 @@ class RenderScene:
 def render(
     design: DesignCore,
     scene: RenderScene,
-    tol: float = ...,
+    tol: float | tuple[float, float, float] | None = None,
     n_threads: int | None = None,
     progress: Callable[[int, int], object] | None = None,
     own_lens: bool = False,

@@ -57,6 +57,13 @@ def add_parser(subparsers: Any) -> None:
     p.add_argument("--noise", type=noise_type, default=None, metavar="N[,READ]",
                    help="add noise: N photo-electrons for value 1 (Poisson), READ electrons "
                    "rms of read noise (default 0)")
+    acc = p.add_mutually_exclusive_group()
+    acc.add_argument("--tol", type=real_type("tol", 0.0, "a value in [1e-10, 0.1]"),
+                     default=None, help="error target of a pixel relative to a fully lit "
+                     "pixel under the scene's largest albedo (default 1e-3; docs/render.md)")
+    acc.add_argument("--noise-tol", type=real_type("noise tol", 0.0, "a fraction in (0, 1]"),
+                     default=None, metavar="K", help="instead: each pixel's error target is "
+                     "K (e.g. 0.1) times the standard deviation of --noise at its value")
     p.add_argument("--seed", type=seed_type, default=0,
                    help="seed of the random texture and the noise, an integer >= 0 "
                    "(default 0)")
@@ -179,7 +186,10 @@ def run(args: argparse.Namespace) -> int:
     texture = parse_render_texture(args.texture, args.width)
     depth = parse_render_depth(args.depth, args.extent)
     scene = Scene(texture, depth)
-    raw = render(design, scene, noise=args.noise, seed=args.seed, n_threads=args.threads)
+    if args.noise_tol is not None and args.noise is None:
+        raise CliError("--noise-tol: a fraction of the noise, needs --noise N[,READ]")
+    raw = render(design, scene, noise=args.noise, seed=args.seed, tol=args.tol,
+                 noise_tol=args.noise_tol, n_threads=args.threads)
     _write_render(raw, out, png, args.force)
     sys.stdout.write(json_text(_render_summary(raw, out, png, args)) if args.json
                      else f"{out}\n")

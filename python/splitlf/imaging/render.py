@@ -524,9 +524,25 @@ def native_scene(scene: Scene, design: Design, rng: np.random.Generator
     return _native.RenderScene(kind, params, image, surface, sparams, depth_map, background)
 
 
+def _target(tol: Any, noise_tol: Any, noise: dict[str, float] | None
+            ) -> float | tuple[float, float, float]:
+    """The core's error target: ``tol`` (default ``_native.RENDER_TOL``), or (photons,
+    read noise, fraction) for ``noise_tol``."""
+    if noise_tol is None:
+        return _native.RENDER_TOL if tol is None else _validate.real(tol, "tol")
+    if tol is not None:
+        raise ValueError("give tol or noise_tol, not both: noise_tol sets each pixel's "
+                         "target from the noise")
+    fraction = _validate.positive(noise_tol, "noise_tol", 1.0)
+    if noise is None:
+        raise ValueError("noise_tol is a fraction of the render's noise: it needs "
+                         "noise={'photons': N} (N finite)")
+    return (noise["photons"], noise["read_noise"], fraction)
+
+
 def render(design: Design, scene: Scene, *, noise: Mapping[str, float] | None = None,
-           seed: int | None = 0, tol: float | None = None, n_threads: int | None = None,
-           progress: bool | None = None) -> Raw:
+           seed: int | None = 0, tol: float | None = None, noise_tol: float | None = None,
+           n_threads: int | None = None, progress: bool | None = None) -> Raw:
     """Each channel's raw sensor image of ``scene`` (docs/model.md §10), computed in the
     core.
 
@@ -548,6 +564,11 @@ def render(design: Design, scene: Scene, *, noise: Mapping[str, float] | None = 
       docs/render.md); the exact route
       (rect grid, square aperture, ideal layout, fronto-parallel plane, image texture) has
       no quadrature error at all (docs/render.md)
+    - ``noise_tol``: instead of ``tol``, an error target relative to the noise this render
+      adds: each pixel's target is ``noise_tol`` (in (0, 1], e.g. 0.1) times the standard
+      deviation of ``noise`` at the pixel's own value v, sqrt(max(v, 1/N)/N + (r/N)^2) (a
+      value under one photon counted as one), held within the range ``tol`` accepts;
+      needs ``noise`` (docs/render.md, "A target relative to the noise")
     - ``n_threads``: threads of the core (None: all cores)
     - ``progress``: a tqdm bar on stderr (None: only when stderr is a terminal)
 
@@ -563,7 +584,7 @@ def render(design: Design, scene: Scene, *, noise: Mapping[str, float] | None = 
     noise_ = _noise(noise)
     seed_ = _seed(seed)
     threads = _validate.n_threads(n_threads)
-    tol_ = _native.RENDER_TOL if tol is None else _validate.real(tol, "tol")
+    target = _target(tol, noise_tol, noise_)
     show = _progress_flag(progress)
     fresh: Any = np.random.SeedSequence().entropy  # an int for a fresh SeedSequence
     entropy = int(fresh) if seed_ is None else seed_
@@ -572,7 +593,7 @@ def render(design: Design, scene: Scene, *, noise: Mapping[str, float] | None = 
     scene_core = native_scene(scene, subject, texture_rng)
     bar, callback = _progress(show)
     try:
-        images = _native.render(subject.core, scene_core, tol=tol_, n_threads=threads,
+        images = _native.render(subject.core, scene_core, tol=target, n_threads=threads,
                                 progress=callback)
     finally:
         if bar is not None:

@@ -7,7 +7,7 @@ use std::sync::Arc;
 use numpy::{PyArray2, PyArrayMethods, PyReadonlyArray2};
 use pyo3::prelude::*;
 
-use splitlf_core::imaging::render::{self as core_render, RenderOptions};
+use splitlf_core::imaging::render::{self as core_render, NoiseTarget, RenderOptions};
 use splitlf_core::imaging::scene::{Scene, Surface};
 use splitlf_core::imaging::texture::Texture;
 
@@ -77,14 +77,24 @@ impl RenderScene {
 /// pixel under the scene's largest albedo. `own_lens`: each pixel takes its own lens's
 /// light alone (on a sensor layout, not its neighbours'; the depth sweep's test of clean
 /// pixels).
+/// A render's error target: `tol`, or (photons, read noise, fraction) of the noise.
+#[derive(FromPyObject)]
+pub(crate) enum Tol {
+    Absolute(f64),
+    Noise((f64, f64, f64)),
+}
+
+/// `tol` may instead be (photons, read_noise, fraction): each pixel's error target is the
+/// fraction of the noise's standard deviation at its value (docs/render.md, "A target
+/// relative to the noise").
 /// `progress(done, total)` is called on the main thread while the render runs.
 #[pyfunction]
-#[pyo3(signature = (design, scene, tol=core_render::DEFAULT_TOL, n_threads=None, progress=None, own_lens=false))]
+#[pyo3(signature = (design, scene, tol=None, n_threads=None, progress=None, own_lens=false))]
 pub(crate) fn render<'py>(
     py: Python<'py>,
     design: &DesignCore,
     scene: &RenderScene,
-    tol: f64,
+    tol: Option<Tol>,
     n_threads: Option<&Bound<'py, PyAny>>,
     progress: Option<Py<PyAny>>,
     own_lens: bool,
@@ -98,7 +108,23 @@ pub(crate) fn render<'py>(
         .map(|ch| core_render::raw_shape(ch).0)
         .sum();
     let (report, counter) = counted(progress, total);
-    let opts = RenderOptions { tol, own_lens };
+    let (tol, noise) = match tol {
+        None => (core_render::DEFAULT_TOL, None),
+        Some(Tol::Absolute(t)) => (t, None),
+        Some(Tol::Noise((photons, read_noise, fraction))) => (
+            core_render::DEFAULT_TOL,
+            Some(NoiseTarget {
+                photons,
+                read_noise,
+                fraction,
+            }),
+        ),
+    };
+    let opts = RenderOptions {
+        tol,
+        own_lens,
+        noise,
+    };
     core_render::check_render(&d, &sc, opts).map_err(to_py)?;
     let bytes = core_render::render_bytes(&d);
     splitlf_core::infra::memory::check("the rendered raw images", bytes).map_err(to_py)?;

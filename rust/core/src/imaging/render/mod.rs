@@ -78,6 +78,9 @@ pub struct RenderOptions {
     /// sweep's test of which pixels sample one footprint (docs/depth.md). On the ideal
     /// layout a pixel sees its own lens only either way.
     pub own_lens: bool,
+    /// An error target per pixel relative to the noise the render adds (replacing `tol`
+    /// on the general route): [`NoiseTarget`].
+    pub noise: Option<NoiseTarget>,
 }
 
 impl Default for RenderOptions {
@@ -85,7 +88,59 @@ impl Default for RenderOptions {
         RenderOptions {
             tol: DEFAULT_TOL,
             own_lens: false,
+            noise: None,
         }
+    }
+}
+
+/// Most photons of a fully lit pixel a noise target accepts (as `simulate`'s noise).
+pub const MAX_PHOTONS: f64 = 1e15;
+
+/// A pixel's error target as a fraction of the standard deviation of the noise the render
+/// adds at the pixel's own value v (raw units: counts Poisson(N v) plus Gaussian read noise
+/// of r electrons, divided by N): `fraction` × √(max(v, 1/N)/N + (r/N)²), a value under
+/// one photon counted as one (docs/render.md, "A target relative to the noise").
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NoiseTarget {
+    /// N: photons of a pixel of value 1.
+    pub photons: f64,
+    /// r: read noise, electrons rms.
+    pub read_noise: f64,
+    /// The fraction of the noise's standard deviation, in (0, 1].
+    pub fraction: f64,
+}
+
+impl NoiseTarget {
+    /// The error target (raw units) at pixel value `v`.
+    pub fn at(&self, v: f64) -> f64 {
+        let n = self.photons;
+        let rn = self.read_noise / n;
+        self.fraction * (v.max(1.0 / n) / n + rn * rn).sqrt()
+    }
+
+    fn check(&self) -> Result<()> {
+        if !(self.photons.is_finite() && self.photons > 0.0 && self.photons <= MAX_PHOTONS) {
+            return Err(Error::param(
+                "photons",
+                self.photons,
+                format!("a finite value in (0, {MAX_PHOTONS:e}] for a noise target"),
+            ));
+        }
+        if !(self.read_noise.is_finite() && self.read_noise >= 0.0) {
+            return Err(Error::param(
+                "read_noise",
+                self.read_noise,
+                "a finite value >= 0",
+            ));
+        }
+        if !(self.fraction.is_finite() && self.fraction > 0.0 && self.fraction <= 1.0) {
+            return Err(Error::param(
+                "noise_tol",
+                self.fraction,
+                "a fraction of the noise's standard deviation in (0, 1]",
+            ));
+        }
+        Ok(())
     }
 }
 
@@ -279,6 +334,9 @@ pub fn check_render(design: &Design, scene: &Scene, opts: RenderOptions) -> Resu
             format!("a value in [{MIN_TOL:e}, 0.1]"),
         ));
     }
+    if let Some(nt) = &opts.noise {
+        nt.check()?;
+    }
     check_surface(design, &scene.surface)
 }
 
@@ -309,6 +367,16 @@ pub fn render_into(
             ));
         }
         let chan = Chan::new(design, ch, opts.tol);
+        // Under a noise target the disc's polygon is drawn for the brightest pixel's
+        // relative target: its area error is a fixed fraction of a pixel's light, within
+        // a quarter of the target at every value since the target over v grows as v falls.
+        let chan = match opts.noise {
+            Some(nt) => {
+                let top = general::top_value(&chan, scene);
+                Chan::new(design, ch, (nt.at(top) / top).clamp(MIN_TOL, 0.1))
+            }
+            None => chan,
+        };
         if exact_route(design, ch, scene) {
             exact::render_channel(design, &chan, scene, raw, n_threads, done)?;
         } else {
