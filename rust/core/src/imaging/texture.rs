@@ -193,7 +193,7 @@ impl ImageTexture {
     }
 
     /// G_b(X) = ∫_{x0}^{X} T dX' on bottom-up row b (None: outside the rows, mean).
-    #[inline]
+    #[cfg(test)]
     fn g(&self, b: Option<usize>, x: f64) -> f64 {
         let g = &self.grid;
         let Some(b) = b else {
@@ -211,6 +211,7 @@ impl ImageTexture {
     }
 
     /// Column-edge knots of G strictly between xa and xb (either order), in order from xa.
+    #[cfg(test)]
     fn knots(&self, xa: f64, xb: f64, out: &mut Vec<f64>) {
         let g = &self.grid;
         out.clear();
@@ -234,8 +235,85 @@ impl ImageTexture {
         }
     }
 
-    /// ∫ G dY along the segment a → b.
-    fn edge(&self, a: Pt, b: Pt, knots: &mut Vec<f64>) -> f64 {
+    /// ∫ G dY along the segment a → b, walking the cells it crosses (a digital
+    /// differential analyser over the grid's lines, the region beyond the grid as one
+    /// more column or row on each side): within a cell G is linear in X, and X is linear
+    /// in Y along the segment, so each piece is its length in Y times G at its midpoint.
+    /// One G evaluation per cell crossed, no division in the loop.
+    fn edge(&self, a: Pt, b: Pt) -> f64 {
+        let g = &self.grid;
+        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+        if dy == 0.0 {
+            return 0.0;
+        }
+        let (cols, rows) = (g.cols as i64, g.rows as i64);
+        // Cell of a point (−1 and cols / rows: beyond the grid), and the parameter t of
+        // the next grid line crossed along the step's direction.
+        let cell = |u: f64, n: i64| -> i64 {
+            if u >= 0.0 {
+                (u.min(n as f64) as i64).min(n)
+            } else {
+                -1
+            }
+        };
+        let mut c = cell((a[0] - g.x0) / g.hx, cols);
+        let mut r = cell((a[1] - g.y0) / g.hy, rows);
+        let (sx, sy) = (if dx > 0.0 { 1 } else { -1 }, if dy > 0.0 { 1 } else { -1 });
+        // The line index a step crosses next: c + 1 going up, c going down (lines 0..=n).
+        let next_t = |k: i64, step: i64, n: i64, o: f64, h: f64, a: f64, d: f64| -> f64 {
+            let line = if step > 0 { k + 1 } else { k };
+            if d == 0.0 || line < 0 || line > n {
+                f64::INFINITY
+            } else {
+                (o + line as f64 * h - a) / d
+            }
+        };
+        let mut tx = next_t(c, sx, cols, g.x0, g.hx, a[0], dx);
+        let mut ty = next_t(r, sy, rows, g.y0, g.hy, a[1], dy);
+        let mut t0 = 0.0f64;
+        let mut total = 0.0;
+        loop {
+            let t1 = tx.min(ty).clamp(t0, 1.0);
+            if t1 > t0 {
+                let x = a[0] + 0.5 * (t0 + t1) * dx;
+                total += (t1 - t0) * self.g_cell(r, c, x);
+            }
+            if t1 >= 1.0 {
+                break;
+            }
+            t0 = t1;
+            if tx <= ty {
+                c += sx;
+                tx = next_t(c, sx, cols, g.x0, g.hx, a[0], dx);
+            } else {
+                r += sy;
+                ty = next_t(r, sy, rows, g.y0, g.hy, a[1], dy);
+            }
+        }
+        total * dy
+    }
+
+    /// G on bottom-up row `r` at X = x in column `c` (−1 / rows, −1 / cols: beyond the
+    /// grid, where T is the mean).
+    #[inline]
+    fn g_cell(&self, r: i64, c: i64, x: f64) -> f64 {
+        let g = &self.grid;
+        if r < 0 || r >= g.rows as i64 || c < 0 {
+            return self.mean * (x - g.x0);
+        }
+        let (r, cols) = (r as usize, g.cols);
+        let p = &self.prefix[r * (cols + 1)..(r + 1) * (cols + 1)];
+        if c as usize >= cols {
+            return p[cols] + self.mean * (x - g.x1);
+        }
+        let i = c as usize;
+        p[i] + self.values[r * cols + i] * (x - (g.x0 + i as f64 * g.hx))
+    }
+
+    /// ∫ G dY along the segment a → b by 929d86a's walk (rows by division, column knots
+    /// collected, G evaluated at each): the reference [`Self::edge`] is tested against.
+    #[cfg(test)]
+    fn edge_reference(&self, a: Pt, b: Pt, knots: &mut Vec<f64>) -> f64 {
         let g = &self.grid;
         let dy = b[1] - a[1];
         if dy == 0.0 {
@@ -547,7 +625,7 @@ impl Texture {
             Texture::Image(im) => {
                 let mut t = 0.0;
                 for i in 0..n {
-                    t += im.edge(poly[i], poly[(i + 1) % n], &mut s.knots);
+                    t += im.edge(poly[i], poly[(i + 1) % n]);
                 }
                 t
             }
@@ -949,6 +1027,55 @@ mod tests {
             let left: Vec<Pt> = p.iter().map(|q| [-q[0], q[1]]).rev().collect();
             let v = t.average(&left, &mut s);
             assert!((v - 0.1).abs() < 1e-9, "{f} left: {v}");
+        }
+    }
+
+    /// The cell walk of [`ImageTexture::edge`] against 929d86a's walk
+    /// ([`ImageTexture::edge_reference`]) on segments of every kind: inside, crossing,
+    /// beyond the grid on each side, vertical, horizontal, starting and ending on grid
+    /// lines and corners, long ones crossing hundreds of cells.
+    #[test]
+    fn cell_walk_matches_the_reference_walk() {
+        let (rows, cols) = (37usize, 53usize);
+        let vals: Vec<f64> = (0..rows * cols)
+            .map(|i| ((i * 7919) % 101) as f64 / 101.0)
+            .collect();
+        let t = ImageTexture::new(&vals, rows, cols, [-1.3, 2.7, -0.4, 1.8]).unwrap();
+        let (hx, hy) = (4.0 / 53.0, 2.2 / 37.0);
+        let mut rng = crate::infra::random::splitmix64_stream(11);
+        let mut u = |lo: f64, hi: f64| {
+            let r = (rng.next().unwrap() >> 11) as f64 / (1u64 << 53) as f64;
+            lo + (hi - lo) * r
+        };
+        let mut knots = Vec::new();
+        let mut pts: Vec<(Pt, Pt)> = vec![
+            ([-1.3, -0.4], [2.7, 1.8]),                        // corner to corner
+            ([-1.3 + 5.0 * hx, -3.0], [-1.3 + 5.0 * hx, 3.0]), // on a column line
+            ([-2.0, -0.4 + 3.0 * hy], [3.0, -0.4 + 3.0 * hy]), // on a row line
+            ([0.1, -5.0], [0.1, 5.0]),                         // vertical through everything
+            ([-9.0, -9.0], [-8.0, 9.0]),                       // beyond, left
+            ([5.0, 0.3], [9.0, 0.9]),                          // beyond, right
+            ([0.3, 2.5], [0.9, 3.5]),                          // beyond, above
+        ];
+        for _ in 0..2000 {
+            let a = [u(-2.0, 3.5), u(-1.0, 2.5)];
+            let b = [u(-2.0, 3.5), u(-1.0, 2.5)];
+            pts.push((a, b));
+            // From a grid node, along a line, and short.
+            let node = [
+                -1.3 + (u(0.0, 53.0) as i64) as f64 * hx,
+                -0.4 + (u(0.0, 37.0) as i64) as f64 * hy,
+            ];
+            pts.push((node, b));
+            pts.push((a, [a[0] + u(-1e-3, 1e-3), a[1] + u(-1e-3, 1e-3)]));
+        }
+        for (a, b) in pts {
+            let (got, want) = (t.edge(a, b), t.edge_reference(a, b, &mut knots));
+            let scale = 1.0 + (b[1] - a[1]).abs() * (a[0].abs() + b[0].abs() + 4.0);
+            assert!(
+                (got - want).abs() <= 1e-13 * scale,
+                "{a:?} {b:?}: {got} vs {want}"
+            );
         }
     }
 
