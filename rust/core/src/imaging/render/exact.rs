@@ -230,7 +230,7 @@ pub(super) fn render_channel(
             ))
         }
     };
-    let (rows, cols) = raw_shape(ch);
+    let cols = raw_shape(ch).1;
     let (tx0, tx1, ty0, ty1) = tex.extent();
     let (tr, tc) = tex.shape();
     let hx = (tx1 - tx0) / tc as f64;
@@ -252,9 +252,11 @@ pub(super) fn render_channel(
                 .collect()
         })
         .collect();
+    // Only the rows of the band this call fills (every row for a whole render).
+    let band = chan.rows.clone();
     let py: Vec<Vec<Profile>> = (0..nt)
         .map(|t| {
-            (0..rows as u32)
+            (band.start as u32..band.end as u32)
                 .into_par_iter()
                 .map(|b| {
                     let c = ch.lens_center(0, b / q)[1];
@@ -270,7 +272,7 @@ pub(super) fn render_channel(
     let step = crate::infra::parallel::chunk_items(n_threads, (cols as u128) * 64);
     fill_rows(
         raw,
-        (rows, cols),
+        (band.clone(), cols),
         (n_threads, step),
         || vec![vec![0.0; tc]; nt],
         |tmps, b, row| {
@@ -280,7 +282,7 @@ pub(super) fn render_channel(
             // the y-area inside the texture.
             let mut ay_in = vec![0.0; nt];
             for t in 0..nt {
-                let yp = &py[t][b];
+                let yp = &py[t][b - band.start];
                 let tmp = &mut tmps[t];
                 tmp.iter_mut().for_each(|v| *v = 0.0);
                 for (r, &ay) in yp.areas.iter().enumerate() {
@@ -296,7 +298,7 @@ pub(super) fn render_channel(
             }
             for (a, out) in row.iter_mut().enumerate() {
                 let t = ch.lens_type(a as u32 / q, k);
-                let (xp, yp) = (&px[t][a], &py[t][b]);
+                let (xp, yp) = (&px[t][a], &py[t][b - band.start]);
                 let tmp = &tmps[t];
                 let mut inside = 0.0;
                 let mut ax_in = 0.0;
