@@ -6,11 +6,12 @@ that name what they expect, the option groups (design source, threads, output, d
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import os
 import sys
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -368,6 +369,21 @@ def search(run: Callable[..., Any], args: argparse.Namespace, *call: Any,
             return run(*call, executor=client.get_executor(), **kwargs)
     except InvalidParameter as e:
         raise in_cli_words(e) from None
+
+
+@contextlib.contextmanager
+def scheduler_executor(args: argparse.Namespace) -> Iterator[Any]:
+    """None without --scheduler; else, while the block runs, a client of that Dask
+    scheduler's ``concurrent.futures`` executor (``client.get_executor()``)."""
+    if args.scheduler is None:
+        yield None
+        return
+    try:
+        from distributed import Client
+    except ImportError:
+        raise CliError('--scheduler needs Dask: pip install "splitlf[dask]"') from None
+    with Client(args.scheduler) as client:
+        yield client.get_executor()
 
 
 def design_source(p: argparse.ArgumentParser, what: str) -> None:

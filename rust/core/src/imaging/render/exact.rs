@@ -239,34 +239,39 @@ pub(super) fn render_channel(
     // X profiles per type and column a; Y profiles (top-down texture rows: edge i at
     // Y1 − i hy, so flip: bottom-up row index) per type and row b.
     let nt = chan.types.len();
-    let px: Vec<Vec<Profile>> = (0..nt)
-        .map(|t| {
-            (0..cols as u32)
-                .into_par_iter()
-                .map(|a| {
-                    let c = ch.lens_center(a / q, 0)[0];
-                    profile(chan, chan.types[t].0, c, theta(a), z, tc, |i| {
-                        tx0 + i as f64 * hx
-                    })
-                })
-                .collect()
-        })
-        .collect();
     // Only the rows of the band this call fills (every row for a whole render).
     let band = chan.rows.clone();
-    let py: Vec<Vec<Profile>> = (0..nt)
-        .map(|t| {
-            (band.start as u32..band.end as u32)
-                .into_par_iter()
-                .map(|b| {
-                    let c = ch.lens_center(0, b / q)[1];
-                    profile(chan, chan.types[t].0, c, theta(b), z, tr, |i| {
-                        ty0 + i as f64 * hy
+    // On the pool of `n_threads`, never rayon's global pool: its threads do not survive a
+    // fork(), and a forked worker (a process pool's) would wait on them forever.
+    let (px, py) = crate::infra::parallel::with_threads(n_threads, || {
+        let px: Vec<Vec<Profile>> = (0..nt)
+            .map(|t| {
+                (0..cols as u32)
+                    .into_par_iter()
+                    .map(|a| {
+                        let c = ch.lens_center(a / q, 0)[0];
+                        profile(chan, chan.types[t].0, c, theta(a), z, tc, |i| {
+                            tx0 + i as f64 * hx
+                        })
                     })
-                })
-                .collect()
-        })
-        .collect();
+                    .collect()
+            })
+            .collect();
+        let py: Vec<Vec<Profile>> = (0..nt)
+            .map(|t| {
+                (band.start as u32..band.end as u32)
+                    .into_par_iter()
+                    .map(|b| {
+                        let c = ch.lens_center(0, b / q)[1];
+                        profile(chan, chan.types[t].0, c, theta(b), z, tr, |i| {
+                            ty0 + i as f64 * hy
+                        })
+                    })
+                    .collect()
+            })
+            .collect();
+        (px, py)
+    })?;
     let mean = tex.mean_value();
     let norm = chan.norm;
     let step = crate::infra::parallel::chunk_items(n_threads, (cols as u128) * 64);
