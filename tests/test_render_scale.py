@@ -70,16 +70,27 @@ def test_executor_render_is_the_in_process_render(name, kind):
     assert here.images[0].std() > 0  # a textured, noisy raw, not zeros
 
 
-def test_dask_local_cluster_render_is_the_in_process_render():
+def test_dask_local_cluster_render_is_the_in_process_render(monkeypatch):
+    """On a 2-worker LocalCluster (in-process workers), the same raw bit for bit; the
+    scene is scattered once to every worker, not sent with each task."""
     distributed = pytest.importorskip("distributed")
     design, scene = seed_cut(), Scene("random", 700.0)
     here = render(design, scene, noise={"photons": 300.0}, seed=3)
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
                                   dashboard_address=None) as cluster, \
             distributed.Client(cluster) as client:
+        scattered = []
+        real = client.scatter
+
+        def scatter(data, **kw):
+            scattered.append((type(data[0][2]).__name__, kw))
+            return real(data, **kw)
+
+        monkeypatch.setattr(client, "scatter", scatter)
         raw = render(design, scene, noise={"photons": 300.0}, seed=3,
                      executor=client.get_executor(), rows_per_task=9)
     assert same(raw, here)
+    assert scattered == [("ndarray", {"broadcast": True})]
 
 
 @pytest.mark.parametrize(("kw", "error", "name"), [

@@ -7,8 +7,8 @@ A raw row is computed on its own by either route of the core (``_native.render_b
 so the assembled raws are bit for bit those of the in-process render. The caller draws
 the scene (a random texture, from the render's seed) once and sends it to every task as
 plain arrays with the design (pickled by its own ``__reduce__``: plain fields, as the
-sweep's tasks carry designs); the noise is added by the caller once the raws are
-assembled, as in-process.
+sweep's tasks carry designs; on Dask the scene is scattered to the workers once); the
+noise is added by the caller once the raws are assembled, as in-process.
 """
 
 from __future__ import annotations
@@ -83,6 +83,18 @@ def band_task(design: Design, scene: ScenePart, band: Band, tol: float,
     return _native.render_band(design.core, native, band, tol=tol, n_threads=n_threads)
 
 
+def _shared(executor: cf.Executor, scene: ScenePart) -> Any:
+    """The scene as the tasks carry it. On Dask (``client.get_executor()``, whose client
+    is its ``_client``) it is scattered once to every worker and the tasks carry its
+    Dask future, which each task receives as the scene itself: otherwise every task's
+    graph would hold its own copy (64 tasks of a full raytrix-r12 scene's 114 MiB texture:
+    7 GiB through the scheduler). Any other executor pickles it with every task."""
+    client: Any = getattr(executor, "_client", None)
+    if type(executor).__module__.startswith("distributed") and hasattr(client, "scatter"):
+        return client.scatter([scene], broadcast=True)[0]
+    return scene
+
+
 def _gather(futures: dict[cf.Future, Band], images: list[np.ndarray],
             bar: Progress | None) -> None:
     """Each band's rows into its channel's raw as its task finishes; on any exception
@@ -118,6 +130,7 @@ def render_bands(executor: cf.Executor, design: Design, shapes: list[tuple[int, 
     images = [np.empty(s) for s in shapes]
     tasks = bands(shapes, rows_per_task)
     plain = design.design  # its general form, pickled as plain fields
+    scene = _shared(executor, scene)
     bar, _ = progress_bar(show, "splitlf render", "row", sum(r for r, _ in shapes))
     try:
         futures = {}
