@@ -452,9 +452,10 @@ def depths_option(p: argparse.ArgumentParser, option: str, default: str, what: s
                    help=f"log-spaced depths of {what} [mm] (default {default})")
 
 
-def scheduler_option(p: argparse.ArgumentParser) -> None:
+def scheduler_option(p: argparse.ArgumentParser, what: str = "") -> None:
+    """--scheduler ADDRESS; ``what`` says what the command does on it."""
     p.add_argument("--scheduler", metavar="ADDRESS",
-                   help="Dask scheduler address, e.g. tcp://host:8786")
+                   help=f"Dask scheduler address, e.g. tcp://host:8786{what}")
 
 
 def threshold_option(p: argparse.ArgumentParser) -> None:

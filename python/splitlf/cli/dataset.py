@@ -87,7 +87,7 @@ def add_parser(subparsers: Any) -> None:
     p.add_argument("--seed", type=seed_type, default=0,
                    help="the seed S of scene 0 (scene k: S + k), an integer >= 0 (default 0)")
     threads_option(p, "threads of the core (with --scheduler: of each task)")
-    scheduler_option(p)
+    scheduler_option(p, ": render each scene there, in bands of rows (the same raws)")
     output_group(p, "the folder to write (created if missing)", "FOLDER", required=True,
                  json_help="print the index as JSON instead of its path")
     p.set_defaults(func=run)

@@ -33,6 +33,7 @@ from ._common import (
     parse_render_depth,
     real_type,
     scheduler_executor,
+    scheduler_option,
     seed_type,
     threads_option,
 )
@@ -63,10 +64,9 @@ def add_parser(subparsers: Any) -> None:
                    help="seed of the random texture and the noise, an integer >= 0 "
                    "(default 0)")
     threads_option(p, "threads of the core (with --scheduler: of each task)")
-    p.add_argument("--scheduler", metavar="ADDRESS",
-                   help="render on this Dask scheduler (e.g. tcp://host:8786): each "
-                   "channel's rows cut into bands, one task each, the same raw bit for bit "
-                   "(docs/render.md, 'Scale-out and datasets')")
+    scheduler_option(p, ": render there, each channel's rows cut into bands, one task "
+                     "each, the same raw bit for bit (docs/render.md, 'Scale-out and "
+                     "datasets')")
     g = output_group(p, "the raw file to write (.npz)", "RAW.npz", required=True,
                      json_help="print a JSON summary of the raws instead of the path")
     g.add_argument("--png", default=None, metavar="FILE.png",
