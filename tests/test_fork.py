@@ -80,3 +80,28 @@ def test_thread_pools_are_bounded():
     assert r.returncode == 0, r.stderr
     words = r.stdout.split()
     assert words[0] == "threads" and int(words[1]) <= int(words[3]) * 100, r.stdout
+
+
+def test_exact_route_render_in_a_forked_child():
+    # The parent renders on the exact route; a forked child (a process pool's worker)
+    # renders the same scene: before the exact route's profile tables were built on a
+    # leased pool, they used rayon's global pool, whose threads are the parent's, and the
+    # child blocked forever.
+    r = run_python("""
+        import os
+        import numpy as np
+        import splitlf
+        d = splitlf.Design.preset("seed")
+        d = d.replace(channels=tuple(c.replace(Kx=6, Ky=4) for c in d.channels))
+        scene = splitlf.Scene("random", 900.0)
+        a = splitlf.render(d, scene, seed=1)
+        pid = os.fork()
+        if pid == 0:
+            b = splitlf.render(d, scene, seed=1)
+            ok = all(np.array_equal(x, y) for x, y in zip(a.images, b.images))
+            os._exit(0 if ok else 3)
+        _, status = os.waitpid(pid, 0)
+        print("child", os.waitstatus_to_exitcode(status))
+    """, timeout=60)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.split() == ["child", "0"], r.stdout

@@ -55,13 +55,24 @@ LONG_CALLS = {
                       "splitlf.RandomAlbedo(1.0), 1000.0)); splitlf.reconstruct(R, 1000.0, "
                       "region=(-1, 1, -1, 1), step=0.01, regularization=1e-9, prior='tv', "
                       "allow_slow=True)",
+    "render_band": "E = R12.replace(channels=tuple(c.replace(Kx=8, Ky=8, Mx=None, My=None) "
+                   "for c in R12.channels)); splitlf._native.render_band(E.core, "
+                   "native_scene(splitlf.Scene('random', 1000.0), E, np.random.default_rng("
+                   "0)), (0, 0, 150), tol=1e-4)",
+    "render_executor": "E = R12.replace(channels=tuple(c.replace(Kx=8, Ky=8, Mx=None, "
+                       "My=None) for c in R12.channels)); splitlf.render(E, splitlf.Scene("
+                       "'random', 1000.0), tol=1e-4, executor=cf.ThreadPoolExecutor(2), "
+                       "rows_per_task=1)",
 }
 
 SETUP = """
     import time
     import numpy as np
+    import concurrent.futures as cf
     import splitlf, splitlf.sweep, splitlf.inverse.simulate
+    from splitlf.imaging.render import native_scene
     P = splitlf.Camera.paper()
+    R12 = splitlf.Design.preset("raytrix-r12")
     IL = splitlf.Design.preset("lytro-illum")
     S = splitlf.Design.preset("seed")
     Z7 = np.geomspace(150, 1e4, 10**7)

@@ -69,6 +69,7 @@ __all__ = [
     "reconstruction_factors",
     "reconstruction_system",
     "render",
+    "render_band",
     "render_extent",
     "samples_2d",
     "seen_region",
@@ -412,6 +413,14 @@ def render(
     progress: Callable[[int, int], object] | None = None,
     own_lens: bool = False,
 ) -> list[_F64]: ...
+def render_band(
+    design: DesignCore,
+    scene: RenderScene,
+    band: tuple[int, int, int],
+    tol: float | tuple[float, float, float] | None = None,
+    n_threads: int | None = None,
+    progress: Callable[[int, int], object] | None = None,
+) -> _F64: ...
 def render_extent(design: DesignCore, z: float) -> tuple[float, float, float, float]: ...
 def available_memory() -> int: ...
 OUTSIDE_SHARE: float

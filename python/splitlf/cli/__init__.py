@@ -19,6 +19,7 @@ from typing import NoReturn
 
 from . import (
     compare,
+    dataset,
     depth,
     explore,
     figures,
@@ -37,8 +38,8 @@ __all__ = ["COMMANDS", "USER_ERRORS", "CliError", "build_parser", "json_text", "
 
 #: The subcommands, in the order of ``splitlf --help``: each module's ``add_parser``
 #: registers its parser and its ``run``.
-COMMANDS = (report, figures, trace, sweep, simulate, render, reconstruct, depth, optimise,
-            compare, explore)
+COMMANDS = (report, figures, trace, sweep, simulate, render, dataset, reconstruct, depth,
+            optimise, compare, explore)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -50,7 +51,7 @@ class _Parser(argparse.ArgumentParser):
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of every subcommand (report, figures, trace, sweep, simulate,
-    render, reconstruct, depth, optimise, compare, explore)."""
+    render, dataset, reconstruct, depth, optimise, compare, explore)."""
     parser = _Parser(
         prog="splitlf",
         description="Design and analysis of split-sensor light field cameras.",

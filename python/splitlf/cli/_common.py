@@ -6,11 +6,12 @@ that name what they expect, the option groups (design source, threads, output, d
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import os
 import sys
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -370,6 +371,21 @@ def search(run: Callable[..., Any], args: argparse.Namespace, *call: Any,
         raise in_cli_words(e) from None
 
 
+@contextlib.contextmanager
+def scheduler_executor(args: argparse.Namespace) -> Iterator[Any]:
+    """None without --scheduler; else, while the block runs, a client of that Dask
+    scheduler's ``concurrent.futures`` executor (``client.get_executor()``)."""
+    if args.scheduler is None:
+        yield None
+        return
+    try:
+        from distributed import Client
+    except ImportError:
+        raise CliError('--scheduler needs Dask: pip install "splitlf[dask]"') from None
+    with Client(args.scheduler) as client:
+        yield client.get_executor()
+
+
 def design_source(p: argparse.ArgumentParser, what: str) -> None:
     """The design source: --config FILE (a [camera] or [design] TOML) or --preset NAME."""
     g = p.add_argument_group("design (default: the seed design)")
@@ -436,9 +452,10 @@ def depths_option(p: argparse.ArgumentParser, option: str, default: str, what: s
                    help=f"log-spaced depths of {what} [mm] (default {default})")
 
 
-def scheduler_option(p: argparse.ArgumentParser) -> None:
+def scheduler_option(p: argparse.ArgumentParser, what: str = "") -> None:
+    """--scheduler ADDRESS; ``what`` says what the command does on it."""
     p.add_argument("--scheduler", metavar="ADDRESS",
-                   help="Dask scheduler address, e.g. tcp://host:8786")
+                   help=f"Dask scheduler address, e.g. tcp://host:8786{what}")
 
 
 def threshold_option(p: argparse.ArgumentParser) -> None:

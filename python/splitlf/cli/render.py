@@ -3,7 +3,8 @@ docs/render.md).
 
 Render what each channel's sensor records for a textured surface (docs/model.md §10) and
 write the raws to an .npz file that splitlf.Raw.load reads (and, with --png, a picture
-of them with a zoom on a few micro-images).
+of them with a zoom on a few micro-images). With --scheduler the rows of each channel
+are rendered as tasks on a Dask cluster (the same raw bit for bit).
 """
 
 from __future__ import annotations
@@ -31,6 +32,8 @@ from ._common import (
     output_group,
     parse_render_depth,
     real_type,
+    scheduler_executor,
+    scheduler_option,
     seed_type,
     threads_option,
 )
@@ -67,7 +70,10 @@ def add_parser(subparsers: Any) -> None:
     p.add_argument("--seed", type=seed_type, default=0,
                    help="seed of the random texture and the noise, an integer >= 0 "
                    "(default 0)")
-    threads_option(p, "threads of the core")
+    threads_option(p, "threads of the core (with --scheduler: of each task)")
+    scheduler_option(p, ": render there, each channel's rows cut into bands, one task "
+                     "each, the same raw bit for bit (docs/render.md, 'Scale-out and "
+                     "datasets')")
     g = output_group(p, "the raw file to write (.npz)", "RAW.npz", required=True,
                      json_help="print a JSON summary of the raws instead of the path")
     g.add_argument("--png", default=None, metavar="FILE.png",
@@ -188,8 +194,9 @@ def run(args: argparse.Namespace) -> int:
     scene = Scene(texture, depth)
     if args.noise_tol is not None and args.noise is None:
         raise CliError("--noise-tol: a fraction of the noise, needs --noise N[,READ]")
-    raw = render(design, scene, noise=args.noise, seed=args.seed, tol=args.tol,
-                 noise_tol=args.noise_tol, n_threads=args.threads)
+    with scheduler_executor(args) as executor:
+        raw = render(design, scene, noise=args.noise, seed=args.seed, tol=args.tol,
+                     noise_tol=args.noise_tol, n_threads=args.threads, executor=executor)
     _write_render(raw, out, png, args.force)
     sys.stdout.write(json_text(_render_summary(raw, out, png, args)) if args.json
                      else f"{out}\n")

@@ -30,6 +30,7 @@ Raw files (:meth:`Raw.save`, :meth:`Raw.load`): an uncompressed NumPy ``.npz`` a
 
 from __future__ import annotations
 
+import concurrent.futures as cf
 import dataclasses
 import numbers
 import os
@@ -53,6 +54,7 @@ from .._validate import extent as _extent
 from .._validate import finite as _finite
 from ..errors import InvalidParameter, TooLargeError
 from ..model.design import Design
+from .bands import ScenePart, check_options, render_bands
 from .texture import TEXTURES, Constant, RandomAlbedo
 from .texture import albedo as _albedo
 
@@ -514,14 +516,20 @@ def _texture_seam(scene: Scene, design: Design, rng: np.random.Generator
     return kind, params, image
 
 
-def native_scene(scene: Scene, design: Design, rng: np.random.Generator
-                 ) -> _native.RenderScene:
-    """The core's scene for a render of ``design`` (a random albedo drawn from ``rng``)."""
+def scene_parts(scene: Scene, design: Design, rng: np.random.Generator) -> ScenePart:
+    """The core's scene for a render of ``design`` as plain values (a random albedo drawn
+    from ``rng``): the arguments of ``_native.RenderScene``, which a render's tasks carry."""
     kind, params, image = _texture_seam(scene, design, rng)
     surface, sparams, depth_map = scene.depth.seam()
     background = scene.background
     assert background is not None  # Scene.__post_init__ sets it
-    return _native.RenderScene(kind, params, image, surface, sparams, depth_map, background)
+    return kind, params, image, surface, sparams, depth_map, background
+
+
+def native_scene(scene: Scene, design: Design, rng: np.random.Generator
+                 ) -> _native.RenderScene:
+    """The core's scene for a render of ``design`` (a random albedo drawn from ``rng``)."""
+    return _native.RenderScene(*scene_parts(scene, design, rng))
 
 
 def _target(tol: Any, noise_tol: Any, noise: dict[str, float] | None
@@ -542,7 +550,8 @@ def _target(tol: Any, noise_tol: Any, noise: dict[str, float] | None
 
 def render(design: Design, scene: Scene, *, noise: Mapping[str, float] | None = None,
            seed: int | None = 0, tol: float | None = None, noise_tol: float | None = None,
-           n_threads: int | None = None, progress: bool | None = None) -> Raw:
+           n_threads: int | None = None, progress: bool | None = None,
+           executor: cf.Executor | None = None, rows_per_task: int | None = None) -> Raw:
     """Each channel's raw sensor image of ``scene`` (docs/model.md §10), computed in the
     core.
 
@@ -571,12 +580,20 @@ def render(design: Design, scene: Scene, *, noise: Mapping[str, float] | None = 
       needs ``noise`` (docs/render.md, "A target relative to the noise")
     - ``n_threads``: threads of the core (None: all cores)
     - ``progress``: a tqdm bar on stderr (None: only when stderr is a terminal)
+    - ``executor``: None (in-process) or a ``concurrent.futures.Executor`` (a thread or
+      process pool, Dask's ``client.get_executor()``): each channel's raw rows are cut
+      into bands of ``rows_per_task`` rows (None: the rows over 64 tasks), one task each
+      on ``n_threads`` core threads (None: 1), and gathered; the raws are bit for bit the
+      in-process render's (same seed: the texture is drawn once here, the noise added
+      here after assembly; docs/render.md, "Scale-out and datasets"). ``rows_per_task``
+      an integer >= 1, only with an executor
 
     Returns a :class:`Raw`. Raises ``TypeError`` and
     :class:`~splitlf.errors.InvalidParameter` (checked before any work; the core adds a
     surface at or behind the main lens's focal plane where a pixel sees it),
     :class:`~splitlf.errors.TooLargeError` (up front, saying how much memory it needs)
-    and ``KeyboardInterrupt`` (Ctrl-C stops the core within a second).
+    and ``KeyboardInterrupt`` (Ctrl-C stops the core within a second; with an executor,
+    the tasks not started are cancelled).
     """
     subject = _validate.design(design)
     if not isinstance(scene, Scene):
@@ -588,16 +605,21 @@ def render(design: Design, scene: Scene, *, noise: Mapping[str, float] | None = 
     show = _progress_flag(progress)
     fresh: Any = np.random.SeedSequence().entropy  # an int for a fresh SeedSequence
     entropy = int(fresh) if seed_ is None else seed_
+    executor, rows_per_task, threads = check_options(executor, rows_per_task, threads)
     texture_rng = np.random.default_rng([entropy, 0])
     noise_rng = np.random.default_rng([entropy, 1])
-    scene_core = native_scene(scene, subject, texture_rng)
-    bar, callback = _progress(show)
-    try:
-        images = _native.render(subject.core, scene_core, tol=target, n_threads=threads,
-                                progress=callback)
-    finally:
-        if bar is not None:
-            bar.close()
+    parts = scene_parts(scene, subject, texture_rng)
+    if executor is not None:
+        images = render_bands(executor, subject, _expected_shapes(subject), parts, target,
+                              threads, rows_per_task, show)
+    else:
+        bar, callback = _progress(show)
+        try:
+            images = _native.render(subject.core, _native.RenderScene(*parts), tol=target,
+                                    n_threads=threads, progress=callback)
+        finally:
+            if bar is not None:
+                bar.close()
     images = list(images)
     for i, a in enumerate(images):  # in place: one channel's noise draws at a time
         images[i] = _add_noise(np.asarray(a), noise_, noise_rng)

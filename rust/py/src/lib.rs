@@ -112,6 +112,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
         inverse::simulate::design_system_matrix,
         inverse::simulate::design_render,
         imaging::render::render,
+        imaging::render::render_band,
         imaging::render::render_extent,
         inverse::reconstruct::seen_region,
         inverse::reconstruct::pixel_span,

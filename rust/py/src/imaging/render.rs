@@ -11,7 +11,7 @@ use splitlf_core::imaging::render::{self as core_render, NoiseTarget, RenderOpti
 use splitlf_core::imaging::scene::{Scene, Surface};
 use splitlf_core::imaging::texture::Texture;
 
-use crate::infra::args::threads_arg;
+use crate::infra::args::{int_arg, threads_arg, with_given};
 use crate::infra::arrays::empty;
 use crate::infra::errors::{internal, to_py};
 use crate::infra::interrupt::{counted, run_reporting};
@@ -84,6 +84,22 @@ pub(crate) enum Tol {
     Noise((f64, f64, f64)),
 }
 
+/// The core's `tol` and noise target from the binding's `tol`.
+fn tol_options(tol: Option<Tol>) -> (f64, Option<NoiseTarget>) {
+    match tol {
+        None => (core_render::DEFAULT_TOL, None),
+        Some(Tol::Absolute(t)) => (t, None),
+        Some(Tol::Noise((photons, read_noise, fraction))) => (
+            core_render::DEFAULT_TOL,
+            Some(NoiseTarget {
+                photons,
+                read_noise,
+                fraction,
+            }),
+        ),
+    }
+}
+
 /// `tol` may instead be (photons, read_noise, fraction): each pixel's error target is the
 /// fraction of the noise's standard deviation at its value (docs/render.md, "A target
 /// relative to the noise").
@@ -108,18 +124,7 @@ pub(crate) fn render<'py>(
         .map(|ch| core_render::raw_shape(ch).0)
         .sum();
     let (report, counter) = counted(progress, total);
-    let (tol, noise) = match tol {
-        None => (core_render::DEFAULT_TOL, None),
-        Some(Tol::Absolute(t)) => (t, None),
-        Some(Tol::Noise((photons, read_noise, fraction))) => (
-            core_render::DEFAULT_TOL,
-            Some(NoiseTarget {
-                photons,
-                read_noise,
-                fraction,
-            }),
-        ),
-    };
+    let (tol, noise) = tol_options(tol);
     let opts = RenderOptions {
         tol,
         own_lens,
@@ -145,6 +150,79 @@ pub(crate) fn render<'py>(
         }
         run_reporting(py, "z0", report, move || {
             core_render::render_into(&d, &sc, opts, threads, &counter, slices)
+        })?;
+    }
+    Ok(out)
+}
+
+/// An index argument as the core's usize: a negative or huge value saturates out of
+/// every range (the core's error then shows the value as given).
+fn index_arg(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<(usize, String)> {
+    let (v, text) = int_arg(obj, name)?;
+    Ok((usize::try_from(v).unwrap_or(usize::MAX), text))
+}
+
+/// The raw rows [r0, r1) of channel `channel` (from 0) of `scene`, `band` = (channel, r0,
+/// r1): a 2-D float64 array of r1 − r0 rows, bit for bit those rows of [`render`]'s raw (a
+/// band of a render split over tasks). `tol`, `n_threads` and `progress` (in rows of the
+/// band) as [`render`]; a channel or rows outside the design are refused naming `channel`
+/// or `rows`.
+#[pyfunction]
+#[pyo3(signature = (design, scene, band, tol=None, n_threads=None, progress=None))]
+pub(crate) fn render_band<'py>(
+    py: Python<'py>,
+    design: &DesignCore,
+    scene: &RenderScene,
+    band: &Bound<'py, PyAny>,
+    tol: Option<Tol>,
+    n_threads: Option<&Bound<'py, PyAny>>,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let parts: Vec<Bound<'py, PyAny>> = match band.extract() {
+        Ok(v) if !band.is_instance_of::<pyo3::types::PyString>() => v,
+        _ => Vec::new(),
+    };
+    let [c, r0, r1] = &parts[..] else {
+        return Err(pyo3::exceptions::PyTypeError::new_err(format!(
+            "band must be (channel, r0, r1), three integers, got {}",
+            band.repr()?
+        )));
+    };
+    let threads = threads_arg(n_threads)?;
+    let (channel, c_text) = index_arg(c, "channel")?;
+    let ((a, a_text), (b, b_text)) = (index_arg(r0, "r0")?, index_arg(r1, "r1")?);
+    let d = design.inner.clone();
+    let sc = Arc::clone(&scene.inner);
+    let band = core_render::Band {
+        channel,
+        rows: a..b,
+    };
+    let (tol, noise) = tol_options(tol);
+    let opts = RenderOptions {
+        tol,
+        noise,
+        ..RenderOptions::default()
+    };
+    core_render::check_render(&d, &sc, opts).map_err(to_py)?;
+    let (_, cols) = core_render::check_band(&d, &band).map_err(|e| {
+        let given = match &e {
+            splitlf_core::Error::InvalidParameter {
+                name: "channel", ..
+            } => c_text.clone(),
+            _ => format!("[{a_text}, {b_text})"),
+        };
+        to_py(with_given(e, &given))
+    })?;
+    let n = b - a;
+    let bytes = (n as u128) * (cols as u128) * 8;
+    splitlf_core::infra::memory::check("a band of a rendered raw", bytes).map_err(to_py)?;
+    let out = empty::<f64, numpy::Ix2>(py, &[n, cols], "a band of a rendered raw")?;
+    let (report, counter) = counted(progress, n);
+    {
+        let mut guard = out.readwrite();
+        let slice = guard.as_slice_mut().map_err(internal)?;
+        run_reporting(py, "z0", report, move || {
+            core_render::render_band_into(&d, &sc, opts, &band, (threads, &counter), slice)
         })?;
     }
     Ok(out)

@@ -51,6 +51,9 @@ pub(crate) struct Chan<'a> {
     pub(super) m: f64,
     /// v/L.
     pub(crate) vl: f64,
+    /// The raw rows a render of the channel fills: all of them, or a band
+    /// ([`super::render_band`]).
+    pub(crate) rows: std::ops::Range<usize>,
 }
 
 impl<'a> Chan<'a> {
@@ -114,7 +117,14 @@ impl<'a> Chan<'a> {
             ngon,
             m: ch.magnification(),
             vl: ch.v / ch.l,
+            rows: 0..super::raw_shape(ch).0,
         }
+    }
+
+    /// The channel rendered on the raw rows `rows` alone (a band, checked by the caller).
+    pub(crate) fn with_rows(mut self, rows: std::ops::Range<usize>) -> Chan<'a> {
+        self.rows = rows;
+        self
     }
 
     /// Largest reach of a lens's light from its image centre on the sensor, per axis.

@@ -197,6 +197,37 @@ pub(crate) fn tilted_profile_of(
     })
 }
 
+/// Per lens type, the profiles of the raw columns (`axis` 0) or rows (1) `pixels` against
+/// the `n` texture cells of width `h` from `e0` along that axis, on the plane at depth z.
+/// Built on the pool of `n_threads`, never rayon's global pool: its threads do not survive
+/// a fork(), and a forked process-pool worker would wait on them forever.
+fn axis_profiles(
+    chan: &Chan,
+    (q, axis): (u32, usize),
+    pixels: std::ops::Range<u32>,
+    z: f64,
+    (n, e0, h): (usize, f64, f64),
+    n_threads: Option<usize>,
+) -> Result<Vec<Vec<Profile>>> {
+    let ch = chan.ch;
+    crate::infra::parallel::with_threads(n_threads, || {
+        (0..chan.types.len())
+            .map(|t| {
+                pixels
+                    .clone()
+                    .into_par_iter()
+                    .map(|i| {
+                        let lens = if axis == 0 { (i / q, 0) } else { (0, i / q) };
+                        let c = ch.lens_center(lens.0, lens.1)[axis];
+                        let theta = pixel_offset(ch.mu, q, i);
+                        profile(chan, chan.types[t].0, c, theta, z, n, |k| e0 + k as f64 * h)
+                    })
+                    .collect()
+            })
+            .collect()
+    })
+}
+
 /// The exact route over one channel's raw, parallel over rows.
 pub(super) fn render_channel(
     _design: &Design,
@@ -230,47 +261,31 @@ pub(super) fn render_channel(
             ))
         }
     };
-    let (rows, cols) = raw_shape(ch);
+    let cols = raw_shape(ch).1;
     let (tx0, tx1, ty0, ty1) = tex.extent();
     let (tr, tc) = tex.shape();
     let hx = (tx1 - tx0) / tc as f64;
     let hy = (ty1 - ty0) / tr as f64;
-    let theta = |i: u32| pixel_offset(ch.mu, q, i);
     // X profiles per type and column a; Y profiles (top-down texture rows: edge i at
-    // Y1 − i hy, so flip: bottom-up row index) per type and row b.
+    // Y1 − i hy, so flip: bottom-up row index) per type and row b of the band this call
+    // fills (every row for a whole render).
     let nt = chan.types.len();
-    let px: Vec<Vec<Profile>> = (0..nt)
-        .map(|t| {
-            (0..cols as u32)
-                .into_par_iter()
-                .map(|a| {
-                    let c = ch.lens_center(a / q, 0)[0];
-                    profile(chan, chan.types[t].0, c, theta(a), z, tc, |i| {
-                        tx0 + i as f64 * hx
-                    })
-                })
-                .collect()
-        })
-        .collect();
-    let py: Vec<Vec<Profile>> = (0..nt)
-        .map(|t| {
-            (0..rows as u32)
-                .into_par_iter()
-                .map(|b| {
-                    let c = ch.lens_center(0, b / q)[1];
-                    profile(chan, chan.types[t].0, c, theta(b), z, tr, |i| {
-                        ty0 + i as f64 * hy
-                    })
-                })
-                .collect()
-        })
-        .collect();
+    let band = chan.rows.clone();
+    let px = axis_profiles(chan, (q, 0), 0..cols as u32, z, (tc, tx0, hx), n_threads)?;
+    let py = axis_profiles(
+        chan,
+        (q, 1),
+        band.start as u32..band.end as u32,
+        z,
+        (tr, ty0, hy),
+        n_threads,
+    )?;
     let mean = tex.mean_value();
     let norm = chan.norm;
     let step = crate::infra::parallel::chunk_items(n_threads, (cols as u128) * 64);
     fill_rows(
         raw,
-        (rows, cols),
+        (band.clone(), cols),
         (n_threads, step),
         || vec![vec![0.0; tc]; nt],
         |tmps, b, row| {
@@ -280,7 +295,7 @@ pub(super) fn render_channel(
             // the y-area inside the texture.
             let mut ay_in = vec![0.0; nt];
             for t in 0..nt {
-                let yp = &py[t][b];
+                let yp = &py[t][b - band.start];
                 let tmp = &mut tmps[t];
                 tmp.iter_mut().for_each(|v| *v = 0.0);
                 for (r, &ay) in yp.areas.iter().enumerate() {
@@ -296,7 +311,7 @@ pub(super) fn render_channel(
             }
             for (a, out) in row.iter_mut().enumerate() {
                 let t = ch.lens_type(a as u32 / q, k);
-                let (xp, yp) = (&px[t][a], &py[t][b]);
+                let (xp, yp) = (&px[t][a], &py[t][b - band.start]);
                 let tmp = &tmps[t];
                 let mut inside = 0.0;
                 let mut ax_in = 0.0;

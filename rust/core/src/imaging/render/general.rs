@@ -50,7 +50,7 @@ pub(super) fn general_channel(
 ) -> Result<()> {
     let (tol, own) = (opts.tol, opts.own_lens);
     let ch = chan.ch;
-    let (rows, cols) = raw_shape(ch);
+    let cols = raw_shape(ch).1;
     let per_row = (cols as u128) * 2000;
     let px = Pixels {
         design,
@@ -61,7 +61,7 @@ pub(super) fn general_channel(
     let step = crate::infra::parallel::chunk_items(n_threads, per_row);
     fill_rows(
         raw,
-        (rows, cols),
+        (chan.rows.clone(), cols),
         (n_threads, step),
         || Work::new(scene.surface.fronto().is_some()),
         |wk, b, row| {

@@ -31,8 +31,10 @@
 //! quadrature), [`kinks`] (where its boxes are cut), [`mean`] (the inner integral over a
 //! node's polygon of rays), [`exact`] (the exact route and its 1-D profiles) and
 //! [`footprint`] (record mode on a plane). This file holds the entry points, the options
-//! and the checks of a scene against a design.
+//! and the checks of a scene against a design, and [`render_band`]: a band of raw rows of
+//! one channel, the unit of a render split over processes or machines.
 
+use std::ops::Range;
 use std::sync::atomic::AtomicUsize;
 
 use rayon::prelude::*;
@@ -367,23 +369,126 @@ pub fn render_into(
             ));
         }
         let chan = Chan::new(design, ch, opts.tol);
-        // Under a noise target the disc's polygon is drawn for the brightest pixel's
-        // relative target: its area error is a fixed fraction of a pixel's light, within
-        // a quarter of the target at every value since the target over v grows as v falls.
-        let chan = match opts.noise {
-            Some(nt) => {
-                let top = general::top_value(&chan, scene);
-                Chan::new(design, ch, (nt.at(top) / top).clamp(MIN_TOL, 0.1))
-            }
-            None => chan,
-        };
-        if exact_route(design, ch, scene) {
-            exact::render_channel(design, &chan, scene, raw, n_threads, done)?;
-        } else {
-            general::general_channel(design, &chan, scene, opts, raw, n_threads, done)?;
-        }
+        let chan = noise_chan(chan, design, ch, scene, opts);
+        fill_channel(design, &chan, scene, opts, raw, (n_threads, done))?;
     }
     Ok(())
+}
+
+/// The channel as a render with `opts` sees it: under a noise target the disc's polygon is
+/// drawn for the brightest pixel's relative target (its area error is a fixed fraction of
+/// a pixel's light, within a quarter of the target at every value since the target over v
+/// grows as v falls).
+fn noise_chan<'a>(
+    chan: Chan<'a>,
+    design: &'a Design,
+    ch: &'a Channel,
+    scene: &Scene,
+    opts: RenderOptions,
+) -> Chan<'a> {
+    match opts.noise {
+        Some(nt) => {
+            let top = general::top_value(&chan, scene);
+            Chan::new(design, ch, (nt.at(top) / top).clamp(MIN_TOL, 0.1))
+        }
+        None => chan,
+    }
+}
+
+/// Render the rows `chan.rows` of one channel into `raw` (those rows, row-major) by the
+/// channel's route.
+fn fill_channel(
+    design: &Design,
+    chan: &Chan,
+    scene: &Scene,
+    opts: RenderOptions,
+    raw: &mut [f64],
+    (n_threads, done): (Option<usize>, &AtomicUsize),
+) -> Result<()> {
+    if exact_route(design, chan.ch, scene) {
+        exact::render_channel(design, chan, scene, raw, n_threads, done)
+    } else {
+        general::general_channel(design, chan, scene, opts, raw, n_threads, done)
+    }
+}
+
+/// A band of raw rows of one channel: rows `rows` (r0..r1) of channel `channel` (from 0).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Band {
+    pub channel: usize,
+    pub rows: Range<usize>,
+}
+
+/// Check a band against the design: a channel of the design and 0 <= r0 < r1 <= its raw's
+/// rows ([`Error::param`] naming `channel` or `rows`). Returns the channel's raw shape.
+pub fn check_band(design: &Design, band: &Band) -> Result<(usize, usize)> {
+    let n = design.channels.len();
+    let Some(ch) = design.channels.get(band.channel) else {
+        return Err(Error::param(
+            "channel",
+            band.channel,
+            format!("a channel index in [0, {}]", n - 1),
+        ));
+    };
+    let (rows, cols) = raw_shape(ch);
+    let Range { start, end } = band.rows;
+    if !(start < end && end <= rows) {
+        return Err(Error::param(
+            "rows",
+            format!("[{start}, {end})"),
+            format!(
+                "rows [r0, r1) with 0 <= r0 < r1 <= {rows} (channel {}'s raw rows)",
+                band.channel
+            ),
+        ));
+    }
+    Ok((rows, cols))
+}
+
+/// The rows of one band of one channel's raw (row-major, r1 − r0 rows of [`raw_shape`]'s
+/// columns), bit for bit the same rows of [`render`]'s raw: each raw row is computed on
+/// its own by either route (the exact route's tables are per column and per row, the
+/// general route's pixels are independent), so a band is a natural cut of a render over
+/// tasks. `done` counts the band's finished rows.
+pub fn render_band(
+    design: &Design,
+    scene: &Scene,
+    opts: RenderOptions,
+    band: &Band,
+    n_threads: Option<usize>,
+    done: &AtomicUsize,
+) -> Result<Vec<f64>> {
+    check_render(design, scene, opts)?;
+    let (_, cols) = check_band(design, band)?;
+    let n = band.rows.len() * cols;
+    memory::check("a band of a rendered raw", (n as u128) * 8 + (1 << 20))?;
+    let mut out = memory::try_vec("a band of a rendered raw", n, 0.0)?;
+    render_band_into(design, scene, opts, band, (n_threads, done), &mut out)?;
+    Ok(out)
+}
+
+/// [`render_band`] into the caller's buffer of (r1 − r0) × cols values.
+pub fn render_band_into(
+    design: &Design,
+    scene: &Scene,
+    opts: RenderOptions,
+    band: &Band,
+    (n_threads, done): (Option<usize>, &AtomicUsize),
+    out: &mut [f64],
+) -> Result<()> {
+    check_render(design, scene, opts)?;
+    let (_, cols) = check_band(design, band)?;
+    if out.len() != band.rows.len() * cols {
+        return Err(Error::param(
+            "output",
+            out.len(),
+            format!("{} values", band.rows.len() * cols),
+        ));
+    }
+    let ch = &design.channels[band.channel];
+    let chan = Chan::new(design, ch, opts.tol);
+    let chan = noise_chan(chan, design, ch, scene, opts).with_rows(band.rows.clone());
+    fill_channel(design, &chan, scene, opts, out, (n_threads, done))
 }
 
 #[derive(Clone, Copy)]
@@ -397,19 +502,21 @@ impl SendPtr {
     }
 }
 
-/// Fill `raw`, `rows` × `cols` values, on the pool of `n_threads` in chunks of `step`
-/// rows (a checkpoint between chunks), the rows of a chunk in parallel: `row(state, b,
-/// values)` writes raw row b, each worker holding its own `init()` state.
+/// Fill `raw`, the raw rows `rows` (r0..r1) of `cols` values each, on the pool of
+/// `n_threads` in chunks of `step` rows (a checkpoint between chunks), the rows of a chunk
+/// in parallel: `row(state, b, values)` writes raw row b (r0 <= b < r1) into `raw`'s row
+/// b − r0, each worker holding its own `init()` state.
 pub(super) fn fill_rows<T>(
     raw: &mut [f64],
-    (rows, cols): (usize, usize),
+    (rows, cols): (Range<usize>, usize),
     (n_threads, step): (Option<usize>, usize),
     init: impl Fn() -> T + Sync + Send,
     row: impl Fn(&mut T, usize, &mut [f64]) -> Result<()> + Sync + Send,
 ) -> Result<()> {
-    debug_assert_eq!(raw.len(), rows * cols);
+    debug_assert_eq!(raw.len(), rows.len() * cols);
+    let first = rows.start;
     let raw_ptr = SendPtr(raw.as_mut_ptr());
-    crate::infra::parallel::for_chunks(n_threads, rows, step, |range| {
+    crate::infra::parallel::for_chunks(n_threads, rows.len(), step, |range| {
         let start = range.start;
         // SAFETY: each chunk writes its own disjoint rows of `raw`.
         let chunk = unsafe {
@@ -418,6 +525,170 @@ pub(super) fn fill_rows<T>(
         chunk
             .par_chunks_mut(cols)
             .enumerate()
-            .try_for_each_init(&init, |state, (i, values)| row(state, start + i, values))
+            .try_for_each_init(&init, |state, (i, values)| {
+                row(state, first + start + i, values)
+            })
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::imaging::texture::Texture;
+
+    /// The seed with 3 x 2 lenses per channel.
+    fn seed_small() -> Design {
+        let mut d = crate::model::presets::preset("seed").unwrap();
+        for ch in d.channels.iter_mut() {
+            ch.kx = 3;
+            ch.ky = 2;
+        }
+        d
+    }
+
+    /// Bands of rows, stacked, are the whole render bit for bit: on the exact route (an
+    /// image on a fronto-parallel plane) and on the general route (a sinusoid on a tilted
+    /// plane), with bands that start and end inside a lens's rows, one row alone, and on
+    /// one thread and two.
+    #[test]
+    fn bands_are_the_whole_render_bit_for_bit() {
+        let d = seed_small();
+        let values: Vec<f64> = (0..40 * 50)
+            .map(|i| ((i * 7919) % 101) as f64 / 100.0)
+            .collect();
+        let image =
+            crate::imaging::texture::ImageTexture::new(&values, 40, 50, [-5.0, 5.0, -4.0, 4.0]);
+        let image = Texture::Image(Box::new(image.unwrap()));
+        let sinusoid = Texture::Sinusoid {
+            frequency: 0.7,
+            mean: 0.5,
+            amplitude: 0.4,
+            phase: 0.3,
+        };
+        let scenes = [
+            (
+                image,
+                Surface::Plane {
+                    z0: 900.0,
+                    g: [0.0, 0.0],
+                },
+                true,
+            ),
+            (
+                sinusoid,
+                Surface::Plane {
+                    z0: 900.0,
+                    g: [0.05, -0.02],
+                },
+                false,
+            ),
+        ];
+        let opts = RenderOptions {
+            tol: 1e-2,
+            ..RenderOptions::default()
+        };
+        for (tex, surf, exact) in scenes {
+            let scene = Scene::new(tex, surf, 0.5).unwrap();
+            assert_eq!(exact_route(&d, &d.channels[0], &scene), exact);
+            let whole = render(&d, &scene, opts, Some(2), &AtomicUsize::new(0)).unwrap();
+            for (c, ch) in d.channels.iter().enumerate() {
+                let (rows, cols) = raw_shape(ch);
+                let cuts = [0, 1, 2, rows / 3, rows / 2 + 1, rows - 1, rows];
+                let mut stacked = Vec::new();
+                for (k, w) in cuts.windows(2).enumerate() {
+                    let band = Band {
+                        channel: c,
+                        rows: w[0]..w[1],
+                    };
+                    let done = AtomicUsize::new(0);
+                    let threads = Some(1 + k % 2);
+                    let part = render_band(&d, &scene, opts, &band, threads, &done).unwrap();
+                    assert_eq!(part.len(), (w[1] - w[0]) * cols);
+                    assert_eq!(done.load(std::sync::atomic::Ordering::Relaxed), w[1] - w[0]);
+                    stacked.extend(part);
+                }
+                let same = stacked
+                    .iter()
+                    .zip(&whole[c])
+                    .all(|(a, b)| a.to_bits() == b.to_bits());
+                assert!(same && stacked.len() == whole[c].len(), "channel {c}");
+                assert!(whole[c].iter().any(|&v| v > 0.0));
+            }
+        }
+    }
+
+    /// A band outside the design is refused naming `channel` or `rows`, never a panic.
+    #[test]
+    fn bad_bands_name_their_parameter() {
+        let d = seed_small();
+        let scene = Scene::new(
+            Texture::Constant(0.5),
+            Surface::Plane {
+                z0: 900.0,
+                g: [0.0, 0.0],
+            },
+            0.5,
+        )
+        .unwrap();
+        let rows = raw_shape(&d.channels[1]).0;
+        let cases = [
+            (
+                Band {
+                    channel: 2,
+                    rows: 0..1,
+                },
+                "channel",
+            ),
+            (
+                Band {
+                    channel: 1,
+                    rows: 3..3,
+                },
+                "rows",
+            ),
+            (
+                Band {
+                    channel: 1,
+                    rows: 0..rows + 1,
+                },
+                "rows",
+            ),
+            (
+                Band {
+                    channel: 0,
+                    rows: rows..rows + 2,
+                },
+                "rows",
+            ),
+        ];
+        for (band, name) in cases {
+            let err = render_band(
+                &d,
+                &scene,
+                RenderOptions::default(),
+                &band,
+                None,
+                &AtomicUsize::new(0),
+            )
+            .unwrap_err();
+            match err {
+                Error::InvalidParameter { name: n, .. } => assert_eq!(n, name, "{band:?}"),
+                e => panic!("{band:?}: {e:?}"),
+            }
+        }
+        let mut short = vec![0.0; 3];
+        let band = Band {
+            channel: 0,
+            rows: 0..1,
+        };
+        let err = render_band_into(
+            &d,
+            &scene,
+            RenderOptions::default(),
+            &band,
+            (None, &AtomicUsize::new(0)),
+            &mut short,
+        );
+        assert!(err.is_err());
+    }
 }
