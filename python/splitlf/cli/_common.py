@@ -386,6 +386,13 @@ def scheduler_executor(args: argparse.Namespace) -> Iterator[Any]:
         yield client.get_executor()
 
 
+def design_argument(p: argparse.ArgumentParser) -> None:
+    """The positional DESIGN of `render` and `dataset`: a preset or a TOML file."""
+    p.add_argument("design", metavar="DESIGN",
+                   help=f"a preset ({', '.join(PRESETS)}) or a TOML file with a [design] "
+                   "or [camera] table")
+
+
 def design_source(p: argparse.ArgumentParser, what: str) -> None:
     """The design source: --config FILE (a [camera] or [design] TOML) or --preset NAME."""
     g = p.add_argument_group("design (default: the seed design)")

@@ -32,13 +32,14 @@ import numpy as np
 
 from .. import _native
 from .._files import atomic_output
-from ..model.design import PRESETS, Design
+from ..model.design import Design
 from ._common import (
     FORCE_HINT,
     CliError,
     check_folder,
     check_output,
     described,
+    design_argument,
     integer_type,
     json_text,
     named_design,
@@ -65,9 +66,7 @@ DEFAULT_DEPTHS = "150:10000"
 def add_parser(subparsers: Any) -> None:
     p = subparsers.add_parser("dataset", description=described(__doc__),
                               help="N raws of random scenes with their ground truth")
-    p.add_argument("design", metavar="DESIGN",
-                   help=f"a preset ({', '.join(PRESETS)}) or a TOML file with a [design] "
-                   "or [camera] table")
+    design_argument(p)
     p.add_argument("-n", type=integer_type("scene count", 1, MAX_SCENES), required=True,
                    metavar="N", help=f"the number of scenes (1 to {MAX_SCENES})")
     p.add_argument("--depths", default=DEFAULT_DEPTHS, metavar="ZMIN:ZMAX",

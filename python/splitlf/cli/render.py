@@ -17,13 +17,13 @@ from typing import Any
 import numpy as np
 
 from .._files import atomic_output
-from ..model.design import PRESETS
 from ._common import (
     FORCE_HINT,
     CliError,
     check_output,
     check_suffix,
     described,
+    design_argument,
     json_text,
     load_npy,
     named_design,
@@ -42,9 +42,7 @@ from ._common import (
 def add_parser(subparsers: Any) -> None:
     p = subparsers.add_parser("render", description=described(__doc__),
                               help="the raw sensor images of a textured scene")
-    p.add_argument("design", metavar="DESIGN",
-                   help=f"a preset ({', '.join(PRESETS)}) or a TOML file with a [design] "
-                   "or [camera] table")
+    design_argument(p)
     p.add_argument("--texture", required=True, metavar="SPEC",
                    help="random | sinusoid:F | bars:F (cycles/mm) | edge[:ANGLE] (degrees "
                    "from vertical, default 5) | star[:SPOKES] (default 36) | an image file "

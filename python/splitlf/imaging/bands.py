@@ -114,6 +114,17 @@ def _gather(futures: dict[cf.Future, Band], images: list[np.ndarray],
         raise
 
 
+def check_raws_fit(shapes: Sequence[tuple[int, int]], noun: str, what: str) -> None:
+    """:class:`~splitlf.errors.TooLargeError` (``what``: the call) when float64 raws of
+    ``shapes`` (``noun`` in the message) need more than the memory available."""
+    nbytes = sum(8 * r * c for r, c in shapes)
+    limit = _native.available_memory()
+    if nbytes > limit:
+        raise TooLargeError(f"{noun} need {nbytes / 2**30:.1f} GiB, more than the "
+                            f"{limit / 2**30:.1f} GiB available", what=what,
+                            nbytes=nbytes, limit=limit)
+
+
 def render_bands(executor: cf.Executor, design: Design, shapes: list[tuple[int, int]],
                  scene: ScenePart, tol: Tol, n_threads: int | None,
                  rows_per_task: int | None, show: Show) -> list[np.ndarray]:
@@ -123,12 +134,7 @@ def render_bands(executor: cf.Executor, design: Design, shapes: list[tuple[int, 
     as tasks finish. Raises :class:`~splitlf.errors.TooLargeError` (the raws beyond the
     memory available), the first task's error and ``KeyboardInterrupt`` (tasks not started
     are cancelled; running ones finish their band)."""
-    nbytes = sum(8 * r * c for r, c in shapes)
-    limit = _native.available_memory()
-    if nbytes > limit:
-        raise TooLargeError(f"the rendered raws need {nbytes / 2**30:.1f} GiB, more than the "
-                            f"{limit / 2**30:.1f} GiB available", what="render",
-                            nbytes=nbytes, limit=limit)
+    check_raws_fit(shapes, "the rendered raws", "render")
     images = [np.empty(s) for s in shapes]
     tasks = bands(shapes, rows_per_task)
     plain = design.design  # its general form, pickled as plain fields

@@ -52,9 +52,9 @@ from .._progress import progress_bar as _progress
 from .._progress import progress_flag as _progress_flag
 from .._validate import extent as _extent
 from .._validate import finite as _finite
-from ..errors import InvalidParameter, TooLargeError
+from ..errors import InvalidParameter
 from ..model.design import Design
-from .bands import ScenePart, check_options, render_bands
+from .bands import ScenePart, check_options, check_raws_fit, render_bands
 from .texture import TEXTURES, Constant, RandomAlbedo
 from .texture import albedo as _albedo
 
@@ -421,12 +421,7 @@ def _read_raw(name: str, npz: Any) -> Raw:
                          f"the design's {len(channels)} channel(s) ({', '.join(channels)})")
     shapes = _expected_shapes(design)
     _check_headers(npz, channels, shapes)
-    nbytes = sum(8 * r * c for r, c in shapes)
-    limit = _native.available_memory()
-    if nbytes > limit:
-        raise TooLargeError(f"its raws need {nbytes / 2**30:.1f} GiB, more than the "
-                            f"{limit / 2**30:.1f} GiB available", what="Raw.load",
-                            nbytes=nbytes, limit=limit)
+    check_raws_fit(shapes, "its raws", "Raw.load")
     noise = None
     if "noise" in keys:
         v = npz["noise"]
