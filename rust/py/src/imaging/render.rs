@@ -72,11 +72,6 @@ impl RenderScene {
     }
 }
 
-/// Every channel's raw image of `scene` (docs/model.md §10 layout), one float64 array per
-/// channel. `tol`: the general route's error target per pixel, relative to a fully lit
-/// pixel under the scene's largest albedo. `own_lens`: each pixel takes its own lens's
-/// light alone (on a sensor layout, not its neighbours'; the depth sweep's test of clean
-/// pixels).
 /// A render's error target: `tol`, or (photons, read noise, fraction) of the noise.
 #[derive(FromPyObject)]
 pub(crate) enum Tol {
@@ -100,6 +95,11 @@ fn tol_options(tol: Option<Tol>) -> (f64, Option<NoiseTarget>) {
     }
 }
 
+/// Every channel's raw image of `scene` (docs/model.md §10 layout), one float64 array per
+/// channel. `tol`: the general route's error target per pixel, relative to a fully lit
+/// pixel under the scene's largest albedo. `own_lens`: each pixel takes its own lens's
+/// light alone (on a sensor layout, not its neighbours'; the depth sweep's test of clean
+/// pixels).
 /// `tol` may instead be (photons, read_noise, fraction): each pixel's error target is the
 /// fraction of the noise's standard deviation at its value (docs/render.md, "A target
 /// relative to the noise").

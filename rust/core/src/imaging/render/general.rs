@@ -58,6 +58,7 @@ pub(super) fn general_channel(
         scene,
         tol: lens_tol(chan, scene, tol),
     };
+    let top = top_value(chan, scene);
     let step = crate::infra::parallel::chunk_items(n_threads, per_row);
     fill_rows(
         raw,
@@ -79,7 +80,7 @@ pub(super) fn general_channel(
                 };
                 *out = match opts.noise {
                     None => value(&px, wk),
-                    Some(nt) => noise_target_value(&px, nt, |p| value(p, wk)),
+                    Some(nt) => noise_target_value(&px, (nt, top), |p| value(p, wk)),
                 };
             }
             done.fetch_add(1, Ordering::Relaxed);
@@ -93,8 +94,12 @@ pub(super) fn general_channel(
 /// then, when the value v₁ found, less that target ε₁, allows a tighter one, again to
 /// nt.at(v₁ − ε₁) — the target at the least value the pixel can have, so at most the
 /// target at its true value. The targets are held in the range `tol` accepts.
-fn noise_target_value(px: &Pixels, nt: NoiseTarget, mut value: impl FnMut(&Pixels) -> f64) -> f64 {
-    let top = top_value(px.chan, px.scene);
+/// `top` is [`top_value`] of the channel and scene.
+fn noise_target_value(
+    px: &Pixels,
+    (nt, top): (NoiseTarget, f64),
+    mut value: impl FnMut(&Pixels) -> f64,
+) -> f64 {
     // The adaptive rule's estimate is not a bound: it is given half the target (at tight
     // targets its error came within 16 % over the whole one on the seed's half 2).
     let lens = |eps: f64| {
@@ -119,10 +124,7 @@ const NOISE_TARGET_SHARE: f64 = 0.5;
 /// The value of a fully lit pixel under the scene's largest albedo (of the texture or the
 /// background; 1 for a black scene): the scale `tol` is relative to.
 pub(super) fn top_value(chan: &Chan, scene: &Scene) -> f64 {
-    let full = signed_area(&chan.cell) * (chan.ch.mu / chan.vl).powi(2);
-    let scale = scene.texture.max_albedo().max(scene.background);
-    let scale = if scale > 0.0 { scale } else { 1.0 };
-    chan.norm * full * scale
+    chan.norm * lens_tol(chan, scene, 1.0)
 }
 
 /// The adaptive rule's absolute target per lens (before the channel's norm) for an error
