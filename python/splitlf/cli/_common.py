@@ -524,7 +524,9 @@ def objective_options(p: argparse.ArgumentParser, objective: str, example: str =
 
 
 def evolution_options(p: argparse.ArgumentParser, maxiter: int, popsize: int) -> None:
-    """--maxiter and --popsize of differential evolution, with their defaults."""
+    """--maxiter and --popsize of differential evolution, with their defaults, and --seed of
+    the search."""
+    p.add_argument("--seed", type=seed_type, default=0, help="seed of the search (default 0)")
     p.add_argument("--maxiter", type=integer_type("generation count", 1, 100_000),
                    default=maxiter,
                    help=f"generations of differential evolution (default {maxiter})")

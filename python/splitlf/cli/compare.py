@@ -17,29 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from .._files import atomic_output
-from ._common import (
-    FORCE_HINT,
-    CliError,
-    check_folder,
-    check_output,
-    check_suffix,
-    depth_type,
-    depths_option,
-    described,
-    evolution_options,
-    json_text,
-    log_depths,
-    need,
-    objective_options,
-    output_group,
-    parse_constraint,
-    real_type,
-    scheduler_option,
-    search,
-    seed_type,
-    threads_option,
-    threshold_option,
-)
+from . import _common
 
 COMPARE_FILES = ("table.csv", "curves.csv")
 
@@ -50,42 +28,42 @@ def add_parser(subparsers: Any) -> None:
     from ..study.compare import ARCHITECTURES
     from ..study.compare import PRESETS as SENSORS
 
-    p = subparsers.add_parser("compare", description=described(__doc__),
+    p = subparsers.add_parser("compare", description=_common.described(__doc__),
                               help="optimise every architecture on one sensor and compare them")
     p.add_argument("--preset", choices=SENSORS, default="seed",
                    help="whose sensor and main lens: seed (36 x 24 mm, 9 um, F 80 mm) or "
                    "raytrix-r12 (4080 x 3068 px of 5.5 um, F 49.9 mm) (default seed)")
-    objective_options(p, "the merit every architecture optimises, e.g. sharp_fraction_union "
-                      "(docs/optimise.md lists them)",
-                      ", e.g. covering_radius_median_union<=1.5")
+    _common.objective_options(p, "the merit every architecture optimises, e.g. "
+                              "sharp_fraction_union (docs/optimise.md lists them)",
+                              ", e.g. covering_radius_median_union<=1.5")
     p.add_argument("--architectures", default=None, metavar="A,B,...",
                    help=f"a comma-separated subset of {','.join(ARCHITECTURES)} "
                    "(default: all)")
-    depths_option(p, "--depths", "150:10000:60", "the evaluation")
-    depths_option(p, "--optimise-depths", "150:10000:12", "the merits inside the search")
-    p.add_argument("--window", type=real_type("window", 0.0, "a finite number > 0"),
+    _common.depths_option(p, "--depths", "150:10000:60", "the evaluation")
+    _common.depths_option(p, "--optimise-depths", "150:10000:12", "the merits inside the search")
+    p.add_argument("--window", type=_common.real_type("window", 0.0, "a finite number > 0"),
                    default=16.0, metavar="PITCHES",
                    help="central field of the evaluation's covering radius, in lens "
                    "pitches (default 16)")
-    p.add_argument("--optimise-window", type=real_type("window", 0.0, "a finite number > 0"),
+    p.add_argument("--optimise-window",
+                   type=_common.real_type("window", 0.0, "a finite number > 0"),
                    default=4.0, metavar="PITCHES",
                    help="central field of the 2-D merits inside the search (default 4)")
-    evolution_options(p, maxiter=8, popsize=5)
+    _common.evolution_options(p, maxiter=8, popsize=5)
     p.add_argument("--polish", action="store_true",
                    help="polish each optimum locally (Nelder-Mead; default off)")
-    p.add_argument("--seed", type=seed_type, default=0, help="seed of the search (default 0)")
     p.add_argument("--simulate-depths", default=None, metavar="Z1,Z2,...",
                    help="depths [mm] of the super-resolution MTF50 columns (default none)")
-    threshold_option(p)
-    threads_option(p, "threads of the core")
-    scheduler_option(p)
+    _common.threshold_option(p)
+    _common.threads_option(p, "threads of the core")
+    _common.scheduler_option(p)
     p.add_argument("--figure", metavar="FILE.png",
                    help="write the comparison figure (splitlf.plot.compare), .png or .svg")
     p.add_argument("--wide", action="store_true",
                    help="print every column of the table, unabbreviated (default: the most "
                    f"useful columns, fitting {COMPARE_WIDTH} characters)")
-    output_group(p, "write table.csv, curves.csv and one NAME.toml per optimised design into "
-                 "this folder (created if missing)", "DIR")
+    _common.output_group(p, "write table.csv, curves.csv and one NAME.toml per optimised design "
+                         "into this folder (created if missing)", "DIR")
     p.set_defaults(func=run)
 
 
@@ -95,18 +73,19 @@ def _compare_targets(args: argparse.Namespace, names: list[str]) -> tuple[Path |
     --force, a writable folder, not a file) before any work."""
     out = None if args.out is None else Path(args.out)
     if out is not None:
-        check_folder(out)
+        _common.check_folder(out)
         for name in [*COMPARE_FILES, *(f"{n}.toml" for n in names)]:
             if out.is_dir():
-                check_output(out / name, args.force)
+                _common.check_output(out / name, args.force)
     fig = None if args.figure is None else Path(args.figure)
     if fig is not None:
-        check_suffix("--figure", fig, (".png", ".svg"))
-        check_output(fig, args.force)
+        _common.check_suffix("--figure", fig, (".png", ".svg"))
+        _common.check_output(fig, args.force)
         try:
             import matplotlib  # noqa: F401
         except ImportError:
-            raise CliError('--figure needs matplotlib: pip install "splitlf[plot]"') from None
+            raise _common.CliError('--figure needs matplotlib: '
+                                   'pip install "splitlf[plot]"') from None
     return out, fig
 
 
@@ -118,8 +97,8 @@ def _compare_names(spec: str | None) -> list[str]:
     names = [n.strip() for n in spec.split(",") if n.strip()]
     bad = [n for n in names if n not in ARCHITECTURES]
     if not names or bad or len(set(names)) < len(names):
-        raise CliError(f"--architectures {spec}: allowed distinct names among "
-                       f"{', '.join(ARCHITECTURES)}, comma-separated")
+        raise _common.CliError(f"--architectures {spec}: allowed distinct names among "
+                               f"{', '.join(ARCHITECTURES)}, comma-separated")
     return [n for n in ARCHITECTURES if n in names]
 
 
@@ -209,9 +188,9 @@ def _write_compare(res: Any, out: Path | None, fig_path: Path | None,
     written = []
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
-        with atomic_output(out / "table.csv", force=force, hint=FORCE_HINT) as tmp:
+        with atomic_output(out / "table.csv", force=force, hint=_common.FORCE_HINT) as tmp:
             res.table.to_csv(tmp)
-        with atomic_output(out / "curves.csv", force=force, hint=FORCE_HINT) as tmp:
+        with atomic_output(out / "curves.csv", force=force, hint=_common.FORCE_HINT) as tmp:
             res.curves.to_csv(tmp, index=False)
         written += [out / "table.csv", out / "curves.csv"]
         for n, d in res.designs.items():
@@ -224,7 +203,7 @@ def _write_compare(res: Any, out: Path | None, fig_path: Path | None,
 
         fig = Figure(figsize=(9.5, 12.0), layout="constrained")
         plot_compare(res, ax=fig.subplots(3, 1, height_ratios=[3, 2, 1.3]))
-        with atomic_output(fig_path, force=force, hint=FORCE_HINT) as tmp:
+        with atomic_output(fig_path, force=force, hint=_common.FORCE_HINT) as tmp:
             fig.savefig(tmp, dpi=150, format=fig_path.suffix[1:])
         written.append(fig_path)
     return written
@@ -235,33 +214,33 @@ def _simulate_depth_list(spec: str | None) -> list[float]:
     for text in (spec or "").split(","):
         if text.strip():
             try:
-                sim.append(depth_type(text.strip()))
+                sim.append(_common.depth_type(text.strip()))
             except argparse.ArgumentTypeError as e:
-                raise CliError(f"--simulate-depths: {e}") from None
+                raise _common.CliError(f"--simulate-depths: {e}") from None
     return sim
 
 
 def run(args: argparse.Namespace) -> int:
     for module in ("scipy", "pandas"):
-        need(module, "compare", "sweep")
+        _common.need(module, "compare", "sweep")
     from ..study.compare import compare
 
     names = _compare_names(args.architectures)
     out, fig_path = _compare_targets(args, names)
-    constraints = dict(parse_constraint(c) for c in args.constraint or [])
-    kwargs = dict(which=names, depths=log_depths(args.depths, "--depths"),
-                  optimise_depths=log_depths(args.optimise_depths, "--optimise-depths"),
+    constraints = dict(_common.parse_constraint(c) for c in args.constraint or [])
+    kwargs = dict(which=names, depths=_common.log_depths(args.depths, "--depths"),
+                  optimise_depths=_common.log_depths(args.optimise_depths, "--optimise-depths"),
                   window=args.window, optimise_window=args.optimise_window,
                   maxiter=args.maxiter, popsize=args.popsize, polish=args.polish,
                   seed=args.seed, simulate_depths=_simulate_depth_list(args.simulate_depths),
                   threshold_px=args.threshold, n_threads=args.threads)
-    res = search(compare, args, args.preset, args.objective, args.sense, constraints,
-                 **kwargs)
+    res = _common.search(compare, args, args.preset, args.objective, args.sense, constraints,
+                         **kwargs)
     written = _write_compare(res, out, fig_path, args.force)
     if args.json:
         doc = _compare_document(res)
         doc["written"] = [str(p) for p in written]
-        sys.stdout.write(json_text(doc))
+        sys.stdout.write(_common.json_text(doc))
     else:
         sys.stdout.write(compare_text(res, args, constraints, written))
     return 0

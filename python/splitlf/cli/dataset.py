@@ -33,26 +33,7 @@ import numpy as np
 from .. import _native
 from .._files import atomic_output
 from ..model.design import Design
-from ._common import (
-    FORCE_HINT,
-    CliError,
-    check_folder,
-    check_output,
-    described,
-    design_argument,
-    integer_type,
-    json_text,
-    named_design,
-    noise_type,
-    numbers,
-    output_group,
-    real_type,
-    scheduler_executor,
-    scheduler_option,
-    seed_type,
-    threads_option,
-    write_text,
-)
+from . import _common
 
 #: The format entries of the ground-truth files and of the index.
 TRUTH_FORMAT = "splitlf-truth/1"
@@ -64,41 +45,41 @@ DEFAULT_DEPTHS = "150:10000"
 
 
 def add_parser(subparsers: Any) -> None:
-    p = subparsers.add_parser("dataset", description=described(__doc__),
+    p = subparsers.add_parser("dataset", description=_common.described(__doc__),
                               help="N raws of random scenes with their ground truth")
-    design_argument(p)
-    p.add_argument("-n", type=integer_type("scene count", 1, MAX_SCENES), required=True,
+    _common.design_argument(p)
+    p.add_argument("-n", type=_common.integer_type("scene count", 1, MAX_SCENES), required=True,
                    metavar="N", help=f"the number of scenes (1 to {MAX_SCENES})")
     p.add_argument("--depths", default=DEFAULT_DEPTHS, metavar="ZMIN:ZMAX",
                    help=f"the planes' depth range at the axis, mm (default {DEFAULT_DEPTHS}; "
                    "ZMIN > F)")
-    p.add_argument("--tilt", type=real_type("tilt", 0.0, "a finite slope >= 0",
-                                            lo_open=False),
+    p.add_argument("--tilt", type=_common.real_type("tilt", 0.0, "a finite slope >= 0",
+                                                    lo_open=False),
                    default=0.0, metavar="G", help="largest slope |GX|, |GY| of the planes "
                    "(default 0: fronto-parallel, the seed's exact route; a tilted plane takes "
                    "the general route, about 1 ms a pixel)")
-    p.add_argument("--cell", type=real_type("cell", 0.0, "a finite cell > 0 (mm)"),
+    p.add_argument("--cell", type=_common.real_type("cell", 0.0, "a finite cell > 0 (mm)"),
                    default=None, metavar="MM",
                    help="the texture's cell (default delta(Z0) = mu_1 Z0 / L_1)")
-    p.add_argument("--noise", type=noise_type, default=None, metavar="N[,READ]",
+    p.add_argument("--noise", type=_common.noise_type, default=None, metavar="N[,READ]",
                    help="add noise: N photo-electrons for value 1 (Poisson), READ electrons "
                    "rms of read noise (default: noise-free)")
-    p.add_argument("--seed", type=seed_type, default=0,
+    p.add_argument("--seed", type=_common.seed_type, default=0,
                    help="the seed S of scene 0 (scene k: S + k), an integer >= 0 (default 0)")
-    threads_option(p, "threads of the core (with --scheduler: of each task)")
-    scheduler_option(p, ": render each scene there, in bands of rows (the same raws)")
-    output_group(p, "the folder to write (created if missing)", "FOLDER", required=True,
-                 json_help="print the index as JSON instead of its path")
+    _common.threads_option(p, "threads of the core (with --scheduler: of each task)")
+    _common.scheduler_option(p, ": render each scene there, in bands of rows (the same raws)")
+    _common.output_group(p, "the folder to write (created if missing)", "FOLDER", required=True,
+                         json_help="print the index as JSON instead of its path")
     p.set_defaults(func=run)
 
 
 def _depth_range(text: str, design: Design) -> tuple[float, float]:
     lo, colon, hi = text.partition(":")
     if not colon:
-        raise CliError(f"--depths {text}: expected ZMIN:ZMAX (mm)")
-    zmin, zmax = numbers("--depths", f"{lo},{hi}", 2)
+        raise _common.CliError(f"--depths {text}: expected ZMIN:ZMAX (mm)")
+    zmin, zmax = _common.numbers("--depths", f"{lo},{hi}", 2)
     if not design.F < zmin <= zmax:
-        raise CliError(f"--depths {text}: allowed F = {design.F:g} < ZMIN <= ZMAX (mm)")
+        raise _common.CliError(f"--depths {text}: allowed F = {design.F:g} < ZMIN <= ZMAX (mm)")
     return zmin, zmax
 
 
@@ -139,11 +120,11 @@ def draw_scene(design: Design, seed: int, depths: tuple[float, float], tilt: flo
 def _targets(out: Path, n: int, force: bool) -> list[tuple[Path, Path]]:
     """Every file of the dataset, checked before any work (not overwritten without
     --force, the folder writable)."""
-    check_folder(out)
+    _common.check_folder(out)
     files = [(out / f"scene{k}.npz", out / f"scene{k}_truth.npz") for k in range(n)]
     if out.is_dir():
         for path in [p for pair in files for p in pair] + [out / "index.json"]:
-            check_output(path, force)
+            _common.check_output(path, force)
     return files
 
 
@@ -152,7 +133,7 @@ def _write_truth(path: Path, scene: Any, record: dict[str, Any], force: bool) ->
               "texture_extent": np.array(record["texture_extent"]),
               "plane": np.array(record["plane"]), "background": np.array(scene.background),
               "seed": np.array(record["seed"], dtype=np.uint64)}
-    with atomic_output(path, force=force, hint=FORCE_HINT) as tmp, open(tmp, "wb") as fh:
+    with atomic_output(path, force=force, hint=_common.FORCE_HINT) as tmp, open(tmp, "wb") as fh:
         np.savez(fh, **arrays)
 
 
@@ -179,15 +160,16 @@ def _index(design: Design, args: argparse.Namespace, depths: tuple[float, float]
 def run(args: argparse.Namespace) -> int:
     from ..imaging.render import render
 
-    design = named_design(args.design)
+    design = _common.named_design(args.design)
     depths = _depth_range(args.depths, design)
     if args.seed + args.n - 1 > 2**63 - 1:
-        raise CliError(f"--seed {args.seed}: the seeds S .. S + N - 1 must stay below 2**63")
+        raise _common.CliError(f"--seed {args.seed}: the seeds S .. S + N - 1 must stay "
+                               "below 2**63")
     out = Path(args.out)
     files = _targets(out, args.n, args.force)
     out.mkdir(parents=True, exist_ok=True)
     scenes = []
-    with scheduler_executor(args) as executor:
+    with _common.scheduler_executor(args) as executor:
         for k, (raw_path, truth_path) in enumerate(files):
             scene, record = draw_scene(design, args.seed + k, depths, args.tilt, args.cell)
             raw = render(design, scene, noise=args.noise, seed=args.seed + k,
@@ -196,6 +178,6 @@ def run(args: argparse.Namespace) -> int:
             _write_truth(truth_path, scene, record, args.force)
             scenes.append({"raw": raw_path.name, "truth": truth_path.name, **record})
     index = _index(design, args, depths, scenes)
-    write_text(out / "index.json", json_text(index), args.force)
-    sys.stdout.write(json_text(index) if args.json else f"{out / 'index.json'}\n")
+    _common.write_text(out / "index.json", _common.json_text(index), args.force)
+    sys.stdout.write(_common.json_text(index) if args.json else f"{out / 'index.json'}\n")
     return 0

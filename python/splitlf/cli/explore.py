@@ -10,20 +10,14 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from ._common import (
-    CliError,
-    design_command,
-    integer_type,
-    load_subject,
-    named_design,
-)
+from . import _common
 
 
 def add_parser(subparsers: Any) -> None:
-    p = design_command(subparsers, "explore", __doc__,
-                       summary="the interactive design explorer in the browser",
-                       design="start from")
-    p.add_argument("--port", type=integer_type("port", 0, 65535), default=5006,
+    p = _common.design_command(subparsers, "explore", __doc__,
+                               summary="the interactive design explorer in the browser",
+                               design="start from")
+    p.add_argument("--port", type=_common.integer_type("port", 0, 65535), default=5006,
                    help="TCP port, an integer in [0, 65535]; 0 picks a free one (default 5006)")
     p.add_argument("--compare", default=None, metavar="NAME|FILE.toml",
                    help="a second design drawn on the same axes: a preset name or a "
@@ -37,14 +31,14 @@ def run(args: argparse.Namespace) -> int:
     try:
         import bokeh  # noqa: F401
     except ImportError:
-        raise CliError('explore needs Bokeh: pip install "splitlf[explore]"') from None
+        raise _common.CliError('explore needs Bokeh: pip install "splitlf[explore]"') from None
     from ..explorer import serve
 
-    subject, _ = load_subject(args)
-    reference = None if args.compare is None else named_design(args.compare)
+    subject, _ = _common.load_subject(args)
+    reference = None if args.compare is None else _common.named_design(args.compare)
     try:
         serve(subject, port=args.port, address=args.address, reference=reference)
     except OSError as e:
-        raise CliError(f"--port {args.port}: cannot listen on {args.address}: "
-                       f"{e.strerror or e}") from None
+        raise _common.CliError(f"--port {args.port}: cannot listen on {args.address}: "
+                               f"{e.strerror or e}") from None
     return 0

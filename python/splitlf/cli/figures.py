@@ -16,32 +16,22 @@ from typing import Any
 
 from .._files import atomic_output
 from ..model.design import Design
-from ._common import (
-    FORCE_HINT,
-    CliError,
-    check_folder,
-    check_output,
-    depth_type,
-    design_command,
-    integer_type,
-    load_subject,
-    output_group,
-)
+from . import _common
 
 #: Resolution of ``splitlf figures`` [dots per inch]: the allowed range.
 DPI_RANGE = (10, 1000)
 
 
-_dpi = integer_type("dpi", *DPI_RANGE)
+_dpi = _common.integer_type("dpi", *DPI_RANGE)
 
 
 
 
 def add_parser(subparsers: Any) -> None:
-    p = design_command(subparsers, "figures", __doc__,
-                       summary="write every figure of a design", design="draw",
-                       threads="threads of the core for every figure")
-    p.add_argument("--z", type=depth_type, default=None, metavar="MM",
+    p = _common.design_command(subparsers, "figures", __doc__,
+                               summary="write every figure of a design", design="draw",
+                               threads="threads of the core for every figure")
+    p.add_argument("--z", type=_common.depth_type, default=None, metavar="MM",
                    help="depth of the sample map [mm], > F (default: channel 1's "
                    "out-of-focus plane with several channels, twice it with one)")
     p.add_argument("--format", choices=("png", "svg"), default="png",
@@ -49,8 +39,8 @@ def add_parser(subparsers: Any) -> None:
     p.add_argument("--dpi", type=_dpi, default=150,
                    help=f"resolution in dots per inch, an integer in [{DPI_RANGE[0]}, "
                    f"{DPI_RANGE[1]}] (default 150)")
-    output_group(p, "output folder, created if missing (default: figures)", "DIR", "figures",
-                 json_help="")
+    _common.output_group(p, "output folder, created if missing (default: figures)", "DIR",
+                         "figures", json_help="")
     p.set_defaults(func=run)
 
 
@@ -76,11 +66,11 @@ def _figures_of(subject: Design) -> dict[str, tuple[Any, Any, tuple[float, float
 def _figure_targets(out: Path, fmt: str, force: bool, subject: Design) -> dict[str, Path]:
     """The file of every figure, checked (folder not a file, no file overwritten without
     --force, the folder writable) before the folder is created or anything is drawn."""
-    check_folder(out)
+    _common.check_folder(out)
     targets = {stem: out / f"{stem}.{fmt}" for stem in _figures_of(subject)}
     for path in targets.values():
         if out.is_dir():
-            check_output(path, force)
+            _common.check_output(path, force)
     return targets
 
 
@@ -88,13 +78,13 @@ def run(args: argparse.Namespace) -> int:
     try:
         from matplotlib.figure import Figure
     except ImportError:
-        raise CliError('figures need matplotlib: pip install "splitlf[plot]"') from None
+        raise _common.CliError('figures need matplotlib: pip install "splitlf[plot]"') from None
     from ..plot._mpl import trace_threads
 
     trace_threads(args.threads)  # the ray-space figure traces: refuse what it cannot honour
-    subject, _ = load_subject(args)
+    subject, _ = _common.load_subject(args)
     if args.z is not None and not args.z > subject.F:
-        raise CliError(f"invalid --z {args.z:g}: allowed a depth > F = {subject.F:g} mm")
+        raise _common.CliError(f"invalid --z {args.z:g}: allowed a depth > F = {subject.F:g} mm")
     out = Path(args.out)
     targets = _figure_targets(out, args.format, args.force, subject)
     out.mkdir(parents=True, exist_ok=True)
@@ -109,7 +99,7 @@ def run(args: argparse.Namespace) -> int:
             ax = fig.add_subplot() if panels == 1 else fig.subplots(panels, 1, sharex=True)
         extra = {"z": args.z} if stem == "sample_map" else {}
         fn(subject, ax=ax, n_threads=args.threads, **extra)
-        with atomic_output(targets[stem], force=args.force, hint=FORCE_HINT) as tmp:
+        with atomic_output(targets[stem], force=args.force, hint=_common.FORCE_HINT) as tmp:
             fig.savefig(tmp, dpi=args.dpi, format=args.format)
         print(targets[stem])
     return 0

@@ -15,57 +15,36 @@ from pathlib import Path
 from typing import Any
 
 from .._files import atomic_output
-from ._common import (
-    FORCE_HINT,
-    CliError,
-    check_output,
-    check_suffix,
-    depths_option,
-    design_command,
-    evolution_options,
-    json_text,
-    load_subject,
-    log_depths,
-    merits_2d_options,
-    need,
-    objective_options,
-    output_group,
-    parse_constraint,
-    real_type,
-    scheduler_option,
-    search,
-    seed_type,
-)
+from . import _common
 
-_f_number = real_type("f-number", 0.0, "a finite number > 0")
+_f_number = _common.real_type("f-number", 0.0, "a finite number > 0")
 
 
 
 
 def add_parser(subparsers: Any) -> None:
-    p = design_command(subparsers, "optimise", __doc__,
-                       summary="the best design for an objective (inverse design)",
-                       design="optimise around",
-                       threads="threads of the core for in-process evaluation")
+    p = _common.design_command(subparsers, "optimise", __doc__,
+                               summary="the best design for an objective (inverse design)",
+                               design="optimise around",
+                               threads="threads of the core for in-process evaluation")
     p.add_argument("--free", action="append", required=True, metavar="NAME=LOW:HIGH",
                    help="a free field and its bounds (repeat; a camera field such as kappa, "
                    "or a design's by path such as channels[2].L; counts such as Q are "
                    "searched as integers)")
-    objective_options(p, "the merit to optimise (docs/optimise.md lists them)")
-    depths_option(p, "--depths", "150:10000:200", "the merits")
+    _common.objective_options(p, "the merit to optimise (docs/optimise.md lists them)")
+    _common.depths_option(p, "--depths", "150:10000:200", "the merits")
     p.add_argument("--min-microlens-f-number", type=_f_number, default=None, metavar="N",
                    help="manufacturable floor on the microlens f-number f_i/d")
-    p.add_argument("--seed", type=seed_type, default=0, help="seed of the search (default 0)")
-    evolution_options(p, maxiter=100, popsize=15)
+    _common.evolution_options(p, maxiter=100, popsize=15)
     p.add_argument("--no-polish", action="store_true", help="skip the local polish")
-    scheduler_option(p)
+    _common.scheduler_option(p)
     p.add_argument("--history", metavar="FILE",
                    help="write every evaluated candidate to .csv or .parquet")
-    merits_2d_options(p, "compute and report the 2-D merits even when neither the "
-                      "objective nor a constraint names one (they are computed when one "
-                      "does)", "default 16")
-    output_group(p, "write the best design ([camera] TOML, [design] for a design base)",
-                 "BEST.toml")
+    _common.merits_2d_options(p, "compute and report the 2-D merits even when neither the "
+                              "objective nor a constraint names one (they are computed when one "
+                              "does)", "default 16")
+    _common.output_group(p, "write the best design ([camera] TOML, [design] for a design base)",
+                         "BEST.toml")
     p.set_defaults(func=run)
 
 
@@ -79,7 +58,8 @@ def parse_free(spec: str) -> tuple[str, tuple[float, float]]:
         bounds = tuple(int(b) if b.strip().lstrip("+-").isdigit() else float(b)
                        for b in (lo, hi))
     except ValueError:
-        raise CliError(f"--free {spec}: expected NAME=LOW:HIGH, e.g. kappa=0.05:0.8") from None
+        raise _common.CliError(f"--free {spec}: expected NAME=LOW:HIGH, "
+                               "e.g. kappa=0.05:0.8") from None
     return name.strip(), (bounds[0], bounds[1])
 
 
@@ -94,21 +74,21 @@ def _optimise_outputs(args: argparse.Namespace) -> tuple[Path | None, Path | Non
     """--out and --history, checked before any work."""
     out = None if args.out is None else Path(args.out)
     if out is not None:
-        check_suffix("--out", out, (".toml",))
-        check_output(out, args.force)
+        _common.check_suffix("--out", out, (".toml",))
+        _common.check_output(out, args.force)
     hist = None if args.history is None else Path(args.history)
     if hist is not None:
-        check_suffix("--history", hist, (".csv", ".parquet"))
-        check_output(hist, args.force)
+        _common.check_suffix("--history", hist, (".csv", ".parquet"))
+        _common.check_output(hist, args.force)
     return out, hist
 
 
 def _write_optimised(res: Any, out: Path | None, hist: Path | None, force: bool) -> None:
     if out is not None:
-        with atomic_output(out, force=force, hint=FORCE_HINT) as tmp:
+        with atomic_output(out, force=force, hint=_common.FORCE_HINT) as tmp:
             tmp.write_text(res.design.to_toml(), encoding="utf-8")
     if hist is not None:
-        with atomic_output(hist, force=force, hint=FORCE_HINT) as tmp:
+        with atomic_output(hist, force=force, hint=_common.FORCE_HINT) as tmp:
             if hist.suffix == ".csv":
                 res.history.to_csv(tmp, index=False)
             else:
@@ -117,28 +97,28 @@ def _write_optimised(res: Any, out: Path | None, hist: Path | None, force: bool)
 
 def run(args: argparse.Namespace) -> int:
     for module in ("scipy", "pandas"):
-        need(module, "optimise", "sweep")
+        _common.need(module, "optimise", "sweep")
     from ..study.optimise import optimise
 
     out, hist = _optimise_outputs(args)
     free = dict(parse_free(f) for f in args.free)
-    constraints = dict(parse_constraint(c) for c in args.constraint or [])
-    depths = log_depths(args.depths)
-    camera, source = load_subject(args)
+    constraints = dict(_common.parse_constraint(c) for c in args.constraint or [])
+    depths = _common.log_depths(args.depths)
+    camera, source = _common.load_subject(args)
     kwargs = dict(sense=args.sense, constraints=constraints, depths=depths, seed=args.seed,
                   maxiter=args.maxiter, popsize=args.popsize, polish=not args.no_polish,
                   min_microlens_f_number=args.min_microlens_f_number, n_threads=args.threads,
                   merits_2d=True if args.merits_2d else None)
     if args.window is not None:
         kwargs["window"] = args.window
-    res = search(optimise, args, camera, free, args.objective, **kwargs)
+    res = _common.search(optimise, args, camera, free, args.objective, **kwargs)
     if not res.feasible:
-        raise CliError(f"no feasible design found in {res.nfev} candidates (least violation: "
-                       f"{res.slack}); widen --free or relax --constraint")
+        raise _common.CliError(f"no feasible design found in {res.nfev} candidates (least "
+                               f"violation: {res.slack}); widen --free or relax --constraint")
     _write_optimised(res, out, hist, args.force)
     doc = _optimise_document(res, source, args)
     if args.json:
-        sys.stdout.write(json_text(doc if out is None else {"path": str(out), **doc}))
+        sys.stdout.write(_common.json_text(doc if out is None else {"path": str(out), **doc}))
         return 0
     lines = [f"splitlf optimise: {source}; {res.generations} generations, {res.nfev} "
              "candidates",

@@ -12,29 +12,11 @@ import logging
 import sys
 from typing import Any
 
-from ._common import (
-    CliError,
-    array_output,
-    array_targets,
-    channels_option,
-    described,
-    figure_picture,
-    floats,
-    grid_options,
-    integer_type,
-    ints,
-    json_text,
-    need,
-    noise_type,
-    parse_render_depth,
-    real_type,
-    threads_option,
-    write_array,
-)
+from . import _common
 
 
 def add_parser(subparsers: Any) -> None:
-    p = subparsers.add_parser("reconstruct", description=described(__doc__),
+    p = subparsers.add_parser("reconstruct", description=_common.described(__doc__),
                               help="a super-resolved image from a raw file")
     p.add_argument("raw", metavar="RAW.npz", help="a raw file (splitlf render, Raw.save)")
     p.add_argument("--depth", required=True, metavar="SPEC",
@@ -43,15 +25,15 @@ def add_parser(subparsers: Any) -> None:
                    "--extent; e.g. from splitlf depth --npy)")
     p.add_argument("--extent", default=None, metavar="X0,X1,Y0,Y1",
                    help="a .npy depth map's extent [mm] (splitlf depth prints it)")
-    grid_options(p, "what every channel sees through half its aperture",
-                 "the sensor step mu_1 z / L_1")
-    p.add_argument("--noise", type=noise_type, default=None, metavar="N[,READ]",
+    _common.grid_options(p, "what every channel sees through half its aperture",
+                         "the sensor step mu_1 z / L_1")
+    p.add_argument("--noise", type=_common.noise_type, default=None, metavar="N[,READ]",
                    help="the raw's noise, as given to render (default: the noise model the "
                    "raw file carries; for a file without one, estimated from the data)")
-    p.add_argument("--regularization", type=real_type(
+    p.add_argument("--regularization", type=_common.real_type(
         "regularization", 0.0, "a finite weight > 0"), default=None, metavar="LAMBDA",
         help="the smoothness prior's weight (default: chosen from the data by GCV)")
-    p.add_argument("--tile", type=integer_type("tile", 16, 10**9), default=None,
+    p.add_argument("--tile", type=_common.integer_type("tile", 16, 10**9), default=None,
                    metavar="CELLS",
                    help="at most this many cells per side in one solve (default: one "
                    "solve, or tiles of the size that fits when one would not)")
@@ -62,15 +44,15 @@ def add_parser(subparsers: Any) -> None:
                    help="run a reconstruction expected to take more than a few minutes "
                    "(without it, such a reconstruct is refused before it starts, saying "
                    "how long it would take)")
-    threads_option(p, "threads of the core")
-    array_output(p, "the image to write (.png with axes in mm over the extent, or .npy for "
-                 "the array)", "IMAGE.png")
+    _common.threads_option(p, "threads of the core")
+    _common.array_output(p, "the image to write (.png with axes in mm over the extent, or .npy for "
+                         "the array)", "IMAGE.png")
     p.set_defaults(func=run)
 
 
 def _lens_types_option(args: argparse.Namespace) -> tuple[int, ...] | None:
     """``--lens-types T[,U...]`` as lens type numbers (None: all)."""
-    return None if args.lens_types is None else ints(args.lens_types, "--lens-types")
+    return None if args.lens_types is None else _common.ints(args.lens_types, "--lens-types")
 
 
 def _slow(args: argparse.Namespace) -> dict[str, Any]:
@@ -101,26 +83,27 @@ def _say_the_plan() -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    need("scipy", "reconstruct", "reconstruct")
+    _common.need("scipy", "reconstruct", "reconstruct")
     _say_the_plan()
     from ..errors import TooLargeError
     from ..imaging.render import Raw
     from ..inverse.reconstruct import reconstruct
     from ..plot.image import image
 
-    out, npy = array_targets(args, "reconstruct")
+    out, npy = _common.array_targets(args, "reconstruct")
     raw = Raw.load(args.raw)
-    depth = parse_render_depth(args.depth, args.extent)
-    region = None if args.region is None else floats(args.region, 4, "--region")
+    depth = _common.parse_render_depth(args.depth, args.extent)
+    region = None if args.region is None else _common.floats(args.region, 4, "--region")
     try:
         rec = reconstruct(raw, depth, region=region, step=args.step,
-                          channels=channels_option(args), noise=args.noise,
+                          channels=_common.channels_option(args), noise=args.noise,
                           regularization=args.regularization, tile=args.tile,
                           n_threads=args.threads, progress=None,
                           lens_types=_lens_types_option(args), **_slow(args))
     except TooLargeError as e:  # the library's advice, in the command line's words
-        raise CliError(str(e).replace("allow_slow=True", "--allow-slow")) from None
-    write_array(args, out, npy, rec.image, figure_picture(lambda ax: image(rec, ax)))
+        raise _common.CliError(str(e).replace("allow_slow=True", "--allow-slow")) from None
+    picture = _common.figure_picture(lambda ax: image(rec, ax))
+    _common.write_array(args, out, npy, rec.image, picture)
     summary = {"path": str(out), "npy": None if npy is None else str(npy),
                "shape": list(rec.image.shape), "extent": list(rec.extent), "step": rec.step,
                "depth": rec.depth, "channels": list(rec.channels), "rows": rec.rows,
@@ -129,5 +112,5 @@ def run(args: argparse.Namespace) -> int:
                "regularization_rule": rec.regularization_rule, "noise": rec.noise,
                "noise_model": rec.noise_model, "noise_source": rec.noise_source,
                "tiles": rec.tiles}
-    sys.stdout.write(json_text(summary) if args.json else f"{out}\n")
+    sys.stdout.write(_common.json_text(summary) if args.json else f"{out}\n")
     return 0

@@ -17,37 +17,18 @@ from typing import Any
 import numpy as np
 
 from .._files import atomic_output
-from ._common import (
-    FORCE_HINT,
-    CliError,
-    check_output,
-    check_suffix,
-    described,
-    design_argument,
-    json_text,
-    load_npy,
-    named_design,
-    need,
-    noise_type,
-    output_group,
-    parse_render_depth,
-    real_type,
-    scheduler_executor,
-    scheduler_option,
-    seed_type,
-    threads_option,
-)
+from . import _common
 
 
 def add_parser(subparsers: Any) -> None:
-    p = subparsers.add_parser("render", description=described(__doc__),
+    p = subparsers.add_parser("render", description=_common.described(__doc__),
                               help="the raw sensor images of a textured scene")
-    design_argument(p)
+    _common.design_argument(p)
     p.add_argument("--texture", required=True, metavar="SPEC",
                    help="random | sinusoid:F | bars:F (cycles/mm) | edge[:ANGLE] (degrees "
                    "from vertical, default 5) | star[:SPOKES] (default 36) | an image file "
                    "(.png or .npy of albedos) with --width")
-    p.add_argument("--width", type=real_type("width", 0.0, "a finite width > 0 (mm)"),
+    p.add_argument("--width", type=_common.real_type("width", 0.0, "a finite width > 0 (mm)"),
                    default=None, metavar="MM", help="an image texture's width on the object")
     p.add_argument("--depth", required=True, metavar="SPEC",
                    help="a depth in mm (a fronto-parallel plane) | plane:Z0,GX,GY "
@@ -55,25 +36,26 @@ def add_parser(subparsers: Any) -> None:
     p.add_argument("--extent", default=None, metavar="X0,X1,Y0,Y1",
                    help="a depth map's extent on the object [mm] (with a negative X0: "
                    "--extent=X0,X1,Y0,Y1)")
-    p.add_argument("--noise", type=noise_type, default=None, metavar="N[,READ]",
+    p.add_argument("--noise", type=_common.noise_type, default=None, metavar="N[,READ]",
                    help="add noise: N photo-electrons for value 1 (Poisson), READ electrons "
                    "rms of read noise (default 0)")
     acc = p.add_mutually_exclusive_group()
-    acc.add_argument("--tol", type=real_type("tol", 0.0, "a value in [1e-10, 0.1]"),
+    acc.add_argument("--tol", type=_common.real_type("tol", 0.0, "a value in [1e-10, 0.1]"),
                      default=None, help="error target of a pixel relative to a fully lit "
                      "pixel under the scene's largest albedo (default 1e-3; docs/render.md)")
-    acc.add_argument("--noise-tol", type=real_type("noise tol", 0.0, "a fraction in (0, 1]"),
+    acc.add_argument("--noise-tol",
+                     type=_common.real_type("noise tol", 0.0, "a fraction in (0, 1]"),
                      default=None, metavar="K", help="instead: each pixel's error target is "
                      "K (e.g. 0.1) times the standard deviation of --noise at its value")
-    p.add_argument("--seed", type=seed_type, default=0,
+    p.add_argument("--seed", type=_common.seed_type, default=0,
                    help="seed of the random texture and the noise, an integer >= 0 "
                    "(default 0)")
-    threads_option(p, "threads of the core (with --scheduler: of each task)")
-    scheduler_option(p, ": render there, each channel's rows cut into bands, one task "
-                     "each, the same raw bit for bit (docs/render.md, 'Scale-out and "
-                     "datasets')")
-    g = output_group(p, "the raw file to write (.npz)", "RAW.npz", required=True,
-                     json_help="print a JSON summary of the raws instead of the path")
+    _common.threads_option(p, "threads of the core (with --scheduler: of each task)")
+    _common.scheduler_option(p, ": render there, each channel's rows cut into bands, one task "
+                             "each, the same raw bit for bit (docs/render.md, 'Scale-out and "
+                             "datasets')")
+    g = _common.output_group(p, "the raw file to write (.npz)", "RAW.npz", required=True,
+                             json_help="print a JSON summary of the raws instead of the path")
     g.add_argument("--png", default=None, metavar="FILE.png",
                    help="also write a picture of the raws (splitlf.plot.raw)")
     p.set_defaults(func=run)
@@ -91,7 +73,7 @@ def parse_render_texture(spec: str, width: float | None) -> Any:
     if kind not in known:
         return _image_texture(spec, width)
     if width is not None:
-        raise CliError("--width: only with an image file as --texture")
+        raise _common.CliError("--width: only with an image file as --texture")
     try:
         if kind == "random":
             return RandomAlbedo(float(rest)) if colon else RandomAlbedo()
@@ -101,7 +83,7 @@ def parse_render_texture(spec: str, width: float | None) -> Any:
             return SlantedEdge(float(rest)) if colon else SlantedEdge()
         return SiemensStar(int(rest)) if colon else SiemensStar()
     except ValueError as e:
-        raise CliError(f"--texture {spec}: {e}") from None
+        raise _common.CliError(f"--texture {spec}: {e}") from None
 
 
 TEXTURE_FORMS = ("random[:CELL] (mm), sinusoid:F, bars:F (cycles/mm), edge[:ANGLE], "
@@ -115,41 +97,41 @@ def _image_texture(path: str, width: float | None) -> Any:
 
     suffix = Path(path).suffix.lower()
     if suffix not in (".png", ".npy"):
-        raise CliError(f"--texture {path}: allowed {TEXTURE_FORMS}")
+        raise _common.CliError(f"--texture {path}: allowed {TEXTURE_FORMS}")
     if width is None:
-        raise CliError(f"--texture {path}: an image needs --width MM (its width on the "
-                       "object)")
+        raise _common.CliError(f"--texture {path}: an image needs --width MM (its width on the "
+                               "object)")
     if suffix == ".npy":
-        array = load_npy(path, "texture")
+        array = _common.load_npy(path, "texture")
     else:
-        need("matplotlib", "render with a PNG texture", "plot")
+        _common.need("matplotlib", "render with a PNG texture", "plot")
         import matplotlib.image
 
         if not Path(path).is_file():
-            raise CliError(f"no such file: {path}")
+            raise _common.CliError(f"no such file: {path}")
         try:
             array = np.asarray(matplotlib.image.imread(path), dtype=np.float64)
         except (OSError, ValueError, SyntaxError) as e:
-            raise CliError(f"{path}: not a PNG image ({e})") from None
+            raise _common.CliError(f"{path}: not a PNG image ({e})") from None
         if array.ndim == 3:
             array = array[..., :3] @ np.array([0.2126, 0.7152, 0.0722])[:array.shape[2]]
     try:
         return Image(array, width)
     except (TypeError, ValueError) as e:
-        raise CliError(f"--texture {path}: {e}") from None
+        raise _common.CliError(f"--texture {path}: {e}") from None
 
 
 def _render_targets(args: argparse.Namespace) -> tuple[Path, Path | None]:
     out = Path(args.out)
-    check_suffix("--out", out, (".npz",))
-    check_output(out, args.force)
+    _common.check_suffix("--out", out, (".npz",))
+    _common.check_output(out, args.force)
     png = None if args.png is None else Path(args.png)
     if png is not None:
-        check_suffix("--png", png, (".png",))
-        need("matplotlib", "render --png", "plot")
-        check_output(png, args.force)
+        _common.check_suffix("--png", png, (".png",))
+        _common.need("matplotlib", "render --png", "plot")
+        _common.check_output(png, args.force)
         if png.resolve() == out.resolve():
-            raise CliError("--png and --out: give two different files")
+            raise _common.CliError("--png and --out: give two different files")
     return out, png
 
 
@@ -173,7 +155,7 @@ def _write_render(raw: Any, out: Path, png: Path | None, force: bool) -> None:
             from ..plot import raw as plot_raw
             from ..plot._mpl import pyplot
 
-            tmp = stack.enter_context(atomic_output(png, force=force, hint=FORCE_HINT))
+            tmp = stack.enter_context(atomic_output(png, force=force, hint=_common.FORCE_HINT))
             fig = plot_raw(raw)
             try:
                 fig.savefig(tmp, dpi=150)
@@ -186,16 +168,16 @@ def run(args: argparse.Namespace) -> int:
     from ..imaging.render import Scene, render
 
     out, png = _render_targets(args)
-    design = named_design(args.design)
+    design = _common.named_design(args.design)
     texture = parse_render_texture(args.texture, args.width)
-    depth = parse_render_depth(args.depth, args.extent)
+    depth = _common.parse_render_depth(args.depth, args.extent)
     scene = Scene(texture, depth)
     if args.noise_tol is not None and args.noise is None:
-        raise CliError("--noise-tol: a fraction of the noise, needs --noise N[,READ]")
-    with scheduler_executor(args) as executor:
+        raise _common.CliError("--noise-tol: a fraction of the noise, needs --noise N[,READ]")
+    with _common.scheduler_executor(args) as executor:
         raw = render(design, scene, noise=args.noise, seed=args.seed, tol=args.tol,
                      noise_tol=args.noise_tol, n_threads=args.threads, executor=executor)
     _write_render(raw, out, png, args.force)
-    sys.stdout.write(json_text(_render_summary(raw, out, png, args)) if args.json
+    sys.stdout.write(_common.json_text(_render_summary(raw, out, png, args)) if args.json
                      else f"{out}\n")
     return 0

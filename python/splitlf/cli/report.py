@@ -14,33 +14,28 @@ import sys
 from typing import Any
 
 from ..study.report import format_report, report_data
-from ._common import (
-    design_command,
-    json_text,
-    load_subject,
-    output_group,
-    threshold_option,
-)
+from . import _common
 
 
 def add_parser(subparsers: Any) -> None:
-    p = design_command(subparsers, "report", __doc__,
-                       summary="where a design is sharp and how densely it samples",
-                       design="report",
-                       threads="threads for the coincidence planes and the resolution figures")
-    threshold_option(p)
+    p = _common.design_command(subparsers, "report", __doc__,
+                               summary="where a design is sharp and how densely it samples",
+                               design="report",
+                               threads="threads for the coincidence planes and the "
+                               "resolution figures")
+    _common.threshold_option(p)
     p.add_argument("--full", action="store_true",
                    help="every field of every channel, its lens types and the coincidence "
                    "planes (default: the short answer)")
-    output_group(p, None)
+    _common.output_group(p, None)
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    subject, source = load_subject(args)
+    subject, source = _common.load_subject(args)
     data = report_data(subject, args.threshold, n_threads=args.threads)
     if args.json:
-        sys.stdout.write(json_text({"source": source, **data}))
+        sys.stdout.write(_common.json_text({"source": source, **data}))
     else:
         sys.stdout.write(format_report(data, f"splitlf report: {source}", full=args.full))
     return 0

@@ -17,24 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from ._common import (
-    CliError,
-    check_output,
-    check_suffix,
-    depth_type,
-    design_command,
-    integer_type,
-    json_text,
-    load_npy,
-    load_subject,
-    need,
-    output_group,
-    photons_type,
-    print_result,
-    read_noise_type,
-    seed_type,
-    write_text,
-)
+from . import _common
 
 #: Depths of ``splitlf simulate --z-range``: the allowed range of ``--n``.
 SIMULATE_N_RANGE = (1, 1000)
@@ -43,36 +26,36 @@ SIMULATE_N_RANGE = (1, 1000)
 SIMULATE_WINDOW = 256
 
 
-_n_depths = integer_type("depth count", *SIMULATE_N_RANGE)
+_n_depths = _common.integer_type("depth count", *SIMULATE_N_RANGE)
 
 
 
 
 def add_parser(subparsers: Any) -> None:
-    p = design_command(subparsers, "simulate", __doc__,
-                       summary="super-resolution simulation at one or more depths",
-                       design="simulate", threads="threads of the core")
+    p = _common.design_command(subparsers, "simulate", __doc__,
+                               summary="super-resolution simulation at one or more depths",
+                               design="simulate", threads="threads of the core")
     where = p.add_mutually_exclusive_group()
-    where.add_argument("--z", type=depth_type, default=1000.0, metavar="MM",
+    where.add_argument("--z", type=_common.depth_type, default=1000.0, metavar="MM",
                        help="depth of the plane in mm (default 1000)")
-    where.add_argument("--z-range", type=depth_type, nargs=2, metavar=("A", "B"),
+    where.add_argument("--z-range", type=_common.depth_type, nargs=2, metavar=("A", "B"),
                        help="log-spaced depths from A to B mm (see --n)")
     p.add_argument("--n", type=_n_depths, default=None,
                    help=f"depths of --z-range, an integer in [{SIMULATE_N_RANGE[0]}, "
                    f"{SIMULATE_N_RANGE[1]}] (default 8)")
     p.add_argument("--texture", default="random",
                    help="random | sinusoid:F | bars:F (cycles/mm) | image:FILE.npy:WIDTH_MM")
-    p.add_argument("--photons", type=photons_type, default=None,
+    p.add_argument("--photons", type=_common.photons_type, default=None,
                    help="add noise: photo-electrons of a full-aperture pixel, white texture")
-    p.add_argument("--read-noise", type=read_noise_type, default=None, metavar="E",
+    p.add_argument("--read-noise", type=_common.read_noise_type, default=None, metavar="E",
                    help="read noise in electrons rms (needs --photons; default 0)")
-    p.add_argument("--seed", type=seed_type, default=0,
+    p.add_argument("--seed", type=_common.seed_type, default=0,
                    help="seed of the random texture and the noise, an integer >= 0 "
                    "(default 0)")
     p.add_argument("--no-conventional", action="store_true",
                    help="leave out the conventional camera (only the light field rows)")
-    output_group(p, "write the JSON document to a file", "FILE.json",
-                 json_help="print one JSON document (with --out: as well)")
+    _common.output_group(p, "write the JSON document to a file", "FILE.json",
+                         json_help="print one JSON document (with --out: as well)")
     p.set_defaults(func=run)
 
 
@@ -91,28 +74,28 @@ def parse_texture(spec: str) -> Any:
             return Sinusoid(f) if kind == "sinusoid" else BarChart(f)
         if kind == "image":
             path, _, width = rest.rpartition(":")
-            return Image(load_npy(path, "texture"), float(width))
+            return Image(_common.load_npy(path, "texture"), float(width))
     except ValueError as e:
-        raise CliError(f"--texture {spec}: {e}") from None
-    raise CliError(f"--texture {spec}: allowed random, sinusoid:F, bars:F (cycles/mm) "
-                   "or image:FILE.npy:WIDTH_MM")
+        raise _common.CliError(f"--texture {spec}: {e}") from None
+    raise _common.CliError(f"--texture {spec}: allowed random, sinusoid:F, bars:F (cycles/mm) "
+                           "or image:FILE.npy:WIDTH_MM")
 
 
 def _simulate_depths(args: argparse.Namespace) -> list[float]:
     if args.z_range is None:
         if args.n is not None:
-            raise CliError("--n: only with --z-range")
+            raise _common.CliError("--n: only with --z-range")
         return [args.z]
     lo, hi = args.z_range
     if not lo < hi:
-        raise CliError(f"--z-range {lo:g} {hi:g}: needs 0 < A < B (mm)")
+        raise _common.CliError(f"--z-range {lo:g} {hi:g}: needs 0 < A < B (mm)")
     return np.geomspace(lo, hi, 8 if args.n is None else args.n).tolist()
 
 
 def _simulate_noise(args: argparse.Namespace) -> dict[str, float] | None:
     if args.photons is None:
         if args.read_noise is not None:
-            raise CliError("--read-noise: only with --photons (noise-free without it)")
+            raise _common.CliError("--read-noise: only with --photons (noise-free without it)")
         return None
     return {"photons": args.photons, "read_noise": args.read_noise or 0.0}
 
@@ -137,16 +120,16 @@ def _simulate_table(rows: list[dict[str, Any]], source: str, args: argparse.Name
 
 
 def run(args: argparse.Namespace) -> int:
-    need("scipy", "simulate", "simulate")
+    _common.need("scipy", "simulate", "simulate")
     from ..inverse.simulate import simulate
 
     out = None if args.out is None else Path(args.out)
     if out is not None:
-        check_suffix("--out", out, (".json",))
-        check_output(out, args.force)
+        _common.check_suffix("--out", out, (".json",))
+        _common.check_output(out, args.force)
     depths = _simulate_depths(args)
     noise = _simulate_noise(args)
-    camera, source = load_subject(args)
+    camera, source = _common.load_subject(args)
     texture = parse_texture(args.texture)
     rows = [simulate(camera, z, texture=texture, noise=noise, seed=args.seed,
                      window=SIMULATE_WINDOW, conventional=not args.no_conventional,
@@ -154,5 +137,5 @@ def run(args: argparse.Namespace) -> int:
     doc = {"source": source, "texture": args.texture, "window_cells": SIMULATE_WINDOW,
            "results": rows}
     if out is not None:
-        write_text(out, json_text(doc), args.force)
-    return print_result(args, out, lambda: doc, lambda: _simulate_table(rows, source, args))
+        _common.write_text(out, _common.json_text(doc), args.force)
+    return _common.print_result(args, out, lambda: doc, lambda: _simulate_table(rows, source, args))

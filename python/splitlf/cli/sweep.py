@@ -18,48 +18,36 @@ import numpy as np
 from .._files import atomic_output, read_toml
 from ..model.camera import Camera
 from ..model.design import Design
-from ._common import (
-    FORCE_HINT,
-    CliError,
-    check_output,
-    check_suffix,
-    design_command,
-    json_text,
-    load_subject,
-    merits_2d_options,
-    need,
-    output_group,
-    print_result,
-    scheduler_option,
-)
+from . import _common
 
 
 def add_parser(subparsers: Any) -> None:
-    p = design_command(subparsers, "sweep", __doc__,
-                       summary="figures of merit over a grid of designs", design="sweep around",
-                       threads="threads of the core for in-process sweeps")
+    p = _common.design_command(subparsers, "sweep", __doc__,
+                               summary="figures of merit over a grid of designs",
+                               design="sweep around",
+                               threads="threads of the core for in-process sweeps")
     p.add_argument("--grid", required=True, metavar="SWEEP.toml",
                    help="the sweep file: [grid], [depths], [options], [camera] or [design]")
-    scheduler_option(p)
-    merits_2d_options(p, "also compute the 2-D merits (covering radius, distinct 2-D "
-                      "samples; a 2-D analysis per depth: slower); also [options] "
-                      "merits_2d = true", "default 16, or [options] window")
-    output_group(p, "write the sweep to .nc (NetCDF), .parquet or .json",
-                 json_help="print the designs as JSON records (with --out: as well)")
+    _common.scheduler_option(p)
+    _common.merits_2d_options(p, "also compute the 2-D merits (covering radius, distinct 2-D "
+                              "samples; a 2-D analysis per depth: slower); also [options] "
+                              "merits_2d = true", "default 16, or [options] window")
+    _common.output_group(p, "write the sweep to .nc (NetCDF), .parquet or .json",
+                         json_help="print the designs as JSON records (with --out: as well)")
     p.set_defaults(func=run)
 
 
 def _toml_real(where: str, value: Any) -> float:
     """A finite real number from a TOML file (a 400-digit integer is out of range too)."""
     if isinstance(value, bool) or not isinstance(value, int | float):
-        raise CliError(f"{where}: expected a number, got {type(value).__name__} {value!r}")
+        raise _common.CliError(f"{where}: expected a number, got {type(value).__name__} {value!r}")
     try:
         x = float(value)
     except OverflowError:
         x = math.inf
     if not math.isfinite(x):
         shown = value if isinstance(value, float) else f"{str(value)[:12]}..."
-        raise CliError(f"{where} = {shown}: allowed a finite number")
+        raise _common.CliError(f"{where} = {shown}: allowed a finite number")
     return x
 
 
@@ -67,7 +55,7 @@ def _toml_count(where: str, value: Any, lo: int, hi: int) -> int:
     if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
         shown = value if not isinstance(value, int) or abs(value) < 10**15 \
             else f"{str(value)[:12]}..."
-        raise CliError(f"{where} = {shown!r}: allowed an integer in [{lo}, {hi}]")
+        raise _common.CliError(f"{where} = {shown!r}: allowed an integer in [{lo}, {hi}]")
     return value
 
 
@@ -78,17 +66,17 @@ def _linspace(where: str, spec: Any) -> list[Any]:
     if isinstance(spec, list):
         return spec
     if not isinstance(spec, dict):
-        raise CliError(f"{where}: expected a list of values or {{start, stop, num}}")
+        raise _common.CliError(f"{where}: expected a list of values or {{start, stop, num}}")
     unknown = set(spec) - {"start", "stop", "num", "log"}
     if unknown or not {"start", "stop", "num"} <= set(spec):
-        raise CliError(f"{where}: a range needs start, stop, num (and optional log)")
+        raise _common.CliError(f"{where}: a range needs start, stop, num (and optional log)")
     lo, hi = _toml_real(f"{where}.start", spec["start"]), _toml_real(f"{where}.stop", spec["stop"])
     num = _toml_count(f"{where}.num", spec["num"], 1, MAX_DESIGNS)
     log = spec.get("log", False)
     if not isinstance(log, bool):
-        raise CliError(f"{where}.log = {log!r}: allowed true or false")
+        raise _common.CliError(f"{where}.log = {log!r}: allowed true or false")
     if log and not (lo > 0 and hi > 0):
-        raise CliError(f"{where}: a log range needs start > 0 and stop > 0")
+        raise _common.CliError(f"{where}: a log range needs start > 0 and stop > 0")
     return (np.geomspace if log else np.linspace)(lo, hi, num).tolist()
 
 
@@ -97,15 +85,17 @@ def _sweep_depths(path: str, dep: Any) -> np.ndarray:
     from ..study.sweep import MAX_DEPTHS
 
     if not isinstance(dep, dict):
-        raise CliError(f"{path}: [depths] must be a table")
+        raise _common.CliError(f"{path}: [depths] must be a table")
     bad = set(dep) - {"min", "max", "num"}
     if bad:
-        raise CliError(f"{path}: unknown [depths] key(s) {sorted(bad)}; allowed: min, max, num")
+        raise _common.CliError(f"{path}: unknown [depths] key(s) {sorted(bad)}; "
+                               "allowed: min, max, num")
     lo = _toml_real(f"{path}: depths.min", dep.get("min", 150.0))
     hi = _toml_real(f"{path}: depths.max", dep.get("max", 10_000.0))
     num = _toml_count(f"{path}: depths.num", dep.get("num", 200), 2, MAX_DEPTHS)
     if not 0 < lo < hi:
-        raise CliError(f"{path}: depths needs 0 < min < max (mm), got min={lo!r}, max={hi!r}")
+        raise _common.CliError(f"{path}: depths needs 0 < min < max (mm), "
+                               f"got min={lo!r}, max={hi!r}")
     return np.geomspace(lo, hi, num)
 
 
@@ -126,12 +116,12 @@ def load_sweep(path: str) -> dict[str, Any]:
     doc = read_toml(path)
     unknown = set(doc) - {"grid", "depths", "options", "camera", "design"}
     if unknown:
-        raise CliError(f"{path}: unknown table(s) {sorted(unknown)}; "
-                       "allowed: grid, depths, options, camera or design")
+        raise _common.CliError(f"{path}: unknown table(s) {sorted(unknown)}; "
+                               "allowed: grid, depths, options, camera or design")
     if "camera" in doc and "design" in doc:
-        raise CliError(f"{path}: a [camera] and a [design] table: give one base")
+        raise _common.CliError(f"{path}: a [camera] and a [design] table: give one base")
     if not isinstance(doc.get("grid"), dict) or not doc["grid"]:
-        raise CliError(f"{path}: needs a non-empty [grid] table of camera fields")
+        raise _common.CliError(f"{path}: needs a non-empty [grid] table of camera fields")
     grid = {k: _linspace(f"{path}: grid.{k}", v) for k, v in doc["grid"].items()}
     depths = _sweep_depths(path, doc.get("depths", {}))
     options = _sweep_options(path, doc.get("options", {}))
@@ -142,7 +132,7 @@ def load_sweep(path: str) -> dict[str, Any]:
                 base = build(doc[table], source=f"{path} [{table}]")
             except (ValueError, TypeError) as e:
                 msg = str(e)
-                raise CliError(msg if msg.startswith(path) else f"{path} [{table}]: {msg}"
+                raise _common.CliError(msg if msg.startswith(path) else f"{path} [{table}]: {msg}"
                                ) from None
     return {"grid": grid, "depths": depths, "options": options, "base": base}
 
@@ -158,15 +148,15 @@ def _sweep_options(path: str, opts: Any) -> dict[str, Any]:
 
     bad = set(opts) - set(SWEEP_OPTIONS) if isinstance(opts, dict) else {"(not a table)"}
     if bad:
-        raise CliError(f"{path}: unknown [options] key(s) {sorted(bad)}; "
-                       f"allowed: {', '.join(SWEEP_OPTIONS)}")
+        raise _common.CliError(f"{path}: unknown [options] key(s) {sorted(bad)}; "
+                               f"allowed: {', '.join(SWEEP_OPTIONS)}")
     full = {"threshold_px": ev.DEFAULT_THRESHOLD_PX, "tol": ev.DEFAULT_TOL,
             "merits_2d": False, "window": ev.DEFAULT_WINDOW, **opts}
     try:  # the checks of splitlf.evaluate's options
         _options.threshold_option(full["threshold_px"])
         _options.options_2d(full["merits_2d"], full["window"], _options.tol_option(full["tol"]))
     except (ValueError, TypeError) as e:
-        raise CliError(f"{path}: options: {e}") from None
+        raise _common.CliError(f"{path}: options: {e}") from None
     return dict(opts)
 
 
@@ -184,13 +174,13 @@ def _sweep_document(ds: Any) -> dict[str, Any]:
 
 
 def _write_sweep(ds: Any, out: Path, force: bool) -> None:
-    with atomic_output(out, force=force, hint=FORCE_HINT) as tmp:
+    with atomic_output(out, force=force, hint=_common.FORCE_HINT) as tmp:
         if out.suffix == ".nc":
             ds.to_netcdf(tmp)
         elif out.suffix == ".parquet":
             ds.to_dataframe().reset_index().to_parquet(tmp)
         else:
-            tmp.write_text(json_text(_sweep_document(ds)), encoding="utf-8")
+            tmp.write_text(_common.json_text(_sweep_document(ds)), encoding="utf-8")
 
 
 def _run_sweep(camera: Design, spec: dict[str, Any], scheduler: str | None,
@@ -203,7 +193,7 @@ def _run_sweep(camera: Design, spec: dict[str, Any], scheduler: str | None,
     try:
         from distributed import Client
     except ImportError:
-        raise CliError('--scheduler needs Dask: pip install "splitlf[dask]"') from None
+        raise _common.CliError('--scheduler needs Dask: pip install "splitlf[dask]"') from None
     with Client(scheduler) as client:
         return sweep(camera, spec["grid"], spec["depths"], executor=client.get_executor(),
                      n_threads=n_threads, **spec["options"])
@@ -213,11 +203,11 @@ def _sweep_base(args: argparse.Namespace, spec: dict[str, Any]) -> Design:
     """The base of a sweep: the file's [camera] or [design] table, else --preset,
     --config or the seed; never two of them."""
     if spec["base"] is None:
-        return load_subject(args)[0]
+        return _common.load_subject(args)[0]
     if args.preset is not None or args.config is not None:
         option = "--preset" if args.preset is not None else "--config"
-        raise CliError(f"{option}: {args.grid} has a [camera] or [design] base already; "
-                       "give the base in one place")
+        raise _common.CliError(f"{option}: {args.grid} has a [camera] or [design] base already; "
+                               "give the base in one place")
     return spec["base"]
 
 
@@ -236,11 +226,11 @@ def _sweep_table(ds: Any, base: Design, spec: dict[str, Any]) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    need("xarray", "sweep", "sweep")
+    _common.need("xarray", "sweep", "sweep")
     out = None if args.out is None else Path(args.out)
     if out is not None:
-        check_suffix("--out", out, SWEEP_SUFFIXES)
-        check_output(out, args.force)
+        _common.check_suffix("--out", out, SWEEP_SUFFIXES)
+        _common.check_output(out, args.force)
     spec = load_sweep(args.grid)
     if args.merits_2d:
         spec["options"]["merits_2d"] = True
@@ -250,5 +240,5 @@ def run(args: argparse.Namespace) -> int:
     ds = _run_sweep(base, spec, args.scheduler, args.threads)
     if out is not None:
         _write_sweep(ds, out, args.force)
-    return print_result(args, out, lambda: _sweep_document(ds),
-                        lambda: _sweep_table(ds, base, spec))
+    return _common.print_result(args, out, lambda: _sweep_document(ds),
+                                lambda: _sweep_table(ds, base, spec))

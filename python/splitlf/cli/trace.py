@@ -18,16 +18,7 @@ from typing import Any
 import numpy as np
 
 from .._files import atomic_output
-from ._common import (
-    FORCE_HINT,
-    CliError,
-    check_output,
-    check_suffix,
-    design_command,
-    json_text,
-    load_subject,
-    output_group,
-)
+from . import _common
 
 TRACE_FIELDS = ("vertices", "n_vertices", "area", "centroid", "lens", "pixel", "chief", "lit")
 
@@ -35,13 +26,14 @@ TRACE_FIELDS = ("vertices", "n_vertices", "area", "centroid", "lens", "pixel", "
 
 
 def add_parser(subparsers: Any) -> None:
-    p = design_command(subparsers, "trace", __doc__,
-                       summary="write every pixel's ray-space polygon to .npz", design="trace",
-                       threads="threads of the trace")
+    p = _common.design_command(subparsers, "trace", __doc__,
+                               summary="write every pixel's ray-space polygon to .npz",
+                               design="trace",
+                               threads="threads of the trace")
     p.add_argument("--axis", choices=("x", "y"), default="x",
                    help="the sensor axis traced (default: x)")
-    output_group(p, "output file (default: trace.npz)", "FILE.npz", "trace.npz",
-                 "print a JSON summary of the arrays instead of the path")
+    _common.output_group(p, "output file (default: trace.npz)", "FILE.npz", "trace.npz",
+                         "print a JSON summary of the arrays instead of the path")
     p.set_defaults(func=run)
 
 
@@ -62,15 +54,15 @@ def run(args: argparse.Namespace) -> int:
     from ..plot._mpl import trace_threads
     from ..sampling import rayspace
 
-    camera, source = load_subject(args)
+    camera, source = _common.load_subject(args)
     out = Path(args.out)
-    check_suffix("--out", out, (".npz",))
-    check_output(out, args.force)
+    _common.check_suffix("--out", out, (".npz",))
+    _common.check_output(out, args.force)
     threads = trace_threads(args.threads)
     hex_ = [i for i, ch in enumerate(camera.channels, start=1) if ch.grid != "rect"]
     if hex_:
-        raise CliError(f"trace: channel {hex_[0]} has a hex grid; the 1-D trace needs "
-                       "rect grids (docs/architectures.md)")
+        raise _common.CliError(f"trace: channel {hex_[0]} has a hex grid; the 1-D trace needs "
+                               "rect grids (docs/architectures.md)")
     arrays: dict[str, Any] = {"design_toml": np.array(camera.to_toml())}
     parts = [(f"channel{c}", {"channel": c}) for c in range(1, len(camera.channels) + 1)]
     summary: dict[str, Any] = {"path": str(out), "source": source, "axis": args.axis}
@@ -79,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
         for name in TRACE_FIELDS:
             arrays[f"{prefix}_{name}"] = getattr(t, name)
         summary[prefix] = _trace_half(t)
-    with atomic_output(out, force=args.force, hint=FORCE_HINT) as tmp:
+    with atomic_output(out, force=args.force, hint=_common.FORCE_HINT) as tmp:
         np.savez_compressed(tmp, **arrays)
-    sys.stdout.write(json_text(summary) if args.json else f"{out}\n")
+    sys.stdout.write(_common.json_text(summary) if args.json else f"{out}\n")
     return 0

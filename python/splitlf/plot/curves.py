@@ -85,14 +85,9 @@ def repetitions(camera: Design, z_range: tuple[float, float] = (100.0, 10_000.0)
 
     - ``camera``: a :class:`~splitlf.Design` (the :class:`~splitlf.Camera` is one): one
       curve per channel
-    - ``z_range``: (near, far) depths [mm], F < near < far < inf, drawn on a log axis
-    - ``n``: log-spaced depths drawn (an integer in [2, 10**6]); every out-of-focus plane
-      is added so that the peaks are drawn
-    - ``ax``: a matplotlib Axes, or None for a new figure
-    - ``n_threads``: threads of the core (None: all cores)
+    - ``z_range``, ``n``, ``ax``, ``n_threads``: as in :func:`blur`
 
-    Returns the Axes. Raises ``TypeError`` (camera) and ``ValueError`` (z_range, n);
-    ``ImportError`` without matplotlib.
+    Returns the Axes; raises what :func:`blur` raises for the same parameters.
     """
     cam = _validate.design(camera, "camera")
     z = depth_grid(cam, z_range, n)
