@@ -9,12 +9,10 @@ use crate::imaging::texture::{count_params, Texture};
 use crate::infra::error::{Error, Result};
 use crate::infra::polygon::Pt;
 
+mod hit;
+
 /// Most depth-map samples.
 pub const MAX_DEPTH_SAMPLES: usize = 1 << 28;
-/// Steps of the march along a ray before bisection (depth maps).
-const MARCH_STEPS: usize = 96;
-/// Most refinement steps after the march (Illinois false position, bisection where the map is undefined).
-const BISECTIONS: usize = 80;
 
 /// A depth map: depths at the centres of uniform cells over [x0, x1] × [y0, y1] (row 0
 /// at the top), bilinear between centres, constant beyond the outer centres up to the
@@ -278,73 +276,7 @@ impl Surface {
                 let z = (z0 + g[0] * w[0] + g[1] * w[1]) / den;
                 (den > 0.0 && z > 0.0 && z.is_finite()).then(|| (z, at(z)))
             }
-            Surface::Map(m) => {
-                // f(z) = z − h(P(z)) < 0 in front of the surface; the first z in
-                // [zmin, zmax] where f ≥ 0 (where h is defined), by a march then bisection.
-                let f = |z: f64| m.depth(at(z)).map(|h| z - h);
-                if m.zmax <= m.zmin {
-                    let z = m.zmin;
-                    return f(z).map(|_| (z, at(z)));
-                }
-                let step = (m.zmax - m.zmin) / MARCH_STEPS as f64;
-                let mut prev = m.zmin;
-                if let Some(v) = f(prev) {
-                    if v >= 0.0 {
-                        return Some((prev, at(prev)));
-                    }
-                }
-                for i in 1..=MARCH_STEPS {
-                    let z = m.zmin + step * i as f64;
-                    if let Some(v) = f(z) {
-                        if v >= 0.0 {
-                            // Illinois false position on the bracket (f(lo) < 0 ≤ f(hi)),
-                            // a bisection step where f is undefined; to 1e-13 relative.
-                            let (mut lo, mut hi) = (prev, z);
-                            let (mut flo, mut fhi) = (f(lo).unwrap_or(f64::NAN), v);
-                            let (mut side, eps) = (0i32, 1e-13 * hi.abs().max(1.0));
-                            for _ in 0..BISECTIONS {
-                                if hi - lo <= eps {
-                                    break;
-                                }
-                                let mut mid = if flo.is_finite() && fhi > flo {
-                                    lo - flo * (hi - lo) / (fhi - flo)
-                                } else {
-                                    0.5 * (lo + hi)
-                                };
-                                if !(mid > lo && mid < hi) {
-                                    mid = 0.5 * (lo + hi);
-                                }
-                                match f(mid) {
-                                    Some(fm) if fm >= 0.0 => {
-                                        hi = mid;
-                                        fhi = fm;
-                                        if side == 1 {
-                                            flo *= 0.5;
-                                        }
-                                        side = 1;
-                                    }
-                                    Some(fm) => {
-                                        lo = mid;
-                                        flo = fm;
-                                        if side == -1 {
-                                            fhi *= 0.5;
-                                        }
-                                        side = -1;
-                                    }
-                                    None => {
-                                        lo = mid;
-                                        flo = f64::NAN;
-                                        side = 0;
-                                    }
-                                }
-                            }
-                            return Some((hi, at(hi)));
-                        }
-                    }
-                    prev = z;
-                }
-                None
-            }
+            Surface::Map(m) => m.first_hit(w, a).map(|z| (z, at(z))),
         }
     }
 }
