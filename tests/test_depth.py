@@ -57,7 +57,7 @@ def mc_raw(design: splitlf.Design, texture: tuple, surface: tuple, seed: int,
 # -- the sweep against NumPy ------------------------------------------------------------------
 
 #: The core's constants (rust/core/src/inverse/depth/mod.rs), restated.
-MIN_WHITE, MIN_WEIGHT, M_CAP, WIDTH_AT_HALF = 0.05, 2.0, 48.0, 0.045
+MIN_WHITE, MIN_WEIGHT, M_CAP, WIDTH_AT_HALF, RIDGE = 0.05, 2.0, 48.0, 0.045, 2.0
 
 
 def lens_number(channel: int, j: int, k: int) -> float:
@@ -193,11 +193,30 @@ def reference_volume(design: splitlf.Design, raw: splitlf.Raw, grid: tuple, cand
     return out
 
 
+def ridged_rival(curves: np.ndarray, k: np.ndarray) -> np.ndarray:
+    """Per curve (candidates first) the least cost C_j, j on either side of the least cost's
+    candidate k, that the curve strictly between j and k rises to RIDGE C_j (missing costs
+    skipped; +inf: none): the running maximum of each side read outward from k."""
+    c = np.where(np.isfinite(curves), curves, np.nan).reshape(curves.shape[0], -1)
+    k = k.reshape(-1)
+    out = np.full(c.shape[1], np.inf)
+    for flip in (False, True):  # after k, then before k (read from k outward)
+        side, kk = (c[::-1], c.shape[0] - 1 - k) if flip else (c, k)
+        beyond = np.arange(c.shape[0])[:, None] > kk[None]
+        x = np.where(beyond, side, np.nan)
+        high = np.fmax.accumulate(np.where(np.isnan(x), -np.inf, x), axis=0)
+        ridge = np.concatenate([np.full_like(high[:1], -np.inf), high[:-1]])
+        ok = beyond & np.isfinite(x) & (ridge >= RIDGE * np.where(np.isnan(x), 0.0, x))
+        out = np.minimum(out, np.where(ok, x, np.inf).min(0))
+    return out.reshape(curves.shape[1:])
+
+
 def reference_confidence(curves: np.ndarray, cand: np.ndarray) -> np.ndarray:
     """The least of the contrast 1 - min / min(mean, rival) and the resolution per curve
     (candidates first): the rival is the least of the 4 least local minima (lower than the
     cost before it, not above the one after; a missing cost counts as +inf) that lies more
-    than max(2, n / 16) candidates from the least cost; the resolution 1 / (1 + (w / 0.045)^2),
+    than max(2, n / 16) candidates from the least cost, and of the costs beyond a ridge
+    (ridged_rival); the resolution 1 / (1 + (w / 0.045)^2),
     w = (ln z_k+1 - ln z_k-1) / 2 * sqrt(min / a), a = (l + r - 2 min) / 2 (the parabola
     through the least cost and its neighbours); 0 where the least cost is at an end of the
     candidates or a neighbour is above the curve's mean."""
@@ -217,6 +236,7 @@ def reference_confidence(curves: np.ndarray, cand: np.ndarray) -> np.ndarray:
     far4 = np.take_along_axis(np.broadcast_to(far, c.shape), order, 0) & np.isfinite(least)
     rival = np.where(far4.any(0), np.take_along_axis(least, np.argmax(far4, 0)[None], 0)[0],
                      np.inf)
+    rival = np.minimum(rival, ridged_rival(curves, k))
     mean = np.nanmean(np.where(np.isfinite(curves), curves, np.nan), 0)
     with np.errstate(invalid="ignore", divide="ignore"):
         against = np.minimum(mean, rival)
