@@ -167,7 +167,7 @@ def estimate_depth(raw: Raw, *, depths: Any, region: Any = None, step: float | N
       [0, 64])
     - ``min_confidence``: the least confidence of a confident cell, in [0, 1] (at the
       default 0.5: the cost curve's least value at most half its mean and its rival
-      minimum, and its dip narrow enough in relative depth, docs/depth.md step 6)
+      minima, and its dip narrow enough in relative depth, docs/depth.md step 6)
     - ``tilt``: pool each cell's window again along the surface's local slope, fitted to
       the confident cells' fronto-parallel estimates (docs/depth.md step 7: it narrows the
       spread of a steep slope's band errors, costs about 1.5x the time and 8 bytes per
@@ -178,7 +178,8 @@ def estimate_depth(raw: Raw, *, depths: Any, region: Any = None, step: float | N
     Returns a :class:`~splitlf.DepthMap` with ``depth`` (mm, row 0 at the top; cells
     that are not confident take the depth of the nearest confident cell, so the map can
     be handed to :func:`~splitlf.reconstruct`), ``confidence`` (the least of the most
-    confident channel's cost-curve contrast, 1 - min / min(mean, rival minimum), and its
+    confident channel's cost-curve contrast, 1 - min / min(mean, rival minima: more
+    than n/16 candidates away, or beyond a ridge twice their cost), and its
     resolution, 1 / (1 + (w / 0.045)^2) with w the dip's width in relative depth; 0 where
     the least cost is at an end of the candidates; in [0, 1]), ``confident``
     (bool) and ``sweep`` (a :class:`DepthSweep`).

@@ -1,7 +1,7 @@
 //! The running minima of the cost curves: each layer of costs folded in candidate order
 //! (docs/depth.md), so that the cost volume is never held whole.
 
-use super::KEEP_MINIMA;
+use super::{KEEP_MINIMA, RIDGE};
 
 /// Running minima of the cost curves (candidates folded in order).
 pub(super) struct Fold {
@@ -18,6 +18,61 @@ pub(super) struct Fold {
     /// The costs of the last two candidates folded (k − 1 and k − 2).
     pub(super) prev: Vec<f64>,
     pub(super) prev2: Vec<f64>,
+    /// Per entry the least costs beyond a ridge ([`Ridge`]).
+    pub(super) ridge: Vec<Ridge>,
+}
+
+/// The least costs that lie beyond a ridge from the least cost so far: a cost C_j counts
+/// when the curve strictly between candidate j and the least cost's rises to at least
+/// [`RIDGE`] C_j (a dip of its own, however near). Missing costs are skipped.
+#[derive(Clone, Copy)]
+pub(super) struct Ridge {
+    /// The least such cost before the least cost and after it.
+    before: f64,
+    after: f64,
+    /// The highest and the least cost folded since the least cost.
+    high: f64,
+    low: f64,
+    /// The least cost folded since the least cost that a later one (so far) rises to
+    /// [`RIDGE`] times: a ridge for the least cost yet to come.
+    ridged: f64,
+}
+
+impl Ridge {
+    const NONE: Ridge = Ridge {
+        before: f64::INFINITY,
+        after: f64::INFINITY,
+        high: f64::NEG_INFINITY,
+        low: f64::INFINITY,
+        ridged: f64::INFINITY,
+    };
+
+    /// A new least cost after `old` (the previous least cost, +∞ at first): what lay
+    /// before `old` keeps its ridge, which only rises; `old` itself has the highest cost
+    /// since it as its ridge; the costs since it have [`Ridge::ridged`].
+    fn new_least(&mut self, old: f64) {
+        let before = if RIDGE * old <= self.high {
+            old
+        } else {
+            self.before
+        };
+        *self = Ridge {
+            before: before.min(self.ridged),
+            ..Ridge::NONE
+        };
+    }
+
+    /// A cost v not below the least cost.
+    fn after_least(&mut self, v: f64) {
+        if RIDGE * v <= self.high {
+            self.after = self.after.min(v);
+        }
+        if RIDGE * self.low <= v {
+            self.ridged = self.ridged.min(self.low);
+        }
+        self.high = self.high.max(v);
+        self.low = self.low.min(v);
+    }
 }
 
 /// A missing cost as +∞ (for comparisons).
@@ -31,7 +86,8 @@ fn or_inf(v: f64) -> f64 {
 
 impl Fold {
     /// Bytes a fold holds per entry (cell and channel).
-    pub(super) const BYTES_PER_ENTRY: u128 = (7 * 8 + 2 * 4 + KEEP_MINIMA * 16) as u128;
+    pub(super) const BYTES_PER_ENTRY: u128 =
+        (7 * 8 + 2 * 4 + KEEP_MINIMA * 16 + std::mem::size_of::<Ridge>()) as u128;
 
     pub(super) fn new(cells: usize) -> Fold {
         Fold {
@@ -44,6 +100,7 @@ impl Fold {
             count: vec![0; cells],
             prev: vec![f64::NAN; cells],
             prev2: vec![f64::NAN; cells],
+            ridge: vec![Ridge::NONE; cells],
         }
     }
 
@@ -68,6 +125,12 @@ impl Fold {
             .map_or(f64::INFINITY, |e| e.0)
     }
 
+    /// The least cost beyond a ridge from the least cost ([`Ridge`]; +∞: none).
+    pub(super) fn ridged(&self, c: usize) -> f64 {
+        let r = &self.ridge[c];
+        r.before.min(r.after)
+    }
+
     pub(super) fn add(&mut self, k: u32, layer: &[f64]) {
         for (c, &v) in layer.iter().enumerate() {
             if self.arg[c] != u32::MAX && k > 0 && self.arg[c] == k - 1 {
@@ -81,10 +144,13 @@ impl Fold {
                 self.sum[c] += v;
                 self.count[c] += 1;
                 if v < self.min[c] {
+                    self.ridge[c].new_least(self.min[c]);
                     self.min[c] = v;
                     self.arg[c] = k;
                     self.left[c] = self.prev[c];
                     self.right[c] = f64::NAN;
+                } else {
+                    self.ridge[c].after_least(v);
                 }
             }
         }
@@ -140,5 +206,74 @@ mod tests {
         );
         assert_eq!((f.arg[0], f.min[0]), (6, 0.5));
         assert_eq!((f.rival(0, 3), f.rival(0, 6)), (1.0, f64::INFINITY));
+    }
+
+    /// The least cost C_j (j not the first least cost) whose curve strictly between it and
+    /// the least cost rises to RIDGE C_j, missing costs skipped: by brute force.
+    fn ridged_by_brute_force(curve: &[f64]) -> f64 {
+        let finite = |i: &usize| curve[*i].is_finite();
+        let Some(k) =
+            (0..curve.len())
+                .filter(finite)
+                .reduce(|a, b| if curve[b] < curve[a] { b } else { a })
+        else {
+            return f64::INFINITY;
+        };
+        (0..curve.len())
+            .filter(|j| finite(j) && *j != k)
+            .filter(|&j| {
+                let (a, b) = (j.min(k) + 1, j.max(k));
+                let ridge = (a..b)
+                    .filter(finite)
+                    .map(|i| curve[i])
+                    .fold(f64::NEG_INFINITY, f64::max);
+                ridge >= RIDGE * curve[j]
+            })
+            .map(|j| curve[j])
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    #[test]
+    fn ridged_rival_is_the_least_cost_beyond_a_ridge() {
+        use crate::infra::random::splitmix64;
+        // Curves of 1 to 16 costs from 0 to 7 (ties and costs exactly RIDGE times another
+        // included), one in 7 missing.
+        let mut found = 0;
+        for seed in 0..4000u64 {
+            let n = 1 + (splitmix64(seed) % 16) as usize;
+            let curve: Vec<f64> = (0..n as u64)
+                .map(|i| {
+                    let u = splitmix64(seed << 8 | (i + 1));
+                    if u % 7 == 0 {
+                        f64::NAN
+                    } else {
+                        ((u >> 8) % 8) as f64
+                    }
+                })
+                .collect();
+            let mut f = Fold::new(1);
+            for (k, &v) in curve.iter().enumerate() {
+                f.add(k as u32, &[v]);
+            }
+            f.end(n as u32);
+            let want = ridged_by_brute_force(&curve);
+            assert_eq!(f.ridged(0), want, "{curve:?}");
+            found += usize::from(want.is_finite());
+        }
+        assert!(found > 1000, "{found}");
+        // The R12's case (docs/depth.md): a least cost beside a second dip three
+        // candidates away behind a ridge; the far rival misses it, the ridge does not.
+        let mut f = Fold::new(1);
+        for (k, v) in [0.8, 0.051, 0.12, 0.28, 0.058, 0.075, 0.2, 0.8]
+            .into_iter()
+            .enumerate()
+        {
+            f.add(k as u32, &[v]);
+        }
+        f.end(8);
+        assert_eq!(
+            (f.arg[0], f.ridged(0), f.rival(0, 4)),
+            (1, 0.058, f64::INFINITY)
+        );
     }
 }

@@ -49,7 +49,8 @@
 //! Each channel's estimate per cell is the candidate of least cost, refined by the vertex
 //! of the symmetric V through it and its two neighbours ([`vertex`]), and its confidence
 //! ([`confidence`]) the least of the contrast 1 − min / m', m' the least of the curve's
-//! mean and of its least local minimum more than n/16 candidates away (a second dip of the
+//! mean, of its least local minimum more than n/16 candidates away and of its least cost
+//! beyond a ridge twice that cost's height ([`RIDGE`]) however near (a second dip of the
 //! same depth makes a cell ambiguous; a textureless patch costs the same, its noise, at
 //! every depth), and of the resolution: how narrow the dip is in relative depth against
 //! the least cost (a shallow dip is not trusted); 0 where the least cost is at an end of
@@ -104,8 +105,13 @@ pub const M_CAP: f64 = 48.0;
 /// Local minima kept per cell (for the confidence's rival minimum).
 const KEEP_MINIMA: usize = 4;
 /// A rival minimum lies more than n / RIVAL_SEPARATION (at least 2) candidates from the
-/// least cost.
+/// least cost, or beyond a ridge ([`RIDGE`]).
 const RIVAL_SEPARATION: u32 = 16;
+/// A cost is a rival dip, however near the least cost, where the curve between the two
+/// rises to RIDGE times it: a dip of its own by the contrast's standard at the default
+/// `min_confidence` (½). Measured (docs/depth.md step 6): 1.2 to 3 give the same
+/// confident cells within 1.5 points of share on every case there.
+pub(super) const RIDGE: f64 = 2.0;
 /// The relative depth width of a cost curve's dip (see [`confidence`]) at which its
 /// resolution is ½: measured on Monte-Carlo and `render` raws with photon noise
 /// (docs/depth.md), the widest at which the cells called confident keep a 90th percentile
@@ -533,9 +539,11 @@ fn finish(
 /// The confidence of entry e's curve (docs/depth.md, step 6): the least of its contrast and
 /// its resolution, 0 where its least cost is at the first or last candidate (a minimum
 /// the candidates do not bracket: the truth may lie beyond them) or has no neighbour.
-/// - The contrast 1 − min / min(mean, rival), the rival the least local minimum more than
-///   `sep` candidates away: a textureless window costs its noise at every depth (near 0),
-///   a curve with two dips of one depth is ambiguous.
+/// - The contrast 1 − min / min(mean, rival), the rival the least of the local minima more
+///   than `sep` candidates away and of the costs beyond a ridge of [`RIDGE`] times their
+///   own ([`fold::Ridge`]): a textureless window costs its noise at every depth (near 0),
+///   a curve with two dips of one depth is ambiguous, however near they are (measured:
+///   the R12 near its array's conjugate, a dip each side of it three candidates apart).
 /// - The resolution 1 / (1 + (w / [`WIDTH_AT_HALF`])²), w = Δ ln z · √(min / a) the
 ///   relative depth over which the parabola through the least cost and its neighbours l, r
 ///   (curvature a = (l + r − 2 min) / 2 per candidate², Δ ln z the candidates' relative
@@ -556,7 +564,7 @@ fn confidence(fold: &Fold, e: usize, sep: u32, candidates: &[f64]) -> f64 {
         return 0.0;
     }
     let mean = fold.sum[e] / fold.count[e] as f64;
-    let against = mean.min(fold.rival(e, sep));
+    let against = mean.min(fold.rival(e, sep)).min(fold.ridged(e));
     if !(against > 0.0 && against.is_finite()) {
         return 0.0;
     }
