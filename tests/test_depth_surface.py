@@ -73,7 +73,8 @@ def test_surface_bad_input() -> None:
 def test_image_from_the_estimates_own_surface() -> None:
     """raw -> estimate_depth -> reconstruct(raw, estimate) on a slanted plane (1000 mm +
     10 mm per mm of Y), no truth given: the estimate is taken as its surface
-    (DepthMap.surface, automatically), and the image's PSNR over the confident cells is
+    (DepthMap.surface, automatically; here within 3 % of a plane, so that plane), and the
+    image's PSNR over the confident cells is
     within 1.5 dB of the image's with the known plane. Monte-Carlo raw (tests/mc_render.py),
     N = 2000; half 1; the seed cut to 10 x 12 lenses; the depth estimated over what half 1
     sees, the image over the central half of it; each image at its data-chosen weight."""
@@ -92,7 +93,10 @@ def test_image_from_the_estimates_own_surface() -> None:
     found = splitlf.reconstruct(raw, est, **kw)  # type: ignore[arg-type]
     assert known.regularization_rule == "gcv"
     assert found.regularization_rule == "weighted gcv"
-    assert isinstance(found.depth, splitlf.DepthMap) and found.depth.confidence is None
+    # Its surface is within 3 % of a plane (measured: 2.4 %): fitted into it, the tilted
+    # route (docs/reconstruct.md step 6).
+    assert found.depth == est.surface(d, plane=True)
+    assert isinstance(found.depth, splitlf.Plane)
     assert found.extent == known.extent
     # The estimate's confidence at the image's cells (nearest estimate cell).
     ny, nx = known.image.shape
