@@ -466,6 +466,12 @@ def test_depth_map_of_a_plane_is_the_plane() -> None:
     design = seed_small(12, 12).replace(aperture="circle")
     z0, gx, gy = 800.0, 0.3, 2.0
     dm = _sampled_map(lambda x, y: z0 + gx * x + gy * y, 33, (-8.0, 8.0, -8.0, 8.0))
+    # One corner sample, far from the grid, 1e-6 off the plane: the map is not a plane
+    # (which would take the plane's own route, test_planar_map_takes_the_planes_route),
+    # and on the grid it is the plane.
+    z = dm.depth.copy()
+    z[0, 0] *= 1.0 + 1e-6
+    dm = splitlf.DepthMap(z, dm.extent)
     grid = _native.cell_grid((-1.5, 1.5, -1.2, 1.2), design.resolution_step(z0))
     n = grid[3] * grid[4]
     c1, p1, A1 = _csr(_native.surface_system(
@@ -475,6 +481,34 @@ def test_depth_map_of_a_plane_is_the_plane() -> None:
     assert np.array_equal(c1, c2) and np.array_equal(p1, p2)
     white = float(A1.sum(axis=1).max())
     assert float(abs(A1 - A2).sum(axis=1).max()) <= 1e-4 * white
+
+
+def test_planar_map_takes_the_planes_route() -> None:
+    """A depth map whose samples are a plane (an estimate fitted into one, docs/depth.md)
+    is that plane between its outer sample centres (bilinear interpolation of a plane):
+    over a grid inside them its map is the plane's own, on the tilted route, to rounding;
+    a grid reaching past them (where the map is constant, not the plane) keeps the map's
+    footprint route, whose rows differ from the plane's there."""
+    design = seed_small(12, 12)
+    z0, gx, gy = 800.0, 0.3, 2.0
+    plane = _surface_scene(splitlf.Plane(z0, gx, gy))
+    grid = _native.cell_grid((-1.5, 1.5, -1.2, 1.2), design.resolution_step(z0))
+    n = grid[3] * grid[4]
+    c1, p1, A1 = _csr(_native.surface_system(design.core, plane, grid), n)
+    assert len(c1) > 200
+    white = float(A1.sum(axis=1).max())
+    # Outer centres at +-7.75 mm (33 cells over 16 mm, the grid inside them), then at
+    # +-1.2 and +-0.975 mm (4 cells over 3.2 by 2.6 mm: the grid reaches past them).
+    for cells, ext, same in [(33, (-8.0, 8.0, -8.0, 8.0), True),
+                             (4, (-1.6, 1.6, -1.3, 1.3), False)]:
+        dm = _sampled_map(lambda x, y: z0 + gx * x + gy * y, cells, ext)
+        c2, p2, A2 = _csr(_native.surface_system(design.core, _surface_scene(dm), grid), n)
+        if same:
+            assert np.array_equal(c1, c2) and np.array_equal(p1, p2)
+            assert float(abs(A1 - A2).sum(axis=1).max()) <= 1e-12 * white
+        else:
+            assert len(c2) > 0
+            assert len(c1) != len(c2) or float(abs(A1 - A2).sum()) > 1e-9 * white
 
 
 def test_depth_map_seen_once_against_monte_carlo() -> None:

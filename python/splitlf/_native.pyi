@@ -522,4 +522,5 @@ def depth_surface(
     extent: tuple[float, float, float, float],
     confidence: npt.NDArray[np.float64] | None = None,
     confident: npt.NDArray[np.bool_] | None = None,
-) -> tuple[npt.NDArray[np.float64], int, int, float]: ...
+) -> tuple[npt.NDArray[np.float64], int, int, float,
+           tuple[float, float, float] | None]: ...

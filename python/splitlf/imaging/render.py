@@ -37,7 +37,7 @@ import os
 import sys
 import zipfile
 from collections.abc import Mapping, Sequence
-from typing import Any, cast
+from typing import Any, cast, overload
 
 import numpy as np
 
@@ -186,21 +186,38 @@ class DepthMap:
         """The native scene's surface: ("depthmap", [X0, X1, Y0, Y1], depth)."""
         return "depthmap", list(self.extent), self.depth
 
-    def surface(self, design: Design) -> DepthMap:
+    @overload
+    def surface(self, design: Design) -> DepthMap: ...
+
+    @overload
+    def surface(self, design: Design, *, plane: bool) -> DepthMap | Plane: ...
+
+    def surface(self, design: Design, *, plane: bool = False) -> DepthMap | Plane:
         """The surface this map stands for, as one that every ray through ``design``'s
         main lens meets at most once (docs/depth.md, "The estimate's surface";
         ``_native.depth_surface``): confident cells hold their depth (weighted by their
         ``confidence``), the others follow their neighbours, a jump between confident
         cells on both sides stays a jump (as steep as the condition allows), and slopes
         are limited to what every ray meets once, so that :func:`~splitlf.reconstruct`
-        takes the fast footprint route on it. Without ``confident`` every cell counts as
-        confident (weight ``confidence``, or 1). Returns a new :class:`DepthMap` over the
-        same extent and cells, without confidence (it is a surface, not an estimate).
+        takes the fast footprint route on it. A surface that no cell leaves by more than
+        3 % of its depth is the plane fitted to it (weighted by the confidence): its
+        samples are that plane's. Without ``confident`` every cell counts as confident
+        (weight ``confidence``, or 1). Returns a new :class:`DepthMap` over the same
+        extent and cells, without confidence (it is a surface, not an estimate); with
+        ``plane=True`` a surface fitted into a plane is returned as that :class:`Plane`
+        (it continues past the map's extent; what :func:`~splitlf.reconstruct` takes)
+        when its depth at X = Y = 0 is > 0.
         Raises ``TypeError`` and ``KeyboardInterrupt``."""
         if not isinstance(design, Design):
             raise TypeError(f"design must be a splitlf.Design, got {type(design).__name__}")
-        z, _, _, _ = _native.depth_surface(design.core, self.depth, self.extent,
-                                           self.confidence, self.confident)
+        if not isinstance(plane, bool):
+            raise TypeError(f"plane must be True or False, got {plane!r}")
+        z, _, _, _, fit = _native.depth_surface(design.core, self.depth, self.extent,
+                                                self.confidence, self.confident)
+        if plane and fit is not None and fit[0] > 0.0:
+            # (A Plane's z0, its depth at X = Y = 0, must be > 0; a plane steep enough
+            # to pass behind the lens on the axis stays a map.)
+            return Plane(*fit)
         return DepthMap(z, self.extent)
 
 

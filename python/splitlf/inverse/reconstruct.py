@@ -286,8 +286,9 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
       padding (a pixel's span beyond the region) is clipped where the plane comes nearer
       than ``PAD_NEAREST`` F (docs/reconstruct.md step 2). A depth map with a
       ``confidence`` (an estimate, :func:`splitlf.estimate_depth`) is taken as its
-      surface, :meth:`DepthMap.surface` (a map every ray meets once: the fast route); the
-      result's ``depth`` is that surface
+      surface, :meth:`DepthMap.surface` (a map every ray meets once: the footprint
+      route; or, when the surface is within 3 % of a plane, that fitted plane: the
+      tilted route, docs/reconstruct.md step 6); the result's ``depth`` is that surface
     - ``region``: (X0, X1, Y0, Y1) mm (None: what each chosen channel sees through at
       least half its aperture at the reference depth, ``_native.seen_region``; for a
       depth map, within its extent); rounded out to whole cells
@@ -358,9 +359,10 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
     surface = _depth(depth)
     df_weight = CHOOSE_DF_WEIGHT
     if isinstance(surface, DepthMap) and surface.confidence is not None:
-        # An estimate: reconstruct on the surface it stands for (docs/depth.md), and
-        # choose lambda for a model known to be inexact (its depth's error).
-        surface = surface.surface(design)
+        # An estimate: reconstruct on the surface it stands for (docs/depth.md; the plane
+        # it was fitted into, if it was: the tilted route), and choose lambda for a model
+        # known to be inexact (its depth's error).
+        surface = surface.surface(design, plane=True)
         df_weight = CHOOSE_DF_WEIGHT_ESTIMATE
     chans = _channels(design, channels)
     noise_, source = _stated(noise), "given"

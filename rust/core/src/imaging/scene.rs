@@ -13,6 +13,10 @@ mod hit;
 
 /// Most depth-map samples.
 pub const MAX_DEPTH_SAMPLES: usize = 1 << 28;
+/// How far (a share of its depth) a sample may be off the plane through the corner
+/// samples for [`DepthMap::as_plane`] to take the map as that plane: rounding, not
+/// geometry (a plane's samples computed in floating point are within ~1e-15 of it).
+pub const PLANAR: f64 = 1e-9;
 
 /// A depth map: depths at the centres of uniform cells over [x0, x1] × [y0, y1] (row 0
 /// at the top), bilinear between centres, constant beyond the outer centres up to the
@@ -100,6 +104,31 @@ impl DepthMap {
         let gx = ((v(b0, i1) - v(b0, i0)) * (1.0 - fy) + (v(b1, i1) - v(b1, i0)) * fy) * dx;
         let gy = (hi - lo) * dy;
         (lo * (1.0 - fy) + hi * fy, [gx, gy])
+    }
+
+    /// The plane Z = z0 + g · (X, Y) that this map is over the box between its outer
+    /// sample centres (returned as that box, [X0, X1, Y0, Y1]), when every sample lies on
+    /// one plane within `PLANAR` of its depth: bilinear interpolation of a plane's samples
+    /// is the plane there (beyond the outer centres the map is constant, not the plane).
+    /// None for a map of one row or column, or one that is not planar.
+    pub fn as_plane(&self) -> Option<(f64, Pt, [f64; 4])> {
+        let g = &self.grid;
+        if g.rows < 2 || g.cols < 2 {
+            return None;
+        }
+        let v = |b: usize, i: usize| self.z[b * g.cols + i];
+        // The plane through three corner samples (rows bottom-up), checked at every sample.
+        let gx = (v(0, g.cols - 1) - v(0, 0)) / ((g.cols - 1) as f64 * g.hx);
+        let gy = (v(g.rows - 1, 0) - v(0, 0)) / ((g.rows - 1) as f64 * g.hy);
+        let (cx, cy) = (g.x0 + 0.5 * g.hx, g.y0 + 0.5 * g.hy);
+        let z0 = v(0, 0) - gx * cx - gy * cy;
+        let on = (0..g.rows).all(|b| {
+            (0..g.cols).all(|i| {
+                let p = z0 + gx * (cx + i as f64 * g.hx) + gy * (cy + b as f64 * g.hy);
+                (v(b, i) - p).abs() <= PLANAR * v(b, i)
+            })
+        });
+        on.then_some((z0, [gx, gy], [cx, g.x1 - 0.5 * g.hx, cy, g.y1 - 0.5 * g.hy]))
     }
 
     /// Bounds (least, greatest) on h over the box [X0, X1, Y0, Y1] (clamped to the
@@ -327,6 +356,34 @@ mod tests {
             }
         }
         DepthMap::new(&v, rows, cols, ext).unwrap()
+    }
+
+    /// A plane's samples are that plane (its coefficients to rounding, over the box of
+    /// the outer sample centres: hand-computed here); one sample 1e-6 of its depth off,
+    /// a curved map and a map of one row are not.
+    #[test]
+    fn a_planes_samples_are_the_plane() {
+        let ext = [-2.0, 2.5, -1.0, 2.0];
+        let plane = |x: f64, y: f64| 700.0 + 3.0 * x - 26.0 * y;
+        let m = sampled(plane, 6, 9, ext);
+        let (z0, g, bx) = m.as_plane().expect("a plane");
+        assert!(
+            (z0 - 700.0).abs() < 1e-9 && (g[0] - 3.0).abs() < 1e-11,
+            "{z0} {g:?}"
+        );
+        assert!((g[1] + 26.0).abs() < 1e-11, "{g:?}");
+        // Cells of 0.5 by 0.5 mm: the outer centres a quarter mm in from the edges.
+        let want = [-1.75, 2.25, -0.75, 1.75];
+        assert!(
+            bx.iter().zip(want).all(|(a, b)| (a - b).abs() < 1e-12),
+            "{bx:?}"
+        );
+        let mut v: Vec<f64> = (0..6 * 9).map(|k| m.z[k]).collect();
+        v[4 * 9 + 5] *= 1.0 + 1e-6;
+        assert!(DepthMap::new(&v, 6, 9, ext).unwrap().as_plane().is_none());
+        let bowl = sampled(|x, y| plane(x, y) + 0.01 * x * x, 6, 9, ext);
+        assert!(bowl.as_plane().is_none());
+        assert!(sampled(plane, 1, 9, ext).as_plane().is_none());
     }
 
     #[test]

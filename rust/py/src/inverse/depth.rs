@@ -142,11 +142,21 @@ pub(crate) fn depth_whites<'py>(
         .collect()
 }
 
+/// `depth_surface`'s result: the surface, its rounds, cuts and last-resort scale, and the
+/// plane (z0, gx, gy) it was fitted into, if it was.
+type SurfaceOut<'py> = (
+    Bound<'py, PyArray2<f64>>,
+    usize,
+    usize,
+    f64,
+    Option<(f64, f64, f64)>,
+);
+
 /// The surface of a depth estimate that every ray through the design's main lens meets
 /// at most once (`splitlf_core::inverse::depth::surface`): from its depths (rows from the
 /// top, mm) over `extent`, its confidence and confident cells (None: every cell, fully):
 /// (the surface's depths, the stiffening rounds, the edges cut as jumps, the last
-/// resort's scale).
+/// resort's scale, the plane (z0, gx, gy) the surface was fitted into or None).
 #[pyfunction]
 #[pyo3(signature = (design, depth, extent, confidence=None, confident=None))]
 pub(crate) fn depth_surface<'py>(
@@ -156,7 +166,7 @@ pub(crate) fn depth_surface<'py>(
     extent: (f64, f64, f64, f64),
     confidence: Option<PyReadonlyArray2<'py, f64>>,
     confident: Option<PyReadonlyArray2<'py, bool>>,
-) -> PyResult<(Bound<'py, PyArray2<f64>>, usize, usize, f64)> {
+) -> PyResult<SurfaceOut<'py>> {
     let shape = depth.shape();
     let (rows, cols) = (shape[0], shape[1]);
     let z = depth.as_slice().map_err(internal)?;
@@ -181,5 +191,6 @@ pub(crate) fn depth_surface<'py>(
     };
     let s = run_as(py, "depths", || depth::surface::surface(&inp))?;
     let arr = filled::<f64, numpy::Ix2>(py, &[rows, cols], "the surface", s.depth.into_iter())?;
-    Ok((arr, s.rounds, s.cuts, s.scale))
+    let plane = s.plane.map(|p| (p[0], p[1], p[2]));
+    Ok((arr, s.rounds, s.cuts, s.scale, plane))
 }

@@ -45,6 +45,12 @@ pub const SMOOTH: f64 = 1.0;
 /// A step between two confident, self-consistent sides larger than this share of the
 /// nearer side's depth is a jump the data show: its edge is cut.
 pub const JUMP: f64 = 0.03;
+/// A surface no cell of which is further than this share of the depth from its
+/// confidence-weighted plane is taken as that plane (its depths replaced by the plane's):
+/// [`JUMP`], the least step the surface keeps as an edge the data show, so a surface
+/// within it of a plane shows no edge. Its rows are then the plane's (the tilted route,
+/// docs/reconstruct.md step 6, "An estimate is taken as its surface").
+pub const PLANE_FIT: f64 = JUMP;
 /// The factor by which a failing patch's edges are stiffened each round.
 pub const STIFFEN: f64 = 4.0;
 /// Rounds of stiffening before the last resort (a global scale toward the mean).
@@ -82,6 +88,8 @@ pub struct Surface {
     pub rounds: usize,
     pub cuts: usize,
     pub scale: f64,
+    /// The plane (z0, gx, gy) the surface was fitted into, if it was ([`PLANE_FIT`]).
+    pub plane: Option<[f64; 3]>,
 }
 
 /// The half-side of a box holding the design's main-lens aperture (the box
@@ -440,12 +448,96 @@ pub fn surface(inp: &Input<'_>) -> Result<Surface> {
         scale = last_resort(&map, m, inp.r, rows, cols);
         z.iter_mut().for_each(|v| *v = m + scale * (*v - m));
     }
+    let plane = as_plane(&mut z, &a, inp);
     Ok(Surface {
         depth: z,
         rounds,
         cuts,
         scale,
+        plane,
     })
+}
+
+/// The plane Z = z0 + gx X + gy Y (cell centres, row 0 at the top) fitted to `z` by least
+/// squares with the weights `a` (the confidence), as (z0, gx, gy); None when the weights
+/// do not fix one (fewer than three non-collinear cells of weight).
+fn fit_plane(z: &[f64], a: &[f64], rows: usize, cols: usize, ext: [f64; 4]) -> Option<[f64; 3]> {
+    let (hx, hy) = (
+        (ext[1] - ext[0]) / cols as f64,
+        (ext[3] - ext[2]) / rows as f64,
+    );
+    // About the extent's centre, in cells, for the normal equations' conditioning.
+    let (xc, yc) = (0.5 * (ext[0] + ext[1]), 0.5 * (ext[2] + ext[3]));
+    let (mut m, mut v) = ([[0.0f64; 3]; 3], [0.0f64; 3]);
+    for r in 0..rows {
+        for c in 0..cols {
+            let k = r * cols + c;
+            let u = [
+                1.0,
+                (ext[0] + (c as f64 + 0.5) * hx - xc) / hx,
+                (ext[3] - (r as f64 + 0.5) * hy - yc) / hy,
+            ];
+            for i in 0..3 {
+                v[i] += a[k] * u[i] * z[k];
+                for j in 0..3 {
+                    m[i][j] += a[k] * u[i] * u[j];
+                }
+            }
+        }
+    }
+    let det = |m: &[[f64; 3]; 3]| {
+        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+    };
+    let d = det(&m);
+    let scale = m[0][0] * m[1][1] * m[2][2];
+    // (False for NaN too.)
+    let fixed = d.abs() > 1e-12 * scale.abs();
+    if !fixed {
+        return None;
+    }
+    // Cramer's rule.
+    let mut p = [0.0; 3];
+    for (i, pi) in p.iter_mut().enumerate() {
+        let mut mi = m;
+        for (row, vr) in mi.iter_mut().zip(v) {
+            row[i] = vr;
+        }
+        *pi = det(&mi) / d;
+    }
+    let (gx, gy) = (p[1] / hx, p[2] / hy);
+    Some([p[0] - gx * xc - gy * yc, gx, gy])
+}
+
+/// Replace the surface `z` by its fitted plane ([`fit_plane`], weighted by the
+/// confidence `a`) when no cell is more than [`PLANE_FIT`] of the plane's depth off it
+/// and every ray meets the plane once over the map; the plane as (z0, gx, gy), or None
+/// (z left as it is).
+fn as_plane(z: &mut [f64], a: &[f64], inp: &Input<'_>) -> Option<[f64; 3]> {
+    let (rows, cols, ext) = (inp.rows, inp.cols, inp.extent);
+    let p = fit_plane(z, a, rows, cols, ext)?;
+    let (hx, hy) = (
+        (ext[1] - ext[0]) / cols as f64,
+        (ext[3] - ext[2]) / rows as f64,
+    );
+    let mut q = Vec::with_capacity(z.len());
+    for r in 0..rows {
+        for c in 0..cols {
+            let x = ext[0] + (c as f64 + 0.5) * hx;
+            let y = ext[3] - (r as f64 + 0.5) * hy;
+            let zp = p[0] + p[1] * x + p[2] * y;
+            if !(zp > 0.0 && (z[r * cols + c] - zp).abs() <= PLANE_FIT * zp) {
+                return None;
+            }
+            q.push(zp);
+        }
+    }
+    if !DepthMap::new(&q, rows, cols, ext).ok()?.seen_once(inp.r) {
+        return None;
+    }
+    z.copy_from_slice(&q);
+    Some(p)
 }
 
 #[cfg(test)]
@@ -476,6 +568,93 @@ mod tests {
             .take(n)
             .map(|z| (z >> 11) as f64 / (1u64 << 52) as f64 - 1.0)
             .collect()
+    }
+
+    /// The weighted plane fit against closed forms: a checkerboard on an even grid is
+    /// orthogonal to 1, X and Y, so the plane under it is the fit; cells of weight 0 do
+    /// not count, whatever they hold; weight on one column alone fixes no plane.
+    #[test]
+    fn fit_plane_is_the_plane_under_the_noise() {
+        let (rows, cols, ext) = (20, 16, [-1.0, 3.0, -2.0, 3.0]);
+        let plane = |x: f64, y: f64| 650.0 - 4.0 * x + 26.0 * y;
+        let truth = sampled(plane, rows, cols, ext);
+        // ±13 mm (2 % of the mean depth), alternating: its sums against 1, X and Y vanish
+        // on an even number of rows and columns.
+        let sign = |k: usize| {
+            if (k / cols + k % cols) % 2 == 0 {
+                1.0
+            } else {
+                -1.0
+            }
+        };
+        let z: Vec<f64> = (0..rows * cols)
+            .map(|k| truth[k] + 13.0 * sign(k))
+            .collect();
+        let ones = vec![1.0; rows * cols];
+        let p = fit_plane(&z, &ones, rows, cols, ext).unwrap();
+        assert!(
+            (p[0] - 650.0).abs() < 1e-9 && (p[1] + 4.0).abs() < 1e-10,
+            "{p:?}"
+        );
+        assert!((p[2] - 26.0).abs() < 1e-10, "{p:?}");
+        let mut w = ones.clone();
+        let mut z = truth.clone();
+        let wild = noise(rows * cols, 3);
+        for k in 0..rows * cols / 3 {
+            z[k] = 400.0 + 300.0 * wild[k];
+            w[k] = 0.0;
+        }
+        let p = fit_plane(&z, &w, rows, cols, ext).unwrap();
+        assert!(
+            (p[0] - 650.0).abs() < 1e-9 && (p[1] + 4.0).abs() < 1e-10,
+            "{p:?}"
+        );
+        // One column of weight: no plane.
+        let mut w = vec![0.0; rows * cols];
+        (0..rows).for_each(|r| w[r * cols + 3] = 1.0);
+        assert!(fit_plane(&truth, &w, rows, cols, ext).is_none());
+    }
+
+    /// A noisy estimate of a plane (±2 % a cell) becomes the plane fitted to its surface
+    /// (within 0.3 % of the true plane everywhere; its samples a plane,
+    /// `DepthMap::as_plane`); a bowl that leaves its plane by more than [`PLANE_FIT`] is
+    /// left as a surface.
+    #[test]
+    fn a_surface_within_plane_fit_of_a_plane_is_the_plane() {
+        let (rows, cols, ext) = (40, 30, [-1.5, 1.5, -2.0, 2.0]);
+        let plane = |x: f64, y: f64| 650.0 + 2.0 * x + 26.0 * y;
+        let truth = sampled(plane, rows, cols, ext);
+        let wild = noise(rows * cols, 13);
+        let run = |d: &[f64]| {
+            surface(&Input {
+                depth: d,
+                confidence: None,
+                confident: None,
+                rows,
+                cols,
+                extent: ext,
+                r: 10.0,
+            })
+            .unwrap()
+        };
+        let d: Vec<f64> = (0..rows * cols)
+            .map(|k| truth[k] * (1.0 + 0.02 * wild[k]))
+            .collect();
+        let s = run(&d);
+        let p = s.plane.expect("fitted into a plane");
+        let map = DepthMap::new(&s.depth, rows, cols, ext).unwrap();
+        let (z0, g, _) = map.as_plane().expect("the surface is a plane");
+        assert!(
+            (z0 - p[0]).abs() < 1e-9 && (g[0] - p[1]).abs() < 1e-9 && (g[1] - p[2]).abs() < 1e-9
+        );
+        let worst = (0..rows * cols)
+            .map(|k| (s.depth[k] / truth[k] - 1.0).abs())
+            .fold(0.0, f64::max);
+        assert!(worst < 3e-3, "{worst}");
+        // The bowl is 3.6 % off its plane at the corners (6 (x² + y²) less its mean,
+        // 12.5 mm, over about 700 mm); a step becomes a ramp (a_jump_the_data_show_stays_a_jump).
+        let bowl = sampled(|x, y| plane(x, y) + 6.0 * (x * x + y * y), rows, cols, ext);
+        assert!(run(&bowl).plane.is_none());
     }
 
     /// Unconfident cells follow their neighbours: a block of them holding nonsense inside
@@ -593,6 +772,8 @@ mod tests {
         })
         .unwrap();
         assert!(s.cuts >= rows, "{}", s.cuts);
+        // A ramp over 40 of 120 cells is no plane (PLANE_FIT).
+        assert!(s.plane.is_none());
         assert!(DepthMap::new(&s.depth, rows, cols, ext)
             .unwrap()
             .seen_once(r));

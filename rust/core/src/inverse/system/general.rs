@@ -126,6 +126,21 @@ pub fn build_surface(
             ));
         }
     }
+    if let Surface::Map(m) = surface {
+        // A map that is a plane over the grid (an estimate's surface fitted into one,
+        // docs/depth.md) is that plane: its rows are the plane's, on the plane's routes
+        // (the tilted route's per-axis cuts, not the footprint lattice). Rays that land
+        // beyond the grid drop their row on either, so the map's extent past the grid
+        // changes nothing.
+        if let Some((z0, g, [x0, x1, y0, y1])) = m.as_plane() {
+            let [gx0, gx1, gy0, gy1] = grid.extent();
+            if x0 <= gx0 && gx1 <= x1 && y0 <= gy0 && gy1 <= y1 {
+                let plane = Surface::Plane { z0, g };
+                crate::imaging::render::check_surface(design, surface)?;
+                return build_surface(design, channels, &plane, grid, types, n_threads, done);
+            }
+        }
+    }
     let keeps = |t: usize| types.map_or(true, |ts| ts.contains(&t));
     if grid.cells() > u32::MAX as usize {
         return Err(Error::param(
