@@ -190,6 +190,16 @@ def test_counted_equals_eqs_8_9(cam, half, max_n, data):
     assert np.all(np.isfinite(t.z)) and np.all(t.z > cam.F) and np.all(np.diff(t.z) >= 0)
 
 
+def test_no_coincidence_plane_at_or_before_f():
+    # Found by the fuzz above: with N d v / (T mu L) one rounding error below 1, the near
+    # side's conjugate lay ~1e16 L away and its plane's depth rounded to F (4.99...9).
+    cam = Camera(F=4.999999999999999, D=5.0, v1=9.999999999999998, kappa=0.0, d=1.0,
+                 v=1.9999999999999996, mu=0.2, Q=5, Kx=1, Ky=1)
+    t = splitlf.coincidence_planes(cam, 1, max_n=1)
+    assert len(t.z) > 0 and np.all(t.z > cam.F)
+    np.testing.assert_array_equal(t.counted, t.new_samples)
+
+
 # -- round trips ----------------------------------------------------------------------------
 @fuzz(150)
 @given(designs())

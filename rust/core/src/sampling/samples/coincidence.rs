@@ -172,7 +172,10 @@ fn enumerate_planes(pl: &PlaneLines, max_n: u32, max_t: u32) -> Result<Vec<Coinc
                     Side::Far => zc > o.f_main,
                     Side::Near => 1.0 - r > 0.0 && zc > o.f_main && zc.is_finite(),
                 };
-                if !valid {
+                // The object plane too must lie beyond F: with 1 − r a rounding error
+                // above 0 the conjugate is ~1e16 L away and its depth rounds to F.
+                let z = depth_of_conjugate(o.f_main, zc);
+                if !(valid && z > o.f_main && z.is_finite()) {
                     continue;
                 }
                 let nx = closed_form_new_samples(pl.kx as u64, q_lit, n as u64, t as u64);
@@ -182,7 +185,7 @@ fn enumerate_planes(pl: &PlaneLines, max_n: u32, max_t: u32) -> Result<Vec<Coinc
                     t,
                     side,
                     conjugate: zc,
-                    z: depth_of_conjugate(o.f_main, zc),
+                    z,
                     repetitions: o.repetitions(o.main_blur(zc)),
                     new_samples_x: nx,
                     new_samples_y: ny,
