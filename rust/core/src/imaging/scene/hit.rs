@@ -8,7 +8,9 @@
 //! along the ray, whose lateral point is linear in z, g(z) = z − h(P(z)) is a quadratic.
 //! The walk visits the pieces of the z-interval between the lines' crossings in the
 //! order of z, and on each piece takes the least root of its quadratic (from g at the
-//! piece's ends and middle) where g turns from negative to ≥ 0: the first hit, to
+//! piece's ends and middle) where g reaches 0: the first hit (docs/model.md §10: the
+//! first root of z = h(P(z)); a ray that enters the extent from its side behind the
+//! surface, g > 0, has not met it, and meets it only where g comes back to 0), to
 //! rounding, at a cost of the lines crossed (a march of fixed steps costs about 100
 //! evaluations a ray and can step over a thin ridge).
 
@@ -74,7 +76,8 @@ fn slab(w: f64, a: f64, (lo, hi): (f64, f64), z: (f64, f64)) -> (f64, f64) {
     (z.0.max(za), z.1.min(zb))
 }
 
-/// The least root in (0, 1] of the quadratic through (0, g0), (½, gm), (1, g1), g0 < 0.
+/// The least root in (0, 1] of the quadratic through (0, g0), (½, gm), (1, g1), g0 < 0
+/// (the first where it reaches 0).
 fn first_root(g0: f64, gm: f64, g1: f64) -> Option<f64> {
     let a = 2.0 * (g0 - 2.0 * gm + g1);
     let b = g1 - g0 - a;
@@ -111,11 +114,13 @@ impl DepthMap {
             return None;
         }
         let f = |z: f64| z - self.depth_grad([w[0] - z * a[0], w[1] - z * a[1]]).0;
+        // A ray that enters the extent from its side behind the surface (g > 0 there) has
+        // not met it: its first root is where g changes sign, from either side.
         let mut g0 = f(lo);
-        if g0 >= 0.0 {
+        if g0 == 0.0 {
             return Some(lo);
         }
-        if hi == lo {
+        if hi == lo || g0.is_nan() {
             return None;
         }
         let mut xs = Crossings::new(w[0], a[0], self.creases(0), (lo, hi));
@@ -125,8 +130,13 @@ impl DepthMap {
             let (zx, zy) = (xs.peek(), ys.peek());
             let t = zx.min(zy).min(hi);
             if t > s {
-                let g1 = f(t);
-                if let Some(u) = first_root(g0, f(0.5 * (s + t)), g1) {
+                let (g1, gm) = (f(t), f(0.5 * (s + t)));
+                let root = if g0 < 0.0 {
+                    first_root(g0, gm, g1)
+                } else {
+                    first_root(-g0, -gm, -g1)
+                };
+                if let Some(u) = root {
                     return Some((s + u * (t - s)).clamp(s, t));
                 }
                 g0 = g1;
@@ -165,38 +175,41 @@ mod tests {
     }
 
     /// The independent check of a hit: sample g densely over [zmin, zmax]; before the hit
-    /// (less a rounding margin) g < 0 wherever the ray is over the map, at the hit g = 0
-    /// (or the hit is where the ray enters the extent, already behind the surface), and
-    /// with no hit g < 0 at every sample.
+    /// (less a rounding margin) g keeps one sign, never 0, wherever the ray is over the map
+    /// (no root: a ray that enters the extent behind the surface has not met it), at the
+    /// hit g = 0; with no hit g keeps one sign at every sample.
     fn check(m: &DepthMap, w: Pt, a: Pt, hit: Option<f64>) {
         let n = 20_000;
         let span = m.zmax - m.zmin;
         let eps = 1e-9 * m.zmax;
         let stop = hit.map_or(m.zmax, |z| z - eps);
+        let mut sign = 0.0;
         for i in 0..=n {
             let z = m.zmin + span * i as f64 / n as f64;
             if z >= stop {
                 break;
             }
             if let Some(v) = g_of(m, w, a, z) {
+                if sign == 0.0 {
+                    sign = v.signum();
+                }
                 assert!(
-                    v < 0.0,
-                    "g({z}) = {v} >= 0 before the hit {hit:?}, w {w:?} a {a:?}"
+                    v * sign > 0.0,
+                    "g({z}) = {v}: a root before the hit {hit:?}, w {w:?} a {a:?}"
                 );
             }
         }
         if let Some(z) = hit {
             assert!(z >= m.zmin - eps && z <= m.zmax + eps);
-            // Over the map (to rounding: a hit where the ray enters the extent).
+            // Over the map (to rounding at the extent's edge).
             let p = [w[0] - z * a[0], w[1] - z * a[1]];
             let e = m.extent();
             assert!(
                 p[0] > e[0] - eps && p[0] < e[1] + eps && p[1] > e[2] - eps && p[1] < e[3] + eps
             );
             let v = z - m.depth_grad(p).0;
-            let entering = g_of(m, w, a, z - eps).is_none();
             assert!(
-                v.abs() <= 1e-10 * m.zmax || (entering && v >= 0.0),
+                v.abs() <= 1e-10 * m.zmax,
                 "g at the hit {z} = {v}, w {w:?} a {a:?}"
             );
         }
@@ -263,15 +276,25 @@ mod tests {
     }
 
     #[test]
-    fn a_ray_entering_the_extent_behind_the_surface_hits_at_the_edge() {
+    fn a_ray_entering_the_extent_behind_the_surface_has_not_met_it() {
         // A floor at 500 mm with one sample at 550 mm far from the edge X1 = 2.
         let mut v = vec![500.0; 36];
         v[14] = 550.0;
         let m = DepthMap::new(&v, 6, 6, [-3.0, 2.0, -1.5, 2.5]).unwrap();
-        // Over the map from X = 2 on, at z = 540 > h = 500 there.
+        // Over the map from X = 2 on, at z = 540 > h = 500 there: behind the floor, which
+        // it passed beside the extent; it stays behind.
         let (w, a) = ([2.0 + 540.0 * 0.001, 0.3], [0.001, 0.0]);
-        let z = m.first_hit(w, a).unwrap();
-        assert!((z - 540.0).abs() < 1e-9, "{z}");
+        assert_eq!(m.first_hit(w, a), None);
+        check(&m, w, a, None);
+        // The same ray where a ridge (600 mm) rises behind it: it meets the ridge's back.
+        let mut v = vec![500.0; 36];
+        for r in 0..6 {
+            v[r * 6 + 3] = 600.0;
+        }
+        let m = DepthMap::new(&v, 6, 6, [-3.0, 2.0, -1.5, 2.5]).unwrap();
+        let (w, a) = ([2.0 + 510.0 * 0.03, 0.3], [0.03, 0.0]);
+        let z = m.first_hit(w, a).expect("the ridge's back");
         check(&m, w, a, Some(z));
+        assert!(z > 510.0 && z < 600.0, "{z}");
     }
 }
