@@ -108,6 +108,7 @@ SLOW = {
     'test_render_accuracy.py::test_general_route_on_a_fronto_plane[700.0]': 8,
     'test_render_accuracy.py::test_general_route_on_a_fronto_plane[800.0]': 9,
     'test_render_accuracy.py::test_mc_depth_map': 202,
+    'test_render_accuracy.py::test_mc_cliff_map': 75,
     'test_render_accuracy.py::test_mc_hex_sensor_spill': 43,
     'test_render_api.py::test_cli_render_with_a_preset_noise_png_and_json': 231,
     'test_render_api.py::test_cli_render_writes_a_raw_file[edge-MAP.npy]': 313,

@@ -10,7 +10,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use super::adaptive::{adaptive, over_boxes, QBox};
 use super::chan::{Chan, Work};
 use super::footprint;
-use super::kinks::{bilinear, box_cuts, texture_kinks, Sweep};
+use super::kinks::{bilinear, box_cuts, extent_kinks, texture_kinks, Sweep};
 use super::mean::scene_mean;
 use super::{fill_rows, raw_shape, NoiseTarget, RenderOptions};
 use crate::imaging::scene::{Scene, Surface};
@@ -343,6 +343,7 @@ fn outer_w_cuts(px: &Pixels, lens: LensView, bx: QBox, wk: &mut Work) -> Cuts {
             span: (t0, t1),
         };
         complete &= texture_kinks(&scene.texture, &sweep, separable, wk.rec.is_some(), target);
+        extent_kinks(scene, &sweep, target);
     }
     let (cx, cy) = box_cuts(wk, (x0, x1), (y0, y1), &kx, &ky);
     // The rect cell clipped by the pixel's square preimage: a product of intervals (a
@@ -540,6 +541,7 @@ fn outer_s(px: &Pixels, lens: LensView, wk: &mut Work) -> f64 {
             span: (t0, t1),
         };
         complete &= texture_kinks(&scene.texture, &sweep, separable, wk.rec.is_some(), target);
+        extent_kinks(scene, &sweep, target);
     }
     let (cx, cy) = box_cuts(wk, (x0, x1), (y0, y1), &kx, &ky);
     // The rect cell clipped by the square aperture's preimage: a product of intervals.
