@@ -233,6 +233,12 @@ fn piece_value(rays: &Rays<impl Fn(Pt) -> Pt, impl Fn(Pt, Pt) -> Pt>, wk: &mut W
         return 0.0;
     }
     wk.mapped.clear();
+    // On a depth map a piece that some rays miss needs every vertex's hit (`edge_piece`);
+    // elsewhere the first miss settles it (the centroid's ray stands for the piece).
+    let map = match &rays.scene.surface {
+        Surface::Map(m) => Some(m),
+        Surface::Plane { .. } => None,
+    };
     let (mut misses, mut zsum) = (0usize, 0.0);
     for &xi in &wk.piece {
         match rays.hit(xi) {
@@ -242,12 +248,15 @@ fn piece_value(rays: &Rays<impl Fn(Pt) -> Pt, impl Fn(Pt, Pt) -> Pt>, wk: &mut W
             }
             None => {
                 misses += 1;
+                if map.is_none() {
+                    break;
+                }
                 wk.mapped.push([f64::NAN; 2]);
             }
         }
     }
     let n = wk.piece.len();
-    if let Surface::Map(m) = &rays.scene.surface {
+    if let Some(m) = map {
         if misses > 0 && misses < n {
             return edge_piece(rays, m.extent(), area, zsum / (n - misses) as f64, wk);
         }

@@ -448,7 +448,7 @@ pub fn surface(inp: &Input<'_>) -> Result<Surface> {
         scale = last_resort(&map, m, inp.r, rows, cols);
         z.iter_mut().for_each(|v| *v = m + scale * (*v - m));
     }
-    let plane = as_plane(&mut z, &a, inp);
+    let plane = fit_into_plane(&mut z, &a, inp);
     Ok(Surface {
         depth: z,
         rounds,
@@ -514,7 +514,7 @@ fn fit_plane(z: &[f64], a: &[f64], rows: usize, cols: usize, ext: [f64; 4]) -> O
 /// confidence `a`) when no cell is more than [`PLANE_FIT`] of the plane's depth off it
 /// and every ray meets the plane once over the map; the plane as (z0, gx, gy), or None
 /// (z left as it is).
-fn as_plane(z: &mut [f64], a: &[f64], inp: &Input<'_>) -> Option<[f64; 3]> {
+fn fit_into_plane(z: &mut [f64], a: &[f64], inp: &Input<'_>) -> Option<[f64; 3]> {
     let (rows, cols, ext) = (inp.rows, inp.cols, inp.extent);
     let p = fit_plane(z, a, rows, cols, ext)?;
     let (hx, hy) = (
