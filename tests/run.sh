@@ -44,5 +44,8 @@ case "$tier" in
     slow) marks="slow and not bench" ;;
     all) marks="not bench" ;;
 esac
+# Say which splitlf is under test: the one `python` imports, which in a dev checkout may be
+# an older install (another interpreter first on PATH) rather than this tree's.
+echo "== testing $(python -c 'import splitlf, sys; print(splitlf.__file__, "with", sys.executable)')"
 echo "== pytest -m '$marks'"
 python -m pytest -q -m "$marks" ${args[@]+"${args[@]}"}
