@@ -78,7 +78,7 @@ def main() -> None:
     p, theta = fig.plane(d)
     tex = fig.texture(p, theta)
     truth_tex = splitlf.Image(tex, fig.WIDTH)
-    raw = fig.render(d, p, tex, args.cache)
+    raw = fig.render(d, p, tex, args.cache)[0]  # the first noise draw
     rows = []
     recs: dict[str, list] = {"known plane": [], "from the raw": []}
     for k, (zm, region, step) in enumerate(fig.bands(d, p)):
@@ -109,8 +109,7 @@ def main() -> None:
             t1 = time.perf_counter()
             try:
                 r = splitlf.reconstruct(raw, surf, region=region, step=step,
-                                        channels=(1, 2), noise=fig.NOISE, progress=False,
-                                        allow_slow=True)
+                                        channels=(1, 2), progress=False, allow_slow=True)
             except splitlf.errors.InvalidParameter:
                 out[name] = {"psnr": None, "rmse": None}
                 continue
@@ -118,7 +117,9 @@ def main() -> None:
             t = measure.truth(r, truth_tex)
             out[name] = {"psnr": measure.psnr(r, truth_tex),
                          "rmse": float(np.sqrt(np.mean((r.image - t) ** 2))),
-                         "seconds": time.perf_counter() - t1}
+                         "seconds": time.perf_counter() - t1,
+                         "regularization": r.regularization,
+                         "surface": type(r.depth).__name__}
         got = out["from the raw"]["rmse"]
         out["rmse_ratio"] = None if got is None else got / out["known plane"]["rmse"]
         rows.append(out)

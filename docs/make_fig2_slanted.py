@@ -20,14 +20,15 @@ depth estimated from the same raw.
 - Depth: splitlf.estimate_depth on each band (candidates 250 mm to 3 m, 0.1 mm cells),
   its error against the true plane over the confident cells.
 
-Run: python docs/make_fig2_slanted.py [--cache DIR] (about 40 minutes on 2 cores, nearly
-all of it SciPy's CG).
+Run: python docs/make_fig2_slanted.py [--cache DIR] (two noise draws of the same
+Monte-Carlo image, each camera at its data-chosen weight; the time is in the JSON).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import pickle
 import sys
 import time
 from pathlib import Path
@@ -58,6 +59,7 @@ CELL, WIDTH, HEIGHT = 0.1, 36.0, 192.0  # the texture's cells and extent, mm
 DEPTH_STEP = 0.1  # the depth map's cell pitch, mm
 CAMERAS = {"half 1": (1,), "half 2": (2,), "split": (1, 2)}
 BINS = np.geomspace(SHOWN[0], SHOWN[1], 9)  # the bands' depth edges
+DRAWS = 2  # photon-noise draws of the same Monte-Carlo image
 
 
 def design() -> splitlf.Design:
@@ -96,22 +98,32 @@ def photograph(p: splitlf.Plane, t: float, X: np.ndarray, Y: np.ndarray) -> np.n
 
 
 def render(d: splitlf.Design, p: splitlf.Plane, tex: np.ndarray, cache: Path | None
-           ) -> splitlf.Raw:
-    path = None if cache is None else cache / "fig2_slanted_raw.npz"
+           ) -> list[splitlf.Raw]:
+    """The Monte-Carlo raw's noise draws (DRAWS): the first drawn in the renderer's own
+    stream (channel 1's rays, its noise, channel 2's rays, its noise: the raw of the runs
+    before 2026-11-29 bit for bit), the others from the same noise-free images."""
+    path = None if cache is None else cache / "fig2_slanted_clean.npz"
     if path is not None and path.exists():
-        return splitlf.Raw.load(path)
-    sc = scene(("image", [-WIDTH / 2, WIDTH / 2, -HEIGHT / 2, HEIGHT / 2], tex),
-               ("plane", [p.z0, p.gx, p.gy]), float(tex.mean()))
-    rng = np.random.default_rng(2026)
-    images = []
-    for ch in (1, 2):
-        clean = mc_channel(d, ch, sc, n_side=5, rng=rng)
-        images.append(rng.poisson(NOISE["photons"] * clean) / NOISE["photons"])
-    raw = splitlf.Raw(d, tuple(images))
-    if path is not None:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        raw.save(path)
-    return raw
+        with np.load(path) as f:
+            clean = [f["ch1"], f["ch2"]]
+            first = [f["noisy1"], f["noisy2"]]
+    else:
+        sc = scene(("image", [-WIDTH / 2, WIDTH / 2, -HEIGHT / 2, HEIGHT / 2], tex),
+                   ("plane", [p.z0, p.gx, p.gy]), float(tex.mean()))
+        rng = np.random.default_rng(2026)
+        clean, first = [], []
+        for ch in (1, 2):
+            clean.append(mc_channel(d, ch, sc, n_side=5, rng=rng))
+            first.append(rng.poisson(NOISE["photons"] * clean[-1]) / NOISE["photons"])
+        if path is not None:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            np.savez(path, ch1=clean[0], ch2=clean[1], noisy1=first[0], noisy2=first[1])
+    raws = [splitlf.Raw(d, tuple(first), noise=NOISE)]
+    for k in range(1, DRAWS):
+        rng = np.random.default_rng(2026 + k)
+        raws.append(splitlf.Raw(d, tuple(rng.poisson(NOISE["photons"] * c)
+                                         / NOISE["photons"] for c in clean), noise=NOISE))
+    return raws
 
 
 def bands(d: splitlf.Design, p: splitlf.Plane) -> list[tuple[float, tuple, float]]:
@@ -184,49 +196,90 @@ def psnr_axes(ax: Any, mids: list[float], series: dict[str, list[float]]) -> Non
     ax.grid(alpha=0.3, which="both")
 
 
+def one_band(band: tuple, raws: list[splitlf.Raw], p: splitlf.Plane,
+             truth_tex: splitlf.Image, t0: float) -> dict:
+    """One band: each camera reconstructed from every draw at its data-chosen weight, the
+    depth estimated from the first draw; what the JSON and the figure need of it."""
+    zm, region, step = band
+    row: dict[str, Any] = {"depth": zm, "region": list(region), "step": step, "psnr": {},
+                           "ssim": {}, "regularization": {}, "seconds": {}}
+    shown = {}
+    for name, chans in CAMERAS.items():
+        got, secs = [], []
+        for raw in raws:
+            t1 = time.perf_counter()
+            got.append(splitlf.reconstruct(raw, p, region=region, step=step,
+                                           channels=chans, progress=False,
+                                           allow_slow=True))
+            secs.append(time.perf_counter() - t1)
+        shown[name] = SimpleNamespace(extent=got[0].extent, image=got[0].image)
+        row["psnr"][name] = [measure.psnr(r, truth_tex) for r in got]
+        row["ssim"][name] = [measure.ssim(r, truth_tex) for r in got]
+        row["regularization"][name] = [r.regularization for r in got]
+        row["seconds"][name] = secs
+        print(f"  {zm:.0f} mm {name}: " + ", ".join(
+            f"{v:.2f} dB (lambda {lam:.3g}, {t:.0f} s)" for v, lam, t in
+            zip(row["psnr"][name], row["regularization"][name], secs, strict=True)),
+            flush=True)
+    est = splitlf.estimate_depth(raws[0], depths=(250.0, 3000.0), region=region,
+                                 step=DEPTH_STEP, progress=False)
+    x0, x1, y0, y1 = est.extent
+    ny = est.depth.shape[0]
+    ys = y1 - (np.arange(ny) + 0.5) * (y1 - y0) / ny
+    true = (p.z0 + p.gy * ys)[:, None] * np.ones(est.depth.shape)
+    rel = np.abs(est.depth - true) / true
+    e = measure.depth_errors(est, p)
+    row["depth_errors"] = e
+    print(f"{zm:.0f} mm: {time.perf_counter() - t0:.0f} s, depth median "
+          f"{100 * e['median']:.2f} %", flush=True)
+    return {"row": row, "recs": shown,
+            "depth_view": SimpleNamespace(extent=est.extent, image=np.where(
+                est.confident, est.depth, np.nan)),
+            "error_view": SimpleNamespace(extent=est.extent, image=np.where(
+                est.confident, 100.0 * rel, np.nan))}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--cache", type=Path, default=None,
-                    help="a folder to keep the rendered raw in between runs")
+                    help="a folder to keep the rendered raw and each band in between runs")
+    ap.add_argument("--order", type=lambda v: [int(b) for b in v.split(",")],
+                    default=[3, 2, 4, 1, 5, 6, 7, 0],
+                    help="the bands to run, in this order (numbered from 0, nearest "
+                         "first; default: from the out-of-focus plane's band outwards)")
     args = ap.parse_args()
     t0 = time.perf_counter()
     d = design()
     p, theta = plane(d)
     tex = texture(p, theta)
     truth_tex = splitlf.Image(tex, WIDTH)
-    raw = render(d, p, tex, args.cache)
+    raws = render(d, p, tex, args.cache)
     print(f"raw: {time.perf_counter() - t0:.0f} s", flush=True)
 
-    recs: dict[str, list] = {name: [] for name in CAMERAS}
-    depth_views, error_views, rows = [], [], []
-    for zm, region, step in bands(d, p):
-        for name, chans in CAMERAS.items():
-            recs[name].append(splitlf.reconstruct(raw, p, region=region, step=step,
-                                                  channels=chans, noise=NOISE,
-                                                  progress=False))
-        est = splitlf.estimate_depth(raw, depths=(250.0, 3000.0), region=region,
-                                     step=DEPTH_STEP, progress=False)
-        x0, x1, y0, y1 = est.extent
-        ny = est.depth.shape[0]
-        ys = y1 - (np.arange(ny) + 0.5) * (y1 - y0) / ny
-        true = (p.z0 + p.gy * ys)[:, None] * np.ones(est.depth.shape)
-        rel = np.abs(est.depth - true) / true
-        depth_views.append(SimpleNamespace(extent=est.extent, image=np.where(
-            est.confident, est.depth, np.nan)))
-        error_views.append(SimpleNamespace(extent=est.extent, image=np.where(
-            est.confident, 100.0 * rel, np.nan)))
-        e = measure.depth_errors(est, p)
-        row = {"depth": zm, "region": list(region), "step": step,
-               "psnr": {n: measure.psnr(recs[n][-1], truth_tex) for n in CAMERAS},
-               "ssim": {n: measure.ssim(recs[n][-1], truth_tex) for n in CAMERAS},
-               "depth_errors": e}
-        rows.append(row)
-        print(f"{zm:.0f} mm: {time.perf_counter() - t0:.0f} s  "
-              + " ".join(f"{n} {v:.1f} dB" for n, v in row["psnr"].items())
-              + f"  depth median {100 * e['median']:.2f} %", flush=True)
+    every = bands(d, p)
+    done: dict[int, dict] = {}
+    for k in args.order:  # each band kept in the cache as it is done
+        path = None if args.cache is None else args.cache / f"fig2_slanted_band{k}.pkl"
+        if path is not None and path.exists():
+            done[k] = pickle.loads(path.read_bytes())
+            continue
+        done[k] = one_band(every[k], raws, p, truth_tex, t0)
+        if path is not None:
+            path.write_bytes(pickle.dumps(done[k]))
+    if len(done) < len(every):
+        print(f"bands done: {sorted(done)}; the JSON and figure need all {len(every)}")
+        return
+    rows = [done[k]["row"] for k in range(len(every))]
+    recs = {n: [done[k]["recs"][n] for k in range(len(every))] for n in CAMERAS}
+    depth_views = [done[k]["depth_view"] for k in range(len(every))]
+    error_views = [done[k]["error_view"] for k in range(len(every))]
     out = {"plane": {"z0": p.z0, "gx": p.gx, "gy": p.gy}, "bands": rows,
-           "photons": NOISE["photons"], "mc_rays_per_pixel": 5 ** 4,
-           "seconds": time.perf_counter() - t0}
+           "photons": NOISE["photons"], "mc_rays_per_pixel": 5 ** 4, "draws": DRAWS,
+           "note": "psnr, ssim, regularization, seconds: one entry per noise draw; the "
+                   "images and depth shown are the first draw's; each camera's weight "
+                   "chosen from the data (regularization=None), the raw carrying its "
+                   "noise",
+           "seconds": sum(sum(sum(v) for v in r["seconds"].values()) for r in rows)}
     (HERE / "fig2_slanted.json").write_text(json.dumps(out, indent=1))
 
     # the figure: the images and the depth as the camera sees them, and against depth
@@ -243,7 +296,7 @@ def main() -> None:
             fig.colorbar(im, ax=ax, orientation="horizontal", pad=0.02, fraction=0.04)
         ax.axhline((642.0 - p.z0) / p.gy / 642.0, color="tab:red", lw=0.6, ls=":")
     mids = [r["depth"] for r in rows]
-    psnr_axes(fig.add_subplot(gs[0, 6]), mids, {n: [r["psnr"][n] for r in rows]
+    psnr_axes(fig.add_subplot(gs[0, 6]), mids, {n: [float(np.mean(r["psnr"][n])) for r in rows]
                                                  for n in CAMERAS})
     ax = fig.add_subplot(gs[1, 6])
     ax.plot(mids, [100 * r["depth_errors"]["median"] for r in rows], "o-", label="median")
