@@ -15,9 +15,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 from _cli import run_cli, small_raw
-from reference import lens_centres
 
 import splitlf
+from reference import lens_centres
 from splitlf.errors import InvalidParameter
 from splitlf.exchange import formats
 

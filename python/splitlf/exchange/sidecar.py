@@ -13,7 +13,7 @@ from .. import _native
 from ..imaging.render import Raw
 from .formats import DN_MAX, jsonable
 
-__all__ = ["FORMAT", "ORIENTATION", "WHITE_DEPTH_F", "sidecar_document", "write_json"]
+__all__ = ["FORMAT", "ORIENTATION", "TARGET_ORIENTATION", "WHITE_DEPTH_F", "sidecar_document", "write_json"]
 
 #: The ``format`` entry of the sidecar ``splitlf.json``.
 FORMAT = "splitlf-export/1"
@@ -21,8 +21,7 @@ FORMAT = "splitlf-export/1"
 #: the same white: the albedo and the background are 1 everywhere).
 WHITE_DEPTH_F = 10.0
 
-#: Which way up the scene is (docs/model.md §10, "Raw layout"), for every target, and in
-#: each target's own terms.
+#: Which way up the scene is (docs/model.md §10, "Raw layout"), for every target.
 ORIENTATION = {
     "rows": "upright: row 0 (at the top) shows the scene's top, Y > 0",
     "columns": "mirrored: column 0 (at the left) shows the scene's X > 0 side, which a "
@@ -33,7 +32,10 @@ ORIENTATION = {
                     "(mirrored) frame a view cut further right or down in the micro images "
                     "looks through the part of the lens further right or down in that frame: "
                     "flip the view order together with the image",
-    "targets": {
+}
+
+#: The same in each target's own terms.
+TARGET_ORIENTATION = {
         "plenopticam": "PlenoptiCam (its option opt_rota off, the default) decodes in the "
                        "raw's frame: its sub-aperture views and refocused images are upright "
                        "and mirrored left to right; flip them, and the order of its "
@@ -46,7 +48,6 @@ ORIENTATION = {
         "tiff": "no Orientation tag is written, so readers take TIFF's default (1: row 0 "
                 "at the top, column 0 at the left): the images are upright and mirrored "
                 "left to right",
-    },
 }
 
 
@@ -87,8 +88,7 @@ def sidecar_document(raw: Raw, target: str, scale: float, channels: list[dict[st
         "white": {"render": "splitlf.render(design, Scene(1.0, depth, background=1.0), "
                             "**options), noise-free",
                   "depth_mm": WHITE_DEPTH_F * design.F, "options": _options_text(white_options)},
-        "orientation": {**{k: v for k, v in ORIENTATION.items() if k != "targets"},
-                        "target": ORIENTATION["targets"][target]},
+        "orientation": {**ORIENTATION, "target": TARGET_ORIENTATION[target]},
         "noise": _noise(raw, scale),
         "design": {"file": "design.toml", "toml": design.design.to_toml(),
                    "main_lens": {"F": design.F, "D": design.D, "aperture": design.aperture}},
