@@ -79,9 +79,9 @@ def on_raw(centres: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
 
 @pytest.fixture(scope="module")
 def hex_raw() -> splitlf.Raw:
-    """A noisy lytro-illum cut of 12 x 10 lenses (photon noise N = 500, no read noise: no
-    value below 0)."""
-    return splitlf.render(lytro_cut(), splitlf.Scene(splitlf.SiemensStar(), 1000.0),
+    """A noisy lytro-illum cut of 12 x 10 lenses (a slanted edge of albedos 0.1 and 0.6,
+    photon noise N = 500, no read noise: nothing below 0 or above the white level)."""
+    return splitlf.render(lytro_cut(), splitlf.Scene(splitlf.SlantedEdge(high=0.6), 1000.0),
                           noise={"photons": 500.0}, seed=3, progress=False)
 
 
@@ -104,6 +104,26 @@ def test_micro_image_centres_are_the_chief_ray_through_each_lens(design):
         assert got.shape == want.shape and got.dtype == np.float64
         np.testing.assert_array_equal(got[:, 2:], want[:, 2:])
         assert np.abs(got[:, :2] - want[:, :2]).max() < TOL_PX
+
+
+@pytest.mark.parametrize("design", [lytro_cut(), seed_cut(), rect_sensor(), lytro_cut(1, 1)],
+                         ids=["hex", "ideal", "rect-sensor", "one-lens"])
+def test_micro_image_steps_are_the_lattice_steps_in_pixels(design):
+    ch = design.resolved()[0]
+    if ch["layout"] == "ideal":
+        want = (ch["Q"], ch["Q"])
+    else:  # the image pitch d (1 + v/L) of §9 in pixels; hex rows sqrt(3)/2 of it apart
+        p = ch["d"] * (1 + ch["v"] / ch["L"]) / ch["mu"]
+        want = (p * math.sqrt(3) / 2 if ch["grid"] == "hex" else p, p)
+    assert design.micro_image_steps(1) == pytest.approx(want, rel=1e-14)
+
+
+def test_a_one_lens_array_exports(tmp_path):
+    raw = splitlf.render(lytro_cut(1, 1), splitlf.Scene(0.5, 1000.0), progress=False)
+    splitlf.export(raw, "plenopticam", tmp_path / "out")
+    cal = json.loads((tmp_path / "out" / "ch1" / "white.json").read_text())
+    assert len(cal["mic_list"]) == 1 and cal["mic_list"][0][2:] == [0, 0]
+    assert cal["ptc_mean"] == pytest.approx(list(raw.design.micro_image_steps(1)))
 
 
 def test_centres_of_a_bad_channel_are_refused():
@@ -201,7 +221,7 @@ def test_plenopticam_images_are_rgb_and_png_round_trips(tmp_path, hex_raw):
 
 def test_clipping_is_counted_and_warned(tmp_path):
     """Values above the white level, and read noise below the black level 0."""
-    raw = splitlf.render(lytro_cut(), splitlf.Scene(splitlf.SiemensStar(), 1000.0),
+    raw = splitlf.render(lytro_cut(), splitlf.Scene(splitlf.SlantedEdge(), 1000.0),
                          noise={"photons": 500.0, "read_noise": 3.0}, seed=3, progress=False)
     scale = 1.3 * 65535 / float(raw.images[0].max())
     with pytest.warns(UserWarning, match="above the white level"):

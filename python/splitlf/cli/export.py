@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from .._files import check_new_folder
+from .._files import check_new_folder, open_regular
 from . import _common
 
 #: The targets, as splitlf.export names them.
@@ -54,11 +54,11 @@ def _truth_scene(path: str) -> Any:
     from .dataset import TRUTH_FORMAT
 
     try:
-        with np.load(path, allow_pickle=False) as npz:
+        with open_regular(path, "a truth file") as fh, np.load(fh, allow_pickle=False) as npz:
             arrays = {k: npz[k] for k in npz.files}
     except FileNotFoundError:
         raise
-    except (OSError, ValueError) as e:
+    except (OSError, ValueError, EOFError) as e:
         raise _common.CliError(f"--truth {path}: not a NumPy .npz archive ({e})") from None
     need = ("format", "texture", "texture_extent", "plane", "background")
     if any(k not in arrays for k in need) or str(arrays["format"]) != TRUTH_FORMAT:

@@ -201,7 +201,7 @@ def _write_channel(folder: Path, design: Design, i: int, image: np.ndarray,
         clipped[key] = {"above": q.above, "below": q.below}
     every = design.micro_image_centers(i)
     centres = formats.inside(every, image.shape)
-    pitch = formats.centre_pitch(every, ch["grid"])
+    pitch = design.micro_image_steps(i)
     lattice = (int(ch["Ky"]), int(ch["Kx"]))
     path = folder / names["calibration"]
     if target == "plenopticam":

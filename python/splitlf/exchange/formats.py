@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["DN_MAX", "TARGETS", "Quantised", "centre_pitch", "inside", "quantise",
+__all__ = ["DN_MAX", "TARGETS", "Quantised", "inside", "quantise",
            "read_image", "write_centres_csv", "write_image", "write_plenopticam_calibration",
            "write_plenpy_grid"]
 
@@ -91,25 +91,6 @@ def inside(centres: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     r, c = centres[:, 0], centres[:, 1]
     keep = (r >= -0.5) & (r < shape[0] - 0.5) & (c >= -0.5) & (c < shape[1] - 0.5)
     return np.asarray(centres[keep])
-
-
-def centre_pitch(centres: np.ndarray, grid: str) -> tuple[float, float]:
-    """(row step, column step) of the lattice in pixels, from the centres themselves: the
-    column step between lenses (0, 0) and (1, 0), the row step between lattice rows 0 and
-    1 (sqrt(3)/2 of the column step on a hex grid); NaN where the lattice has one lens or
-    one row."""
-    def at(k: int, j: int) -> np.ndarray | None:
-        hit = centres[(centres[:, 2] == k) & (centres[:, 3] == j)]
-        return hit[0] if len(hit) else None
-
-    a, b, c = at(0, 0), at(0, 1), at(1, 0)
-    col = float(b[1] - a[1]) if a is not None and b is not None else math.nan
-    row = float(c[0] - a[0]) if a is not None and c is not None else math.nan
-    if grid == "hex" and math.isnan(row) and not math.isnan(col):
-        row = col * math.sqrt(3) / 2
-    if math.isnan(col) and not math.isnan(row):
-        col = row if grid == "rect" else row * 2 / math.sqrt(3)
-    return row, col
 
 
 def write_plenopticam_calibration(path: Path, centres: np.ndarray, grid: str,

@@ -13,7 +13,8 @@ from .. import _native
 from ..imaging.render import Raw
 from .formats import DN_MAX, jsonable
 
-__all__ = ["FORMAT", "ORIENTATION", "TARGET_ORIENTATION", "WHITE_DEPTH_F", "sidecar_document", "write_json"]
+__all__ = ["FORMAT", "ORIENTATION", "TARGET_ORIENTATION", "WHITE_DEPTH_F", "sidecar_document",
+           "write_json"]
 
 #: The ``format`` entry of the sidecar ``splitlf.json``.
 FORMAT = "splitlf-export/1"
@@ -36,18 +37,18 @@ ORIENTATION = {
 
 #: The same in each target's own terms.
 TARGET_ORIENTATION = {
-        "plenopticam": "PlenoptiCam (its option opt_rota off, the default) decodes in the "
-                       "raw's frame: its sub-aperture views and refocused images are upright "
-                       "and mirrored left to right; flip them, and the order of its "
-                       "horizontal viewpoints, left to right to see the scene as the texture "
-                       "shows it",
-        "plenpy": "plenpy's x is the image's first axis (rows) and y its second (columns): "
-                  "a LightField [u, v, s, t] decoded from these files is upright along s "
-                  "and mirrored along t; flip t (and v) to see the scene as the texture "
-                  "shows it",
-        "tiff": "no Orientation tag is written, so readers take TIFF's default (1: row 0 "
-                "at the top, column 0 at the left): the images are upright and mirrored "
-                "left to right",
+    "plenopticam": "PlenoptiCam (its option opt_rota off, the default) decodes in the "
+                   "raw's frame: its sub-aperture views and refocused images are upright "
+                   "and mirrored left to right; flip them, and the order of its "
+                   "horizontal viewpoints, left to right to see the scene as the texture "
+                   "shows it",
+    "plenpy": "plenpy's x is the image's first axis (rows) and y its second (columns): "
+              "along x the images are upright (x = 0 shows the scene's top), along y "
+              "mirrored (y = 0 shows the scene's X > 0 side); flip y, and the order of "
+              "the views along it, to see the scene as the texture shows it",
+    "tiff": "no Orientation tag is written, so readers take TIFF's default (1: row 0 "
+            "at the top, column 0 at the left): the images are upright and mirrored "
+            "left to right",
 }
 
 

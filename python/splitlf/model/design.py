@@ -379,6 +379,14 @@ class Design:
         ascending). Computed by the core (``splitlf_core::model::centers``)."""
         return self._core.micro_image_centers(channel)
 
+    def micro_image_steps(self, channel: int) -> tuple[float, float]:
+        """Channel ``channel``'s (from 1) steps between micro-image centres in its raw's
+        pixels, (row step, column step): the column step between neighbours in a lattice
+        row, the row step between lattice rows (``ideal`` layout: Q, Q; ``sensor``
+        layout: the image pitch d (1 + v/L) / mu along a row, times sqrt(3)/2 between the
+        rows of a hex grid). Computed by the core."""
+        return self._core.micro_image_steps(channel)
+
     def resolution_step(self, z: float) -> float:
         """delta(z) = mu_1 z / L_1 [mm]: one pixel of a conventional camera on channel 1's
         array plane, projected onto the plane at depth z (docs/model.md §9)."""

@@ -11,7 +11,7 @@
 //! layouts"); `ideal` layout, whose Q × Q pixels are centred on the lens's image, column
 //! j Q + (Q − 1)/2 and row k Q + (Q − 1)/2 (§10, "Raw layout").
 
-use crate::model::design::{Channel, Layout};
+use crate::model::design::{Channel, Grid, Layout, SQRT3_2};
 
 /// One lens's micro-image centre in raw pixel coordinates, with the lens's indices.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -46,6 +46,24 @@ impl Channel {
         MicroImageCenter { row, col, k, j }
     }
 
+    /// The lattice's steps between micro-image centres in raw pixels, (row step, column
+    /// step): the column step between neighbours in a row and the row step between lattice
+    /// rows (module docs: Q and Q in the ideal layout; p/μ and p/μ on a rect grid and
+    /// (√3/2) p/μ and p/μ on a hex one in the sensor layout, p = d (1 + v/L) the image
+    /// pitch). Defined for any lattice, one lens wide or one row high included.
+    pub fn micro_image_steps(&self) -> (f64, f64) {
+        match self.layout {
+            Layout::Ideal { q } => (q as f64, q as f64),
+            Layout::Sensor { .. } => {
+                let col = self.image_pitch() / self.mu;
+                match self.grid {
+                    Grid::Rect => (col, col),
+                    Grid::Hex => (col * SQRT3_2, col),
+                }
+            }
+        }
+    }
+
     /// Every lens's micro-image centre, row by row of the lattice (k, then j ascending).
     pub fn micro_image_centers(&self) -> Vec<MicroImageCenter> {
         (0..self.ky)
@@ -73,6 +91,8 @@ mod tests {
         // odd row: shifted half a pitch to +x, √3/2 pitch down
         assert!((c.col - a.col - p / 2.0).abs() < 1e-9);
         assert!((c.row - a.row - p * 3f64.sqrt() / 2.0).abs() < 1e-9);
+        let (rs, cs) = ch.micro_image_steps();
+        assert!((cs - p).abs() < 1e-12 && (c.row - a.row - rs).abs() < 1e-9);
         let all = ch.micro_image_centers();
         assert_eq!(all.len(), (ch.kx * ch.ky) as usize);
         let n = all.len() as f64;

@@ -285,6 +285,13 @@ impl DesignCore {
         filled(py, &[centers.len(), 4], "micro-image centres", values)
     }
 
+    /// Channel `channel`'s (from 1) steps between micro-image centres in raw pixels, (row
+    /// step, column step) (`splitlf_core::model::centers`).
+    fn micro_image_steps(&self, channel: &Bound<'_, PyAny>) -> PyResult<(f64, f64)> {
+        let (_, ch) = self.channel_arg(channel)?;
+        Ok(ch.micro_image_steps())
+    }
+
     /// δ(z) = μ_1 z / L_1 (docs/model.md §9); z must be finite and > F.
     fn resolution_step(&self, z: f64) -> PyResult<f64> {
         optics::check_design_depths(self.inner.f_main, &[z]).map_err(to_py)?;
