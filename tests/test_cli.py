@@ -141,7 +141,8 @@ def _subparsers():
 def test_every_option_has_help_text(capsys):
     subs = _subparsers()
     assert set(subs) == {"report", "figures", "trace", "sweep", "simulate", "optimise",
-                         "compare", "explore", "render", "dataset", "reconstruct", "depth"}
+                         "compare", "explore", "render", "dataset", "export", "reconstruct",
+                         "depth"}
     for name, sub in subs.items():
         for action in sub._actions:
             assert action.help and action.help.strip(), (name, action.option_strings)

@@ -117,6 +117,7 @@ RUST_FLOORS = {"infra": 0, "model": 1, "sampling": 2, "imaging": 3, "inverse": 4
 PY_FLOORS = {"_native": 0, "errors": 0, "_files": 0, "_validate": 0, "_moved": 0, "_noise": 0,
              "_progress": 0, "_piecewise": 0,
              "model": 1, "sampling": 2, "imaging": 3, "inverse": 4, "study": 5,
+             "exchange": 5,
              "plot": 6, "explorer": 6, "cli": 7, "__main__": 8}
 LIMIT_FILE_LINES = 1000
 LIMIT_RUST_FN_LINES = 120

@@ -8,6 +8,7 @@ are positive distances in front of the main lens.
 from . import _moved
 from ._native import __version__
 from .errors import InvalidParameter, SplitlfError, TooLargeError
+from .exchange.export import Export, export
 from .imaging.render import DepthMap, Plane, Raw, Scene, render
 from .imaging.texture import (
     BarChart,
@@ -74,6 +75,7 @@ __all__ = [
     "DepthOfField",
     "DepthSweep",
     "Design",
+    "Export",
     "Footprints",
     "Image",
     "InvalidParameter",
@@ -102,6 +104,7 @@ __all__ = [
     "estimate_depth",
     "evaluate",
     "explore",
+    "export",
     "footprints",
     "new_samples",
     "optimise",

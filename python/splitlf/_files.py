@@ -36,7 +36,8 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover - Python 3.10 (the tomli backport)
     import tomli as tomllib
 
-__all__ = ["MAX_TOML_BYTES", "atomic_output", "check_new", "check_writable", "open_regular",
+__all__ = ["MAX_TOML_BYTES", "atomic_folder", "atomic_output", "check_new",
+           "check_new_folder", "check_writable", "open_regular",
            "probe_folder", "read_npy", "read_toml", "text_file"]
 
 #: Largest TOML file read (a design or sweep file is a few kB; this refuses a runaway input
@@ -143,6 +144,59 @@ def atomic_output(path: str | os.PathLike[str], *, force: bool = False,
     finally:
         with contextlib.suppress(FileNotFoundError):
             tmp.unlink()
+
+
+@contextlib.contextmanager
+def atomic_folder(path: str | os.PathLike[str], *, force: bool = False,
+                  hint: str = "") -> Iterator[Path]:
+    """Context manager: a folder's :func:`atomic_output`. Yields a new empty temporary
+    folder beside ``path``; when the block ends without error, its files are flushed to
+    disk and the folder is renamed onto ``path``; on any error it is removed with what was
+    written into it, and ``path`` is left as it was.
+
+    ``path`` may be missing or an empty folder; a folder with files in it is refused
+    (``FileExistsError``, ``hint`` appended) unless ``force``, when it is replaced whole
+    (renamed aside, the new folder renamed in, then the old one removed). Raises
+    ``NotADirectoryError`` when ``path`` is a file and ``FileNotFoundError`` when its
+    parent folder does not exist.
+    """
+    import shutil
+
+    target = check_new_folder(path, force, hint)
+    tmp = Path(tempfile.mkdtemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp"))
+    old: Path | None = None
+    try:
+        yield tmp
+        for f in tmp.rglob("*"):
+            if f.is_file():
+                with open(f, "rb+") as fh:
+                    os.fsync(fh.fileno())
+        os.chmod(tmp, 0o777 & ~_umask())
+        check_new_folder(target, force, hint)
+        if target.is_dir() and any(target.iterdir()):
+            old = Path(tempfile.mkdtemp(dir=target.parent, prefix=f".{target.name}.",
+                                        suffix=".old"))
+            os.replace(target, old)
+        os.replace(tmp, target)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+        if old is not None:
+            shutil.rmtree(old, ignore_errors=True)
+
+
+def check_new_folder(path: str | os.PathLike[str], force: bool, hint: str = "") -> Path:
+    """``path`` as a :class:`~pathlib.Path`, after checking it may be written as an output
+    folder: missing or empty, or with files in it only when ``force`` (see
+    :func:`atomic_folder`, whose errors it raises)."""
+    p = Path(path)
+    if p.exists() and not p.is_dir():
+        raise NotADirectoryError(f"{p}: is a file, not a folder")
+    if p.is_dir() and any(p.iterdir()) and not force:
+        more = f"; {hint}" if hint else ""
+        raise FileExistsError(f"{p}: a folder with files in it, not overwritten{more}")
+    if not p.parent.is_dir():
+        raise FileNotFoundError(f"{p}: folder {p.parent} does not exist")
+    return p
 
 
 @contextlib.contextmanager

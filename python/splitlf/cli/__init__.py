@@ -22,6 +22,7 @@ from . import (
     dataset,
     depth,
     explore,
+    export,
     figures,
     optimise,
     reconstruct,
@@ -38,8 +39,8 @@ __all__ = ["COMMANDS", "USER_ERRORS", "CliError", "build_parser", "json_text", "
 
 #: The subcommands, in the order of ``splitlf --help``: each module's ``add_parser``
 #: registers its parser and its ``run``.
-COMMANDS = (report, figures, trace, sweep, simulate, render, dataset, reconstruct, depth,
-            optimise, compare, explore)
+COMMANDS = (report, figures, trace, sweep, simulate, render, dataset, export, reconstruct,
+            depth, optimise, compare, explore)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -51,7 +52,7 @@ class _Parser(argparse.ArgumentParser):
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of every subcommand (report, figures, trace, sweep, simulate,
-    render, dataset, reconstruct, depth, optimise, compare, explore)."""
+    render, dataset, export, reconstruct, depth, optimise, compare, explore)."""
     parser = _Parser(
         prog="splitlf",
         description="Design and analysis of split-sensor light field cameras.",

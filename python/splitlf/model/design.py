@@ -20,6 +20,8 @@ from collections.abc import Mapping
 from collections.abc import Set as AbstractSet
 from typing import TYPE_CHECKING, Any, Literal
 
+import numpy as np
+
 from .. import _native
 from .._files import read_toml, text_file
 from .._validate import field_count, field_real, register_design
@@ -364,6 +366,26 @@ class Design:
         """Each channel's fields as validated: ``f`` resolved (Ng's setting as one focal
         length), the sensor layout's ``Mx``, ``My`` resolved, and ``ng`` (f not given)."""
         return self._core.channels()
+
+    def micro_image_centers(self, channel: int) -> np.ndarray:
+        """Channel ``channel``'s (from 1) micro-image centres in its raw's pixel
+        coordinates: where the ray through the main lens's centre and each microlens's
+        centre meets the sensor, s = c (1 + v/L) (docs/model.md §9, "Pixel layouts"), in
+        the raw's [row, column] frame of §10 (row 0 at the top, pixel (r, c) centred on the
+        integers; ``ideal`` layout: the centre of each lens's Q x Q block).
+
+        A float64 array of shape (Kx Ky, 4), one row ``[row, column, k, j]`` per lens
+        (k its lattice row, j its place in the row), lattice rows first (k, then j
+        ascending). Computed by the core (``splitlf_core::model::centers``)."""
+        return self._core.micro_image_centers(channel)
+
+    def micro_image_steps(self, channel: int) -> tuple[float, float]:
+        """Channel ``channel``'s (from 1) steps between micro-image centres in its raw's
+        pixels, (row step, column step): the column step between neighbours in a lattice
+        row, the row step between lattice rows (``ideal`` layout: Q, Q; ``sensor``
+        layout: the image pitch d (1 + v/L) / mu along a row, times sqrt(3)/2 between the
+        rows of a hex grid). Computed by the core."""
+        return self._core.micro_image_steps(channel)
 
     def resolution_step(self, z: float) -> float:
         """delta(z) = mu_1 z / L_1 [mm]: one pixel of a conventional camera on channel 1's

@@ -10,6 +10,7 @@ use splitlf_core::model::optics::LensOptics;
 use splitlf_core::{model::design, model::lens, model::optics, model::presets, Camera, Design};
 
 use crate::infra::args::{half_arg, int_arg, saturate, with_given};
+use crate::infra::arrays::filled;
 use crate::infra::errors::to_py;
 
 /// A validated camera held by the core (wrapped by `splitlf.Camera`): the paper's
@@ -267,6 +268,28 @@ impl DesignCore {
                 Ok(d)
             })
             .collect()
+    }
+
+    /// Channel `channel`'s (from 1) micro-image centres in raw pixel coordinates: one row
+    /// [row, column, k, j] per lens, lattice rows first (`splitlf_core::model::centers`).
+    fn micro_image_centers<'py>(
+        &self,
+        py: Python<'py>,
+        channel: &Bound<'_, PyAny>,
+    ) -> PyResult<Bound<'py, numpy::PyArray2<f64>>> {
+        let (_, ch) = self.channel_arg(channel)?;
+        let centers = py.detach(|| ch.micro_image_centers());
+        let values = centers
+            .iter()
+            .flat_map(|m| [m.row, m.col, f64::from(m.k), f64::from(m.j)]);
+        filled(py, &[centers.len(), 4], "micro-image centres", values)
+    }
+
+    /// Channel `channel`'s (from 1) steps between micro-image centres in raw pixels, (row
+    /// step, column step) (`splitlf_core::model::centers`).
+    fn micro_image_steps(&self, channel: &Bound<'_, PyAny>) -> PyResult<(f64, f64)> {
+        let (_, ch) = self.channel_arg(channel)?;
+        Ok(ch.micro_image_steps())
     }
 
     /// δ(z) = μ_1 z / L_1 (docs/model.md §9); z must be finite and > F.
