@@ -11,6 +11,7 @@ from .errors import InvalidParameter, SplitlfError, TooLargeError
 from .imaging.render import DepthMap, Plane, Raw, Scene, render
 from .imaging.texture import (
     BarChart,
+    ColourTexture,
     Constant,
     Image,
     RandomAlbedo,
@@ -66,6 +67,7 @@ __all__ = [
     "Camera",
     "Channel",
     "ChiefSamples",
+    "ColourTexture",
     "CoincidencePlanes",
     "Constant",
     "Coverage",
