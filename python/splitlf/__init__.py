@@ -20,7 +20,7 @@ from .imaging.texture import (
     SlantedEdge,
 )
 from .inverse.depth import DepthSweep, estimate_depth
-from .inverse.reconstruct import Reconstruction, reconstruct
+from .inverse.reconstruct import ColourReconstruction, Reconstruction, reconstruct
 from .inverse.simulate import Simulation, simulate
 from .model.camera import Camera
 from .model.design import Channel, Design
@@ -67,6 +67,7 @@ __all__ = [
     "Camera",
     "Channel",
     "ChiefSamples",
+    "ColourReconstruction",
     "ColourTexture",
     "CoincidencePlanes",
     "Constant",
