@@ -11,6 +11,7 @@ import math
 
 import numpy as np
 import pytest
+from _cli import run_cli, small_raw
 
 import splitlf
 from splitlf import (
@@ -255,3 +256,33 @@ def test_depth_of_a_mosaic_is_the_depth_of_its_grey_raw():
                                     region=region)
     np.testing.assert_allclose(mosaic.depth, grey.depth, rtol=1e-9)
     assert np.mean(np.abs(grey.depth - 1000.0) < 60.0) > 0.5
+
+
+def test_the_cli_renders_through_a_cfa_and_reconstructs_in_colour(tmp_path, capsys):
+    """``splitlf render --cfa --qe`` with a colour .npy texture writes the raw the library
+    renders (CFA recorded); without --cfa it is refused naming cfa; ``reconstruct`` of it
+    writes the (ny, nx, 3) image of the library's ColourReconstruction."""
+    array = np.random.default_rng(9).uniform(0.1, 0.9, (6, 8, 3))
+    np.save(tmp_path / "t.npy", array)
+    args = ["--texture", str(tmp_path / "t.npy"), "--width", "2", "--depth", "1000"]
+    raw_path = small_raw(tmp_path, (4, 3), *args, "--cfa", "GBRG", "--qe", "0.5,1,0.7",
+                         capsys=capsys)
+    raw = Raw.load(raw_path)
+    d = raw.design
+    want = render(d, Scene(Image(array, 2.0), 1000.0), cfa="GBRG", qe=(0.5, 1.0, 0.7))
+    assert raw.cfa == want.cfa
+    for a, b in zip(raw.images, want.images, strict=True):
+        np.testing.assert_array_equal(a, b)
+    code, _, err = run_cli(["render", str(tmp_path / "d.toml"), *args, "-o",
+                            str(tmp_path / "g.npz")], capsys)
+    assert code == 2 and "cfa" in err
+    code, _, err = run_cli(["render", str(tmp_path / "d.toml"), *args, "--qe", "1,1,1",
+                            "-o", str(tmp_path / "g.npz")], capsys)
+    assert code == 2 and "--qe" in err
+    out = tmp_path / "rec.npy"
+    region = "--region=-0.2,0.2,-0.2,0.2"
+    code, _, err = run_cli(["reconstruct", str(raw_path), "--depth", "1000", region,
+                            "--regularization", "1", "-o", str(out)], capsys)
+    assert code == 0, err
+    rec = reconstruct(raw, 1000.0, region=(-0.2, 0.2, -0.2, 0.2), regularization=1.0)
+    np.testing.assert_array_equal(np.load(out), rec.image)

@@ -784,7 +784,7 @@ impl Plan<'_> {
                     let inside = sy[b] * sx[a];
                     f.types[b * f.cols + a] as usize == t
                         && total - inside <= OUTSIDE_SHARE * total
-                        && self.req.colour.is_none_or(|(p, k)| p.colour(b, a) == k)
+                        && self.req.colour.map_or(true, |(p, k)| p.colour(b, a) == k)
                 };
                 let r_sel: Vec<usize> = rows_in
                     .iter()
@@ -843,7 +843,7 @@ impl Plan<'_> {
             .iter()
             .zip(&sys.pixel)
             .map(|(&c, &p)| {
-                self.req.colour.is_none_or(|(pattern, k)| {
+                self.req.colour.map_or(true, |(pattern, k)| {
                     let cols = crate::imaging::render::raw_shape(&d.channels[c as usize]).1;
                     pattern.colour(p as usize / cols, p as usize % cols) == k
                 })
