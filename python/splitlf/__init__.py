@@ -12,6 +12,7 @@ from .exchange.export import Export, export
 from .imaging.render import DepthMap, Plane, Raw, Scene, render
 from .imaging.texture import (
     BarChart,
+    ColourTexture,
     Constant,
     Image,
     RandomAlbedo,
@@ -20,7 +21,7 @@ from .imaging.texture import (
     SlantedEdge,
 )
 from .inverse.depth import DepthSweep, estimate_depth
-from .inverse.reconstruct import Reconstruction, reconstruct
+from .inverse.reconstruct import ColourReconstruction, Reconstruction, reconstruct
 from .inverse.simulate import Simulation, simulate
 from .model.camera import Camera
 from .model.design import Channel, Design
@@ -67,6 +68,8 @@ __all__ = [
     "Camera",
     "Channel",
     "ChiefSamples",
+    "ColourReconstruction",
+    "ColourTexture",
     "CoincidencePlanes",
     "Constant",
     "Coverage",

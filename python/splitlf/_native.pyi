@@ -48,6 +48,9 @@ __all__ = [
     "TraceArrays",
     "__version__",
     "available_memory",
+    "cfa_colours",
+    "cfa_grey",
+    "cfa_mosaic",
     "cell_averages",
     "cell_grid",
     "chief_samples",
@@ -424,6 +427,9 @@ def render_band(
     progress: Callable[[int, int], object] | None = None,
 ) -> _F64: ...
 def render_extent(design: DesignCore, z: float) -> tuple[float, float, float, float]: ...
+def cfa_colours(pattern: str, rows: int, cols: int) -> npt.NDArray[np.uint8]: ...
+def cfa_mosaic(planes: Sequence[_F64], pattern: str, qe: Sequence[float]) -> _F64: ...
+def cfa_grey(raw: _F64, pattern: str, qe: Sequence[float]) -> _F64: ...
 def available_memory() -> int: ...
 OUTSIDE_SHARE: float
 def seen_region(

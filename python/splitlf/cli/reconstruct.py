@@ -106,11 +106,11 @@ def run(args: argparse.Namespace) -> int:
     _common.write_array(args, out, npy, rec.image, picture)
     summary = {"path": str(out), "npy": None if npy is None else str(npy),
                "shape": list(rec.image.shape), "extent": list(rec.extent), "step": rec.step,
-               "depth": rec.depth, "channels": list(rec.channels), "rows": rec.rows,
-               "iterations": rec.iterations, "residual": rec.residual,
-               "regularization": rec.regularization,
-               "regularization_rule": rec.regularization_rule, "noise": rec.noise,
-               "noise_model": rec.noise_model, "noise_source": rec.noise_source,
-               "tiles": rec.tiles}
+               "depth": rec.depth, "channels": list(rec.channels)}
+    solves = getattr(rec, "colours", (rec,))  # a mosaiced raw: one solve per colour
+    fields = ("rows", "iterations", "residual", "regularization", "regularization_rule",
+              "noise", "noise_model", "noise_source", "tiles")
+    summary.update({f: getattr(solves[0], f) if len(solves) == 1
+                    else [getattr(r, f) for r in solves] for f in fields})
     sys.stdout.write(_common.json_text(summary) if args.json else f"{out}\n")
     return 0

@@ -4,7 +4,9 @@ docs/render.md).
 Render what each channel's sensor records for a textured surface (docs/model.md §10) and
 write the raws to an .npz file that splitlf.Raw.load reads (and, with --png, a picture
 of them with a zoom on a few micro-images). With --scheduler the rows of each channel
-are rendered as tasks on a Dask cluster (the same raw bit for bit).
+are rendered as tasks on a Dask cluster (the same raw bit for bit). With --cfa the sensor
+has a Bayer colour filter array (docs/model.md §12): one render per colour, mosaiced; an
+image texture then keeps its colours (a colour PNG, or a .npy of shape (rows, cols, 3)).
 """
 
 from __future__ import annotations
@@ -47,6 +49,12 @@ def add_parser(subparsers: Any) -> None:
                      type=_common.real_type("noise tol", 0.0, "a fraction in (0, 1]"),
                      default=None, metavar="K", help="instead: each pixel's error target is "
                      "K (e.g. 0.1) times the standard deviation of --noise at its value")
+    p.add_argument("--cfa", choices=("RGGB", "GRBG", "GBRG", "BGGR"), default=None,
+                   help="a Bayer colour filter array on the sensor, by its top-left 2 x 2 "
+                   "block (docs/model.md §12; default: a grey sensor)")
+    p.add_argument("--qe", default=None, metavar="R,G,B",
+                   help="with --cfa: each colour's quantum efficiency in (0, 1] (default "
+                   "1,1,1)")
     p.add_argument("--seed", type=_common.seed_type, default=0,
                    help="seed of the random texture and the noise, an integer >= 0 "
                    "(default 0)")
@@ -61,17 +69,18 @@ def add_parser(subparsers: Any) -> None:
     p.set_defaults(func=run)
 
 
-def parse_render_texture(spec: str, width: float | None) -> Any:
+def parse_render_texture(spec: str, width: float | None, colour: bool = False) -> Any:
     """The texture of ``render --texture``: random[:CELL] (CELL in mm; default delta(z))
     | sinusoid:F | bars:F (F in cycles/mm on the object) | edge[:ANGLE] (degrees) |
-    star[:SPOKES] | an image file (.png or .npy; needs ``width`` [mm]). Raises
-    :class:`CliError` for anything else."""
+    star[:SPOKES] | an image file (.png or .npy; needs ``width`` [mm]; a colour PNG kept
+    in colour when ``colour``, else its luma). Raises :class:`CliError` for anything
+    else."""
     from ..imaging.texture import BarChart, RandomAlbedo, SiemensStar, Sinusoid, SlantedEdge
 
     kind, colon, rest = spec.partition(":")
     known = {"random", "sinusoid", "bars", "edge", "star"}
     if kind not in known:
-        return _image_texture(spec, width)
+        return _image_texture(spec, width, colour)
     if width is not None:
         raise _common.CliError("--width: only with an image file as --texture")
     try:
@@ -90,9 +99,10 @@ TEXTURE_FORMS = ("random[:CELL] (mm), sinusoid:F, bars:F (cycles/mm), edge[:ANGL
                  "star[:SPOKES] or an image file (.png, .npy) with --width")
 
 
-def _image_texture(path: str, width: float | None) -> Any:
+def _image_texture(path: str, width: float | None, colour: bool = False) -> Any:
     """An :class:`~splitlf.Image` from a .npy array of albedos or a PNG (read by
-    matplotlib: values in [0, 1], a colour image as the Rec. 709 luma of R, G, B)."""
+    matplotlib: values in [0, 1], a colour image as its R, G, B when ``colour`` (a render
+    through a CFA), else as the Rec. 709 luma of R, G, B)."""
     from ..imaging.texture import Image
 
     suffix = Path(path).suffix.lower()
@@ -113,7 +123,9 @@ def _image_texture(path: str, width: float | None) -> Any:
             array = np.asarray(matplotlib.image.imread(path), dtype=np.float64)
         except (OSError, ValueError, SyntaxError) as e:
             raise _common.CliError(f"{path}: not a PNG image ({e})") from None
-        if array.ndim == 3:
+        if array.ndim == 3 and colour and array.shape[2] >= 3:
+            array = array[..., :3]
+        elif array.ndim == 3:
             array = array[..., :3] @ np.array([0.2126, 0.7152, 0.0722])[:array.shape[2]]
     try:
         return Image(array, width)
@@ -142,7 +154,8 @@ def _render_summary(raw: Any, out: Path, png: Path | None, args: argparse.Namesp
                 for i, a in enumerate(raw.images, 1)]
     return {"path": str(out), "png": None if png is None else str(png),
             "design": args.design, "texture": args.texture, "depth": args.depth,
-            "noise": args.noise, "seed": args.seed, "channels": channels}
+            "noise": args.noise, "seed": args.seed, "channels": channels,
+            "cfa": raw.cfa and {"pattern": raw.cfa["pattern"], "qe": list(raw.cfa["qe"])}}
 
 
 def _write_render(raw: Any, out: Path, png: Path | None, force: bool) -> None:
@@ -169,14 +182,19 @@ def run(args: argparse.Namespace) -> int:
 
     out, png = _render_targets(args)
     design = _common.named_design(args.design)
-    texture = parse_render_texture(args.texture, args.width)
+    texture = parse_render_texture(args.texture, args.width, colour=args.cfa is not None)
+    if args.qe is not None and args.cfa is None:
+        raise _common.CliError("--qe: the quantum efficiencies of a --cfa's colours, needs "
+                               "--cfa")
+    qe = None if args.qe is None else _common.numbers("--qe", args.qe, 3)
     depth = _common.parse_render_depth(args.depth, args.extent)
     scene = Scene(texture, depth)
     if args.noise_tol is not None and args.noise is None:
         raise _common.CliError("--noise-tol: a fraction of the noise, needs --noise N[,READ]")
     with _common.scheduler_executor(args) as executor:
         raw = render(design, scene, noise=args.noise, seed=args.seed, tol=args.tol,
-                     noise_tol=args.noise_tol, n_threads=args.threads, executor=executor)
+                     noise_tol=args.noise_tol, n_threads=args.threads, executor=executor,
+                     cfa=args.cfa, qe=qe)
     _write_render(raw, out, png, args.force)
     sys.stdout.write(_common.json_text(_render_summary(raw, out, png, args)) if args.json
                      else f"{out}\n")

@@ -25,13 +25,17 @@ Raw files (:meth:`Raw.save`, :meth:`Raw.load`): an uncompressed NumPy ``.npz`` a
 - ``channel1``, ..., ``channelC``: each channel's raw, float64 [row, col];
 - ``noise`` (optional; absent: not stated, as in files written before it existed): the
   noise model the raw carries (:attr:`Raw.noise`), float64 [photons, read_noise], photons
-  ``inf`` for a noise-free raw.
+  ``inf`` for a noise-free raw;
+- ``cfa`` and ``qe`` (optional; absent: a grey raw, as in files written before colour):
+  the colour filter array the raw was mosaiced with (:attr:`Raw.cfa`), the pattern's name
+  and float64 [red, green, blue] quantum efficiencies.
 """
 
 from __future__ import annotations
 
 import concurrent.futures as cf
 import dataclasses
+import math
 import numbers
 import os
 import sys
@@ -54,8 +58,9 @@ from .._validate import extent as _extent
 from .._validate import finite as _finite
 from ..errors import InvalidParameter
 from ..model.design import Design
+from . import cfa as _cfa
 from .bands import ScenePart, check_options, check_raws_fit, render_bands
-from .texture import TEXTURES, Constant, RandomAlbedo
+from .texture import TEXTURES, ColourTexture, Constant, Image, RandomAlbedo
 from .texture import albedo as _albedo
 
 __all__ = ["FORMAT", "DepthMap", "Plane", "Raw", "Scene", "render"]
@@ -238,11 +243,14 @@ class Scene:
       :class:`~splitlf.SlantedEdge`, :class:`~splitlf.SiemensStar`,
       :class:`~splitlf.RandomAlbedo`, :class:`~splitlf.Image`, :class:`~splitlf.Constant`,
       a number (a Constant of that albedo) or ``"random"`` (a RandomAlbedo on delta(z)
-      cells)
+      cells); or a colour texture (a (rows, cols, 3) :class:`~splitlf.Image`, a
+      :class:`~splitlf.ColourTexture`), which renders through a colour filter array only
+      (docs/model.md §12)
     - ``depth``: a number (the fronto-parallel plane at that depth [mm], kept as a
       :class:`Plane`), a :class:`Plane` or a :class:`DepthMap`
     - ``background``: the albedo a ray sees when it meets no surface, finite >= 0
-      (default: the texture's mean)
+      (default: the texture's mean; for a colour texture the mean of its colours' means,
+      the same in every colour)
 
     Raises ``TypeError`` and :class:`~splitlf.errors.InvalidParameter` naming the field."""
 
@@ -256,15 +264,28 @@ class Scene:
             tex = RandomAlbedo()
         elif isinstance(tex, numbers.Real) and not isinstance(tex, bool | np.bool_):
             tex = Constant(cast(float, tex))  # validated by Constant
-        if not isinstance(tex, TEXTURES):
+        if not isinstance(tex, (*TEXTURES, ColourTexture)):
             raise TypeError("texture must be \"random\", a number (a constant albedo), a "
                             "Sinusoid, BarChart, SlantedEdge, SiemensStar, RandomAlbedo, "
-                            "Image or Constant, got "
+                            "Image, Constant or ColourTexture, got "
                             f"{type(self.texture).__name__} {self.texture!r}"[:300])
         object.__setattr__(self, "texture", tex)
         object.__setattr__(self, "depth", _surface(self.depth))
         bg = float(tex.mean) if self.background is None else self.background
         object.__setattr__(self, "background", _albedo(bg, "background"))
+
+    @property
+    def is_colour(self) -> bool:
+        """Whether the texture has three colours (docs/model.md §12)."""
+        tex = self.texture
+        return isinstance(tex, ColourTexture) or (isinstance(tex, Image) and tex.is_colour)
+
+    def colour(self, k: int) -> Scene:
+        """Colour ``k``'s grey scene (0 red, 1 green, 2 blue): the colour's texture on
+        the same surface and background (a grey scene is itself)."""
+        if not self.is_colour:
+            return self
+        return Scene(self.texture.colour(k), self.depth, self.background)
 
     def reference_depth(self) -> float:
         """The depth whose delta(z) sizes a default random texture's cells: a plane's z0,
@@ -326,29 +347,38 @@ class Raw:
     noise-free raw. :func:`render` records what it drew (``{"photons": inf, "read_noise":
     0}`` without ``noise``); :meth:`save` and :meth:`load` keep it.
 
+    ``cfa`` is the colour filter array the raw was mosaiced with (docs/model.md §12): None
+    (a grey raw) or ``{"pattern": "RGGB" | "GRBG" | "GBRG" | "BGGR", "qe": (r, g, b)}``
+    (``qe`` optional, default 1s); :meth:`save` and :meth:`load` keep it, and
+    :func:`~splitlf.reconstruct` and :func:`~splitlf.estimate_depth` read it.
+
     Built by :func:`render`, or directly to wrap raws from elsewhere (another renderer, a
-    real camera): ``images`` a sequence of one array per channel (copied), ``noise`` as
-    above (default None). Raises ``TypeError`` and
+    real camera): ``images`` a sequence of one array per channel (copied), ``noise`` and
+    ``cfa`` as above (default None). Raises ``TypeError`` and
     :class:`~splitlf.errors.InvalidParameter` (named ``images`` for the count,
     ``images[i]`` for a shape or a value that is not finite, ``noise`` or ``noise photons``
-    / ``noise read_noise`` for a bad noise model)."""
+    / ``noise read_noise`` for a bad noise model, ``cfa``, ``qe`` or ``qe[k]`` for a bad
+    colour filter array)."""
 
     design: Design
     images: tuple[np.ndarray, ...]
     noise: Mapping[str, float] | None = None
+    cfa: Mapping[str, Any] | None = None
 
     def __post_init__(self) -> None:
         self._check(copy=True)
 
     @classmethod
     def _adopt(cls, design: Design, images: Sequence[np.ndarray],
-               noise: Mapping[str, float] | None = None) -> Raw:
+               noise: Mapping[str, float] | None = None,
+               cfa: Mapping[str, Any] | None = None) -> Raw:
         """A Raw of arrays this package made (the core's raws, a loaded file): checked
         like any, but kept without a copy (a render's peak memory stays the raws')."""
         raw = object.__new__(cls)
         object.__setattr__(raw, "design", design)
         object.__setattr__(raw, "images", images)
         object.__setattr__(raw, "noise", noise)
+        object.__setattr__(raw, "cfa", cfa)
         raw._check(copy=False)
         return raw
 
@@ -365,6 +395,7 @@ class Raw:
         object.__setattr__(self, "images", tuple(_image(a, i, s, copy) for i, (a, s)
                                                  in enumerate(zip(imgs, shapes, strict=True))))
         object.__setattr__(self, "noise", _stated(self.noise, "noise"))
+        object.__setattr__(self, "cfa", _cfa.stated(self.cfa))
 
     def __repr__(self) -> str:
         """A short summary (each channel's shape and value range), not the arrays."""
@@ -374,7 +405,8 @@ class Raw:
         noise = ("" if self.noise is None else
                  f", noise photons {self.noise['photons']:g}, read noise "
                  f"{self.noise['read_noise']:g}")
-        return f"Raw({len(self.images)} channel(s): {chans}{noise})"
+        colour = "" if self.cfa is None else f", cfa {_cfa.describe(self.cfa)}"
+        return f"Raw({len(self.images)} channel(s): {chans}{noise}{colour})"
 
     def channel(self, i: int) -> np.ndarray:
         """Channel ``i``'s raw (channels numbered from 1)."""
@@ -383,6 +415,24 @@ class Raw:
         if not 1 <= c <= n:
             raise InvalidParameter.of("channel", c, f"an integer in [1, {n}]")
         return self.images[c - 1]
+
+    def grey(self) -> Raw:
+        """The grey raw of a mosaiced one (docs/model.md §12): each pixel divided by its
+        colour's quantum efficiency (the core's ``cfa_grey``), exact for a grey scene; a
+        grey raw is itself. Its noise: photons N q when the three QEs are q (a pixel's
+        photo-electrons are N q value), else not stated (None: the colours' noise
+        differs)."""
+        cfa = self.cfa
+        if cfa is None:
+            return self
+        images = tuple(_cfa.grey(a, cfa) for a in self.images)
+        noise = self.noise
+        qe = cfa["qe"]
+        if noise is not None and len(set(qe)) == 1:
+            noise = {"photons": noise["photons"] * qe[0], "read_noise": noise["read_noise"]}
+        elif noise is not None and noise["photons"] != math.inf:
+            noise = None
+        return Raw._adopt(self.design, images, noise)
 
     def save(self, path: str | os.PathLike[str], *, force: bool = True) -> None:
         """Write the raw file (module docstring: an ``.npz`` with ``format``, ``design``
@@ -394,6 +444,9 @@ class Raw:
         arrays.update({f"channel{i}": a for i, a in enumerate(self.images, 1)})
         if self.noise is not None:
             arrays["noise"] = np.array([self.noise["photons"], self.noise["read_noise"]])
+        if self.cfa is not None:
+            arrays["cfa"] = np.array(self.cfa["pattern"])
+            arrays["qe"] = np.array(self.cfa["qe"], dtype=np.float64)
         with atomic_output(path, force=force) as tmp, open(tmp, "wb") as fh:
             np.savez(fh, **arrays)
 
@@ -431,7 +484,7 @@ def _read_raw(name: str, npz: Any) -> Raw:
         raise ValueError("no design TOML text (key 'design')")
     design = _design_from_text(name, str(npz["design"]))
     channels = [f"channel{i}" for i in range(1, len(design.channels) + 1)]
-    extra = sorted(keys - {"format", "design", "noise", *channels})
+    extra = sorted(keys - {"format", "design", "noise", "cfa", "qe", *channels})
     missing = [c for c in channels if c not in keys]
     if missing or extra:
         raise ValueError(f"the arrays {sorted(keys - {'format', 'design'})} do not match "
@@ -446,7 +499,27 @@ def _read_raw(name: str, npz: Any) -> Raw:
             raise ValueError(f"the noise model (key 'noise') has shape {v.shape} and dtype "
                              f"{v.dtype}: needs 2 floats, [photons, read_noise]")
         noise = {"photons": float(v[0]), "read_noise": float(v[1])}
-    return Raw._adopt(design, tuple(npz[c] for c in channels), noise)
+    return Raw._adopt(design, tuple(npz[c] for c in channels), noise, _read_cfa(npz, keys))
+
+
+def _read_cfa(npz: Any, keys: set[str]) -> dict[str, Any] | None:
+    """The raw's colour filter array (keys ``cfa`` and ``qe``; neither: a grey raw)."""
+    if "cfa" not in keys:
+        if "qe" in keys:
+            raise ValueError("a quantum efficiency (key 'qe') without a cfa")
+        return None
+    p = npz["cfa"]
+    if p.dtype.kind != "U" or p.shape != ():
+        raise ValueError(f"the cfa (key 'cfa') has shape {p.shape} and dtype {p.dtype}: "
+                         "needs a pattern's name")
+    qe = None
+    if "qe" in keys:
+        v = npz["qe"]
+        if v.shape != (3,) or v.dtype.kind != "f":
+            raise ValueError(f"the quantum efficiencies (key 'qe') have shape {v.shape} and "
+                             f"dtype {v.dtype}: needs 3 floats")
+        qe = [float(q) for q in v]
+    return _cfa.options(str(p), qe)
 
 
 def _check_headers(npz: Any, channels: list[str], shapes: list[tuple[int, int]]) -> None:
@@ -563,7 +636,8 @@ def _target(tol: Any, noise_tol: Any, noise: dict[str, float] | None
 def render(design: Design, scene: Scene, *, noise: Mapping[str, float] | None = None,
            seed: int | None = 0, tol: float | None = None, noise_tol: float | None = None,
            n_threads: int | None = None, progress: bool | None = None,
-           executor: cf.Executor | None = None, rows_per_task: int | None = None) -> Raw:
+           executor: cf.Executor | None = None, rows_per_task: int | None = None,
+           cfa: str | None = None, qe: Sequence[float] | None = None) -> Raw:
     """Each channel's raw sensor image of ``scene`` (docs/model.md §10), computed in the
     core.
 
@@ -599,8 +673,19 @@ def render(design: Design, scene: Scene, *, noise: Mapping[str, float] | None = 
       in-process render's (same seed: the texture is drawn once here, the noise added
       here after assembly; docs/render.md, "Scale-out and datasets"). ``rows_per_task``
       an integer >= 1, only with an executor
+    - ``cfa``: None (a grey sensor) or a Bayer colour filter array on every channel's
+      sensor, ``"RGGB"``, ``"GRBG"``, ``"GBRG"`` or ``"BGGR"`` (docs/model.md §12): the
+      scene is rendered once per colour (noise-free; once for a grey texture, the same
+      in every colour), each channel's raws mosaiced in the core (a pixel in raw row r,
+      column c takes colour P[r % 2][c % 2] of the pattern P, times that colour's QE),
+      and the noise added after: a pixel's photo-electrons are N QE value, N those of a
+      white full-aperture pixel of QE 1. A colour texture needs a ``cfa``. With
+      ``noise_tol`` each render's target is set from the noise of QE 1 (the mosaic's
+      own, N QE, is larger relative to QE value: the target is at least as tight)
+    - ``qe``: the quantum efficiencies (red, green, blue), each in (0, 1] (None: 1, 1,
+      1); only with a ``cfa``
 
-    Returns a :class:`Raw`. Raises ``TypeError`` and
+    Returns a :class:`Raw` (its ``cfa`` recorded). Raises ``TypeError`` and
     :class:`~splitlf.errors.InvalidParameter` (checked before any work; the core adds a
     surface at or behind the main lens's focal plane where a pixel sees it),
     :class:`~splitlf.errors.TooLargeError` (up front, saying how much memory it needs)
@@ -618,21 +703,43 @@ def render(design: Design, scene: Scene, *, noise: Mapping[str, float] | None = 
     fresh: Any = np.random.SeedSequence().entropy  # an int for a fresh SeedSequence
     entropy = int(fresh) if seed_ is None else seed_
     executor, rows_per_task, threads = check_options(executor, rows_per_task, threads)
+    cfa_ = _cfa.options(cfa, qe)
+    if cfa_ is None and scene.is_colour:
+        raise InvalidParameter.of("cfa", None, "a Bayer pattern (one of "
+                                  f"{', '.join(_cfa.PATTERNS)}) for a colour texture")
     texture_rng = np.random.default_rng([entropy, 0])
     noise_rng = np.random.default_rng([entropy, 1])
-    parts = scene_parts(scene, subject, texture_rng)
-    if executor is not None:
-        images = render_bands(executor, subject, _expected_shapes(subject), parts, target,
-                              threads, rows_per_task, show)
-    else:
-        bar, callback = _progress(show)
-        try:
-            images = _native.render(subject.core, _native.RenderScene(*parts), tol=target,
-                                    n_threads=threads, progress=callback)
-        finally:
-            if bar is not None:
-                bar.close()
-    images = list(images)
+
+    def once(part: Scene) -> list[np.ndarray]:
+        return _render_parts(subject, scene_parts(part, subject, texture_rng), target,
+                             threads, (executor, rows_per_task), show)
+
+    if cfa_ is None:
+        images = once(scene)
+    else:  # one render per colour (one for a grey scene), mosaiced per channel
+        planes = [once(scene.colour(k)) for k in range(3)] if scene.is_colour else (
+            [once(scene)] * 3)
+        images = [_cfa.mosaic(rgb, cfa_) for rgb in zip(*planes, strict=True)]
+        del planes
     for i, a in enumerate(images):  # in place: one channel's noise draws at a time
         images[i] = _add_noise(np.asarray(a), noise_, noise_rng)
-    return Raw._adopt(subject, tuple(images), dict(NOISE_FREE) if noise_ is None else noise_)
+    return Raw._adopt(subject, tuple(images), dict(NOISE_FREE) if noise_ is None else noise_,
+                      cfa_)
+
+
+def _render_parts(subject: Design, parts: ScenePart, target: Any, threads: int | None,
+                  scale: tuple[cf.Executor | None, int | None], show: Any
+                  ) -> list[np.ndarray]:
+    """Each channel's noise-free raw of the scene ``parts``: in bands on ``scale``'s
+    executor, or in-process with a progress bar."""
+    executor, rows_per_task = scale
+    if executor is not None:
+        return list(render_bands(executor, subject, _expected_shapes(subject), parts, target,
+                                 threads, rows_per_task, show))
+    bar, callback = _progress(show)
+    try:
+        return list(_native.render(subject.core, _native.RenderScene(*parts), tol=target,
+                                   n_threads=threads, progress=callback))
+    finally:
+        if bar is not None:
+            bar.close()

@@ -14,6 +14,12 @@ whole 2-D texture to the core through ``seam`` (the native scene's description).
 - :class:`Image`: a user array of albedos, ``width`` mm wide, centred on the axis
 - :class:`Constant`: one albedo everywhere (a number given as a :class:`~splitlf.Scene`'s
   texture is one)
+
+Colour (docs/model.md §12): an :class:`Image` of shape (rows, cols, 3) holds three albedos
+(red, green, blue) per cell, and :class:`ColourTexture` puts any three of the textures
+above together, one per colour. A colour texture renders only through a colour filter
+array (``render(..., cfa=...)``); every other texture is grey, the same albedo in every
+colour. ``texture.colour(k)`` is colour k's grey texture (k = 0 red, 1 green, 2 blue).
 """
 
 from __future__ import annotations
@@ -36,7 +42,9 @@ __all__ = [
     "MAX_RANDOM_CELLS",
     "MAX_SPOKES",
     "TEXTURES",
+    "COLOURS",
     "BarChart",
+    "ColourTexture",
     "Constant",
     "Image",
     "RandomAlbedo",
@@ -54,6 +62,9 @@ MAX_RANDOM_CELLS = 2**27
 #: Largest albedo accepted (the core's bound: far beyond any physical albedo, small enough
 #: that a pixel's integral and an image's sum cannot overflow).
 MAX_ALBEDO = 1e100
+
+#: The colours of a colour texture and a colour filter array, by index.
+COLOURS = ("red", "green", "blue")
 
 #: The description of a texture for the native scene: (kind, params, image or None).
 Seam = tuple[str, list[float], np.ndarray | None]
@@ -351,9 +362,14 @@ class Image:
     the array's mean (the 1-D simulation, which reads one row, ``row``, default the middle
     one: that row's mean).
 
-    ``array``: 2D (rows, columns) numeric array; ``width`` [mm] finite > 0; ``row`` an
-    integer in [0, rows) or None. Raises ``TypeError`` (dtype, row type) and
-    ``ValueError`` (shape, non-finite or negative albedo, range)."""
+    A (rows, cols, 3) array is a colour image (docs/model.md §12): three albedos per
+    cell, red, green and blue; :meth:`colour` gives each colour's grey image (outside the
+    image: that colour's mean). It renders through a colour filter array only
+    (``render(..., cfa=...)``); the 1-D simulation refuses it.
+
+    ``array``: 2D (rows, columns) or 3D (rows, columns, 3) numeric array; ``width`` [mm]
+    finite > 0; ``row`` an integer in [0, rows) or None. Raises ``TypeError`` (dtype, row
+    type) and ``ValueError`` (shape, non-finite or negative albedo, range)."""
 
     array: np.ndarray
     width: float
@@ -365,8 +381,10 @@ class Image:
                                      or np.issubdtype(a.dtype, np.integer)
                                      or a.dtype == np.bool_):
             raise TypeError(f"Image.array must be a numeric 2D array, got dtype {a.dtype}")
-        if a.ndim != 2 or min(a.shape) < 1:
-            raise ValueError(f"Image.array must be a non-empty 2D array, got shape {a.shape}")
+        if a.ndim not in (2, 3) or min(a.shape) < 1 or (a.ndim == 3 and a.shape[2] != 3):
+            raise InvalidParameter.of("Image.array", f"an array of shape {a.shape}",
+                                      "a non-empty 2D array (rows, cols) or a colour "
+                                      "array (rows, cols, 3)")
         a = a.astype(np.float64)
         if not np.all(np.isfinite(a)) or np.any(a < 0) or np.any(a > MAX_ALBEDO):
             raise InvalidParameter.of("Image.array", "values outside the range",
@@ -381,25 +399,46 @@ class Image:
         object.__setattr__(self, "array", a)
 
     @property
+    def is_colour(self) -> bool:
+        """Whether the image holds three colours (a (rows, cols, 3) array)."""
+        return self.array.ndim == 3
+
+    def colour(self, k: int) -> Image:
+        """Colour ``k``'s grey image (0 red, 1 green, 2 blue); a grey image is itself."""
+        k = colour_index(k)
+        if not self.is_colour:
+            return self
+        return Image(self.array[:, :, k], self.width, self.row)
+
+    @property
     def mean(self) -> float:
-        """The array's mean albedo (the albedo outside the image in 2-D)."""
+        """The array's mean albedo (the albedo outside the image in 2-D; a colour image's
+        mean over its three colours)."""
         return float(self.array.mean())
 
     @property
     def extent(self) -> tuple[float, float, float, float]:
         """(X0, X1, Y0, Y1) [mm]: the image on the object, centred on the axis."""
-        rows, cols = self.array.shape
+        rows, cols = self.array.shape[:2]
         w = float(self.width)
         h = w * rows / cols
         return -w / 2, w / 2, -h / 2, h / 2
 
+    def _grey(self, what: str) -> None:
+        if self.is_colour:
+            raise InvalidParameter.of("texture", "a colour Image (rows, cols, 3)",
+                                      f"a grey texture for {what}; render a colour "
+                                      "texture with cfa=..., or take Image.colour(k)")
+
     def line(self) -> np.ndarray:
         """The row the simulation reads (``row``, default the middle one), shape (width,)."""
+        self._grey("the 1-D simulation")
         r = self.array.shape[0] // 2 if self.row is None else int(self.row)
         return self.array[r]
 
     def seam(self) -> Seam:
         """The native scene's description: ("image", [X0, X1, Y0, Y1], array)."""
+        self._grey("a render without a colour filter array")
         return "image", list(self.extent), np.ascontiguousarray(self.array)
 
 
@@ -430,6 +469,45 @@ class Constant:
     def seam(self) -> Seam:
         """The native scene's description: ("constant", [albedo], None)."""
         return "constant", [float(self.albedo)], None
+
+
+def colour_index(k: Any) -> int:
+    """A colour index 0 (red), 1 (green) or 2 (blue), else ``TypeError`` /
+    :class:`InvalidParameter` naming ``colour``."""
+    return _validate.integer_in(k, "colour", 0, 2, "0 (red), 1 (green) or 2 (blue)")
+
+
+@dataclasses.dataclass(frozen=True)
+class ColourTexture:
+    """A colour texture of three grey ones (docs/model.md §12): ``red``, ``green`` and
+    ``blue``, each a :class:`Sinusoid`, :class:`BarChart`, :class:`SlantedEdge`,
+    :class:`SiemensStar`, :class:`RandomAlbedo` (drawn once per colour, red first),
+    grey :class:`Image`, :class:`Constant` or a number (a Constant). It renders through a
+    colour filter array only (``render(..., cfa=...)``). Raises ``TypeError``."""
+
+    red: Any
+    green: Any
+    blue: Any
+
+    def __post_init__(self) -> None:
+        for name in COLOURS:
+            tex = getattr(self, name)
+            if isinstance(tex, numbers.Real) and not isinstance(tex, bool | np.bool_):
+                tex = Constant(float(tex))
+            if not isinstance(tex, TEXTURES) or (isinstance(tex, Image) and tex.is_colour):
+                raise TypeError(f"ColourTexture.{name} must be a grey texture (Sinusoid, "
+                                "BarChart, SlantedEdge, SiemensStar, RandomAlbedo, grey "
+                                f"Image, Constant or a number), got {type(tex).__name__}")
+            object.__setattr__(self, name, tex)
+
+    def colour(self, k: int) -> Any:
+        """Colour ``k``'s grey texture (0 red, 1 green, 2 blue)."""
+        return getattr(self, COLOURS[colour_index(k)])
+
+    @property
+    def mean(self) -> float:
+        """The mean of the three colours' mean albedos."""
+        return sum(float(self.colour(k).mean) for k in range(3)) / 3
 
 
 #: The texture classes (every one works in 1-D :func:`~splitlf.simulate` and in

@@ -184,6 +184,9 @@ def estimate_depth(raw: Raw, *, depths: Any, region: Any = None, step: float | N
     the least cost is at an end of the candidates; in [0, 1]), ``confident``
     (bool) and ``sweep`` (a :class:`DepthSweep`).
     A raw without texture (all zeros, a uniform albedo) gives no confident cell.
+    A mosaiced raw (``raw.cfa``) is matched as its grey raw (``raw.grey()``: each pixel
+    divided by its colour's QE), exact for a grey scene; on a colour scene the colours'
+    differences are texture to the sweep (docs/depth.md, "Colour").
     Raises ``TypeError``, :class:`~splitlf.errors.InvalidParameter` naming the parameter,
     :class:`~splitlf.errors.TooLargeError` (before any work, from the memory of the whole
     call: the whites, the sweep's buffers and its outputs) and ``KeyboardInterrupt``.
@@ -205,7 +208,8 @@ def estimate_depth(raw: Raw, *, depths: Any, region: Any = None, step: float | N
         "step": None if step is None else _validate.positive_length(step, "step"),
         "region": None if region is None else _extent(region, "region")}
     _validate.n_threads(n_threads)
-    raws = [np.ascontiguousarray(raw.images[c - 1], dtype=np.float64) for c in chans]
+    grey = raw.grey()  # a mosaic's grey raw: each pixel over its colour's QE (§12)
+    raws = [np.ascontiguousarray(grey.images[c - 1], dtype=np.float64) for c in chans]
     bar, report = _progress(_progress_flag(progress), "splitlf depth", "depth")
     try:
         depth, index, conf, cmin, cmean, chan, samples, _, grid = _native.estimate_depth(

@@ -18,7 +18,7 @@ import numpy as np
 from .. import _native
 from ..errors import InvalidParameter
 from ..imaging.texture import RandomAlbedo, SlantedEdge
-from .reconstruct import Reconstruction
+from .reconstruct import ColourReconstruction, Reconstruction
 
 #: PSNR's and SSIM's data range: albedo 0 to 1.
 DATA_RANGE = 1.0
@@ -32,6 +32,9 @@ def _grid(rec: Reconstruction) -> tuple[float, float, float, int, int]:
 def truth(rec: Reconstruction, texture: Any) -> np.ndarray:
     """The texture's averages over the reconstruction's cells (an array of the image's
     shape, row 0 at the top), or ``texture`` itself when it is already such an array."""
+    if isinstance(rec, ColourReconstruction):
+        raise TypeError("rec is a ColourReconstruction (three colours): measure each colour "
+                        "on its own, rec.colours[k] against texture.colour(k)")
     if not isinstance(rec, Reconstruction):
         raise TypeError(f"rec must be a splitlf.Reconstruction, got {type(rec).__name__}")
     if isinstance(texture, np.ndarray):

@@ -23,6 +23,12 @@ predictive risk against the floor for a noise-free raw; searched in the core ove
 lambda on the region's central part), or fixed by the caller. With ``prior="huber"`` or
 ``"tv"`` the square of each difference is replaced by an edge-preserving penalty, solved
 by reweighted passes of the same CG in the core (lambda chosen for the quadratic prior).
+
+A mosaiced raw (``raw.cfa``, docs/model.md §12) is reconstructed per colour from that
+colour's pixels only (the core's rows of the other colours left out), each pixel divided
+by its colour's QE and weighted by its colour's noise (photons N QE): a
+:class:`ColourReconstruction` of three grey ones on the same grid (docs/reconstruct.md,
+"Colour").
 """
 
 from __future__ import annotations
@@ -44,6 +50,7 @@ from .._validate import channels as _channels
 from .._validate import extent as _extent
 from ..errors import InvalidParameter
 from ..imaging.render import DepthMap, Plane, Raw
+from ..imaging.texture import COLOURS
 from ..model.design import Design
 
 Extent = tuple[float, float, float, float]
@@ -189,6 +196,51 @@ class Reconstruction:
         return f"prior={self.prior!r} ({self.threshold:g}, {self.passes} passes), "
 
 
+@dataclasses.dataclass(frozen=True, eq=False, repr=False)
+class ColourReconstruction:
+    """The reconstruction of a mosaiced raw (docs/model.md §12): ``colours``, three
+    :class:`Reconstruction` (red, green, blue) on the same grid, each from its colour's
+    pixels only; ``cfa`` the raw's colour filter array. ``image`` is the three stacked,
+    shape (ny, nx, 3); ``extent``, ``step``, ``design``, ``depth`` and ``channels`` are
+    the colours' (the same). Measure each colour on its own (``splitlf.measure.psnr(
+    rec.colours[k], texture.colour(k))``)."""
+
+    colours: tuple[Reconstruction, Reconstruction, Reconstruction]
+    cfa: Mapping[str, Any]
+
+    @property
+    def image(self) -> np.ndarray:
+        """The colours' images stacked, (ny, nx, 3) (red, green, blue)."""
+        out = np.stack([r.image for r in self.colours], axis=-1)
+        out.setflags(write=False)
+        return out
+
+    @property
+    def extent(self) -> Extent:
+        return self.colours[0].extent
+
+    @property
+    def step(self) -> float:
+        return self.colours[0].step
+
+    @property
+    def design(self) -> Design:
+        return self.colours[0].design
+
+    @property
+    def depth(self) -> float | Plane | DepthMap:
+        return self.colours[0].depth
+
+    @property
+    def channels(self) -> tuple[int, ...]:
+        return self.colours[0].channels
+
+    def __repr__(self) -> str:
+        """A short summary: the pattern and each colour's reconstruction."""
+        inner = "; ".join(f"{n}: {r!r}" for n, r in zip(COLOURS, self.colours, strict=True))
+        return f"ColourReconstruction({self.cfa['pattern']}, {inner})"
+
+
 def _depth(depth: Any) -> float | Plane | DepthMap:
     """A fronto-parallel plane as its depth (mm); a slanted Plane or a DepthMap as given."""
     if isinstance(depth, Plane):
@@ -275,7 +327,7 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
                 noise: Mapping[str, float] | None = None, tile: int | None = None,
                 n_threads: int | None = None, progress: bool | None = None,
                 lens_types: Any = None, allow_slow: bool = False, prior: str = "quadratic",
-                threshold: float | None = None) -> Reconstruction:
+                threshold: float | None = None) -> Reconstruction | ColourReconstruction:
     """The albedo on a grid of cells over ``region`` of the surface ``depth``, from the raw
     (docs/model.md §11, docs/reconstruct.md).
 
@@ -339,6 +391,12 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
       (an upper bound at ``CG_MAX_ITER`` iterations, from the plan's entries); without
       it such a run is refused before it starts
 
+    A raw with a colour filter array (``raw.cfa``) gives a :class:`ColourReconstruction`:
+    one reconstruction per colour, each from that colour's pixels only (the others' rows
+    left out in the core), its pixels divided by the colour's QE and its noise photons N
+    QE, lambda chosen per colour (docs/reconstruct.md, "Colour"); ``raw.grey()`` gives a
+    grey reconstruction of every pixel instead (exact for a grey scene).
+
     Cells within one pixel's span (``_native.pixel_span``) beyond the region are solved
     for too and cropped, so that every pixel that sees the region is explained. The whole
     reconstruction is one core call (``_native.reconstruct``: the grid, the map, the
@@ -386,27 +444,71 @@ def reconstruct(raw: Raw, depth: Any, *, region: Any = None, step: float | None 
                      MAX_SECONDS),
         "choose": (*CHOOSE_BRACKET, CHOOSE_PHOTONS, CHOOSE_GOLDEN_STEPS, CHOOSE_PROBES, CHOOSE_SIDE,
                    CHOOSE_MAX_ITER, CHOOSE_PROBE_RTOL, CHOOSE_BUDGET, df_weight)}
-    report, bars = _reporter(_progress_flag(progress))
+    call = _Call(design, plane.seam(), surface, chans, source, df_weight, prior_, threshold_,
+                 _progress_flag(progress))
+    if raw.cfa is None:
+        return _solve(call, list(raw.images), options)
+    return _colours(call, raw, options, noise_)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Call:
+    """What one reconstruction call's solves share."""
+
+    design: Design
+    seam: Any
+    surface: float | Plane | DepthMap
+    chans: tuple[int, ...]
+    source: str
+    df_weight: float
+    prior: str
+    threshold: float | None
+    show: Show
+
+
+def _colours(call: _Call, raw: Raw, options: dict[str, Any],
+             noise: Mapping[str, float] | None) -> ColourReconstruction:
+    """One solve per colour of a mosaiced raw: that colour's pixels only, divided by its
+    QE (the grey raw's), its noise N QE."""
+    cfa = raw.cfa
+    assert cfa is not None
+    images = list(raw.grey().images)
+    out = []
+    for k in range(3):
+        q = cfa["qe"][k]
+        opts = dict(options, colour=(cfa["pattern"], k))
+        if noise is not None and noise["photons"] != math.inf:
+            opts["noise"] = (noise["photons"] * q, noise["read_noise"])
+        _log.info("reconstruct: colour %s", COLOURS[k])
+        out.append(_solve(call, images, opts))
+    return ColourReconstruction((out[0], out[1], out[2]), cfa)
+
+
+def _solve(call: _Call, images: list[np.ndarray], options: dict[str, Any]
+           ) -> Reconstruction:
+    """One call into the core's reconstruction, as a :class:`Reconstruction`."""
+    report, bars = _reporter(call.show)
     try:
         image, extent, h, rows, iterations, resid, passes, tiles, types, chosen = (
             _native.reconstruct(
-                design.core, [np.asarray(i, dtype=np.float64) for i in raw.images],
-                plane.seam(), options, report))
+                call.design.core, [np.asarray(i, dtype=np.float64) for i in images],
+                call.seam, options, report))
     finally:
         for bar in bars:
             bar.close()
     lam_used, rule, (photons, read), _, trials = chosen
-    if rule != "fixed" and df_weight != 1.0:
+    if rule != "fixed" and call.df_weight != 1.0:
         rule = f"weighted {rule}"
     noise_text = (f"noise-free: sigma = {NOISE_FLOOR:g} of white" if photons == math.inf else
                   f"photons {photons:g}, read noise {read:g}")
     _log.info("reconstruct: lambda %.6g (%s), noise %s (%s)", lam_used, rule, noise_text,
-              source)
-    return Reconstruction(image=image, extent=extent, step=h, design=design, depth=surface,
-                          channels=chans, rows=rows, iterations=iterations, residual=resid,
-                          regularization=lam_used, noise=noise_text, tiles=tiles,
+              call.source)
+    return Reconstruction(image=image, extent=extent, step=h, design=call.design,
+                          depth=call.surface, channels=call.chans, rows=rows,
+                          iterations=iterations, residual=resid, regularization=lam_used,
+                          noise=noise_text, tiles=tiles,
                           lens_types=None if types is None else tuple(types),
                           regularization_rule=rule,
                           noise_model={"photons": photons, "read_noise": read},
-                          noise_source=source, choice=tuple(trials), prior=prior_,
-                          threshold=threshold_, passes=passes)
+                          noise_source=call.source, choice=tuple(trials), prior=call.prior,
+                          threshold=call.threshold, passes=passes)

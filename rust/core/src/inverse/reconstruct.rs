@@ -10,6 +10,7 @@
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
+use crate::imaging::cfa::Pattern;
 use crate::imaging::scene::Surface;
 use crate::infra::error::{Error, Result};
 use crate::infra::memory;
@@ -91,7 +92,9 @@ pub struct SurfaceSpec<'a> {
 /// chosen from the data, [`choose`]), the noise, the prior on the cells' differences
 /// (quadratic, or edge-preserving, solved in passes by the solve), the tile side (None:
 /// one solve, or the tiles that fit), whether a slow run is allowed, the threads and a
-/// memory limit below what is available (tests).
+/// memory limit below what is available (tests). `colour` (a CFA's pattern and a colour,
+/// 0 red, 1 green, 2 blue; None: every pixel) keeps only the pixels of that colour
+/// (docs/model.md §12), each channel's raw indices taken by the pattern.
 #[derive(Clone, Debug)]
 pub struct Request<'a> {
     pub design: &'a Design,
@@ -99,6 +102,7 @@ pub struct Request<'a> {
     pub surface: SurfaceSpec<'a>,
     pub channels: Vec<usize>,
     pub lens_types: Option<Vec<usize>>,
+    pub colour: Option<(Pattern, usize)>,
     pub region: Option<[f64; 4]>,
     pub step: Option<f64>,
     pub regularization: Option<f64>,
@@ -778,7 +782,9 @@ impl Plan<'_> {
                 let kept = |b: usize, a: usize| {
                     let total = py.total[b] * px.total[a];
                     let inside = sy[b] * sx[a];
-                    f.types[b * f.cols + a] as usize == t && total - inside <= OUTSIDE_SHARE * total
+                    f.types[b * f.cols + a] as usize == t
+                        && total - inside <= OUTSIDE_SHARE * total
+                        && self.req.colour.map_or(true, |(p, k)| p.colour(b, a) == k)
                 };
                 let r_sel: Vec<usize> = rows_in
                     .iter()
@@ -831,15 +837,48 @@ impl Plan<'_> {
         if sys.channel.is_empty() {
             return Ok(vec![]);
         }
-        let n = sys.channel.len();
+        // The rows kept: every pixel's, or a CFA colour's only (docs/model.md §12).
+        let keep: Vec<bool> = sys
+            .channel
+            .iter()
+            .zip(&sys.pixel)
+            .map(|(&c, &p)| {
+                self.req.colour.map_or(true, |(pattern, k)| {
+                    let cols = crate::imaging::render::raw_shape(&d.channels[c as usize]).1;
+                    pattern.colour(p as usize / cols, p as usize % cols) == k
+                })
+            })
+            .collect();
+        let n = keep.iter().filter(|&&k| k).count();
+        if n == 0 {
+            return Ok(vec![]);
+        }
         let (mut w, mut y) = (Vec::with_capacity(n), Vec::with_capacity(n));
-        for (&c, &p) in sys.channel.iter().zip(&sys.pixel) {
+        for ((&c, &p), _) in sys
+            .channel
+            .iter()
+            .zip(&sys.pixel)
+            .zip(&keep)
+            .filter(|t| *t.1)
+        {
             let v = self.req.images[c as usize][p as usize];
             y.push(v);
             w.push(self.weight(v, d.channels[c as usize].share));
         }
         let r = sys.rows;
-        let a = Csr::new("rows", r.indptr, r.indices, r.data, grid.cells())?;
+        let (indptr, indices, data) = if n == keep.len() {
+            (r.indptr, r.indices, r.data)
+        } else {
+            let (mut ptr, mut idx, mut val) = (vec![0], vec![], vec![]);
+            for (i, _) in keep.iter().enumerate().filter(|t| *t.1) {
+                let (lo, hi) = (r.indptr[i], r.indptr[i + 1]);
+                idx.extend_from_slice(&r.indices[lo..hi]);
+                val.extend_from_slice(&r.data[lo..hi]);
+                ptr.push(val.len());
+            }
+            (ptr, idx, val)
+        };
+        let a = Csr::new("rows", indptr, indices, data, grid.cells())?;
         Ok(vec![Block::Rows { a, w, y }])
     }
 }

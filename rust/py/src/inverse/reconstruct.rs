@@ -7,6 +7,7 @@ use numpy::{IntoPyArray, PyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
+use splitlf_core::imaging::cfa::Pattern;
 use splitlf_core::inverse::reconstruct as rc;
 use splitlf_core::inverse::solve;
 use splitlf_core::inverse::system::{self, CellGrid};
@@ -547,7 +548,8 @@ type ChooseTuple = (
 
 /// A whole reconstruction in one call (`splitlf_core::inverse::reconstruct`): `images`
 /// the raw's channels, `surface` (kind, params, depth map or None) as `RenderScene` takes
-/// it, `options` a dict of channels and lens_types (numbered from 1; None: all),
+/// it, `options` a dict of channels and lens_types (numbered from 1; None: all), colour
+/// ((CFA pattern, colour 0 red / 1 green / 2 blue): only that colour's pixels; None: all),
 /// region, step, regularization (None: chosen from the data), noise ((photons, read
 /// noise), photons = inf for noise-free; None: not known, estimated), prior ((name,
 /// threshold, passes, tol) or None: quadratic), tile, allow_slow, n_threads,
@@ -589,6 +591,11 @@ pub(crate) fn reconstruct<'py>(
     let lens_types = option::<Vec<i64>>(options, "lens_types")?
         .map(|v| from_one("lens_types", v))
         .transpose()?;
+    let colour = match option::<(String, usize)>(options, "colour")? {
+        Some((p, k)) if k < 3 => Some((Pattern::parse(&p).map_err(to_py)?, k)),
+        Some((_, k)) => return Err(to_py(splitlf_core::Error::param("colour", k, "0, 1 or 2"))),
+        None => None,
+    };
     let regularization: Option<f64> = option(options, "regularization")?;
     let n_threads = threads_arg(options.get_item("n_threads")?.as_ref())?;
     let noise: Option<(f64, f64)> = option(options, "noise")?;
@@ -622,6 +629,7 @@ pub(crate) fn reconstruct<'py>(
         },
         channels,
         lens_types,
+        colour,
         region: region.map(|r| [r.0, r.1, r.2, r.3]),
         step: option(options, "step")?,
         regularization,
