@@ -412,6 +412,7 @@ def render(
     n_threads: int | None = None,
     progress: Callable[[int, int], object] | None = None,
     own_lens: bool = False,
+    falloff: str | None = None,
 ) -> list[_F64]: ...
 def render_band(
     design: DesignCore,
@@ -420,6 +421,7 @@ def render_band(
     tol: float | tuple[float, float, float] | None = None,
     n_threads: int | None = None,
     progress: Callable[[int, int], object] | None = None,
+    falloff: str | None = None,
 ) -> _F64: ...
 def render_extent(design: DesignCore, z: float) -> tuple[float, float, float, float]: ...
 def available_memory() -> int: ...

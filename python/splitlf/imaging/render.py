@@ -25,7 +25,10 @@ Raw files (:meth:`Raw.save`, :meth:`Raw.load`): an uncompressed NumPy ``.npz`` a
 - ``channel1``, ..., ``channelC``: each channel's raw, float64 [row, col];
 - ``noise`` (optional; absent: not stated, as in files written before it existed): the
   noise model the raw carries (:attr:`Raw.noise`), float64 [photons, read_noise], photons
-  ``inf`` for a noise-free raw.
+  ``inf`` for a noise-free raw;
+- ``falloff`` (optional; absent: off, as in files written before it existed): the
+  radiometric falloff the raw was rendered with (:attr:`Raw.falloff`), the string
+  ``"microlens"``, ``"main"`` or ``"both"``.
 """
 
 from __future__ import annotations
@@ -326,29 +329,36 @@ class Raw:
     noise-free raw. :func:`render` records what it drew (``{"photons": inf, "read_noise":
     0}`` without ``noise``); :meth:`save` and :meth:`load` keep it.
 
+    ``falloff`` is the radiometric falloff the raw was rendered with (:func:`render`'s
+    ``falloff``): None (off: the paper's paraxial model, and any raw from elsewhere unless
+    stated) or ``"microlens"``, ``"main"`` or ``"both"``; :meth:`save` and :meth:`load`
+    keep it (a file without it loads as None).
+
     Built by :func:`render`, or directly to wrap raws from elsewhere (another renderer, a
     real camera): ``images`` a sequence of one array per channel (copied), ``noise`` as
-    above (default None). Raises ``TypeError`` and
+    above (default None), ``falloff`` as above (default None). Raises ``TypeError`` and
     :class:`~splitlf.errors.InvalidParameter` (named ``images`` for the count,
     ``images[i]`` for a shape or a value that is not finite, ``noise`` or ``noise photons``
-    / ``noise read_noise`` for a bad noise model)."""
+    / ``noise read_noise`` for a bad noise model, ``falloff`` for an unknown falloff)."""
 
     design: Design
     images: tuple[np.ndarray, ...]
     noise: Mapping[str, float] | None = None
+    falloff: str | None = None
 
     def __post_init__(self) -> None:
         self._check(copy=True)
 
     @classmethod
     def _adopt(cls, design: Design, images: Sequence[np.ndarray],
-               noise: Mapping[str, float] | None = None) -> Raw:
+               noise: Mapping[str, float] | None = None, falloff: str | None = None) -> Raw:
         """A Raw of arrays this package made (the core's raws, a loaded file): checked
         like any, but kept without a copy (a render's peak memory stays the raws')."""
         raw = object.__new__(cls)
         object.__setattr__(raw, "design", design)
         object.__setattr__(raw, "images", images)
         object.__setattr__(raw, "noise", noise)
+        object.__setattr__(raw, "falloff", falloff)
         raw._check(copy=False)
         return raw
 
@@ -365,6 +375,7 @@ class Raw:
         object.__setattr__(self, "images", tuple(_image(a, i, s, copy) for i, (a, s)
                                                  in enumerate(zip(imgs, shapes, strict=True))))
         object.__setattr__(self, "noise", _stated(self.noise, "noise"))
+        object.__setattr__(self, "falloff", falloff_option(self.falloff))
 
     def __repr__(self) -> str:
         """A short summary (each channel's shape and value range), not the arrays."""
@@ -374,7 +385,8 @@ class Raw:
         noise = ("" if self.noise is None else
                  f", noise photons {self.noise['photons']:g}, read noise "
                  f"{self.noise['read_noise']:g}")
-        return f"Raw({len(self.images)} channel(s): {chans}{noise})"
+        fall = "" if self.falloff is None else f", falloff {self.falloff}"
+        return f"Raw({len(self.images)} channel(s): {chans}{noise}{fall})"
 
     def channel(self, i: int) -> np.ndarray:
         """Channel ``i``'s raw (channels numbered from 1)."""
@@ -394,6 +406,8 @@ class Raw:
         arrays.update({f"channel{i}": a for i, a in enumerate(self.images, 1)})
         if self.noise is not None:
             arrays["noise"] = np.array([self.noise["photons"], self.noise["read_noise"]])
+        if self.falloff is not None:
+            arrays["falloff"] = np.array(self.falloff)
         with atomic_output(path, force=force) as tmp, open(tmp, "wb") as fh:
             np.savez(fh, **arrays)
 
@@ -431,7 +445,7 @@ def _read_raw(name: str, npz: Any) -> Raw:
         raise ValueError("no design TOML text (key 'design')")
     design = _design_from_text(name, str(npz["design"]))
     channels = [f"channel{i}" for i in range(1, len(design.channels) + 1)]
-    extra = sorted(keys - {"format", "design", "noise", *channels})
+    extra = sorted(keys - {"format", "design", "noise", "falloff", *channels})
     missing = [c for c in channels if c not in keys]
     if missing or extra:
         raise ValueError(f"the arrays {sorted(keys - {'format', 'design'})} do not match "
@@ -446,7 +460,14 @@ def _read_raw(name: str, npz: Any) -> Raw:
             raise ValueError(f"the noise model (key 'noise') has shape {v.shape} and dtype "
                              f"{v.dtype}: needs 2 floats, [photons, read_noise]")
         noise = {"photons": float(v[0]), "read_noise": float(v[1])}
-    return Raw._adopt(design, tuple(npz[c] for c in channels), noise)
+    falloff = None
+    if "falloff" in keys:
+        v = npz["falloff"]
+        if v.shape != () or v.dtype.kind != "U" or str(v) not in FALLOFFS:
+            raise ValueError(f"the falloff (key 'falloff') is {v!r}: needs one of "
+                             f"{', '.join(map(repr, FALLOFFS))}")
+        falloff = str(v)
+    return Raw._adopt(design, tuple(npz[c] for c in channels), noise, falloff)
 
 
 def _check_headers(npz: Any, channels: list[str], shapes: list[tuple[int, int]]) -> None:
@@ -544,6 +565,24 @@ def native_scene(scene: Scene, design: Design, rng: np.random.Generator
     return _native.RenderScene(*scene_parts(scene, design, rng))
 
 
+FALLOFFS = ("microlens", "main", "both")
+"""The radiometric falloffs :func:`render` takes besides None (docs/model.md §10)."""
+
+
+def falloff_option(falloff: Any) -> str | None:
+    """``falloff`` checked: None (off) or one of :data:`FALLOFFS` (``TypeError`` for a
+    value that is not a string, :class:`~splitlf.errors.InvalidParameter` naming
+    ``falloff`` for an unknown one)."""
+    if falloff is None:
+        return None
+    allowed = "None, " + ", ".join(map(repr, FALLOFFS))
+    if not isinstance(falloff, str):
+        raise TypeError(f"falloff must be {allowed}, got {type(falloff).__name__}")
+    if falloff not in FALLOFFS:
+        raise InvalidParameter.of("falloff", falloff, allowed)
+    return falloff
+
+
 def _target(tol: Any, noise_tol: Any, noise: dict[str, float] | None
             ) -> float | tuple[float, float, float]:
     """The core's error target: ``tol`` (default ``_native.RENDER_TOL``), or (photons,
@@ -563,7 +602,8 @@ def _target(tol: Any, noise_tol: Any, noise: dict[str, float] | None
 def render(design: Design, scene: Scene, *, noise: Mapping[str, float] | None = None,
            seed: int | None = 0, tol: float | None = None, noise_tol: float | None = None,
            n_threads: int | None = None, progress: bool | None = None,
-           executor: cf.Executor | None = None, rows_per_task: int | None = None) -> Raw:
+           executor: cf.Executor | None = None, rows_per_task: int | None = None,
+           falloff: str | None = None) -> Raw:
     """Each channel's raw sensor image of ``scene`` (docs/model.md §10), computed in the
     core.
 
@@ -599,6 +639,12 @@ def render(design: Design, scene: Scene, *, noise: Mapping[str, float] | None = 
       in-process render's (same seed: the texture is drawn once here, the noise added
       here after assembly; docs/render.md, "Scale-out and datasets"). ``rows_per_task``
       an integer >= 1, only with an executor
+    - ``falloff``: None (off, the default: the paper's paraxial model) or radiometric
+      falloff, each ray weighted by the cos^4 law on its microlens-to-sensor segment
+      (``"microlens"``), its main-lens-to-array segment (``"main"``) or both (``"both"``),
+      so that a white raw is brightest at each micro-image's centre as a real camera's
+      (docs/model.md §10, "Radiometric falloff"); recorded on the raw (``Raw.falloff``).
+      With falloff every channel takes the general route (docs/render.md)
 
     Returns a :class:`Raw`. Raises ``TypeError`` and
     :class:`~splitlf.errors.InvalidParameter` (checked before any work; the core adds a
@@ -614,6 +660,7 @@ def render(design: Design, scene: Scene, *, noise: Mapping[str, float] | None = 
     seed_ = _seed(seed)
     threads = _validate.n_threads(n_threads)
     target = _target(tol, noise_tol, noise_)
+    falloff_ = falloff_option(falloff)
     show = _progress_flag(progress)
     fresh: Any = np.random.SeedSequence().entropy  # an int for a fresh SeedSequence
     entropy = int(fresh) if seed_ is None else seed_
@@ -623,16 +670,17 @@ def render(design: Design, scene: Scene, *, noise: Mapping[str, float] | None = 
     parts = scene_parts(scene, subject, texture_rng)
     if executor is not None:
         images = render_bands(executor, subject, _expected_shapes(subject), parts, target,
-                              threads, rows_per_task, show)
+                              threads, rows_per_task, show, falloff_)
     else:
         bar, callback = _progress(show)
         try:
             images = _native.render(subject.core, _native.RenderScene(*parts), tol=target,
-                                    n_threads=threads, progress=callback)
+                                    n_threads=threads, progress=callback, falloff=falloff_)
         finally:
             if bar is not None:
                 bar.close()
     images = list(images)
     for i, a in enumerate(images):  # in place: one channel's noise draws at a time
         images[i] = _add_noise(np.asarray(a), noise_, noise_rng)
-    return Raw._adopt(subject, tuple(images), dict(NOISE_FREE) if noise_ is None else noise_)
+    noise_ = dict(NOISE_FREE) if noise_ is None else noise_
+    return Raw._adopt(subject, tuple(images), noise_, falloff_)
