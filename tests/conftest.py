@@ -44,6 +44,7 @@ def _no_progress_lines(monkeypatch):
 #: here, by node id, so that a parametrized test's slow cases go to the slow tier and its
 #: quick ones stay in the default run.
 SLOW = {
+    'test_render_falloff.py::test_mc_illum_image': 26,
     'test_reconstruct.py::test_tiles_are_the_one_solve[642.0]': 26,
     'test_reconstruct.py::test_tiles_are_the_one_solve[1000.0]': 38,
     'test_reconstruct_noise.py::test_fixed_lambda_is_the_chosen_one_bit_for_bit': 26,
