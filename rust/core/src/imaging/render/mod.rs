@@ -29,8 +29,9 @@
 //! Parts: [`chan`] (a channel as the renderer sees it, a worker's buffers), [`general`]
 //! (the general route: outer w / outer s per pixel and lens), [`adaptive`] (its
 //! quadrature), [`kinks`] (where its boxes are cut), [`mean`] (the inner integral over a
-//! node's polygon of rays), [`exact`] (the exact route and its 1-D profiles) and
-//! [`footprint`] (record mode on a plane). This file holds the entry points, the options
+//! node's polygon of rays), [`falloff`] (the rays' radiometric falloff, a weight inside
+//! that integral), [`exact`] (the exact route and its 1-D profiles) and [`footprint`]
+//! (record mode on a plane). This file holds the entry points, the options
 //! and the checks of a scene against a design, and [`render_band`]: a band of raw rows of
 //! one channel, the unit of a render split over processes or machines.
 
