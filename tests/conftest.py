@@ -46,6 +46,7 @@ def _no_progress_lines(monkeypatch):
 SLOW = {
     'test_colour.py::test_a_colour_is_reconstructed_from_its_own_pixels_only[sensor]': 15,
     'test_colour.py::test_colour_reconstruction_against_the_full_grey_raw': 25,
+    'test_render_falloff.py::test_mc_illum_image': 26,
     'test_reconstruct.py::test_tiles_are_the_one_solve[642.0]': 26,
     'test_reconstruct.py::test_tiles_are_the_one_solve[1000.0]': 38,
     'test_reconstruct_noise.py::test_fixed_lambda_is_the_chosen_one_bit_for_bit': 26,

@@ -32,6 +32,11 @@ uniformly in its square; the weight is |B| (mu L / v)^2 (L_1/L)^2 1_cell(x) 1_ap
 T(P_hit). The ``ideal`` layout sums over the pixel's own lens only; the ``sensor`` layout
 over every lens whose light can reach the pixel (image centre c (1 + v/L) within
 |alpha| r_cell + (v/L) D/2 + mu/2 of the pixel centre per axis, the exact reach).
+
+Radiometric falloff (docs/model.md §10, ``falloff=`` "microlens", "main" or "both"): each
+ray's weight is multiplied by cos^4 of its microlens-to-sensor segment, (v^2 / (v^2 +
+|s - x|^2))^2, and/or of its main-lens-to-array segment, (L^2 / (L^2 + |x - w|^2))^2,
+with s, x, w the ray's own points (:func:`falloff_weight`).
 """
 
 from __future__ import annotations
@@ -254,8 +259,23 @@ def ray_albedo(sc: Scene, F: float, L: float, L1: float, x: np.ndarray,
     return t
 
 
+def falloff_weight(falloff: str | None, v: float, L: float, x: np.ndarray, w: np.ndarray,
+                   s: np.ndarray) -> np.ndarray:
+    """The cos^4 weight of rays through array point x (a channel at L, sensor at v behind
+    it), main-lens point w and sensor point s (each (n, 2)): 1 without falloff."""
+    out = np.ones(x.shape[0])
+    if falloff in ("microlens", "both"):
+        out *= (v * v / (v * v + np.sum((s - x) ** 2, axis=1))) ** 2
+    if falloff in ("main", "both"):
+        out *= (L * L / (L * L + np.sum((x - w) ** 2, axis=1))) ** 2
+    if falloff not in (None, "microlens", "main", "both"):
+        raise ValueError(f"unknown falloff {falloff!r}")
+    return out
+
+
 def _lens_rays(design: Any, ch: dict, L1: float, j: int, k: int, s: np.ndarray,
-               sc: Scene, n: int, rng: np.random.Generator, chunk: int) -> np.ndarray:
+               sc: Scene, n: int, rng: np.random.Generator, chunk: int,
+               falloff: str | None = None) -> np.ndarray:
     """n weighted samples (weights |B| (mu L/v)^2 (L_1/L)^2 1_cell 1_aperture T) of the
     rays through lens (j, k) landing in the pixel square centred at s; their mean is this
     lens's share of the integral over the pixel's rays of T du dw."""
@@ -290,6 +310,9 @@ def _lens_rays(design: Any, ch: dict, L1: float, j: int, k: int, s: np.ndarray,
         val = np.zeros(m)
         if keep.any():
             val[keep] = ray_albedo(sc, F, L, L1, x[keep], w[keep])
+        if falloff is not None:
+            s_ray = alpha * x - (v / L) * w + (v / f) * c  # §10: the ray's sensor point
+            val *= falloff_weight(falloff, v, L, x, w, s_ray)
         out[start:start + m] = val * scale
     return out
 
@@ -306,13 +329,15 @@ def own_lens(ch: dict, s: np.ndarray) -> tuple[int, int]:
 def mc_pixels(design: Any, channel: int, pixels: Sequence[tuple[int, int]], sc: Scene,
               n_rays: int = 200_000, n_batches: int = 20,
               rng: np.random.Generator | None = None,
-              chunk: int = 100_000, own_only: bool = False) -> tuple[np.ndarray, np.ndarray]:
+              chunk: int = 100_000, own_only: bool = False,
+              falloff: str | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(mean, stderr) of the raw values of ``pixels`` ([row, col] of §10's layout) of
     ``channel`` (from 1): n_rays rays per contributing lens, split in n_batches independent
     batches; mean over batches and the standard error of that mean (std of the batch means
     / sqrt(n_batches)). A pixel whose integrand is constant has stderr 0 (the estimate is
     then exact up to rounding). ``own_only``: a sensor pixel takes its own lens's light
-    alone (:func:`own_lens`), not its neighbours'."""
+    alone (:func:`own_lens`), not its neighbours'. ``falloff``: each ray weighted by
+    :func:`falloff_weight`."""
     rng = np.random.default_rng(0) if rng is None else rng
     chs = design.resolved()
     ch, L1, mu1 = chs[channel - 1], chs[0]["L"], chs[0]["mu"]
@@ -331,7 +356,8 @@ def mc_pixels(design: Any, channel: int, pixels: Sequence[tuple[int, int]], sc: 
             lenses = candidate_lenses(design, ch, s)
         batches = np.zeros(n_batches)
         for j, k in lenses:
-            samples = _lens_rays(design, ch, L1, j, k, s, sc, per * n_batches, rng, chunk)
+            samples = _lens_rays(design, ch, L1, j, k, s, sc, per * n_batches, rng, chunk,
+                                 falloff)
             batches += samples.reshape(n_batches, per).mean(axis=1)
         batches *= norm
         mean[i] = batches.mean()

@@ -417,6 +417,7 @@ def render(
     n_threads: int | None = None,
     progress: Callable[[int, int], object] | None = None,
     own_lens: bool = False,
+    falloff: str | None = None,
 ) -> list[_F64]: ...
 def render_band(
     design: DesignCore,
@@ -425,6 +426,7 @@ def render_band(
     tol: float | tuple[float, float, float] | None = None,
     n_threads: int | None = None,
     progress: Callable[[int, int], object] | None = None,
+    falloff: str | None = None,
 ) -> _F64: ...
 def render_extent(design: DesignCore, z: float) -> tuple[float, float, float, float]: ...
 def cfa_colours(pattern: str, rows: int, cols: int) -> npt.NDArray[np.uint8]: ...

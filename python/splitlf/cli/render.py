@@ -58,6 +58,10 @@ def add_parser(subparsers: Any) -> None:
     p.add_argument("--seed", type=_common.seed_type, default=0,
                    help="seed of the random texture and the noise, an integer >= 0 "
                    "(default 0)")
+    p.add_argument("--falloff", choices=("microlens", "main", "both"), default=None,
+                   help="radiometric falloff: weight each ray by the cos^4 law on its "
+                   "microlens-to-sensor segment, its main-lens-to-array segment, or both "
+                   "(default: off, the paper's paraxial model; docs/model.md §10)")
     _common.threads_option(p, "threads of the core (with --scheduler: of each task)")
     _common.scheduler_option(p, ": render there, each channel's rows cut into bands, one task "
                              "each, the same raw bit for bit (docs/render.md, 'Scale-out and "
@@ -154,7 +158,8 @@ def _render_summary(raw: Any, out: Path, png: Path | None, args: argparse.Namesp
                 for i, a in enumerate(raw.images, 1)]
     return {"path": str(out), "png": None if png is None else str(png),
             "design": args.design, "texture": args.texture, "depth": args.depth,
-            "noise": args.noise, "seed": args.seed, "channels": channels,
+            "noise": args.noise, "falloff": args.falloff, "seed": args.seed,
+            "channels": channels,
             "cfa": raw.cfa and {"pattern": raw.cfa["pattern"], "qe": list(raw.cfa["qe"])}}
 
 
@@ -194,7 +199,7 @@ def run(args: argparse.Namespace) -> int:
     with _common.scheduler_executor(args) as executor:
         raw = render(design, scene, noise=args.noise, seed=args.seed, tol=args.tol,
                      noise_tol=args.noise_tol, n_threads=args.threads, executor=executor,
-                     cfa=args.cfa, qe=qe)
+                     cfa=args.cfa, qe=qe, falloff=args.falloff)
     _write_render(raw, out, png, args.force)
     sys.stdout.write(_common.json_text(_render_summary(raw, out, png, args)) if args.json
                      else f"{out}\n")

@@ -77,12 +77,14 @@ def bands(shapes: Sequence[tuple[int, int]], rows_per_task: int | None) -> list[
 
 
 def band_task(design: Design, scene: ScenePart, band: Band, tol: Tol,
-              n_threads: int | None) -> np.ndarray:
+              n_threads: int | None, falloff: str | None = None) -> np.ndarray:
     """Worker task: the raw rows [r0, r1) of channel c (from 0), ``band`` = (c, r0, r1),
     of the scene ``scene`` (:data:`ScenePart`) rendered by the core on ``n_threads``
-    threads: plain values in, a float64 array of r1 - r0 rows out."""
+    threads with ``falloff`` (render's, checked): plain values in, a float64 array of
+    r1 - r0 rows out."""
     native = _native.RenderScene(*scene)
-    return _native.render_band(design.core, native, band, tol=tol, n_threads=n_threads)
+    return _native.render_band(design.core, native, band, tol=tol, n_threads=n_threads,
+                               falloff=falloff)
 
 
 def _shared(executor: cf.Executor, scene: ScenePart) -> Any:
@@ -127,10 +129,12 @@ def check_raws_fit(shapes: Sequence[tuple[int, int]], noun: str, what: str) -> N
 
 def render_bands(executor: cf.Executor, design: Design, shapes: list[tuple[int, int]],
                  scene: ScenePart, tol: Tol, n_threads: int | None,
-                 rows_per_task: int | None, show: Show) -> list[np.ndarray]:
+                 rows_per_task: int | None, show: Show,
+                 falloff: str | None = None) -> list[np.ndarray]:
     """Every channel's raw (of ``shapes``) of ``scene`` rendered as bands of rows
     (:func:`bands`) on ``executor``, each task on ``n_threads`` core threads, assembled in
-    the caller: the raws of ``_native.render`` bit for bit. Progress (``show``) in raw rows
+    the caller: the raws of ``_native.render`` bit for bit (``falloff`` as render's,
+    checked). Progress (``show``) in raw rows
     as tasks finish. Raises :class:`~splitlf.errors.TooLargeError` (the raws beyond the
     memory available), the first task's error and ``KeyboardInterrupt`` (tasks not started
     are cancelled; running ones finish their band)."""
@@ -144,7 +148,8 @@ def render_bands(executor: cf.Executor, design: Design, shapes: list[tuple[int, 
         futures = {}
         try:
             for band in tasks:
-                futures[executor.submit(band_task, plain, scene, band, tol, n_threads)] = band
+                task = executor.submit(band_task, plain, scene, band, tol, n_threads, falloff)
+                futures[task] = band
         except BaseException:
             for fut in futures:
                 fut.cancel()

@@ -28,7 +28,10 @@ Raw files (:meth:`Raw.save`, :meth:`Raw.load`): an uncompressed NumPy ``.npz`` a
   ``inf`` for a noise-free raw;
 - ``cfa`` and ``qe`` (optional; absent: a grey raw, as in files written before colour):
   the colour filter array the raw was mosaiced with (:attr:`Raw.cfa`), the pattern's name
-  and float64 [red, green, blue] quantum efficiencies.
+  and float64 [red, green, blue] quantum efficiencies;
+- ``falloff`` (optional; absent: off, as in files written before it existed): the
+  radiometric falloff the raw was rendered with (:attr:`Raw.falloff`), the string
+  ``"microlens"``, ``"main"`` or ``"both"``.
 """
 
 from __future__ import annotations
@@ -352,18 +355,24 @@ class Raw:
     (``qe`` optional, default 1s); :meth:`save` and :meth:`load` keep it, and
     :func:`~splitlf.reconstruct` and :func:`~splitlf.estimate_depth` read it.
 
+    ``falloff`` is the radiometric falloff the raw was rendered with (:func:`render`'s
+    ``falloff``): None (off: the paper's paraxial model, and any raw from elsewhere unless
+    stated) or ``"microlens"``, ``"main"`` or ``"both"``; :meth:`save` and :meth:`load`
+    keep it (a file without it loads as None).
+
     Built by :func:`render`, or directly to wrap raws from elsewhere (another renderer, a
-    real camera): ``images`` a sequence of one array per channel (copied), ``noise`` and
-    ``cfa`` as above (default None). Raises ``TypeError`` and
+    real camera): ``images`` a sequence of one array per channel (copied), ``noise``,
+    ``cfa`` and ``falloff`` as above (default None). Raises ``TypeError`` and
     :class:`~splitlf.errors.InvalidParameter` (named ``images`` for the count,
     ``images[i]`` for a shape or a value that is not finite, ``noise`` or ``noise photons``
     / ``noise read_noise`` for a bad noise model, ``cfa``, ``qe`` or ``qe[k]`` for a bad
-    colour filter array)."""
+    colour filter array, ``falloff`` for an unknown falloff)."""
 
     design: Design
     images: tuple[np.ndarray, ...]
     noise: Mapping[str, float] | None = None
     cfa: Mapping[str, Any] | None = None
+    falloff: str | None = None
 
     def __post_init__(self) -> None:
         self._check(copy=True)
@@ -371,7 +380,7 @@ class Raw:
     @classmethod
     def _adopt(cls, design: Design, images: Sequence[np.ndarray],
                noise: Mapping[str, float] | None = None,
-               cfa: Mapping[str, Any] | None = None) -> Raw:
+               cfa: Mapping[str, Any] | None = None, falloff: str | None = None) -> Raw:
         """A Raw of arrays this package made (the core's raws, a loaded file): checked
         like any, but kept without a copy (a render's peak memory stays the raws')."""
         raw = object.__new__(cls)
@@ -379,6 +388,7 @@ class Raw:
         object.__setattr__(raw, "images", images)
         object.__setattr__(raw, "noise", noise)
         object.__setattr__(raw, "cfa", cfa)
+        object.__setattr__(raw, "falloff", falloff)
         raw._check(copy=False)
         return raw
 
@@ -396,6 +406,7 @@ class Raw:
                                                  in enumerate(zip(imgs, shapes, strict=True))))
         object.__setattr__(self, "noise", _stated(self.noise, "noise"))
         object.__setattr__(self, "cfa", _cfa.stated(self.cfa))
+        object.__setattr__(self, "falloff", falloff_option(self.falloff))
 
     def __repr__(self) -> str:
         """A short summary (each channel's shape and value range), not the arrays."""
@@ -406,7 +417,8 @@ class Raw:
                  f", noise photons {self.noise['photons']:g}, read noise "
                  f"{self.noise['read_noise']:g}")
         colour = "" if self.cfa is None else f", cfa {_cfa.describe(self.cfa)}"
-        return f"Raw({len(self.images)} channel(s): {chans}{noise}{colour})"
+        fall = "" if self.falloff is None else f", falloff {self.falloff}"
+        return f"Raw({len(self.images)} channel(s): {chans}{noise}{colour}{fall})"
 
     def channel(self, i: int) -> np.ndarray:
         """Channel ``i``'s raw (channels numbered from 1)."""
@@ -432,7 +444,7 @@ class Raw:
             noise = {"photons": noise["photons"] * qe[0], "read_noise": noise["read_noise"]}
         elif noise is not None and noise["photons"] != math.inf:
             noise = None
-        return Raw._adopt(self.design, images, noise)
+        return Raw._adopt(self.design, images, noise, None, self.falloff)
 
     def save(self, path: str | os.PathLike[str], *, force: bool = True) -> None:
         """Write the raw file (module docstring: an ``.npz`` with ``format``, ``design``
@@ -447,6 +459,8 @@ class Raw:
         if self.cfa is not None:
             arrays["cfa"] = np.array(self.cfa["pattern"])
             arrays["qe"] = np.array(self.cfa["qe"], dtype=np.float64)
+        if self.falloff is not None:
+            arrays["falloff"] = np.array(self.falloff)
         with atomic_output(path, force=force) as tmp, open(tmp, "wb") as fh:
             np.savez(fh, **arrays)
 
@@ -484,7 +498,7 @@ def _read_raw(name: str, npz: Any) -> Raw:
         raise ValueError("no design TOML text (key 'design')")
     design = _design_from_text(name, str(npz["design"]))
     channels = [f"channel{i}" for i in range(1, len(design.channels) + 1)]
-    extra = sorted(keys - {"format", "design", "noise", "cfa", "qe", *channels})
+    extra = sorted(keys - {"format", "design", "noise", "cfa", "qe", "falloff", *channels})
     missing = [c for c in channels if c not in keys]
     if missing or extra:
         raise ValueError(f"the arrays {sorted(keys - {'format', 'design'})} do not match "
@@ -499,7 +513,15 @@ def _read_raw(name: str, npz: Any) -> Raw:
             raise ValueError(f"the noise model (key 'noise') has shape {v.shape} and dtype "
                              f"{v.dtype}: needs 2 floats, [photons, read_noise]")
         noise = {"photons": float(v[0]), "read_noise": float(v[1])}
-    return Raw._adopt(design, tuple(npz[c] for c in channels), noise, _read_cfa(npz, keys))
+    falloff = None
+    if "falloff" in keys:
+        v = npz["falloff"]
+        if v.shape != () or v.dtype.kind != "U" or str(v) not in FALLOFFS:
+            raise ValueError(f"the falloff (key 'falloff') is {v!r}: needs one of "
+                             f"{', '.join(map(repr, FALLOFFS))}")
+        falloff = str(v)
+    return Raw._adopt(design, tuple(npz[c] for c in channels), noise, _read_cfa(npz, keys),
+                      falloff)
 
 
 def _read_cfa(npz: Any, keys: set[str]) -> dict[str, Any] | None:
@@ -617,6 +639,24 @@ def native_scene(scene: Scene, design: Design, rng: np.random.Generator
     return _native.RenderScene(*scene_parts(scene, design, rng))
 
 
+FALLOFFS = ("microlens", "main", "both")
+"""The radiometric falloffs :func:`render` takes besides None (docs/model.md §10)."""
+
+
+def falloff_option(falloff: Any) -> str | None:
+    """``falloff`` checked: None (off) or one of :data:`FALLOFFS` (``TypeError`` for a
+    value that is not a string, :class:`~splitlf.errors.InvalidParameter` naming
+    ``falloff`` for an unknown one)."""
+    if falloff is None:
+        return None
+    allowed = "None, " + ", ".join(map(repr, FALLOFFS))
+    if not isinstance(falloff, str):
+        raise TypeError(f"falloff must be {allowed}, got {type(falloff).__name__}")
+    if falloff not in FALLOFFS:
+        raise InvalidParameter.of("falloff", falloff, allowed)
+    return falloff
+
+
 def _target(tol: Any, noise_tol: Any, noise: dict[str, float] | None
             ) -> float | tuple[float, float, float]:
     """The core's error target: ``tol`` (default ``_native.RENDER_TOL``), or (photons,
@@ -637,7 +677,8 @@ def render(design: Design, scene: Scene, *, noise: Mapping[str, float] | None = 
            seed: int | None = 0, tol: float | None = None, noise_tol: float | None = None,
            n_threads: int | None = None, progress: bool | None = None,
            executor: cf.Executor | None = None, rows_per_task: int | None = None,
-           cfa: str | None = None, qe: Sequence[float] | None = None) -> Raw:
+           cfa: str | None = None, qe: Sequence[float] | None = None,
+           falloff: str | None = None) -> Raw:
     """Each channel's raw sensor image of ``scene`` (docs/model.md §10), computed in the
     core.
 
@@ -684,8 +725,14 @@ def render(design: Design, scene: Scene, *, noise: Mapping[str, float] | None = 
       own, N QE, is larger relative to QE value: the target is at least as tight)
     - ``qe``: the quantum efficiencies (red, green, blue), each in (0, 1] (None: 1, 1,
       1); only with a ``cfa``
+    - ``falloff``: None (off, the default: the paper's paraxial model) or radiometric
+      falloff, each ray weighted by the cos^4 law on its microlens-to-sensor segment
+      (``"microlens"``), its main-lens-to-array segment (``"main"``) or both (``"both"``),
+      so that a white raw is brightest at each micro-image's centre as a real camera's
+      (docs/model.md §10, "Radiometric falloff"); recorded on the raw (``Raw.falloff``).
+      With falloff every channel takes the general route (docs/render.md)
 
-    Returns a :class:`Raw` (its ``cfa`` recorded). Raises ``TypeError`` and
+    Returns a :class:`Raw` (its ``cfa`` and ``falloff`` recorded). Raises ``TypeError`` and
     :class:`~splitlf.errors.InvalidParameter` (checked before any work; the core adds a
     surface at or behind the main lens's focal plane where a pixel sees it),
     :class:`~splitlf.errors.TooLargeError` (up front, saying how much memory it needs)
@@ -699,6 +746,7 @@ def render(design: Design, scene: Scene, *, noise: Mapping[str, float] | None = 
     seed_ = _seed(seed)
     threads = _validate.n_threads(n_threads)
     target = _target(tol, noise_tol, noise_)
+    falloff_ = falloff_option(falloff)
     show = _progress_flag(progress)
     fresh: Any = np.random.SeedSequence().entropy  # an int for a fresh SeedSequence
     entropy = int(fresh) if seed_ is None else seed_
@@ -712,7 +760,7 @@ def render(design: Design, scene: Scene, *, noise: Mapping[str, float] | None = 
 
     def once(part: Scene) -> list[np.ndarray]:
         return _render_parts(subject, scene_parts(part, subject, texture_rng), target,
-                             threads, (executor, rows_per_task), show)
+                             threads, (executor, rows_per_task), show, falloff_)
 
     if cfa_ is None:
         images = once(scene)
@@ -724,22 +772,23 @@ def render(design: Design, scene: Scene, *, noise: Mapping[str, float] | None = 
     for i, a in enumerate(images):  # in place: one channel's noise draws at a time
         images[i] = _add_noise(np.asarray(a), noise_, noise_rng)
     return Raw._adopt(subject, tuple(images), dict(NOISE_FREE) if noise_ is None else noise_,
-                      cfa_)
+                      cfa_, falloff_)
 
 
 def _render_parts(subject: Design, parts: ScenePart, target: Any, threads: int | None,
-                  scale: tuple[cf.Executor | None, int | None], show: Any
-                  ) -> list[np.ndarray]:
+                  scale: tuple[cf.Executor | None, int | None], show: Any,
+                  falloff: str | None) -> list[np.ndarray]:
     """Each channel's noise-free raw of the scene ``parts``: in bands on ``scale``'s
     executor, or in-process with a progress bar."""
     executor, rows_per_task = scale
     if executor is not None:
         return list(render_bands(executor, subject, _expected_shapes(subject), parts, target,
-                                 threads, rows_per_task, show))
+                                 threads, rows_per_task, show, falloff))
     bar, callback = _progress(show)
     try:
         return list(_native.render(subject.core, _native.RenderScene(*parts), tol=target,
-                                   n_threads=threads, progress=callback))
+                                   n_threads=threads, progress=callback,
+                                   falloff=falloff))
     finally:
         if bar is not None:
             bar.close()

@@ -83,6 +83,41 @@ pub fn centroid(p: &[Pt]) -> Pt {
     }
 }
 
+/// Area, centroid and central second moments [∫(x − cx)², ∫(x − cx)(y − cy), ∫(y − cy)²]
+/// of a counter-clockwise polygon (zero area: the vertex mean and zero moments).
+pub fn moments(p: &[Pt]) -> (f64, Pt, [f64; 3]) {
+    let n = p.len();
+    if n < 3 {
+        return (0.0, centroid(p), [0.0; 3]);
+    }
+    // Relative to the first vertex, for precision far from the origin.
+    let o = p[0];
+    let (mut a, mut sx, mut sy, mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    for i in 0..n {
+        let (x0, y0) = (p[i][0] - o[0], p[i][1] - o[1]);
+        let q = p[(i + 1) % n];
+        let (x1, y1) = (q[0] - o[0], q[1] - o[1]);
+        let c = x0 * y1 - x1 * y0;
+        a += c;
+        sx += (x0 + x1) * c;
+        sy += (y0 + y1) * c;
+        sxx += (x0 * x0 + x0 * x1 + x1 * x1) * c;
+        syy += (y0 * y0 + y0 * y1 + y1 * y1) * c;
+        sxy += (x0 * y1 + 2.0 * x0 * y0 + 2.0 * x1 * y1 + x1 * y0) * c;
+    }
+    let area = 0.5 * a;
+    if area.abs() <= 0.0 {
+        return (0.0, centroid(p), [0.0; 3]);
+    }
+    let (mx, my) = (sx / (3.0 * a), sy / (3.0 * a));
+    let m = [
+        sxx / 12.0 - area * mx * mx,
+        sxy / 24.0 - area * mx * my,
+        syy / 12.0 - area * my * my,
+    ];
+    (area, [o[0] + mx, o[1] + my], m)
+}
+
 /// Keep the part of `src` where `f(point) >= 0`, `f` affine (a half-plane), into `out`.
 pub fn clip_into(src: &[Pt], out: &mut Vec<Pt>, f: impl Fn(Pt) -> f64) {
     out.clear();
@@ -197,6 +232,27 @@ pub fn bounds(p: &[Pt]) -> (f64, f64, f64, f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn moments_of_a_rectangle_and_a_triangle() {
+        // A 2 x 4 rectangle centred at (5, -3): area 8, central moments w^3 h/12, 0, w h^3/12.
+        let r = [[4.0, -5.0], [6.0, -5.0], [6.0, -1.0], [4.0, -1.0]];
+        let (a, c, m) = moments(&r);
+        assert!(
+            (a - 8.0).abs() < 1e-12 && (c[0] - 5.0).abs() < 1e-12 && (c[1] + 3.0).abs() < 1e-12
+        );
+        assert!(
+            (m[0] - 8.0 / 3.0).abs() < 1e-12
+                && m[1].abs() < 1e-12
+                && (m[2] - 32.0 / 3.0).abs() < 1e-12
+        );
+        // The triangle (0,0), (1,0), (0,1): area 1/2, centroid (1/3, 1/3), ∫x² = 1/12,
+        // ∫xy = 1/24 (so central 1/36 and −1/72).
+        let (a, c, m) = moments(&[[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]);
+        assert!((a - 0.5).abs() < 1e-15 && (c[0] - 1.0 / 3.0).abs() < 1e-15);
+        assert!((m[0] - 1.0 / 36.0).abs() < 1e-15 && (m[1] + 1.0 / 72.0).abs() < 1e-15);
+        assert!((m[2] - 1.0 / 36.0).abs() < 1e-15);
+    }
 
     #[test]
     fn area_above_is_the_clipped_area() {

@@ -7,7 +7,7 @@ use std::sync::Arc;
 use numpy::{PyArray2, PyArrayMethods, PyReadonlyArray2};
 use pyo3::prelude::*;
 
-use splitlf_core::imaging::render::{self as core_render, NoiseTarget, RenderOptions};
+use splitlf_core::imaging::render::{self as core_render, Falloff, NoiseTarget, RenderOptions};
 use splitlf_core::imaging::scene::{Scene, Surface};
 use splitlf_core::imaging::texture::Texture;
 
@@ -95,6 +95,12 @@ fn tol_options(tol: Option<Tol>) -> (f64, Option<NoiseTarget>) {
     }
 }
 
+/// The core's falloff from the binding's name (None: off; an unknown name is refused
+/// naming `falloff`).
+fn falloff_arg(name: Option<&str>) -> PyResult<Falloff> {
+    name.map_or(Ok(Falloff::None), |n| Falloff::from_name(n).map_err(to_py))
+}
+
 /// Every channel's raw image of `scene` (docs/model.md §10 layout), one float64 array per
 /// channel. `tol`: the general route's error target per pixel, relative to a fully lit
 /// pixel under the scene's largest albedo. `own_lens`: each pixel takes its own lens's
@@ -103,18 +109,22 @@ fn tol_options(tol: Option<Tol>) -> (f64, Option<NoiseTarget>) {
 /// `tol` may instead be (photons, read_noise, fraction): each pixel's error target is the
 /// fraction of the noise's standard deviation at its value (docs/render.md, "A target
 /// relative to the noise").
+/// `falloff`: None, "none", "microlens", "main" or "both", the cos⁴ factors that weight
+/// each ray (docs/model.md §10, "Radiometric falloff").
 /// `progress(done, total)` is called on the main thread while the render runs.
 #[pyfunction]
-#[pyo3(signature = (design, scene, tol=None, n_threads=None, progress=None, own_lens=false))]
+#[pyo3(signature = (design, scene, tol=None, n_threads=None, progress=None, own_lens=false, falloff=None))]
 pub(crate) fn render<'py>(
-    py: Python<'py>,
     design: &DesignCore,
-    scene: &RenderScene,
+    scene: &Bound<'py, RenderScene>,
     tol: Option<Tol>,
     n_threads: Option<&Bound<'py, PyAny>>,
     progress: Option<Py<PyAny>>,
     own_lens: bool,
+    falloff: Option<String>,
 ) -> PyResult<Vec<Bound<'py, PyArray2<f64>>>> {
+    // (The GIL token from the scene: a binding of eight arguments would need a struct.)
+    let (py, scene) = (scene.py(), scene.get());
     let threads = threads_arg(n_threads)?;
     let d = design.inner.clone();
     let sc = Arc::clone(&scene.inner);
@@ -129,6 +139,7 @@ pub(crate) fn render<'py>(
         tol,
         own_lens,
         noise,
+        falloff: falloff_arg(falloff.as_deref())?,
     };
     core_render::check_render(&d, &sc, opts).map_err(to_py)?;
     let bytes = core_render::render_bytes(&d);
@@ -164,20 +175,21 @@ fn index_arg(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<(usize, String)> {
 
 /// The raw rows [r0, r1) of channel `channel` (from 0) of `scene`, `band` = (channel, r0,
 /// r1): a 2-D float64 array of r1 − r0 rows, bit for bit those rows of [`render`]'s raw (a
-/// band of a render split over tasks). `tol`, `n_threads` and `progress` (in rows of the
-/// band) as [`render`]; a channel or rows outside the design are refused naming `channel`
-/// or `rows`.
+/// band of a render split over tasks). `tol`, `n_threads`, `progress` (in rows of the
+/// band) and `falloff` as [`render`]; a channel or rows outside the design are refused
+/// naming `channel` or `rows`.
 #[pyfunction]
-#[pyo3(signature = (design, scene, band, tol=None, n_threads=None, progress=None))]
+#[pyo3(signature = (design, scene, band, tol=None, n_threads=None, progress=None, falloff=None))]
 pub(crate) fn render_band<'py>(
-    py: Python<'py>,
     design: &DesignCore,
-    scene: &RenderScene,
+    scene: &Bound<'py, RenderScene>,
     band: &Bound<'py, PyAny>,
     tol: Option<Tol>,
     n_threads: Option<&Bound<'py, PyAny>>,
     progress: Option<Py<PyAny>>,
+    falloff: Option<String>,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let (py, scene) = (scene.py(), scene.get());
     let parts: Vec<Bound<'py, PyAny>> = match band.extract() {
         Ok(v) if !band.is_instance_of::<pyo3::types::PyString>() => v,
         _ => Vec::new(),
@@ -201,6 +213,7 @@ pub(crate) fn render_band<'py>(
     let opts = RenderOptions {
         tol,
         noise,
+        falloff: falloff_arg(falloff.as_deref())?,
         ..RenderOptions::default()
     };
     core_render::check_render(&d, &sc, opts).map_err(to_py)?;

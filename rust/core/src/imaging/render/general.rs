@@ -9,11 +9,13 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use super::adaptive::{adaptive, over_boxes, QBox};
 use super::chan::{Chan, Work};
+use super::falloff::{piece_step, weighted_integral, Segments, Weighting};
 use super::footprint;
 use super::kinks::{bilinear, box_cuts, extent_kinks, texture_kinks, Sweep};
 use super::mean::scene_mean;
 use super::{fill_rows, raw_shape, NoiseTarget, RenderOptions};
 use crate::imaging::scene::{Scene, Surface};
+use crate::imaging::texture::Texture;
 use crate::infra::error::Result;
 use crate::infra::parallel::checkpoint;
 use crate::infra::polygon::{angular_span, bounds, clip_box, clip_into, signed_area, Pt};
@@ -27,14 +29,17 @@ pub(crate) struct Pixels<'a> {
     pub(crate) chan: &'a Chan<'a>,
     pub(crate) scene: &'a Scene,
     pub(crate) tol: f64,
+    /// The rays' radiometric falloff, when on (docs/model.md §10).
+    pub(crate) weighting: Option<Weighting>,
 }
 
-/// One lens as one pixel sees it: its centre c, its type's α, and e = (1 + v/L) c − s, its
-/// image centre's offset from the pixel's sensor point s.
+/// One lens as one pixel sees it: its centre c, its type's α and κ = v/f, and
+/// e = (1 + v/L) c − s, its image centre's offset from the pixel's sensor point s.
 #[derive(Debug, Clone, Copy)]
 struct LensView {
     c: Pt,
     alpha: f64,
+    kappa: f64,
     e: Pt,
 }
 
@@ -52,13 +57,21 @@ pub(super) fn general_channel(
     let ch = chan.ch;
     let cols = raw_shape(ch).1;
     let per_row = (cols as u128) * 2000;
+    let top = top_value(chan, scene);
+    let rel = match opts.noise {
+        Some(nt) => (nt.at(top) / top).clamp(super::MIN_TOL, 0.1),
+        None => tol,
+    };
     let px = Pixels {
         design,
         chan,
         scene,
         tol: lens_tol(chan, scene, tol),
+        weighting: opts.falloff.is_on().then(|| Weighting {
+            falloff: opts.falloff,
+            step: piece_step(rel, uniform(scene)),
+        }),
     };
-    let top = top_value(chan, scene);
     let step = crate::infra::parallel::chunk_items(n_threads, per_row);
     fill_rows(
         raw,
@@ -87,6 +100,15 @@ pub(super) fn general_channel(
             Ok(())
         },
     )
+}
+
+/// Is every ray's albedo the same: a constant texture on a fronto-parallel plane (every
+/// ray meets it), or over a background of the same albedo?
+fn uniform(scene: &Scene) -> bool {
+    match scene.texture {
+        Texture::Constant(c) => scene.surface.fronto().is_some() || c == scene.background,
+        _ => false,
+    }
 }
 
 /// A pixel's value to the noise target `nt` (docs/render.md, "A target relative to the
@@ -188,7 +210,7 @@ fn own_lens_value(px: &Pixels, a: u32, b: u32, wk: &mut Work) -> f64 {
 /// (before the channel's norm).
 fn lens_contribution(px: &Pixels, c: Pt, t: usize, s_pix: Pt, wk: &mut Work) -> f64 {
     let chan = px.chan;
-    let (alpha, _) = chan.types[t];
+    let (alpha, kappa) = chan.types[t];
     let e = [chan.m * c[0] - s_pix[0], chan.m * c[1] - s_pix[1]];
     if let Some(rec) = wk.rec.as_deref_mut() {
         // Record mode on a plane, or on a depth map every ray meets at most once: the
@@ -203,7 +225,7 @@ fn lens_contribution(px: &Pixels, c: Pt, t: usize, s_pix: Pt, wk: &mut Work) -> 
             return 0.0;
         }
     }
-    let lens = LensView { c, alpha, e };
+    let lens = LensView { c, alpha, kappa, e };
     if chan.uses_outer_w(alpha) {
         outer_w(px, lens, wk)
     } else {
@@ -225,7 +247,7 @@ struct Cuts {
 /// Outer-w rule: ∫ over w of (area of the x-polygon × mean T over its scene image).
 fn outer_w(px: &Pixels, lens: LensView, wk: &mut Work) -> f64 {
     let (chan, scene, mu) = (px.chan, px.scene, px.chan.ch.mu);
-    let LensView { c, alpha, e } = lens;
+    let LensView { c, alpha, e, .. } = lens;
     let lv = 1.0 / chan.vl;
     let aa = alpha.abs();
     if let Some(r) = wk.rec.as_deref_mut() {
@@ -267,6 +289,7 @@ fn outer_w(px: &Pixels, lens: LensView, wk: &mut Work) -> f64 {
     };
     let total = if chan.shape != Aperture::Circle {
         let mut f = |wx: f64, wy: f64, wk: &mut Work| node_w(px, lens, [wx, wy], wk);
+        let bilinear = bilinear && px.weighting.is_none();
         over_boxes(&mut f, &rough, &cx, &cy, px.tol, bilinear, wk)
     } else {
         outer_w_disc(px, lens, bx, (&cx, &cy), &rough, wk)
@@ -281,7 +304,7 @@ fn outer_w(px: &Pixels, lens: LensView, wk: &mut Work) -> f64 {
 /// the texture's lines), at the reference depth of the box's centre.
 fn outer_w_cuts(px: &Pixels, lens: LensView, bx: QBox, wk: &mut Work) -> Cuts {
     let (chan, scene, mu) = (px.chan, px.scene, px.chan.ch.mu);
-    let LensView { c, alpha, e } = lens;
+    let LensView { c, alpha, e, .. } = lens;
     let QBox { x0, x1, y0, y1 } = bx;
     let lv = 1.0 / chan.vl;
     let aa = alpha.abs();
@@ -473,13 +496,27 @@ fn node_w(px: &Pixels, lens: LensView, w: Pt, wk: &mut Work) -> f64 {
     if area <= 0.0 {
         return 0.0;
     }
+    if let Some(wt) = &px.weighting {
+        // s − x = (α − 1)(c + ξ) − (v/L) w + κ c, x − w = c + ξ − w.
+        let (c, am) = (lens.c, lens.alpha - 1.0);
+        let seg = Segments {
+            a_m: am,
+            b_m: [
+                (am + lens.kappa) * c[0] - px.chan.vl * w[0],
+                (am + lens.kappa) * c[1] - px.chan.vl * w[1],
+            ],
+            a_main: 1.0,
+            b_main: [c[0] - w[0], c[1] - w[1]],
+        };
+        return weighted_integral((px.chan, px.scene, wt), &seg, c, |_| w, wk);
+    }
     area * scene_mean(px.chan, px.scene, lens.c, |_| w, wk)
 }
 
 /// Outer-s rule: ∫ over the sensor point s in the pixel (and in the lens's reach).
 fn outer_s(px: &Pixels, lens: LensView, wk: &mut Work) -> f64 {
     let (chan, scene, tol, mu) = (px.chan, px.scene, px.tol, px.chan.ch.mu);
-    let LensView { c, alpha, e } = lens;
+    let LensView { c, alpha, e, .. } = lens;
     // Offsets σ = s − img (img = (1 + v/L) c): the pixel is σ ∈ −e ± μ/2; the lens's
     // light reaches |σ| ≤ |α| h + (v/L) r_ap per axis.
     let aa = alpha.abs();
@@ -545,7 +582,8 @@ fn outer_s(px: &Pixels, lens: LensView, wk: &mut Work) -> f64 {
     }
     let (cx, cy) = box_cuts(wk, (x0, x1), (y0, y1), &kx, &ky);
     // The rect cell clipped by the square aperture's preimage: a product of intervals.
-    let bilinear = bilinear(scene, separable, complete);
+    // (A weight makes the integrand smooth, not bilinear.)
+    let bilinear = bilinear(scene, separable, complete) && px.weighting.is_none();
     let lv = 1.0 / chan.vl;
     let mut f = |sx: f64, sy: f64, wk: &mut Work| node_s(px, lens, [sx, sy], wk);
     // Rough boxes (see outer_w): P = B w(ξ) − (z/L)(c + ξ), w(ξ) = (L/v)(α ξ − σ); a vertex
@@ -602,6 +640,17 @@ fn node_s(px: &Pixels, lens: LensView, sigma: Pt, wk: &mut Work) -> f64 {
             lv * (alpha * xi[1] - sigma[1]),
         ]
     };
+    if let Some(wt) = &px.weighting {
+        // s − x = (v/L) c + σ − ξ, x − w = (1 − (L/v) α) ξ + c + (L/v) σ.
+        let c = lens.c;
+        let seg = Segments {
+            a_m: -1.0,
+            b_m: [chan.vl * c[0] + sigma[0], chan.vl * c[1] + sigma[1]],
+            a_main: 1.0 - lv * alpha,
+            b_main: [c[0] + lv * sigma[0], c[1] + lv * sigma[1]],
+        };
+        return weighted_integral((chan, px.scene, wt), &seg, c, wfun, wk);
+    }
     area * scene_mean(chan, px.scene, lens.c, wfun, wk)
 }
 
@@ -666,7 +715,6 @@ fn clip_disc(ngon: &[Pt], g: Pt, rad: f64, wk: &mut Work) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::imaging::texture::Texture;
 
     /// The general route's target is relative to the scene's largest albedo: a sinusoid
     /// on a tilted plane scaled by 50 renders 50 × the raw (to 50 × tol of its white) with
@@ -697,6 +745,7 @@ mod tests {
                 chan: &chan,
                 scene: sc,
                 tol: lens_tol(&chan, sc, 1e-3),
+                weighting: None,
             };
             let mut wk = Work::new(false);
             let v: Vec<f64> = (0..40u32)

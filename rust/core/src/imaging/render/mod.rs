@@ -29,8 +29,9 @@
 //! Parts: [`chan`] (a channel as the renderer sees it, a worker's buffers), [`general`]
 //! (the general route: outer w / outer s per pixel and lens), [`adaptive`] (its
 //! quadrature), [`kinks`] (where its boxes are cut), [`mean`] (the inner integral over a
-//! node's polygon of rays), [`exact`] (the exact route and its 1-D profiles) and
-//! [`footprint`] (record mode on a plane). This file holds the entry points, the options
+//! node's polygon of rays), [`falloff`] (the rays' radiometric falloff, a weight inside
+//! that integral), [`exact`] (the exact route and its 1-D profiles) and [`footprint`]
+//! (record mode on a plane). This file holds the entry points, the options
 //! and the checks of a scene against a design, and [`render_band`]: a band of raw rows of
 //! one channel, the unit of a render split over processes or machines.
 
@@ -48,6 +49,7 @@ use crate::model::design::{Aperture, Channel, Design, Grid, Layout};
 mod adaptive;
 mod chan;
 pub(crate) mod exact;
+mod falloff;
 /// Record mode on a plane: the footprint density integrated over the grid's cells.
 pub(crate) mod footprint;
 mod general;
@@ -56,6 +58,7 @@ mod mean;
 
 pub use chan::{circle_sides, MAX_CIRCLE_SIDES, MIN_CIRCLE_SIDES};
 pub(crate) use chan::{map_seen_once, Chan, Work};
+pub use falloff::Falloff;
 pub(crate) use general::{pixel_value, Pixels};
 
 /// Default error target of a pixel, relative to a fully lit pixel under the scene's largest
@@ -83,6 +86,10 @@ pub struct RenderOptions {
     /// An error target per pixel relative to the noise the render adds (replacing `tol`
     /// on the general route): [`NoiseTarget`].
     pub noise: Option<NoiseTarget>,
+    /// Radiometric falloff: each ray weighted by the cos⁴ law on its microlens-to-sensor
+    /// and/or main-lens-to-array segment (docs/model.md §10). Off by default (the paper's
+    /// paraxial model); on, every channel takes the general route.
+    pub falloff: Falloff,
 }
 
 impl Default for RenderOptions {
@@ -91,6 +98,7 @@ impl Default for RenderOptions {
             tol: DEFAULT_TOL,
             own_lens: false,
             noise: None,
+            falloff: Falloff::None,
         }
     }
 }
@@ -405,7 +413,8 @@ fn fill_channel(
     raw: &mut [f64],
     (n_threads, done): (Option<usize>, &AtomicUsize),
 ) -> Result<()> {
-    if exact_route(design, chan.ch, scene) {
+    // The exact route's separable sums hold no weight: with falloff, the general route.
+    if !opts.falloff.is_on() && exact_route(design, chan.ch, scene) {
         exact::render_channel(design, chan, scene, raw, n_threads, done)
     } else {
         general::general_channel(design, chan, scene, opts, raw, n_threads, done)

@@ -58,7 +58,7 @@ fn render_white(
     let opts = RenderOptions {
         tol: render::DEFAULT_TOL,
         own_lens,
-        noise: None,
+        ..RenderOptions::default()
     };
     let mut out = Vec::with_capacity(design.channels.len());
     for ch in &design.channels {

@@ -231,6 +231,7 @@ pub(super) fn build_general(
             chan: &chan,
             scene: &scene,
             tol: 1.0,
+            weighting: None,
         };
         let map_once = crate::imaging::render::map_seen_once(&chan, surface);
         let sees = lenses_seeing(design, ch, surface, grid);
