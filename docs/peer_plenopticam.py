@@ -10,9 +10,11 @@ an environment of its own.
    (default 40 x 34, as in issue 50) on its default sensor (--margin: that many pixels
    more on every side), a Siemens star at 1 m rendered
    noise-free, exported with splitlf.export(raw, "plenopticam", OUT/export) (its white
-   image rendered by splitlf.render). With --falloff, render(..., falloff=True) for the raw
-   and white_options={"falloff": True} for the white (a render option being added in
-   parallel: this splitlf must have it).
+   image rendered by splitlf.render). With --falloff KIND (microlens, main or both), the
+   white image is rendered with that radiometric falloff (white_options={"falloff":
+   KIND}; docs/render.md, "Radiometric falloff"); the raw stays paraxial (the calibration
+   reads only the white, and a textured raw with the microlens factor costs 70-105 times
+   its paraxial render).
 3. The peer (VENV's python, headless, its own API): for each calibration method of
    --methods (PlenoptiCam's CALI_METH: area, peak, grid-fit), LfpCalibrator on the white
    image as PlenoptiCam's command line loads it (misc.load_img_file), writing its
@@ -31,7 +33,7 @@ an environment of its own.
    ray angle at the sensor, or blurred): what PlenoptiCam's calibration needs. These are
    not splitlf renders and say so in the output.
 
-Run: python docs/peer_plenopticam.py [--falloff] [--emulate cos4,cos16,cos64] [--json] (a
+Run: python docs/peer_plenopticam.py [--falloff both] [--emulate cos4,cos16,cos64] [--json] (a
 minute on 2 cores, and a minute per experiment, plus the peer's install the first time).
 Prints a table (or one JSON document) and writes it to OUT/verdict.json.
 """
@@ -150,13 +152,10 @@ def cut(kx: int, ky: int, margin: int = 0) -> splitlf.Design:
     return d.replace(channels=(ch,))
 
 
-def make_export(out: Path, design: splitlf.Design, falloff: bool) -> splitlf.Export:
-    extra: dict[str, Any] = {"falloff": True} if falloff else {}
+def make_export(out: Path, design: splitlf.Design, falloff: str | None) -> splitlf.Export:
+    extra: dict[str, Any] = {} if falloff is None else {"falloff": falloff}
     scene = splitlf.Scene(splitlf.SiemensStar(), 1000.0)
-    try:
-        raw = splitlf.render(design, scene, progress=False, **extra)
-    except TypeError as e:
-        raise SystemExit(f"--falloff: this splitlf's render takes no falloff ({e})") from None
+    raw = splitlf.render(design, scene, progress=False)
     return splitlf.export(raw, "plenopticam", out / "export", white_options=extra,
                           overwrite=True)
 
@@ -266,7 +265,8 @@ def main() -> None:
     p.add_argument("--ky", type=int, default=34)
     p.add_argument("--margin", type=int, default=0,
                    help="sensor pixels added on every side of the default sensor")
-    p.add_argument("--falloff", action="store_true", help="render with falloff=True")
+    p.add_argument("--falloff", choices=("microlens", "main", "both"), default=None,
+                   help="render the white image with this radiometric falloff")
     p.add_argument("--methods", default=",".join(METHODS))
     p.add_argument("--emulate", default="", metavar="cosN,blurS,...",
                    help="EXPERIMENTS on copies of the exported white (emulated_white)")
