@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import math
 import os
 import signal
 import stat
@@ -37,7 +38,7 @@ else:  # pragma: no cover - Python 3.10 (the tomli backport)
     import tomli as tomllib
 
 __all__ = ["MAX_TOML_BYTES", "atomic_folder", "atomic_output", "check_new",
-           "check_new_folder", "check_writable", "open_regular",
+           "check_new_folder", "check_writable", "json_safe", "open_regular",
            "probe_folder", "read_npy", "read_toml", "text_file"]
 
 #: Largest TOML file read (a design or sweep file is a few kB; this refuses a runaway input
@@ -332,3 +333,15 @@ def text_file(lines: list[str], path: str | os.PathLike[str] | None) -> str:
         with atomic_output(path, force=True) as tmp:
             tmp.write_text(body, encoding="utf-8")
     return body
+
+
+def json_safe(data: Any) -> Any:
+    """``data`` with every non-finite float replaced by None, recursing into dicts, lists and
+    tuples (JSON has neither inf nor NaN): what every JSON file splitlf writes goes through."""
+    if isinstance(data, float):
+        return data if math.isfinite(data) else None
+    if isinstance(data, dict):
+        return {k: json_safe(v) for k, v in data.items()}
+    if isinstance(data, list | tuple):
+        return [json_safe(v) for v in data]
+    return data

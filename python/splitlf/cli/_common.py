@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from .. import _native
-from .._files import atomic_output, check_writable, probe_folder, read_npy, read_toml
+from .._files import atomic_output, check_writable, json_safe, probe_folder, read_npy, read_toml
 from ..errors import InvalidParameter, SplitlfError
 from ..model.camera import Camera
 from ..model.design import PRESETS, Design
@@ -74,21 +74,10 @@ def named_design(spec: str) -> Design:
     return Design.preset(spec) if spec in PRESETS else load_design(spec)
 
 
-def _finite(data: Any) -> Any:
-    """``data`` with every non-finite float replaced by None (JSON has no inf or NaN)."""
-    if isinstance(data, float):
-        return data if math.isfinite(data) else None
-    if isinstance(data, dict):
-        return {k: _finite(v) for k, v in data.items()}
-    if isinstance(data, list | tuple):
-        return [_finite(v) for v in data]
-    return data
-
-
 def json_text(data: Any) -> str:
     """The whole JSON document as text (built before anything is written, so a value that
     cannot be serialised never leaves half a document behind); inf and NaN become null."""
-    return json.dumps(_finite(data), indent=2, allow_nan=False) + "\n"
+    return json.dumps(json_safe(data), indent=2, allow_nan=False) + "\n"
 
 
 def write_text(path: Path, text: str, force: bool) -> None:

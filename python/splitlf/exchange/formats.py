@@ -12,9 +12,7 @@ from __future__ import annotations
 
 import csv
 import json
-import math
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -144,14 +142,3 @@ def write_centres_csv(path: Path, centres: np.ndarray) -> None:
         w.writerow(["row", "column", "k", "j"])
         for r, c, k, j in centres:
             w.writerow([repr(float(r)), repr(float(c)), int(k), int(j)])
-
-
-def jsonable(data: Any) -> Any:
-    """``data`` with every non-finite float as None (JSON has neither inf nor NaN)."""
-    if isinstance(data, float):
-        return data if math.isfinite(data) else None
-    if isinstance(data, dict):
-        return {k: jsonable(v) for k, v in data.items()}
-    if isinstance(data, list | tuple):
-        return [jsonable(v) for v in data]
-    return data

@@ -10,8 +10,9 @@ from pathlib import Path
 from typing import Any
 
 from .. import _native
+from .._files import json_safe
 from ..imaging.render import Raw
-from .formats import DN_MAX, jsonable
+from .formats import DN_MAX
 
 __all__ = ["FORMAT", "ORIENTATION", "TARGET_ORIENTATION", "WHITE_DEPTH_F", "sidecar_document",
            "write_json"]
@@ -100,5 +101,5 @@ def sidecar_document(raw: Raw, target: str, scale: float, channels: list[dict[st
 
 def write_json(path: Path, doc: dict[str, Any]) -> None:
     """``doc`` as indented JSON (non-finite numbers as null)."""
-    path.write_text(json.dumps(jsonable(doc), indent=2, allow_nan=False) + "\n",
+    path.write_text(json.dumps(json_safe(doc), indent=2, allow_nan=False) + "\n",
                     encoding="utf-8")
