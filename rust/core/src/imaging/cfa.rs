@@ -73,6 +73,18 @@ pub fn colours(pattern: Pattern, rows: usize, cols: usize) -> Vec<u8> {
         .collect()
 }
 
+/// `values` holds one value per pixel of a `rows` × `cols` raw, or an error naming `name`.
+fn check_len(name: &'static str, values: &[f64], rows: usize, cols: usize) -> Result<()> {
+    if values.len() != rows.saturating_mul(cols) {
+        return Err(Error::param(
+            name,
+            format!("{} values", values.len()),
+            format!("the raw's {rows} x {cols} values"),
+        ));
+    }
+    Ok(())
+}
+
 /// The mosaic of one raw per colour (`planes[k]`: colour k's noise-free raw, row-major
 /// `rows` × `cols`): each pixel takes its colour's plane times that colour's QE.
 pub fn mosaic(
@@ -87,13 +99,7 @@ pub fn mosaic(
         .checked_mul(cols)
         .ok_or_else(|| Error::param("planes", format!("{rows} x {cols}"), "a raw's shape"))?;
     for (k, p) in planes.iter().enumerate() {
-        if p.len() != n {
-            return Err(Error::param(
-                ["planes[0]", "planes[1]", "planes[2]"][k],
-                format!("{} values", p.len()),
-                format!("the raw's {rows} x {cols} values"),
-            ));
-        }
+        check_len(["planes[0]", "planes[1]", "planes[2]"][k], p, rows, cols)?;
     }
     Ok((0..n)
         .map(|i| {
@@ -113,13 +119,7 @@ pub fn grey(
     qe: [f64; 3],
 ) -> Result<Vec<f64>> {
     let qe = check_qe(qe)?;
-    if raw.len() != rows.saturating_mul(cols) {
-        return Err(Error::param(
-            "raw",
-            format!("{} values", raw.len()),
-            format!("{rows} x {cols} values"),
-        ));
-    }
+    check_len("raw", raw, rows, cols)?;
     Ok(raw
         .iter()
         .enumerate()

@@ -57,24 +57,33 @@ pub fn signed_area_about_first(p: &[Pt]) -> f64 {
     0.5 * a2
 }
 
+/// Every edge of the closed polygon `p` (n ≥ 1) relative to its first vertex (for precision
+/// far from the origin), with the edge's cross product x0 y1 − x1 y0: the shoelace sums'
+/// common loop (`centroid`, `moments`).
+#[inline]
+fn shoelace(p: &[Pt], mut f: impl FnMut(Pt, Pt, f64)) {
+    let (n, o) = (p.len(), p[0]);
+    for i in 0..n {
+        let (x0, y0) = (p[i][0] - o[0], p[i][1] - o[1]);
+        let q = p[(i + 1) % n];
+        let (x1, y1) = (q[0] - o[0], q[1] - o[1]);
+        f([x0, y0], [x1, y1], x0 * y1 - x1 * y0);
+    }
+}
+
 /// Centroid of a polygon of non-zero area (the vertex mean when the area vanishes).
 pub fn centroid(p: &[Pt]) -> Pt {
     let n = p.len();
     if n == 0 {
         return [0.0, 0.0];
     }
-    // Relative to the first vertex, for precision far from the origin.
     let o = p[0];
     let (mut a, mut cx, mut cy) = (0.0, 0.0, 0.0);
-    for i in 0..n {
-        let (x0, y0) = (p[i][0] - o[0], p[i][1] - o[1]);
-        let q = p[(i + 1) % n];
-        let (x1, y1) = (q[0] - o[0], q[1] - o[1]);
-        let c = x0 * y1 - x1 * y0;
+    shoelace(p, |[x0, y0], [x1, y1], c| {
         a += c;
         cx += (x0 + x1) * c;
         cy += (y0 + y1) * c;
-    }
+    });
     if a.abs() > 0.0 {
         [o[0] + cx / (3.0 * a), o[1] + cy / (3.0 * a)]
     } else {
@@ -90,21 +99,16 @@ pub fn moments(p: &[Pt]) -> (f64, Pt, [f64; 3]) {
     if n < 3 {
         return (0.0, centroid(p), [0.0; 3]);
     }
-    // Relative to the first vertex, for precision far from the origin.
     let o = p[0];
     let (mut a, mut sx, mut sy, mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
-    for i in 0..n {
-        let (x0, y0) = (p[i][0] - o[0], p[i][1] - o[1]);
-        let q = p[(i + 1) % n];
-        let (x1, y1) = (q[0] - o[0], q[1] - o[1]);
-        let c = x0 * y1 - x1 * y0;
+    shoelace(p, |[x0, y0], [x1, y1], c| {
         a += c;
         sx += (x0 + x1) * c;
         sy += (y0 + y1) * c;
         sxx += (x0 * x0 + x0 * x1 + x1 * x1) * c;
         syy += (y0 * y0 + y0 * y1 + y1 * y1) * c;
         sxy += (x0 * y1 + 2.0 * x0 * y0 + 2.0 * x1 * y1 + x1 * y0) * c;
-    }
+    });
     let area = 0.5 * a;
     if area.abs() <= 0.0 {
         return (0.0, centroid(p), [0.0; 3]);

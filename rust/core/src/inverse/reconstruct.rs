@@ -837,14 +837,20 @@ impl Plan<'_> {
         if sys.channel.is_empty() {
             return Ok(vec![]);
         }
-        // The rows kept: every pixel's, or a CFA colour's only (docs/model.md §12).
+        // The rows kept: every pixel's, or a CFA colour's only (docs/model.md §12); each
+        // channel's raw width looked up once, not per row.
+        let cols: Vec<usize> = d
+            .channels
+            .iter()
+            .map(|ch| crate::imaging::render::raw_shape(ch).1)
+            .collect();
         let keep: Vec<bool> = sys
             .channel
             .iter()
             .zip(&sys.pixel)
             .map(|(&c, &p)| {
                 self.req.colour.map_or(true, |(pattern, k)| {
-                    let cols = crate::imaging::render::raw_shape(&d.channels[c as usize]).1;
+                    let cols = cols[c as usize];
                     pattern.colour(p as usize / cols, p as usize % cols) == k
                 })
             })
