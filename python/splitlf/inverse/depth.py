@@ -180,8 +180,11 @@ def estimate_depth(raw: Raw, *, depths: Any, region: Any = None, step: float | N
     be handed to :func:`~splitlf.reconstruct`), ``confidence`` (the least of the most
     confident channel's cost-curve contrast, 1 - min / min(mean, rival minima: more
     than n/16 candidates away, or beyond a ridge twice their cost), and its
-    resolution, 1 / (1 + (w / 0.045)^2) with w the dip's width in relative depth; 0 where
-    the least cost is at an end of the candidates; in [0, 1]), ``confident``
+    resolution, 1 / (1 + (w / 0.045)^2) with w the dip's width in relative depth, read
+    from the curve 5 % of the depth either side of the least cost (or at its neighbours
+    where the candidates are coarser), so that it does not depend on their count; 0 where
+    the least cost is at an end of the candidates or those 5 % reach beyond them; in
+    [0, 1]), ``confident``
     (bool) and ``sweep`` (a :class:`DepthSweep`).
     A raw without texture (all zeros, a uniform albedo) gives no confident cell.
     A mosaiced raw (``raw.cfa``) is matched as its grey raw (``raw.grey()``: each pixel

@@ -1,7 +1,7 @@
 //! The running minima of the cost curves: each layer of costs folded in candidate order
 //! (docs/depth.md), so that the cost volume is never held whole.
 
-use super::{KEEP_MINIMA, RIDGE};
+use super::{KEEP_MINIMA, RESOLUTION_SPAN, RIDGE};
 
 /// Running minima of the cost curves (candidates folded in order).
 pub(super) struct Fold {
@@ -20,6 +20,107 @@ pub(super) struct Fold {
     pub(super) prev2: Vec<f64>,
     /// Per entry the least costs beyond a ridge ([`Ridge`]).
     pub(super) ridge: Vec<Ridge>,
+    /// The costs of the candidates that bracket the points [`RESOLUTION_SPAN`] either side
+    /// of the least cost in ln z ([`Reach`] of its candidate): before it (a, b) and after.
+    pub(super) before: Vec<[f64; 2]>,
+    pub(super) after: Vec<[f64; 2]>,
+    /// Per candidate where the resolution reads the curve ([`reaches`]).
+    pub(super) reach: Vec<Option<Reach>>,
+    /// The last `ring` layers folded, layer k at slot k % ring (the costs before a new
+    /// least cost).
+    hist: Vec<f64>,
+    ring: usize,
+}
+
+/// One side of a least cost at candidate k, where the resolution (`confidence` in the
+/// module above) reads its curve: the cost at `h` from ln z_k, linear in ln z between the
+/// candidates `j` and `j + 1` ((1 − t) C_j + t C_{j+1}; t = 0: C_j alone).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Side {
+    pub(super) j: u32,
+    pub(super) t: f64,
+    pub(super) h: f64,
+}
+
+impl Side {
+    /// The cost at this side from the costs of its candidates (a, b).
+    pub(super) fn cost(&self, ab: [f64; 2]) -> f64 {
+        if self.t == 0.0 {
+            ab[0]
+        } else {
+            (1.0 - self.t) * ab[0] + self.t * ab[1]
+        }
+    }
+}
+
+/// Where the resolution reads the curve of a least cost at candidate k: each side at
+/// [`RESOLUTION_SPAN`] in ln z from it, interpolated between the candidates around that
+/// point, or at the neighbour itself where it lies farther (candidates coarser than the
+/// span); `None` where the span reaches beyond the candidates (the dip is not bracketed
+/// over it: the truth may lie beyond) and at the ends.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Reach {
+    pub(super) left: Side,
+    pub(super) right: Side,
+}
+
+/// [`Reach`] per candidate (increasing, > 0).
+pub(super) fn reaches(candidates: &[f64]) -> Vec<Option<Reach>> {
+    let n = candidates.len();
+    let ln: Vec<f64> = candidates.iter().map(|z| z.ln()).collect();
+    (0..n)
+        .map(|k| {
+            if k == 0 || k + 1 >= n {
+                return None;
+            }
+            let left = if ln[k] - ln[k - 1] >= RESOLUTION_SPAN {
+                Side {
+                    j: k as u32 - 1,
+                    t: 0.0,
+                    h: ln[k] - ln[k - 1],
+                }
+            } else {
+                let u = ln[k] - RESOLUTION_SPAN;
+                // the last j < k − 1 with ln z_j ≤ u (ln z_{j+1} > u)
+                let j = ln[..k].iter().rposition(|&l| l <= u)?;
+                let t = (u - ln[j]) / (ln[j + 1] - ln[j]);
+                Side {
+                    j: j as u32,
+                    t,
+                    h: RESOLUTION_SPAN,
+                }
+            };
+            let right = if ln[k + 1] - ln[k] >= RESOLUTION_SPAN {
+                Side {
+                    j: k as u32 + 1,
+                    t: 0.0,
+                    h: ln[k + 1] - ln[k],
+                }
+            } else {
+                let u = ln[k] + RESOLUTION_SPAN;
+                // the first j + 1 > k + 1 with ln z_{j+1} ≥ u (ln z_j < u)
+                let j1 = k + 2 + ln[k + 2..].iter().position(|&l| l >= u)?;
+                let j = j1 - 1;
+                let t = (u - ln[j]) / (ln[j1] - ln[j]);
+                Side {
+                    j: j as u32,
+                    t,
+                    h: RESOLUTION_SPAN,
+                }
+            };
+            Some(Reach { left, right })
+        })
+        .collect()
+}
+
+/// The ring's length: the farthest back a least cost's left side reads (at least 1).
+fn ring_of(reach: &[Option<Reach>]) -> usize {
+    reach
+        .iter()
+        .enumerate()
+        .filter_map(|(k, r)| r.map(|r| k - r.left.j as usize))
+        .max()
+        .unwrap_or(1)
 }
 
 /// The least costs that lie beyond a ridge from the least cost so far: a cost C_j counts
@@ -85,11 +186,16 @@ fn or_inf(v: f64) -> f64 {
 }
 
 impl Fold {
-    /// Bytes a fold holds per entry (cell and channel).
-    pub(super) const BYTES_PER_ENTRY: u128 =
-        (7 * 8 + 2 * 4 + KEEP_MINIMA * 16 + std::mem::size_of::<Ridge>()) as u128;
+    /// Bytes a fold over `candidates` holds per entry (cell and channel): its minima, its
+    /// ridges and its ring of the last layers ([`reaches`]).
+    pub(super) fn bytes_per_entry(candidates: &[f64]) -> u128 {
+        let ring = ring_of(&reaches(candidates));
+        (11 * 8 + 2 * 4 + KEEP_MINIMA * 16 + std::mem::size_of::<Ridge>() + ring * 8) as u128
+    }
 
-    pub(super) fn new(cells: usize) -> Fold {
+    pub(super) fn new(cells: usize, candidates: &[f64]) -> Fold {
+        let reach = reaches(candidates);
+        let ring = ring_of(&reach);
         Fold {
             min: vec![f64::INFINITY; cells],
             arg: vec![u32::MAX; cells],
@@ -101,6 +207,11 @@ impl Fold {
             prev: vec![f64::NAN; cells],
             prev2: vec![f64::NAN; cells],
             ridge: vec![Ridge::NONE; cells],
+            before: vec![[f64::NAN; 2]; cells],
+            after: vec![[f64::NAN; 2]; cells],
+            reach,
+            hist: vec![f64::NAN; cells * ring],
+            ring,
         }
     }
 
@@ -132,9 +243,26 @@ impl Fold {
     }
 
     pub(super) fn add(&mut self, k: u32, layer: &[f64]) {
+        let cells = layer.len();
+        let ring = self.ring;
+        // A new least cost here reads its left side from the ring (not yet overwritten:
+        // k − j ≤ ring).
+        let back = self.reach.get(k as usize).copied().flatten().map(|r| {
+            let (a, t) = (r.left.j as usize, r.left.t);
+            let b = if t == 0.0 { a } else { a + 1 };
+            (a % ring * cells, b % ring * cells)
+        });
         for (c, &v) in layer.iter().enumerate() {
-            if self.arg[c] != u32::MAX && k > 0 && self.arg[c] == k - 1 {
+            let arg = self.arg[c];
+            if arg != u32::MAX && k > 0 && arg == k - 1 {
                 self.right[c] = v;
+            }
+            if let Some(Some(r)) = self.reach.get(arg as usize) {
+                if k == r.right.j {
+                    self.after[c][0] = v;
+                } else if k == r.right.j + 1 {
+                    self.after[c][1] = v;
+                }
             }
             let p = or_inf(self.prev[c]);
             if k > 0 && p.is_finite() && p < or_inf(self.prev2[c]) && p <= or_inf(v) {
@@ -149,6 +277,9 @@ impl Fold {
                     self.arg[c] = k;
                     self.left[c] = self.prev[c];
                     self.right[c] = f64::NAN;
+                    self.before[c] =
+                        back.map_or([f64::NAN; 2], |(a, b)| [self.hist[a + c], self.hist[b + c]]);
+                    self.after[c] = [f64::NAN; 2];
                 } else {
                     self.ridge[c].after_least(v);
                 }
@@ -156,6 +287,8 @@ impl Fold {
         }
         std::mem::swap(&mut self.prev2, &mut self.prev);
         self.prev.copy_from_slice(layer);
+        let slot = k as usize % ring * cells;
+        self.hist[slot..slot + cells].copy_from_slice(layer);
     }
 
     /// After the last candidate: it is a local minimum when lower than the one before.
@@ -173,9 +306,130 @@ impl Fold {
 mod tests {
     use super::*;
 
+    /// Candidates 100 · 2^k: a relative step (ln 2) far coarser than the span, so K = 1.
+    const UNIFORM: [f64; 16] = {
+        let mut c = [100.0; 16];
+        let mut k = 1;
+        while k < 16 {
+            c[k] = 2.0 * c[k - 1];
+            k += 1;
+        }
+        c
+    };
+
+    /// The cost of the curve at u in ln z, linear in ln z between the candidates around
+    /// it (brute force).
+    fn at(ln: &[f64], curve: &[f64], u: f64) -> f64 {
+        let j = ln.iter().rposition(|&l| l <= u).unwrap();
+        if ln[j] == u {
+            return curve[j];
+        }
+        let t = (u - ln[j]) / (ln[j + 1] - ln[j]);
+        (1.0 - t) * curve[j] + t * curve[j + 1]
+    }
+
+    #[test]
+    fn reaches_read_the_curve_a_fixed_relative_depth_away() {
+        // Coarse candidates: the neighbours.
+        for (k, r) in reaches(&UNIFORM).into_iter().enumerate() {
+            let want = (k > 0 && k < 15).then(|| {
+                let s = |j: usize| Side {
+                    j: j as u32,
+                    t: 0.0,
+                    h: 2f64.ln(),
+                };
+                Reach {
+                    left: s(k - 1),
+                    right: s(k + 1),
+                }
+            });
+            let near = |a: Option<Reach>, b: Option<Reach>| match (a, b) {
+                (None, None) => true,
+                (Some(a), Some(b)) => {
+                    a.left.j == b.left.j
+                        && a.right.j == b.right.j
+                        && (a.left.h - b.left.h).abs() < 1e-12
+                        && (a.right.h - b.right.h).abs() < 1e-12
+                        && a.left.t == 0.0
+                        && a.right.t == 0.0
+                }
+                _ => false,
+            };
+            assert!(near(r, want), "{k} {r:?}");
+        }
+        // 200 candidates uniform in 1/z from 250 mm to 4 m: a cost linear in ln z is read
+        // at ±RESOLUTION_SPAN exactly where the step is finer, at the neighbour where not;
+        // none within the span of the first candidate.
+        let n = 200;
+        let c: Vec<f64> = (0..n)
+            .map(|i| 1.0 / (1.0 / 250.0 + (1.0 / 4000.0 - 1.0 / 250.0) * i as f64 / 199.0))
+            .collect();
+        let ln: Vec<f64> = c.iter().map(|z| z.ln()).collect();
+        let curve: Vec<f64> = ln.iter().map(|l| 3.0 * l + 1.0).collect();
+        let mut coarse = 0;
+        for (k, r) in reaches(&c).into_iter().enumerate() {
+            let inside = k > 0 && k + 1 < n && ln[k] - RESOLUTION_SPAN >= ln[0];
+            assert_eq!(r.is_some(), inside, "{k}");
+            let Some(r) = r else { continue };
+            for (side, sign) in [(r.left, -1.0), (r.right, 1.0)] {
+                let j = side.j as usize;
+                let ab = [curve[j], curve.get(j + 1).copied().unwrap_or(f64::NAN)];
+                let u = ln[k] + sign * side.h;
+                assert!((side.cost(ab) - at(&ln, &curve, u)).abs() < 1e-9, "{k}");
+                if side.t == 0.0 {
+                    assert!(side.h >= RESOLUTION_SPAN && j.abs_diff(k) == 1);
+                    coarse += 1;
+                } else {
+                    assert_eq!(side.h, RESOLUTION_SPAN);
+                }
+            }
+        }
+        assert!(coarse > 10 && coarse < 300, "{coarse}");
+    }
+
+    #[test]
+    fn fold_keeps_the_costs_a_span_either_side_of_the_minimum() {
+        use crate::infra::random::splitmix64;
+        let c: Vec<f64> = (0..40)
+            .map(|k| 500.0 * (k as f64 * RESOLUTION_SPAN / 3.3).exp())
+            .collect();
+        let reach = reaches(&c);
+        let mut seen = 0;
+        for seed in 0..400u64 {
+            let curve: Vec<f64> = (0..40u64)
+                .map(|i| {
+                    let u = splitmix64(seed << 8 | (i + 1));
+                    if u % 23 == 0 {
+                        f64::NAN
+                    } else {
+                        ((u >> 8) % 1000) as f64
+                    }
+                })
+                .collect();
+            let mut f = Fold::new(1, &c);
+            for (k, &v) in curve.iter().enumerate() {
+                f.add(k as u32, &[v]);
+            }
+            let k = f.arg[0] as usize;
+            let Some(r) = reach[k] else { continue };
+            seen += 1;
+            let pair = |s: Side| [curve[s.j as usize], curve[s.j as usize + 1]];
+            let same = |a: f64, b: f64| a == b || (a.is_nan() && b.is_nan());
+            assert!(
+                same(r.left.cost(f.before[0]), r.left.cost(pair(r.left))),
+                "{seed}"
+            );
+            assert!(
+                same(r.right.cost(f.after[0]), r.right.cost(pair(r.right))),
+                "{seed}"
+            );
+        }
+        assert!(seen > 200, "{seen}");
+    }
+
     #[test]
     fn fold_tracks_the_neighbours_of_the_minimum() {
-        let mut f = Fold::new(1);
+        let mut f = Fold::new(1, &UNIFORM);
         for (k, v) in [5.0, 3.0, 1.0, 2.0, 4.0].into_iter().enumerate() {
             f.add(k as u32, &[v]);
         }
@@ -191,7 +445,7 @@ mod tests {
 
     #[test]
     fn fold_keeps_the_least_local_minima() {
-        let mut f = Fold::new(1);
+        let mut f = Fold::new(1, &UNIFORM);
         for (k, v) in [1.0, 4.0, 2.0, 3.0, f64::NAN, 5.0, 0.5]
             .into_iter()
             .enumerate()
@@ -251,7 +505,7 @@ mod tests {
                     }
                 })
                 .collect();
-            let mut f = Fold::new(1);
+            let mut f = Fold::new(1, &UNIFORM);
             for (k, &v) in curve.iter().enumerate() {
                 f.add(k as u32, &[v]);
             }
@@ -263,7 +517,7 @@ mod tests {
         assert!(found > 1000, "{found}");
         // The R12's case (docs/depth.md): a least cost beside a second dip three
         // candidates away behind a ridge; the far rival misses it, the ridge does not.
-        let mut f = Fold::new(1);
+        let mut f = Fold::new(1, &UNIFORM);
         for (k, v) in [0.8, 0.051, 0.12, 0.28, 0.058, 0.075, 0.2, 0.8]
             .into_iter()
             .enumerate()
