@@ -11,6 +11,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
 use crate::imaging::cfa::Pattern;
+use crate::imaging::render::raw_shape;
 use crate::imaging::scene::Surface;
 use crate::infra::error::{Error, Result};
 use crate::infra::memory;
@@ -837,13 +838,8 @@ impl Plan<'_> {
         if sys.channel.is_empty() {
             return Ok(vec![]);
         }
-        // The rows kept: every pixel's, or a CFA colour's only (docs/model.md §12); each
-        // channel's raw width looked up once, not per row.
-        let cols: Vec<usize> = d
-            .channels
-            .iter()
-            .map(|ch| crate::imaging::render::raw_shape(ch).1)
-            .collect();
+        // The rows kept: every pixel's, or a CFA colour's only (docs/model.md §12).
+        let cols: Vec<_> = d.channels.iter().map(|ch| raw_shape(ch).1).collect();
         let keep: Vec<bool> = sys
             .channel
             .iter()
