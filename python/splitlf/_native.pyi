@@ -492,6 +492,15 @@ def solve_normal(
     progress: Callable[[int, int], object] | None = None,
 ) -> tuple[_F64, int, float]: ...
 
+def image_merits(
+    design: DesignCore,
+    z: float,
+    request: dict[str, Any],
+    edge: RenderScene | None = None,
+    n_threads: int | None = None,
+    progress: Callable[[int, int], object] | None = None,
+) -> dict[str, Any]: ...
+
 def reconstruct(
     design: DesignCore,
     images: list[_F64],
