@@ -23,6 +23,7 @@ __all__ = [
     "DesignDepthOfFieldIntervals",
     "DesignSamplesArrays",
     "FootprintArrays",
+    "image_merits",
     "MAX_CELLS",
     "MAX_CHANNELS",
     "MAX_COINCIDENCE_WORK",
