@@ -48,6 +48,7 @@ SLOW = {
     'test_merits.py::test_expected_error_is_the_dense_closed_form[300.0]': 25,
     'test_merits.py::test_edge_response_is_the_dense_estimators_mean': 25,
     'test_merits.py::test_least_error_lambda_is_the_closed_forms_minimum': 25,
+    'test_merits.py::test_gcv_lambda_is_the_expected_scores_minimum': 55,
     'test_colour.py::test_a_colour_is_reconstructed_from_its_own_pixels_only[sensor]': 15,
     'test_colour.py::test_colour_reconstruction_against_the_full_grey_raw': 25,
     'test_render_falloff.py::test_mc_illum_image': 26,

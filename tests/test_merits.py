@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+import scipy.linalg
 
 import splitlf
 from splitlf import _native
@@ -29,11 +30,12 @@ def _small() -> splitlf.Design:
                                     for c in d.channels))
 
 
-def _request(lam: float | None, samples: int, seed: int = 3) -> dict[str, Any]:
+def _request(lam: float | None, samples: int, seed: int = 3,
+             rule: str = "oracle") -> dict[str, Any]:
     return {"channels": [1], "lens_types": None, "photons": PHOTONS,
             "ensemble": (ENSEMBLE.mean, ENSEMBLE.amplitude, ENSEMBLE.exponent), "patch": 8,
-            "step": None, "regularization": lam,
-            "settings": (NOISE_FLOOR, 1e-10, 5000, samples, 1e-2, 1e4, 4, seed, 1.0)}
+            "step": None, "regularization": lam, "rule": rule,
+            "settings": (NOISE_FLOOR, 1e-10, 5000, samples, 1e-2, 1e4, 4, seed, 1.0, 4, 1e-6)}
 
 
 def _dense(design: splitlf.Design, out: dict[str, Any]) -> dict[str, Any]:
@@ -134,6 +136,54 @@ def test_least_error_lambda_is_the_closed_forms_minimum() -> None:
     assert at <= best * 1.05 + 3.0 * out["error"], (at, best, out["lam"])
 
 
+def _gcv_parts(m: dict[str, Any]) -> dict[str, Any]:
+    """The pencil N = A'WA, R = D'D diagonalised once (scipy.linalg.eigh(N, N + R): V'NV =
+    diag(mu), V'(N + R)V = I, so V'(N + lam R)V = diag(mu + lam (1 - mu))), for GCV's
+    closed form at many lambda."""
+    a, w = m["a"], m["w"]
+    n = a.T @ (w[:, None] * a)
+    mu, v = scipy.linalg.eigh(n, n + m["r"])
+    g = a @ v
+    cy = a @ m["cov"] @ a.T + np.diag(1.0 / w)
+    return {"mu": mu, "g": g, "w": w, "cy": cy}
+
+
+def _expected_gcv(parts: dict[str, Any], lam: float) -> tuple[float, float, float]:
+    """GCV's parts in expectation over the ensemble and the noise, closed form: df =
+    tr(M^-1 A'WA) = sum mu / (mu + lam (1 - mu)), E RSS = tr(W P (A C A' + W^-1) P'),
+    P = I - A M^-1 A'W (the mean albedo drops out: P A 1 = 0 as D 1 = 0), and the score
+    m E RSS / (m - df)^2."""
+    mu, g, w = parts["mu"], parts["g"], parts["w"]
+    d = 1.0 / (mu + lam * (1.0 - mu))
+    df = float(np.sum(mu * d))
+    p = np.eye(g.shape[0]) - (g * d[None, :]) @ g.T * w[None, :]
+    rss = float(np.trace((w[:, None] * p) @ parts["cy"] @ p.T))
+    rows = g.shape[0]
+    return df, rss, rows * rss / (rows - df) ** 2
+
+
+def test_gcv_lambda_is_the_expected_scores_minimum() -> None:
+    """rule "gcv": at each lambda tried, df within 4 Hutchinson standard errors (4 probes,
+    variance at most 2 tr(H^2) <= 2 df per probe) of the dense trace, the draws' mean RSS
+    within 5 % of its expectation (16 draws: about 1.5 % scatter), and the chosen lambda's
+    expected score within 3 % of the least of a fine grid's (the score's valley is flat)."""
+    d = _small()
+    out = _native.image_merits(d.core, Z, _request(None, 16, rule="gcv"), None, n_threads=2)
+    m = _dense(d, out)
+    parts = _gcv_parts(m)
+    assert out["gcv"] and out["lam"] == min(out["gcv"], key=lambda t: t[1])[0]
+    assert out["rows"] == m["a"].shape[0]
+    for lam, _score, rss, df in out["gcv"]:
+        want_df, want_rss, _ = _expected_gcv(parts, lam)
+        assert abs(df - want_df) <= 4.0 * math.sqrt(2.0 * want_df / 4.0), (lam, df, want_df)
+        assert abs(rss - want_rss) <= 0.05 * want_rss, (lam, rss, want_rss)
+    best = min(_expected_gcv(parts, lam)[2] for lam in np.geomspace(1e-2, 1e4, 97))
+    assert _expected_gcv(parts, out["lam"])[2] <= 1.03 * best, (out["lam"], best)
+    # The expected error there against the closed form, as at a given lambda.
+    want = _expected_mse(m, out["lam"])
+    assert abs(out["mse"] - want) <= 3.0 * out["error"] + 0.02 * want
+
+
 def test_ensemble_fit_recovers_a_draws_spectrum() -> None:
     """Ensemble.fit on a draw of the merits' synthesis (docs/merits.md: periodic, 256 x 256)
     recovers its exponent within 0.25 and amplitude within 25 % (measured: +0.16 and
@@ -178,3 +228,5 @@ def test_image_merits_rows_and_checks() -> None:
         Ensemble(0.5, 0.1, 5.0)
     with pytest.raises(InvalidParameter, match="margin"):
         image_merits(cut, [800.0], ensemble=ENSEMBLE, margin=0.5)
+    with pytest.raises(InvalidParameter, match="rule.*gcv, oracle"):
+        image_merits(cut, [800.0], ensemble=ENSEMBLE, rule="best")

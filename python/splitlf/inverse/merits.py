@@ -8,7 +8,10 @@ over a patch of cells at the field's centre, padded by ``margin`` pixel spans, w
 rows by the photon noise of a flat scene at the ensemble's mean, and estimates the
 estimator's expected squared error over a power-law Gaussian ensemble (:class:`Ensemble`)
 with ``samples`` Monte-Carlo draws of image and noise (one CG solve each per weight
-tried), at the prior weight of least expected error. This module chooses the rows,
+tried), at the prior weight a reconstruction would choose from the draws' data
+(``rule="gcv"``: generalised cross-validation as ``reconstruct(regularization=None)``
+chooses it, on the draws' mean score) or, for comparison, at the weight of least expected
+error (``rule="oracle"``, which no reconstruction can know). This module chooses the rows,
 converts the error to PSNR (peak 1, as :func:`splitlf.measure.psnr`) and the edge's
 expected image to MTF50 (:func:`splitlf.measure.mtf50_image`) as a share of the sensor's
 Nyquist frequency 1 / (2 delta(z)).
@@ -27,15 +30,19 @@ from .. import _native, _validate
 from ..errors import InvalidParameter
 from ..imaging.texture import SlantedEdge
 from .measure import mtf50_image
-from .reconstruct import NOISE_FLOOR
+from .reconstruct import (CHOOSE_BRACKET, CHOOSE_GOLDEN_STEPS, CHOOSE_PROBE_RTOL,
+                          CHOOSE_PROBES, NOISE_FLOOR)
 
 __all__ = ["Ensemble", "ImageMerits", "image_merits"]
 
 #: CG's relative stop and iteration cap in the merits' solves.
 MERIT_RTOL = 1e-4
 MERIT_MAX_ITER = 500
+#: The rules of the prior's weight: GCV on the draws' data (a reconstruction's), or the
+#: least expected error (the oracle's).
+RULES = ("gcv", "oracle")
 #: The bracket of the prior's weight (inverse-variance units, as reconstruct's) and the
-#: golden-section steps of the search for the least expected error.
+#: golden-section steps of the search for the least expected error (rule "oracle").
 MERIT_BRACKET = (1e-2, 1e4)
 MERIT_GOLDEN_STEPS = 4
 #: The edge of the MTF50: the study's (docs/fig2.md), through the field's centre.
@@ -96,7 +103,7 @@ class ImageMerits:
     """The merits per row (``"channel i"``, ``"type t"``, ``"union"``) over ``depths``:
     ``psnr`` [dB] with ``psnr_error`` (the draws' standard error, dB), ``mtf50`` (share of
     the sensor's Nyquist frequency 1 / (2 delta(z)); NaN when the edge's transfer never
-    falls to half below it), ``regularization`` (the weight of least expected error) and
+    falls to half below it), ``regularization`` (the weight the rule chose) and
     ``seconds`` (per depth, the row's call), each an array over the depths; with the
     photons and the ensemble."""
 
@@ -132,7 +139,7 @@ def _rows(design: Any, rows: Any) -> dict[str, tuple[list[int], list[int] | None
 
 def image_merits(design: Any, depths: Any, photons: float = 2000.0, *,
                  ensemble: Ensemble | None = None, rows: Any = None, patch: int = 48,
-                 samples: int = 4, margin: float = 2.0, seed: int = 0,
+                 samples: int = 4, margin: float = 2.0, seed: int = 0, rule: str = "gcv",
                  n_threads: int | None = None) -> ImageMerits:
     """The image merits of ``design`` at each of ``depths`` (docs/merits.md).
 
@@ -144,6 +151,9 @@ def image_merits(design: Any, depths: Any, photons: float = 2000.0, *,
       alone, every lens type alone (when there are several) and the union
     - ``patch``: the patch's side in cells of delta(z), 8 to 256; ``samples``: the draws,
       2 to 64; ``margin``: the padding in pixel spans, 1 to 8; ``seed``: the draws' seed
+    - ``rule``: the prior's weight: ``"gcv"`` chosen from the draws' data as
+      ``reconstruct(regularization=None)`` chooses it (bracket ``CHOOSE_BRACKET``, probes
+      ``CHOOSE_PROBES``), or ``"oracle"``, the weight of least expected error
     - ``n_threads``: threads of the core (None: all cores)
     """
     d = _validate.design(design)
@@ -154,6 +164,12 @@ def image_merits(design: Any, depths: Any, photons: float = 2000.0, *,
     m = _validate.finite(margin, "margin")
     s = _validate.integer_in(seed, "seed", 0, 2 ** 63 - 1)
     threads = _validate.n_threads(n_threads)
+    if not isinstance(rule, str):
+        raise TypeError(f"rule must be a str, got {type(rule).__name__}")
+    if rule not in RULES:
+        raise InvalidParameter.of("rule", rule, f"one of {', '.join(RULES)}")
+    bracket, golden = ((CHOOSE_BRACKET, CHOOSE_GOLDEN_STEPS) if rule == "gcv"
+                       else (MERIT_BRACKET, MERIT_GOLDEN_STEPS))
     if ensemble is None:
         ensemble = natural_ensemble()
     if not isinstance(ensemble, Ensemble):
@@ -169,9 +185,9 @@ def image_merits(design: Any, depths: Any, photons: float = 2000.0, *,
         for name, (chans, types) in chosen.items():
             req = {"channels": chans, "lens_types": types, "photons": n,
                    "ensemble": (ensemble.mean, ensemble.amplitude, ensemble.exponent),
-                   "patch": p, "step": None, "regularization": None,
-                   "settings": (NOISE_FLOOR, MERIT_RTOL, MERIT_MAX_ITER, k, *MERIT_BRACKET,
-                                MERIT_GOLDEN_STEPS, s, m)}
+                   "patch": p, "step": None, "regularization": None, "rule": rule,
+                   "settings": (NOISE_FLOOR, MERIT_RTOL, MERIT_MAX_ITER, k, *bracket,
+                                golden, s, m, CHOOSE_PROBES, CHOOSE_PROBE_RTOL)}
             t0 = time.perf_counter()
             r = _native.image_merits(d.core, float(zi), req, scene, n_threads=threads)
             row = out[name]

@@ -17,9 +17,10 @@ use crate::model::design::DesignCore;
 /// A merit's request, from a dict (Python has checked the types and ranges; the core
 /// checks again): `channels` (numbered from 1), `lens_types` (from 1; None: every type),
 /// `photons` for white, `ensemble` (mean, amplitude, exponent), `patch` (cells a side),
-/// `step` (None: δ(z)), `regularization` (None: the least expected error) and `settings`
-/// (noise floor, CG rtol, CG max_iter, draws, λ lo, λ hi, golden steps, seed, margin in
-/// pixel spans).
+/// `step` (None: δ(z)), `regularization` (None: chosen by `rule`, "gcv" from the draws'
+/// data as a reconstruction chooses it, or "oracle", the least expected error) and
+/// `settings` (noise floor, CG rtol, CG max_iter, draws, λ lo, λ hi, golden steps, seed,
+/// margin in pixel spans, GCV's probes, the probes' rtol).
 #[derive(FromPyObject)]
 #[pyo3(from_item_all)]
 pub(crate) struct MeritRequest {
@@ -30,12 +31,26 @@ pub(crate) struct MeritRequest {
     patch: usize,
     step: Option<f64>,
     regularization: Option<f64>,
-    settings: (f64, f64, usize, usize, f64, f64, usize, u64, f64),
+    rule: String,
+    settings: (
+        f64,
+        f64,
+        usize,
+        usize,
+        f64,
+        f64,
+        usize,
+        u64,
+        f64,
+        usize,
+        f64,
+    ),
 }
 
 /// The merits of `design` at depth `z` (a fronto-parallel plane) as `request` asks
 /// ([`MeritRequest`]), with the mean response to the texture of `edge` (a scene; None:
-/// none). Returns a dict: lam, mse, error, draws, trials ((lam, mse, error) each), edge
+/// none). Returns a dict: lam, mse, error, draws, trials ((lam, mse, error) each), gcv
+/// ((lam, score, RSS, df) each, GCV's trials), edge
 /// ((ny, nx) array or None), extent, step, padded (nx, ny), rows, iterations.
 /// `progress(done, total)` counts CG iterations.
 #[pyfunction]
@@ -67,8 +82,31 @@ pub(crate) fn image_merits<'py>(
                 .collect::<PyResult<Vec<usize>>>()?,
         ),
     };
-    let (noise_floor, rtol, max_iter, samples, lo, hi, golden_steps, seed, margin) =
-        request.settings;
+    let (
+        noise_floor,
+        rtol,
+        max_iter,
+        samples,
+        lo,
+        hi,
+        golden_steps,
+        seed,
+        margin,
+        probes,
+        probe_rtol,
+    ) = request.settings;
+    let lambda = match (request.regularization, request.rule.as_str()) {
+        (Some(l), _) => core_merit::Lambda::Given(l),
+        (None, "gcv") => core_merit::Lambda::Gcv,
+        (None, "oracle") => core_merit::Lambda::Oracle,
+        (None, r) => {
+            return Err(to_py(splitlf_core::Error::param(
+                "rule",
+                r,
+                "\"gcv\" or \"oracle\"",
+            )))
+        }
+    };
     let (mean, amplitude, exponent) = request.ensemble;
     let scene = edge.map(|s| Arc::clone(&s.get().inner));
     let d = &design.inner;
@@ -88,7 +126,7 @@ pub(crate) fn image_merits<'py>(
             edge: scene.as_ref().map(|s| &s.texture),
             patch: request.patch,
             step: request.step,
-            regularization: request.regularization,
+            lambda,
             settings: core_merit::Settings {
                 noise_floor,
                 rtol,
@@ -99,6 +137,8 @@ pub(crate) fn image_merits<'py>(
                 golden_steps,
                 seed,
                 margin,
+                probes,
+                probe_rtol,
             },
             n_threads: threads,
         };
@@ -111,6 +151,12 @@ pub(crate) fn image_merits<'py>(
     dict.set_item("draws", out.draws)?;
     let trials: Vec<(f64, f64, f64)> = out.trials.iter().map(|t| (t.lam, t.mse, t.error)).collect();
     dict.set_item("trials", trials)?;
+    let gcv: Vec<(f64, f64, f64, f64)> = out
+        .gcv
+        .iter()
+        .map(|t| (t.lam, t.score, t.rss, t.df))
+        .collect();
+    dict.set_item("gcv", gcv)?;
     let edge = match out.edge {
         Some(v) => Some(crate::infra::arrays::filled::<f64, numpy::Ix2>(
             py,

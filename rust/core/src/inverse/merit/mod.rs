@@ -15,8 +15,12 @@
 //! the reconstruction's) of (AᵀWA + λDᵀD) x̂_k = AᵀW (A x_k + n_k), and the merit is the
 //! mean of ‖x̂_k − x_k‖² over the cells and draws, with the draws' standard error. The
 //! same draws serve every λ (common random numbers: the estimate's error changes smoothly
-//! with λ). λ is given, or the one of least expected error: decades down from the
-//! bracket's top, stopped a decade past the least, then golden sections in log λ.
+//! with λ). λ ([`Lambda`]) is given; or chosen from the data as a reconstruction chooses
+//! it (`Gcv`, the default: generalised cross-validation, `inverse::choose`, on the draws'
+//! data y_k = A x_k + n_k, the λ of the least mean score m RSS / (m − df)², df by the
+//! same Hutchinson probes); or the one of least expected error (`Oracle`, which a
+//! reconstruction cannot know): decades down from the bracket's top, stopped a decade past
+//! the least, then golden sections in log λ.
 //!
 //! The modulation transfer: at that λ, the estimator's mean response to a slanted edge
 //! (the edge's cell averages x_e, x̂_e = (AᵀWA + λDᵀD)⁻¹ AᵀWA x_e, noise-free: the
@@ -30,6 +34,8 @@ use std::sync::atomic::AtomicUsize;
 
 use crate::imaging::texture::Texture;
 use crate::infra::error::{Error, Result};
+use crate::inverse::choose::{self, DataSet, Rule};
+use crate::inverse::reconstruct::MAX_PRIOR_SHARE;
 use crate::inverse::solve::{self, Normal, Start, Stop};
 use crate::model::design::Design;
 
@@ -52,12 +58,24 @@ pub struct Settings {
     /// The padding, in pixel spans beyond the patch (a reconstruction pads by one; the
     /// patch's padded cells are seen by fewer pixels than a region's, so more are taken).
     pub margin: f64,
+    /// The Hutchinson probes of GCV's df and their solves' relative stop.
+    pub probes: usize,
+    pub probe_rtol: f64,
+}
+
+/// How λ is had: given; chosen by GCV on the draws' data (a reconstruction's rule); or the
+/// least expected error (the oracle's).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Lambda {
+    Given(f64),
+    Gcv,
+    Oracle,
 }
 
 /// One merit's inputs: the design and depth (a fronto-parallel plane), the channels and
 /// lens types (from 0; None: every type), the photons N for white, the ensemble, the edge
-/// for the transfer (None: none), the patch's side (cells), the step (None: δ(z)), λ
-/// (None: the least expected error), the settings and the threads.
+/// for the transfer (None: none), the patch's side (cells), the step (None: δ(z)), how λ
+/// is had, the settings and the threads.
 #[derive(Clone, Debug)]
 pub struct Request<'a> {
     pub design: &'a Design,
@@ -69,7 +87,7 @@ pub struct Request<'a> {
     pub edge: Option<&'a Texture>,
     pub patch: usize,
     pub step: Option<f64>,
-    pub regularization: Option<f64>,
+    pub lambda: Lambda,
     pub settings: Settings,
     pub n_threads: Option<usize>,
 }
@@ -83,7 +101,7 @@ pub struct Trial {
 }
 
 /// The merits: λ used, the expected squared error per cell (mean over draws) with its
-/// standard error and each draw's, every λ tried, the edge's expected image over the patch
+/// standard error and each draw's, every λ whose expected error was found, the edge's expected image over the patch
 /// (ny × nx, row-major from the top), the patch's grid (extent, step, nx, ny), the padded
 /// grid's size, the rows and the solves' iterations.
 #[derive(Clone, Debug)]
@@ -93,6 +111,8 @@ pub struct Outcome {
     pub error: f64,
     pub draws: Vec<f64>,
     pub trials: Vec<Trial>,
+    /// GCV's trials (score, RSS, df per λ; empty unless λ was chosen by GCV).
+    pub gcv: Vec<choose::Trial>,
     pub edge: Option<Vec<f64>>,
     pub extent: [f64; 4],
     pub step: f64,
@@ -128,20 +148,24 @@ fn check(req: &Request<'_>) -> Result<()> {
             "0 < lo < hi, finite",
         ));
     }
-    if let Some(l) = req.regularization {
+    if let Lambda::Given(l) = req.lambda {
         if !(l.is_finite() && l > 0.0) {
             return Err(Error::param("regularization", l, "a finite value > 0"));
         }
+    }
+    if req.lambda == Lambda::Gcv && !(1..=64).contains(&s.probes) {
+        return Err(Error::param("probes", s.probes, "an integer in [1, 64]"));
     }
     req.ensemble.checked()?;
     Ok(())
 }
 
-/// The draws' fixed parts: each image x_k and its right-hand side AᵀW (A x_k + n_k), and
-/// the last solution at each (warm starts).
+/// The draws' fixed parts: each image x_k, its right-hand side AᵀW (A x_k + n_k) and
+/// Σ w y², and the last solution at each (warm starts).
 struct Draws {
     x: Vec<Vec<f64>>,
     rhs: Vec<Vec<f64>>,
+    yy: Vec<f64>,
     last: Vec<Option<Vec<f64>>>,
 }
 
@@ -155,6 +179,7 @@ struct Search<'a> {
     done: &'a AtomicUsize,
     trials: Vec<Trial>,
     per_draw: Vec<Vec<f64>>,
+    gcv: Vec<choose::Trial>,
     iterations: usize,
 }
 
@@ -222,6 +247,49 @@ impl Search<'_> {
             .unwrap_or(0);
         Ok(self.trials[i].lam)
     }
+
+    /// λ by GCV on the draws' data (`inverse::choose`, with a reconstruction's bracket cap
+    /// at MAX_PRIOR_SHARE times the data's mean weight per cell), then its trial (the
+    /// expected error there, warm-started from the choice's last solutions).
+    fn gcv(&mut self, s: Settings) -> Result<f64> {
+        let mut work = self.normal.work()?;
+        let mut diag = vec![0.0; self.normal.cells()];
+        let mean = self.normal.diagonal(&mut work, &mut diag) / diag.len().max(1) as f64;
+        drop((work, diag));
+        let hi = s.hi.min(MAX_PRIOR_SHARE * mean);
+        let cfg = choose::Config {
+            lo: s.lo.min(hi / 10.0),
+            hi,
+            golden_steps: s.golden_steps,
+            probes: s.probes,
+            budget: usize::MAX / 4,
+            data: self.stop,
+            probe: Stop::relative(s.probe_rtol, s.max_iter),
+            df_weight: 1.0,
+        };
+        let sets = (0..self.draws.x.len())
+            .map(|k| DataSet {
+                rhs: self.draws.rhs[k].clone(),
+                yy: self.draws.yy[k],
+                last: None,
+            })
+            .collect();
+        let (choice, sets) = choose::choose_sets(
+            &mut self.normal,
+            Rule::Gcv,
+            cfg,
+            sets,
+            self.threads,
+            self.done,
+        )?;
+        self.iterations += choice.trials.iter().map(|t| t.iterations).sum::<usize>();
+        for (last, set) in self.draws.last.iter_mut().zip(sets) {
+            *last = set.last;
+        }
+        self.gcv = choice.trials;
+        self.trial(choice.lam)?;
+        Ok(choice.lam)
+    }
 }
 
 /// The merits of one design at one depth (module doc); `done` counts CG iterations.
@@ -233,13 +301,16 @@ pub fn image_merits(req: &Request<'_>, done: &AtomicUsize) -> Result<Outcome> {
     let mut draws = Draws {
         x: vec![],
         rhs: vec![],
+        yy: vec![],
         last: vec![None; s.samples],
     };
     for k in 0..s.samples {
         let seed = s.seed.wrapping_mul(1_000_003).wrapping_add(k as u64);
         let x = req.ensemble.draw(nx, ny, 2 * seed)?;
         let xi = normals(patch.rows, 2 * seed + 1);
-        draws.rhs.push(patch.data_rhs(&x, Some(&xi)));
+        let (rhs, yy) = patch.data(&x, Some(&xi));
+        draws.rhs.push(rhs);
+        draws.yy.push(yy);
         draws.x.push(x);
         crate::infra::parallel::checkpoint()?;
     }
@@ -253,14 +324,16 @@ pub fn image_merits(req: &Request<'_>, done: &AtomicUsize) -> Result<Outcome> {
         done,
         trials: vec![],
         per_draw: vec![],
+        gcv: vec![],
         iterations: 0,
     };
-    let lam = match req.regularization {
-        Some(l) => {
+    let lam = match req.lambda {
+        Lambda::Given(l) => {
             search.trial(l)?;
             l
         }
-        None => search.least(s.lo, s.hi, s.golden_steps)?,
+        Lambda::Gcv => search.gcv(s)?,
+        Lambda::Oracle => search.least(s.lo, s.hi, s.golden_steps)?,
     };
     let i = search
         .trials
@@ -272,7 +345,7 @@ pub fn image_merits(req: &Request<'_>, done: &AtomicUsize) -> Result<Outcome> {
         Some(tex) => {
             search.normal.set_regularization(lam)?;
             let xe = crate::inverse::system::cell_averages(tex, &patch.grid);
-            let rhs = patch.data_rhs(&xe, None);
+            let (rhs, _) = patch.data(&xe, None);
             let start = Start {
                 rhs: Some(&rhs),
                 x0: Some(&xe),
@@ -289,6 +362,7 @@ pub fn image_merits(req: &Request<'_>, done: &AtomicUsize) -> Result<Outcome> {
         error: t.error,
         draws: search.per_draw[i].clone(),
         trials: search.trials.clone(),
+        gcv: search.gcv.clone(),
         edge,
         extent: patch.inner.extent(),
         step: patch.inner.step,

@@ -100,23 +100,25 @@ impl Patch {
         self.sigma.iter().map(Vec::len).sum()
     }
 
-    /// Aᵀ W (A x + σ ξ) over the grid: the right-hand side of data from image `x` with
+    /// Aᵀ W y over the grid and Σ w y² for the data y = A x + σ ξ from image `x` with
     /// noise σ ξ per row slot (`xi` over [`Patch::slots`]; None: noise-free).
-    pub fn data_rhs(&self, x: &[f64], xi: Option<&[f64]>) -> Vec<f64> {
+    pub fn data(&self, x: &[f64], xi: Option<&[f64]>) -> (Vec<f64>, f64) {
         let nx = self.grid.nx;
         let mut out = vec![0.0; self.grid.cells()];
-        let mut at = 0;
+        let (mut at, mut yy) = (0, 0.0);
         for (b, sig) in self.blocks.iter().zip(&self.sigma) {
             let mut v = forward(b, x, nx);
             let w = weights(b);
             for (i, vi) in v.iter_mut().enumerate() {
                 let noise = xi.map_or(0.0, |xi| xi.get(at + i).copied().unwrap_or(0.0));
-                *vi = w[i] * (*vi + sig[i] * noise);
+                let y = *vi + sig[i] * noise;
+                yy += w[i] * y * y;
+                *vi = w[i] * y;
             }
             at += sig.len();
             back(b, &v, nx, &mut out);
         }
-        out
+        (out, yy)
     }
 
     /// The mean squared difference of `a` and `b` (grid vectors) over the inner cells.
