@@ -75,7 +75,7 @@ impl Ensemble {
         let mut u: Vec<fft::Complex> = (0..g * g)
             .map(|i| {
                 let h = self.gain(i % g, i / g, g);
-                (h * z[2 * i], h * z[2 * i + 1])
+                fft::Complex::new(h * z[2 * i], h * z[2 * i + 1])
             })
             .collect();
         fft::fft2(&mut u, g, true)?;
@@ -84,7 +84,7 @@ impl Ensemble {
             out.extend(
                 u[j * g..j * g + nx]
                     .iter()
-                    .map(|c| self.mean + c.0 / g as f64),
+                    .map(|c| self.mean + c.re / g as f64),
             );
         }
         Ok(out)
