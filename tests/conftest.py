@@ -49,6 +49,8 @@ SLOW = {
     'test_merits.py::test_edge_response_is_the_dense_estimators_mean': 25,
     'test_merits.py::test_least_error_lambda_is_the_closed_forms_minimum': 25,
     'test_merits.py::test_gcv_lambda_is_the_expected_scores_minimum': 55,
+    'test_evaluate.py::test_sweep_image_merit_is_image_merits': 300,
+    'test_merits.py::test_image_merits_rows_and_checks': 35,
     'test_colour.py::test_a_colour_is_reconstructed_from_its_own_pixels_only[sensor]': 15,
     'test_colour.py::test_colour_reconstruction_against_the_full_grey_raw': 25,
     'test_render_falloff.py::test_mc_illum_image': 26,
