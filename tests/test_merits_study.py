@@ -1,7 +1,9 @@
 """The image merits against a full-field study computed in the test (docs/merits.md,
 "Agreement"): docs/fig2.md's procedure on a smaller cut of the seed.
 
-Study side, as docs/make_fig2.py: the seed cut to 12 x 8 lenses per half; at each depth a
+Study side, as docs/make_fig2.py: its design, the seed cut to 24 x 16 lenses per half (a
+smaller cut's field is narrower than the merits' padded patch: measured on 12 x 8 at
+642 mm, half 2's merit lay 3.5 dB under its study); at each depth a
 natural image (scikit-image's ``camera``, 0.1 + 0.8 of its grey levels, 512 x 512 texture
 cells, each well under a tenth of a reconstruction cell) and a 5-degree slanted edge
 (analytic) rendered by ``splitlf.render`` (exact route) with photon noise (N = 2000 for
@@ -28,16 +30,19 @@ from splitlf.inverse.merits import Ensemble, image_merits
 PHOTONS = 2000.0
 DEPTHS = (642.0, 1000.0)
 ROWS = {"channel 1": 1, "channel 2": 2, "union": None}
-#: The bounds the test holds (docs/merits.md: the issue's 1 dB and 0.03 of Nyquist are not
-#: met; measured on docs/fig2.md's cut, the merit's PSNR lies from 1.8 dB below the study's
-#: (half 2 beyond 500 mm) to 1.4 dB above (half 1, split), MTF50 within 0.1 of Nyquist).
-PSNR_BOUND = 2.5
-MTF50_BOUND = 0.1
+#: The bounds the test holds, not the issue's 1 dB and 0.03 of Nyquist (docs/merits.md: not
+#: met). On docs/fig2.md's depths at N = 2000 the merit's PSNR lies from 1.75 dB below the
+#: study's mean of two draws (half 2, 800 mm) to 1.62 dB above (split, 1400 mm), its MTF50
+#: within 0.094 of Nyquist (half 1, 800 mm: the study's own MTF50 is fragile there) and
+#: within 0.02 at 642 and 1000 mm; one study draw scatters by about 0.3 dB and 0.02 more.
+#: Measured here (one draw): PSNR -0.94 to +1.53 dB, MTF50 -0.028 to +0.023.
+PSNR_BOUND = 2.0
+MTF50_BOUND = 0.05
 
 
 def _cut() -> splitlf.Design:
     seed = splitlf.Design.preset("seed")
-    return seed.replace(channels=tuple(c.replace(Kx=12, Ky=8) for c in seed.channels))
+    return seed.replace(channels=tuple(c.replace(Kx=24, Ky=16) for c in seed.channels))
 
 
 def _region(design: splitlf.Design, z: float) -> tuple[float, float, float, float]:
@@ -72,8 +77,10 @@ def _study(design: splitlf.Design, z: float) -> dict[str, tuple[float, float, np
 @pytest.mark.slow
 @pytest.mark.parametrize("z", DEPTHS)
 def test_merits_agree_with_the_rendered_study(z: float) -> None:
-    """At each depth and row, |merit - study| <= PSNR_BOUND dB and <= MTF50_BOUND of
-    Nyquist (the bounds measured on docs/fig2.md's depths, docs/merits.md)."""
+    """At each depth and row, |merit - study| <= PSNR_BOUND (2 dB) and <= MTF50_BOUND
+    (0.05 of Nyquist): the largest gaps measured on docs/fig2.md's depths at N = 2000 (1.75
+    dB; 0.02 at these depths) with one study draw's scatter (about 0.3 dB, 0.02) on top
+    (docs/merits.md, "Agreement"). About 6 minutes on 2 loaded cores: slow tier."""
     d = _cut()
     study = _study(d, z)
     for row, (psnr, mtf, truth) in study.items():
