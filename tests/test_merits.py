@@ -230,3 +230,13 @@ def test_image_merits_rows_and_checks() -> None:
         image_merits(cut, [800.0], ensemble=ENSEMBLE, margin=0.5)
     with pytest.raises(InvalidParameter, match="rule.*gcv, oracle"):
         image_merits(cut, [800.0], ensemble=ENSEMBLE, rule="best")
+
+
+def test_rows_of_the_same_pixels_are_one_computation() -> None:
+    """A one-channel design's "channel 1" and "union" are the same rows: the same numbers,
+    the seconds too (one computation reported under both names)."""
+    d = _small()
+    r = image_merits(d, [Z], PHOTONS, ensemble=ENSEMBLE, patch=24, samples=2)
+    assert set(r.rows) == {"channel 1", "union"}
+    for q in ("psnr", "psnr_error", "mtf50", "regularization", "seconds"):
+        np.testing.assert_array_equal(r.rows["channel 1"][q], r.rows["union"][q])

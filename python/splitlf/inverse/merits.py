@@ -110,7 +110,9 @@ class ImageMerits:
     the sensor's Nyquist frequency 1 / (2 delta(z)); NaN when the edge's transfer never
     falls to half below it), ``regularization`` (the weight the rule chose) and
     ``seconds`` (per depth, the row's call), each an array over the depths; with the
-    photons and the ensemble."""
+    photons and the ensemble. Rows of the same channels and lens types (a one-channel
+    design's ``"channel 1"`` and ``"union"``) are computed once: the same numbers, the
+    seconds of the one call."""
 
     depths: np.ndarray
     photons: float
@@ -188,20 +190,27 @@ def image_merits(design: Any, depths: Any, photons: float = 2000.0, *,
         scene = _native.RenderScene(*MERIT_EDGE.seam(), "plane", [float(zi), 0.0, 0.0],
                                     None, 0.0)
         nyq = 1.0 / (2.0 * d.resolution_step(float(zi)))
+        # Rows of the same channels and lens types (a one-channel design's channel 1 and
+        # union) are one computation, reported under each name.
+        done: dict[tuple[Any, ...], dict[str, float]] = {}
         for name, (chans, types) in chosen.items():
-            req = {"channels": chans, "lens_types": types, "photons": n,
-                   "ensemble": (ensemble.mean, ensemble.amplitude, ensemble.exponent),
-                   "patch": p, "step": None, "regularization": None, "rule": rule,
-                   "settings": (NOISE_FLOOR, MERIT_RTOL, MERIT_MAX_ITER, k, *bracket,
-                                golden, s, m, CHOOSE_PROBES, MERIT_PROBE_RTOL)}
-            t0 = time.perf_counter()
-            r = _native.image_merits(d.core, float(zi), req, scene, n_threads=threads)
-            row = out[name]
-            row["seconds"].append(time.perf_counter() - t0)
-            row["psnr"].append(-10.0 * math.log10(r["mse"]))
-            row["psnr_error"].append(10.0 / math.log(10.0) * r["error"] / r["mse"])
-            row["mtf50"].append(mtf50_image(r["edge"], r["extent"], r["step"], MERIT_EDGE) / nyq)
-            row["regularization"].append(r["lam"])
+            key = (tuple(chans), None if types is None else tuple(types))
+            if key not in done:
+                req = {"channels": chans, "lens_types": types, "photons": n,
+                       "ensemble": (ensemble.mean, ensemble.amplitude, ensemble.exponent),
+                       "patch": p, "step": None, "regularization": None, "rule": rule,
+                       "settings": (NOISE_FLOOR, MERIT_RTOL, MERIT_MAX_ITER, k, *bracket,
+                                    golden, s, m, CHOOSE_PROBES, MERIT_PROBE_RTOL)}
+                t0 = time.perf_counter()
+                r = _native.image_merits(d.core, float(zi), req, scene, n_threads=threads)
+                done[key] = {
+                    "seconds": time.perf_counter() - t0,
+                    "psnr": -10.0 * math.log10(r["mse"]),
+                    "psnr_error": 10.0 / math.log(10.0) * r["error"] / r["mse"],
+                    "mtf50": mtf50_image(r["edge"], r["extent"], r["step"], MERIT_EDGE) / nyq,
+                    "regularization": r["lam"]}
+            for q, v in done[key].items():
+                out[name][q].append(v)
     return ImageMerits(z.copy(), n, ensemble,
                        {r: {q: np.asarray(v) for q, v in c.items()} for r, c in out.items()})
 
