@@ -44,6 +44,14 @@ def _no_progress_lines(monkeypatch):
 #: here, by node id, so that a parametrized test's slow cases go to the slow tier and its
 #: quick ones stay in the default run.
 SLOW = {
+    'test_merits.py::test_expected_error_is_the_dense_closed_form[3.0]': 25,
+    'test_merits.py::test_expected_error_is_the_dense_closed_form[300.0]': 25,
+    'test_merits.py::test_edge_response_is_the_dense_estimators_mean': 25,
+    'test_merits.py::test_least_error_lambda_is_the_closed_forms_minimum': 25,
+    'test_merits.py::test_gcv_lambda_is_the_expected_scores_minimum': 55,
+    'test_evaluate.py::test_sweep_image_merit_is_image_merits': 35,
+    'test_merits.py::test_image_merits_rows_and_checks': 35,
+    'test_merits.py::test_rows_of_the_same_pixels_are_one_computation': 55,
     'test_colour.py::test_a_colour_is_reconstructed_from_its_own_pixels_only[sensor]': 15,
     'test_colour.py::test_colour_reconstruction_against_the_full_grey_raw': 25,
     'test_render_falloff.py::test_mc_illum_image': 26,

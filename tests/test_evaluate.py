@@ -83,3 +83,66 @@ def test_compare_reports_evaluate():
     assert row["covering_radius_worst"] == m["covering_radius_worst_union"]
     assert row["covering_radius_median"] == m["covering_radius_median_union"]
     assert row["distinct_2d_median"] == m["distinct_2d_median_union"]
+
+
+def _seed_cut() -> Design:
+    seed = Design.preset("seed")
+    return seed.replace(channels=tuple(c.replace(Kx=12, Ky=8) for c in seed.channels))
+
+
+def test_image_merit_names_docs_and_checks():
+    """The image merits' names per channel and union, each documented, "max" by nature;
+    a bad name is a clear error naming the allowed ones, in evaluate, sweep and optimise;
+    the simulated MTF50's names keep their own doc."""
+    from splitlf.study.merit import image_merit_names
+    from splitlf.study.optimise import natural_sense
+
+    d = _seed_cut()
+    names = image_merit_names(d)
+    assert len(names) == 12 and "psnr_worst_union" in names
+    assert "mtf50_median_channel1" in names
+    assert all("splitlf.image_merits" in merit_doc(n) for n in names)
+    assert "least" in merit_doc("psnr_worst_union") and "median" in merit_doc(
+        "mtf50_median_channel2")
+    assert "simulate" in merit_doc("mtf50_642mm")
+    assert all(natural_sense(n) == "max" for n in names)
+    assert natural_sense("mtf50_642mm") is None
+    with pytest.raises(splitlf.InvalidParameter, match="image.*psnr_worst_channel1, "):
+        evaluate(d, Z, image=["psnr_best_union"])
+    with pytest.raises(TypeError, match="image"):
+        evaluate(d, Z, image="psnr_worst_union")
+    with pytest.raises(splitlf.InvalidParameter, match="photons"):
+        evaluate(d, Z, image=["psnr_worst_union"], photons=0.0)
+    assert merit_names(d, image=["mtf50_worst_union"])[-1] == "mtf50_worst_union"
+    pytest.importorskip("scipy")
+    pytest.importorskip("pandas")
+    with pytest.raises(splitlf.InvalidParameter, match="objective.*psnr_worst_union"):
+        splitlf.optimise(d, {"D": (15.0, 20.0)}, "psnr_best_union", depths=Z, maxiter=1)
+    with pytest.raises(splitlf.InvalidParameter, match="image"):
+        splitlf.optimise(d, {"D": (15.0, 20.0)}, "max_gap_worst_union", depths=Z,
+                         maxiter=1, image=["psnr"])
+    xr = pytest.importorskip("xarray")
+    assert xr
+    from splitlf.sweep import sweep
+
+    with pytest.raises(splitlf.InvalidParameter, match="image"):
+        sweep(d, {"D": [15.0]}, Z, progress=False, image=["psnr_worst"])
+
+
+def test_sweep_image_merit_is_image_merits():
+    """A sweep with an image merit reports what splitlf.image_merits gives directly for the
+    same design: the least PSNR of channel 1 over 5 depths log-spaced over the depths'
+    range (the same draws: the same numbers, bit for bit)."""
+    xr = pytest.importorskip("xarray")
+    assert xr
+    from splitlf.study.merit import IMAGE_DEPTHS
+    from splitlf.sweep import sweep
+
+    d = _seed_cut()
+    z = np.array([700.0, 900.0])
+    ds = sweep(d, {"D": [d.D]}, z, progress=False, image=["psnr_worst_channel1"])
+    direct = splitlf.image_merits(d, np.geomspace(700.0, 900.0, IMAGE_DEPTHS), 2000.0,
+                                  rows=["channel 1"])
+    want = float(np.min(direct.rows["channel 1"]["psnr"]))
+    assert float(ds["psnr_worst_channel1"].sel(D=d.D)) == want
+    assert ds.attrs["image_photons"] == 2000.0

@@ -21,6 +21,7 @@ from .imaging.texture import (
     SlantedEdge,
 )
 from .inverse.depth import DepthSweep, estimate_depth
+from .inverse.merits import Ensemble, ImageMerits, image_merits
 from .inverse.reconstruct import ColourReconstruction, Reconstruction, reconstruct
 from .inverse.simulate import Simulation, simulate
 from .model.camera import Camera
@@ -78,9 +79,11 @@ __all__ = [
     "DepthOfField",
     "DepthSweep",
     "Design",
+    "Ensemble",
     "Export",
     "Footprints",
     "Image",
+    "ImageMerits",
     "InvalidParameter",
     "Merits",
     "NewSamples",
@@ -109,6 +112,7 @@ __all__ = [
     "explore",
     "export",
     "footprints",
+    "image_merits",
     "new_samples",
     "optimise",
     "render",

@@ -23,6 +23,7 @@ __all__ = [
     "DesignDepthOfFieldIntervals",
     "DesignSamplesArrays",
     "FootprintArrays",
+    "image_merits",
     "MAX_CELLS",
     "MAX_CHANNELS",
     "MAX_COINCIDENCE_WORK",
@@ -491,6 +492,15 @@ def solve_normal(
     n_threads: int | None = None,
     progress: Callable[[int, int], object] | None = None,
 ) -> tuple[_F64, int, float]: ...
+
+def image_merits(
+    design: DesignCore,
+    z: float,
+    request: dict[str, Any],
+    edge: RenderScene | None = None,
+    n_threads: int | None = None,
+    progress: Callable[[int, int], object] | None = None,
+) -> dict[str, Any]: ...
 
 def reconstruct(
     design: DesignCore,

@@ -96,15 +96,25 @@ def mtf50(rec: Reconstruction, edge: SlantedEdge) -> float:
         raise TypeError(f"rec must be a splitlf.Reconstruction, got {type(rec).__name__}")
     if not isinstance(edge, SlantedEdge):
         raise TypeError(f"edge must be a splitlf.SlantedEdge, got {type(edge).__name__}")
-    ny, nx = rec.image.shape
-    h = rec.step
-    xs = rec.extent[0] + (np.arange(nx) + 0.5) * h
-    ys = rec.extent[3] - (np.arange(ny) + 0.5) * h
+    return mtf50_image(rec.image, rec.extent, rec.step, edge)
+
+
+def mtf50_image(image: np.ndarray, extent: Any, step: float, edge: SlantedEdge) -> float:
+    """:func:`mtf50` of an image on a grid of cells (``image`` (ny, nx), row 0 at the top,
+    over ``extent`` (X0, X1, Y0, Y1) mm, cells of ``step`` mm): the edge method without a
+    :class:`Reconstruction` (the image merits' expected edge image, docs/merits.md)."""
+    if not isinstance(edge, SlantedEdge):
+        raise TypeError(f"edge must be a splitlf.SlantedEdge, got {type(edge).__name__}")
+    image = np.asarray(image, dtype=np.float64)
+    ny, nx = image.shape
+    h = float(step)
+    xs = extent[0] + (np.arange(nx) + 0.5) * h
+    ys = extent[3] - (np.arange(ny) + 0.5) * h
     X, Y = np.meshgrid(xs, ys)
     a = math.radians(edge.angle)
     dist = (X - edge.center[0]) * math.cos(a) - (Y - edge.center[1]) * math.sin(a)
     if not (dist.min() < -h and dist.max() > h):
-        x0, x1, y0, y1 = rec.extent
+        x0, x1, y0, y1 = extent
         raise InvalidParameter.of(
             "edge", f"center {tuple(edge.center)}, angle {edge.angle:g} deg",
             f"an edge crossing the reconstruction's region X [{x0:.6g}, {x1:.6g}], "
@@ -113,7 +123,7 @@ def mtf50(rec: Reconstruction, edge: SlantedEdge) -> float:
     idx = np.round(dist / bin_w).astype(np.int64)
     lo, hi = idx.min(), idx.max()
     counts = np.bincount(idx.ravel() - lo, minlength=hi - lo + 1)
-    sums = np.bincount(idx.ravel() - lo, weights=rec.image.ravel(), minlength=hi - lo + 1)
+    sums = np.bincount(idx.ravel() - lo, weights=image.ravel(), minlength=hi - lo + 1)
     filled = counts > 0
     if filled.sum() < 8 * OVERSAMPLE:
         raise InvalidParameter.of("edge", f"{int(filled.sum())} distance bins",

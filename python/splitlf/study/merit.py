@@ -10,7 +10,9 @@ two-channel :class:`~splitlf.Design`: its merits are its design's (channel i = h
 
 Merit names end in the row they describe: ``_channel1``, ``_channel2``, ..., ``_union``
 (all channels together); :func:`merit_names` lists them for a design in the order of
-:class:`Merits`, :func:`merit_doc` describes one.
+:class:`Merits`, :func:`merit_doc` describes one. The image merits (docs/merits.md:
+``psnr_worst_union``, ``mtf50_median_channel1``, ...; :func:`image_merit_names`) are
+computed on request (``evaluate(..., image=[...])``) by :func:`splitlf.image_merits`.
 """
 
 from __future__ import annotations
@@ -23,10 +25,12 @@ from typing import Any
 import numpy as np
 
 from .. import _native, _validate
+from ..errors import InvalidParameter
 from ..model.design import Design
 from ._options import check_options, merits_2d_option
 
-__all__ = ["DEFAULT_THRESHOLD_PX", "DEFAULT_TOL", "DEFAULT_WINDOW", "Merits", "evaluate",
+__all__ = ["DEFAULT_THRESHOLD_PX", "DEFAULT_TOL", "DEFAULT_WINDOW", "IMAGE_DEPTHS",
+           "IMAGE_PHOTONS", "IMAGE_STATS", "Merits", "evaluate", "image_merit_names",
            "merit_doc", "merit_names"]
 
 #: Default sharpness threshold on the blur radius [px] and merge tolerance [delta(z)].
@@ -38,6 +42,14 @@ DEFAULT_WINDOW: float = _native.DEFAULT_WINDOW
 #: Options of the MTF50 simulations (noise-free, random albedo): a 128-cell window, 16 test
 #: frequencies, 4x oversampling (docs/compare.md, "Budget").
 SIMULATE_OPTIONS: dict[str, Any] = {"window": 128, "n_frequencies": 16, "oversample": 4}
+#: The image merits (splitlf.image_merits, docs/merits.md): the statistic over the depths
+#: (worst: the least; median) of the PSNR [dB] and of the MTF50 [share of the sensor's
+#: Nyquist frequency], named ``<statistic>_<row>``.
+IMAGE_STATS = ("psnr_worst", "psnr_median", "mtf50_worst", "mtf50_median")
+#: Their photon count (photo-electrons of a white pixel), the default of ``photons``.
+IMAGE_PHOTONS = 2000.0
+#: Their depths: this many, log-spaced over [min, max] of the evaluation's depths.
+IMAGE_DEPTHS = 5
 
 _DOCS = {
     "sharp_fraction": "share of [min, max] depth (log) where {row} is sharp (light field "
@@ -67,9 +79,22 @@ _DOCS = {
 
 
 def merit_doc(name: str) -> str:
-    """A sentence describing merit ``name`` (one of :func:`merit_names`)."""
+    """A sentence describing merit ``name`` (one of :func:`merit_names`, or of
+    :func:`image_merit_names`)."""
     if name == "f_number":
         return "main-lens f-number F / D"
+    stat, _, row = name.rpartition("_")
+    if stat in IMAGE_STATS:
+        what, _, how = stat.partition("_")
+        text = "the union of all channels" if row == "union" else row.replace("channel",
+                                                                              "channel ")
+        unit = ("PSNR [dB] of the reconstruction of a natural-image ensemble" if what == "psnr"
+                else "MTF50 [share of the sensor's Nyquist frequency] of the reconstruction "
+                     "of a slanted edge")
+        return (f"{'least' if how == 'worst' else 'median'} over {IMAGE_DEPTHS} depths "
+                f"(log-spaced over the depth range) of the {unit} by {text}, at photon noise "
+                "of `photons` for white and the data-chosen (GCV) prior weight "
+                "(splitlf.image_merits)")
     if name.startswith("mtf50_"):
         return (f"super-resolution MTF50 at {name[6:-2]} mm [cycles/mm on the object] "
                 "(splitlf.simulate, noise-free, random albedo)")
@@ -79,8 +104,30 @@ def merit_doc(name: str) -> str:
     return _DOCS[prefix].format(row=text)
 
 
+def image_merit_names(design: Design) -> tuple[str, ...]:
+    """The names of the image merits :func:`evaluate` computes on request for ``design``:
+    each of :data:`IMAGE_STATS` per channel (``_channel1``, ...) and the union."""
+    d = _validate.design(design)
+    rows = [f"channel{i}" for i in range(1, len(d.channels) + 1)] + ["union"]
+    return tuple(f"{s}_{r}" for s in IMAGE_STATS for r in rows)
+
+
+def image_option(design: Design, image: Any) -> tuple[str, ...]:
+    """The image merits asked for, checked: a sequence of :func:`image_merit_names`."""
+    if isinstance(image, str | bytes) or not isinstance(image, Sequence):
+        raise TypeError(f"image must be a sequence of image merit names, got "
+                        f"{type(image).__name__}")
+    allowed = image_merit_names(design)
+    for name in image:
+        if not isinstance(name, str):
+            raise TypeError(f"image must hold merit names (str), got {type(name).__name__}")
+        if name not in allowed:
+            raise InvalidParameter.of("image", name, f"image merit names: {', '.join(allowed)}")
+    return tuple(dict.fromkeys(image))
+
+
 def merit_names(design: Design, merits_2d: bool = False,
-                mtf50: Sequence[float] = ()) -> tuple[str, ...]:
+                mtf50: Sequence[float] = (), image: Sequence[str] = ()) -> tuple[str, ...]:
     """The names of :func:`evaluate`'s merits of ``design``, in its order, for C channels:
 
     - the core's (per channel from 1, then the union): ``sharp_fraction_channel1``, ...,
@@ -91,7 +138,8 @@ def merit_names(design: Design, merits_2d: bool = False,
     - the closed-form values: ``f_number``, then per channel
       ``sharp_fraction_conventional_channel*``, ``out_of_focus_depth_channel*``,
       ``image_fill_channel*``, ``microlens_f_number_channel*`` (1 + 4 C names);
-    - with ``mtf50`` depths, ``mtf50_<z>mm`` for each (``f"mtf50_{z:g}mm"``).
+    - with ``mtf50`` depths, ``mtf50_<z>mm`` for each (``f"mtf50_{z:g}mm"``);
+    - the image merits asked for in ``image`` (of :func:`image_merit_names`), in its order.
     """
     d = _validate.design(design)
     n = len(d.channels)
@@ -99,7 +147,7 @@ def merit_names(design: Design, merits_2d: bool = False,
                              ("sharp_fraction_conventional", "out_of_focus_depth",
                               "image_fill", "microlens_f_number") for i in range(1, n + 1)]
     return (tuple(_native.design_metrics(d.core, merits_2d_option(merits_2d))) + tuple(closed)
-            + tuple(f"mtf50_{float(z):g}mm" for z in mtf50))
+            + tuple(f"mtf50_{float(z):g}mm" for z in mtf50) + image_option(d, image))
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -178,11 +226,36 @@ def mtf50_at(design: Design, z: float, row: str, seed: int, n_threads: int | Non
     return float(r.mtf50[row])
 
 
+def image_values(design: Design, names: Sequence[str], z: np.ndarray, photons: float,
+                 n_threads: int | None) -> dict[str, float]:
+    """The image merits ``names`` (checked) of ``design`` over :data:`IMAGE_DEPTHS`
+    log-spaced depths of [min, max] of ``z`` (one depth when they are equal), by
+    :func:`splitlf.image_merits` at ``photons`` (its defaults otherwise: the natural
+    ensemble, GCV's prior weight), only the rows named."""
+    from ..inverse.merits import image_merits
+
+    if not names:
+        return {}
+    lo, hi = float(z.min()), float(z.max())
+    zi = np.geomspace(lo, hi, IMAGE_DEPTHS) if hi > lo else np.array([lo])
+    rows = {n: n.rpartition("_")[2].replace("channel", "channel ") for n in names}
+    r = image_merits(design, zi, photons, rows=list(dict.fromkeys(rows.values())),
+                     n_threads=n_threads)
+    out = {}
+    for n in names:
+        stat = n.rpartition("_")[0]
+        v = r.rows[rows[n]][stat.partition("_")[0]]
+        with np.errstate(all="ignore"):
+            out[n] = (math.nan if np.isnan(v).all() else
+                      float(np.nanmin(v) if stat.endswith("worst") else np.nanmedian(v)))
+    return out
+
+
 def evaluate(design: Design, depths: Any, *, threshold_px: float = DEFAULT_THRESHOLD_PX,
              tol: float = DEFAULT_TOL, merits_2d: bool = False,
              window: float = DEFAULT_WINDOW, mtf50: Sequence[float] = (),
-             mtf50_row: str = "union", seed: int = 0,
-             n_threads: int | None = None) -> Merits:
+             mtf50_row: str = "union", seed: int = 0, image: Sequence[str] = (),
+             photons: float = IMAGE_PHOTONS, n_threads: int | None = None) -> Merits:
     """Every figure of merit of ``design`` over ``depths`` (docs/optimise.md, "Merits").
 
     - ``design``: a :class:`~splitlf.Design` (a :class:`~splitlf.Camera` is one: half i is
@@ -202,6 +275,13 @@ def evaluate(design: Design, depths: Any, *, threshold_px: float = DEFAULT_THRES
       ``"channel i"``, or ``"conventional i"``: a conventional camera on channel i's
       plane) as ``mtf50_<z>mm``; NaN for a design with a hex channel. About a second per
       depth for the seed
+    - ``image``: image merits to compute (names of :func:`image_merit_names`, e.g.
+      ``psnr_worst_union``, ``mtf50_median_channel1``; :func:`merit_doc` explains each):
+      the least or median over :data:`IMAGE_DEPTHS` depths log-spaced over [min, max] of
+      ``depths`` of :func:`splitlf.image_merits`'s PSNR and MTF50 / Nyquist at ``photons``
+      photo-electrons for white (finite > 0), the prior weight chosen by GCV as
+      ``reconstruct(regularization=None)`` chooses it (docs/merits.md); NaN for an MTF50
+      that never falls to half below Nyquist at any of the depths
     - ``n_threads``: threads of the core (None: all cores)
 
     Returns :class:`Merits` (a read-only mapping in the order of :func:`merit_names`). The
@@ -217,11 +297,14 @@ def evaluate(design: Design, depths: Any, *, threshold_px: float = DEFAULT_THRES
     sim_z = _mtf50_depths(mtf50)
     if not isinstance(mtf50_row, str):
         raise TypeError(f"mtf50_row must be a row name (str), got {type(mtf50_row).__name__}")
+    names = image_option(d, image)
+    n_photons = _validate.positive(photons, "photons")
     values = _native.design_figures_of_merit(d.core, z, thr, t, threads, w)
     merits = dict(zip(_native.design_metrics(d.core, w is not None), values, strict=True))
     merits.update(_closed_form(d, z, thr))
     for zs in sim_z:
         merits[f"mtf50_{zs:g}mm"] = mtf50_at(d, zs, mtf50_row, seed, threads)
+    merits.update(image_values(d, names, z, n_photons, threads))
     z = z.copy()
     z.flags.writeable = False
     return Merits(merits, z, thr, t, w)

@@ -37,7 +37,11 @@ from .merit import (
     DEFAULT_THRESHOLD_PX,
     DEFAULT_TOL,
     DEFAULT_WINDOW,
+    IMAGE_PHOTONS,
+    IMAGE_STATS,
     evaluate,
+    image_merit_names,
+    image_option,
     merit_names,
 )
 from .sweep import check_field, evaluate_batch, with_changes
@@ -49,9 +53,10 @@ def natural_sense(merit: str) -> str | None:
     """The direction in which a merit is better, used when ``sense`` is not given: "max"
     for sharp fractions, lit fractions, light per pixel and distinct 2-D samples, "min"
     for max gaps and covering radii, None for the closed-form values (f-number,
-    out-of-focus planes, image fill, microlens f-numbers) and the MTF50."""
+    out-of-focus planes, image fill, microlens f-numbers) and the simulated MTF50; "max"
+    for the image merits (PSNR, MTF50 / Nyquist)."""
     if merit.startswith(("sharp_fraction_", "lit_fraction_", "light_per_pixel_",
-                         "distinct_2d_")):
+                         "distinct_2d_")) or merit.rpartition("_")[0] in IMAGE_STATS:
         return "max"
     if merit.startswith(("max_gap_", "covering_radius_")):
         return "min"
@@ -250,11 +255,14 @@ class _Problem:
                  sense: str, constraints: list[tuple[str, str, float]],
                  min_f_number: float | None, core_args: tuple[float, float],
                  executor: cf.Executor | None, n_threads: int | None, threads_per_task: int,
-                 batch_size: int | None, window: float | None = None) -> None:
+                 batch_size: int | None, window: float | None = None,
+                 image: tuple[tuple[str, ...], float] = ((), IMAGE_PHOTONS)) -> None:
         self.base = base
         #: the window of the 2-D merits, None when they are not computed
         self.window = window
-        self.merit_names = merit_names(base, window is not None)
+        #: the image merits computed and their photons
+        self.image = image
+        self.merit_names = merit_names(base, window is not None, image=image[0])
         self.free = free
         self.z = z
         self.objective = objective
@@ -320,6 +328,7 @@ class _Problem:
                 m = evaluate(d, self.z, threshold_px=self.threshold_px, tol=self.tol,
                              merits_2d=self.window is not None,
                              window=DEFAULT_WINDOW if self.window is None else self.window,
+                             image=self.image[0], photons=self.image[1],
                              n_threads=self.n_threads)
                 self.core_s += time.perf_counter() - t
                 out.append(list(m.values()))
@@ -327,7 +336,7 @@ class _Problem:
         size = self.batch_size or max(1, math.ceil(len(designs) / 16))
         futures = [self.executor.submit(evaluate_batch, self.base, changes[i:i + size],
                                         self.z, self.threshold_px, self.tol, self.window,
-                                        self.threads_per_task)
+                                        self.threads_per_task, self.image)
                    for i in range(0, len(changes), size)]
         out = []
         for fut in futures:
@@ -498,6 +507,7 @@ def optimise(base: Design, free: Mapping[str, tuple[float, float]],
              min_microlens_f_number: float | None = None,
              threshold_px: float = DEFAULT_THRESHOLD_PX, tol: float = DEFAULT_TOL,
              merits_2d: bool | None = None, window: float = DEFAULT_WINDOW,
+             image: Sequence[str] | None = None, photons: float = IMAGE_PHOTONS,
              n_threads: int | None = None, threads_per_task: int = 1,
              batch_size: int | None = None, de_options: Mapping[str, Any] | None = None
              ) -> OptimiseResult:
@@ -541,6 +551,10 @@ def optimise(base: Design, free: Mapping[str, tuple[float, float]],
       then an error). Not computed, they are absent from ``merits`` and the history
     - ``window``: width of their central field in lens pitches of channel 1, finite > 0
       (default 16, as :func:`splitlf.coverage`)
+    - ``image``: the image merits to compute (names of
+      :func:`splitlf.merits.image_merit_names`, e.g. ``psnr_worst_union``; None: those the
+      objective and constraints name), at ``photons`` photo-electrons for white, as
+      :func:`splitlf.evaluate` computes them (seconds per candidate)
 
     Returns an :class:`OptimiseResult`. Every argument is checked before any work:
     ``TypeError`` for wrong types, :class:`~splitlf.errors.InvalidParameter` for values out
@@ -550,12 +564,17 @@ def optimise(base: Design, free: Mapping[str, tuple[float, float]],
     by a callable objective propagates.
     """
     cam = _base(base)
-    names = merit_names(cam, True)
+    names = merit_names(cam, True) + image_merit_names(cam)
     fields = _free(free, cam)
     fn, _, sense_ = _objective(objective, sense, names)
     cons = _constraints(constraints, names)
     on_2d = _merits_2d_wanted(merits_2d, objective, cons,
-                              frozenset(names) - frozenset(merit_names(cam)))
+                              frozenset(merit_names(cam, True)) - frozenset(merit_names(cam)))
+    named = [objective] if isinstance(objective, str) else []
+    named += [c[0] for c in cons]
+    image_names = image_option(cam, [n for n in named if n in image_merit_names(cam)]
+                               if image is None else image)
+    n_photons = _validate.positive(photons, "photons")
     z = _depths(depths)
     seed_ = _validate.integer(seed, "seed", "an integer >= 0")
     if seed_ < 0:
@@ -583,7 +602,7 @@ def optimise(base: Design, free: Mapping[str, tuple[float, float]],
                           'pip install "splitlf[sweep]"') from e
 
     problem = _Problem(cam, fields, z, fn, sense_, cons, min_f, core_args, executor, n_threads,
-                   tpt or 1, batch_size, window=window_2d)
+                   tpt or 1, batch_size, window=window_2d, image=(image_names, n_photons))
     bar = _progress_bar(maxiter_, progress)
 
     def callback(xk: Any, convergence: float = 0.0) -> None:

@@ -29,7 +29,9 @@ from .merit import (
     DEFAULT_THRESHOLD_PX,
     DEFAULT_TOL,
     DEFAULT_WINDOW,
+    IMAGE_PHOTONS,
     evaluate,
+    image_option,
     merit_doc,
     merit_names,
 )
@@ -143,11 +145,13 @@ def with_changes(base: Design, changes: Mapping[str, Any]) -> Design:
 
 def evaluate_batch(base: Design, batch: list[dict[str, Any]], depths: np.ndarray,
                     threshold_px: float, tol: float, window: float | None,
-                    n_threads: int | None) -> list[tuple[list[float] | None, str]]:
+                    n_threads: int | None,
+                    image: tuple[tuple[str, ...], float] = ((), IMAGE_PHOTONS),
+                    ) -> list[tuple[list[float] | None, str]]:
     """Worker task: the base (pickled by its own ``__reduce__``: plain fields, never a
     native handle) and plain change dicts in, plain lists of :func:`evaluate`'s values
     out; an invalid design is (None, why). ``window``: that of the 2-D merits, None
-    without them."""
+    without them; ``image``: the image merits' names and photons."""
     out: list[tuple[list[float] | None, str]] = []
     for changes in batch:
         try:
@@ -155,7 +159,7 @@ def evaluate_batch(base: Design, batch: list[dict[str, Any]], depths: np.ndarray
             m = evaluate(design, depths, threshold_px=threshold_px, tol=tol,
                          merits_2d=window is not None,
                          window=DEFAULT_WINDOW if window is None else window,
-                         n_threads=n_threads)
+                         image=image[0], photons=image[1], n_threads=n_threads)
         except (ValueError, TypeError) as e:
             out.append((None, str(e)))
             continue
@@ -256,12 +260,13 @@ def _run(tasks: Iterator[list[dict[str, Any]]], args: tuple[Any, ...],
          results: list[Result | None], bar: Any) -> None:
     """Evaluate every task into ``results`` (in order): in-process on the core's pool of
     ``n_threads``, or on ``executor`` with ``threads_per_task`` each. ``args`` = (the
-    base design, depths, threshold_px, tol, window of the 2-D merits or None)."""
-    base, z, threshold_px, tol, window = args
+    base design, depths, threshold_px, tol, window of the 2-D merits or None, the image
+    merits' names and photons)."""
+    base, z, threshold_px, tol, window, image = args
     if executor is None:
         start = 0
         for task in tasks:
-            part = evaluate_batch(base, task, z, threshold_px, tol, window, n_threads)
+            part = evaluate_batch(base, task, z, threshold_px, tol, window, n_threads, image)
             results[start:start + len(part)] = part
             start += len(part)
             if bar is not None:
@@ -271,7 +276,7 @@ def _run(tasks: Iterator[list[dict[str, Any]]], args: tuple[Any, ...],
     start = 0
     for task in tasks:
         fut = executor.submit(evaluate_batch, base, task, z, threshold_px, tol, window,
-                              threads_per_task)
+                              threads_per_task, image)
         futures[fut] = start
         start += len(task)
     for fut in cf.as_completed(futures):
@@ -309,6 +314,7 @@ def sweep(camera: Design, grid: Mapping[str, Sequence[Any]], depths: Any,
           executor: cf.Executor | None = None, progress: bool | None = None, *,
           threshold_px: float = DEFAULT_THRESHOLD_PX, tol: float = DEFAULT_TOL,
           merits_2d: bool = False, window: float = DEFAULT_WINDOW,
+          image: Sequence[str] = (), photons: float = IMAGE_PHOTONS,
           n_threads: int | None = None, batch_size: int | None = None,
           threads_per_task: int = 1) -> Any:
     """Figures of merit for every design of a full-factorial grid around ``camera``.
@@ -332,6 +338,10 @@ def sweep(camera: Design, grid: Mapping[str, Sequence[Any]], depths: Any,
     - ``merits_2d``, ``window``: also compute the 2-D merits with a central field
       ``window`` lens pitches of channel 1 wide, as :func:`splitlf.evaluate`; off by
       default (they cost a 2-D analysis per depth), and then absent from the dataset
+    - ``image``, ``photons``: image merits to compute per design (names of
+      :func:`splitlf.merits.image_merit_names`, e.g. ``psnr_worst_union``) at ``photons``
+      photo-electrons for white, as :func:`splitlf.evaluate` (seconds per design: they
+      reconstruct a patch's ensemble at several depths)
     - ``batch_size``: designs per executor task (default: at most 64 tasks);
       ``threads_per_task``: core threads of each executor task
 
@@ -355,12 +365,14 @@ def sweep(camera: Design, grid: Mapping[str, Sequence[Any]], depths: Any,
     z = _depths(depths, cam, axes)
     threshold_px, tol = threshold_option(threshold_px), tol_option(tol)
     window_2d = options_2d(merits_2d, window, tol)
+    image_names = image_option(cam, image)
+    n_photons = _validate.positive(photons, "photons")
     n_threads = _validate.n_threads(n_threads)
     task_threads = _validate.n_threads(threads_per_task)
     n_designs = math.prod(a.size for a in axes.values())
     batch = _batch_size(batch_size, n_designs, executor)
     on_2d = window_2d is not None
-    args = (cam, z, threshold_px, tol, window_2d)
+    args = (cam, z, threshold_px, tol, window_2d, (image_names, n_photons))
     results: list[Result | None] = [None] * n_designs
     bar = _progress_bar(n_designs, progress)
     try:
@@ -379,6 +391,8 @@ def sweep(camera: Design, grid: Mapping[str, Sequence[Any]], depths: Any,
     }
     if on_2d:
         attrs["window"] = window_2d
+    if image_names:
+        attrs["image_photons"] = n_photons
     # the base's own TOML: a [design] (channels of its own) or a [camera] (paper fields)
     attrs["base_design" if _has_channels(cam) else "base_camera"] = cam.to_toml()
-    return _dataset(xr, axes, results, attrs, merit_names(cam, on_2d))
+    return _dataset(xr, axes, results, attrs, merit_names(cam, on_2d, image=image_names))

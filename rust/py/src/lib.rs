@@ -129,6 +129,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
         inverse::depth::estimate_depth,
         inverse::depth::depth_whites,
         inverse::depth::depth_surface,
+        inverse::merit::image_merits,
         infra::arrays::available_memory,
     );
     Ok(())

@@ -7,6 +7,7 @@
 
 pub mod csr;
 pub mod error;
+pub mod fft;
 pub mod memory;
 pub mod parallel;
 pub mod polygon;

@@ -115,19 +115,28 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(a, b)| a * b).sum()
 }
 
-/// The search's state: the equations, their fixed parts (AᵀWy, Σ w y², the rows, the
-/// probes and N z for each), and the last solutions (warm starts).
+/// One data vector y the search fits: AᵀWy (`rhs`), Σ w y² (`yy`) and the last solution
+/// at it (a warm start; after the search, the solution at the last λ tried).
+#[derive(Clone, Debug)]
+pub struct DataSet {
+    pub rhs: Vec<f64>,
+    pub yy: f64,
+    pub last: Option<Vec<f64>>,
+}
+
+/// The search's state: the equations, the data sets (the equations' own y, or several y
+/// over the same rows: [`choose_sets`]; `own`: the equations' own), the rows, the probes
+/// and N z for each, and the probes' last solutions (warm starts).
 struct Search<'a> {
     normal: &'a mut Normal,
     rule: Rule,
     cfg: Config,
     threads: Option<usize>,
     done: &'a std::sync::atomic::AtomicUsize,
-    b: Vec<f64>,
-    yy: f64,
+    sets: Vec<DataSet>,
+    own: bool,
     rows: usize,
     probes: Vec<(Vec<f64>, Vec<f64>)>,
-    x: Option<Vec<f64>>,
     u: Vec<Option<Vec<f64>>>,
     scale: Option<f64>,
     trials: Vec<Trial>,
@@ -137,7 +146,8 @@ struct Search<'a> {
 impl Search<'_> {
     /// Whether the next λ's solves, each at its cap, could exceed the budget.
     fn exhausted(&self) -> bool {
-        let next = self.cfg.data.max_iter + self.cfg.probes * self.cfg.probe.max_iter;
+        let next =
+            self.sets.len() * self.cfg.data.max_iter + self.cfg.probes * self.cfg.probe.max_iter;
         self.used + next > self.cfg.budget
     }
 
@@ -164,15 +174,22 @@ impl Search<'_> {
                 None => data.noise = 0.0,
             }
         }
-        let start = Start {
-            rhs: None,
-            x0: self.x.as_deref(),
-        };
-        let sol = solve::solve_from(self.normal, start, data, self.threads, self.done)?;
-        let mut iterations = sol.iterations;
-        let nt = self.data_product(&sol.cells)?;
-        let rss = (dot(&sol.cells, &nt) - 2.0 * dot(&sol.cells, &self.b) + self.yy).max(0.0);
-        self.x = Some(sol.cells);
+        let (mut rss, mut iterations) = (0.0, 0);
+        for k in 0..self.sets.len() {
+            let set = &self.sets[k];
+            let start = Start {
+                rhs: (!self.own).then_some(set.rhs.as_slice()),
+                x0: set.last.as_deref(),
+            };
+            let sol = solve::solve_from(self.normal, start, data, self.threads, self.done)?;
+            iterations += sol.iterations;
+            let nt = self.data_product(&sol.cells)?;
+            let set = &mut self.sets[k];
+            rss += (dot(&sol.cells, &nt) - 2.0 * dot(&sol.cells, &set.rhs) + set.yy).max(0.0);
+            set.last = Some(sol.cells);
+        }
+        // The sets' mean RSS (one set: its own).
+        rss /= self.sets.len().max(1) as f64;
         let mut df = 0.0;
         for k in 0..self.probes.len() {
             let start = Start {
@@ -216,6 +233,52 @@ pub fn choose(
     threads: Option<usize>,
     done: &std::sync::atomic::AtomicUsize,
 ) -> Result<Choice> {
+    let n = normal.cells();
+    let (_, yy) = normal.data_sums();
+    let mut work = normal.work()?;
+    let mut rhs = vec![0.0; n];
+    normal.rhs(&mut work, &mut rhs);
+    drop(work);
+    let own = vec![DataSet {
+        rhs,
+        yy,
+        last: None,
+    }];
+    Ok(search(normal, rule, cfg, (own, true), threads, done)?.0)
+}
+
+/// [`choose`] for several data vectors over the same rows (`sets`: each one's AᵀWy and
+/// Σ w y², e.g. draws of an image and its noise), by the score of their mean RSS (the
+/// mean of their scores, under UPRE and GCV alike: df is the rows' alone). Returns the
+/// choice and the sets, each with its solution at the last λ tried.
+pub fn choose_sets(
+    normal: &mut Normal,
+    rule: Rule,
+    cfg: Config,
+    sets: Vec<DataSet>,
+    threads: Option<usize>,
+    done: &std::sync::atomic::AtomicUsize,
+) -> Result<(Choice, Vec<DataSet>)> {
+    let n = normal.cells();
+    if sets.is_empty() || sets.iter().any(|s| s.rhs.len() != n) {
+        return Err(Error::param(
+            "sets",
+            sets.len(),
+            format!("at least one data set of {n} values (one per cell)"),
+        ));
+    }
+    search(normal, rule, cfg, (sets, false), threads, done)
+}
+
+/// The search of [`choose`] over the data sets (`own`: the equations' own data).
+fn search(
+    normal: &mut Normal,
+    rule: Rule,
+    cfg: Config,
+    (sets, own): (Vec<DataSet>, bool),
+    threads: Option<usize>,
+    done: &std::sync::atomic::AtomicUsize,
+) -> Result<(Choice, Vec<DataSet>)> {
     if !(cfg.df_weight >= 1.0 && cfg.df_weight.is_finite()) {
         return Err(Error::param(
             "df_weight",
@@ -231,22 +294,17 @@ pub fn choose(
         ));
     }
     let n = normal.cells();
-    let (rows, yy) = normal.data_sums();
-    let mut work = normal.work()?;
-    let mut b = vec![0.0; n];
-    normal.rhs(&mut work, &mut b);
-    drop(work);
+    let (rows, _) = normal.data_sums();
     let mut search = Search {
         normal,
         rule,
         cfg,
         threads,
         done,
-        b,
-        yy,
+        sets,
+        own,
         rows,
         probes: vec![],
-        x: None,
         u: vec![None; cfg.probes],
         scale: None,
         trials: vec![],
@@ -317,7 +375,7 @@ pub fn choose(
 }
 
 /// The λ of the least score tried, the equations left at it.
-fn finish(search: Search<'_>, rows: usize) -> Result<Choice> {
+fn finish(search: Search<'_>, rows: usize) -> Result<(Choice, Vec<DataSet>)> {
     let least = search
         .trials
         .iter()
@@ -326,14 +384,20 @@ fn finish(search: Search<'_>, rows: usize) -> Result<Choice> {
         .ok_or_else(|| Error::param("regularization", "no trial", "a bracket of λ"))?;
     let m = rows as f64;
     let scale = least.rss / (m - least.df).max(1.0);
-    let Search { normal, trials, .. } = search;
+    let Search {
+        normal,
+        trials,
+        sets,
+        ..
+    } = search;
     normal.set_regularization(least.lam)?;
-    Ok(Choice {
+    let choice = Choice {
         lam: least.lam,
         rows,
         scale,
         trials,
-    })
+    };
+    Ok((choice, sets))
 }
 
 #[cfg(test)]

@@ -5,6 +5,7 @@
 
 pub mod choose;
 pub mod depth;
+pub mod merit;
 pub mod plan;
 pub mod reconstruct;
 pub mod simulate;
