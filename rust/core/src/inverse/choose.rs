@@ -25,14 +25,22 @@
 //! with λ and does not move the minimum about). Each λ costs one solve for t and one per
 //! probe, each warm-started from the nearest λ already solved.
 //!
-//! The search: λ over decades from the top of the bracket down (large λ converge fast and
-//! warm-start the next), stopped one decade past the least score, then a golden-section
-//! search in log λ over the two decades around the least.
+//! The search: λ over decades down from [`START_DECADES`] below the top of the bracket,
+//! stopped one decade past the least score (and up from the start when the start stays the
+//! least), then a golden-section search in log λ over the two decades around the least.
 
 use crate::infra::error::{Error, Result};
 use crate::infra::parallel;
 
 use super::solve::{self, Normal, Start, Stop};
+
+/// The decades below the top of the bracket at which the search starts (module doc): the
+/// largest λ converge slowest, the prior's smooth modes dominating (measured on a slanted
+/// plane's wide-span pixels, half 2 in docs/make_fig2_slanted.py's 702 mm band: 2,500
+/// iterations at the bracket's top, 2,453 a decade below, against 945–1,231 near the least
+/// score, which lay 3.35 decades below the top; docs/reconstruct.md, "The search"). When
+/// the least lies higher, the search walks up to it.
+pub const START_DECADES: f64 = 3.0;
 
 /// Which risk the search minimises (see the module doc).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -315,35 +323,31 @@ fn search(
         let nz = search.data_product(&z)?;
         search.probes.push((z, nz));
     }
-    // Decades from the top down, stopped one past the least score.
+    // Decades down from START_DECADES below the top of the bracket, stopped one past the
+    // least score; then up from the start when it stays the least.
     let (l0, l1) = (cfg.lo.log10(), cfg.hi.log10());
-    let mut grid = vec![];
-    let mut e = l1;
-    while e >= l0 - 1e-9 && grid.len() < 25 {
-        grid.push(e);
-        e -= 1.0;
-    }
+    let start = (l1 - START_DECADES).max(l0);
+    let down: Vec<f64> = (0..25)
+        .map(|k| start - k as f64)
+        .take_while(|&e| e >= l0 - 1e-9)
+        .collect();
+    let up: Vec<f64> = (1..25)
+        .map(|k| start + k as f64)
+        .take_while(|&e| e <= l1 + 1e-9)
+        .collect();
     let mut scores: Vec<(f64, f64)> = vec![];
-    for &e in &grid {
-        if !scores.is_empty() && search.exhausted() {
-            break;
-        }
-        let s = search.trial(10f64.powf(e))?;
-        scores.push((e, s));
-        let best = scores
-            .iter()
-            .enumerate()
-            .min_by(|a, b| a.1 .1.total_cmp(&b.1 .1))
-            .map_or(0, |(i, _)| i);
-        if scores.len() >= best + 2 {
-            break;
-        }
+    walk(&mut search, &down, &mut scores)?;
+    if scores.len() > 1 && least(&scores).0 == start {
+        walk(&mut search, &up, &mut scores)?;
     }
-    let best = scores
-        .iter()
-        .copied()
-        .min_by(|a, b| a.1.total_cmp(&b.1))
-        .ok_or_else(|| Error::param("regularization", "no bracket", "a bracket of λ"))?;
+    if scores.is_empty() {
+        return Err(Error::param(
+            "regularization",
+            "no bracket",
+            "a bracket of λ",
+        ));
+    }
+    let best = least(&scores);
     // Golden section over the decades either side of the least (within the bracket).
     let (mut a, mut d) = ((best.0 - 1.0).max(l0), (best.0 + 1.0).min(l1));
     let g = (5f64.sqrt() - 1.0) / 2.0;
@@ -372,6 +376,31 @@ fn search(
         }
     }
     finish(search, rows)
+}
+
+/// The (log λ, score) of the least score (the first of equals).
+fn least(scores: &[(f64, f64)]) -> (f64, f64) {
+    scores
+        .iter()
+        .copied()
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .unwrap_or((f64::NAN, f64::INFINITY))
+}
+
+/// Try the decades `exps` (log λ) in order, each kept in `scores`, until one is tried
+/// past the least score (the last tried is not the least) or the budget is spent.
+fn walk(search: &mut Search<'_>, exps: &[f64], scores: &mut Vec<(f64, f64)>) -> Result<()> {
+    for &e in exps {
+        if !scores.is_empty() && search.exhausted() {
+            break;
+        }
+        let s = search.trial(10f64.powf(e))?;
+        scores.push((e, s));
+        if least(scores).0 != e {
+            break;
+        }
+    }
+    Ok(())
 }
 
 /// The λ of the least score tried, the equations left at it.
@@ -433,17 +462,31 @@ mod tests {
     /// (with the df weight ρ) within a tenth of a decade of score.
     #[test]
     fn trials_are_the_dense_risk() {
-        dense_risk(1.0);
+        dense_risk(1.0, 1e3);
+    }
+
+    /// The same with the bracket's top at 10 (the search starts at 10⁻²): the least lies
+    /// above the start, and the search walks up to it (a λ above the start is tried and
+    /// the chosen λ is the dense scan's least within the bracket).
+    #[test]
+    fn the_search_walks_up_from_its_start() {
+        let start = 10f64.powf(1.0 - START_DECADES);
+        let c = dense_risk(1.0, 1e1);
+        let up = c
+            .trials
+            .iter()
+            .any(|t| (t.lam / (10.0 * start) - 1.0).abs() < 1e-9);
+        assert!(up && c.lam > start, "{c:?}");
     }
 
     /// The same with ρ = 2: the least of the weighted score, at a larger λ than ρ = 1's.
     #[test]
     fn weighted_trials_are_the_dense_weighted_risk() {
-        assert!(dense_risk(2.0) > dense_risk(1.0));
+        assert!(dense_risk(2.0, 1e3).lam > dense_risk(1.0, 1e3).lam);
     }
 
-    /// `trials_are_the_dense_risk` at ρ; the chosen λ.
-    fn dense_risk(df_weight: f64) -> f64 {
+    /// `trials_are_the_dense_risk` at ρ over the bracket [10⁻³, hi]; the choice.
+    fn dense_risk(df_weight: f64, hi: f64) -> Choice {
         let (nx, ny, m) = (6usize, 5usize, 80usize);
         let n = nx * ny;
         let u = rademacher(4 * m * n, 3);
@@ -481,7 +524,7 @@ mod tests {
         let mut normal = Normal::new(nx, ny, 1.0, vec![block]).unwrap();
         let cfg = Config {
             lo: 1e-3,
-            hi: 1e3,
+            hi,
             golden_steps: 8,
             probes: 8,
             budget: 1_000_000,
@@ -532,7 +575,8 @@ mod tests {
             let se = (2.0 * n as f64 / cfg.probes as f64).sqrt();
             assert!((t.df - df).abs() <= 3.0 * se, "{t:?} {df}");
         }
-        let scan = (0..=120)
+        let steps = ((hi.log10() + 3.0) / 0.05).round() as usize;
+        let scan = (0..=steps)
             .map(|k| 10f64.powf(-3.0 + k as f64 * 0.05))
             .map(|l| {
                 let (rss, df) = hat(l);
@@ -547,7 +591,7 @@ mod tests {
             c.lam
         );
         assert_eq!(normal.regularization(), c.lam);
-        c.lam
+        c
     }
 
     #[test]

@@ -623,6 +623,7 @@ impl Plan<'_> {
             Some(z) if exact => self.factored(z, &grid)?,
             _ => self.explicit(&grid, &progress.done)?,
         };
+        let blocks = Self::kept(blocks, inner, &grid, lam.is_none())?;
         // The explicit map is known now: its transpose (the solve's copy) must fit too.
         let map: u128 = blocks
             .iter()

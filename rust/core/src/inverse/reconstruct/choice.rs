@@ -2,10 +2,11 @@
 //! (docs/reconstruct.md, "The prior's weight and the noise, from the data"): on the
 //! grid's central part, once for every tile, by [`choose`].
 
+use crate::infra::csr::Csr;
 use crate::infra::error::Result;
 use crate::inverse::choose::{self, Rule};
 use crate::inverse::plan::Estimate;
-use crate::inverse::solve;
+use crate::inverse::solve::{self, Block};
 use crate::inverse::system::{self, CellGrid};
 
 use super::{Noise, Plan, Progress, MAX_PHOTONS, MAX_PRIOR_SHARE};
@@ -71,7 +72,14 @@ impl Plan<'_> {
             cfg.hi /= c.photons[0];
         }
         let iters = c.budget;
+        let clock = std::time::Instant::now();
         let mut eq = self.equations(sub, progress, iters, main, None)?;
+        let built = clock.elapsed().as_secs_f64();
+        progress.note(format!(
+            "reconstruct: choosing the prior's weight on {} rows over {} x {} cells (the \
+             map in {built:.1} s)",
+            eq.rows, eq.grid.nx, eq.grid.ny
+        ));
         let mut work = eq.normal.work()?;
         let mut diag = vec![0.0; eq.normal.cells()];
         let mean = eq.normal.diagonal(&mut work, &mut diag) / eq.grid.cells().max(1) as f64;
@@ -86,6 +94,15 @@ impl Plan<'_> {
             self.req.n_threads,
             &progress.done,
         )?;
+        progress.note(format!(
+            "reconstruct: the prior's weight chosen ({}): lambda {:.4e} after {} lambda, {} \
+             iterations, {:.1} s",
+            rule.name(),
+            choice.lam,
+            choice.trials.len(),
+            choice.trials.iter().map(|t| t.iterations).sum::<usize>(),
+            clock.elapsed().as_secs_f64() - built
+        ));
         for t in &choice.trials {
             progress.note(format!(
                 "reconstruct: choosing the prior's weight ({}): lambda {:.4e}: score {:.6e}, \
@@ -177,5 +194,114 @@ impl Plan<'_> {
             all += img.len();
         }
         under as f64 / all.max(1) as f64
+    }
+}
+
+impl Plan<'_> {
+    /// The rows a solve keeps: every row for the image; for the choice of λ (`choice`),
+    /// an explicit block's rows that see the central sub-grid `inner` (an entry in one of
+    /// its cells). The padding is there to explain those rows; a row that sees only the
+    /// padding tells nothing of the sub-grid's cells, and when a pixel's span is wide
+    /// against the sub-grid such rows are most of the map and of each product's cost
+    /// (docs/reconstruct.md, "The search"). A factored block keeps its rows.
+    pub(super) fn kept(
+        blocks: Vec<Block>,
+        inner: &CellGrid,
+        grid: &CellGrid,
+        choice: bool,
+    ) -> Result<Vec<Block>> {
+        if !choice {
+            return Ok(blocks);
+        }
+        let h = grid.step;
+        let i0 = ((inner.x0 - grid.x0) / h).round().max(0.0) as usize;
+        let j0 = ((grid.y1 - inner.y1) / h).round().max(0.0) as usize;
+        let (i1, j1) = ((i0 + inner.nx).min(grid.nx), (j0 + inner.ny).min(grid.ny));
+        let sees = |c: u32| {
+            let (j, i) = (c as usize / grid.nx, c as usize % grid.nx);
+            (i0..i1).contains(&i) && (j0..j1).contains(&j)
+        };
+        let mut out = Vec::with_capacity(blocks.len());
+        for block in blocks {
+            let Block::Rows { a, w, y } = block else {
+                out.push(block);
+                continue;
+            };
+            let mut b = Csr::empty(a.ncols);
+            let (mut wk, mut yk) = (vec![], vec![]);
+            for r in 0..a.nrows() {
+                let (cells, values) = a.row(r);
+                if cells.iter().any(|&c| sees(c)) {
+                    b.indices.extend_from_slice(cells);
+                    b.data.extend_from_slice(values);
+                    b.end_row();
+                    wk.push(w[r]);
+                    yk.push(y[r]);
+                }
+            }
+            out.push(Block::Rows { a: b, w: wk, y: yk });
+        }
+        Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 6 × 6 grid around a 2 × 2 sub-grid two cells in from the left and the top (its
+    /// cells 14, 15, 20, 21): the choice keeps the rows with an entry there, with their
+    /// weights and values, in order; the image keeps every row; a factored block is kept.
+    #[test]
+    fn the_choice_keeps_the_rows_that_see_the_sub_grid() {
+        let inner = CellGrid::covering([0.0, 2.0, 0.0, 2.0], 1.0).unwrap();
+        let grid = CellGrid::covering([-2.0, 4.0, -2.0, 4.0], 1.0).unwrap();
+        let rows: Vec<Vec<(u32, f64)>> = vec![
+            vec![(0, 1.0), (1, 2.0)],
+            vec![(14, 3.0)],
+            vec![(5, 4.0), (21, 5.0)],
+            vec![(35, 6.0)],
+            vec![(13, 7.0), (16, 8.0), (19, 9.0), (22, 1.5)],
+            vec![(20, 2.5)],
+        ];
+        let a = Csr::from_rows("rows", &rows, 36).unwrap();
+        let (w, y): (Vec<f64>, Vec<f64>) = (0..6).map(|r| (r as f64, 10.0 + r as f64)).unzip();
+        let block = || Block::Rows {
+            a: a.clone(),
+            w: w.clone(),
+            y: y.clone(),
+        };
+        let all = Plan::kept(vec![block()], &inner, &grid, false).unwrap();
+        let Block::Rows { a: got, .. } = &all[0] else {
+            panic!("a Rows block")
+        };
+        assert_eq!(got, &a);
+        let kept = Plan::kept(vec![block()], &inner, &grid, true).unwrap();
+        let Block::Rows {
+            a: got,
+            w: wk,
+            y: yk,
+        } = &kept[0]
+        else {
+            panic!("a Rows block")
+        };
+        let want = Csr::from_rows(
+            "rows",
+            &[rows[1].clone(), rows[2].clone(), rows[5].clone()],
+            36,
+        )
+        .unwrap();
+        assert_eq!(got, &want);
+        assert_eq!(wk, &vec![1.0, 2.0, 5.0]);
+        assert_eq!(yk, &vec![11.0, 12.0, 15.0]);
+        let factored = Block::Factored {
+            norm: 1.0,
+            px: Csr::empty(6),
+            py: Csr::empty(6),
+            w: vec![],
+            y: vec![],
+        };
+        let kept = Plan::kept(vec![factored], &inner, &grid, true).unwrap();
+        assert!(matches!(kept[..], [Block::Factored { .. }]));
     }
 }
