@@ -105,6 +105,13 @@ impl Csr {
         self.indptr.len() - 1
     }
 
+    /// Each row's sum of values.
+    pub fn row_sums(&self) -> Vec<f64> {
+        (0..self.nrows())
+            .map(|r| self.row(r).1.iter().sum())
+            .collect()
+    }
+
     /// Row i's columns and values.
     pub fn row(&self, i: usize) -> (&[u32], &[f64]) {
         let r = self.indptr[i]..self.indptr[i + 1];

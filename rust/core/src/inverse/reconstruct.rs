@@ -6,23 +6,28 @@
 //! route a map takes ([`system::exact`]), the lens types kept, the surface deeper than F
 //! over the padded region, the memory plan before any large buffer, the prior weight's
 //! meaningful range and the expected work.
+//!
+//! Parts: [`blocks`] (the equations' blocks per route, the rows' weights and the prior
+//! weight's range over them), [`choice`] (the data-chosen weight and noise estimate) and
+//! [`padding`] (the grid's padding).
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
 use crate::imaging::cfa::Pattern;
-use crate::imaging::render::raw_shape;
 use crate::imaging::scene::Surface;
 use crate::infra::error::{Error, Result};
 use crate::infra::memory;
 use crate::inverse::choose;
 use crate::inverse::plan::Estimate;
 
+mod blocks;
+use blocks::{block_rows, check_regularization, max_regularization};
 mod choice;
 mod padding;
 
-use crate::inverse::solve::{self, Block, Csr};
-use crate::inverse::system::{self, CellGrid, OUTSIDE_SHARE};
+use crate::inverse::solve::{self, Block};
+use crate::inverse::system::{self, CellGrid};
 use crate::model::design::Design;
 pub use padding::PAD_NEAREST;
 
@@ -745,145 +750,6 @@ impl Plan<'_> {
             trials: vec![],
         })
     }
-
-    /// A row's weight 1/σ²: σ the raw's noise at value y (Poisson(N v)/N plus read noise
-    /// r/N, render's model), never below the floor (a share of the channel's white).
-    fn weight(&self, y: f64, white: f64) -> f64 {
-        let floor = self.req.settings.noise_floor * white;
-        let [n, r] = match self.noise {
-            Noise::Free => return 1.0 / (floor * floor),
-            Noise::Photons(p) => p,
-            // Not known yet: its shape (photon noise) with N = 1, scaled once estimated.
-            Noise::Unknown => [1.0, 0.0],
-        };
-        let sigma = ((y.max(0.0) / n + (r / n) * (r / n)).sqrt()).max(floor);
-        1.0 / (sigma * sigma)
-    }
-
-    /// The exact route's blocks: per channel and lens type kept, the pixels that see only
-    /// the grid, as the factors restricted to the raw rows and columns holding them.
-    fn factored(&self, z: f64, grid: &CellGrid) -> Result<Vec<Block>> {
-        let d = self.req.design;
-        let mut blocks = vec![];
-        for &c in &self.req.channels {
-            let f = system::factors(d, c, z, grid)?;
-            let img = self.req.images[c];
-            let white = d.channels[c].share;
-            for (t, (px, py)) in f.x.iter().zip(&f.y).enumerate() {
-                if self.types.as_ref().is_some_and(|ts| !ts.contains(&t)) {
-                    continue;
-                }
-                let sx: Vec<f64> = row_sums(px);
-                let sy: Vec<f64> = row_sums(py);
-                let rows_in: Vec<usize> = (0..f.rows)
-                    .filter(|&b| py.total[b] > 0.0 && sy[b] > 0.0)
-                    .collect();
-                let cols_in: Vec<usize> = (0..f.cols)
-                    .filter(|&a| px.total[a] > 0.0 && sx[a] > 0.0)
-                    .collect();
-                let kept = |b: usize, a: usize| {
-                    let total = py.total[b] * px.total[a];
-                    let inside = sy[b] * sx[a];
-                    f.types[b * f.cols + a] as usize == t
-                        && total - inside <= OUTSIDE_SHARE * total
-                        && self.req.colour.map_or(true, |(p, k)| p.colour(b, a) == k)
-                };
-                let r_sel: Vec<usize> = rows_in
-                    .iter()
-                    .copied()
-                    .filter(|&b| cols_in.iter().any(|&a| kept(b, a)))
-                    .collect();
-                if r_sel.is_empty() {
-                    continue;
-                }
-                let c_sel: Vec<usize> = cols_in
-                    .iter()
-                    .copied()
-                    .filter(|&a| rows_in.iter().any(|&b| kept(b, a)))
-                    .collect();
-                let n = r_sel.len() * c_sel.len();
-                let (mut w, mut y) = (vec![0.0; n], vec![0.0; n]);
-                for (i, &b) in r_sel.iter().enumerate() {
-                    for (k, &a) in c_sel.iter().enumerate() {
-                        if kept(b, a) {
-                            let v = img[b * f.cols + a];
-                            y[i * c_sel.len() + k] = v;
-                            w[i * c_sel.len() + k] = self.weight(v, white);
-                        }
-                    }
-                }
-                blocks.push(Block::Factored {
-                    norm: f.norm,
-                    px: select(px, &c_sel, grid.nx)?,
-                    py: select(py, &r_sel, grid.ny)?,
-                    w,
-                    y,
-                });
-            }
-        }
-        Ok(blocks)
-    }
-
-    /// The explicit rows of the tilted or general route, weighted.
-    fn explicit(&self, grid: &CellGrid, done: &AtomicUsize) -> Result<Vec<Block>> {
-        let d = self.req.design;
-        let sys = system::build_surface(
-            d,
-            &self.req.channels,
-            &self.surface,
-            grid,
-            self.types.as_deref(),
-            self.req.n_threads,
-            done,
-        )?;
-        if sys.channel.is_empty() {
-            return Ok(vec![]);
-        }
-        // The rows kept: every pixel's, or a CFA colour's only (docs/model.md §12).
-        let cols: Vec<_> = d.channels.iter().map(|ch| raw_shape(ch).1).collect();
-        let keep: Vec<bool> = sys
-            .channel
-            .iter()
-            .zip(&sys.pixel)
-            .map(|(&c, &p)| {
-                self.req.colour.map_or(true, |(pattern, k)| {
-                    let cols = cols[c as usize];
-                    pattern.colour(p as usize / cols, p as usize % cols) == k
-                })
-            })
-            .collect();
-        let n = keep.iter().filter(|&&k| k).count();
-        if n == 0 {
-            return Ok(vec![]);
-        }
-        let (mut w, mut y) = (Vec::with_capacity(n), Vec::with_capacity(n));
-        for ((&c, &p), _) in sys
-            .channel
-            .iter()
-            .zip(&sys.pixel)
-            .zip(&keep)
-            .filter(|t| *t.1)
-        {
-            let v = self.req.images[c as usize][p as usize];
-            y.push(v);
-            w.push(self.weight(v, d.channels[c as usize].share));
-        }
-        let r = sys.rows;
-        let (indptr, indices, data) = if n == keep.len() {
-            (r.indptr, r.indices, r.data)
-        } else {
-            let (mut ptr, mut idx, mut val) = (vec![0], vec![], vec![]);
-            for (i, _) in keep.iter().enumerate().filter(|t| *t.1) {
-                let (lo, hi) = (r.indptr[i], r.indptr[i + 1]);
-                idx.extend_from_slice(&r.indices[lo..hi]);
-                val.extend_from_slice(&r.data[lo..hi]);
-                ptr.push(val.len());
-            }
-            (ptr, idx, val)
-        };
-        let a = Csr::new("rows", indptr, indices, data, grid.cells())?;
-        Ok(vec![Block::Rows { a, w, y }])
-    }
 }
 
 /// λ beyond this many times the data's mean weight per cell (trace(AᵀWA) / cells) drowns
@@ -893,82 +759,6 @@ pub const MAX_PRIOR_SHARE: f64 = 1e6;
 /// The largest photon count of the noise model (the Python package's `MAX_PHOTONS`): an
 /// estimate beyond it is taken as noise-free.
 pub const MAX_PHOTONS: f64 = 1e15;
-
-/// Refuse a prior weight whose solve is not meaningful (see [`MAX_PRIOR_SHARE`]).
-fn check_regularization(lam: f64, blocks: &[Block], cells: usize) -> Result<()> {
-    let most = max_regularization(blocks, cells);
-    if lam > most {
-        return Err(Error::param(
-            "regularization",
-            lam,
-            format!(
-                "a finite value in (0, {most:.3e}] for this raw and grid ({MAX_PRIOR_SHARE:.0e} \
-                 times the data's mean weight per cell: beyond it the prior drowns the data \
-                 and the solve loses its precision)"
-            ),
-        ));
-    }
-    Ok(())
-}
-
-/// The largest λ a solve over `blocks` on `cells` cells takes: [`MAX_PRIOR_SHARE`] times
-/// the data's mean weight per cell.
-fn max_regularization(blocks: &[Block], cells: usize) -> f64 {
-    let sq = |c: &Csr, r: usize| {
-        c.data[c.indptr[r]..c.indptr[r + 1]]
-            .iter()
-            .map(|v| v * v)
-            .sum::<f64>()
-    };
-    let trace: f64 = blocks
-        .iter()
-        .map(|b| match b {
-            Block::Factored {
-                norm, px, py, w, ..
-            } => {
-                let nc = px.nrows();
-                (0..py.nrows())
-                    .map(|b| {
-                        let yb = sq(py, b);
-                        (0..nc).map(|a| w[b * nc + a] * sq(px, a)).sum::<f64>() * yb
-                    })
-                    .sum::<f64>()
-                    * norm
-                    * norm
-            }
-            Block::Rows { a, w, .. } => (0..a.nrows()).map(|r| w[r] * sq(a, r)).sum(),
-        })
-        .sum();
-    MAX_PRIOR_SHARE * trace / cells.max(1) as f64
-}
-
-fn block_rows(b: &Block) -> usize {
-    match b {
-        Block::Factored { w, .. } => w.iter().filter(|&&v| v != 0.0).count(),
-        Block::Rows { a, .. } => a.nrows(),
-    }
-}
-
-/// Each row's sum of entries, in order.
-fn row_sums(p: &system::AxisProfiles) -> Vec<f64> {
-    (0..p.rows.nrows())
-        .map(|r| p.rows.row(r).1.iter().fold(0.0, |s, v| s + v))
-        .collect()
-}
-
-/// The rows `sel` of an axis's profiles as a checked CSR matrix over `ncols` columns.
-fn select(p: &system::AxisProfiles, sel: &[usize], ncols: usize) -> Result<Csr> {
-    let mut indptr = Vec::with_capacity(sel.len() + 1);
-    indptr.push(0);
-    let (mut indices, mut data) = (vec![], vec![]);
-    for &r in sel {
-        let (cells, entries) = p.rows.row(r);
-        indices.extend_from_slice(cells);
-        data.extend_from_slice(entries);
-        indptr.push(data.len());
-    }
-    Csr::new("factors", indptr, indices, data, ncols)
-}
 
 #[cfg(test)]
 mod tests {

@@ -11,7 +11,7 @@ use splitlf_core::inverse::merit as core_merit;
 use crate::infra::args::threads_arg;
 use crate::infra::errors::to_py;
 use crate::infra::interrupt::{counted, run_reporting};
-use crate::inverse::reconstruct::channel_indices;
+use crate::inverse::reconstruct::{channel_indices, from_one};
 use crate::model::design::DesignCore;
 
 /// A merit's request, from a dict (Python has checked the types and ranges; the core
@@ -66,22 +66,10 @@ pub(crate) fn image_merits<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let threads = threads_arg(n_threads)?;
     let channels = channel_indices(design, Some(request.channels))?;
-    let lens_types = match request.lens_types {
-        None => None,
-        Some(v) => Some(
-            v.into_iter()
-                .map(|t| {
-                    usize::try_from(t.saturating_sub(1)).map_err(|_| {
-                        to_py(splitlf_core::Error::param(
-                            "lens_types",
-                            t,
-                            "lens type numbers from 1",
-                        ))
-                    })
-                })
-                .collect::<PyResult<Vec<usize>>>()?,
-        ),
-    };
+    let lens_types = request
+        .lens_types
+        .map(|v| from_one("lens_types", v))
+        .transpose()?;
     let (
         noise_floor,
         rtol,

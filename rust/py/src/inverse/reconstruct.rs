@@ -202,23 +202,7 @@ pub(crate) fn surface_system<'py>(
     lens_types: Option<Vec<i64>>,
 ) -> PyResult<Csr<'py>> {
     let sc = Arc::clone(&scene.get().inner);
-    let types: Option<Vec<usize>> = lens_types
-        .map(|v| {
-            v.into_iter()
-                .map(|t| {
-                    // Numbers from 1; a number below 1 is named as given (the core names
-                    // those beyond the channels' types).
-                    usize::try_from(t.saturating_sub(1)).map_err(|_| {
-                        to_py(splitlf_core::Error::param(
-                            "lens_types",
-                            t,
-                            "lens type numbers from 1",
-                        ))
-                    })
-                })
-                .collect::<PyResult<Vec<usize>>>()
-        })
-        .transpose()?;
+    let types = lens_types.map(|v| from_one("lens_types", v)).transpose()?;
     let req = MapRequest {
         design,
         grid,
@@ -497,8 +481,9 @@ fn option<'py, T: FromPyObjectOwned<'py>>(
     }
 }
 
-/// Numbers from 1 to indices from 0 (a number below 1 named as given).
-fn from_one(field: &'static str, v: Vec<i64>) -> PyResult<Vec<usize>> {
+/// Numbers from 1 to indices from 0 (a number below 1 named as given; the core names those
+/// beyond the channels' types).
+pub(crate) fn from_one(field: &'static str, v: Vec<i64>) -> PyResult<Vec<usize>> {
     v.into_iter()
         .map(|t| {
             usize::try_from(t.saturating_sub(1))

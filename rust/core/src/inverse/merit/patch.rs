@@ -7,8 +7,8 @@ use std::sync::atomic::AtomicUsize;
 
 use crate::imaging::scene::Surface;
 use crate::infra::error::{Error, Result};
-use crate::inverse::solve::{Block, Csr};
-use crate::inverse::system::{self, CellGrid, OUTSIDE_SHARE};
+use crate::inverse::solve::Block;
+use crate::inverse::system::{self, CellGrid};
 
 use super::Request;
 
@@ -224,11 +224,6 @@ fn noise(req: &Request<'_>, v: f64, white: f64) -> (f64, f64) {
     (sigma, 1.0 / (sigma * sigma))
 }
 
-/// Each row's sum of entries.
-fn row_sums(p: &Csr) -> Vec<f64> {
-    (0..p.nrows()).map(|r| p.row(r).1.iter().sum()).collect()
-}
-
 /// The lens types kept (from 0) checked against the channels' types; None for every type.
 fn types(req: &Request<'_>) -> Result<Option<Vec<usize>>> {
     let Some(ts) = &req.lens_types else {
@@ -266,45 +261,24 @@ fn factored(req: &Request<'_>, z: f64, grid: &CellGrid) -> Result<Blocks> {
             if kept_types.as_ref().is_some_and(|ts| !ts.contains(&t)) {
                 continue;
             }
-            let (sx, sy) = (row_sums(&px.rows), row_sums(&py.rows));
-            let rows_in: Vec<usize> = (0..f.rows)
-                .filter(|&b| py.total[b] > 0.0 && sy[b] > 0.0)
-                .collect();
-            let cols_in: Vec<usize> = (0..f.cols)
-                .filter(|&a| px.total[a] > 0.0 && sx[a] > 0.0)
-                .collect();
-            let kept = |b: usize, a: usize| {
-                let total = py.total[b] * px.total[a];
-                f.types[b * f.cols + a] as usize == t
-                    && total - sy[b] * sx[a] <= OUTSIDE_SHARE * total
-            };
-            let r_sel: Vec<usize> = rows_in
-                .iter()
-                .copied()
-                .filter(|&b| cols_in.iter().any(|&a| kept(b, a)))
-                .collect();
-            if r_sel.is_empty() {
+            let Some(sel) = f.select_type(t, grid, |_, _| true)? else {
                 continue;
-            }
-            let c_sel: Vec<usize> = cols_in
-                .iter()
-                .copied()
-                .filter(|&a| rows_in.iter().any(|&b| kept(b, a)))
-                .collect();
-            let n = r_sel.len() * c_sel.len();
+            };
+            let n = sel.kept.len();
             let (mut w, mut sig) = (vec![0.0; n], vec![0.0; n]);
-            for (i, &b) in r_sel.iter().enumerate() {
-                for (k, &a) in c_sel.iter().enumerate() {
-                    if kept(b, a) {
+            for (i, &b) in sel.rows.iter().enumerate() {
+                for (k, &a) in sel.cols.iter().enumerate() {
+                    let j = i * sel.cols.len() + k;
+                    if sel.kept[j] {
                         let v = req.ensemble.mean * f.norm * py.total[b] * px.total[a];
-                        (sig[i * c_sel.len() + k], w[i * c_sel.len() + k]) = noise(req, v, white);
+                        (sig[j], w[j]) = noise(req, v, white);
                     }
                 }
             }
             blocks.push(Block::Factored {
                 norm: f.norm,
-                px: select(&px.rows, &c_sel, grid.nx)?,
-                py: select(&py.rows, &r_sel, grid.ny)?,
+                px: sel.px,
+                py: sel.py,
                 w,
                 y: vec![0.0; n],
             });
@@ -334,7 +308,7 @@ fn general(req: &Request<'_>, z: f64, grid: &CellGrid, done: &AtomicUsize) -> Re
     if sys.channel.is_empty() {
         return Ok((vec![], vec![]));
     }
-    let sums = row_sums(&sys.rows);
+    let sums = sys.rows.row_sums();
     let (mut w, mut sig) = (
         Vec::with_capacity(sums.len()),
         Vec::with_capacity(sums.len()),
@@ -353,18 +327,4 @@ fn general(req: &Request<'_>, z: f64, grid: &CellGrid, done: &AtomicUsize) -> Re
         }],
         vec![sig],
     ))
-}
-
-/// The rows `sel` of a CSR matrix over `ncols` columns.
-fn select(p: &Csr, sel: &[usize], ncols: usize) -> Result<Csr> {
-    let mut indptr = Vec::with_capacity(sel.len() + 1);
-    indptr.push(0);
-    let (mut indices, mut data) = (vec![], vec![]);
-    for &r in sel {
-        let (cells, entries) = p.row(r);
-        indices.extend_from_slice(cells);
-        data.extend_from_slice(entries);
-        indptr.push(data.len());
-    }
-    Csr::new("factors", indptr, indices, data, ncols)
 }

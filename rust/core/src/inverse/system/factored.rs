@@ -39,6 +39,85 @@ pub struct Factors {
     pub cols: usize,
 }
 
+/// One lens type's pixels of a channel that see only the grid ([`Factors::select_type`]):
+/// the raw rows `rows` and columns `cols` holding them, the factors restricted to those
+/// (`py` rows per raw row, `px` per raw column), and `kept[i · cols.len() + k]` whether
+/// pixel (rows[i], cols[k]) is one of them.
+#[derive(Debug, Clone)]
+pub struct TypeSelection {
+    pub rows: Vec<usize>,
+    pub cols: Vec<usize>,
+    pub px: Csr,
+    pub py: Csr,
+    pub kept: Vec<bool>,
+}
+
+impl Factors {
+    /// The pixels of lens type `t` whose ray sets are lit and inside the grid (no more than
+    /// [`OUTSIDE_SHARE`] of their rays off it) and that pass `also(row, col)`; None when
+    /// there are none. `grid` is the grid the factors were computed on.
+    pub fn select_type(
+        &self,
+        t: usize,
+        grid: &CellGrid,
+        also: impl Fn(usize, usize) -> bool,
+    ) -> Result<Option<TypeSelection>> {
+        let (px, py) = (&self.x[t], &self.y[t]);
+        let (sx, sy) = (px.rows.row_sums(), py.rows.row_sums());
+        let rows_in: Vec<usize> = (0..self.rows)
+            .filter(|&b| py.total[b] > 0.0 && sy[b] > 0.0)
+            .collect();
+        let cols_in: Vec<usize> = (0..self.cols)
+            .filter(|&a| px.total[a] > 0.0 && sx[a] > 0.0)
+            .collect();
+        let kept = |b: usize, a: usize| {
+            let total = py.total[b] * px.total[a];
+            self.types[b * self.cols + a] as usize == t
+                && total - sy[b] * sx[a] <= OUTSIDE_SHARE * total
+                && also(b, a)
+        };
+        let rows: Vec<usize> = rows_in
+            .iter()
+            .copied()
+            .filter(|&b| cols_in.iter().any(|&a| kept(b, a)))
+            .collect();
+        if rows.is_empty() {
+            return Ok(None);
+        }
+        let cols: Vec<usize> = cols_in
+            .iter()
+            .copied()
+            .filter(|&a| rows_in.iter().any(|&b| kept(b, a)))
+            .collect();
+        let mask = rows
+            .iter()
+            .flat_map(|&b| cols.iter().map(move |&a| (b, a)))
+            .map(|(b, a)| kept(b, a))
+            .collect();
+        Ok(Some(TypeSelection {
+            px: select(&px.rows, &cols, grid.nx)?,
+            py: select(&py.rows, &rows, grid.ny)?,
+            rows,
+            cols,
+            kept: mask,
+        }))
+    }
+}
+
+/// The rows `sel` of `p` as a checked CSR matrix over `ncols` columns.
+fn select(p: &Csr, sel: &[usize], ncols: usize) -> Result<Csr> {
+    let mut indptr = Vec::with_capacity(sel.len() + 1);
+    indptr.push(0);
+    let (mut indices, mut data) = (vec![], vec![]);
+    for &r in sel {
+        let (cells, entries) = p.row(r);
+        indices.extend_from_slice(cells);
+        data.extend_from_slice(entries);
+        indptr.push(data.len());
+    }
+    Csr::new("factors", indptr, indices, data, ncols)
+}
+
 /// The profiles `p` against `cells` cells, numbered from the far end when `flip`.
 fn axis_csr(p: &[Profile], cells: usize, flip: bool) -> AxisProfiles {
     let mut out = AxisProfiles {

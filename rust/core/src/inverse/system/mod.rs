@@ -35,7 +35,7 @@ mod general;
 mod slabs;
 mod tilted;
 
-pub use factored::{build, factors, AxisProfiles, Factors};
+pub use factored::{build, factors, AxisProfiles, Factors, TypeSelection};
 pub use general::build_surface;
 
 /// One map's build: the design, the channels (numbered from 0), the grid, the worker
