@@ -70,6 +70,7 @@ mod estimate;
 mod fold;
 mod layer;
 mod micro;
+mod mirror;
 pub mod surface;
 mod tilt;
 mod whites;
@@ -318,6 +319,7 @@ fn sweep_bytes(
         + tilt
         + workers as u128 * (Layer::bytes(ex, channels, lenses, boxes) + layers)
         + entries * Fold::bytes_per_entry(plan.candidates)
+        + entries * mirror::BYTES_PER_ENTRY
         + grid.cells() as u128 * OUTPUT_BYTES_PER_CELL
         + volume
 }
@@ -345,7 +347,9 @@ pub fn sweep(
     memory::check("the depth sweep", bytes)?;
     let (mut fold, volume, cells) = run(&mi, plan, workers, n_threads, done)?;
     fold.end(candidates.len() as u32);
-    let mut s = finish(fold, nch, candidates, mi.pixels, volume);
+    checkpoint()?;
+    let mirrors = mirror::rivals(design, &mi, plan, chosen, &fold, workers, n_threads)?;
+    let mut s = finish(fold, &mirrors, nch, candidates, mi.pixels, volume);
     if let Some(values) = cells {
         checkpoint()?;
         let costs = tilt::CellCosts {
@@ -491,6 +495,7 @@ fn run(
 /// per cell the channel of highest confidence (the first on a tie).
 fn finish(
     fold: Fold,
+    mirrors: &[f64],
     channels: usize,
     candidates: &[f64],
     samples: usize,
@@ -516,7 +521,7 @@ fn finish(
             if fold.arg[e] == u32::MAX {
                 continue;
             }
-            let conf = confidence(&fold, e, sep, candidates);
+            let conf = confidence(&fold, e, sep, candidates, mirrors[e]);
             if best.map_or(true, |(c, _)| conf > c) {
                 best = Some((conf, ch));
             }
@@ -563,7 +568,7 @@ fn finish(
 ///   over a fixed span it does not.
 /// - 0 where a neighbour of the least cost is above the curve's mean: a step in the curve
 ///   (measured: a cost 4× the mean beside a false dip at the grid's edge), not a dip.
-fn confidence(fold: &Fold, e: usize, sep: u32, candidates: &[f64]) -> f64 {
+fn confidence(fold: &Fold, e: usize, sep: u32, candidates: &[f64], mirror: f64) -> f64 {
     let (k, m, l, r) = (
         fold.arg[e] as usize,
         fold.min[e],
@@ -575,7 +580,10 @@ fn confidence(fold: &Fold, e: usize, sep: u32, candidates: &[f64]) -> f64 {
         return 0.0;
     }
     let mean = fold.sum[e] / fold.count[e] as f64;
-    let against = mean.min(fold.rival(e, sep)).min(fold.ridged(e));
+    let against = mean
+        .min(fold.rival(e, sep))
+        .min(fold.ridged(e))
+        .min(mirror);
     if !(against > 0.0 && against.is_finite()) {
         return 0.0;
     }

@@ -1,0 +1,158 @@
+//! The mirror rival of a least cost (docs/depth.md, step 6): a channel's lenses see a
+//! point alike on both sides of its out-of-focus plane z_c (its micro-images collapse
+//! there and flip beyond), so a cost curve that dips at z can dip as deep, or deeper, at
+//! z's mirror in inverse depth, 1/z' = 2/z_c − 1/z, behind the peak at z_c. Such dips are
+//! narrow near z_c (about 1 % of the depth on the seed's half 1 at 620 mm), and the
+//! candidates read one of the two far from its bottom: on the seed at 64 candidates the
+//! true dip (620 mm) read 2.5 times the mirror's least cost (665 mm) and the mirror won
+//! with a contrast of 0.6. So after the sweep the costs are computed at the mirrors of
+//! each entry's least cost and of its two neighbours (the mirrors of candidates uniform
+//! in 1/z are uniform in 1/z: each mirror reads its dip at the same offset as its
+//! candidate reads the other), and at z_c itself; the least of the three is the entry's
+//! mirror reading, a rival of the least cost (as a cost beyond a ridge, [`RIDGE`]) where
+//! the cost at z_c rises to [`RIDGE`] times it.
+
+use rayon::prelude::*;
+
+use super::layer::{self, Layer};
+use super::micro::Micro;
+use super::{Fold, Plan, RIDGE};
+use crate::infra::error::Result;
+use crate::infra::parallel::{checkpoint, for_chunks};
+use crate::model::design::Design;
+use crate::model::optics::LensOptics;
+
+/// Bytes per entry (cell and channel) of the mirror pass: the reading, the cost at z_c
+/// and the three mirrors' depth indices.
+pub(super) const BYTES_PER_ENTRY: u128 = 8 + 8 + 3 * 4;
+
+/// The mirror of z in inverse depth about zc, where it is a depth within [lo, hi].
+fn mirror(zc: f64, z: f64, lo: f64, hi: f64) -> Option<f64> {
+    let inv = 2.0 / zc - 1.0 / z;
+    (inv > 0.0)
+        .then(|| 1.0 / inv)
+        .filter(|&m| m >= lo && m <= hi)
+}
+
+/// Per entry (channel-major, as the fold's) the mirror rival of its least cost: the least
+/// cost of its channel at the mirrors about the channel's out-of-focus plane z_c of its
+/// least cost's candidate and of that candidate's two neighbours (those that lie beyond
+/// z_c from the least cost, within the candidates), where the cost at z_c is at least
+/// [`RIDGE`] times it; +∞ elsewhere (and for a channel whose z_c does not lie strictly
+/// inside the candidates). Each depth read is one more layer of the sweep, computed as a
+/// candidate's, `workers` at a time.
+pub(super) fn rivals(
+    design: &Design,
+    mi: &Micro,
+    plan: &Plan,
+    chosen: &[usize],
+    fold: &Fold,
+    workers: usize,
+    n_threads: Option<usize>,
+) -> Result<Vec<f64>> {
+    let cand = plan.candidates;
+    let n = cand.len();
+    let (lo, hi) = (cand[0], cand[n - 1]);
+    let entries = fold.arg.len();
+    let cells = entries / chosen.len();
+    let focus: Vec<Option<f64>> = chosen
+        .iter()
+        .map(|&i| {
+            let zc = LensOptics::of_channel(design, &design.channels[i], 0).out_of_focus_depth();
+            (zc > lo && zc < hi).then_some(zc)
+        })
+        .collect();
+    let mut rival = vec![f64::INFINITY; entries];
+    if focus.iter().all(Option::is_none) {
+        return Ok(rival);
+    }
+    // The depths to read: each entry's three mirrors, and every z_c.
+    let mut wanted = vec![[f64::NAN; 3]; entries];
+    let mut depths: Vec<f64> = focus.iter().flatten().copied().collect();
+    for (e, w) in wanted.iter_mut().enumerate() {
+        let (Some(zc), k) = (focus[e / cells], fold.arg[e] as usize) else {
+            continue;
+        };
+        if k >= n || cand[k] == zc {
+            continue;
+        }
+        for (slot, j) in (k.saturating_sub(1)..=(k + 1).min(n - 1)).enumerate() {
+            if let Some(m) = mirror(zc, cand[j], lo, hi) {
+                if (cand[k] - zc) * (m - zc) < 0.0 {
+                    w[slot] = m;
+                    depths.push(m);
+                }
+            }
+        }
+    }
+    depths.sort_by(f64::total_cmp);
+    depths.dedup();
+    let index = |z: f64| depths.binary_search_by(|d| d.total_cmp(&z)).ok();
+    let slots: Vec<[u32; 3]> = wanted
+        .iter()
+        .map(|w| w.map(|z| index(z).map_or(u32::MAX, |i| i as u32)))
+        .collect();
+    let at_focus: Vec<u32> = focus
+        .iter()
+        .map(|z| z.and_then(index).map_or(u32::MAX, |i| i as u32))
+        .collect();
+    drop(wanted);
+    let ex = (
+        plan.grid.nx + 2 * plan.radius,
+        plan.grid.ny + 2 * plan.radius,
+    );
+    let mut least = vec![f64::INFINITY; entries];
+    let mut ridge = vec![f64::NAN; entries];
+    for_chunks(n_threads, depths.len(), workers, |range| {
+        let start = range.start as u32;
+        let layers = range
+            .into_par_iter()
+            .map(|i| {
+                checkpoint()?;
+                let mut buf = Layer::new(ex, mi.channels);
+                let mut out = vec![0.0; entries];
+                let z = depths[i];
+                layer::layer(mi, &plan.grid, plan.radius, z, &mut buf, &mut out, None);
+                Ok(out)
+            })
+            .collect::<Result<Vec<Vec<f64>>>>()?;
+        let end = start + layers.len() as u32;
+        for e in 0..entries {
+            for &s in &slots[e] {
+                if s >= start && s < end {
+                    let v = layers[(s - start) as usize][e];
+                    if v < least[e] {
+                        least[e] = v;
+                    }
+                }
+            }
+            let s = at_focus[e / cells];
+            if s >= start && s < end {
+                ridge[e] = layers[(s - start) as usize][e];
+            }
+        }
+        Ok(())
+    })?;
+    for e in 0..entries {
+        if least[e].is_finite() && ridge[e] >= RIDGE * least[e] {
+            rival[e] = least[e];
+        }
+    }
+    Ok(rival)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mirror_reflects_inverse_depth_about_the_plane() {
+        // 1/624 − 1/642 = 1/642 − 1/z'
+        let m = mirror(642.0, 624.0, 250.0, 4000.0).unwrap();
+        assert!((1.0 / 624.0 - 1.0 / 642.0 - (1.0 / 642.0 - 1.0 / m)).abs() < 1e-15);
+        assert!((mirror(642.0, m, 250.0, 4000.0).unwrap() - 624.0).abs() < 1e-9);
+        // beyond infinity (2/z_c < 1/z) and outside the candidates: none
+        assert_eq!(mirror(642.0, 300.0, 250.0, 4000.0), None);
+        assert_eq!(mirror(642.0, 400.0, 250.0, 1000.0), None);
+    }
+}
