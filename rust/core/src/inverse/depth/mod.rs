@@ -50,7 +50,9 @@
 //! of the symmetric V through it and its two neighbours ([`vertex`]), and its confidence
 //! ([`confidence`]) the least of the contrast 1 − min / m', m' the least of the curve's
 //! mean, of its least local minimum more than n/16 candidates away and of its least cost
-//! beyond a ridge twice that cost's height ([`RIDGE`]) however near (a second dip of the
+//! beyond a ridge twice that cost's height ([`RIDGE`]) however near, and of its cost at the
+//! mirror of the least cost's depth about the channel's out-of-focus plane ([`mirror`],
+//! read after the sweep) (a second dip of the
 //! same depth makes a cell ambiguous; a textureless patch costs the same, its noise, at
 //! every depth), and of the resolution: how narrow the dip is in relative depth against
 //! the least cost, measured over a fixed span of relative depth ([`RESOLUTION_SPAN`]; a
@@ -63,7 +65,7 @@
 //! into running minima, so the cost volume is never held whole (unless asked for).
 //!
 //! The parts: [`micro`] (the lenses' micro-images), [`layer`] (one candidate's costs),
-//! [`fold`] (the running minima), [`whites`] (the whites under a white albedo) and
+//! [`fold`] (the running minima), [`mirror`] (the mirror rival), [`whites`] (the whites under a white albedo) and
 //! [`estimate`] (the whole estimate from a raw: region, grid, whites, sweep).
 
 mod estimate;
@@ -551,10 +553,12 @@ fn finish(
 /// its resolution, 0 where its least cost is at the first or last candidate (a minimum
 /// the candidates do not bracket: the truth may lie beyond them) or has no neighbour.
 /// - The contrast 1 − min / min(mean, rival), the rival the least of the local minima more
-///   than `sep` candidates away and of the costs beyond a ridge of [`RIDGE`] times their
-///   own ([`fold::Ridge`]): a textureless window costs its noise at every depth (near 0),
-///   a curve with two dips of one depth is ambiguous, however near they are (measured:
-///   the R12 near its array's conjugate, a dip each side of it three candidates apart).
+///   than `sep` candidates away, of the costs beyond a ridge of [`RIDGE`] times their
+///   own ([`fold::Ridge`]) and of the `mirror` reading ([`mirror::rivals`]; +∞: none): a
+///   textureless window costs its noise at every depth (near 0), a curve with two dips of
+///   one depth is ambiguous, however near they are (measured: the R12 near its array's
+///   conjugate, a dip each side of it three candidates apart) and however narrow the
+///   other (the seed's half 1 either side of its out-of-focus plane).
 /// - The resolution 1 / (1 + (w / [`WIDTH_AT_HALF`])²), w = Δ ln z · √(min / a) the
 ///   relative depth over which the parabola through the least cost and the costs l_K, r_K
 ///   K candidates either side (curvature a = (l_K + r_K − 2 min) / 2 per (K candidates)²,
