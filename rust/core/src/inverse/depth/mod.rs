@@ -584,10 +584,7 @@ fn confidence(fold: &Fold, e: usize, sep: u32, candidates: &[f64], mirror: f64) 
         return 0.0;
     }
     let mean = fold.sum[e] / fold.count[e] as f64;
-    let against = mean
-        .min(fold.rival(e, sep))
-        .min(fold.ridged(e))
-        .min(mirror);
+    let against = mean.min(fold.rival(e, sep)).min(fold.ridged(e)).min(mirror);
     if !(against > 0.0 && against.is_finite()) {
         return 0.0;
     }
