@@ -51,10 +51,9 @@
 //! ([`confidence`]) the least of the contrast 1 − min / m', m' the least of the curve's
 //! mean, of its least local minimum more than n/16 candidates away and of its least cost
 //! beyond a ridge twice that cost's height ([`RIDGE`]) however near, and of its cost at the
-//! mirror of the least cost's depth about the channel's out-of-focus plane ([`mirror`],
-//! read after the sweep) (a second dip of the
-//! same depth makes a cell ambiguous; a textureless patch costs the same, its noise, at
-//! every depth), and of the resolution: how narrow the dip is in relative depth against
+//! mirror of the least cost's depth about the channel's out-of-focus plane, read after the
+//! sweep ([`mirror`]) (a second dip of the same depth makes a cell ambiguous; a
+//! textureless patch costs the same, its noise, at every depth), and of the resolution: how narrow the dip is in relative depth against
 //! the least cost, measured over a fixed span of relative depth ([`RESOLUTION_SPAN`]; a
 //! shallow dip is not trusted); 0 where the least cost is at an end of the candidates. Each cell takes the estimate of its most confident channel: the channels'
 //! blurs differ, so their values of one patch are never compared, and a channel that sees
@@ -65,8 +64,9 @@
 //! into running minima, so the cost volume is never held whole (unless asked for).
 //!
 //! The parts: [`micro`] (the lenses' micro-images), [`layer`] (one candidate's costs),
-//! [`fold`] (the running minima), [`mirror`] (the mirror rival), [`whites`] (the whites under a white albedo) and
-//! [`estimate`] (the whole estimate from a raw: region, grid, whites, sweep).
+//! [`fold`] (the running minima), [`mirror`] (the mirror rival), [`whites`] (the whites
+//! under a white albedo) and [`estimate`] (the whole estimate from a raw: region, grid,
+//! whites, sweep).
 
 mod estimate;
 mod fold;
