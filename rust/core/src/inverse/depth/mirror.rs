@@ -22,9 +22,9 @@ use crate::infra::parallel::{checkpoint, for_chunks};
 use crate::model::design::Design;
 use crate::model::optics::LensOptics;
 
-/// Bytes per entry (cell and channel) of the mirror pass: the reading, the cost at z_c
-/// and the three mirrors' depth indices.
-pub(super) const BYTES_PER_ENTRY: u128 = 8 + 8 + 3 * 4;
+/// Bytes per entry (cell and channel) of the mirror pass: the least reading, the cost at
+/// z_c and the rival returned.
+pub(super) const BYTES_PER_ENTRY: u128 = 3 * 8;
 
 /// The mirror of z in inverse depth about zc, where it is a depth within [lo, hi].
 fn mirror(zc: f64, z: f64, lo: f64, hi: f64) -> Option<f64> {
@@ -34,13 +34,30 @@ fn mirror(zc: f64, z: f64, lo: f64, hi: f64) -> Option<f64> {
         .filter(|&m| m >= lo && m <= hi)
 }
 
+/// The candidates whose mirrors about `zc` an entry with its least cost at candidate k
+/// reads: k and its neighbours whose mirror lies within the candidates and beyond zc from
+/// candidate k (none where candidate k is zc itself).
+fn reads(cand: &[f64], zc: f64, k: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
+    let n = cand.len();
+    let (lo, hi) = (cand[0], cand[n - 1]);
+    let js = if k < n && cand[k] != zc {
+        k.saturating_sub(1)..(k + 2).min(n)
+    } else {
+        0..0
+    };
+    js.filter_map(move |j| {
+        mirror(zc, cand[j], lo, hi)
+            .filter(|&m| (cand[k] - zc) * (m - zc) < 0.0)
+            .map(|m| (j, m))
+    })
+}
+
 /// Per entry (channel-major, as the fold's) the mirror rival of its least cost: the least
 /// cost of its channel at the mirrors about the channel's out-of-focus plane z_c of its
-/// least cost's candidate and of that candidate's two neighbours (those that lie beyond
-/// z_c from the least cost, within the candidates), where the cost at z_c is at least
-/// [`RIDGE`] times it; +∞ elsewhere (and for a channel whose z_c does not lie strictly
-/// inside the candidates). Each depth read is one more layer of the sweep, computed as a
-/// candidate's, `workers` at a time.
+/// least cost's candidate and of that candidate's two neighbours ([`reads`]), where the
+/// cost at z_c is at least [`RIDGE`] times it; +∞ elsewhere (and for a channel whose z_c
+/// does not lie strictly inside the candidates). Each depth read is one more layer of the
+/// sweep, computed as a candidate's, `workers` at a time.
 pub(super) fn rivals(
     design: &Design,
     mi: &Micro,
@@ -52,51 +69,40 @@ pub(super) fn rivals(
 ) -> Result<Vec<f64>> {
     let cand = plan.candidates;
     let n = cand.len();
-    let (lo, hi) = (cand[0], cand[n - 1]);
     let entries = fold.arg.len();
     let cells = entries / chosen.len();
     let focus: Vec<Option<f64>> = chosen
         .iter()
         .map(|&i| {
             let zc = LensOptics::of_channel(design, &design.channels[i], 0).out_of_focus_depth();
-            (zc > lo && zc < hi).then_some(zc)
+            (zc > cand[0] && zc < cand[n - 1]).then_some(zc)
         })
         .collect();
     let mut rival = vec![f64::INFINITY; entries];
     if focus.iter().all(Option::is_none) {
         return Ok(rival);
     }
-    // The depths to read: each entry's three mirrors, and every z_c.
-    let mut wanted = vec![[f64::NAN; 3]; entries];
+    // The depths to read (each channel's mirrors of the candidates some entry reads, and
+    // every z_c), and per channel and candidate the index of its mirror among them.
     let mut depths: Vec<f64> = focus.iter().flatten().copied().collect();
-    for (e, w) in wanted.iter_mut().enumerate() {
-        let (Some(zc), k) = (focus[e / cells], fold.arg[e] as usize) else {
-            continue;
-        };
-        if k >= n || cand[k] == zc {
-            continue;
-        }
-        for (slot, j) in (k.saturating_sub(1)..=(k + 1).min(n - 1)).enumerate() {
-            if let Some(m) = mirror(zc, cand[j], lo, hi) {
-                if (cand[k] - zc) * (m - zc) < 0.0 {
-                    w[slot] = m;
-                    depths.push(m);
-                }
+    let mut wanted = vec![false; chosen.len() * n];
+    for e in 0..entries {
+        let ch = e / cells;
+        if let Some(zc) = focus[ch] {
+            for (j, _) in reads(cand, zc, fold.arg[e] as usize) {
+                wanted[ch * n + j] = true;
             }
+        }
+    }
+    for (i, _) in wanted.iter().enumerate().filter(|w| *w.1) {
+        let (ch, j) = (i / n, i % n);
+        if let Some(m) = focus[ch].and_then(|zc| mirror(zc, cand[j], cand[0], cand[n - 1])) {
+            depths.push(m);
         }
     }
     depths.sort_by(f64::total_cmp);
     depths.dedup();
     let index = |z: f64| depths.binary_search_by(|d| d.total_cmp(&z)).ok();
-    let slots: Vec<[u32; 3]> = wanted
-        .iter()
-        .map(|w| w.map(|z| index(z).map_or(u32::MAX, |i| i as u32)))
-        .collect();
-    let at_focus: Vec<u32> = focus
-        .iter()
-        .map(|z| z.and_then(index).map_or(u32::MAX, |i| i as u32))
-        .collect();
-    drop(wanted);
     let ex = (
         plan.grid.nx + 2 * plan.radius,
         plan.grid.ny + 2 * plan.radius,
@@ -104,7 +110,7 @@ pub(super) fn rivals(
     let mut least = vec![f64::INFINITY; entries];
     let mut ridge = vec![f64::NAN; entries];
     for_chunks(n_threads, depths.len(), workers, |range| {
-        let start = range.start as u32;
+        let chunk = range.clone();
         let layers = range
             .into_par_iter()
             .map(|i| {
@@ -116,19 +122,25 @@ pub(super) fn rivals(
                 Ok(out)
             })
             .collect::<Result<Vec<Vec<f64>>>>()?;
-        let end = start + layers.len() as u32;
+        let of = |z: f64| {
+            index(z)
+                .filter(|i| chunk.contains(i))
+                .map(|i| i - chunk.start)
+        };
         for e in 0..entries {
-            for &s in &slots[e] {
-                if s >= start && s < end {
-                    let v = layers[(s - start) as usize][e];
+            let Some(zc) = focus[e / cells] else {
+                continue;
+            };
+            for (_, m) in reads(cand, zc, fold.arg[e] as usize) {
+                if let Some(l) = of(m) {
+                    let v = layers[l][e];
                     if v < least[e] {
                         least[e] = v;
                     }
                 }
             }
-            let s = at_focus[e / cells];
-            if s >= start && s < end {
-                ridge[e] = layers[(s - start) as usize][e];
+            if let Some(l) = of(zc) {
+                ridge[e] = layers[l][e];
             }
         }
         Ok(())
