@@ -167,4 +167,29 @@ mod tests {
         assert_eq!(mirror(642.0, 300.0, 250.0, 4000.0), None);
         assert_eq!(mirror(642.0, 400.0, 250.0, 1000.0), None);
     }
+
+    #[test]
+    fn reads_are_the_mirrors_beyond_the_plane() {
+        let cand = [500.0, 600.0, 640.0, 650.0, 700.0, 800.0];
+        let zc = 642.0;
+        // least cost at 700 mm: the mirrors of 650, 700 and 800 mm, all below 642 mm
+        let r: Vec<(usize, f64)> = reads(&cand, zc, 4).collect();
+        assert_eq!(r.iter().map(|x| x.0).collect::<Vec<_>>(), vec![3, 4, 5]);
+        for (j, m) in r {
+            assert!(m < zc && (1.0 / m + 1.0 / cand[j] - 2.0 / zc).abs() < 1e-15);
+        }
+        // least cost at 650 mm: its neighbour at 640 mm lies on the other side of the
+        // plane, and its mirror (644 mm) on the same side as 650 mm: not read
+        assert_eq!(
+            reads(&cand, zc, 3).map(|x| x.0).collect::<Vec<_>>(),
+            vec![3, 4]
+        );
+        // at the last candidate; at z_c itself; with no least cost (u32::MAX)
+        assert_eq!(
+            reads(&cand, zc, 5).map(|x| x.0).collect::<Vec<_>>(),
+            vec![4, 5]
+        );
+        assert_eq!(reads(&[500.0, 642.0, 800.0], zc, 1).count(), 0);
+        assert_eq!(reads(&cand, zc, u32::MAX as usize).count(), 0);
+    }
 }
