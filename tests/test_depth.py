@@ -6,6 +6,7 @@ textureless ones, bad input."""
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 import pytest
@@ -236,8 +237,69 @@ def cost_beside(curves: np.ndarray, cand: np.ndarray, k: np.ndarray, sign: int,
     return value, h, reach & (k > 0) & (k < n - 1)
 
 
+def reference_mirror(design: splitlf.Design, channels: list[int], curves: np.ndarray,
+                     cand: np.ndarray, costs_at: Callable[[np.ndarray], np.ndarray]
+                     ) -> np.ndarray:
+    """The mirror rival per channel and cell (docs/depth.md step 6; curves: candidates,
+    then channels): for a channel whose out-of-focus plane z_c lies strictly inside the
+    candidates, the least of its costs at the mirrors in 1/z about z_c (1/z' = 2/z_c - 1/z)
+    of the least cost's candidate and its two neighbours that lie within the candidates and
+    beyond z_c from the least cost, where the cost at z_c is at least RIDGE (2) times that
+    least; +inf elsewhere. costs_at(depths) gives the costs (depths, then channels and
+    cells) at any increasing depths."""
+    c = np.where(np.isfinite(curves), curves, np.inf)
+    n = len(cand)
+    k = np.argmin(c, axis=0)
+    out = np.full(k.shape, np.inf)
+    for i, ch in enumerate(channels):
+        zc = design.out_of_focus_depth(ch)
+        if not cand[0] < zc < cand[-1]:
+            continue
+        with np.errstate(divide="ignore"):
+            inv = 2.0 / zc - 1.0 / cand
+            mir = np.where(inv > 0, 1.0 / np.where(inv > 0, inv, 1.0), np.nan)
+        mir = np.where((mir >= cand[0]) & (mir <= cand[-1]), mir, np.nan)
+        zk = cand[k[i]]
+        reads = []
+        for off in (-1, 0, 1):
+            j = k[i] + off
+            m = np.where((j >= 0) & (j < n), mir[np.clip(j, 0, n - 1)], np.nan)
+            with np.errstate(invalid="ignore"):
+                beyond = ((zk - zc) * (m - zc) < 0) & (zk != zc)
+            reads.append(np.where(beyond, m, np.nan))
+        depths = np.unique(np.concatenate([r[np.isfinite(r)] for r in reads] + [[zc]]))
+        costs = costs_at(depths)[:, i]
+        least = np.full(k[i].shape, np.inf)
+        for r in reads:
+            for z, cost in zip(depths, costs, strict=True):
+                with np.errstate(invalid="ignore"):
+                    least = np.where((r == z) & (cost < least), cost, least)
+        ridge = costs[np.searchsorted(depths, zc)]
+        with np.errstate(invalid="ignore"):
+            out[i] = np.where(np.isfinite(least) & (ridge >= 2.0 * least), least, np.inf)
+    return out
+
+
+def core_costs_at(design: splitlf.Design, images: list[np.ndarray], channels: list[int],
+                  grid: tuple, window: int) -> Callable[[np.ndarray], np.ndarray]:
+    """The core's cost volume at given depths on `grid` (x0, y1, h, nx, ny): each depth a
+    layer as at a candidate (its costs do not depend on the other candidates: checked in
+    test_confidence_on_fine_candidates_matches_numpy, to rounding)."""
+    x0, y1, h, nx, ny = grid
+    region = (x0, x0 + nx * h, y1 - ny * h, y1)
+
+    def at(depths: np.ndarray) -> np.ndarray:
+        *_, vol, g = _native.estimate_depth(
+            design.core, images, sweep_request(channels, depths, window, region=region,
+                                               step=h))
+        assert vol is not None and tuple(g) == tuple(grid)
+        return np.asarray(vol)
+    return at
+
+
 def reference_confidence(curves: np.ndarray, cand: np.ndarray, ridge: bool = True,
-                         span: float = RESOLUTION_SPAN) -> np.ndarray:
+                         span: float = RESOLUTION_SPAN,
+                         mirror: np.ndarray | None = None) -> np.ndarray:
     """The least of the contrast 1 - min / min(mean, rival) and the resolution per curve
     (candidates first): the rival is the least of the 4 least local minima (lower than the
     cost before it, not above the one after; a missing cost counts as +inf) that lies more
@@ -265,6 +327,8 @@ def reference_confidence(curves: np.ndarray, cand: np.ndarray, ridge: bool = Tru
                      np.inf)
     if ridge:
         rival = np.minimum(rival, ridged_rival(curves, k))
+    if mirror is not None:
+        rival = np.minimum(rival, mirror)
     mean = np.nanmean(np.where(np.isfinite(curves), curves, np.nan), 0)
     with np.errstate(invalid="ignore", divide="ignore"):
         against = np.minimum(mean, rival)
@@ -318,7 +382,14 @@ def test_sweep_matches_numpy_reference(monkeypatch: pytest.MonkeyPatch) -> None:
     ok = ~np.isnan(ref)
     assert ok.mean() > 0.9
     np.testing.assert_allclose(vol[ok], ref[ok], rtol=1e-9, atol=1e-15)
-    rc = reference_confidence(ref, cand)
+    def ref_at(zs: np.ndarray) -> np.ndarray:
+        # the transcription's positions are affine between its first and last depths
+        both = np.unique(np.r_[cand[0], zs, cand[-1]])
+        return reference_volume(design, raw, grid, both, 2)[np.searchsorted(both, zs)]
+
+    # (the truth at half 1's out-of-focus plane: no cell has a mirror rival here)
+    mirror = reference_mirror(design, [1, 2], ref, cand, ref_at)
+    rc = reference_confidence(ref, cand, mirror=mirror)
     best = np.argmax(rc, axis=0)  # the first on a tie
     assert np.array_equal(chan, best + 1)
     np.testing.assert_allclose(conf, np.take_along_axis(rc, best[None], 0)[0], atol=1e-9)
@@ -344,17 +415,23 @@ def test_confidence_on_fine_candidates_matches_numpy() -> None:
     tex, _ = random_image(design, z, 10 * design.resolution_step(z), seed=1)
     raw = splitlf.render(design, splitlf.Scene(tex, z), noise={"photons": PHOTONS}, seed=3)
     cand = 1.0 / np.linspace(1 / 300.0, 1 / 1500.0, 96)
-    _, _, conf, _, _, chan, _, vol, _ = _native.estimate_depth(
+    _, _, conf, _, _, chan, _, vol, grid = _native.estimate_depth(
         design.core, list(raw.images),
         sweep_request([1, 2], cand, 2, region=(-1.5, 1.5, -1.0, 1.0), step=0.2))
     assert vol is not None
-    rc = reference_confidence(vol, cand)
+    costs_at = core_costs_at(design, list(raw.images), [1, 2], grid, 2)
+    # a layer's costs do not depend on the other candidates (but for the order of sums)
+    np.testing.assert_allclose(costs_at(cand[40:43]), vol[40:43], rtol=1e-11)
+    # (no mirror rival here either: the truth is at half 1's out-of-focus plane; the rival
+    # at work: test_depth_surface.py's test_steep_plane_across_the_out_of_focus_plane)
+    mirror = reference_mirror(design, [1, 2], vol, cand, costs_at)
+    rc = reference_confidence(vol, cand, mirror=mirror)
     best = np.argmax(rc, axis=0)
     assert np.array_equal(chan, best + 1)
     np.testing.assert_allclose(conf, np.take_along_axis(rc, best[None], 0)[0], atol=1e-9)
     assert 0.2 < (conf >= 0.5).mean() < 1.0, (conf >= 0.5).mean()
     # the rule differs from the neighbours' on these candidates
-    assert np.abs(reference_confidence(vol, cand, span=0.0) - rc).max() > 0.05
+    assert np.abs(reference_confidence(vol, cand, span=0.0, mirror=mirror) - rc).max() > 0.05
 
 
 @pytest.mark.parametrize("n", [128, 256, 1024])
@@ -378,14 +455,17 @@ def test_more_candidates_keep_the_confidence(n: int) -> None:
     if n != 256:
         return
     cand = est.sweep.candidates
-    *_, vol, _ = _native.estimate_depth(d.core, list(raw.images),
-                                        sweep_request([1, 2], cand, est.sweep.window))
+    *_, vol, grid = _native.estimate_depth(d.core, list(raw.images),
+                                           sweep_request([1, 2], cand, est.sweep.window))
     assert vol is not None
+    mirror = reference_mirror(d, [1, 2], vol, cand,
+                              core_costs_at(d, list(raw.images), [1, 2], grid,
+                                            est.sweep.window))
     curves = np.where(np.isfinite(vol), vol, np.inf)
     k = np.argmin(curves, axis=0)
     error = np.abs(cand[k] / z - 1.0)
     for span, most in ((RESOLUTION_SPAN, 0.05), (0.0, None)):
-        rc = reference_confidence(vol, cand, span=span)
+        rc = reference_confidence(vol, cand, span=span, mirror=mirror)
         best = np.argmax(rc, axis=0)
         sure = np.take_along_axis(rc, best[None], 0)[0] >= 0.5
         p90 = np.percentile(np.take_along_axis(error, best[None], 0)[0][sure], 90)
@@ -792,11 +872,14 @@ def test_r12_near_its_conjugate_confidence() -> None:
     assert np.percentile(rel[est.confident], 90) <= 0.05, (
         np.percentile(rel[est.confident], 90), est.confident.mean())
     cand = est.sweep.candidates
-    *_, vol, _ = _native.estimate_depth(d.core, [raw.images[0]],
-                                        sweep_request([1], cand, est.sweep.window))
+    *_, vol, grid = _native.estimate_depth(d.core, [raw.images[0]],
+                                           sweep_request([1], cand, est.sweep.window))
     assert vol is not None
     curves = vol[:, 0]
-    np.testing.assert_allclose(est.confidence, reference_confidence(curves, cand), atol=1e-9)
+    mirror = reference_mirror(d, [1], vol, cand, core_costs_at(d, [raw.images[0]], [1], grid,
+                                                              est.sweep.window))[0]
+    np.testing.assert_allclose(est.confidence, reference_confidence(curves, cand,
+                                                                    mirror=mirror), atol=1e-9)
     # The far rival alone (the reference without the ridge) calls the false dips (least
     # cost at 386.5 mm, -14 %) confident; the ridge takes back at least 90 % of them
     # (measured: 202 cells, 12 kept, their ridges 1.7-2.0x).

@@ -179,7 +179,9 @@ def estimate_depth(raw: Raw, *, depths: Any, region: Any = None, step: float | N
     that are not confident take the depth of the nearest confident cell, so the map can
     be handed to :func:`~splitlf.reconstruct`), ``confidence`` (the least of the most
     confident channel's cost-curve contrast, 1 - min / min(mean, rival minima: more
-    than n/16 candidates away, or beyond a ridge twice their cost), and its
+    than n/16 candidates away, beyond a ridge twice their cost, or at the mirror of the
+    least cost's depth in 1/z about the channel's out-of-focus plane behind a ridge
+    there), and its
     resolution, 1 / (1 + (w / 0.045)^2) with w the dip's width in relative depth, read
     from the curve 5 % of the depth either side of the least cost (or at its neighbours
     where the candidates are coarser), so that it does not depend on their count; 0 where

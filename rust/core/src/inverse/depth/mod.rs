@@ -50,9 +50,10 @@
 //! of the symmetric V through it and its two neighbours ([`vertex`]), and its confidence
 //! ([`confidence`]) the least of the contrast 1 − min / m', m' the least of the curve's
 //! mean, of its least local minimum more than n/16 candidates away and of its least cost
-//! beyond a ridge twice that cost's height ([`RIDGE`]) however near (a second dip of the
-//! same depth makes a cell ambiguous; a textureless patch costs the same, its noise, at
-//! every depth), and of the resolution: how narrow the dip is in relative depth against
+//! beyond a ridge twice that cost's height ([`RIDGE`]) however near, and of its cost at the
+//! mirror of the least cost's depth about the channel's out-of-focus plane, read after the
+//! sweep ([`mirror`]) (a second dip of the same depth makes a cell ambiguous; a
+//! textureless patch costs the same, its noise, at every depth), and of the resolution: how narrow the dip is in relative depth against
 //! the least cost, measured over a fixed span of relative depth ([`RESOLUTION_SPAN`]; a
 //! shallow dip is not trusted); 0 where the least cost is at an end of the candidates. Each cell takes the estimate of its most confident channel: the channels'
 //! blurs differ, so their values of one patch are never compared, and a channel that sees
@@ -63,13 +64,15 @@
 //! into running minima, so the cost volume is never held whole (unless asked for).
 //!
 //! The parts: [`micro`] (the lenses' micro-images), [`layer`] (one candidate's costs),
-//! [`fold`] (the running minima), [`whites`] (the whites under a white albedo) and
-//! [`estimate`] (the whole estimate from a raw: region, grid, whites, sweep).
+//! [`fold`] (the running minima), [`mirror`] (the mirror rival), [`whites`] (the whites
+//! under a white albedo) and [`estimate`] (the whole estimate from a raw: region, grid,
+//! whites, sweep).
 
 mod estimate;
 mod fold;
 mod layer;
 mod micro;
+mod mirror;
 pub mod surface;
 mod tilt;
 mod whites;
@@ -318,6 +321,7 @@ fn sweep_bytes(
         + tilt
         + workers as u128 * (Layer::bytes(ex, channels, lenses, boxes) + layers)
         + entries * Fold::bytes_per_entry(plan.candidates)
+        + entries * mirror::BYTES_PER_ENTRY
         + grid.cells() as u128 * OUTPUT_BYTES_PER_CELL
         + volume
 }
@@ -345,7 +349,9 @@ pub fn sweep(
     memory::check("the depth sweep", bytes)?;
     let (mut fold, volume, cells) = run(&mi, plan, workers, n_threads, done)?;
     fold.end(candidates.len() as u32);
-    let mut s = finish(fold, nch, candidates, mi.pixels, volume);
+    checkpoint()?;
+    let mirrors = mirror::rivals(design, &mi, plan, chosen, &fold, workers, n_threads)?;
+    let mut s = finish(fold, &mirrors, nch, candidates, mi.pixels, volume);
     if let Some(values) = cells {
         checkpoint()?;
         let costs = tilt::CellCosts {
@@ -491,6 +497,7 @@ fn run(
 /// per cell the channel of highest confidence (the first on a tie).
 fn finish(
     fold: Fold,
+    mirrors: &[f64],
     channels: usize,
     candidates: &[f64],
     samples: usize,
@@ -516,7 +523,7 @@ fn finish(
             if fold.arg[e] == u32::MAX {
                 continue;
             }
-            let conf = confidence(&fold, e, sep, candidates);
+            let conf = confidence(&fold, e, sep, candidates, mirrors[e]);
             if best.map_or(true, |(c, _)| conf > c) {
                 best = Some((conf, ch));
             }
@@ -546,10 +553,12 @@ fn finish(
 /// its resolution, 0 where its least cost is at the first or last candidate (a minimum
 /// the candidates do not bracket: the truth may lie beyond them) or has no neighbour.
 /// - The contrast 1 − min / min(mean, rival), the rival the least of the local minima more
-///   than `sep` candidates away and of the costs beyond a ridge of [`RIDGE`] times their
-///   own ([`fold::Ridge`]): a textureless window costs its noise at every depth (near 0),
-///   a curve with two dips of one depth is ambiguous, however near they are (measured:
-///   the R12 near its array's conjugate, a dip each side of it three candidates apart).
+///   than `sep` candidates away, of the costs beyond a ridge of [`RIDGE`] times their
+///   own ([`fold::Ridge`]) and of the `mirror` reading ([`mirror::rivals`]; +∞: none): a
+///   textureless window costs its noise at every depth (near 0), a curve with two dips of
+///   one depth is ambiguous, however near they are (measured: the R12 near its array's
+///   conjugate, a dip each side of it three candidates apart) and however narrow the
+///   other (the seed's half 1 either side of its out-of-focus plane).
 /// - The resolution 1 / (1 + (w / [`WIDTH_AT_HALF`])²), w = Δ ln z · √(min / a) the
 ///   relative depth over which the parabola through the least cost and the costs l_K, r_K
 ///   K candidates either side (curvature a = (l_K + r_K − 2 min) / 2 per (K candidates)²,
@@ -563,7 +572,7 @@ fn finish(
 ///   over a fixed span it does not.
 /// - 0 where a neighbour of the least cost is above the curve's mean: a step in the curve
 ///   (measured: a cost 4× the mean beside a false dip at the grid's edge), not a dip.
-fn confidence(fold: &Fold, e: usize, sep: u32, candidates: &[f64]) -> f64 {
+fn confidence(fold: &Fold, e: usize, sep: u32, candidates: &[f64], mirror: f64) -> f64 {
     let (k, m, l, r) = (
         fold.arg[e] as usize,
         fold.min[e],
@@ -575,7 +584,7 @@ fn confidence(fold: &Fold, e: usize, sep: u32, candidates: &[f64]) -> f64 {
         return 0.0;
     }
     let mean = fold.sum[e] / fold.count[e] as f64;
-    let against = mean.min(fold.rival(e, sep)).min(fold.ridged(e));
+    let against = mean.min(fold.rival(e, sep)).min(fold.ridged(e)).min(mirror);
     if !(against > 0.0 && against.is_finite()) {
         return 0.0;
     }
