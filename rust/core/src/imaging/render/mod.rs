@@ -53,8 +53,10 @@ mod falloff;
 /// Record mode on a plane: the footprint density integrated over the grid's cells.
 pub(crate) mod footprint;
 mod general;
+mod interior;
 mod kinks;
 mod mean;
+mod sat;
 
 pub use chan::{circle_sides, MAX_CIRCLE_SIDES, MIN_CIRCLE_SIDES};
 pub(crate) use chan::{map_seen_once, Chan, Work};
