@@ -28,7 +28,10 @@ impl QBox {
 /// docs/render.md) takes it, at any level.
 pub(super) fn adaptive(
     f: &mut impl FnMut(f64, f64, &mut Work) -> f64,
-    (rough, closed): (&impl Fn(f64, f64, f64, f64, &mut Work) -> bool, &impl Closed),
+    (rough, closed): (
+        &impl Fn(f64, f64, f64, f64, &mut Work) -> bool,
+        &impl Closed,
+    ),
     bx: QBox,
     tol: f64,
     depth: u32,
@@ -52,10 +55,35 @@ pub(super) fn adaptive(
     let t = 0.25 * tol;
     if depth < ROUGH_DEPTH && rough(x0, x1, y0, y1, wk) {
         // A texture discontinuity sweeps through the box: the rules cannot see it.
-        return adaptive(f, (rough, closed), QBox::new(x0, xm, y0, ym), t, depth + 1, wk)
-            + adaptive(f, (rough, closed), QBox::new(xm, x1, y0, ym), t, depth + 1, wk)
-            + adaptive(f, (rough, closed), QBox::new(x0, xm, ym, y1), t, depth + 1, wk)
-            + adaptive(f, (rough, closed), QBox::new(xm, x1, ym, y1), t, depth + 1, wk);
+        return adaptive(
+            f,
+            (rough, closed),
+            QBox::new(x0, xm, y0, ym),
+            t,
+            depth + 1,
+            wk,
+        ) + adaptive(
+            f,
+            (rough, closed),
+            QBox::new(xm, x1, y0, ym),
+            t,
+            depth + 1,
+            wk,
+        ) + adaptive(
+            f,
+            (rough, closed),
+            QBox::new(x0, xm, ym, y1),
+            t,
+            depth + 1,
+            wk,
+        ) + adaptive(
+            f,
+            (rough, closed),
+            QBox::new(xm, x1, ym, y1),
+            t,
+            depth + 1,
+            wk,
+        );
     }
     // 2 × 2 and 3 × 3 Gauss–Legendre: the difference bounds the 2-point rule's error
     // and, far more pessimistically, the 3-point rule's, which is returned.
@@ -64,10 +92,35 @@ pub(super) fn adaptive(
     if (g2 - g1).abs() <= tol + wk.rel_floor * g2.abs() || depth >= MAX_DEPTH {
         return g2;
     }
-    adaptive(f, (rough, closed), QBox::new(x0, xm, y0, ym), t, depth + 1, wk)
-        + adaptive(f, (rough, closed), QBox::new(xm, x1, y0, ym), t, depth + 1, wk)
-        + adaptive(f, (rough, closed), QBox::new(x0, xm, ym, y1), t, depth + 1, wk)
-        + adaptive(f, (rough, closed), QBox::new(xm, x1, ym, y1), t, depth + 1, wk)
+    adaptive(
+        f,
+        (rough, closed),
+        QBox::new(x0, xm, y0, ym),
+        t,
+        depth + 1,
+        wk,
+    ) + adaptive(
+        f,
+        (rough, closed),
+        QBox::new(xm, x1, y0, ym),
+        t,
+        depth + 1,
+        wk,
+    ) + adaptive(
+        f,
+        (rough, closed),
+        QBox::new(x0, xm, ym, y1),
+        t,
+        depth + 1,
+        wk,
+    ) + adaptive(
+        f,
+        (rough, closed),
+        QBox::new(xm, x1, ym, y1),
+        t,
+        depth + 1,
+        wk,
+    )
 }
 
 /// A Gauss–Legendre rule on [-1, 1]: nodes and weights (the weights sum to 1, the mean).
@@ -150,7 +203,10 @@ const MAX_DEPTH: u32 = 6;
 /// on each box) the midpoint rule alone; a box whose integral `closed` knows takes it.
 pub(super) fn over_boxes(
     f: &mut impl FnMut(f64, f64, &mut Work) -> f64,
-    (rough, closed): (&impl Fn(f64, f64, f64, f64, &mut Work) -> bool, &impl Closed),
+    (rough, closed): (
+        &impl Fn(f64, f64, f64, f64, &mut Work) -> bool,
+        &impl Closed,
+    ),
     (cx, cy): (&[f64], &[f64]),
     tol: f64,
     bilinear: bool,

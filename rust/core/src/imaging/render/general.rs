@@ -68,7 +68,7 @@ pub(super) fn general_channel(
         None => tol,
     };
     let table = match scene.surface.fronto() {
-        Some(_) if !opts.falloff.is_on() => SatTable::of(&scene.texture)?,
+        Some(_) if opts.closed_form && !opts.falloff.is_on() => SatTable::of(&scene.texture)?,
         _ => None,
     };
     let px = Pixels {

@@ -210,11 +210,15 @@ mod tests {
         let mut x = 12345u64;
         let v: Vec<f64> = (0..n * n)
             .map(|_| {
-                x = x.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                x = x
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
                 (x >> 11) as f64 / (1u64 << 53) as f64
             })
             .collect();
-        Texture::Image(Box::new(ImageTexture::new(&v, n, n, [-w, w, -w, w]).unwrap()))
+        Texture::Image(Box::new(
+            ImageTexture::new(&v, n, n, [-w, w, -w, w]).unwrap(),
+        ))
     }
 
     /// Pixels of `preset` around its sensor's centre, by the closed form and by the
@@ -253,7 +257,10 @@ mod tests {
             let (new, closed, e_new) = run(Some(&sat));
             let (old, none, e_old) = run(None);
             assert!(closed > 0 && none == 0, "{preset}: {closed} closed boxes");
-            assert!(e_new < e_old, "{preset}: {e_new} evaluations against {e_old}");
+            assert!(
+                e_new < e_old,
+                "{preset}: {e_new} evaluations against {e_old}"
+            );
             let worst = new
                 .iter()
                 .zip(&old)

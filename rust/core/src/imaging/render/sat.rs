@@ -212,7 +212,8 @@ impl SatTable {
         if self.cols == 0 {
             return base;
         }
-        base + self.over_polygon([x1, y1], u) - self.over_polygon([x0, y1], u)
+        base + self.over_polygon([x1, y1], u)
+            - self.over_polygon([x0, y1], u)
             - self.over_polygon([x1, y0], u)
             + self.over_polygon([x0, y0], u)
     }
@@ -242,10 +243,16 @@ mod tests {
         let n = 240;
         let mut want = 0.0;
         let mut scratch = crate::imaging::texture::Scratch::default();
-        let (dx, dy) = ((rect[1] - rect[0]) / n as f64, (rect[3] - rect[2]) / n as f64);
+        let (dx, dy) = (
+            (rect[1] - rect[0]) / n as f64,
+            (rect[3] - rect[2]) / n as f64,
+        );
         for i in 0..n {
             for j in 0..n {
-                let q = [rect[0] + (i as f64 + 0.5) * dx, rect[2] + (j as f64 + 0.5) * dy];
+                let q = [
+                    rect[0] + (i as f64 + 0.5) * dx,
+                    rect[2] + (j as f64 + 0.5) * dy,
+                ];
                 let p: Vec<Pt> = hex.iter().map(|v| [v[0] + q[0], v[1] + q[1]]).collect();
                 want += tex.average(&p, &mut scratch) * signed_area(&p) * dx * dy;
             }
