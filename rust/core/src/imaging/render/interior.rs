@@ -222,16 +222,16 @@ mod tests {
     }
 
     /// Pixels of `preset` around its sensor's centre, by the closed form and by the
-    /// quadrature alone, at tol 1e-10: within `within` of white, and the closed form taken.
-    /// (On an image the quadrature's own error at 1e-10 is the bound: its boxes keep kinks
-    /// it does not cut, where hex vertices cross the texture's lines; the closed form is
-    /// checked against an independent sum in `sat`'s tests.)
-    fn agree(preset: &str, z: f64, tex: Texture, within: f64) {
+    /// quadrature alone, at `tol`: within `within` of white, and the closed form taken.
+    /// (On an image the quadrature's own error is the bound: its boxes keep kinks it does
+    /// not cut, where hex vertices cross the texture's lines; the closed form is checked
+    /// against an independent sum in `sat`'s tests.)
+    fn agree(preset: &str, z: f64, tex: Texture, (tol, within): (f64, f64)) {
         let design = crate::model::presets::preset(preset).unwrap();
         let scene = Scene::new(tex, Surface::Plane { z0: z, g: [0.0; 2] }, 0.2).unwrap();
         let sat = SatTable::of(&scene.texture).unwrap().unwrap();
         for ch in &design.channels {
-            let chan = Chan::new(&design, ch, 1e-10);
+            let chan = Chan::new(&design, ch, tol);
             let (rows, cols) = super::super::raw_shape(ch);
             let white = top_value(&chan, &scene) / scene.texture.max_albedo();
             let run = |sat: Option<&SatTable>| {
@@ -239,16 +239,16 @@ mod tests {
                     design: &design,
                     chan: &chan,
                     scene: &scene,
-                    tol: lens_tol(&chan, &scene, 1e-10),
+                    tol: lens_tol(&chan, &scene, tol),
                     weighting: None,
                     sat,
                 };
                 let mut wk = Work::new(true);
-                // A block of 4 × 2 pixels 5 apart, near the R12's lens images' centres.
-                let v: Vec<f64> = (0..8u32)
+                // A block of 3 × 2 pixels 5 apart, near the R12's lens images' centres.
+                let v: Vec<f64> = (0..6u32)
                     .map(|i| {
-                        let a = cols as u32 / 2 + 5 * (i % 4);
-                        let b = rows as u32 / 2 + 5 * (i / 4);
+                        let a = cols as u32 / 2 + 5 * (i % 3);
+                        let b = rows as u32 / 2 + 5 * (i / 3);
                         pixel_value(&px, a, b, &mut wk)
                     })
                     .collect();
@@ -273,12 +273,14 @@ mod tests {
     /// raytrix-r12 (hex cells, a circular aperture, the sensor layout, outer s: the cell
     /// inside the aperture's preimage), lytro-illum (α = 0, outer w: the whole cell) and
     /// the seed (rect cells, a square aperture, both rules), on a 6 × 6 image (few texture
-    /// lines: the quadrature converges to its tolerance) and on a constant.
+    /// lines) and on a constant. Measured: the R12's constant 2e-16 of white, its image
+    /// 6.8e-9 (the quadrature's residual at 1e-8; the same at 1e-10 on 24 pixels); the
+    /// Illum's image 3.1e-12, the seed's 6e-15 and 1.8e-14 (its two halves).
     #[test]
     fn closed_form_is_the_quadrature_at_a_tight_tolerance() {
-        agree("raytrix-r12", 1000.0, Texture::Constant(0.7), 1e-9);
-        agree("raytrix-r12", 1000.0, image(6, 40.0), 1e-8);
-        agree("lytro-illum", 500.0, image(6, 40.0), 1e-9);
-        agree("seed", 900.0, image(6, 6.0), 1e-9);
+        agree("raytrix-r12", 1000.0, Texture::Constant(0.7), (1e-8, 1e-9));
+        agree("raytrix-r12", 1000.0, image(6, 40.0), (1e-8, 2e-8));
+        agree("lytro-illum", 500.0, image(6, 40.0), (1e-9, 1e-10));
+        agree("seed", 900.0, image(6, 6.0), (1e-10, 1e-12));
     }
 }
