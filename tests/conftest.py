@@ -44,6 +44,8 @@ def _no_progress_lines(monkeypatch):
 #: here, by node id, so that a parametrized test's slow cases go to the slow tier and its
 #: quick ones stay in the default run.
 SLOW = {
+    'test_render_sat.py::test_closed_form_is_the_quadrature_to_tol[512-rect_sensor]': 18,
+    'test_render_sat.py::test_closed_form_at_a_tight_tolerance': 8,
     'test_merits.py::test_expected_error_is_the_dense_closed_form[3.0]': 25,
     'test_merits.py::test_expected_error_is_the_dense_closed_form[300.0]': 25,
     'test_merits.py::test_edge_response_is_the_dense_estimators_mean': 25,

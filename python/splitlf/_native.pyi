@@ -74,6 +74,7 @@ __all__ = [
     "reconstruction_system",
     "render",
     "render_band",
+    "render_quadrature",
     "render_extent",
     "samples_2d",
     "seen_region",
@@ -429,6 +430,12 @@ def render_band(
     progress: Callable[[int, int], object] | None = None,
     falloff: str | None = None,
 ) -> _F64: ...
+def render_quadrature(
+    design: DesignCore,
+    scene: RenderScene,
+    tol: float | tuple[float, float, float] | None = None,
+    n_threads: int | None = None,
+) -> list[_F64]: ...
 def render_extent(design: DesignCore, z: float) -> tuple[float, float, float, float]: ...
 def cfa_colours(pattern: str, rows: int, cols: int) -> npt.NDArray[np.uint8]: ...
 def cfa_mosaic(planes: Sequence[_F64], pattern: str, qe: Sequence[float]) -> _F64: ...

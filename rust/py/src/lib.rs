@@ -113,6 +113,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
         inverse::simulate::design_render,
         imaging::render::render,
         imaging::render::render_band,
+        imaging::render::render_quadrature,
         imaging::render::render_extent,
         imaging::cfa::cfa_colours,
         imaging::cfa::cfa_mosaic,

@@ -2,6 +2,7 @@
 //! channel of a design (docs/render.md).
 
 use std::borrow::Cow;
+use std::sync::atomic::AtomicUsize;
 use std::sync::Arc;
 
 use numpy::{PyArray2, PyArrayMethods, PyReadonlyArray2};
@@ -10,11 +11,12 @@ use pyo3::prelude::*;
 use splitlf_core::imaging::render::{self as core_render, Falloff, NoiseTarget, RenderOptions};
 use splitlf_core::imaging::scene::{Scene, Surface};
 use splitlf_core::imaging::texture::Texture;
+use splitlf_core::model::design::Design;
 
 use crate::infra::args::{int_arg, threads_arg, with_given};
 use crate::infra::arrays::empty;
 use crate::infra::errors::{internal, to_py};
-use crate::infra::interrupt::{counted, run_reporting};
+use crate::infra::interrupt::{counted, run_reporting, Progress};
 use crate::model::design::DesignCore;
 
 /// A validated scene of the forward model.
@@ -140,7 +142,51 @@ pub(crate) fn render<'py>(
         own_lens,
         noise,
         falloff: falloff_arg(falloff.as_deref())?,
+        closed_form: true,
     };
+    render_raws(py, (&d, &sc), opts, threads, (report, counter))
+}
+
+/// Every channel's raw as [`render`] makes it at `tol`, but with each of the general
+/// route's boxes by the adaptive quadrature, none in closed form (docs/render.md, "The
+/// interior in closed form"): the reference the closed form's tests and benches compare
+/// with.
+#[pyfunction]
+#[pyo3(signature = (design, scene, tol=None, n_threads=None))]
+pub(crate) fn render_quadrature<'py>(
+    design: &DesignCore,
+    scene: &Bound<'py, RenderScene>,
+    tol: Option<Tol>,
+    n_threads: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Vec<Bound<'py, PyArray2<f64>>>> {
+    let (py, scene) = (scene.py(), scene.get());
+    let threads = threads_arg(n_threads)?;
+    let d = design.inner.clone();
+    let sc = Arc::clone(&scene.inner);
+    let total: usize = d
+        .channels
+        .iter()
+        .map(|ch| core_render::raw_shape(ch).0)
+        .sum();
+    let (tol, noise) = tol_options(tol);
+    let opts = RenderOptions {
+        tol,
+        noise,
+        closed_form: false,
+        ..RenderOptions::default()
+    };
+    render_raws(py, (&d, &sc), opts, threads, counted(None, total))
+}
+
+/// The raws of [`render`] and [`render_quadrature`].
+fn render_raws<'py>(
+    py: Python<'py>,
+    (d, sc): (&Design, &Arc<Scene>),
+    opts: RenderOptions,
+    threads: Option<usize>,
+    (report, counter): (Option<Progress>, Arc<AtomicUsize>),
+) -> PyResult<Vec<Bound<'py, PyArray2<f64>>>> {
+    let (d, sc) = (d.clone(), Arc::clone(sc));
     core_render::check_render(&d, &sc, opts).map_err(to_py)?;
     let bytes = core_render::render_bytes(&d);
     splitlf_core::infra::memory::check("the rendered raw images", bytes).map_err(to_py)?;

@@ -23,10 +23,15 @@ impl QBox {
 /// accepted when it differs from the 2 × 2 rule by at most `tol`; otherwise the box is cut
 /// in four (at most [`MAX_DEPTH`] times), each quarter with a quarter of the tolerance. Both
 /// rules are exact for bicubic integrands, so on boxes between the known kinks of a
-/// constant or piecewise constant texture the first test already passes.
+/// constant or piecewise constant texture the first test already passes. A box whose
+/// integral `closed` knows exactly (the interior of a lens on a fronto-parallel plane:
+/// docs/render.md) takes it, at any level.
 pub(super) fn adaptive(
     f: &mut impl FnMut(f64, f64, &mut Work) -> f64,
-    rough: &impl Fn(f64, f64, f64, f64, &mut Work) -> bool,
+    (rough, closed): (
+        &impl Fn(f64, f64, f64, f64, &mut Work) -> bool,
+        &impl Closed,
+    ),
     bx: QBox,
     tol: f64,
     depth: u32,
@@ -43,14 +48,42 @@ pub(super) fn adaptive(
         fixed_rule(f, x0, x1, y0, y1, wk);
         return 0.0;
     }
+    if let Some(v) = closed(bx, wk) {
+        return v;
+    }
     let area = 4.0 * xh * yh;
     let t = 0.25 * tol;
     if depth < ROUGH_DEPTH && rough(x0, x1, y0, y1, wk) {
         // A texture discontinuity sweeps through the box: the rules cannot see it.
-        return adaptive(f, rough, QBox::new(x0, xm, y0, ym), t, depth + 1, wk)
-            + adaptive(f, rough, QBox::new(xm, x1, y0, ym), t, depth + 1, wk)
-            + adaptive(f, rough, QBox::new(x0, xm, ym, y1), t, depth + 1, wk)
-            + adaptive(f, rough, QBox::new(xm, x1, ym, y1), t, depth + 1, wk);
+        return adaptive(
+            f,
+            (rough, closed),
+            QBox::new(x0, xm, y0, ym),
+            t,
+            depth + 1,
+            wk,
+        ) + adaptive(
+            f,
+            (rough, closed),
+            QBox::new(xm, x1, y0, ym),
+            t,
+            depth + 1,
+            wk,
+        ) + adaptive(
+            f,
+            (rough, closed),
+            QBox::new(x0, xm, ym, y1),
+            t,
+            depth + 1,
+            wk,
+        ) + adaptive(
+            f,
+            (rough, closed),
+            QBox::new(xm, x1, ym, y1),
+            t,
+            depth + 1,
+            wk,
+        );
     }
     // 2 × 2 and 3 × 3 Gauss–Legendre: the difference bounds the 2-point rule's error
     // and, far more pessimistically, the 3-point rule's, which is returned.
@@ -59,10 +92,35 @@ pub(super) fn adaptive(
     if (g2 - g1).abs() <= tol + wk.rel_floor * g2.abs() || depth >= MAX_DEPTH {
         return g2;
     }
-    adaptive(f, rough, QBox::new(x0, xm, y0, ym), t, depth + 1, wk)
-        + adaptive(f, rough, QBox::new(xm, x1, y0, ym), t, depth + 1, wk)
-        + adaptive(f, rough, QBox::new(x0, xm, ym, y1), t, depth + 1, wk)
-        + adaptive(f, rough, QBox::new(xm, x1, ym, y1), t, depth + 1, wk)
+    adaptive(
+        f,
+        (rough, closed),
+        QBox::new(x0, xm, y0, ym),
+        t,
+        depth + 1,
+        wk,
+    ) + adaptive(
+        f,
+        (rough, closed),
+        QBox::new(xm, x1, y0, ym),
+        t,
+        depth + 1,
+        wk,
+    ) + adaptive(
+        f,
+        (rough, closed),
+        QBox::new(x0, xm, ym, y1),
+        t,
+        depth + 1,
+        wk,
+    ) + adaptive(
+        f,
+        (rough, closed),
+        QBox::new(xm, x1, ym, y1),
+        t,
+        depth + 1,
+        wk,
+    )
 }
 
 /// A Gauss–Legendre rule on [-1, 1]: nodes and weights (the weights sum to 1, the mean).
@@ -125,6 +183,15 @@ pub(super) fn fixed_rule(
     }
 }
 
+/// A box's exact integral when known (else `None`): [`adaptive`]'s and [`over_boxes`]' hook.
+pub(super) trait Closed: Fn(QBox, &mut Work) -> Option<f64> {}
+impl<F: Fn(QBox, &mut Work) -> Option<f64>> Closed for F {}
+
+/// The hook of a quadrature that knows no box's integral.
+pub(super) fn never(_: QBox, _: &mut Work) -> Option<f64> {
+    None
+}
+
 /// Halvings forced on a box that a texture discontinuity sweeps (a feature the 2- and
 /// 3-point rules could both miss is then at most 1/64 of the box).
 const ROUGH_DEPTH: u32 = 3;
@@ -133,12 +200,14 @@ const MAX_DEPTH: u32 = 6;
 
 /// Adaptive quadrature over the boxes between consecutive cuts, the tolerance shared in
 /// proportion to their areas; with `bilinear` (the integrand is known to be bilinear
-/// on each box) the midpoint rule alone.
+/// on each box) the midpoint rule alone; a box whose integral `closed` knows takes it.
 pub(super) fn over_boxes(
     f: &mut impl FnMut(f64, f64, &mut Work) -> f64,
-    rough: &impl Fn(f64, f64, f64, f64, &mut Work) -> bool,
-    cx: &[f64],
-    cy: &[f64],
+    (rough, closed): (
+        &impl Fn(f64, f64, f64, f64, &mut Work) -> bool,
+        &impl Closed,
+    ),
+    (cx, cy): (&[f64], &[f64]),
     tol: f64,
     bilinear: bool,
     wk: &mut Work,
@@ -148,6 +217,13 @@ pub(super) fn over_boxes(
     for i in 1..cx.len() {
         for j in 1..cy.len() {
             let a = (cx[i] - cx[i - 1]) * (cy[j] - cy[j - 1]);
+            let bx = QBox::new(cx[i - 1], cx[i], cy[j - 1], cy[j]);
+            if wk.rec.is_none() {
+                if let Some(v) = closed(bx, wk) {
+                    s += v;
+                    continue;
+                }
+            }
             if bilinear {
                 // Bilinear between the cuts (a fronto-parallel plane, never in record mode):
                 // the midpoint rule is exact.
@@ -156,8 +232,7 @@ pub(super) fn over_boxes(
                 s += a * f(xm, ym, wk);
                 continue;
             }
-            let bx = QBox::new(cx[i - 1], cx[i], cy[j - 1], cy[j]);
-            s += adaptive(f, rough, bx, tol * a / total, 0, wk);
+            s += adaptive(f, (rough, closed), bx, tol * a / total, 0, wk);
         }
     }
     s
@@ -175,7 +250,7 @@ mod tests {
         let smooth0 = |_: f64, _: f64, _: f64, _: f64, _: &mut Work| false;
         let v = adaptive(
             &mut f,
-            &smooth0,
+            (&smooth0, &never),
             QBox::new(0.0, 2.0, -1.0, 1.0),
             1e-12,
             0,
@@ -186,7 +261,7 @@ mod tests {
         let smooth = |_: f64, _: f64, _: f64, _: f64, _: &mut Work| false;
         let v = adaptive(
             &mut disc,
-            &smooth,
+            (&smooth, &never),
             QBox::new(-1.0, 1.0, -1.0, 1.0),
             1e-3,
             0,

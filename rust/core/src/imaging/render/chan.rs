@@ -199,6 +199,8 @@ pub(crate) struct Work {
     pub(super) zs: Vec<f64>,
     /// Evaluations of the integrand by the adaptive rule so far (its work).
     pub(crate) evals: u64,
+    /// Boxes integrated in closed form so far ([`super::interior`]).
+    pub(crate) closed: u64,
     /// Record mode on a plane: [`footprint`]'s buffers.
     pub(super) fp: footprint::Scratch,
     /// Record mode on a depth map: every ray meets it at most once

@@ -7,12 +7,14 @@
 use std::f64::consts::PI;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use super::adaptive::{adaptive, over_boxes, QBox};
+use super::adaptive::{adaptive, never, over_boxes, QBox};
 use super::chan::{Chan, Work};
 use super::falloff::{piece_step, weighted_integral, Segments, Weighting};
 use super::footprint;
+use super::interior::{self, Lens};
 use super::kinks::{bilinear, box_cuts, extent_kinks, texture_kinks, Sweep};
 use super::mean::scene_mean;
+use super::sat::SatTable;
 use super::{fill_rows, raw_shape, NoiseTarget, RenderOptions};
 use crate::imaging::scene::{Scene, Surface};
 use crate::imaging::texture::Texture;
@@ -31,6 +33,9 @@ pub(crate) struct Pixels<'a> {
     pub(crate) tol: f64,
     /// The rays' radiometric falloff, when on (docs/model.md §10).
     pub(crate) weighting: Option<Weighting>,
+    /// The texture's summed areas, when the boxes inside a lens take the closed form
+    /// ([`interior`]: a fronto-parallel plane, an image or constant texture, no falloff).
+    pub(crate) sat: Option<&'a SatTable>,
 }
 
 /// One lens as one pixel sees it: its centre c, its type's α and κ = v/f, and
@@ -62,6 +67,10 @@ pub(super) fn general_channel(
         Some(nt) => (nt.at(top) / top).clamp(super::MIN_TOL, 0.1),
         None => tol,
     };
+    let table = match scene.surface.fronto() {
+        Some(_) if opts.closed_form && !opts.falloff.is_on() => SatTable::of(&scene.texture)?,
+        _ => None,
+    };
     let px = Pixels {
         design,
         chan,
@@ -71,6 +80,7 @@ pub(super) fn general_channel(
             falloff: opts.falloff,
             step: piece_step(rel, uniform(scene)),
         }),
+        sat: table.as_ref(),
     };
     let step = crate::infra::parallel::chunk_items(n_threads, per_row);
     fill_rows(
@@ -233,6 +243,25 @@ fn lens_contribution(px: &Pixels, c: Pt, t: usize, s_pix: Pt, wk: &mut Work) -> 
     }
 }
 
+/// The lens as the closed form of its interior boxes sees it ([`interior`]), when it
+/// applies: a summed-area table, a fronto-parallel plane, no weight, not recording.
+fn closed_lens<'a>(px: &Pixels<'a>, lens: LensView, wk: &Work) -> Option<Lens<'a>> {
+    let (sat, z) = (px.sat?, px.scene.surface.fronto()?);
+    if px.weighting.is_some() || wk.rec.is_some() {
+        return None;
+    }
+    let chan = px.chan;
+    Some(Lens {
+        chan,
+        sat,
+        c: lens.c,
+        alpha: lens.alpha,
+        e: lens.e,
+        bb: 1.0 - z / chan.f_main + z / chan.ch.l,
+        g: z / chan.ch.l,
+    })
+}
+
 /// The cuts of a lens's outer box and what the quadrature needs to know of them: whether
 /// the integrand is bilinear between them, and the reference plane's B = 1 − z/F + z/L
 /// and g = z/L (P = B w − g (c + ξ) on it).
@@ -266,6 +295,16 @@ fn outer_w(px: &Pixels, lens: LensView, wk: &mut Work) -> f64 {
         return 0.0;
     }
     let bx = QBox::new(x0, x1, y0, y1);
+    let closed_l = closed_lens(px, lens, wk);
+    if let Some(cl) = &closed_l {
+        let in_disc = chan.shape != Aperture::Circle
+            || [x0, x1]
+                .iter()
+                .all(|&a| [y0, y1].iter().all(|&b| a * a + b * b <= r * r));
+        if let Some(v) = in_disc.then(|| interior::outer_w_box(cl, bx, wk)).flatten() {
+            return v;
+        }
+    }
     let Cuts {
         cx,
         cy,
@@ -290,9 +329,14 @@ fn outer_w(px: &Pixels, lens: LensView, wk: &mut Work) -> f64 {
     let total = if chan.shape != Aperture::Circle {
         let mut f = |wx: f64, wy: f64, wk: &mut Work| node_w(px, lens, [wx, wy], wk);
         let bilinear = bilinear && px.weighting.is_none();
-        over_boxes(&mut f, &rough, &cx, &cy, px.tol, bilinear, wk)
+        let closed = |b: QBox, wk: &mut Work| {
+            closed_l
+                .as_ref()
+                .and_then(|l| interior::outer_w_box(l, b, wk))
+        };
+        over_boxes(&mut f, (&rough, &closed), (&cx, &cy), px.tol, bilinear, wk)
     } else {
-        outer_w_disc(px, lens, bx, (&cx, &cy), &rough, wk)
+        outer_w_disc(px, (lens, closed_l.as_ref()), bx, (&cx, &cy), &rough, wk)
     };
     wk.cuts_a = cx;
     wk.cuts_b = cy;
@@ -383,10 +427,11 @@ fn outer_w_cuts(px: &Pixels, lens: LensView, bx: QBox, wk: &mut Work) -> Cuts {
 
 /// The outer-w rule on a circular aperture: w_x = r sin φ; per interval of w_x the
 /// y-range is either the box's (then its cuts apply) or clipped by the circle (then w_y
-/// runs over [ylo, yhi] as u ∈ [0, 1]).
+/// runs over [ylo, yhi] as u ∈ [0, 1]). A box of the first kind maps to a rectangle of
+/// w, which the closed form takes when the lens's `closed` view knows it.
 fn outer_w_disc(
     px: &Pixels,
-    lens: LensView,
+    (lens, closed_l): (LensView, Option<&Lens>),
     bx: QBox,
     (cx, cy): (&[f64], &[f64]),
     rough: &impl Fn(f64, f64, f64, f64, &mut Work) -> bool,
@@ -417,7 +462,11 @@ fn outer_w_disc(
                 let (a0, a1) = (r * p0.sin(), r * p1.sin());
                 rough(a0.min(a1), a0.max(a1), b0, b1, wk)
             };
-            sum += over_boxes(&mut f, &rough_p, &[pa, pb], cy, t, false, wk);
+            let closed = |b: QBox, wk: &mut Work| {
+                let w = QBox::new(r * b.x0.sin(), r * b.x1.sin(), b.y0, b.y1);
+                closed_l.and_then(|l| interior::outer_w_box(l, w, wk))
+            };
+            sum += over_boxes(&mut f, (&rough_p, &closed), (&[pa, pb], cy), t, false, wk);
         } else {
             let mut f = |p: f64, u: f64, wk: &mut Work| {
                 let wx = r * p.sin();
@@ -436,7 +485,8 @@ fn outer_w_disc(
                 let (a0, a1) = (r * p0.sin(), r * p1.sin());
                 rough(a0.min(a1), a0.max(a1), y0, y1, wk)
             };
-            sum += adaptive(&mut f, &rough_p, QBox::new(pa, pb, 0.0, 1.0), t, 0, wk);
+            let bx = QBox::new(pa, pb, 0.0, 1.0);
+            sum += adaptive(&mut f, (&rough_p, &never), bx, t, 0, wk);
         }
     }
     sum
@@ -537,6 +587,13 @@ fn outer_s(px: &Pixels, lens: LensView, wk: &mut Work) -> f64 {
     if !(x1 > x0 && y1 > y0) {
         return 0.0;
     }
+    let lv = 1.0 / chan.vl;
+    let closed_l = closed_lens(px, lens, wk);
+    if let Some(cl) = &closed_l {
+        if let Some(v) = interior::outer_s_box(cl, QBox::new(x0, x1, y0, y1), wk) {
+            return v * lv * lv;
+        }
+    }
     let kinks = |hs: &[f64]| -> Vec<f64> {
         let mut k = Vec::new();
         if chan.shape == Aperture::Square {
@@ -584,7 +641,6 @@ fn outer_s(px: &Pixels, lens: LensView, wk: &mut Work) -> f64 {
     // The rect cell clipped by the square aperture's preimage: a product of intervals.
     // (A weight makes the integrand smooth, not bilinear.)
     let bilinear = bilinear(scene, separable, complete) && px.weighting.is_none();
-    let lv = 1.0 / chan.vl;
     let mut f = |sx: f64, sy: f64, wk: &mut Work| node_s(px, lens, [sx, sy], wk);
     // Rough boxes (see outer_w): P = B w(ξ) − (z/L)(c + ξ), w(ξ) = (L/v)(α ξ − σ); a vertex
     // of the cell moves by −B (L/v) per unit σ, one of the aperture's preimage by −(z/L)/α.
@@ -597,7 +653,13 @@ fn outer_s(px: &Pixels, lens: LensView, wk: &mut Work) -> f64 {
         let w_of = |xi: Pt| [lv * (alpha * xi[0] - sg[0]), lv * (alpha * xi[1] - sg[1])];
         vertex_meets_jump(scene, c, bb, g, m, w_of, wk)
     };
-    let total = over_boxes(&mut f, &rough, &cx, &cy, tol / (lv * lv), bilinear, wk);
+    let closed = |b: QBox, wk: &mut Work| {
+        closed_l
+            .as_ref()
+            .and_then(|l| interior::outer_s_box(l, b, wk))
+    };
+    let hooks = (&rough, &closed);
+    let total = over_boxes(&mut f, hooks, (&cx, &cy), tol / (lv * lv), bilinear, wk);
     wk.cuts_a = cx;
     wk.cuts_b = cy;
     total * lv * lv
@@ -746,6 +808,7 @@ mod tests {
                 scene: sc,
                 tol: lens_tol(&chan, sc, 1e-3),
                 weighting: None,
+                sat: None,
             };
             let mut wk = Work::new(false);
             let v: Vec<f64> = (0..40u32)

@@ -53,8 +53,10 @@ mod falloff;
 /// Record mode on a plane: the footprint density integrated over the grid's cells.
 pub(crate) mod footprint;
 mod general;
+mod interior;
 mod kinks;
 mod mean;
+mod sat;
 
 pub use chan::{circle_sides, MAX_CIRCLE_SIDES, MIN_CIRCLE_SIDES};
 pub(crate) use chan::{map_seen_once, Chan, Work};
@@ -90,6 +92,11 @@ pub struct RenderOptions {
     /// and/or main-lens-to-array segment (docs/model.md §10). Off by default (the paper's
     /// paraxial model); on, every channel takes the general route.
     pub falloff: Falloff,
+    /// The general route takes a lens's boxes whose polygon of rays is one polygon moving
+    /// by translation in closed form on a fronto-parallel plane (docs/render.md, "The
+    /// interior in closed form"); off, every box by the quadrature (the reference of the
+    /// closed form's tests).
+    pub closed_form: bool,
 }
 
 impl Default for RenderOptions {
@@ -99,6 +106,7 @@ impl Default for RenderOptions {
             own_lens: false,
             noise: None,
             falloff: Falloff::None,
+            closed_form: true,
         }
     }
 }

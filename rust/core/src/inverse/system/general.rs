@@ -232,6 +232,7 @@ pub(super) fn build_general(
             scene: &scene,
             tol: 1.0,
             weighting: None,
+            sat: None,
         };
         let map_once = crate::imaging::render::map_seen_once(&chan, surface);
         let sees = lenses_seeing(design, ch, surface, grid);
