@@ -50,6 +50,7 @@ MERIT_GOLDEN_STEPS = 4
 #: iterations (docs/merits.md, "Time").
 MERIT_GCV_GOLDEN_STEPS = 2
 MERIT_PROBE_RTOL = MERIT_RTOL
+MERIT_GCV_PARABOLA = False
 #: The edge of the MTF50: the study's (docs/fig2.md), through the field's centre.
 MERIT_EDGE = SlantedEdge(5.0, 0.1, 0.9)
 
@@ -200,7 +201,8 @@ def image_merits(design: Any, depths: Any, photons: float = 2000.0, *,
                        "ensemble": (ensemble.mean, ensemble.amplitude, ensemble.exponent),
                        "patch": p, "step": None, "regularization": None, "rule": rule,
                        "settings": (NOISE_FLOOR, MERIT_RTOL, MERIT_MAX_ITER, k, *bracket,
-                                    golden, s, m, CHOOSE_PROBES, MERIT_PROBE_RTOL)}
+                                    golden, s, m, CHOOSE_PROBES, MERIT_PROBE_RTOL,
+                                    MERIT_GCV_PARABOLA)}
                 t0 = time.perf_counter()
                 r = _native.image_merits(d.core, float(zi), req, scene, n_threads=threads)
                 done[key] = {

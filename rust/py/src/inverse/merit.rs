@@ -20,7 +20,8 @@ use crate::model::design::DesignCore;
 /// `step` (None: δ(z)), `regularization` (None: chosen by `rule`, "gcv" from the draws'
 /// data as a reconstruction chooses it, or "oracle", the least expected error) and
 /// `settings` (noise floor, CG rtol, CG max_iter, draws, λ lo, λ hi, golden steps, seed,
-/// margin in pixel spans, GCV's probes, the probes' rtol).
+/// margin in pixel spans, GCV's probes, the probes' rtol, GCV's parabolic step instead of
+/// golden sections) and `start` (GCV's first λ; absent or None: the reconstruction's).
 #[derive(FromPyObject)]
 #[pyo3(from_item_all)]
 pub(crate) struct MeritRequest {
@@ -44,7 +45,11 @@ pub(crate) struct MeritRequest {
         f64,
         usize,
         f64,
+        bool,
     ),
+    /// GCV's first λ (absent or None: the reconstruction's start).
+    #[pyo3(default)]
+    start: Option<f64>,
 }
 
 /// The merits of `design` at depth `z` (a fronto-parallel plane) as `request` asks
@@ -94,6 +99,7 @@ pub(crate) fn image_merits<'py>(
         margin,
         probes,
         probe_rtol,
+        parabola,
     ) = request.settings;
     let lambda = match (request.regularization, request.rule.as_str()) {
         (Some(l), _) => core_merit::Lambda::Given(l),
@@ -139,6 +145,8 @@ pub(crate) fn image_merits<'py>(
                 margin,
                 probes,
                 probe_rtol,
+                start: request.start,
+                parabola,
             },
             n_threads: threads,
         };

@@ -61,6 +61,11 @@ pub struct Settings {
     /// The Hutchinson probes of GCV's df and their solves' relative stop.
     pub probes: usize,
     pub probe_rtol: f64,
+    /// GCV's first λ (None: the reconstruction's start; e.g. the last depth's choice).
+    pub start: Option<f64>,
+    /// GCV's refinement after the decades: one λ at the parabola's vertex (else golden
+    /// sections, `golden_steps` of them).
+    pub parabola: bool,
 }
 
 /// How λ is had: given; chosen by GCV on the draws' data (a reconstruction's rule); or the
@@ -187,13 +192,19 @@ impl Search<'_> {
     /// The expected error per cell at λ (mean and standard error over the draws).
     fn trial(&mut self, lam: f64) -> Result<f64> {
         self.normal.set_regularization(lam)?;
+        let jobs: Vec<(Start<'_>, Stop)> = (self.draws.rhs.iter().zip(&self.draws.last))
+            .map(|(rhs, last)| {
+                let start = Start {
+                    rhs: Some(rhs),
+                    x0: last.as_deref(),
+                };
+                (start, self.stop)
+            })
+            .collect();
+        let sols = solve::solve_each(&self.normal, &jobs, self.threads, self.done)?;
+        drop(jobs);
         let mut errs = Vec::with_capacity(self.draws.x.len());
-        for k in 0..self.draws.x.len() {
-            let start = Start {
-                rhs: Some(&self.draws.rhs[k]),
-                x0: self.draws.last[k].as_deref(),
-            };
-            let sol = solve::solve_from(&self.normal, start, self.stop, self.threads, self.done)?;
+        for (k, sol) in sols.into_iter().enumerate() {
             self.iterations += sol.iterations;
             errs.push(self.patch.inner_mse(&sol.cells, &self.draws.x[k]));
             self.draws.last[k] = Some(sol.cells);
@@ -266,6 +277,8 @@ impl Search<'_> {
             data: self.stop,
             probe: Stop::relative(s.probe_rtol, s.max_iter),
             df_weight: 1.0,
+            start: s.start,
+            parabola: s.parabola,
         };
         let sets = (0..self.draws.x.len())
             .map(|k| DataSet {
