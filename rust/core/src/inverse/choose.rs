@@ -74,9 +74,6 @@ pub struct Config {
     pub probe: Stop,
     /// ρ ≥ 1: the weight on df in the score (module doc).
     pub df_weight: f64,
-    /// Where the decades start (None: [`START_DECADES`] below the top; a λ known to lie
-    /// near the least, e.g. the last depth's choice, saves the walk to it).
-    pub start: Option<f64>,
     /// After the decades, one λ at the vertex of the parabola through the least decade's
     /// score and its two neighbours' (in log λ, when the three are tried and the parabola
     /// opens upwards), instead of the golden sections (which run when it cannot be had).
@@ -345,10 +342,7 @@ fn search(
     // Decades down from START_DECADES below the top of the bracket, stopped one past the
     // least score; then up from the start when it stays the least.
     let (l0, l1) = (cfg.lo.log10(), cfg.hi.log10());
-    let start = match cfg.start {
-        Some(l) if l.is_finite() && l > 0.0 => l.log10().clamp(l0, l1),
-        _ => (l1 - START_DECADES).max(l0),
-    };
+    let start = (l1 - START_DECADES).max(l0);
     let down: Vec<f64> = (0..25)
         .map(|k| start - k as f64)
         .take_while(|&e| e >= l0 - 1e-9)
@@ -569,7 +563,6 @@ mod tests {
             data: Stop::relative(1e-13, 10_000),
             probe: Stop::relative(1e-13, 10_000),
             df_weight,
-            start: None,
             parabola: false,
         };
         let done = AtomicUsize::new(0);

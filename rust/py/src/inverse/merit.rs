@@ -21,7 +21,7 @@ use crate::model::design::DesignCore;
 /// data as a reconstruction chooses it, or "oracle", the least expected error) and
 /// `settings` (noise floor, CG rtol, CG max_iter, draws, λ lo, λ hi, golden steps, seed,
 /// margin in pixel spans, GCV's probes, the probes' rtol, GCV's parabolic step instead of
-/// golden sections) and `start` (GCV's first λ; absent or None: the reconstruction's).
+/// golden sections).
 #[derive(FromPyObject)]
 #[pyo3(from_item_all)]
 pub(crate) struct MeritRequest {
@@ -47,9 +47,6 @@ pub(crate) struct MeritRequest {
         f64,
         bool,
     ),
-    /// GCV's first λ (absent or None: the reconstruction's start).
-    #[pyo3(default)]
-    start: Option<f64>,
 }
 
 /// The merits of `design` at depth `z` (a fronto-parallel plane) as `request` asks
@@ -145,7 +142,6 @@ pub(crate) fn image_merits<'py>(
                 margin,
                 probes,
                 probe_rtol,
-                start: request.start,
                 parabola,
             },
             n_threads: threads,

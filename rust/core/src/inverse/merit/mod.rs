@@ -61,8 +61,6 @@ pub struct Settings {
     /// The Hutchinson probes of GCV's df and their solves' relative stop.
     pub probes: usize,
     pub probe_rtol: f64,
-    /// GCV's first λ (None: the reconstruction's start; e.g. the last depth's choice).
-    pub start: Option<f64>,
     /// GCV's refinement after the decades: one λ at the parabola's vertex (else golden
     /// sections, `golden_steps` of them).
     pub parabola: bool,
@@ -277,7 +275,6 @@ impl Search<'_> {
             data: self.stop,
             probe: Stop::relative(s.probe_rtol, s.max_iter),
             df_weight: 1.0,
-            start: s.start,
             parabola: s.parabola,
         };
         let sets = (0..self.draws.x.len())
@@ -385,4 +382,100 @@ pub fn image_merits(req: &Request<'_>, done: &AtomicUsize) -> Result<Outcome> {
         rows: patch.rows,
         iterations: search.iterations,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::time::Instant;
+
+    /// The draws' solves one after the other (each CG's products split over the threads)
+    /// against side by side (`solve::solve_each`), alternating, medians: the seed's half 2
+    /// at 642 mm, 8 right-hand sides (4 draws and 4 probes' worth), the natural ensemble's
+    /// numbers, 2 threads, and one thread for the reference. A timing, not a check: run it by name,
+    /// `cargo test --release -p splitlf-core -- --ignored side_by_side --nocapture`.
+    #[test]
+    #[ignore]
+    fn side_by_side_timing() {
+        let d = crate::model::presets::preset("seed").unwrap();
+        let settings = Settings {
+            noise_floor: 1e-3,
+            rtol: 1e-4,
+            max_iter: 500,
+            samples: 4,
+            lo: 1e-3,
+            hi: 1e5,
+            golden_steps: 2,
+            seed: 0,
+            margin: 2.0,
+            probes: 4,
+            probe_rtol: 1e-4,
+            parabola: false,
+        };
+        let ensemble = Ensemble {
+            mean: 0.505,
+            amplitude: 0.027,
+            exponent: 2.0,
+        };
+        let req = Request {
+            design: &d,
+            depth: 642.0,
+            channels: vec![1],
+            lens_types: None,
+            photons: 2000.0,
+            ensemble,
+            edge: None,
+            patch: 48,
+            step: None,
+            lambda: Lambda::Given(30.0),
+            settings,
+            n_threads: Some(2),
+        };
+        let done = AtomicUsize::new(0);
+        let patch = Patch::build(&req, &done).unwrap();
+        let (nx, ny) = (patch.grid.nx, patch.grid.ny);
+        let rhs: Vec<Vec<f64>> = (0..8u64)
+            .map(|k| {
+                let x = ensemble.draw(nx, ny, 2 * k).unwrap();
+                patch.data(&x, Some(&normals(patch.rows, 2 * k + 1))).0
+            })
+            .collect();
+        let normal = Normal::new(nx, ny, 30.0, patch.blocks()).unwrap();
+        let stop = Stop::relative(1e-4, 500);
+        let jobs: Vec<(Start<'_>, Stop)> = rhs
+            .iter()
+            .map(|b| {
+                let start = Start {
+                    rhs: Some(b),
+                    x0: None,
+                };
+                (start, stop)
+            })
+            .collect();
+        let one_by_one = |threads| {
+            let t = Instant::now();
+            for &(s, st) in &jobs {
+                solve::solve_from(&normal, s, st, threads, &done).unwrap();
+            }
+            t.elapsed().as_secs_f64()
+        };
+        let (mut seq1, mut seq, mut par) = (vec![], vec![], vec![]);
+        for _ in 0..5 {
+            seq1.push(one_by_one(Some(1)));
+            seq.push(one_by_one(Some(2)));
+            let t = Instant::now();
+            solve::solve_each(&normal, &jobs, Some(2), &done).unwrap();
+            par.push(t.elapsed().as_secs_f64());
+        }
+        let median = |v: &mut Vec<f64>| {
+            v.sort_by(f64::total_cmp);
+            v[v.len() / 2]
+        };
+        let (a, b, c) = (median(&mut seq1), median(&mut seq), median(&mut par));
+        println!(
+            "grid {nx} x {ny}, 8 solves: one by one 1 thread {a:.3} s, 2 threads {b:.3} s, \
+             side by side 2 threads {c:.3} s ({:.2}x one by one)",
+            b / c
+        );
+    }
 }
