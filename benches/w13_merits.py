@@ -33,6 +33,7 @@ import numpy as np
 
 import splitlf
 from splitlf import _native
+from splitlf.study.merit import image_merit_names
 
 #: The issue's target on the share of the time spent outside the core.
 TARGET_SHARE_OUTSIDE_CORE = 0.20
@@ -51,7 +52,7 @@ def sizes(quick: bool) -> dict[str, Any]:
     if quick:
         return {"depths": [630.0, 660.0], "image": ["psnr_worst_channel1"]}
     return {"depths": [300.0, 2000.0],
-            "image": [n for n in splitlf.image_merit_names(design())]}
+            "image": list(image_merit_names(design()))}
 
 
 @contextmanager
