@@ -45,6 +45,7 @@ import w7_optimise  # noqa: E402
 import w9_render  # noqa: E402
 import w10_reconstruct  # noqa: E402
 import w11_depth  # noqa: E402
+import w13_merits  # noqa: E402
 from timing import timed  # noqa: E402
 from workloads import WORKLOADS, Workload  # noqa: E402
 
@@ -552,7 +553,7 @@ def write_markdown(doc: dict[str, Any], path: Path) -> None:
         "arrays of the output's total size. Peak memory: extra resident memory of one run in "
         "a fresh process.",
     ]
-    if any(r.get("kind") not in ("study", "concurrent", "render", "reconstruct", "depth")
+    if any(r.get("kind") not in ("study", "concurrent", "render", "reconstruct", "depth", "merits")
            and r["workload"] not in BROWSER_WORKLOADS for r in doc["results"]):
         lines += [
             "",
@@ -562,7 +563,7 @@ def write_markdown(doc: dict[str, Any], path: Path) -> None:
             "|---|---|---|---|---|---|---|---|---|---|---|",
         ]
     for r in doc["results"]:
-        if (r.get("kind") in ("study", "concurrent", "render", "reconstruct", "depth")
+        if (r.get("kind") in ("study", "concurrent", "render", "reconstruct", "depth", "merits")
                 or r["workload"] in BROWSER_WORKLOADS):
             continue
         m = r["median_s"]
@@ -577,7 +578,7 @@ def write_markdown(doc: dict[str, Any], path: Path) -> None:
             f"{_mib(r['peak_mib']['numpy'])} / {r['peak_mib']['native']:.0f} / {out_mib} |"
         )
     lines += (_markdown_studies(doc) + _markdown_render(doc) + _markdown_w10_w11(doc)
-              + _markdown_concurrent(doc))
+              + _markdown_concurrent(doc) + _markdown_w13(doc))
     lines += _markdown_targets(doc) + _markdown_browser(doc) + _kept(path)
     path.write_text("\n".join(lines) + "\n")
 
@@ -692,7 +693,7 @@ def compare(previous: dict[str, Any], results: list[dict[str, Any]]) -> dict[str
         if o is None:
             continue
         if (r["workload"] in BROWSER_WORKLOADS
-                or r.get("kind") in ("concurrent", "render", "reconstruct", "depth")
+                or r.get("kind") in ("concurrent", "render", "reconstruct", "depth", "merits")
                 or o.get("kind") != r.get("kind")):
             continue
         row = {
@@ -772,8 +773,36 @@ def _markdown_w10_w11(doc: dict[str, Any]) -> list[str]:
     return out
 
 
+# -- W13: image merits (benches/w13_merits.py) ---------------------------------------------
+
+
+def _w13_summary(r: dict[str, Any]) -> str:
+    return (f"W13: {r['s_per_evaluated_design']:.3g} s per evaluated design, "
+            f"{r['core_s']:.3g} s in the core, share outside the core "
+            f"{r['share_outside_core']:.3f}")
+
+
+def _markdown_w13(doc: dict[str, Any]) -> list[str]:
+    """The W13 line: time per evaluated design with image merits, share outside the core."""
+    out: list[str] = []
+    for r in doc["results"]:
+        if r.get("kind") != "merits":
+            continue
+        sz = r["sizes"]
+        share = r["share_outside_core"]
+        out += ["", f"W13 ({r['title']}; `evaluate` over {sz['depths']} depths of "
+                f"{sz['range_mm'][0]:g}–{sz['range_mm'][1]:g} mm, {len(sz['image'])} image "
+                f"merits, N = {sz['photons']:g}, {sz['threads']} threads; "
+                f"benches/w13_merits.py, {r['rounds']} rounds, medians): "
+                f"{r['s_per_evaluated_design']:.3g} s per evaluated design, "
+                f"{r['core_s']:.3g} s of it in the core; share outside the core "
+                f"{100 * share:.1f} % (target ≤ {100 * r['target_share_outside_core']:.0f} %: "
+                f"{_met(share <= r['target_share_outside_core'])})."]
+    return out
+
+
 def _ordered(names: list[str]) -> list[str]:
-    """Workload names in numeric order (W1, ..., W9, W12)."""
+    """Workload names in numeric order (W1, ..., W9, W12, W13)."""
     return sorted(names, key=lambda n: int(n[1:]))
 
 
@@ -781,9 +810,9 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="small sizes (CI smoke test)")
     ap.add_argument("--only", nargs="*",
-                    choices=(_ordered([*WORKLOADS, *STUDIES, "W9", "W10", "W11", "W12"])
+                    choices=(_ordered([*WORKLOADS, *STUDIES, "W9", "W10", "W11", "W12", "W13"])
                              + list(BROWSER_WORKLOADS)),
-                    help="workloads to run (default W1-W7 and W9-W12; W8, the explorer in a "
+                    help="workloads to run (default W1-W7 and W9-W13; W8, the explorer in a "
                     "browser, only when named)")
     ap.add_argument("--rounds", type=int, default=None,
                     help="alternating rounds (default 7, 3 with --quick)")
@@ -805,7 +834,7 @@ def main(argv: list[str] | None = None) -> int:
     previous = (json.loads(prev_path.read_text())
                 if not args.quick and prev_path.exists() else None)
     results = []
-    for name in args.only or _ordered([*WORKLOADS, *STUDIES, "W9", "W10", "W11", "W12"]):
+    for name in args.only or _ordered([*WORKLOADS, *STUDIES, "W9", "W10", "W11", "W12", "W13"]):
         if name == "W8":
             w8 = run_w8(args.quick)
             if w8 is not None:
@@ -825,6 +854,12 @@ def main(argv: list[str] | None = None) -> int:
             r["load_average"] = {"before": load_before, "after": os.getloadavg()}
             results.append(r)
             print(_w10_w11_summary(r), flush=True)
+            continue
+        if name == "W13":
+            r = {"workload": "W13", "kind": "merits", **w13_merits.run(args.quick, min(rounds, 3))}
+            r["load_average"] = {"before": load_before, "after": os.getloadavg()}
+            results.append(r)
+            print(_w13_summary(r), flush=True)
             continue
         if name == "W12":
             r = run_w12(args.quick, rounds)

@@ -51,6 +51,7 @@ SLOW = {
     'test_merits.py::test_edge_response_is_the_dense_estimators_mean': 25,
     'test_merits.py::test_least_error_lambda_is_the_closed_forms_minimum': 25,
     'test_merits.py::test_gcv_lambda_is_the_expected_scores_minimum': 55,
+    'test_merits.py::test_gcv_parabolic_step_is_the_vertex_through_the_decades': 136,
     'test_evaluate.py::test_sweep_image_merit_is_image_merits': 35,
     'test_merits.py::test_image_merits_rows_and_checks': 35,
     'test_merits.py::test_rows_of_the_same_pixels_are_one_computation': 55,

@@ -8,6 +8,7 @@ timing); run it with ``python -m pytest -m bench tests/test_benches.py``, as CI 
 from __future__ import annotations
 
 import json
+import math
 import subprocess
 import sys
 from pathlib import Path
@@ -24,10 +25,10 @@ def test_quick_benchmarks_run(tmp_path):
                     "--out", str(tmp_path)], check=True, capture_output=True, text=True)
     doc = json.loads((tmp_path / "results.json").read_text())
     names = [r["workload"] for r in doc["results"]]
-    assert names == ["W1", "W2", "W3", "W4", "W5", "W6", "W7", "W9", "W10", "W11", "W12"]
+    assert names == ["W1", "W2", "W3", "W4", "W5", "W6", "W7", "W9", "W10", "W11", "W12", "W13"]
     assert doc["quick"] is True
     for r in doc["results"]:
-        if r["workload"] in ("W9", "W10", "W11", "W12"):  # figures of their own (below)
+        if r["workload"] in ("W9", "W10", "W11", "W12", "W13"):  # figures of their own (below)
             continue
         assert all(t > 0 for t in r["median_s"].values())
         if "output_mib" in r:  # the outputs themselves must show in the measured peak
@@ -51,7 +52,7 @@ def test_quick_benchmarks_run(tmp_path):
         assert w7["ms_per_evaluated_design"][side] >= w7["core_ms_per_evaluated_design"][side]
     table = (tmp_path / "RESULTS.md").read_text()
     assert "| W7: " in table and "share outside the core" in table
-    assert table.count("\n| W") == len(names) - 4  # W1-W6 and W7's rows
+    assert table.count("\n| W") == len(names) - 5  # W1-W6 and W7's rows
     # W9: each scene's twin agreed with the core (checked before timing), every figure
     # measured, the seed's raws show in its peak memory
     w9 = by["W9"]
@@ -87,6 +88,14 @@ def test_quick_benchmarks_run(tmp_path):
     assert set(w12) == {f"{c}_x{k}" for c in ("sample_grid", "footprints_kernel")
                         for k in (2, 8)}, set(w12)
     assert all(0 < v < 100 for v in w12.values()) and "W12 (" in table
+    # W13: one evaluation with an image merit, its time inside the core no more than its
+    # wall time, the merit a finite PSNR, the line in the table
+    w13 = by["W13"]
+    assert w13["kind"] == "merits" and w13["sizes"]["depths"] == 20
+    assert 0 < w13["core_s"] <= w13["s_per_evaluated_design"]
+    assert 0.0 <= w13["share_outside_core"] < 1.0
+    assert all(math.isfinite(v) and v > 0 for v in w13["merits"].values())
+    assert "W13 (" in table
 
 
 def test_results_markdown_keeps_the_hand_written_tail(tmp_path, monkeypatch):

@@ -31,11 +31,12 @@ def _small() -> splitlf.Design:
 
 
 def _request(lam: float | None, samples: int, seed: int = 3,
-             rule: str = "oracle") -> dict[str, Any]:
+             rule: str = "oracle", parabola: bool = False) -> dict[str, Any]:
     return {"channels": [1], "lens_types": None, "photons": PHOTONS,
             "ensemble": (ENSEMBLE.mean, ENSEMBLE.amplitude, ENSEMBLE.exponent), "patch": 8,
             "step": None, "regularization": lam, "rule": rule,
-            "settings": (NOISE_FLOOR, 1e-10, 5000, samples, 1e-2, 1e4, 4, seed, 1.0, 4, 1e-6)}
+            "settings": (NOISE_FLOOR, 1e-10, 5000, samples, 1e-2, 1e4, 4, seed, 1.0, 4, 1e-6,
+                         parabola)}
 
 
 def _dense(design: splitlf.Design, out: dict[str, Any]) -> dict[str, Any]:
@@ -182,6 +183,31 @@ def test_gcv_lambda_is_the_expected_scores_minimum() -> None:
     # The expected error there against the closed form, as at a given lambda.
     want = _expected_mse(m, out["lam"])
     assert abs(out["mse"] - want) <= 3.0 * out["error"] + 0.02 * want
+
+
+def test_gcv_parabolic_step_is_the_vertex_through_the_decades() -> None:
+    """GCV's parabolic step (settings' last item; off by default, docs/merits.md "Speed"):
+    after the decades, one lambda at the vertex in log lambda of the parabola through the
+    least decade's score and its neighbours' (NumPy's polyfit through the three trials),
+    the choice the least score tried, and that lambda's expected score within 3 % of the
+    least of a fine grid's, as the golden sections' (the same test above)."""
+    d = _small()
+    out = _native.image_merits(d.core, Z, _request(None, 16, rule="gcv", parabola=True),
+                               None, n_threads=2)
+    trials = out["gcv"]
+    decades = [(math.log10(t[0]), t[1]) for t in trials[:-1]]
+    first = decades[0][0]
+    assert all(abs(e - first - round(e - first)) < 1e-9 for e, _ in decades), decades
+    best = min(decades, key=lambda t: t[1])[0]
+    e3 = np.array([best - 1.0, best, best + 1.0])
+    f3 = [next(f for e, f in decades if abs(e - x) < 1e-9) for x in e3]
+    c2, c1, _ = np.polyfit(e3, f3, 2)
+    assert c2 > 0
+    assert math.log10(trials[-1][0]) == pytest.approx(-c1 / (2.0 * c2), abs=1e-9)
+    assert out["lam"] == min(trials, key=lambda t: t[1])[0]
+    parts = _gcv_parts(_dense(d, out))
+    least = min(_expected_gcv(parts, lam)[2] for lam in np.geomspace(1e-2, 1e4, 97))
+    assert _expected_gcv(parts, out["lam"])[2] <= 1.03 * least, (out["lam"], least)
 
 
 def test_ensemble_fit_recovers_a_draws_spectrum() -> None:

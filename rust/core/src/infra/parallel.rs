@@ -211,6 +211,18 @@ pub fn repeat_until(
     }
 }
 
+/// [`repeat_until`] on the pool the calling thread runs in (a worker of a call's pool, as
+/// inside [`for_chunks`]), with a [`checkpoint`] between calls: for one of several such
+/// loops run side by side in that pool.
+pub fn repeat_here(step: &mut (dyn FnMut() -> Result<bool> + Send)) -> Result<()> {
+    loop {
+        if step()? {
+            return Ok(());
+        }
+        checkpoint()?;
+    }
+}
+
 /// Items per chunk of [`for_chunks`] when one item costs about `cost` elementary steps: a
 /// chunk is about 2^22 steps per thread (tens of milliseconds), at least one item per thread.
 pub fn chunk_items(n_threads: Option<usize>, cost: u128) -> usize {

@@ -74,6 +74,10 @@ pub struct Config {
     pub probe: Stop,
     /// ρ ≥ 1: the weight on df in the score (module doc).
     pub df_weight: f64,
+    /// After the decades, one λ at the vertex of the parabola through the least decade's
+    /// score and its two neighbours' (in log λ, when the three are tried and the parabola
+    /// opens upwards), instead of the golden sections (which run when it cannot be had).
+    pub parabola: bool,
 }
 
 /// One λ tried: its score, RSS, df, and the solves' iterations.
@@ -182,14 +186,31 @@ impl Search<'_> {
                 None => data.noise = 0.0,
             }
         }
-        let (mut rss, mut iterations) = (0.0, 0);
-        for k in 0..self.sets.len() {
-            let set = &self.sets[k];
+        // The data sets' and the probes' solves, side by side (one CG each).
+        let mut jobs: Vec<(Start<'_>, Stop)> = self
+            .sets
+            .iter()
+            .map(|set| {
+                let start = Start {
+                    rhs: (!self.own).then_some(set.rhs.as_slice()),
+                    x0: set.last.as_deref(),
+                };
+                (start, data)
+            })
+            .collect();
+        jobs.extend(self.probes.iter().zip(&self.u).map(|((_, nz), u)| {
             let start = Start {
-                rhs: (!self.own).then_some(set.rhs.as_slice()),
-                x0: set.last.as_deref(),
+                rhs: Some(nz.as_slice()),
+                x0: u.as_deref(),
             };
-            let sol = solve::solve_from(self.normal, start, data, self.threads, self.done)?;
+            (start, self.cfg.probe)
+        }));
+        let sols = solve::solve_each(self.normal, &jobs, self.threads, self.done)?;
+        drop(jobs);
+        let (mut rss, mut iterations) = (0.0, 0);
+        let mut sols = sols.into_iter();
+        for k in 0..self.sets.len() {
+            let Some(sol) = sols.next() else { break };
             iterations += sol.iterations;
             let nt = self.data_product(&sol.cells)?;
             let set = &mut self.sets[k];
@@ -199,12 +220,7 @@ impl Search<'_> {
         // The sets' mean RSS (one set: its own).
         rss /= self.sets.len().max(1) as f64;
         let mut df = 0.0;
-        for k in 0..self.probes.len() {
-            let start = Start {
-                rhs: Some(&self.probes[k].1),
-                x0: self.u[k].as_deref(),
-            };
-            let s = solve::solve_from(self.normal, start, self.cfg.probe, self.threads, self.done)?;
+        for (k, s) in sols.enumerate() {
             iterations += s.iterations;
             df += dot(&self.probes[k].0, &s.cells);
             self.u[k] = Some(s.cells);
@@ -348,6 +364,12 @@ fn search(
         ));
     }
     let best = least(&scores);
+    if cfg.parabola && !search.exhausted() {
+        if let Some(v) = vertex(&scores, best.0) {
+            search.trial(10f64.powf(v))?;
+            return finish(search, rows);
+        }
+    }
     // Golden section over the decades either side of the least (within the bracket).
     let (mut a, mut d) = ((best.0 - 1.0).max(l0), (best.0 + 1.0).min(l1));
     let g = (5f64.sqrt() - 1.0) / 2.0;
@@ -385,6 +407,16 @@ fn least(scores: &[(f64, f64)]) -> (f64, f64) {
         .copied()
         .min_by(|a, b| a.1.total_cmp(&b.1))
         .unwrap_or((f64::NAN, f64::INFINITY))
+}
+
+/// The vertex (log λ) of the parabola through the score at `at` and at the decades either
+/// side, when both were tried, the parabola opens upwards and its vertex lies between them.
+fn vertex(scores: &[(f64, f64)], at: f64) -> Option<f64> {
+    let near = |e: f64| scores.iter().find(|s| (s.0 - e).abs() < 1e-9).map(|s| s.1);
+    let (fa, fb, fc) = (near(at - 1.0)?, near(at)?, near(at + 1.0)?);
+    let curve = fa - 2.0 * fb + fc;
+    let v = at + 0.5 * (fa - fc) / curve;
+    (curve > 0.0 && v.is_finite() && (at - 1.0..=at + 1.0).contains(&v)).then_some(v)
 }
 
 /// Try the decades `exps` (log λ) in order, each kept in `scores`, until one is tried
@@ -531,6 +563,7 @@ mod tests {
             data: Stop::relative(1e-13, 10_000),
             probe: Stop::relative(1e-13, 10_000),
             df_weight,
+            parabola: false,
         };
         let done = AtomicUsize::new(0);
         let c = choose(&mut normal, Rule::Upre, cfg, Some(1), &done).unwrap();
@@ -592,6 +625,21 @@ mod tests {
         );
         assert_eq!(normal.regularization(), c.lam);
         c
+    }
+
+    /// The parabola's vertex through three decades: a quadratic's own minimum; none
+    /// when a neighbour is missing or the three lie on a line or open downwards.
+    #[test]
+    fn vertex_is_the_quadratics_minimum() {
+        let q = |e: f64| 3.0 * (e - 1.37) * (e - 1.37) + 5.0;
+        let scores: Vec<(f64, f64)> = [0.0, 1.0, 2.0, 3.0].iter().map(|&e| (e, q(e))).collect();
+        let v = vertex(&scores, 1.0).unwrap();
+        assert!((v - 1.37).abs() < 1e-12, "{v}");
+        assert!(vertex(&scores[..2], 1.0).is_none());
+        let line: Vec<(f64, f64)> = [0.0, 1.0, 2.0].iter().map(|&e| (e, 2.0 * e)).collect();
+        assert!(vertex(&line, 1.0).is_none());
+        let cap: Vec<(f64, f64)> = [0.0, 1.0, 2.0].iter().map(|&e| (e, -q(e))).collect();
+        assert!(vertex(&cap, 1.0).is_none());
     }
 
     #[test]

@@ -20,7 +20,8 @@ use crate::model::design::DesignCore;
 /// `step` (None: δ(z)), `regularization` (None: chosen by `rule`, "gcv" from the draws'
 /// data as a reconstruction chooses it, or "oracle", the least expected error) and
 /// `settings` (noise floor, CG rtol, CG max_iter, draws, λ lo, λ hi, golden steps, seed,
-/// margin in pixel spans, GCV's probes, the probes' rtol).
+/// margin in pixel spans, GCV's probes, the probes' rtol, GCV's parabolic step instead of
+/// golden sections).
 #[derive(FromPyObject)]
 #[pyo3(from_item_all)]
 pub(crate) struct MeritRequest {
@@ -44,6 +45,7 @@ pub(crate) struct MeritRequest {
         f64,
         usize,
         f64,
+        bool,
     ),
 }
 
@@ -82,6 +84,7 @@ pub(crate) fn image_merits<'py>(
         margin,
         probes,
         probe_rtol,
+        parabola,
     ) = request.settings;
     let lambda = match (request.regularization, request.rule.as_str()) {
         (Some(l), _) => core_merit::Lambda::Given(l),
@@ -127,6 +130,7 @@ pub(crate) fn image_merits<'py>(
                 margin,
                 probes,
                 probe_rtol,
+                parabola,
             },
             n_threads: threads,
         };

@@ -61,6 +61,9 @@ pub struct Settings {
     /// The Hutchinson probes of GCV's df and their solves' relative stop.
     pub probes: usize,
     pub probe_rtol: f64,
+    /// GCV's refinement after the decades: one λ at the parabola's vertex (else golden
+    /// sections, `golden_steps` of them).
+    pub parabola: bool,
 }
 
 /// How λ is had: given; chosen by GCV on the draws' data (a reconstruction's rule); or the
@@ -187,13 +190,19 @@ impl Search<'_> {
     /// The expected error per cell at λ (mean and standard error over the draws).
     fn trial(&mut self, lam: f64) -> Result<f64> {
         self.normal.set_regularization(lam)?;
+        let jobs: Vec<(Start<'_>, Stop)> = (self.draws.rhs.iter().zip(&self.draws.last))
+            .map(|(rhs, last)| {
+                let start = Start {
+                    rhs: Some(rhs),
+                    x0: last.as_deref(),
+                };
+                (start, self.stop)
+            })
+            .collect();
+        let sols = solve::solve_each(&self.normal, &jobs, self.threads, self.done)?;
+        drop(jobs);
         let mut errs = Vec::with_capacity(self.draws.x.len());
-        for k in 0..self.draws.x.len() {
-            let start = Start {
-                rhs: Some(&self.draws.rhs[k]),
-                x0: self.draws.last[k].as_deref(),
-            };
-            let sol = solve::solve_from(&self.normal, start, self.stop, self.threads, self.done)?;
+        for (k, sol) in sols.into_iter().enumerate() {
             self.iterations += sol.iterations;
             errs.push(self.patch.inner_mse(&sol.cells, &self.draws.x[k]));
             self.draws.last[k] = Some(sol.cells);
@@ -266,6 +275,7 @@ impl Search<'_> {
             data: self.stop,
             probe: Stop::relative(s.probe_rtol, s.max_iter),
             df_weight: 1.0,
+            parabola: s.parabola,
         };
         let sets = (0..self.draws.x.len())
             .map(|k| DataSet {
@@ -372,4 +382,100 @@ pub fn image_merits(req: &Request<'_>, done: &AtomicUsize) -> Result<Outcome> {
         rows: patch.rows,
         iterations: search.iterations,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::time::Instant;
+
+    /// The draws' solves one after the other (each CG's products split over the threads)
+    /// against side by side (`solve::solve_each`), alternating, medians: the seed's half 2
+    /// at 642 mm, 8 right-hand sides (4 draws and 4 probes' worth), the natural ensemble's
+    /// numbers, 2 threads, and one thread for the reference. A timing, not a check: run it by name,
+    /// `cargo test --release -p splitlf-core -- --ignored side_by_side --nocapture`.
+    #[test]
+    #[ignore]
+    fn side_by_side_timing() {
+        let d = crate::model::presets::preset("seed").unwrap();
+        let settings = Settings {
+            noise_floor: 1e-3,
+            rtol: 1e-4,
+            max_iter: 500,
+            samples: 4,
+            lo: 1e-3,
+            hi: 1e5,
+            golden_steps: 2,
+            seed: 0,
+            margin: 2.0,
+            probes: 4,
+            probe_rtol: 1e-4,
+            parabola: false,
+        };
+        let ensemble = Ensemble {
+            mean: 0.505,
+            amplitude: 0.027,
+            exponent: 2.0,
+        };
+        let req = Request {
+            design: &d,
+            depth: 642.0,
+            channels: vec![1],
+            lens_types: None,
+            photons: 2000.0,
+            ensemble,
+            edge: None,
+            patch: 48,
+            step: None,
+            lambda: Lambda::Given(30.0),
+            settings,
+            n_threads: Some(2),
+        };
+        let done = AtomicUsize::new(0);
+        let patch = Patch::build(&req, &done).unwrap();
+        let (nx, ny) = (patch.grid.nx, patch.grid.ny);
+        let rhs: Vec<Vec<f64>> = (0..8u64)
+            .map(|k| {
+                let x = ensemble.draw(nx, ny, 2 * k).unwrap();
+                patch.data(&x, Some(&normals(patch.rows, 2 * k + 1))).0
+            })
+            .collect();
+        let normal = Normal::new(nx, ny, 30.0, patch.blocks()).unwrap();
+        let stop = Stop::relative(1e-4, 500);
+        let jobs: Vec<(Start<'_>, Stop)> = rhs
+            .iter()
+            .map(|b| {
+                let start = Start {
+                    rhs: Some(b),
+                    x0: None,
+                };
+                (start, stop)
+            })
+            .collect();
+        let one_by_one = |threads| {
+            let t = Instant::now();
+            for &(s, st) in &jobs {
+                solve::solve_from(&normal, s, st, threads, &done).unwrap();
+            }
+            t.elapsed().as_secs_f64()
+        };
+        let (mut seq1, mut seq, mut par) = (vec![], vec![], vec![]);
+        for _ in 0..5 {
+            seq1.push(one_by_one(Some(1)));
+            seq.push(one_by_one(Some(2)));
+            let t = Instant::now();
+            solve::solve_each(&normal, &jobs, Some(2), &done).unwrap();
+            par.push(t.elapsed().as_secs_f64());
+        }
+        let median = |v: &mut Vec<f64>| {
+            v.sort_by(f64::total_cmp);
+            v[v.len() / 2]
+        };
+        let (a, b, c) = (median(&mut seq1), median(&mut seq), median(&mut par));
+        println!(
+            "grid {nx} x {ny}, 8 solves: one by one 1 thread {a:.3} s, 2 threads {b:.3} s, \
+             side by side 2 threads {c:.3} s ({:.2}x one by one)",
+            b / c
+        );
+    }
 }

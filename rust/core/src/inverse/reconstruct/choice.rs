@@ -62,6 +62,7 @@ impl Plan<'_> {
             df_weight: c.df_weight,
             data: self.stop(c.max_iter),
             probe: solve::Stop::relative(c.probe_rtol, c.max_iter),
+            parabola: false,
         };
         // The floor of a noise-free raw is the noise the risk is measured against.
         cfg.data.noise = self.req.settings.noise_tol;

@@ -219,6 +219,43 @@ pub fn solve_from(
     n_threads: Option<usize>,
     done: &std::sync::atomic::AtomicUsize,
 ) -> Result<Solution> {
+    parallel::check_threads(n_threads)?;
+    solve_driven(normal, start, stop, done, |step| {
+        parallel::repeat_until(n_threads, step)
+    })
+}
+
+/// Several solves of the same equations (each `(start, stop)`: a right-hand side and its
+/// stop), run side by side in the pool of `n_threads`, one CG per right-hand side (each
+/// one's products split further when a thread is free): the solutions in the order of
+/// `jobs`, each the one [`solve_from`] gives (the same numbers: every product's order of
+/// summation is fixed). Ctrl-C is checked inside every solve.
+pub fn solve_each(
+    normal: &Normal,
+    jobs: &[(Start<'_>, Stop)],
+    n_threads: Option<usize>,
+    done: &std::sync::atomic::AtomicUsize,
+) -> Result<Vec<Solution>> {
+    let mut out = Ok(vec![]);
+    parallel::for_chunks(n_threads, 1, 1, |_| {
+        out = jobs
+            .par_iter()
+            .map(|&(start, stop)| solve_driven(normal, start, stop, done, parallel::repeat_here))
+            .collect();
+        Ok(())
+    })?;
+    out
+}
+
+/// The CG of [`solve_from`], its batches of iterations run by `drive` (in a pool of its
+/// own, or on the pool the caller runs on).
+fn solve_driven(
+    normal: &Normal,
+    start: Start<'_>,
+    stop: Stop,
+    done: &std::sync::atomic::AtomicUsize,
+    drive: impl FnOnce(&mut (dyn FnMut() -> Result<bool> + Send)) -> Result<()>,
+) -> Result<Solution> {
     let Stop {
         rtol,
         noise,
@@ -249,7 +286,7 @@ pub fn solve_from(
     let mut work = normal.work()?;
     let mut s = State::new(n, prior.passes > 1)?;
     let (mut first, mut iterations, mut passes, mut change) = (true, 0usize, 0usize, 0.0);
-    parallel::repeat_until(n_threads, || {
+    drive(&mut || {
         if first {
             first = false;
             let go = s.start(normal, &mut work, start, (rtol, noise));
@@ -388,6 +425,61 @@ mod tests {
         // Thread-independent bit for bit within a form.
         assert_eq!(results[0], results[1]);
         assert_eq!(results[2], results[3]);
+    }
+
+    /// Several solves side by side: each the one `solve_from` gives alone, bit for bit
+    /// (its own right-hand side, start and stop), at 1 and 2 threads, the iterations all
+    /// counted; the one on the equations' own data the direct solution.
+    #[test]
+    fn solves_side_by_side_are_the_solves_alone() {
+        let (nx, ny, lam) = (9, 8, 0.2);
+        let (block, dense, w, y) = factored(nx, ny);
+        let want = direct(&dense, &w, &y, nx, ny, lam);
+        let normal = Normal::new(nx, ny, lam, vec![block]).unwrap();
+        let n = nx * ny;
+        let b1: Vec<f64> = (0..n).map(|i| ((i * 7) % 5) as f64 - 2.0).collect();
+        let x1: Vec<f64> = (0..n).map(|i| 0.1 * (i % 3) as f64).collect();
+        let b2: Vec<f64> = (0..n).map(|i| (i as f64).sin()).collect();
+        let (tight, loose) = (Stop::relative(1e-14, 10_000), Stop::relative(1e-3, 10_000));
+        let jobs = [
+            (Start::default(), tight),
+            (
+                Start {
+                    rhs: Some(&b1),
+                    x0: Some(&x1),
+                },
+                tight,
+            ),
+            (
+                Start {
+                    rhs: Some(&b2),
+                    x0: None,
+                },
+                loose,
+            ),
+        ];
+        for threads in [Some(1), Some(2)] {
+            let done = AtomicUsize::new(0);
+            let all = solve_each(&normal, &jobs, threads, &done).unwrap();
+            assert_eq!(all.len(), 3);
+            let mut total = 0;
+            for (s, &(start, stop)) in all.iter().zip(&jobs) {
+                let alone =
+                    solve_from(&normal, start, stop, Some(1), &AtomicUsize::new(0)).unwrap();
+                assert_eq!(s.cells, alone.cells);
+                assert_eq!(s.iterations, alone.iterations);
+                total += s.iterations;
+            }
+            assert_eq!(done.load(std::sync::atomic::Ordering::Relaxed), total);
+            let scale = want.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            let err = all[0]
+                .cells
+                .iter()
+                .zip(&want)
+                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+            assert!(err <= 1e-10 * scale, "{err}");
+        }
+        assert!(solve_each(&normal, &jobs, Some(0), &AtomicUsize::new(0)).is_err());
     }
 
     /// The noise stop is the relative stop at rtol = τ √trace(AᵀWA) / ‖AᵀWy‖, the trace

@@ -41,6 +41,6 @@ mod product;
 mod testing;
 
 pub use crate::infra::csr::Csr;
-pub use cg::{solve, solve_from, Solution, Start, Stop};
+pub use cg::{solve, solve_each, solve_from, Solution, Start, Stop};
 pub use normal::{Block, Normal, Penalty, Prior, Work};
 pub(crate) use product::prior_row;
