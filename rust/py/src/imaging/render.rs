@@ -2,7 +2,6 @@
 //! channel of a design (docs/render.md).
 
 use std::borrow::Cow;
-use std::sync::atomic::AtomicUsize;
 use std::sync::Arc;
 
 use numpy::{PyArray2, PyArrayMethods, PyReadonlyArray2};
@@ -11,12 +10,11 @@ use pyo3::prelude::*;
 use splitlf_core::imaging::render::{self as core_render, Falloff, NoiseTarget, RenderOptions};
 use splitlf_core::imaging::scene::{Scene, Surface};
 use splitlf_core::imaging::texture::Texture;
-use splitlf_core::model::design::Design;
 
 use crate::infra::args::{int_arg, threads_arg, with_given};
 use crate::infra::arrays::empty;
 use crate::infra::errors::{internal, to_py};
-use crate::infra::interrupt::{counted, run_reporting, Progress};
+use crate::infra::interrupt::{counted, run_reporting};
 use crate::model::design::DesignCore;
 
 /// A validated scene of the forward model.
@@ -125,26 +123,13 @@ pub(crate) fn render<'py>(
     own_lens: bool,
     falloff: Option<String>,
 ) -> PyResult<Vec<Bound<'py, PyArray2<f64>>>> {
-    // (The GIL token from the scene: a binding of eight arguments would need a struct.)
-    let (py, scene) = (scene.py(), scene.get());
-    let threads = threads_arg(n_threads)?;
-    let d = design.inner.clone();
-    let sc = Arc::clone(&scene.inner);
-    let total: usize = d
-        .channels
-        .iter()
-        .map(|ch| core_render::raw_shape(ch).0)
-        .sum();
-    let (report, counter) = counted(progress, total);
-    let (tol, noise) = tol_options(tol);
-    let opts = RenderOptions {
-        tol,
+    let base = RenderOptions {
         own_lens,
-        noise,
         falloff: falloff_arg(falloff.as_deref())?,
         closed_form: true,
+        ..RenderOptions::default()
     };
-    render_raws(py, (&d, &sc), opts, threads, (report, counter))
+    render_raws(design, scene, (tol, base), n_threads, progress)
 }
 
 /// Every channel's raw as [`render`] makes it at `tol`, but with each of the general
@@ -159,34 +144,35 @@ pub(crate) fn render_quadrature<'py>(
     tol: Option<Tol>,
     n_threads: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Vec<Bound<'py, PyArray2<f64>>>> {
-    let (py, scene) = (scene.py(), scene.get());
+    let base = RenderOptions {
+        closed_form: false,
+        ..RenderOptions::default()
+    };
+    render_raws(design, scene, (tol, base), n_threads, None)
+}
+
+/// The raws of [`render`] and [`render_quadrature`]: `base`'s options with the error
+/// target `tol` ([`tol_options`]); `progress(done, total)` counts raw rows.
+fn render_raws<'py>(
+    design: &DesignCore,
+    scene: &Bound<'py, RenderScene>,
+    (tol, base): (Option<Tol>, RenderOptions),
+    n_threads: Option<&Bound<'py, PyAny>>,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Vec<Bound<'py, PyArray2<f64>>>> {
+    // (The GIL token from the scene.)
+    let py = scene.py();
     let threads = threads_arg(n_threads)?;
     let d = design.inner.clone();
-    let sc = Arc::clone(&scene.inner);
+    let sc = Arc::clone(&scene.get().inner);
     let total: usize = d
         .channels
         .iter()
         .map(|ch| core_render::raw_shape(ch).0)
         .sum();
+    let (report, counter) = counted(progress, total);
     let (tol, noise) = tol_options(tol);
-    let opts = RenderOptions {
-        tol,
-        noise,
-        closed_form: false,
-        ..RenderOptions::default()
-    };
-    render_raws(py, (&d, &sc), opts, threads, counted(None, total))
-}
-
-/// The raws of [`render`] and [`render_quadrature`].
-fn render_raws<'py>(
-    py: Python<'py>,
-    (d, sc): (&Design, &Arc<Scene>),
-    opts: RenderOptions,
-    threads: Option<usize>,
-    (report, counter): (Option<Progress>, Arc<AtomicUsize>),
-) -> PyResult<Vec<Bound<'py, PyArray2<f64>>>> {
-    let (d, sc) = (d.clone(), Arc::clone(sc));
+    let opts = RenderOptions { tol, noise, ..base };
     core_render::check_render(&d, &sc, opts).map_err(to_py)?;
     let bytes = core_render::render_bytes(&d);
     splitlf_core::infra::memory::check("the rendered raw images", bytes).map_err(to_py)?;

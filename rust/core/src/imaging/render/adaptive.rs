@@ -55,35 +55,7 @@ pub(super) fn adaptive(
     let t = 0.25 * tol;
     if depth < ROUGH_DEPTH && rough(x0, x1, y0, y1, wk) {
         // A texture discontinuity sweeps through the box: the rules cannot see it.
-        return adaptive(
-            f,
-            (rough, closed),
-            QBox::new(x0, xm, y0, ym),
-            t,
-            depth + 1,
-            wk,
-        ) + adaptive(
-            f,
-            (rough, closed),
-            QBox::new(xm, x1, y0, ym),
-            t,
-            depth + 1,
-            wk,
-        ) + adaptive(
-            f,
-            (rough, closed),
-            QBox::new(x0, xm, ym, y1),
-            t,
-            depth + 1,
-            wk,
-        ) + adaptive(
-            f,
-            (rough, closed),
-            QBox::new(xm, x1, ym, y1),
-            t,
-            depth + 1,
-            wk,
-        );
+        return quartered(f, (rough, closed), bx, t, depth, wk);
     }
     // 2 × 2 and 3 × 3 Gauss–Legendre: the difference bounds the 2-point rule's error
     // and, far more pessimistically, the 3-point rule's, which is returned.
@@ -92,35 +64,35 @@ pub(super) fn adaptive(
     if (g2 - g1).abs() <= tol + wk.rel_floor * g2.abs() || depth >= MAX_DEPTH {
         return g2;
     }
-    adaptive(
-        f,
-        (rough, closed),
+    quartered(f, (rough, closed), bx, t, depth, wk)
+}
+
+/// [`adaptive`] over the box's four quarters (at `depth` + 1, each with `tol`), summed in
+/// the order lower left, lower right, upper left, upper right.
+fn quartered(
+    f: &mut impl FnMut(f64, f64, &mut Work) -> f64,
+    hooks: (
+        &impl Fn(f64, f64, f64, f64, &mut Work) -> bool,
+        &impl Closed,
+    ),
+    bx: QBox,
+    tol: f64,
+    depth: u32,
+    wk: &mut Work,
+) -> f64 {
+    let QBox { x0, x1, y0, y1 } = bx;
+    let (xm, ym) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
+    let quarters = [
         QBox::new(x0, xm, y0, ym),
-        t,
-        depth + 1,
-        wk,
-    ) + adaptive(
-        f,
-        (rough, closed),
         QBox::new(xm, x1, y0, ym),
-        t,
-        depth + 1,
-        wk,
-    ) + adaptive(
-        f,
-        (rough, closed),
         QBox::new(x0, xm, ym, y1),
-        t,
-        depth + 1,
-        wk,
-    ) + adaptive(
-        f,
-        (rough, closed),
         QBox::new(xm, x1, ym, y1),
-        t,
-        depth + 1,
-        wk,
-    )
+    ];
+    let mut sum = adaptive(f, hooks, quarters[0], tol, depth + 1, wk);
+    for q in &quarters[1..] {
+        sum += adaptive(f, hooks, *q, tol, depth + 1, wk);
+    }
+    sum
 }
 
 /// A Gauss–Legendre rule on [-1, 1]: nodes and weights (the weights sum to 1, the mean).
