@@ -14,7 +14,7 @@
 
 use std::f64::consts::PI;
 
-use crate::imaging::grid::SampleGrid;
+use crate::imaging::grid::{walk, SampleGrid};
 use crate::infra::error::{Error, Result};
 use crate::infra::polygon::{angular_span, centroid, clip_into, signed_area, Pt};
 
@@ -201,55 +201,16 @@ impl ImageTexture {
     /// in Y along the segment, so each piece is its length in Y times G at its midpoint.
     /// One G evaluation per cell crossed, no division in the loop.
     fn edge(&self, a: Pt, b: Pt) -> f64 {
-        let g = &self.grid;
         let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
         if dy == 0.0 {
             return 0.0;
         }
-        let (cols, rows) = (g.cols as i64, g.rows as i64);
-        // Cell of a point (−1 and cols / rows: beyond the grid), and the parameter t of
-        // the next grid line crossed along the step's direction.
-        let cell = |u: f64, n: i64| -> i64 {
-            if u >= 0.0 {
-                (u.min(n as f64) as i64).min(n)
-            } else {
-                -1
-            }
-        };
-        let mut c = cell((a[0] - g.x0) / g.hx, cols);
-        let mut r = cell((a[1] - g.y0) / g.hy, rows);
-        let (sx, sy) = (if dx > 0.0 { 1 } else { -1 }, if dy > 0.0 { 1 } else { -1 });
-        // The line index a step crosses next: c + 1 going up, c going down (lines 0..=n).
-        let next_t = |k: i64, step: i64, n: i64, o: f64, h: f64, a: f64, d: f64| -> f64 {
-            let line = if step > 0 { k + 1 } else { k };
-            if d == 0.0 || line < 0 || line > n {
-                f64::INFINITY
-            } else {
-                (o + line as f64 * h - a) / d
-            }
-        };
-        let mut tx = next_t(c, sx, cols, g.x0, g.hx, a[0], dx);
-        let mut ty = next_t(r, sy, rows, g.y0, g.hy, a[1], dy);
-        let mut t0 = 0.0f64;
+        let (x, y) = self.grid.lines();
         let mut total = 0.0;
-        loop {
-            let t1 = tx.min(ty).clamp(t0, 1.0);
-            if t1 > t0 {
-                let x = a[0] + 0.5 * (t0 + t1) * dx;
-                total += (t1 - t0) * self.g_cell(r, c, x);
-            }
-            if t1 >= 1.0 {
-                break;
-            }
-            t0 = t1;
-            if tx <= ty {
-                c += sx;
-                tx = next_t(c, sx, cols, g.x0, g.hx, a[0], dx);
-            } else {
-                r += sy;
-                ty = next_t(r, sy, rows, g.y0, g.hy, a[1], dy);
-            }
-        }
+        walk(x, y, a, b, |c, r, t0, t1| {
+            let x = a[0] + 0.5 * (t0 + t1) * dx;
+            total += (t1 - t0) * self.g_cell(r, c, x);
+        });
         total * dy
     }
 

@@ -4,6 +4,7 @@
 //! texture's summed-area function S by Green's theorem: a cost in the texture cells the
 //! polygon's translated boundary crosses, not in those its footprint covers.
 
+use crate::imaging::grid::{walk, Lines};
 use crate::imaging::texture::{ImageTexture, Texture};
 use crate::infra::error::Result;
 use crate::infra::polygon::{signed_area, Pt};
@@ -130,7 +131,7 @@ impl SatTable {
 
     /// ∫ S1 dY along the segment a → b (scene coordinates), less `s1_ref` along it (a
     /// constant, whose closed integral is zero: it keeps the sum's terms small), cut at
-    /// the grid's lines (a walk over the cells it crosses, as `ImageTexture::edge`'s), each
+    /// the grid's lines (the cells it crosses, by [`walk`] as `ImageTexture::edge`), each
     /// piece by the 2-point rule, exact for its cubic.
     fn edge(&self, a: Pt, b: Pt, s1_ref: f64) -> f64 {
         let (ax, ay) = ((a[0] - self.x0) / self.hx, (a[1] - self.y0) / self.hy);
@@ -138,49 +139,21 @@ impl SatTable {
         if dy == 0.0 {
             return 0.0;
         }
-        let (cols, rows) = (self.cols as i64, self.rows as i64);
-        let cell = |u: f64, n: i64| -> i64 {
-            if u >= 0.0 {
-                (u.min(n as f64) as i64).min(n)
-            } else {
-                -1
-            }
+        let lines = |origin, step, cells| Lines {
+            origin,
+            step,
+            cells,
         };
-        let mut c = cell(ax, cols);
-        let mut r = cell(ay, rows);
-        let (sx, sy) = (if dx > 0.0 { 1 } else { -1 }, if dy > 0.0 { 1 } else { -1 });
-        let next_t = |k: i64, step: i64, n: i64, a: f64, d: f64| -> f64 {
-            let line = if step > 0 { k + 1 } else { k };
-            if d == 0.0 || line < 0 || line > n {
-                f64::INFINITY
-            } else {
-                (line as f64 - a) / d
-            }
-        };
-        let mut tx = next_t(c, sx, cols, ax, dx);
-        let mut ty = next_t(r, sy, rows, ay, dy);
-        let (mut t0, mut total) = (0.0f64, 0.0);
-        loop {
-            let t1 = tx.min(ty).clamp(t0, 1.0);
-            if t1 > t0 {
-                let h = t1 - t0;
-                let (p, q) = (t0 + G2_LO * h, t0 + G2_HI * h);
-                let f = self.s1(c, r, ax + p * dx, ay + p * dy)
-                    + self.s1(c, r, ax + q * dx, ay + q * dy);
-                total += 0.5 * h * (f - 2.0 * s1_ref);
-            }
-            if t1 >= 1.0 {
-                break;
-            }
-            t0 = t1;
-            if tx <= ty {
-                c += sx;
-                tx = next_t(c, sx, cols, ax, dx);
-            } else {
-                r += sy;
-                ty = next_t(r, sy, rows, ay, dy);
-            }
-        }
+        let x = lines(self.x0, self.hx, self.cols);
+        let y = lines(self.y0, self.hy, self.rows);
+        let mut total = 0.0;
+        walk(x, y, a, b, |c, r, t0, t1| {
+            let h = t1 - t0;
+            let (p, q) = (t0 + G2_LO * h, t0 + G2_HI * h);
+            let f =
+                self.s1(c, r, ax + p * dx, ay + p * dy) + self.s1(c, r, ax + q * dx, ay + q * dy);
+            total += 0.5 * h * (f - 2.0 * s1_ref);
+        });
         total * (b[1] - a[1])
     }
 
