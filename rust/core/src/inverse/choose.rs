@@ -90,6 +90,51 @@ pub struct Trial {
     pub iterations: usize,
 }
 
+/// The Hutchinson standard errors of ρ df within which GCV's denominator m − ρ df may not
+/// come to zero: a trial nearer than that (or within one row) is degenerate, its score
+/// infinite (module doc).
+pub const DEGENERATE_ERRORS: f64 = 3.0;
+
+/// The least relative stop a warm start's is tightened to ([`warm_stop`]): a residual
+/// double precision reaches (reconstruct's own stop is 10⁻¹⁰ of ‖b‖).
+pub const WARM_RTOL_FLOOR: f64 = 1e-12;
+
+/// `stop` for the solve of (N + λR) x = b (`rhs`) from `x0`: its relative stop taken
+/// against the start's own residual r₀ = b − (N + λR) x₀ when that is the smaller
+/// (rtol · min(‖b‖, ‖r₀‖), not below [`WARM_RTOL_FLOOR`] ‖b‖). A solve warm-started from
+/// a neighbouring λ′ starts at r₀ = (λ′ − λ) R x₀, which at small λ lies below rtol ‖b‖:
+/// stopped against ‖b‖ it takes no step, and its x (a probe's df, a data set's RSS) stays
+/// λ′'s (docs/reconstruct.md, "The prior's weight"). Without `x0`, `stop` itself.
+pub fn warm_stop(normal: &Normal, rhs: &[f64], x0: Option<&[f64]>, stop: Stop) -> Result<Stop> {
+    let Some(x0) = x0 else { return Ok(stop) };
+    let bn = dot(rhs, rhs).sqrt();
+    if bn == 0.0 {
+        return Ok(stop);
+    }
+    let mut work = normal.work()?;
+    let mut r = vec![0.0; rhs.len()];
+    normal.apply(x0, &mut work, &mut r);
+    let rn = r
+        .iter()
+        .zip(rhs)
+        .map(|(q, b)| (b - q) * (b - q))
+        .sum::<f64>()
+        .sqrt();
+    let rtol = (stop.rtol * (rn / bn).min(1.0)).max(WARM_RTOL_FLOOR.min(stop.rtol));
+    Ok(Stop { rtol, ..stop })
+}
+
+/// The mean of `v` and its standard error (0 for fewer than two values).
+fn mean_and_error(v: &[f64]) -> (f64, f64) {
+    let n = v.len() as f64;
+    let mean = v.iter().sum::<f64>() / n.max(1.0);
+    if v.len() < 2 {
+        return (mean, 0.0);
+    }
+    let var = v.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / (n - 1.0);
+    (mean, (var / n).sqrt())
+}
+
 /// The search's result: the λ of the least score, the rows, the noise factor RSS/(m − df)
 /// there, and every λ tried in order.
 #[derive(Clone, Debug)]
@@ -186,25 +231,23 @@ impl Search<'_> {
                 None => data.noise = 0.0,
             }
         }
-        // The data sets' and the probes' solves, side by side (one CG each).
-        let mut jobs: Vec<(Start<'_>, Stop)> = self
-            .sets
-            .iter()
-            .map(|set| {
-                let start = Start {
-                    rhs: (!self.own).then_some(set.rhs.as_slice()),
-                    x0: set.last.as_deref(),
-                };
-                (start, data)
-            })
-            .collect();
-        jobs.extend(self.probes.iter().zip(&self.u).map(|((_, nz), u)| {
+        // The data sets' and the probes' solves, side by side (one CG each), each warm
+        // start's relative stop taken against its own residual ([`warm_stop`]).
+        let mut jobs: Vec<(Start<'_>, Stop)> = Vec::with_capacity(self.sets.len() + self.u.len());
+        for set in &self.sets {
+            let start = Start {
+                rhs: (!self.own).then_some(set.rhs.as_slice()),
+                x0: set.last.as_deref(),
+            };
+            jobs.push((start, warm_stop(self.normal, &set.rhs, start.x0, data)?));
+        }
+        for ((_, nz), u) in self.probes.iter().zip(&self.u) {
             let start = Start {
                 rhs: Some(nz.as_slice()),
                 x0: u.as_deref(),
             };
-            (start, self.cfg.probe)
-        }));
+            jobs.push((start, warm_stop(self.normal, nz, start.x0, self.cfg.probe)?));
+        }
         let sols = solve::solve_each(self.normal, &jobs, self.threads, self.done)?;
         drop(jobs);
         let (mut rss, mut iterations) = (0.0, 0);
@@ -219,19 +262,24 @@ impl Search<'_> {
         }
         // The sets' mean RSS (one set: its own).
         rss /= self.sets.len().max(1) as f64;
-        let mut df = 0.0;
+        let mut each = Vec::with_capacity(self.probes.len());
         for (k, s) in sols.enumerate() {
             iterations += s.iterations;
-            df += dot(&self.probes[k].0, &s.cells);
+            each.push(dot(&self.probes[k].0, &s.cells));
             self.u[k] = Some(s.cells);
         }
-        df /= self.probes.len().max(1) as f64;
+        let (df, df_error) = mean_and_error(&each);
         self.used += iterations;
         let m = self.rows as f64;
         let rho = self.cfg.df_weight;
+        // GCV's denominator: the rows' freedom the fit leaves. A fit that leaves none
+        // within the estimate's error (df → m: it interpolates the data, RSS → 0) is
+        // degenerate and never chosen (module doc).
+        let free = m - rho * df;
         let score = match self.rule {
             Rule::Upre => rss + 2.0 * rho * df - m,
-            Rule::Gcv => m * rss / ((m - rho * df).max(1.0) * (m - rho * df).max(1.0)),
+            Rule::Gcv if free <= (DEGENERATE_ERRORS * rho * df_error).max(1.0) => f64::INFINITY,
+            Rule::Gcv => m * rss / (free * free),
         };
         if self.rule == Rule::Gcv && rss > 0.0 {
             self.scale = Some(rss / (m - df).max(1.0));
