@@ -361,7 +361,10 @@ pub fn image_merits(req: &Request<'_>, done: &AtomicUsize) -> Result<Outcome> {
                 rhs: Some(&rhs),
                 x0: Some(&xe),
             };
-            let sol = solve::solve_from(&search.normal, start, search.stop, req.n_threads, done)?;
+            // Started at the edge itself: stopped against its own residual, as a warm
+            // start (`choose::warm_stop`; against ‖b‖ alone it stopped near x_e, sharp).
+            let stop = choose::warm_stop(&search.normal, &rhs, start.x0, search.stop)?;
+            let sol = solve::solve_from(&search.normal, start, stop, req.n_threads, done)?;
             search.iterations += sol.iterations;
             Some(patch.crop(&sol.cells))
         }
