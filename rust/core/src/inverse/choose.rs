@@ -90,6 +90,51 @@ pub struct Trial {
     pub iterations: usize,
 }
 
+/// The Hutchinson standard errors of ρ df within which GCV's denominator m − ρ df may not
+/// come to zero: a trial nearer than that (or within one row) is degenerate, its score
+/// infinite (module doc).
+pub const DEGENERATE_ERRORS: f64 = 3.0;
+
+/// The least relative stop a warm start's is tightened to ([`warm_stop`]): a residual
+/// double precision reaches (reconstruct's own stop is 10⁻¹⁰ of ‖b‖).
+pub const WARM_RTOL_FLOOR: f64 = 1e-12;
+
+/// `stop` for the solve of (N + λR) x = b (`rhs`) from `x0`: its relative stop taken
+/// against the start's own residual r₀ = b − (N + λR) x₀ when that is the smaller
+/// (rtol · min(‖b‖, ‖r₀‖), not below [`WARM_RTOL_FLOOR`] ‖b‖). A solve warm-started from
+/// a neighbouring λ′ starts at r₀ = (λ′ − λ) R x₀, which at small λ lies below rtol ‖b‖:
+/// stopped against ‖b‖ it takes no step, and its x (a probe's df, a data set's RSS) stays
+/// λ′'s (docs/reconstruct.md, "The prior's weight"). Without `x0`, `stop` itself.
+pub fn warm_stop(normal: &Normal, rhs: &[f64], x0: Option<&[f64]>, stop: Stop) -> Result<Stop> {
+    let Some(x0) = x0 else { return Ok(stop) };
+    let bn = dot(rhs, rhs).sqrt();
+    if bn == 0.0 {
+        return Ok(stop);
+    }
+    let mut work = normal.work()?;
+    let mut r = vec![0.0; rhs.len()];
+    normal.apply(x0, &mut work, &mut r);
+    let rn = r
+        .iter()
+        .zip(rhs)
+        .map(|(q, b)| (b - q) * (b - q))
+        .sum::<f64>()
+        .sqrt();
+    let rtol = (stop.rtol * (rn / bn).min(1.0)).max(WARM_RTOL_FLOOR.min(stop.rtol));
+    Ok(Stop { rtol, ..stop })
+}
+
+/// The mean of `v` and its standard error (0 for fewer than two values).
+fn mean_and_error(v: &[f64]) -> (f64, f64) {
+    let n = v.len() as f64;
+    let mean = v.iter().sum::<f64>() / n.max(1.0);
+    if v.len() < 2 {
+        return (mean, 0.0);
+    }
+    let var = v.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / (n - 1.0);
+    (mean, (var / n).sqrt())
+}
+
 /// The search's result: the λ of the least score, the rows, the noise factor RSS/(m − df)
 /// there, and every λ tried in order.
 #[derive(Clone, Debug)]
@@ -186,25 +231,23 @@ impl Search<'_> {
                 None => data.noise = 0.0,
             }
         }
-        // The data sets' and the probes' solves, side by side (one CG each).
-        let mut jobs: Vec<(Start<'_>, Stop)> = self
-            .sets
-            .iter()
-            .map(|set| {
-                let start = Start {
-                    rhs: (!self.own).then_some(set.rhs.as_slice()),
-                    x0: set.last.as_deref(),
-                };
-                (start, data)
-            })
-            .collect();
-        jobs.extend(self.probes.iter().zip(&self.u).map(|((_, nz), u)| {
+        // The data sets' and the probes' solves, side by side (one CG each), each warm
+        // start's relative stop taken against its own residual ([`warm_stop`]).
+        let mut jobs: Vec<(Start<'_>, Stop)> = Vec::with_capacity(self.sets.len() + self.u.len());
+        for set in &self.sets {
+            let start = Start {
+                rhs: (!self.own).then_some(set.rhs.as_slice()),
+                x0: set.last.as_deref(),
+            };
+            jobs.push((start, warm_stop(self.normal, &set.rhs, start.x0, data)?));
+        }
+        for ((_, nz), u) in self.probes.iter().zip(&self.u) {
             let start = Start {
                 rhs: Some(nz.as_slice()),
                 x0: u.as_deref(),
             };
-            (start, self.cfg.probe)
-        }));
+            jobs.push((start, warm_stop(self.normal, nz, start.x0, self.cfg.probe)?));
+        }
         let sols = solve::solve_each(self.normal, &jobs, self.threads, self.done)?;
         drop(jobs);
         let (mut rss, mut iterations) = (0.0, 0);
@@ -219,19 +262,24 @@ impl Search<'_> {
         }
         // The sets' mean RSS (one set: its own).
         rss /= self.sets.len().max(1) as f64;
-        let mut df = 0.0;
+        let mut each = Vec::with_capacity(self.probes.len());
         for (k, s) in sols.enumerate() {
             iterations += s.iterations;
-            df += dot(&self.probes[k].0, &s.cells);
+            each.push(dot(&self.probes[k].0, &s.cells));
             self.u[k] = Some(s.cells);
         }
-        df /= self.probes.len().max(1) as f64;
+        let (df, df_error) = mean_and_error(&each);
         self.used += iterations;
         let m = self.rows as f64;
         let rho = self.cfg.df_weight;
+        // GCV's denominator: the rows' freedom the fit leaves. A fit that leaves none
+        // within the estimate's error (df → m: it interpolates the data, RSS → 0) is
+        // degenerate and never chosen (module doc).
+        let free = m - rho * df;
         let score = match self.rule {
             Rule::Upre => rss + 2.0 * rho * df - m,
-            Rule::Gcv => m * rss / ((m - rho * df).max(1.0) * (m - rho * df).max(1.0)),
+            Rule::Gcv if free <= (DEGENERATE_ERRORS * rho * df_error).max(1.0) => f64::INFINITY,
+            Rule::Gcv => m * rss / (free * free),
         };
         if self.rule == Rule::Gcv && rss > 0.0 {
             self.scale = Some(rss / (m - df).max(1.0));
@@ -464,7 +512,7 @@ fn finish(search: Search<'_>, rows: usize) -> Result<(Choice, Vec<DataSet>)> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::inverse::solve::{Block, Csr};
+    use crate::inverse::solve::{self, Block, Csr};
     use std::sync::atomic::AtomicUsize;
 
     /// Dense helpers for the exact df and RSS of a small problem.
@@ -517,18 +565,135 @@ mod tests {
         assert!(dense_risk(2.0, 1e3).lam > dense_risk(1.0, 1e3).lam);
     }
 
-    /// `trials_are_the_dense_risk` at ρ over the bracket [10⁻³, hi]; the choice.
-    fn dense_risk(df_weight: f64, hi: f64) -> Choice {
+    /// GCV on 48 wide rows (12 cells each) over 64 cells, the probes solved loosely (10⁻³):
+    /// the trials' df and RSS the dense ones', the choice the dense GCV score's least, and
+    /// no trial whose fit leaves fewer than 3 Hutchinson errors of the rows' freedom is
+    /// chosen (λ ≤ 1 here: df 47 of 48 rows, the old clamp's score m RSS ≈ 0).
+    #[test]
+    fn gcv_never_chooses_a_degenerate_fit() {
+        let c = dense_case(Rule::Gcv, (1.0, 1e3, 1e-3), (8, 8, 48, 12));
+        let degenerate = c.trials.iter().filter(|t| t.score.is_infinite()).count();
+        assert!(degenerate > 0 && c.lam > 1.0, "{c:?}");
+    }
+
+    /// A solve warm-started from a neighbouring λ (10⁻³ away) starts within 10⁻⁶ of ‖b‖:
+    /// stopped at 10⁻⁴ of ‖b‖ it took no step and kept the old λ's x. [`warm_stop`] stops it
+    /// against its own residual: it steps, and lands within 10⁻³ of the change on the dense
+    /// solution (issue 49; docs/reconstruct.md, "The prior's weight").
+    #[test]
+    fn a_warm_start_is_stopped_against_its_own_residual() {
+        let (mut normal, nz, dense) = small_case();
+        let tight = Stop::relative(1e-13, 10_000);
+        let done = AtomicUsize::new(0);
+        let start = |x0| Start {
+            rhs: Some(nz.as_slice()),
+            x0,
+        };
+        let old = solve::solve_from(&normal, start(None), tight, Some(1), &done).unwrap();
+        normal.set_regularization(0.999).unwrap();
+        let loose = Stop::relative(1e-4, 10_000);
+        let stop = warm_stop(&normal, &nz, Some(&old.cells), loose).unwrap();
+        assert!(
+            stop.rtol < 1e-4 * loose.rtol && stop.rtol >= WARM_RTOL_FLOOR,
+            "{stop:?}"
+        );
+        let new = solve::solve_from(&normal, start(Some(&old.cells)), stop, Some(1), &done);
+        let new = new.unwrap();
+        let exact = dense(0.999);
+        let change: f64 = old
+            .cells
+            .iter()
+            .zip(&exact)
+            .map(|(a, b)| (a - b).powi(2))
+            .sum();
+        let err: f64 = new
+            .cells
+            .iter()
+            .zip(&exact)
+            .map(|(a, b)| (a - b).powi(2))
+            .sum();
+        assert!(
+            new.iterations > 0 && err.sqrt() < 1e-3 * change.sqrt(),
+            "{err} {change}"
+        );
+        // Against ‖b‖ alone: no step, the old λ's x.
+        let stale = solve::solve_from(&normal, start(Some(&old.cells)), loose, Some(1), &done);
+        assert_eq!(stale.unwrap().iterations, 0);
+    }
+
+    /// The 6 × 5 grid of `dense_case` at λ = 1 with a probe's right-hand side N z, and the
+    /// dense solution of (N + λR) x = N z at λ.
+    fn small_case() -> (Normal, Vec<f64>, impl Fn(f64) -> Vec<f64>) {
         let (nx, ny, m) = (6usize, 5usize, 80usize);
         let n = nx * ny;
-        let u = rademacher(4 * m * n, 3);
+        let u = rademacher(4 * m, 3);
+        let mut dense = vec![vec![0.0; n]; m];
+        let (mut indptr, mut indices, mut data) = (vec![0usize], vec![], vec![]);
+        for (r, row) in dense.iter_mut().enumerate() {
+            for k in 0..4 {
+                let c = (r * 7 + k) % n;
+                row[c] += 0.5 + 0.2 * u[r * 4 + k];
+                indices.push(c as u32);
+                data.push(row[c]);
+            }
+            indptr.push(data.len());
+        }
+        let a = Csr::new("rows", indptr, indices, data, n).unwrap();
+        let block = Block::Rows {
+            a,
+            w: vec![400.0; m],
+            y: vec![0.0; m],
+        };
+        let normal = Normal::new(nx, ny, 1.0, vec![block]).unwrap();
+        let mut nmat = vec![vec![0.0; n]; n];
+        for row in &dense {
+            for i in 0..n {
+                for j in 0..n {
+                    nmat[i][j] += 400.0 * row[i] * row[j];
+                }
+            }
+        }
+        let z = rademacher(n, 0x5eed);
+        let nz: Vec<f64> = nmat.iter().map(|row| dot(row, &z)).collect();
+        let rhs = nz.clone();
+        let exact = move |lam: f64| {
+            let mut h = nmat.clone();
+            let mut e = vec![0.0; n];
+            let mut r = vec![0.0; n];
+            for i in 0..n {
+                e.fill(0.0);
+                e[i] = 1.0;
+                prior(&e, nx, ny, &mut r);
+                for j in 0..n {
+                    h[j][i] += lam * r[j];
+                }
+            }
+            solve_dense(h, rhs.clone())
+        };
+        (normal, nz, exact)
+    }
+
+    /// `trials_are_the_dense_risk` at ρ over the bracket [10⁻³, hi]; the choice.
+    fn dense_risk(df_weight: f64, hi: f64) -> Choice {
+        dense_case(Rule::Upre, (df_weight, hi, 1e-13), (6, 5, 80, 4))
+    }
+
+    /// The dense check of the trials and the choice by `rule` at ρ over [10⁻³, hi], the
+    /// probes solved to `probe_rtol` (the data to 10⁻¹³).
+    fn dense_case(
+        rule: Rule,
+        (df_weight, hi, probe_rtol): (f64, f64, f64),
+        (nx, ny, m, width): (usize, usize, usize, usize),
+    ) -> Choice {
+        let n = nx * ny;
+        let u = rademacher(width * m * n, 3);
         let mut dense = vec![vec![0.0; n]; m];
         let (mut indptr, mut indices, mut data) = (vec![0usize], vec![], vec![]);
         for (r, row) in dense.iter_mut().enumerate() {
             let c0 = (r * 7) % n;
-            for k in 0..4 {
+            for k in 0..width {
                 let c = (c0 + k) % n;
-                row[c] += 0.5 + 0.2 * u[r * 4 + k];
+                row[c] += 0.5 + 0.2 * u[r * width + k];
             }
             for (c, &v) in row.iter().enumerate() {
                 if v != 0.0 {
@@ -561,12 +726,12 @@ mod tests {
             probes: 8,
             budget: 1_000_000,
             data: Stop::relative(1e-13, 10_000),
-            probe: Stop::relative(1e-13, 10_000),
+            probe: Stop::relative(probe_rtol, 10_000),
             df_weight,
             parabola: false,
         };
         let done = AtomicUsize::new(0);
-        let c = choose(&mut normal, Rule::Upre, cfg, Some(1), &done).unwrap();
+        let c = choose(&mut normal, rule, cfg, Some(1), &done).unwrap();
         let hat = |lam: f64| {
             let mut nmat = vec![vec![0.0; n]; n];
             for (row, &wr) in dense.iter().zip(&w) {
@@ -608,21 +773,34 @@ mod tests {
             let se = (2.0 * n as f64 / cfg.probes as f64).sqrt();
             assert!((t.df - df).abs() <= 3.0 * se, "{t:?} {df}");
         }
+        // The dense score, and the slack of the chosen λ's against the scan's least.
+        let mf = m as f64;
+        let (score, slack) = match rule {
+            Rule::Upre => (
+                Box::new(move |rss: f64, df: f64| rss + 2.0 * df_weight * df - mf)
+                    as Box<dyn Fn(f64, f64) -> f64>,
+                1.5,
+            ),
+            Rule::Gcv => (
+                Box::new(move |rss: f64, df: f64| mf * rss / (mf - df_weight * df).powi(2))
+                    as Box<dyn Fn(f64, f64) -> f64>,
+                // V ≈ U / m + 1 near the least (unit noise): twice UPRE's slack over m
+                // (the wide rows' df, 40 of 48, moves V by 2 δdf / (m − df)).
+                3.0 / mf,
+            ),
+        };
         let steps = ((hi.log10() + 3.0) / 0.05).round() as usize;
         let scan = (0..=steps)
             .map(|k| 10f64.powf(-3.0 + k as f64 * 0.05))
             .map(|l| {
                 let (rss, df) = hat(l);
-                (l, rss + 2.0 * df_weight * df - m as f64)
+                (l, score(rss, df))
             })
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .unwrap();
         let (rss, df) = hat(c.lam);
-        assert!(
-            rss + 2.0 * df_weight * df - m as f64 <= scan.1 + 1.5,
-            "{} vs {scan:?}",
-            c.lam
-        );
+        let chosen = score(rss, df);
+        assert!(chosen <= scan.1 + slack, "{} ({chosen}) vs {scan:?}", c.lam);
         assert_eq!(normal.regularization(), c.lam);
         c
     }

@@ -190,15 +190,16 @@ impl Search<'_> {
     /// The expected error per cell at λ (mean and standard error over the draws).
     fn trial(&mut self, lam: f64) -> Result<f64> {
         self.normal.set_regularization(lam)?;
-        let jobs: Vec<(Start<'_>, Stop)> = (self.draws.rhs.iter().zip(&self.draws.last))
-            .map(|(rhs, last)| {
-                let start = Start {
-                    rhs: Some(rhs),
-                    x0: last.as_deref(),
-                };
-                (start, self.stop)
-            })
-            .collect();
+        // Each warm start stopped against its own residual (`choose::warm_stop`).
+        let mut jobs: Vec<(Start<'_>, Stop)> = Vec::with_capacity(self.draws.rhs.len());
+        for (rhs, last) in self.draws.rhs.iter().zip(&self.draws.last) {
+            let start = Start {
+                rhs: Some(rhs),
+                x0: last.as_deref(),
+            };
+            let stop = choose::warm_stop(&self.normal, rhs, start.x0, self.stop)?;
+            jobs.push((start, stop));
+        }
         let sols = solve::solve_each(&self.normal, &jobs, self.threads, self.done)?;
         drop(jobs);
         let mut errs = Vec::with_capacity(self.draws.x.len());
@@ -360,7 +361,10 @@ pub fn image_merits(req: &Request<'_>, done: &AtomicUsize) -> Result<Outcome> {
                 rhs: Some(&rhs),
                 x0: Some(&xe),
             };
-            let sol = solve::solve_from(&search.normal, start, search.stop, req.n_threads, done)?;
+            // Started at the edge itself: stopped against its own residual, as a warm
+            // start (`choose::warm_stop`; against ‖b‖ alone it stopped near x_e, sharp).
+            let stop = choose::warm_stop(&search.normal, &rhs, start.x0, search.stop)?;
+            let sol = solve::solve_from(&search.normal, start, stop, req.n_threads, done)?;
             search.iterations += sol.iterations;
             Some(patch.crop(&sol.cells))
         }
