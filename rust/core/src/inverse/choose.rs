@@ -678,6 +678,50 @@ mod tests {
         dense_case(Rule::Upre, (df_weight, hi, 1e-13), (6, 5, 80, 4))
     }
 
+    /// The dense RSS and df at λ of the rows `dense` (weights `w`, data `y`) over an
+    /// nx × ny grid with the first-difference prior.
+    fn dense_hat(
+        dense: &[Vec<f64>],
+        w: &[f64],
+        y: &[f64],
+        (nx, ny): (usize, usize),
+        lam: f64,
+    ) -> (f64, f64) {
+        let (n, m) = (nx * ny, dense.len());
+        let mut nmat = vec![vec![0.0; n]; n];
+        for (row, &wr) in dense.iter().zip(w) {
+            for i in 0..n {
+                for j in 0..n {
+                    nmat[i][j] += wr * row[i] * row[j];
+                }
+            }
+        }
+        let mut h = nmat.clone();
+        let mut e = vec![0.0; n];
+        for i in 0..n {
+            e.fill(0.0);
+            e[i] = 1.0;
+            let mut r = vec![0.0; n];
+            prior(&e, nx, ny, &mut r);
+            for j in 0..n {
+                h[j][i] += lam * r[j];
+            }
+        }
+        let mut df = 0.0;
+        for (i, row) in nmat.iter().enumerate() {
+            // N is symmetric: its column i is its row i.
+            df += solve_dense(h.clone(), row.clone())[i];
+        }
+        let rhs: Vec<f64> = (0..n)
+            .map(|i| (0..m).map(|r| dense[r][i] * w[r] * y[r]).sum())
+            .collect();
+        let t = solve_dense(h, rhs);
+        let rss: f64 = (0..m)
+            .map(|r| w[r] * (dot(&dense[r], &t) - y[r]).powi(2))
+            .sum();
+        (rss, df)
+    }
+
     /// The dense check of the trials and the choice by `rule` at ρ over [10⁻³, hi], the
     /// probes solved to `probe_rtol` (the data to 10⁻¹³).
     fn dense_case(
@@ -732,40 +776,7 @@ mod tests {
         };
         let done = AtomicUsize::new(0);
         let c = choose(&mut normal, rule, cfg, Some(1), &done).unwrap();
-        let hat = |lam: f64| {
-            let mut nmat = vec![vec![0.0; n]; n];
-            for (row, &wr) in dense.iter().zip(&w) {
-                for i in 0..n {
-                    for j in 0..n {
-                        nmat[i][j] += wr * row[i] * row[j];
-                    }
-                }
-            }
-            let mut h = nmat.clone();
-            let mut e = vec![0.0; n];
-            for i in 0..n {
-                e.fill(0.0);
-                e[i] = 1.0;
-                let mut r = vec![0.0; n];
-                prior(&e, nx, ny, &mut r);
-                for j in 0..n {
-                    h[j][i] += lam * r[j];
-                }
-            }
-            let mut df = 0.0;
-            for (i, row) in nmat.iter().enumerate() {
-                // N is symmetric: its column i is its row i.
-                df += solve_dense(h.clone(), row.clone())[i];
-            }
-            let rhs: Vec<f64> = (0..n)
-                .map(|i| (0..m).map(|r| dense[r][i] * w[r] * y[r]).sum())
-                .collect();
-            let t = solve_dense(h, rhs);
-            let rss: f64 = (0..m)
-                .map(|r| w[r] * (dot(&dense[r], &t) - y[r]).powi(2))
-                .sum();
-            (rss, df)
-        };
+        let hat = |lam: f64| dense_hat(&dense, &w, &y, (nx, ny), lam);
         for t in &c.trials {
             let (rss, df) = hat(t.lam);
             assert!((t.rss - rss).abs() <= 1e-8 * rss.max(1.0), "{t:?} {rss}");
