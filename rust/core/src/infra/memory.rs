@@ -91,6 +91,21 @@ pub fn try_vec<T: Clone>(what: &str, n: usize, value: T) -> Result<Vec<T>> {
     Ok(v)
 }
 
+/// [`try_vec`] filled in slices with a [`crate::infra::parallel::checkpoint`] between
+/// them: for a buffer of hundreds of megabytes, whose filling alone (a second or more under
+/// load) must not delay a Ctrl-C.
+pub fn try_vec_interruptible<T: Clone>(what: &str, n: usize, value: T) -> Result<Vec<T>> {
+    const SLICE_BYTES: usize = 1 << 24;
+    let slice = (SLICE_BYTES / std::mem::size_of::<T>().max(1)).max(1);
+    let mut v = try_with_capacity(what, n)?;
+    while v.len() < n {
+        crate::infra::parallel::checkpoint()?;
+        let end = (v.len() + slice).min(n);
+        v.resize(end, value.clone());
+    }
+    Ok(v)
+}
+
 /// Grow `v` to hold at least `n` values without reallocating later, or [`Error::TooLarge`].
 pub fn try_reserve<T>(v: &mut Vec<T>, what: &str, n: usize) -> Result<()> {
     let extra = n.saturating_sub(v.len());

@@ -2,6 +2,8 @@
 //! (docs/depth.md), so that the cost volume is never held whole.
 
 use super::{KEEP_MINIMA, RESOLUTION_SPAN, RIDGE};
+use crate::infra::error::Result;
+use crate::infra::memory;
 
 /// Running minima of the cost curves (candidates folded in order).
 pub(super) struct Fold {
@@ -193,10 +195,17 @@ impl Fold {
         (11 * 8 + 2 * 4 + KEEP_MINIMA * 16 + std::mem::size_of::<Ridge>() + ring * 8) as u128
     }
 
-    pub(super) fn new(cells: usize, candidates: &[f64]) -> Fold {
+    /// A fold before any layer. Its ring of layers is hundreds of megabytes on a large grid
+    /// of many candidates, filled with a check for Ctrl-C between slices.
+    pub(super) fn new(cells: usize, candidates: &[f64]) -> Result<Fold> {
         let reach = reaches(candidates);
         let ring = ring_of(&reach);
-        Fold {
+        let hist = memory::try_vec_interruptible(
+            "the depth sweep's last layers",
+            cells.saturating_mul(ring),
+            f64::NAN,
+        )?;
+        Ok(Fold {
             min: vec![f64::INFINITY; cells],
             arg: vec![u32::MAX; cells],
             left: vec![f64::NAN; cells],
@@ -210,9 +219,9 @@ impl Fold {
             before: vec![[f64::NAN; 2]; cells],
             after: vec![[f64::NAN; 2]; cells],
             reach,
-            hist: vec![f64::NAN; cells * ring],
+            hist,
             ring,
-        }
+        })
     }
 
     /// Note `m`, the cost of candidate k lower than both its neighbours', as a local
@@ -406,7 +415,7 @@ mod tests {
                     }
                 })
                 .collect();
-            let mut f = Fold::new(1, &c);
+            let mut f = Fold::new(1, &c).unwrap();
             for (k, &v) in curve.iter().enumerate() {
                 f.add(k as u32, &[v]);
             }
@@ -429,7 +438,7 @@ mod tests {
 
     #[test]
     fn fold_tracks_the_neighbours_of_the_minimum() {
-        let mut f = Fold::new(1, &UNIFORM);
+        let mut f = Fold::new(1, &UNIFORM).unwrap();
         for (k, v) in [5.0, 3.0, 1.0, 2.0, 4.0].into_iter().enumerate() {
             f.add(k as u32, &[v]);
         }
@@ -445,7 +454,7 @@ mod tests {
 
     #[test]
     fn fold_keeps_the_least_local_minima() {
-        let mut f = Fold::new(1, &UNIFORM);
+        let mut f = Fold::new(1, &UNIFORM).unwrap();
         for (k, v) in [1.0, 4.0, 2.0, 3.0, f64::NAN, 5.0, 0.5]
             .into_iter()
             .enumerate()
@@ -505,7 +514,7 @@ mod tests {
                     }
                 })
                 .collect();
-            let mut f = Fold::new(1, &UNIFORM);
+            let mut f = Fold::new(1, &UNIFORM).unwrap();
             for (k, &v) in curve.iter().enumerate() {
                 f.add(k as u32, &[v]);
             }
@@ -517,7 +526,7 @@ mod tests {
         assert!(found > 1000, "{found}");
         // The R12's case (docs/depth.md): a least cost beside a second dip three
         // candidates away behind a ridge; the far rival misses it, the ridge does not.
-        let mut f = Fold::new(1, &UNIFORM);
+        let mut f = Fold::new(1, &UNIFORM).unwrap();
         for (k, v) in [0.8, 0.051, 0.12, 0.28, 0.058, 0.075, 0.2, 0.8]
             .into_iter()
             .enumerate()

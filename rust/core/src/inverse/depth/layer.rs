@@ -5,6 +5,13 @@
 use super::micro::{Lens, Micro};
 use super::{MIN_WEIGHT, MIN_WHITE, M_CAP};
 use crate::imaging::recorder::CellGrid;
+use crate::infra::error::Result;
+use crate::infra::parallel::checkpoint;
+
+/// Lenses between two checks for a stop inside a layer: a layer of few large micro-images
+/// (a cut of the seed design: 160 lenses, 0.2-0.6 s a layer) must still stop within a
+/// second under load; one check is an atomic load on a pool's worker.
+const CHECK_EVERY_LENSES: usize = 16;
 
 /// One axis's tents of one lens: (pixel index in the box, weight) for each cell of its
 /// range, and each cell's first pair (and one past the last).
@@ -208,7 +215,8 @@ impl Widened {
 /// two give the same bits; AVX2 does four cells (and four divisions) at a time.
 /// With `cells`, also each cell's own (unpooled) spread over the channel's scale and its
 /// degrees of freedom, per channel over the widened grid (for the tilted pooling,
-/// [`super::tilt`]).
+/// [`super::tilt`]). Stops with [`crate::Error::Interrupted`] when its call is stopped
+/// (checked every [`CHECK_EVERY_LENSES`] lenses).
 pub(super) fn layer(
     mi: &Micro,
     grid: &CellGrid,
@@ -217,7 +225,7 @@ pub(super) fn layer(
     buf: &mut Layer,
     out: &mut [f64],
     cells: Option<&mut [f32]>,
-) {
+) -> Result<()> {
     crate::infra::simd::dispatch(
         #[inline(always)]
         |_| {
@@ -228,7 +236,13 @@ pub(super) fn layer(
                 .extend(mi.lenses.iter().map(|l| [l.extent(0, z), l.extent(1, z)]));
             let keep = keep_rates(mi, &buf.extents, &wd);
             let extents = std::mem::take(&mut buf.extents);
-            for (l, &[ex, ey]) in mi.lenses.iter().zip(&extents) {
+            for (i, (l, &[ex, ey])) in mi.lenses.iter().zip(&extents).enumerate() {
+                if i % CHECK_EVERY_LENSES == 0 {
+                    if let Err(e) = checkpoint() {
+                        buf.extents = extents;
+                        return Err(e);
+                    }
+                }
                 if l.u >= keep[l.ch] {
                     continue;
                 }
@@ -242,6 +256,7 @@ pub(super) fn layer(
             if let Some(cells) = cells {
                 cell_costs(buf, &scale, cells);
             }
+            Ok(())
         },
     )
 }

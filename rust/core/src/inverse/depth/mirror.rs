@@ -118,7 +118,7 @@ pub(super) fn rivals(
                 let mut buf = Layer::new(ex, mi.channels);
                 let mut out = vec![0.0; entries];
                 let z = depths[i];
-                layer::layer(mi, &plan.grid, plan.radius, z, &mut buf, &mut out, None);
+                layer::layer(mi, &plan.grid, plan.radius, z, &mut buf, &mut out, None)?;
                 Ok(out)
             })
             .collect::<Result<Vec<Vec<f64>>>>()?;

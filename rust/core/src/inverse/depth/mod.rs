@@ -428,7 +428,7 @@ fn run(
         .then(|| memory::try_with_capacity("the depth sweep's cost volume", entries * n))
         .transpose()?;
     let state = Mutex::new(Folding {
-        fold: Fold::new(entries, plan.candidates),
+        fold: Fold::new(entries, plan.candidates)?,
         volume,
         cells,
         pending: BTreeMap::new(),
@@ -471,7 +471,7 @@ fn run(
                 &mut buf,
                 &mut out,
                 own.as_deref_mut(),
-            );
+            )?;
             done.fetch_add(1, Ordering::Relaxed);
             let mut st = state.lock().map_err(|_| poisoned())?;
             st.pending.insert(k, (out, own));

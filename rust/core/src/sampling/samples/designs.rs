@@ -7,13 +7,13 @@ use super::sorted::{field_gap, line_samples, merge_into, scan, LineSamples, Scra
 use super::*;
 use crate::infra::error::{Error, Result};
 use crate::infra::memory::{self, try_reserve, try_vec};
-use crate::infra::parallel::{chunk_items, for_chunks, threads, with_threads};
+use crate::infra::parallel::{checkpoint, chunk_items, for_chunks, threads};
 use crate::model::design::Design;
 use crate::model::lens::conjugate;
 use crate::model::optics::check_design_depths;
 use crate::sampling::line::Axis;
 use crate::sampling::line::Line;
-use crate::sampling::rayspace::{trace_line, Sample, TRACE_BYTES_PER_PIXEL};
+use crate::sampling::rayspace::{trace_line_threads, Sample, TRACE_BYTES_PER_PIXEL};
 
 // ---- designs (docs/model.md §9): every channel along x, and their union ------------------
 
@@ -77,13 +77,15 @@ enum Sources {
 }
 
 impl Sources {
-    pub(super) fn new(lines: &[Line], mode: Sample) -> Result<Sources> {
+    /// The chief samples' lattices, or every lit pixel's centroid (traced on the pool of
+    /// `n_threads` in chunks, with a check for Ctrl-C between them).
+    pub(super) fn new(lines: &[Line], mode: Sample, n_threads: Option<usize>) -> Result<Sources> {
         Ok(match mode {
             Sample::Chief => Sources::Chief(lines.iter().map(LineSamples::new).collect()),
             Sample::Centroid => {
                 let mut all = Vec::new();
                 for line in lines {
-                    let tr = trace_line(line)?;
+                    let tr = trace_line_threads(line, n_threads)?;
                     all.push(
                         tr.centroid
                             .iter()
@@ -296,7 +298,7 @@ pub fn design_new_samples_into(
     }
     let (step, field) = (design_step(design), design_field(design));
     let eps = tol * step;
-    let src = with_threads(n_threads, || Sources::new(&lines, mode))??;
+    let src = Sources::new(&lines, mode, n_threads)?;
     let setup = DepthSetup {
         lines: &lines,
         src: &src,
@@ -323,6 +325,9 @@ pub fn design_new_samples_into(
                 |s, ((dc, gc), zs)| -> Result<()> {
                     let s = s.as_mut().map_err(|e| e.clone())?;
                     for (i, &zi) in zs.iter().enumerate() {
+                        // A depth sorts every pixel's sample (0.1 s at 10^5 lenses): a stop
+                        // is checked per depth, not per chunk of them.
+                        checkpoint()?;
                         let span = i * rows..(i + 1) * rows;
                         design_depth(&setup, zi, s, &mut dc[span.clone()], &mut gc[span]);
                     }

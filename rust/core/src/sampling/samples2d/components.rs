@@ -59,6 +59,91 @@ pub(super) struct CompWork {
     touch: Vec<bool>,
 }
 
+/// Cells (or keys) between two checks for Ctrl-C in [`components`]: millions of samples
+/// (a window of the Illum) take seconds in all, tens of milliseconds between checks.
+const CHECK_EVERY_CELLS: usize = 1 << 16;
+
+/// Keys at most per slice of [`sort_keys`]: sorted in tens of milliseconds.
+const SORT_SLICE: usize = 1 << 18;
+
+/// `keys.sort_unstable()` with a check for Ctrl-C every slice: partitioned in place by
+/// ranges of kx of equal width (American flag sort), then each range sorted. The keys are
+/// distinct (their third field is the sample's index), so the order is the one sort.
+fn sort_keys(keys: &mut [(i64, i64, u32)]) -> Result<()> {
+    let n = keys.len();
+    if n <= SORT_SLICE {
+        keys.sort_unstable();
+        return parallel::checkpoint();
+    }
+    let (lo, hi) = keys
+        .iter()
+        .fold((i64::MAX, i64::MIN), |(a, b), k| (a.min(k.0), b.max(k.0)));
+    let buckets = n.div_ceil(SORT_SLICE);
+    let span = hi as i128 - lo as i128 + 1;
+    let bucket =
+        |k: &(i64, i64, u32)| ((k.0 as i128 - lo as i128) * buckets as i128 / span) as usize;
+    let mut start = vec![0usize; buckets + 1];
+    for k in keys.iter() {
+        start[bucket(k) + 1] += 1;
+    }
+    for b in 0..buckets {
+        start[b + 1] += start[b];
+    }
+    parallel::checkpoint()?;
+    // Cycle leader: every key is moved straight to the next free place of its range.
+    let mut next = start[..buckets].to_vec();
+    for b in 0..buckets {
+        while next[b] < start[b + 1] {
+            let mut v = keys[next[b]];
+            let mut t = bucket(&v);
+            while t != b {
+                std::mem::swap(&mut v, &mut keys[next[t]]);
+                next[t] += 1;
+                t = bucket(&v);
+            }
+            keys[next[b]] = v;
+            next[b] += 1;
+        }
+        parallel::checkpoint()?;
+    }
+    for b in 0..buckets {
+        keys[start[b]..start[b + 1]].sort_unstable();
+        parallel::checkpoint()?;
+    }
+    Ok(())
+}
+
+/// Unite the linked members within each cell.
+fn within_cells(
+    pts: &[[f64; 2]],
+    eps: f64,
+    keys: &[(i64, i64, u32)],
+    cells: &[Cell],
+    parent: &mut [u32],
+) -> Result<()> {
+    let member = |i: u32| keys[i as usize].2;
+    for (ci, c) in cells.iter().enumerate() {
+        if ci % CHECK_EVERY_CELLS == 0 {
+            parallel::checkpoint()?;
+        }
+        if c.clique {
+            for i in c.start + 1..c.end {
+                unite(parent, member(c.start), member(i));
+            }
+        } else {
+            for i in c.start..c.end {
+                for k in i + 1..c.end {
+                    let (a, b) = (member(i), member(k));
+                    if linked(pts[a as usize], pts[b as usize], eps) {
+                        unite(parent, a, b);
+                    }
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Connected components of the relation [`linked`] (eps > 0) over `pts`: hash grid of
 /// cell eps (1 + CELL_SLACK), union-find over members of the same and the adjacent cells.
 /// Writes one (representative index, touching) per component to `reps`, where a component
@@ -84,8 +169,8 @@ pub(super) fn components(
             i as u32,
         )
     }));
-    w.keys.sort_unstable();
     parallel::checkpoint()?;
+    sort_keys(&mut w.keys)?;
     w.parent.clear();
     try_reserve(&mut w.parent, what, n)?;
     w.parent.extend(0..n as u32);
@@ -93,6 +178,9 @@ pub(super) fn components(
     w.cells.clear();
     let mut i = 0;
     while i < n {
+        if w.cells.len() % CHECK_EVERY_CELLS == 0 {
+            parallel::checkpoint()?;
+        }
         let key = (w.keys[i].0, w.keys[i].1);
         let mut e = i;
         let (mut lo, mut hi) = (pts[w.keys[i].2 as usize], pts[w.keys[i].2 as usize]);
@@ -116,23 +204,7 @@ pub(super) fn components(
     }
     let (keys, parent, cells) = (&w.keys, &mut w.parent, &w.cells);
     let member = |i: u32| keys[i as usize].2;
-    // Within each cell.
-    for c in cells.iter() {
-        if c.clique {
-            for i in c.start + 1..c.end {
-                unite(parent, member(c.start), member(i));
-            }
-        } else {
-            for i in c.start..c.end {
-                for k in i + 1..c.end {
-                    let (a, b) = (member(i), member(k));
-                    if linked(pts[a as usize], pts[b as usize], eps) {
-                        unite(parent, a, b);
-                    }
-                }
-            }
-        }
-    }
+    within_cells(pts, eps, keys, cells, parent)?;
     // Between a cell and its forward neighbours (kx, ky + 1), (kx + 1, ky − 1 ..= ky + 1):
     // every adjacent pair once. The cells are sorted by key, so the neighbours in column
     // kx + 1 are found by a pointer that only moves forward.
@@ -158,6 +230,9 @@ pub(super) fn components(
     parallel::checkpoint()?;
     let mut ptr = 0;
     for (ci, c) in cells.iter().enumerate() {
+        if ci % CHECK_EVERY_CELLS == 0 {
+            parallel::checkpoint()?;
+        }
         let (kx, ky) = c.key;
         if let Some(next) = cells.get(ci + 1) {
             if next.key == (kx, ky + 1) {
@@ -182,6 +257,9 @@ pub(super) fn components(
     try_reserve(&mut w.touch, what, n)?;
     w.touch.resize(n, false);
     for i in 0..n as u32 {
+        if i as usize % CHECK_EVERY_CELLS == 0 {
+            parallel::checkpoint()?;
+        }
         let r = find(parent, i) as usize;
         let p = pts[i as usize];
         if before(p, pts[w.best[r] as usize]) {
@@ -192,6 +270,7 @@ pub(super) fn components(
         }
     }
     try_reserve(reps, what, n)?;
+    parallel::checkpoint()?;
     for i in 0..n as u32 {
         if parent[i as usize] == i {
             reps.push((w.best[i as usize], w.touch[i as usize]));
@@ -210,6 +289,26 @@ pub(super) fn excess(p: [f64; 2], field: [f64; 2]) -> f64 {
 mod tests {
     use super::*;
     use crate::sampling::samples2d::test_designs::*;
+
+    /// The sliced sort is the plain one: keys over a wide, a one-column and a negative
+    /// range of kx, more than one slice each (so the partition runs).
+    #[test]
+    fn sort_keys_equals_sort_unstable() {
+        let mut rng = Rng(0x2545_f491_4f6c_dd1d);
+        let n = 2 * SORT_SLICE + 12_345;
+        for (lo, width) in [(-3_000_000i64, 6_000_000.0), (7, 1.0), (-900, 400.0)] {
+            let mut keys: Vec<(i64, i64, u32)> = (0..n as u32)
+                .map(|i| {
+                    let kx = lo + (rng.next() * width) as i64;
+                    (kx, (rng.next() * 50.0) as i64 - 25, i)
+                })
+                .collect();
+            let mut want = keys.clone();
+            want.sort_unstable();
+            sort_keys(&mut keys).unwrap();
+            assert!(keys == want, "kx from {lo}, width {width}");
+        }
+    }
 
     /// Brute-force components: O(n²) pairs, union-find.
     fn brute_components(pts: &[[f64; 2]], eps: f64) -> Vec<[f64; 2]> {

@@ -6,6 +6,9 @@ use crate::infra::error::Result;
 use crate::infra::memory::try_reserve;
 use crate::model::design::Aperture;
 
+/// Pixel rows between two checks for Ctrl-C in a gather (milliseconds of work).
+const CHECK_EVERY_ROWS: usize = 64;
+
 impl<'a> Tables<'a> {
     /// Largest |X| and |Y| of any lit sample on the plane (g = z/L, s = (L − z')/z'),
     /// with room for rounding: lens centres plus the aperture's half-width through s.
@@ -154,7 +157,8 @@ impl<'a> Tables<'a> {
         }
     }
 
-    /// Append the lit samples with |X| ≤ bx and |Y| ≤ by to `out`.
+    /// Append the lit samples with |X| ≤ bx and |Y| ≤ by to `out` (a check for Ctrl-C
+    /// every [`CHECK_EVERY_ROWS`] rows: a window of the Illum gathers millions).
     pub(super) fn gather(
         &self,
         g: f64,
@@ -176,7 +180,10 @@ impl<'a> Tables<'a> {
         match &self.px {
             PixelTables::Ideal { q, w } => {
                 let q = *q as usize;
-                for &b in rows.iter() {
+                for (i, &b) in rows.iter().enumerate() {
+                    if i % CHECK_EVERY_ROWS == 0 {
+                        crate::infra::parallel::checkpoint()?;
+                    }
                     let (k, qy) = (b as usize / q, b as usize % q);
                     for &a in cols.iter() {
                         let (j, qx) = (a as usize / q, a as usize % q);
@@ -198,7 +205,10 @@ impl<'a> Tables<'a> {
                 }
             }
             PixelTables::Sensor(sen) => {
-                for &b in rows.iter() {
+                for (i, &b) in rows.iter().enumerate() {
+                    if i % CHECK_EVERY_ROWS == 0 {
+                        crate::infra::parallel::checkpoint()?;
+                    }
                     let rc = self.row(sen, sen.sy[b as usize], g, s);
                     dispatch!(self, rc, gather_row(sen, &rc, cols, colx, &keep, out));
                 }

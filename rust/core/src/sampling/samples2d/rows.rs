@@ -159,6 +159,7 @@ fn row_pass(
     }
     // m2: every representative that may be wrong (of a touching component) lies at least
     // m2 from the field; the true and the computed representatives agree closer than that.
+    parallel::checkpoint()?;
     let mut m2 = if complete { f64::INFINITY } else { m };
     let mut distinct = 0u64;
     let mut near = 0.0f64; // largest excess of any representative
@@ -183,6 +184,7 @@ fn row_pass(
             w.reps = reps;
             return Ok(Pass::Reject);
         }
+        parallel::checkpoint()?;
         w.band.clear();
         try_reserve(&mut w.band, "coverage (representatives)", reps.len())?;
         w.band.extend(
