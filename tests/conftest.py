@@ -125,7 +125,7 @@ SLOW = {
     'test_render_accuracy.py::test_mc_depth_map': 202,
     'test_render_accuracy.py::test_mc_cliff_map': 75,
     'test_render_accuracy.py::test_mc_hex_sensor_spill': 43,
-    'test_render_api.py::test_cli_render_with_a_preset_noise_png_and_json': 231,
+    'test_render_api.py::test_cli_render_with_a_preset_noise_png_and_json': 40,
     'test_render_api.py::test_cli_render_writes_a_raw_file[edge-MAP.npy]': 313,
     'test_render_api.py::test_cli_render_writes_a_raw_file[star-1000]': 7,
     'test_render_api.py::test_render_gives_one_raw_per_channel_in_the_layout[r12]': 89,
@@ -134,7 +134,10 @@ SLOW = {
     'test_simulate.py::test_cli_simulate_out': 6,
     'test_simulate.py::test_split_recovers_band_limited_texture_where_union_resolves': 7,
     'test_simulate.py::test_textures': 6,
-    "test_docs.py::test_markdown_code_blocks_run[reconstruct.md]": 600,
+    "test_docs.py::test_markdown_code_blocks_run[reconstruct.md]": 30,
+    "test_render_accuracy.py::test_general_route_of_a_texture_of_x[texture0]": 7,
+    "test_render_accuracy.py::test_general_route_of_a_texture_of_x[texture1]": 9,
+    "test_render_accuracy.py::test_general_route_of_a_texture_of_x[texture2]": 9,
 }
 
 

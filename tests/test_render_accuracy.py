@@ -28,10 +28,11 @@ the plane) need no native render and hold on their own.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import pytest
-from exact_render import exact_raw, exact_white, view_extent
+from exact_render import exact_raw, exact_raw_x, exact_white, view_extent
 from mc_render import mc_channel, mc_pixels, scene
 from scipy import stats
 
@@ -360,6 +361,58 @@ def test_exact_route(z: float) -> None:
         assert raw.shape == ref.shape == (90, 120)
         err = np.max(np.abs(raw - ref))
         assert err <= EXACT_TOL * white(design, i), (z, i, err)
+
+
+X_TEXTURES = [("sinusoid", 0.7, 0.5, 0.4, 0.3), ("sinusoid", 3.1, 0.45, 0.45, -1.2),
+              ("bars", 1.3, 0.2, 0.9)]
+
+
+def _x_texture(texture: tuple) -> Any:
+    if texture[0] == "sinusoid":
+        return splitlf.Sinusoid(texture[1], texture[2], texture[3], phase=texture[4])
+    return splitlf.BarChart(texture[1], texture[2], texture[3])
+
+
+@pytest.mark.parametrize("z", [217.0, 642.0, 1000.0, 3000.0])
+@pytest.mark.parametrize("texture", X_TEXTURES)
+def test_exact_route_of_a_texture_of_x(z: float, texture: tuple) -> None:
+    """A sinusoid or bars (albedo of X only) on a fronto-parallel plane take the exact
+    route (the x polygon's integral times the y polygon's measure): the native raw equals
+    an independent reference (the polygon's measure below X as a piecewise quadratic,
+    Gauss-Legendre or exact sums between the bar edges; not Green's theorem) to 1e-12 of
+    white, on both seed halves (measured: at most 2.3e-14)."""
+    design = seed_small(4, 3)
+    raws = render(design, _x_texture(texture), z, 0.5)
+    for i in (1, 2):
+        ref = exact_raw_x(design, i, z, texture)
+        raw = np.asarray(raws[i - 1])
+        assert raw.shape == ref.shape
+        assert np.max(np.abs(raw - ref)) <= EXACT_TOL * white(design, i), (z, i)
+
+
+#: Measured 2026-11-30: against the exact route, the general route's raw of a 3.1 c/mm
+#: sinusoid misses its stated 1e-3 of white (1.1e-3 on half 1 at 217 mm, 2.2e-2 and
+#: 3.5e-2 on half 2 at 642 and 1000 mm); the 0.7 c/mm sinusoid and the bars stay within
+#: 3.3e-4. Its adaptive rule misjudges an oscillating integrand (issue 48): the fronto
+#: plane now takes the exact route, a slanted one still the general.
+GENERAL_MISSES_FAST_SINUSOID = pytest.mark.xfail(
+    strict=True, reason="the general route misses 1e-3 on a 3.1 c/mm sinusoid (issue 48)")
+
+
+@pytest.mark.parametrize("texture", [
+    X_TEXTURES[0], pytest.param(X_TEXTURES[1], marks=GENERAL_MISSES_FAST_SINUSOID),
+    X_TEXTURES[2]])
+def test_general_route_of_a_texture_of_x(texture: tuple) -> None:
+    """The general route (forced by a plane tilted by 1e-7) gives the exact route's raw of
+    a texture of X only to its stated 1e-3 of white, at four depths on both halves."""
+    design = seed_small(4, 3)
+    api = _x_texture(texture)
+    for z in (217.0, 642.0, 1000.0, 3000.0):
+        exact = render(design, api, z, 0.5)
+        general = render(design, api, splitlf.Plane(z, 1e-7, 0.0), 0.5)
+        for i in (1, 2):
+            err = np.max(np.abs(np.asarray(general[i - 1]) - np.asarray(exact[i - 1])))
+            assert err <= ABS_TOL * white(design, i), (z, i, err)
 
 
 @pytest.mark.parametrize("z", [400.0, 700.0, 800.0, 1000.0])

@@ -698,8 +698,8 @@ def render(design: Design, scene: Scene, *, noise: Mapping[str, float] | None = 
     - ``tol``: the error target of a pixel, relative to a fully lit pixel under the
       scene's largest albedo (None: ``_native.RENDER_TOL``, 1e-3; allowed [1e-10, 0.1];
       docs/render.md); the exact route
-      (rect grid, square aperture, ideal layout, fronto-parallel plane, image texture) has
-      no quadrature error at all (docs/render.md)
+      (rect grid, square aperture, ideal layout, fronto-parallel plane; an image, constant,
+      sinusoid or bar texture) has no quadrature error at all (docs/render.md)
     - ``noise_tol``: instead of ``tol``, an error target relative to the noise this render
       adds: each pixel's target is ``noise_tol`` (in (0, 1], e.g. 0.1) times the standard
       deviation of ``noise`` at the pixel's own value v, sqrt(max(v, 1/N)/N + (r/N)^2) (a

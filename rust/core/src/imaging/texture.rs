@@ -462,7 +462,7 @@ impl Texture {
 
     /// ∫ T over a polygon of signed area `area` (same orientation sign as `area`) and
     /// extent `x_span` along X.
-    fn integral(&self, poly: &[Pt], area: f64, x_span: f64, s: &mut Scratch) -> f64 {
+    pub(crate) fn integral(&self, poly: &[Pt], area: f64, x_span: f64, s: &mut Scratch) -> f64 {
         let n = poly.len();
         match self {
             Texture::Constant(c) => c * area,

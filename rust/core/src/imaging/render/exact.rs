@@ -1,5 +1,6 @@
 //! The exact route (module doc of [`super`]): a fronto-parallel plane, rect cells, a
-//! square aperture, the ideal layout and an image (or constant) texture. A pixel's ray set
+//! square aperture, the ideal layout and an image (or constant) texture, or one of X
+//! only (a sinusoid, bars: [`x_integral`]). A pixel's ray set
 //! is the product of its x and y polygons, so its value is Σ_cells T · I_x · I_y with I the
 //! areas of the 1-D ray sets between the cell's edges ([`Profile`]). The profiles (also
 //! on a tilted plane, [`tilted_profile`]) serve the reconstruction's maps too.
@@ -11,7 +12,7 @@ use rayon::prelude::*;
 use super::chan::Chan;
 use super::{fill_rows, raw_shape};
 use crate::imaging::scene::Scene;
-use crate::imaging::texture::{ImageTexture, Texture};
+use crate::imaging::texture::{ImageTexture, Scratch, Texture};
 use crate::infra::error::{Error, Result};
 use crate::infra::parallel::checkpoint;
 use crate::infra::polygon::{clip_into, signed_area, Pt};
@@ -246,6 +247,12 @@ pub(super) fn render_channel(
             "the ideal layout (exact route)",
         ));
     };
+    if matches!(
+        scene.texture,
+        Texture::Sinusoid { .. } | Texture::Bars { .. }
+    ) {
+        return x_channel(chan, &scene.texture, (z, q), raw, n_threads, done);
+    }
     let constant;
     let tex: &ImageTexture = match &scene.texture {
         Texture::Image(im) => im,
@@ -321,6 +328,88 @@ pub(super) fn render_channel(
                 }
                 let out_area = xp.total * yp.total - ax_in * ay_in[t];
                 *out = norm * (inside + mean * out_area);
+            }
+            done.fetch_add(1, Ordering::Relaxed);
+            Ok(())
+        },
+    )
+}
+
+/// ∫ T dξ dw over a pixel's 1-D x ray set (lens centre c, offset θ, type α) for a texture
+/// that varies along X only (a sinusoid, bars) on the fronto-parallel plane at depth z.
+/// The scene coordinate X = w − z a(ξ, w) is affine with ∂X/∂ξ = −z/L, so the polygon's
+/// image in (X, w) has area z/L times its own, dξ dw = (L/z) dX dw, and the texture's own
+/// closed form over a polygon ([`Texture::integral`], Green's theorem) applies there, w
+/// standing in for the Y on which T does not depend.
+pub(crate) fn x_integral(
+    chan: &Chan,
+    tex: &Texture,
+    (alpha, c, theta): (f64, f64, f64),
+    z: f64,
+    scratch: &mut Scratch,
+) -> f64 {
+    let poly = polygon(chan, alpha, theta);
+    if signed_area(&poly) <= 0.0 {
+        return 0.0;
+    }
+    let mut img: Vec<Pt> = poly
+        .iter()
+        .map(|&q| [q[1] - z * slope(chan, c, q), q[1]])
+        .collect();
+    let mut area = signed_area(&img);
+    if area < 0.0 {
+        img.reverse();
+        area = -area;
+    }
+    let (x0, x1, _, _) = crate::infra::polygon::bounds(&img);
+    tex.integral(&img, area, x1 - x0, scratch) * chan.ch.l / z
+}
+
+/// The exact route for a texture that varies along X only: a pixel's value is
+/// norm · (∫ T over its x ray set) · (its y ray set's area), each axis's factor once per
+/// type and raw column (row).
+fn x_channel(
+    chan: &Chan,
+    tex: &Texture,
+    (z, q): (f64, u32),
+    raw: &mut [f64],
+    n_threads: Option<usize>,
+    done: &AtomicUsize,
+) -> Result<()> {
+    let ch = chan.ch;
+    let cols = raw_shape(ch).1;
+    let ix: Vec<Vec<f64>> = crate::infra::parallel::with_threads(n_threads, || {
+        chan.types
+            .iter()
+            .map(|&(alpha, _)| {
+                (0..cols as u32)
+                    .into_par_iter()
+                    .map_init(Scratch::default, |s, a| {
+                        let c = ch.lens_center(a / q, 0)[0];
+                        x_integral(chan, tex, (alpha, c, pixel_offset(ch.mu, q, a)), z, s)
+                    })
+                    .collect()
+            })
+            .collect()
+    })?;
+    let step = crate::infra::parallel::chunk_items(n_threads, (cols as u128) * 8);
+    fill_rows(
+        raw,
+        (chan.rows.clone(), cols),
+        (n_threads, step),
+        || (),
+        |_, b, row| {
+            checkpoint()?;
+            let k = b as u32 / q;
+            let theta = pixel_offset(ch.mu, q, b as u32);
+            let ay: Vec<f64> = chan
+                .types
+                .iter()
+                .map(|&(alpha, _)| ray_set_area(chan, alpha, theta))
+                .collect();
+            for (a, out) in row.iter_mut().enumerate() {
+                let t = ch.lens_type(a as u32 / q, k);
+                *out = chan.norm * ix[t][a] * ay[t];
             }
             done.fetch_add(1, Ordering::Relaxed);
             Ok(())

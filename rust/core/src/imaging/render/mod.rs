@@ -24,7 +24,9 @@
 //! **Exact route**: a fronto-parallel plane, rect cells, a square aperture, the ideal
 //! layout and an image (or constant) texture: a pixel's ray set is the product of its x
 //! and y polygons of §4, and its value is Σ_cells T · I_x · I_y with I the areas of the
-//! 1-D polygons between the cell's edges — no quadrature error.
+//! 1-D polygons between the cell's edges — no quadrature error. A sinusoid or bars (T of
+//! X only) take it too: the value is (∫ T over the x polygon) · (the y polygon's area),
+//! the first by the texture's closed form over the polygon's affine image in (X, w).
 //!
 //! Parts: [`chan`] (a channel as the renderer sees it, a worker's buffers), [`general`]
 //! (the general route: outer w / outer s per pixel and lens), [`adaptive`] (its
@@ -308,7 +310,13 @@ pub(crate) fn exact_route(design: &Design, ch: &Channel, scene: &Scene) -> bool 
         && ch.grid == Grid::Rect
         && design.shape == Aperture::Square
         && matches!(ch.layout, Layout::Ideal { .. })
-        && matches!(scene.texture, Texture::Image(_) | Texture::Constant(_))
+        && matches!(
+            scene.texture,
+            Texture::Image(_)
+                | Texture::Constant(_)
+                | Texture::Sinusoid { .. }
+                | Texture::Bars { .. }
+        )
 }
 
 /// Bytes a render holds at its peak: the raws, plus the exact route's per-type tables.
@@ -564,7 +572,7 @@ mod tests {
     }
 
     /// Bands of rows, stacked, are the whole render bit for bit: on the exact route (an
-    /// image on a fronto-parallel plane) and on the general route (a sinusoid on a tilted
+    /// image, and bars, on a fronto-parallel plane) and on the general route (a sinusoid on a tilted
     /// plane), with bands that start and end inside a lens's rows, one row alone, and on
     /// one thread and two.
     #[test]
@@ -582,7 +590,20 @@ mod tests {
             amplitude: 0.4,
             phase: 0.3,
         };
+        let bars = Texture::Bars {
+            frequency: 1.3,
+            low: 0.2,
+            high: 0.9,
+        };
         let scenes = [
+            (
+                bars,
+                Surface::Plane {
+                    z0: 700.0,
+                    g: [0.0, 0.0],
+                },
+                true,
+            ),
             (
                 image,
                 Surface::Plane {
