@@ -44,10 +44,10 @@ def small_seed() -> Design:
     return d.replace(channels=tuple(c.replace(Kx=8, Ky=6) for c in d.channels))
 
 
-def small_r12() -> Design:
-    """raytrix-r12 on 10 x 8 lenses (hex, three lens types, sensor layout, circle)."""
+def small_r12(kx: int = 10, ky: int = 8) -> Design:
+    """raytrix-r12 on kx x ky lenses (hex, three lens types, sensor layout, circle)."""
     d = Design.preset("raytrix-r12")
-    return d.replace(channels=(d.channels[0].replace(Kx=10, Ky=8, Mx=None, My=None),))
+    return d.replace(channels=(d.channels[0].replace(Kx=kx, Ky=ky, Mx=None, My=None),))
 
 
 def shapes(design: Design) -> list[tuple[int, int]]:
@@ -554,10 +554,9 @@ def test_cli_render_with_a_preset_noise_png_and_json(native, tmp_path, capsys, m
     import json
 
     pytest.importorskip("matplotlib")
-    # raytrix-r12 cut to 4 x 3 lenses: its render (general route, three times) on
-    # small_r12's 10 x 8 took 189 s; the CLI's work is the same on fewer lenses.
-    r12 = Design.preset("raytrix-r12")
-    small = r12.replace(channels=(r12.channels[0].replace(Kx=4, Ky=3, Mx=None, My=None),))
+    # 4 x 3 lenses: its render (general route, three times) on 10 x 8 took 189 s; the
+    # CLI's work is the same on fewer lenses.
+    small = small_r12(4, 3)
     monkeypatch.setattr(Design, "preset", classmethod(lambda cls, name: small))
     out, png = tmp_path / "r.npz", tmp_path / "r.png"
     argv = ["render", "raytrix-r12", "--texture", "star:8", "--depth", "1000", "--out",
