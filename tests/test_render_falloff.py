@@ -10,7 +10,9 @@ segment and/or its main-lens-to-array segment.
   tests/test_render_accuracy.py takes them.
 - Falloff off gives the raws the build before falloff existed gave, bit for bit
   (tests/data/falloff_off_pinned.npz: rendered at bc2b7d9 by the main checkout's build;
-  :func:`pinned_cases` makes them; a deliberate change of the render re-pins them). The
+  :func:`pinned_cases` makes them; a deliberate change of the render re-pins them: the
+  seed's tilted sinusoid was re-pinned when the general route began to cut a sinusoid at
+  its quarter periods, 2026-11-30, which moved it by 1.2e-6 and 8.5e-4 at tol 1e-2). The
   Illum's image on a fronto-parallel plane now takes the closed form for a lens's
   interior boxes (docs/render.md, "The interior in closed form"): its pin is the
   quadrature's raw (``_native.render_quadrature``) bit for bit, and the render's within

@@ -357,8 +357,10 @@ impl Texture {
     }
 
     /// Does the albedo jump inside the box [x0, x1] × [y0, y1] along a line that the
-    /// renderer's cuts do not follow (a slanted edge, a star's spokes or centre)? Image
-    /// cells and bar edges are axis-aligned: the renderer cuts at them.
+    /// renderer's cuts do not follow (a slanted edge, a star's spokes or centre), or, for
+    /// a sinusoid, does the box span more than half its period (a point moving across it
+    /// passes an extremum, where the quadrature rules' comparison can agree by chance)?
+    /// Image cells and bar edges are axis-aligned: the renderer cuts at them.
     pub fn jumps_in(&self, x0: f64, x1: f64, y0: f64, y1: f64) -> bool {
         let corners = [[x0, y0], [x1, y0], [x1, y1], [x0, y1]];
         match self {
@@ -382,6 +384,7 @@ impl Texture {
                 let crossings = (hi / width).floor() - (lo / width).floor();
                 (1.0..=8.0).contains(&crossings)
             }
+            Texture::Sinusoid { frequency, .. } => (x1 - x0) * frequency > 0.5,
             _ => false,
         }
     }

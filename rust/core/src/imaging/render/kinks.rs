@@ -7,7 +7,11 @@ use crate::imaging::scene::{Scene, Surface};
 use crate::imaging::texture::Texture;
 
 /// The lines along one axis (0: X, 1: Y) where a texture's albedo jumps, as (origin,
-/// spacing, first, last index): an image's cell edges, a bar chart's bar edges.
+/// spacing, first, last index): an image's cell edges, a bar chart's bar edges; and a
+/// sinusoid's quarter periods (its zeros and extrema), between which it is close to a
+/// cubic, which the adaptive rule's 2- and 3-point rules see; over a box on which the
+/// polygon moves several periods they can agree by chance and both be wrong (measured
+/// against the exact route: 3.5e-2 of white, 3.1 cycles/mm on the seed's half 2 at 1 m).
 fn texture_lines(t: &Texture, axis: usize) -> Option<(f64, f64, i64, i64)> {
     match t {
         Texture::Image(im) => {
@@ -24,6 +28,20 @@ fn texture_lines(t: &Texture, axis: usize) -> Option<(f64, f64, i64, i64)> {
             // spacing keeps the edge at X = 0 a cut, where 0 × ∞ made it NaN.)
             let h = (0.5 / frequency).min(0.5 * f64::MAX);
             Some((0.0, h, i64::MIN / 4, i64::MAX / 4))
+        }
+        Texture::Sinusoid {
+            frequency, phase, ..
+        } if axis == 0 => {
+            let h = (0.25 / frequency).min(0.5 * f64::MAX);
+            // The zero of 2π f X + phase nearest X = 0 (the origin only sets the lines'
+            // phase: any of them is one).
+            let o = (-phase / (2.0 * std::f64::consts::PI * frequency)).rem_euclid(h);
+            Some((
+                if o.is_finite() { o } else { 0.0 },
+                h,
+                i64::MIN / 4,
+                i64::MAX / 4,
+            ))
         }
         _ => None,
     }
