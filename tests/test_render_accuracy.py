@@ -397,8 +397,8 @@ def test_general_route_of_a_texture_of_x(texture: tuple) -> None:
     3.1 c/mm sinusoid it once missed by up to 3.5e-2 (half 2 at 1 m: the adaptive rule's
     2- and 3-point rules agreed by chance over boxes on which the polygon moved several
     periods); with a sinusoid's quarter periods as cuts and boxes spanning over half a
-    period rough, measured: at most 1.5e-7 of white for both sinusoids, 7.2e-5 for the
-    bars."""
+    period rough, measured: at most 1.2e-7 (3.1 c/mm) and 5.4e-7 (0.7 c/mm) of white,
+    7.2e-5 for the bars."""
     design = seed_small(4, 3)
     api = _x_texture(texture)
     for z in (217.0, 642.0, 1000.0, 3000.0):
