@@ -152,7 +152,7 @@ def one_depth(designs_: tuple[splitlf.Design, splitlf.Design], z: float, photons
             channels = {"half 1": 1, "half 2": 2}.get(cam)
             rec = splitlf.reconstruct(raw, z, region=region, channels=channels,
                                       progress=False)
-            assert rec.noise_source == "raw" and rec.regularization_rule == "gcv"
+            assert rec.noise_source == "raw" and rec.regularization_rule == "weighted gcv"
             measured(run, shown if z in SHOWN else None, cam, rec, texture)
 
 

@@ -94,14 +94,15 @@ def test_image_from_the_estimates_own_surface() -> None:
     raw = mc_raw(d, mct, ("plane", [z0, 0.0, gy]), seed=22)
     seen = _native.seen_region(d.core, z0, [1])
     est = splitlf.estimate_depth(raw, depths=(250.0, 4000.0), region=seen)
-    # Each at its data-chosen weight: GCV on the known plane, weighted GCV on the
-    # estimate's surface (docs/reconstruct.md, "An estimated surface").
+    # Each at its data-chosen weight: weighted GCV, its degrees of freedom charged
+    # rho = 1.25 times on the known plane and 2 times on the estimate's surface
+    # (docs/reconstruct.md, "An estimated surface").
     kw = {"region": tuple(0.5 * v for v in seen), "step": d.resolution_step(z0),
           "noise": {"photons": PHOTONS, "read_noise": 0.0}, "channels": (1,)}
     known = splitlf.reconstruct(raw, plane, **kw)  # type: ignore[arg-type]
     found = splitlf.reconstruct(raw, est, **kw)  # type: ignore[arg-type]
-    assert known.regularization_rule == "gcv"
-    assert found.regularization_rule == "weighted gcv"
+    assert known.regularization_rule == found.regularization_rule == "weighted gcv"
+    assert (known.df_weight, found.df_weight) == (1.25, 2.0)
     # Its surface is within 3 % of a plane (measured: 2.4 %): fitted into it, the tilted
     # route (docs/reconstruct.md step 6).
     assert found.depth == est.surface(d, plane=True)

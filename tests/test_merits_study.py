@@ -67,7 +67,7 @@ def _study(design: splitlf.Design, z: float) -> dict[str, tuple[float, float, np
     out = {}
     for row, ch in ROWS.items():
         rec = splitlf.reconstruct(raws[0], z, region=region, channels=ch, progress=False)
-        assert rec.regularization_rule == "gcv"
+        assert rec.regularization_rule == "weighted gcv"
         rec_e = splitlf.reconstruct(raws[1], z, region=region, channels=ch, progress=False)
         out[row] = (measure.psnr(rec, tex), measure.mtf50(rec_e, edge) / nyq,
                     measure.truth(rec, tex))

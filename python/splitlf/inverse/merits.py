@@ -165,7 +165,10 @@ def image_merits(design: Any, depths: Any, photons: float = 2000.0, *,
     - ``rule``: the prior's weight: ``"gcv"`` chosen from the draws' data as
       ``reconstruct(regularization=None)`` chooses it (its bracket ``CHOOSE_BRACKET`` and
       probes ``CHOOSE_PROBES``; ``MERIT_GCV_GOLDEN_STEPS`` golden-section steps, the probes
-      solved to ``MERIT_PROBE_RTOL``), or ``"oracle"``, the weight of least expected error
+      solved to ``MERIT_PROBE_RTOL``; plain GCV, its degrees of freedom charged once where
+      ``reconstruct`` charges them ``CHOOSE_DF_WEIGHT`` times: the merits' data are the
+      model's own, with no model error to guard against), or ``"oracle"``, the weight of
+      least expected error
     - ``n_threads``: threads of the core (None: all cores)
     """
     d = _validate.design(design)

@@ -81,8 +81,11 @@ CHOOSE_PROBE_RTOL = 1e-6
 #: the next one's solves could exceed it; the time plan counts the choice at this many.
 CHOOSE_BUDGET = 20_000
 #: The weight rho on the fit's degrees of freedom in the risk (weighted GCV:
-#: m RSS / (m - rho df)^2; UPRE: RSS + 2 rho df - m) for a known surface: plain GCV / UPRE.
-CHOOSE_DF_WEIGHT = 1.0
+#: m RSS / (m - rho df)^2; UPRE: RSS + 2 rho df - m) for a known surface. Plain GCV
+#: (rho = 1) under-smooths at half 1's out-of-focus plane (0.4-0.8 dB short of the best
+#: weight there); 1.25 is within 0.2 dB of the best weight at 642 mm and 1 m
+#: (docs/reconstruct.md, "The weight on the degrees of freedom").
+CHOOSE_DF_WEIGHT = 1.25
 #: rho for the surface of a depth estimate, whose depth errors make the model inexact:
 #: plain GCV fits them and under-smooths (lambda 0.1 against about 16 by the truth,
 #: 3.7 dB against 16 dB, docs/reconstruct.md "An estimated surface").
@@ -136,9 +139,10 @@ class Reconstruction:
     pixels used), ``iterations``, ``residual`` (the normal equations' relative residual),
     ``regularization`` (lambda), ``regularization_rule`` (how it was set: ``"fixed"``
     (given), ``"gcv"`` (generalised cross-validation: a raw of photon noise, known or
-    estimated) or ``"upre"`` (the unbiased predictive risk: a noise-free raw); ``"weighted
-    gcv"`` / ``"weighted upre"`` on an estimate's surface: df weighted by
-    ``CHOOSE_DF_WEIGHT_ESTIMATE``), ``noise``
+    estimated) or ``"upre"`` (the unbiased predictive risk: a noise-free raw), ``"weighted
+    gcv"`` / ``"weighted upre"`` when the fit's degrees of freedom are charged ``df_weight``
+    = rho > 1 times: ``CHOOSE_DF_WEIGHT`` on a known surface, ``CHOOSE_DF_WEIGHT_ESTIMATE``
+    on an estimate's; ``df_weight`` is 1 for a fixed lambda), ``noise``
     (the per-pixel sigma model used, as text), ``noise_model`` (it as ``{"photons": N,
     "read_noise": r}``, photons ``inf`` for noise-free), ``noise_source`` (``"given"``: the
     call's ``noise``; ``"raw"``: carried by the raw; ``"estimated"``: from the data, read
@@ -170,6 +174,7 @@ class Reconstruction:
     noise_model: dict[str, float] | None = None
     noise_source: str = "given"
     choice: tuple[tuple[float, float, float, float, int], ...] = ()
+    df_weight: float = 1.0
 
     def __post_init__(self) -> None:
         self.image.setflags(write=False)
@@ -509,6 +514,7 @@ def _solve(call: _Call, images: list[np.ndarray], options: dict[str, Any]
                           noise=noise_text, tiles=tiles,
                           lens_types=None if types is None else tuple(types),
                           regularization_rule=rule,
+                          df_weight=call.df_weight if rule != "fixed" else 1.0,
                           noise_model={"photons": photons, "read_noise": read},
                           noise_source=call.source, choice=tuple(trials), prior=call.prior,
                           threshold=call.threshold, passes=passes)
