@@ -2,7 +2,9 @@
 //! norm) and a worker's buffers ([`Work`]), shared by the general route, the exact route
 //! and record mode.
 
+use std::collections::HashMap;
 use std::f64::consts::PI;
+use std::hash::{BuildHasherDefault, Hasher};
 
 use super::footprint;
 use crate::imaging::scene::Surface;
@@ -180,6 +182,37 @@ impl<'a> Chan<'a> {
     }
 }
 
+/// A node's hits on a depth map by the bits of their cell point ([`Work::hits`]).
+pub(super) type HitCache = HashMap<[u64; 2], Option<(f64, Pt)>, BuildHasherDefault<BitsHasher>>;
+
+/// A multiplicative hash of a few machine words (FxHash's step): the keys are a point's
+/// bits, looked up a few dozen times per node, where SipHash's cost showed in the
+/// renders' times.
+#[derive(Default)]
+pub(super) struct BitsHasher(u64);
+
+impl Hasher for BitsHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+
+    fn write(&mut self, bytes: &[u8]) {
+        for chunk in bytes.chunks(8) {
+            let mut word = [0u8; 8];
+            word[..chunk.len()].copy_from_slice(chunk);
+            self.write_u64(u64::from_le_bytes(word));
+        }
+    }
+
+    fn write_u64(&mut self, v: u64) {
+        self.0 = (self.0.rotate_left(5) ^ v).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+
+    fn write_usize(&mut self, v: usize) {
+        self.write_u64(v as u64);
+    }
+}
+
 /// Per-worker buffers.
 #[derive(Default)]
 pub(crate) struct Work {
@@ -197,6 +230,11 @@ pub(crate) struct Work {
     pub(super) cuts_a: Vec<f64>,
     pub(super) cuts_b: Vec<f64>,
     pub(super) zs: Vec<f64>,
+    /// On a depth map, the hits of one node's rays taken so far (by the bits of cell point
+    /// ξ: its depth and scene point, None for a miss), `mean::scene_mean`'s: the pieces of
+    /// a polygon share vertices with it and with each other, and a hit on a map is a walk
+    /// over its patches.
+    pub(super) hits: HitCache,
     /// Evaluations of the integrand by the adaptive rule so far (its work).
     pub(crate) evals: u64,
     /// Boxes integrated in closed form so far ([`super::interior`]).

@@ -3,7 +3,7 @@
 //! slanted planes and depth maps through strips or pieces small enough that the map to
 //! the scene is affine within each to the error budget (docs/render.md).
 
-use super::chan::{Chan, Work};
+use super::chan::{Chan, HitCache, Work};
 use crate::imaging::scene::{Scene, Surface};
 #[cfg(doc)]
 use crate::imaging::texture::Texture;
@@ -92,6 +92,18 @@ impl<W: Fn(Pt) -> Pt, A: Fn(Pt, Pt) -> Pt> Rays<'_, W, A> {
         let w = (self.w_of)(xi);
         self.scene.surface.hit(w, (self.a_of)(xi, w))
     }
+
+    /// [`Rays::hit`], on a depth map through this node's hits so far (`hits`: a point
+    /// taken before, bit for bit, is not taken again; the result is the same either way).
+    /// On a plane a hit is a closed form, cheaper than the look-up.
+    fn hit_known(&self, xi: Pt, hits: &mut HitCache) -> Option<(f64, Pt)> {
+        if !matches!(self.scene.surface, Surface::Map(_)) {
+            return self.hit(xi);
+        }
+        *hits
+            .entry([xi[0].to_bits(), xi[1].to_bits()])
+            .or_insert_with(|| self.hit(xi))
+    }
 }
 
 /// Where the rays of the vertices of `wk.poly` meet the surface: their depths (also in
@@ -111,8 +123,9 @@ fn vertex_hits(rays: &Rays<impl Fn(Pt) -> Pt, impl Fn(Pt, Pt) -> Pt>, wk: &mut W
     let mut pmin = [f64::INFINITY; 2];
     let mut pmax = [f64::NEG_INFINITY; 2];
     wk.zs.clear();
+    wk.hits.clear();
     for &xi in &wk.poly {
-        match rays.hit(xi) {
+        match rays.hit_known(xi, &mut wk.hits) {
             Some((z, p)) => {
                 wk.zs.push(z);
                 zmin = zmin.min(z);
@@ -241,7 +254,7 @@ fn piece_value(rays: &Rays<impl Fn(Pt) -> Pt, impl Fn(Pt, Pt) -> Pt>, wk: &mut W
     };
     let (mut misses, mut zsum) = (0usize, 0.0);
     for &xi in &wk.piece {
-        match rays.hit(xi) {
+        match rays.hit_known(xi, &mut wk.hits) {
             Some((z, p)) => {
                 wk.mapped.push(p);
                 zsum += z;
