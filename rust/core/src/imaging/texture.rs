@@ -18,8 +18,11 @@ use crate::imaging::grid::{walk, SampleGrid};
 use crate::infra::error::{Error, Result};
 use crate::infra::polygon::{angular_span, centroid, clip_into, signed_area, Pt};
 
+mod moments;
 #[cfg(test)]
 mod reference;
+
+pub(crate) use moments::area_moments;
 
 /// Largest number of texture cells (far beyond any image; guards typos).
 pub const MAX_TEXTURE_CELLS: usize = 1 << 31;
@@ -38,6 +41,9 @@ pub struct ImageTexture {
     prefix: Vec<f64>,
     /// Values bottom-up, `values[b * cols + i]`.
     values: Vec<f64>,
+    /// The first-moment row sums, built on first use (`moments.rs`); None when they could
+    /// not be allocated.
+    prefix_u: std::sync::OnceLock<Option<Vec<f64>>>,
 }
 
 /// A texture T(X, Y) ≥ 0 (docs/model.md §10).
@@ -160,6 +166,7 @@ impl ImageTexture {
             max,
             prefix,
             values: flipped,
+            prefix_u: std::sync::OnceLock::new(),
         })
     }
 

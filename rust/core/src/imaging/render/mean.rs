@@ -5,6 +5,7 @@
 
 use super::chan::{Chan, HitCache, Work};
 use crate::imaging::scene::{Scene, Surface};
+use crate::imaging::texture::area_moments;
 #[cfg(doc)]
 use crate::imaging::texture::Texture;
 use crate::infra::polygon::{bounds, clip_box, clip_into, signed_area, Pt};
@@ -20,6 +21,12 @@ const MAX_PIECES: usize = 24;
 const STRIP_DEPTH_RTOL: f64 = 5e-4;
 /// Most strips a polygon is cut into.
 const MAX_STRIPS: usize = 64;
+/// On a plane, with the texture's first moments ([`Texture::moments`]): the relative span
+/// of D = Z − Z_Q (Z_Q the depth of the apex of the node's pencil of rays) over one strip,
+/// where the ray map's density, exactly ∝ D⁻³, is taken linear: an error of about
+/// 6 (half the span)² ≈ 10⁻⁴ × the albedo's range within the strip (docs/render.md,
+/// "Slanted planes").
+const LINEAR_STRIP_RTOL: f64 = 8e-3;
 
 /// The mean albedo over the scene image of the polygon `wk.poly` (local cell coordinates
 /// ξ, x = c + ξ), each vertex's ray having main-lens point `w_of(ξ)`.
@@ -70,7 +77,10 @@ pub(super) fn scene_mean(
         && hits.misses == 0
         && hits.zmax > hits.zmin
     {
-        strips_integral(&rays, &src, &hits, wk)
+        match linear_strips(&rays, &src, &hits, wk) {
+            Some(v) => v,
+            None => strips_integral(&rays, &src, &hits, wk),
+        }
     } else {
         pieces_integral(&rays, &src, &hits, wk)
     };
@@ -107,7 +117,8 @@ impl<W: Fn(Pt) -> Pt, A: Fn(Pt, Pt) -> Pt> Rays<'_, W, A> {
 }
 
 /// Where the rays of the vertices of `wk.poly` meet the surface: their depths (also in
-/// `wk.zs`), the box of their scene points, and how many miss it.
+/// `wk.zs`; the scene points of those that hit in `wk.mapped`), the box of their scene
+/// points, and how many miss it.
 struct Hits {
     zmin: f64,
     zmax: f64,
@@ -123,11 +134,13 @@ fn vertex_hits(rays: &Rays<impl Fn(Pt) -> Pt, impl Fn(Pt, Pt) -> Pt>, wk: &mut W
     let mut pmin = [f64::INFINITY; 2];
     let mut pmax = [f64::NEG_INFINITY; 2];
     wk.zs.clear();
+    wk.mapped.clear();
     wk.hits.clear();
     for &xi in &wk.poly {
         match rays.hit_known(xi, &mut wk.hits) {
             Some((z, p)) => {
                 wk.zs.push(z);
+                wk.mapped.push(p);
                 zmin = zmin.min(z);
                 zmax = zmax.max(z);
                 for k in 0..2 {
@@ -181,6 +194,127 @@ fn strips_integral(
         acc += piece_value(rays, wk);
     }
     acc
+}
+
+/// The depth of the apex of a node's pencil of rays: X(z) = w(ξ) − z a(ξ) with w and a
+/// affine in ξ, the same along both axes, so every ray passes through the point where
+/// ∂X/∂ξ = 0 (z = ∂w/∂ξ / ∂a/∂ξ: 0 on the outer-w rule, where w is fixed); infinity for
+/// parallel rays; None if the axes disagree.
+fn apex_depth(rays: &Rays<impl Fn(Pt) -> Pt, impl Fn(Pt, Pt) -> Pt>) -> Option<f64> {
+    let w0 = (rays.w_of)([0.0, 0.0]);
+    let a0 = (rays.a_of)([0.0, 0.0], w0);
+    let mut z = [0.0; 2];
+    for k in 0..2 {
+        let mut e = [0.0; 2];
+        e[k] = 1.0;
+        let w1 = (rays.w_of)(e);
+        let a1 = (rays.a_of)(e, w1);
+        let (dw, da) = (w1[k] - w0[k], a1[k] - a0[k]);
+        z[k] = if da.abs() <= 1e-12 * a0[k].abs().max(a1[k].abs()) {
+            f64::INFINITY
+        } else {
+            dw / da
+        };
+    }
+    let same = (z[0].is_infinite() && z[1].is_infinite())
+        || (z[0] - z[1]).abs() <= 1e-9 * (z[0].abs() + z[1].abs() + 1.0);
+    same.then_some(z[0])
+}
+
+/// ∫ T over the polygon `src` on a plane that all its vertices' rays meet, with the
+/// texture's first moments: for a fixed pencil of rays (apex depth Z_Q, [`apex_depth`]) a
+/// piece's image on the plane is exactly the polygon of its vertices' hits, and the ray
+/// map's density there is exactly ∝ D(P)⁻³, D = Z(P) − Z_Q; taken linear about the image's
+/// centroid P̄, ∫ T ρ = (area in ξ / image area) (∬ T − 3 g · (∬ T P − P̄ ∬ T) / D(P̄)).
+/// Strips along the depth's level lines of relative D span [`LINEAR_STRIP_RTOL`] (one, on
+/// most polygons). None (the constant-density strips instead) for a texture without
+/// moments, in record mode, or when the apex lies among the plane's depths.
+fn linear_strips(
+    rays: &Rays<impl Fn(Pt) -> Pt, impl Fn(Pt, Pt) -> Pt>,
+    src: &[Pt],
+    hits: &Hits,
+    wk: &mut Work,
+) -> Option<f64> {
+    let scene = rays.scene;
+    let Surface::Plane { z0, g } = scene.surface else {
+        return None;
+    };
+    if !scene.texture.has_moments() || wk.rec.is_some() {
+        return None;
+    }
+    let zq = apex_depth(rays)?;
+    let n = if zq.is_finite() {
+        let (d0, d1) = (hits.zmin - zq, hits.zmax - zq);
+        if !(d0 > 0.0 || d1 < 0.0) {
+            return None;
+        }
+        let parts = (d1 - d0) / d0.abs().min(d1.abs()) / LINEAR_STRIP_RTOL;
+        if parts.is_nan() || parts > MAX_STRIPS as f64 {
+            return None;
+        }
+        (parts.ceil() as usize).max(1)
+    } else {
+        1
+    };
+    let plane = Linear { z0, g, zq };
+    if n == 1 {
+        // The vertices' hits (`vertex_hits`) are the piece's.
+        return plane.piece(scene, signed_area(src), &wk.mapped);
+    }
+    let gd = depth_gradient(src, &wk.zs);
+    let proj = |p: Pt| gd[0] * p[0] + gd[1] * p[1];
+    let (t0, t1) = src
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &p| {
+            (a.min(proj(p)), b.max(proj(p)))
+        });
+    let mut acc = 0.0;
+    for k in 0..n {
+        let lo = t0 + (t1 - t0) * k as f64 / n as f64;
+        let hi = t0 + (t1 - t0) * (k + 1) as f64 / n as f64;
+        clip_into(src, &mut wk.tmp, |p| proj(p) - lo);
+        clip_into(&wk.tmp, &mut wk.piece, |p| hi - proj(p));
+        let area = signed_area(&wk.piece);
+        if area <= 0.0 {
+            continue;
+        }
+        wk.mapped.clear();
+        for &xi in &wk.piece {
+            wk.mapped.push(rays.hit(xi)?.1);
+        }
+        acc += plane.piece(scene, area, &wk.mapped)?;
+    }
+    Some(acc)
+}
+
+/// A plane Z = z0 + g · P seen by a pencil of rays with apex depth `zq` ([`linear_strips`]).
+struct Linear {
+    z0: f64,
+    g: Pt,
+    zq: f64,
+}
+
+impl Linear {
+    /// ∫ T over a piece of `area` in ξ whose image on the plane is `mapped`.
+    fn piece(&self, scene: &Scene, area: f64, mapped: &[Pt]) -> Option<f64> {
+        let (ap, m) = area_moments(mapped);
+        let (x0, x1, y0, y1) = bounds(mapped);
+        let scale = (x1 - x0).max(y1 - y0);
+        if ap.abs() <= 1e-12 * scale * scale || !ap.is_finite() {
+            // A degenerate image (as `Texture::average` takes it): T at its centroid.
+            return Some(area * scene.texture.at(crate::infra::polygon::centroid(mapped)));
+        }
+        let t = scene.texture.moments(mapped)?;
+        let pc = [m[0] / ap, m[1] / ap];
+        let g = self.g;
+        let corr = if self.zq.is_finite() {
+            let d = self.z0 + g[0] * pc[0] + g[1] * pc[1] - self.zq;
+            -3.0 * (g[0] * (t[1] - pc[0] * t[0]) + g[1] * (t[2] - pc[1] * t[0])) / d
+        } else {
+            0.0
+        };
+        Some(area * ((t[0] + corr) / ap).max(0.0))
+    }
 }
 
 /// ∫ T over the polygon `src` on a slanted plane some rays miss, or a depth map: cut into
