@@ -113,7 +113,7 @@ impl DepthMap {
         if lo.is_nan() || hi.is_nan() || lo > hi {
             return None;
         }
-        let f = |z: f64| z - self.depth_grad([w[0] - z * a[0], w[1] - z * a[1]]).0;
+        let f = |z: f64| z - self.depth_at([w[0] - z * a[0], w[1] - z * a[1]]);
         // A ray that enters the extent from its side behind the surface (g > 0 there) has
         // not met it: its first root is where g changes sign, from either side.
         let mut g0 = f(lo);
