@@ -22,8 +22,6 @@ mod moments;
 #[cfg(test)]
 mod reference;
 
-pub(crate) use moments::area_moments;
-
 /// Largest number of texture cells (far beyond any image; guards typos).
 pub const MAX_TEXTURE_CELLS: usize = 1 << 31;
 /// Most spokes of a Siemens star.

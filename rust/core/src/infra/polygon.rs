@@ -92,6 +92,23 @@ pub fn centroid(p: &[Pt]) -> Pt {
     }
 }
 
+/// The signed area and first moments [∬ X, ∬ Y] of a polygon (zero for fewer than three
+/// vertices; the shoelace sums about its first vertex, for precision far from the origin).
+pub fn area_moments(p: &[Pt]) -> (f64, [f64; 2]) {
+    if p.len() < 3 {
+        return (0.0, [0.0; 2]);
+    }
+    let o = p[0];
+    let (mut a, mut sx, mut sy) = (0.0, 0.0, 0.0);
+    shoelace(p, |[x0, y0], [x1, y1], c| {
+        a += c;
+        sx += (x0 + x1) * c;
+        sy += (y0 + y1) * c;
+    });
+    let area = 0.5 * a;
+    (area, [sx / 6.0 + area * o[0], sy / 6.0 + area * o[1]])
+}
+
 /// Area, centroid and central second moments [∫(x − cx)², ∫(x − cx)(y − cy), ∫(y − cy)²]
 /// of a counter-clockwise polygon (zero area: the vertex mean and zero moments).
 pub fn moments(p: &[Pt]) -> (f64, Pt, [f64; 3]) {
@@ -256,6 +273,16 @@ mod tests {
         assert!((a - 0.5).abs() < 1e-15 && (c[0] - 1.0 / 3.0).abs() < 1e-15);
         assert!((m[0] - 1.0 / 36.0).abs() < 1e-15 && (m[1] + 1.0 / 72.0).abs() < 1e-15);
         assert!((m[2] - 1.0 / 36.0).abs() < 1e-15);
+        // First moments: area × centroid, for the rectangle (8 × (5, −3)) and clockwise
+        // (negative area, the same centroid).
+        let (a, f) = area_moments(&r);
+        assert!((a - 8.0).abs() < 1e-12 && (f[0] - 40.0).abs() < 1e-12);
+        assert!((f[1] + 24.0).abs() < 1e-12);
+        let cw: Vec<Pt> = r.iter().rev().copied().collect();
+        let (a, f) = area_moments(&cw);
+        assert!((a + 8.0).abs() < 1e-12 && (f[0] + 40.0).abs() < 1e-12);
+        assert!((f[1] - 24.0).abs() < 1e-12);
+        assert_eq!(area_moments(&r[..2]), (0.0, [0.0; 2]));
     }
 
     #[test]

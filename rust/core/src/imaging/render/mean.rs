@@ -5,10 +5,9 @@
 
 use super::chan::{Chan, HitCache, Work};
 use crate::imaging::scene::{Scene, Surface};
-use crate::imaging::texture::area_moments;
 #[cfg(doc)]
 use crate::imaging::texture::Texture;
-use crate::infra::polygon::{bounds, clip_box, clip_into, signed_area, Pt};
+use crate::infra::polygon::{area_moments, bounds, clip_box, clip_into, signed_area, Pt};
 
 /// Relative depth variation across one mapped piece of a polygon on a curved or slanted
 /// surface (the map to the scene is treated as affine within a piece).
@@ -173,20 +172,11 @@ fn strips_integral(
     let (zmin, zmax) = (hits.zmin, hits.zmax);
     let n = ((zmax - zmin) / zmin / STRIP_DEPTH_RTOL).ceil() as usize;
     let n = n.clamp(1, MAX_STRIPS);
-    let g = depth_gradient(src, &wk.zs);
-    let proj = |p: Pt| g[0] * p[0] + g[1] * p[1];
-    let (t0, t1) = src
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &p| {
-            (a.min(proj(p)), b.max(proj(p)))
-        });
+    let strips = Strips::new(src, &wk.zs, n);
     let mut acc = 0.0;
     for k in 0..n {
-        let lo = t0 + (t1 - t0) * k as f64 / n as f64;
-        let hi = t0 + (t1 - t0) * (k + 1) as f64 / n as f64;
         if n > 1 {
-            clip_into(src, &mut wk.tmp, |p| proj(p) - lo);
-            clip_into(&wk.tmp, &mut wk.piece, |p| hi - proj(p));
+            strips.cut(src, k, wk);
         } else {
             wk.piece.clear();
             wk.piece.extend_from_slice(src);
@@ -194,6 +184,38 @@ fn strips_integral(
         acc += piece_value(rays, wk);
     }
     acc
+}
+
+/// A polygon cut into `n` strips of equal width along its depth's level lines (across the
+/// least-squares gradient of its vertices' depths, [`depth_gradient`]).
+struct Strips {
+    g: Pt,
+    t0: f64,
+    t1: f64,
+    n: usize,
+}
+
+impl Strips {
+    fn new(src: &[Pt], zs: &[f64], n: usize) -> Strips {
+        let g = depth_gradient(src, zs);
+        let (t0, t1) = src
+            .iter()
+            .map(|p| g[0] * p[0] + g[1] * p[1])
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), t| {
+                (a.min(t), b.max(t))
+            });
+        Strips { g, t0, t1, n }
+    }
+
+    /// Strip k of `src` into `wk.piece`.
+    fn cut(&self, src: &[Pt], k: usize, wk: &mut Work) {
+        let (g, t0, t1, n) = (self.g, self.t0, self.t1, self.n as f64);
+        let proj = |p: Pt| g[0] * p[0] + g[1] * p[1];
+        let lo = t0 + (t1 - t0) * k as f64 / n;
+        let hi = t0 + (t1 - t0) * (k + 1) as f64 / n;
+        clip_into(src, &mut wk.tmp, |p| proj(p) - lo);
+        clip_into(&wk.tmp, &mut wk.piece, |p| hi - proj(p));
+    }
 }
 
 /// The depth of the apex of a node's pencil of rays: X(z) = w(ξ) − z a(ξ) with w and a
@@ -261,19 +283,10 @@ fn linear_strips(
         // The vertices' hits (`vertex_hits`) are the piece's.
         return plane.piece(scene, signed_area(src), &wk.mapped);
     }
-    let gd = depth_gradient(src, &wk.zs);
-    let proj = |p: Pt| gd[0] * p[0] + gd[1] * p[1];
-    let (t0, t1) = src
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &p| {
-            (a.min(proj(p)), b.max(proj(p)))
-        });
+    let strips = Strips::new(src, &wk.zs, n);
     let mut acc = 0.0;
     for k in 0..n {
-        let lo = t0 + (t1 - t0) * k as f64 / n as f64;
-        let hi = t0 + (t1 - t0) * (k + 1) as f64 / n as f64;
-        clip_into(src, &mut wk.tmp, |p| proj(p) - lo);
-        clip_into(&wk.tmp, &mut wk.piece, |p| hi - proj(p));
+        strips.cut(src, k, wk);
         let area = signed_area(&wk.piece);
         if area <= 0.0 {
             continue;

@@ -11,7 +11,7 @@
 
 use super::{ImageTexture, Texture};
 use crate::imaging::grid::walk;
-use crate::infra::polygon::Pt;
+use crate::infra::polygon::{area_moments, Pt};
 
 impl Texture {
     /// Whether [`Texture::moments`] has this texture's moments.
@@ -32,28 +32,6 @@ impl Texture {
             _ => None,
         }
     }
-}
-
-/// The signed area and first moments [∬ X, ∬ Y] of a polygon (shoelace sums about its
-/// first vertex, for precision far from the origin).
-pub(crate) fn area_moments(p: &[Pt]) -> (f64, [f64; 2]) {
-    let n = p.len();
-    if n < 3 {
-        return (0.0, [0.0; 2]);
-    }
-    let o = p[0];
-    let (mut a, mut sx, mut sy) = (0.0, 0.0, 0.0);
-    for i in 0..n {
-        let q = p[(i + 1) % n];
-        let (x0, y0) = (p[i][0] - o[0], p[i][1] - o[1]);
-        let (x1, y1) = (q[0] - o[0], q[1] - o[1]);
-        let c = x0 * y1 - x1 * y0;
-        a += c;
-        sx += (x0 + x1) * c;
-        sy += (y0 + y1) * c;
-    }
-    let area = 0.5 * a;
-    (area, [sx / 6.0 + area * o[0], sy / 6.0 + area * o[1]])
 }
 
 impl ImageTexture {
