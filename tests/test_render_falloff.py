@@ -12,7 +12,10 @@ segment and/or its main-lens-to-array segment.
   (tests/data/falloff_off_pinned.npz: rendered at bc2b7d9 by the main checkout's build;
   :func:`pinned_cases` makes them; a deliberate change of the render re-pins them: the
   seed's tilted sinusoid was re-pinned when the general route began to cut a sinusoid at
-  its quarter periods, 2026-11-30, which moved it by 1.2e-6 and 8.5e-4 at tol 1e-2). The
+  its quarter periods, 2026-11-30, which moved it by 1.2e-6 and 8.5e-4 at tol 1e-2; and on
+  2026-12-01, when a pixel's square began to be built from its edges, each from its own
+  index (docs/render.md, "A memo of the corners"): 2.9e-15 at most; the Illum's pin then
+  too, by the quadrature's fix of a cap at the circle's top or bottom, 1.0e-4 at tol 1e-2). The
   Illum's image on a fronto-parallel plane now takes the closed form for a lens's
   interior boxes (docs/render.md, "The interior in closed form"): its pin is the
   quadrature's raw (``_native.render_quadrature``) bit for bit, and the render's within

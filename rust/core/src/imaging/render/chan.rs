@@ -239,6 +239,11 @@ pub(crate) struct Work {
     pub(crate) evals: u64,
     /// Boxes integrated in closed form so far ([`super::interior`]).
     pub(crate) closed: u64,
+    /// Boxes cut by the aperture's circle taken in closed form so far
+    /// ([`super::sat::SatTable::disc_rect_polygon`]).
+    pub(crate) disc_boxes: u64,
+    /// The closed form's corners taken so far ([`super::sat::CornerMemo`]).
+    pub(crate) corners: super::sat::CornerMemo,
     /// Record mode on a plane: [`footprint`]'s buffers.
     pub(super) fp: footprint::Scratch,
     /// Record mode on a depth map: every ray meets it at most once

@@ -14,7 +14,7 @@ use super::footprint;
 use super::interior::{self, Lens};
 use super::kinks::{bilinear, box_cuts, extent_kinks, texture_kinks, Sweep};
 use super::mean::scene_mean;
-use super::sat::SatTable;
+use super::sat::{MemoShelf, SatTable};
 use super::{fill_rows, raw_shape, NoiseTarget, RenderOptions};
 use crate::imaging::scene::{Scene, Surface};
 use crate::imaging::texture::Texture;
@@ -46,6 +46,47 @@ struct LensView {
     alpha: f64,
     kappa: f64,
     e: Pt,
+    /// Per axis, e's range over the pixel, [e − μ/2, e + μ/2], from the pixel's edges
+    /// ([`PixelAt`]): a pixel's edge is its neighbour's bit for bit, so the boxes of
+    /// neighbouring pixels share their corners exactly ([`interior`]'s memo).
+    span: [[f64; 2]; 2],
+}
+
+/// A pixel on the sensor: its centre s and its square's low and high edges, each edge
+/// computed from its own index (so two neighbours' shared edge is one value, bit for bit).
+#[derive(Clone, Copy)]
+struct PixelAt {
+    s: Pt,
+    lo: Pt,
+    hi: Pt,
+}
+
+impl PixelAt {
+    /// Pixel (a, b) of a grid of mx × my pixels of pitch μ centred on the axis.
+    fn on_grid(mu: f64, (a, b): (u32, u32), (mx, my): (u32, u32)) -> PixelAt {
+        let edge = |i: u32, n: u32| mu * (i as f64 - n as f64 / 2.0);
+        let centre = |i: u32, n: u32| mu * (i as f64 - (n as f64 - 1.0) / 2.0);
+        PixelAt {
+            s: [centre(a, mx), centre(b, my)],
+            lo: [edge(a, mx), edge(b, my)],
+            hi: [edge(a + 1, mx), edge(b + 1, my)],
+        }
+    }
+}
+
+/// The fewest raw rows a chunk of the general route gives each thread.
+const ROWS_PER_THREAD: usize = 16;
+
+/// A worker's buffers, holding its pool thread's corner memo ([`MemoShelf`]) while it lives.
+struct Held<'a> {
+    wk: Work,
+    shelf: &'a MemoShelf,
+}
+
+impl Drop for Held<'_> {
+    fn drop(&mut self) {
+        self.shelf.put(std::mem::take(&mut self.wk.corners));
+    }
 }
 
 /// The general route over one channel's raw, parallel over rows.
@@ -82,13 +123,24 @@ pub(super) fn general_channel(
         }),
         sat: table.as_ref(),
     };
-    let step = crate::infra::parallel::chunk_items(n_threads, per_row);
+    // Rows differ in cost (the lenses' edges take the quadrature, their interiors the
+    // closed form): a chunk of a few rows a thread leaves a thread idle at its end, so a
+    // chunk holds at least ROWS_PER_THREAD rows a thread (a pixel checks for Ctrl-C itself).
+    let threads = crate::infra::parallel::threads(n_threads);
+    let step =
+        crate::infra::parallel::chunk_items(n_threads, per_row).max(ROWS_PER_THREAD * threads);
+    let shelf = MemoShelf::new(threads);
     fill_rows(
         raw,
         (chan.rows.clone(), cols),
         (n_threads, step),
-        || Work::new(scene.surface.fronto().is_some()),
-        |wk, b, row| {
+        || {
+            let mut wk = Work::new(scene.surface.fronto().is_some());
+            wk.corners = shelf.take();
+            Held { wk, shelf: &shelf }
+        },
+        |held, b, row| {
+            let wk = &mut held.wk;
             checkpoint()?;
             let b = b as u32;
             for (a, out) in row.iter_mut().enumerate() {
@@ -181,10 +233,8 @@ pub(crate) fn pixel_value(px: &Pixels, a: u32, b: u32, wk: &mut Work) -> f64 {
         Layout::Sensor { mx, my } => {
             let reach = chan.reach();
             let mu = ch.mu;
-            let s = [
-                mu * (a as f64 - (mx as f64 - 1.0) / 2.0),
-                mu * (b as f64 - (my as f64 - 1.0) / 2.0),
-            ];
+            let at = PixelAt::on_grid(mu, (a, b), (mx, my));
+            let s = at.s;
             let (ks, js) = chan.lens_window(s, reach);
             let mut v = 0.0;
             for k in ks {
@@ -196,7 +246,7 @@ pub(crate) fn pixel_value(px: &Pixels, a: u32, b: u32, wk: &mut Work) -> f64 {
                     {
                         continue;
                     }
-                    v += lens_contribution(px, c, ch.lens_type(j, k), s, wk);
+                    v += lens_contribution(px, c, ch.lens_type(j, k), at, wk);
                 }
             }
             chan.norm * v
@@ -212,16 +262,34 @@ fn own_lens_value(px: &Pixels, a: u32, b: u32, wk: &mut Work) -> f64 {
     let p = px.design.pixel(ch, a, b);
     let c = ch.lens_center(p.j, p.k);
     // The pixel's sensor point: its lens image's centre plus its offset θ (both layouts).
-    let s = [chan.m * c[0] + p.theta[0], chan.m * c[1] + p.theta[1]];
-    chan.norm * lens_contribution(px, c, p.t, s, wk)
+    let at = match ch.layout {
+        Layout::Sensor { mx, my } => PixelAt::on_grid(ch.mu, (a, b), (mx, my)),
+        Layout::Ideal { q } => {
+            // θ on the lens's q × q grid, shifted to the lens image's centre.
+            let img = [chan.m * c[0], chan.m * c[1]];
+            let on = PixelAt::on_grid(ch.mu, (a % q, b % q), (q, q));
+            let at = |t: Pt| [img[0] + t[0], img[1] + t[1]];
+            PixelAt {
+                s: at(on.s),
+                lo: at(on.lo),
+                hi: at(on.hi),
+            }
+        }
+    };
+    chan.norm * lens_contribution(px, c, p.t, at, wk)
 }
 
 /// The contribution of one lens (centre c, type t) to the pixel at sensor point s_pix
 /// (before the channel's norm).
-fn lens_contribution(px: &Pixels, c: Pt, t: usize, s_pix: Pt, wk: &mut Work) -> f64 {
+fn lens_contribution(px: &Pixels, c: Pt, t: usize, at: PixelAt, wk: &mut Work) -> f64 {
     let chan = px.chan;
     let (alpha, kappa) = chan.types[t];
-    let e = [chan.m * c[0] - s_pix[0], chan.m * c[1] - s_pix[1]];
+    let img = [chan.m * c[0], chan.m * c[1]];
+    let e = [img[0] - at.s[0], img[1] - at.s[1]];
+    let span = [
+        [img[0] - at.hi[0], img[0] - at.lo[0]],
+        [img[1] - at.hi[1], img[1] - at.lo[1]],
+    ];
     if let Some(rec) = wk.rec.as_deref_mut() {
         // Record mode on a plane, or on a depth map every ray meets at most once: the
         // footprint density over the grid's cells.
@@ -235,7 +303,13 @@ fn lens_contribution(px: &Pixels, c: Pt, t: usize, s_pix: Pt, wk: &mut Work) -> 
             return 0.0;
         }
     }
-    let lens = LensView { c, alpha, kappa, e };
+    let lens = LensView {
+        c,
+        alpha,
+        kappa,
+        e,
+        span,
+    };
     if chan.uses_outer_w(alpha) {
         outer_w(px, lens, wk)
     } else {
@@ -275,8 +349,8 @@ struct Cuts {
 
 /// Outer-w rule: ∫ over w of (area of the x-polygon × mean T over its scene image).
 fn outer_w(px: &Pixels, lens: LensView, wk: &mut Work) -> f64 {
-    let (chan, scene, mu) = (px.chan, px.scene, px.chan.ch.mu);
-    let LensView { c, alpha, e, .. } = lens;
+    let (chan, scene) = (px.chan, px.scene);
+    let LensView { c, alpha, .. } = lens;
     let lv = 1.0 / chan.vl;
     let aa = alpha.abs();
     if let Some(r) = wk.rec.as_deref_mut() {
@@ -284,12 +358,11 @@ fn outer_w(px: &Pixels, lens: LensView, wk: &mut Work) -> f64 {
         r.jac = 1.0;
     }
     // w-range per axis.
-    let range = |e: f64, h: f64| -> (f64, f64) {
-        (lv * (e - aa * h - mu / 2.0), lv * (e + aa * h + mu / 2.0))
-    };
+    let range =
+        |e: [f64; 2], h: f64| -> (f64, f64) { (lv * (e[0] - aa * h), lv * (e[1] + aa * h)) };
     let r = chan.r_ap;
-    let (x0, x1) = range(e[0], chan.hx);
-    let (y0, y1) = range(e[1], chan.hy);
+    let (x0, x1) = range(lens.span[0], chan.hx);
+    let (y0, y1) = range(lens.span[1], chan.hy);
     let (x0, x1, y0, y1) = (x0.max(-r), x1.min(r), y0.max(-r), y1.min(r));
     if !(x1 > x0 && y1 > y0) {
         return 0.0;
@@ -301,7 +374,9 @@ fn outer_w(px: &Pixels, lens: LensView, wk: &mut Work) -> f64 {
             || [x0, x1]
                 .iter()
                 .all(|&a| [y0, y1].iter().all(|&b| a * a + b * b <= r * r));
-        if let Some(v) = in_disc.then(|| interior::outer_w_box(cl, bx, wk)).flatten() {
+        // A box the aperture's circle cuts: its part inside the disc, the arcs by a 1-D rule.
+        let disc = (!in_disc).then_some((r, px.tol));
+        if let Some(v) = interior::outer_w_box(cl, bx, disc, wk) {
             return v;
         }
     }
@@ -332,7 +407,7 @@ fn outer_w(px: &Pixels, lens: LensView, wk: &mut Work) -> f64 {
         let closed = |b: QBox, wk: &mut Work| {
             closed_l
                 .as_ref()
-                .and_then(|l| interior::outer_w_box(l, b, wk))
+                .and_then(|l| interior::outer_w_box(l, b, None, wk))
         };
         over_boxes(&mut f, (&rough, &closed), (&cx, &cy), px.tol, bilinear, wk)
     } else {
@@ -448,8 +523,12 @@ fn outer_w_disc(
             (a / r).clamp(-1.0, 1.0).asin(),
             (b / r).clamp(-1.0, 1.0).asin(),
         );
-        let mid = 0.5 * (a + b);
-        let q = (r * r - mid * mid).max(0.0).sqrt();
+        // Whether the circle cuts the strip's y-range anywhere in it: at its end farther from
+        // the axis (its lowest height). The middle's height missed a cap at the circle's top
+        // or bottom whose strip is centred on the axis: there q = r exactly, the box's edge
+        // clipped to r, and the strip was taken as a full rectangle (1.5 × the cap).
+        let far = a.abs().max(b.abs());
+        let q = (r * r - far * far).max(0.0).sqrt();
         let clipped = -q > y0 || q < y1;
         if !clipped {
             let mut f = |p: f64, wy: f64, wk: &mut Work| {
@@ -464,7 +543,7 @@ fn outer_w_disc(
             };
             let closed = |b: QBox, wk: &mut Work| {
                 let w = QBox::new(r * b.x0.sin(), r * b.x1.sin(), b.y0, b.y1);
-                closed_l.and_then(|l| interior::outer_w_box(l, w, wk))
+                closed_l.and_then(|l| interior::outer_w_box(l, w, None, wk))
             };
             sum += over_boxes(&mut f, (&rough_p, &closed), (&[pa, pb], cy), t, false, wk);
         } else {
@@ -565,8 +644,8 @@ fn node_w(px: &Pixels, lens: LensView, w: Pt, wk: &mut Work) -> f64 {
 
 /// Outer-s rule: ∫ over the sensor point s in the pixel (and in the lens's reach).
 fn outer_s(px: &Pixels, lens: LensView, wk: &mut Work) -> f64 {
-    let (chan, scene, tol, mu) = (px.chan, px.scene, px.tol, px.chan.ch.mu);
-    let LensView { c, alpha, e, .. } = lens;
+    let (chan, scene, tol) = (px.chan, px.scene, px.tol);
+    let LensView { c, alpha, .. } = lens;
     // Offsets σ = s − img (img = (1 + v/L) c): the pixel is σ ∈ −e ± μ/2; the lens's
     // light reaches |σ| ≤ |α| h + (v/L) r_ap per axis.
     let aa = alpha.abs();
@@ -576,14 +655,9 @@ fn outer_s(px: &Pixels, lens: LensView, wk: &mut Work) -> f64 {
     }
     let rho = chan.vl * chan.r_ap; // (v/L) r_ap; the preimage radius is rho / |α|
     let reach = [aa * chan.hx + rho, aa * chan.hy + rho];
-    let (x0, x1) = (
-        (-e[0] - mu / 2.0).max(-reach[0]),
-        (-e[0] + mu / 2.0).min(reach[0]),
-    );
-    let (y0, y1) = (
-        (-e[1] - mu / 2.0).max(-reach[1]),
-        (-e[1] + mu / 2.0).min(reach[1]),
-    );
+    let span = lens.span;
+    let (x0, x1) = ((-span[0][1]).max(-reach[0]), (-span[0][0]).min(reach[0]));
+    let (y0, y1) = ((-span[1][1]).max(-reach[1]), (-span[1][0]).min(reach[1]));
     if !(x1 > x0 && y1 > y0) {
         return 0.0;
     }
