@@ -98,15 +98,18 @@ def worst(design: splitlf.Design, scene: splitlf.Scene, tol: float) -> float:
 def test_closed_form_at_a_tight_tolerance() -> None:
     """Rect cells behind a square aperture (the quadrature exact between its cuts, at any
     tol): a 16 x 16 image and a constant agree to 1e-12 of white at tol 1e-10 (measured
-    7e-14). The Illum (hex cells, a disc): a constant to 1e-10 at tol 1e-7 (measured
-    3e-12); an image to 1e-6 at tol 1e-8 (measured 3.2e-7; 2.1e-6 at tol 1e-6 and 1e-7,
+    7e-14). The Illum (hex cells, a disc): a constant to 1e-9 at tol 1e-7 (measured
+    1.05e-10 since the lens images' rims, the boxes the aperture's circle cuts, take the
+    closed form too: exact for a constant, where the quadrature's rims carry its own
+    residual; 3e-12 when both took the rims by the quadrature); an image to 1e-6 at tol
+    1e-8 (measured 3.2e-7; 2.1e-6 at tol 1e-6 and 1e-7,
     where the quadrature, not the closed form, misses its target: the closed form's value
     stays put while the quadrature's moves toward it as tol falls)."""
     d = DESIGNS["rect_sensor"]()
     for sc in (photo(d, 16, 3), splitlf.Scene(splitlf.Constant(0.7), Z)):
         assert worst(d, sc, 1e-10) <= 1e-12
     d = DESIGNS["illum"]()
-    assert worst(d, splitlf.Scene(splitlf.Constant(0.7), Z), 1e-7) <= 1e-10
+    assert worst(d, splitlf.Scene(splitlf.Constant(0.7), Z), 1e-7) <= 1e-9
     assert worst(d, photo(d, 16, 3), 1e-8) <= 1e-6
 
 
