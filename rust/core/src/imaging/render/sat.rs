@@ -99,22 +99,28 @@ impl SatTable {
         }
     }
 
+    /// The node rows below and above walk row r (as offsets into the tables) and y's share
+    /// between them: beyond the array in Y, S and S1 are their values on its edge.
+    fn rows_at(&self, r: i64, y: f64) -> (usize, usize, f64) {
+        let (r, ty) = if r < 0 {
+            (0, 0.0)
+        } else if r >= self.rows as i64 {
+            (self.rows - 1, 1.0)
+        } else {
+            (r as usize, (y - r as f64).clamp(0.0, 1.0))
+        };
+        let w = self.cols + 1;
+        (r * w, (r + 1) * w, ty)
+    }
+
     /// S1 at (x, y) in grid units (x = (X − X0)/hx), in cell (c, r) of the walk (−1 and
     /// cols / rows beyond the array), whose cell it is up to rounding.
     fn s1(&self, c: i64, r: i64, x: f64, y: f64) -> f64 {
-        let (cols, rows, w) = (self.cols as i64, self.rows as i64, self.cols + 1);
+        let cols = self.cols as i64;
         if c < 0 {
             return 0.0;
         }
-        // Beyond the array in Y, S and S1 are their values on its edge.
-        let (r, ty) = if r < 0 {
-            (0, 0.0)
-        } else if r >= rows {
-            (rows - 1, 1.0)
-        } else {
-            (r, (y - r as f64).clamp(0.0, 1.0))
-        };
-        let (j0, j1) = (r as usize * w, (r as usize + 1) * w);
+        let (j0, j1, ty) = self.rows_at(r, y);
         if c >= cols {
             let i = self.cols;
             let s = (1.0 - ty) * self.n[j0 + i] + ty * self.n[j1 + i];
@@ -134,18 +140,11 @@ impl SatTable {
     /// bilinear in the cell, constant beyond the array in Y and beyond its right edge in X,
     /// zero to its left and below.
     fn s(&self, c: i64, r: i64, x: f64, y: f64) -> f64 {
-        let (cols, rows, w) = (self.cols as i64, self.rows as i64, self.cols + 1);
+        let cols = self.cols as i64;
         if c < 0 {
             return 0.0;
         }
-        let (r, ty) = if r < 0 {
-            (0, 0.0)
-        } else if r >= rows {
-            (rows - 1, 1.0)
-        } else {
-            (r, (y - r as f64).clamp(0.0, 1.0))
-        };
-        let (j0, j1) = (r as usize * w, (r as usize + 1) * w);
+        let (j0, j1, ty) = self.rows_at(r, y);
         let (i, tx) = if c >= cols {
             (self.cols - 1, 1.0)
         } else {
