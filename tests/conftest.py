@@ -53,6 +53,7 @@ SLOW = {
     'test_merits.py::test_gcv_lambda_is_the_expected_scores_minimum': 55,
     'test_merits.py::test_gcv_parabolic_step_is_the_vertex_through_the_decades': 136,
     'test_evaluate.py::test_sweep_image_merit_is_image_merits': 35,
+    'test_evaluate.py::test_compare_table_lists_the_image_merits': 75,
     'test_merits.py::test_image_merits_rows_and_checks': 35,
     'test_merits.py::test_rows_of_the_same_pixels_are_one_computation': 55,
     'test_colour.py::test_a_colour_is_reconstructed_from_its_own_pixels_only[sensor]': 15,

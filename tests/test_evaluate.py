@@ -146,3 +146,44 @@ def test_sweep_image_merit_is_image_merits():
     want = float(np.min(direct.rows["channel 1"]["psnr"]))
     assert float(ds["psnr_worst_channel1"].sel(D=d.D)) == want
     assert ds.attrs["image_photons"] == 2000.0
+
+
+def test_compare_table_image_columns_are_checked():
+    """`compare.evaluate`'s image columns: a sequence of names, each an image merit of some
+    design (one that no design has is an error naming the allowed ones), before any work."""
+    pytest.importorskip("scipy")
+    pytest.importorskip("pandas")
+    from splitlf.compare import evaluate as compare_designs
+
+    d = _seed_cut()
+    plain = d.replace(channels=d.channels[:1])
+    with pytest.raises(splitlf.InvalidParameter, match="image.*psnr_worst_channel2"):
+        compare_designs({"plain": plain, "split": d}, Z, image=["psnr_worst_channel3"])
+    with pytest.raises(TypeError, match="image"):
+        compare_designs({"split": d}, Z, image="psnr_worst_union")
+    with pytest.raises(TypeError, match="image"):
+        compare_designs({"split": d}, Z, image=[3])
+    with pytest.raises(splitlf.InvalidParameter, match="photons"):
+        compare_designs({"split": d}, Z, image=["psnr_worst_union"], photons=-1.0)
+
+
+def test_compare_table_lists_the_image_merits():
+    """The comparison table's image columns are `splitlf.evaluate`'s merits of each design,
+    bit for bit; a design without the row (a one-channel design's channel 2) gets NaN, and
+    a one-channel design made of the split sensor's half 1 has half 1's merits."""
+    pytest.importorskip("scipy")
+    pytest.importorskip("pandas")
+    from splitlf.compare import evaluate as compare_designs
+
+    d = _seed_cut()
+    plain = d.replace(channels=d.channels[:1])
+    z = np.array([400.0, 450.0])
+    names = ["psnr_worst_channel1", "mtf50_median_channel2"]
+    table, _ = compare_designs({"split": d, "plain": plain}, z, window=2.0, image=names,
+                               photons=2000.0)
+    m = evaluate(d, z, image=names, photons=2000.0)
+    for n in names:
+        assert table.loc["split", n] == m[n], n
+    assert table.loc["plain", "psnr_worst_channel1"] == m["psnr_worst_channel1"]
+    assert np.isnan(table.loc["plain", "mtf50_median_channel2"])
+    assert 5.0 < m["psnr_worst_channel1"] < 60.0 and 0.0 < m["mtf50_median_channel2"] < 1.0

@@ -133,7 +133,8 @@ def _compare_frame(table: Any, wide: bool) -> Any:
         tab["feasible"] = [_feasible_text(f) for f in tab["feasible"]]
     if wide:
         return tab
-    keep = [c for c in [*COMPARE_COLUMNS, *(c for c in tab.columns if c.startswith("mtf50_"))]
+    keep = [c for c in [*COMPARE_COLUMNS,
+                        *(c for c in tab.columns if c.startswith(("mtf50_", "psnr_")))]
             if c in tab.columns]
     short = tab[keep].rename(columns=COMPARE_COLUMNS)
     while len(short.columns) > 1 and max(

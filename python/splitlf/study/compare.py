@@ -35,7 +35,7 @@ from ..errors import InvalidParameter
 from ..model.design import Channel, Design
 from ..model.optics import curves, sharp_fractions
 from ..sampling.samples2d import DEFAULT_TOL, DEFAULT_WINDOW, coverage
-from .merit import SIMULATE_OPTIONS, Merits, mtf50_at
+from .merit import IMAGE_PHOTONS, SIMULATE_OPTIONS, Merits, image_merit_names, mtf50_at
 from .merit import evaluate as _merits
 from .sweep import with_changes
 
@@ -380,6 +380,7 @@ def evaluate(designs: Mapping[str, Design], depths: Any = None, *,
              conventional: Sequence[str] = (), window: float = DEFAULT_WINDOW,
              threshold_px: float = 0.5, tol: float = DEFAULT_TOL,
              simulate_depths: Sequence[float] = (), seed: int = 0,
+             image: Sequence[str] = (), photons: float = IMAGE_PHOTONS,
              n_threads: int | None = None) -> tuple[Any, Any]:
     """The figures of each design over ``depths`` (default 60 log-spaced over
     150-10 000 mm), all from the core.
@@ -394,6 +395,12 @@ def evaluate(designs: Mapping[str, Design], depths: Any = None, *,
     - ``simulate_depths``: depths [mm] at which :func:`splitlf.simulate` (noise-free,
       random albedo, ``seed``) gives the MTF50 of the union (of the conventional camera
       for a conventional design); NaN for a design with a hex channel (:func:`mtf50`)
+    - ``image``: image merits to add as columns (names of
+      :func:`splitlf.merits.image_merit_names`, e.g. ``psnr_worst_union``), each
+      :func:`splitlf.evaluate`'s at ``photons`` photo-electrons for white (docs/merits.md);
+      NaN in the row of a design that has no such row (``..._channel2`` of a one-channel
+      design). A name no design has is an error. Minutes per design and merit row
+      (docs/merits.md, "Time")
 
     Returns ``(table, curves)``, two ``pandas.DataFrame``:
 
@@ -416,7 +423,7 @@ def evaluate(designs: Mapping[str, Design], depths: Any = None, *,
       pixels along x / L_1 — averaged over the channels' lit pixels; a hex channel's from
       its rect twin, ``light_from_rect_twin``), ``light_relative`` (over the conventional
       camera's, when one is among the designs), ``out_of_focus_mm`` (text) and
-      ``mtf50_<z>mm`` per simulated depth [cycles/mm]
+      ``mtf50_<z>mm`` per simulated depth [cycles/mm], then one column per ``image`` name
     - ``curves``, one row per (design, depth): ``architecture``, ``z_mm``,
       ``covering_radius`` [delta(z)], ``covering_radius_mm``, ``distinct_2d``, ``blur_px``
       (the union's light field blur, or the conventional blur) and ``sharp``
@@ -434,6 +441,8 @@ def evaluate(designs: Mapping[str, Design], depths: Any = None, *,
     window = _positive(window, "window")
     threshold_px = _positive(threshold_px, "threshold_px")
     sim_z = [_validate.real(s, "simulate_depths") for s in simulate_depths]
+    image_names = _image_columns(designs, image)
+    photons = _validate.positive(photons, "photons")
     lf = [n for n in designs if n not in conv]
     ref_pitch = designs[lf[0]].channels[0].d if lf else None
     rows, frames = [], []
@@ -442,10 +451,12 @@ def evaluate(designs: Mapping[str, Design], depths: Any = None, *,
         w = window
         if is_conv and ref_pitch is not None:
             w = window * ref_pitch / d.channels[0].d
+        own = [n for n in image_names if n in image_merit_names(d)]
         m = _merits(d, z, threshold_px=threshold_px, tol=tol, merits_2d=True, window=w,
-                    mtf50=sim_z, mtf50_row=_mtf50_row(is_conv), seed=seed,
-                    n_threads=n_threads)
-        rows.append(_row(name, d, m, is_conv, z, threshold_px, tol, n_threads))
+                    mtf50=sim_z, mtf50_row=_mtf50_row(is_conv), seed=seed, image=own,
+                    photons=photons, n_threads=n_threads)
+        row = _row(name, d, m, is_conv, z, threshold_px, tol, n_threads)
+        rows.append(row | {n: float(m[n]) if n in own else math.nan for n in image_names})
         # the per-depth curves (figures, depth bands): the same core analyses per depth
         cov = coverage(d, z, tol=tol, window=w, n_threads=n_threads)
         crv = curves(d, z)
@@ -482,8 +493,23 @@ def _row(name: str, d: Design, m: Merits, is_conv: bool, z: np.ndarray,
         "light_from_rect_twin": twin,
         "out_of_focus_mm": " ".join(f"{m[f'out_of_focus_depth_channel{i}']:.1f}"
                                     for i in range(1, len(d.channels) + 1)),
-        **{k: float(v) for k, v in m.items() if k.startswith("mtf50_")},
+        **{k: float(v) for k, v in m.items() if k.startswith("mtf50_") and k.endswith("mm")},
     }
+
+
+def _image_columns(designs: Mapping[str, Design], image: Any) -> list[str]:
+    """The image merits of :func:`evaluate`'s ``image``, checked: a sequence of names, each
+    an image merit of at least one of ``designs``."""
+    if isinstance(image, str | bytes) or not isinstance(image, Sequence):
+        raise TypeError(f"image must be a sequence of image merit names, got "
+                        f"{type(image).__name__}")
+    allowed = list(dict.fromkeys(n for d in designs.values() for n in image_merit_names(d)))
+    for name in image:
+        if not isinstance(name, str):
+            raise TypeError(f"image must hold merit names (str), got {type(name).__name__}")
+        if name not in allowed:
+            raise InvalidParameter.of("image", name, f"image merit names: {', '.join(allowed)}")
+    return list(dict.fromkeys(image))
 
 
 # -- the comparison ------------------------------------------------------------------------
@@ -529,7 +555,7 @@ def compare(preset: str, objective: str | Callable[[dict[str, float]], float],
             de_options: Mapping[str, Any] | None = None,
             simulate_depths: Sequence[float] = (),
             threshold_px: float = 0.5, tol: float = DEFAULT_TOL,
-            n_threads: int | None = None) -> Comparison:
+            photons: float = IMAGE_PHOTONS, n_threads: int | None = None) -> Comparison:
     """Optimise every architecture of :func:`architectures` on ``preset``'s sensor and
     main lens for one objective, then :func:`evaluate` the optimised designs.
 
@@ -548,11 +574,15 @@ def compare(preset: str, objective: str | Callable[[dict[str, float]], float],
       :func:`splitlf.optimise` (deterministic for a seed, on any executor; ``merits_2d``
       True for a callable objective that reads the 2-D merits)
     - ``simulate_depths``: depths of the MTF50 columns (:func:`evaluate`)
+    - ``photons``: photo-electrons for white of the image merits (``psnr_worst_union``,
+      ...: :func:`splitlf.merits.image_merit_names`, docs/merits.md) that the objective
+      or the constraints name; the table gets a column for each of them
 
     The conventional camera has no light field merits: its one free field, the plane of
     its sensor, is set to maximise its sharp fraction (the core's conventional depth of
-    field); its covering radius is that of its pixel grid, the same at every focus, so a
-    covering-radius objective or constraint cannot move it.
+    field), whatever the objective (an image merit included: its image merits take
+    minutes a depth, docs/merits.md); its covering radius is that of its pixel grid, the
+    same at every focus, so a covering-radius objective or constraint cannot move it.
 
     Returns a :class:`Comparison`. Raises what :func:`splitlf.optimise` raises for a bad
     objective, constraint or budget (before any search: the first architecture checks
@@ -577,6 +607,10 @@ def compare(preset: str, objective: str | Callable[[dict[str, float]], float],
         extra["window"] = optimise_window
     if merits_2d is not None:
         extra["merits_2d"] = merits_2d
+    named = ([objective] if isinstance(objective, str) else []) + list(constraints or {})
+    image_allowed = {n for a in archs.values() for n in image_merit_names(a.base)}
+    image = [n for n in dict.fromkeys(named) if isinstance(n, str) and n in image_allowed]
+    photons = _validate.positive(photons, "photons")
     t0 = time.perf_counter()
     designs: dict[str, Design] = {}
     results: dict[str, Any] = {}
@@ -591,14 +625,16 @@ def compare(preset: str, objective: str | Callable[[dict[str, float]], float],
                        constraints, depths=z_opt,
                        seed=seed, executor=executor, progress=progress, maxiter=maxiter,
                        popsize=popsize, polish=polish, threshold_px=threshold_px, tol=tol,
-                       n_threads=n_threads, de_options=de_options, **extra)
+                       n_threads=n_threads, de_options=de_options, photons=photons,
+                       **extra)
         designs[n], results[n] = res.design, res
         status[n] = (res.feasible, res.objective)
     t1 = time.perf_counter()
     table, crv = evaluate(designs, z_eval, conventional=[n for n in names
                                                           if archs[n].conventional],
                           window=window, threshold_px=threshold_px, tol=tol,
-                          simulate_depths=simulate_depths, seed=seed, n_threads=n_threads)
+                          simulate_depths=simulate_depths, seed=seed, image=image,
+                          photons=photons, n_threads=n_threads)
     t2 = time.perf_counter()
     # feasible: pandas' nullable boolean, <NA> (not applicable) for the conventional camera
     table.insert(0, "feasible", pd.Series({n: status[n][0] for n in names},
@@ -614,6 +650,7 @@ def compare(preset: str, objective: str | Callable[[dict[str, float]], float],
         "popsize": popsize, "polish": polish, "seed": seed,
         "de_options": dict(de_options or {}), "threshold_px": threshold_px,
         "tol": tol, "simulate_depths": [float(s) for s in simulate_depths],
+        "photons": photons, "image": image,
     }
     return Comparison(preset=preset, architectures={n: archs[n] for n in names},
                       designs=designs, optimisations=results, table=table, curves=crv,
