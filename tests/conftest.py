@@ -55,6 +55,8 @@ SLOW = {
     'test_evaluate.py::test_sweep_image_merit_is_image_merits': 35,
     'test_evaluate.py::test_compare_table_lists_the_image_merits': 75,
     'test_merits.py::test_image_merits_rows_and_checks': 35,
+    'test_explore.py::test_image_view_is_the_api_and_the_button_plots_it': 27,
+    'test_explore.py::test_image_quality_button_in_the_page': 30,
     'test_merits.py::test_rows_of_the_same_pixels_are_one_computation': 55,
     'test_colour.py::test_a_colour_is_reconstructed_from_its_own_pixels_only[sensor]': 15,
     'test_colour.py::test_colour_reconstruction_against_the_full_grey_raw': 25,

@@ -646,3 +646,99 @@ def test_serve_checks_its_arguments():
         serve(None, reference=3, threaded=True)
     with pytest.raises(ValueError):
         serve(None, address="not an address", threaded=True)
+
+
+def _half_cut() -> splitlf.Design:
+    """The seed's half 1 alone, cut to 12 x 8 lenses: image merits in about a second a
+    depth."""
+    seed = splitlf.Design.preset("seed")
+    return seed.replace(channels=(seed.channels[0].replace(Kx=12, Ky=8),))
+
+
+def _wait_idle(e, timeout: float = 300.0) -> None:
+    deadline = time.monotonic() + timeout
+    while e._worker_busy:
+        assert time.monotonic() < deadline, "the explorer's worker did not finish"
+        time.sleep(0.05)
+
+
+def test_image_photons_are_checked_before_any_work():
+    """A bad photon count is shown beside its control and starts nothing; a new design
+    empties the image figures and says how to fill them again."""
+    from splitlf.explorer.app import IMAGE_IDLE, IMAGE_PHOTONS, Explorer
+
+    e = Explorer(_half_cut())
+    _wait_idle(e)
+    for text in ("-3", "abc", "inf", "nan"):
+        e.image_photons.value = text
+        e.request_image()
+        assert e._errors[IMAGE_PHOTONS].visible, text
+        assert IMAGE_PHOTONS in e._errors[IMAGE_PHOTONS].text, text
+        assert "image" not in e._pending and not e._worker_busy
+    assert e.image_status.text == IMAGE_IDLE
+    assert e.psnr_src.data["label"] == [] and e.mtf_src.data["label"] == []
+
+
+def test_image_view_is_the_api_and_the_button_plots_it():
+    """The image view is splitlf.image_merits at its depths (5 log-spaced over 3.75 F to
+    25 F and the out-of-focus plane) bit for bit; the button computes it on the worker and
+    plots it (lines and points) for the design shown; a new design empties it again."""
+    from splitlf.explorer import model
+    from splitlf.explorer.app import IMAGE_IDLE, Explorer
+
+    d = _half_cut()
+    z = model.image_depths(d)
+    np.testing.assert_allclose(z, np.sort([*np.geomspace(300.0, 2000.0, 5),
+                                           d.out_of_focus_depth(1)]), rtol=1e-12)
+    want = splitlf.image_merits(d, z, 1500.0, n_threads=model.THREADS)
+    e = Explorer(d)
+    _wait_idle(e)
+    e.image_photons.value = "1500"
+    e.request_image()
+    assert "Computing" in e.image_status.text
+    _wait_idle(e)
+    assert e.psnr_src.data["label"] == ["channel 1", "union"]
+    for k, row in enumerate(["channel 1", "union"]):
+        np.testing.assert_array_equal(e.psnr_src.data["xs"][k], z)
+        np.testing.assert_array_equal(e.psnr_src.data["ys"][k], want.rows[row]["psnr"])
+        got = np.asarray(e.mtf_src.data["ys"][k], dtype=float)
+        np.testing.assert_array_equal(np.isnan(got), np.isnan(want.rows[row]["mtf50"]))
+        np.testing.assert_array_equal(got[~np.isnan(got)],
+                                      want.rows[row]["mtf50"][~np.isnan(got)])
+    assert "1500 photons" in e.image_status.text
+    np.testing.assert_array_equal(e.psnr_pts_src.data["y"], np.ravel(
+        [want.rows[r]["psnr"] for r in ("channel 1", "union")]))
+    e.set_design(d.replace(D=d.D * 0.9))
+    _wait_idle(e)
+    assert e.psnr_src.data["label"] == [] and e.image_status.text == IMAGE_IDLE
+
+
+@needs_browser
+def test_image_quality_button_in_the_page(page, tmp_path):
+    """In chromium: load a design, set the photons, press "predict image quality"; the
+    page's PSNR and MTF50 lines are splitlf.image_merits' for that design."""
+    from splitlf.explorer import model
+
+    page.open()
+    d = _half_cut()
+    path = tmp_path / "half.toml"
+    d.to_toml(path)
+    before = page.status()
+    page.find('input[type="file"]').send_keys(str(path))
+    page.after_change(before)
+    page.type("image_photons", "1500")
+    page.js("deep(document, 'button').find(b => b.textContent.includes('predict image'))"
+            ".click();")
+    page.wait(lambda: page.source("image_psnr")["label"], 300)
+    z, psnr = _plotted_lines(page, "image_psnr")
+    _, mtf = _plotted_lines(page, "image_mtf50")
+    want = splitlf.image_merits(d, model.image_depths(d), 1500.0, n_threads=model.THREADS)
+    np.testing.assert_allclose(z, model.image_depths(d), rtol=1e-12)
+    rows = ["channel 1", "union"]
+    assert page.source("image_psnr")["label"] == rows
+    np.testing.assert_allclose(psnr, [want.rows[r]["psnr"] for r in rows], rtol=1e-12)
+    np.testing.assert_allclose(mtf, [want.rows[r]["mtf50"] for r in rows], rtol=1e-12)
+    page.js("deep(document, 'button').find(b => b.textContent.includes('predict image'))"
+            ".scrollIntoView();")
+    time.sleep(0.5)
+    page.screenshot("explore_image_quality.png")

@@ -63,6 +63,10 @@ DISTINCT_TITLE = "Distinct samples: along x (lines), 2-D in the central field (d
 GAP_TITLE = "Max gap along x (lines) and 2-D covering radius (dots) [δ(z)]"
 #: The sample map's depth control's key.
 MAP_Z = "map_z"
+#: The image view's photon count control's key.
+IMAGE_PHOTONS = "image_photons"
+IMAGE_IDLE = ("Predicted image quality of the design shown: press the button (seconds to "
+              "minutes a depth; docs/merits.md)")
 #: Controls per row in the control panel.
 PER_ROW = 4
 CONTROL_WIDTH = 125
@@ -237,6 +241,10 @@ class Explorer:
             self.map_fig, self.sensor_fig, self.rays_fig, width=560)
         views = column(self.blur_fig, self.dof_fig, self.reps_fig,
                        row(self.distinct_fig, self.cover_fig, sizing_mode="stretch_width"),
+                       Div(text="<h3 style='margin:4px 0'>Image quality (on request)</h3>"),
+                       row(self.image_photons, self.image_button),
+                       self._errors[IMAGE_PHOTONS], self.image_status,
+                       row(self.psnr_fig, self.mtf_fig, sizing_mode="stretch_width"),
                        Div(text="<h3 style='margin:4px 0'>Report</h3>"), self.report,
                        sizing_mode="stretch_width")
         self.layout = row(controls, views, sizing_mode="stretch_width")
@@ -262,7 +270,8 @@ class Explorer:
         """(Re)build the controls of ``design``'s fields."""
         texts = model.design_texts(design)
         self._widgets = {k: v for k, v in self._widgets.items() if k == THRESHOLD}
-        self._errors = {k: v for k, v in self._errors.items() if k in (THRESHOLD, MAP_Z)}
+        self._errors = {k: v for k, v in self._errors.items()
+                        if k in (THRESHOLD, MAP_Z, IMAGE_PHOTONS)}
         boxes = [self._text_widget(f, f.name, texts[f.name]) for f in DESIGN_CONTROLS]
         self.design_box.children = [*boxes, self.threshold]
         tabs = []
@@ -281,6 +290,7 @@ class Explorer:
         empty = _lines(np.zeros(1), (), np.zeros((0, 1)))
         nothing = _points(np.zeros(0), (), np.zeros((0, 0)))
         self._build_depth_figures(tools, empty, nothing)
+        self._build_image_figures(tools, empty)
         self._build_report()
         self._build_picked_figures()
         for fig in (self.blur_fig, self.dof_fig, self.reps_fig, self.distinct_fig,
@@ -347,6 +357,43 @@ class Explorer:
         c.scatter("x", "y", color="color", size=6, source=self.cover_src)
         _title(c).text_font_size = "11px"
         self.cover_fig = c
+
+    def _build_image_figures(self, tools: str, empty: dict[str, Any]) -> None:
+        """The predicted image quality against depth (splitlf.image_merits, on request):
+        PSNR and MTF50 per row, with the button and the photon count that start it."""
+        self.psnr_src = ColumnDataSource(dict(empty), name="image_psnr")
+        self.mtf_src = ColumnDataSource(dict(empty), name="image_mtf50")
+        nothing = _points(np.zeros(0), (), np.zeros((0, 0)))
+        self.psnr_pts_src = ColumnDataSource(dict(nothing), name="image_psnr_points")
+        self.mtf_pts_src = ColumnDataSource(dict(nothing), name="image_mtf50_points")
+        p = figure(title="Predicted PSNR of a reconstruction [dB]", x_axis_type="log",
+                   height=250, sizing_mode="stretch_width", tools=tools,
+                   x_axis_label="depth z [mm]", y_axis_label="PSNR [dB]", min_border_left=70)
+        p.multi_line("xs", "ys", color="color", legend_field="label", line_width=2,
+                     source=self.psnr_src)
+        m = figure(title="Predicted MTF50 [share of the sensor's Nyquist]", x_axis_type="log",
+                   height=250, sizing_mode="stretch_width", tools=tools, x_range=p.x_range,
+                   x_axis_label="depth z [mm]", y_axis_label="MTF50 / Nyquist",
+                   min_border_left=50)
+        m.multi_line("xs", "ys", color="color", legend_field="label", line_width=2,
+                     source=self.mtf_src)
+        p.scatter("x", "y", color="color", size=6, source=self.psnr_pts_src)
+        m.scatter("x", "y", color="color", size=6, source=self.mtf_pts_src)
+        for fig in (p, m):
+            fig.legend.location = "top_right"
+            fig.legend.label_text_font_size = "10px"
+            fig.legend.background_fill_alpha = 0.6
+        self.psnr_fig, self.mtf_fig = p, m
+        self.image_button = Button(label="predict image quality", width=170,
+                                   margin=(24, 5, 5, 5))
+        self.image_button.on_click(lambda: self.request_image())
+        self.image_photons = TextInput(title="photons for white", value=f"{model.IMAGE_PHOTONS:g}",
+                                       placeholder=IMAGE_PHOTONS, width=150,
+                                       description="photo-electrons of a white pixel (photon "
+                                       "noise), > 0")
+        self._errors[IMAGE_PHOTONS] = Div(text="", width=260, visible=False)
+        self.image_status = Div(text=IMAGE_IDLE, width=540)
+        self._image_gen = 0  # the design (generation) the image figures show; 0: none
 
     def _build_report(self) -> None:
         # The report as a table of a data source, and the status (which design each view
@@ -546,6 +593,7 @@ class Explorer:
         # closed-form views, then the 1-D samples (the page draws the first while the
         # server computes these), then the heavy views start on the worker.
         self._push(partial(self._apply_blur, blur, ref, report, gen))
+        self._push(self._clear_image)
         self._push(partial(self._gap, design, gen))
         self._push(partial(self._request_samples, design))
 
@@ -684,8 +732,8 @@ class Explorer:
     def _worker(self) -> None:
         while True:
             with self._lock:
-                kind = next((k for k in ("samples", "map", "sensor", "rays") if k in self._pending),
-                            None)
+                kind = next((k for k in ("samples", "map", "sensor", "rays", "image")
+                             if k in self._pending), None)
                 if kind is None:
                     self._worker_busy = False
                     return
@@ -730,6 +778,54 @@ class Explorer:
                  f"ρ = {m['covering_radius'][-1]:.3g} δ" if len(m["rows"]) > 2 else "")
         _title(self.map_fig).text = (f"2-D samples at z = {m['z']:.5g} mm "
                                    f"(δ = {m['delta_mm'] * 1e3:.3g} µm){union}")
+
+    def request_image(self) -> None:
+        """Queue the image-quality view of the design shown (the button), at the photon
+        count of its control (checked first: a bad value is shown beside the control)."""
+        try:
+            photons = model.parse(Field(IMAGE_PHOTONS, "real", "", ""),
+                                  str(self.image_photons.value), IMAGE_PHOTONS)
+            if not (np.isfinite(photons) and photons > 0):
+                raise FieldError(None, f"{IMAGE_PHOTONS}: {photons:g} is not allowed: a "
+                                 "finite number > 0")
+        except FieldError as e:  # shown beside this control (not one of the design's)
+            self._show_errors(IMAGE_PHOTONS, e.message)
+            return
+        self._show_errors(None, "")
+        n = len(model.image_depths(self.design))
+        self._set_div(self.image_status, f"Computing the image merits of the design shown at "
+                      f"{photons:g} photons, {n} depths (seconds to minutes a depth)...")
+        self._request("image", (self.generation, self.design, photons))
+
+    def _compute_image(self, gen: int, design: Design, photons: float) -> Any:
+        return partial(self._apply_image, model.image_view(design, photons), gen)
+
+    def _apply_image(self, data: dict[str, Any], gen: int) -> None:
+        if gen != self.generation:
+            self._set_div(self.image_status, "The design changed while its image merits were "
+                          "computed: press the button again for the design shown.")
+            return
+        rows = tuple(data["rows"])
+        self.psnr_src.data = _lines(data["z"], rows, data["psnr"])
+        self.mtf_src.data = _lines(data["z"], rows, data["mtf50"])
+        self.psnr_pts_src.data = _points(data["z"], rows, data["psnr"])
+        self.mtf_pts_src.data = _points(data["z"], rows, data["mtf50"])
+        self._image_gen = gen
+        self._set_div(self.image_status, f"Image merits of the design shown at "
+                      f"{data['photons']:g} photons for white, {len(data['z'])} depths: "
+                      f"{data['seconds']:.1f} s (splitlf.image_merits, docs/merits.md).")
+
+    def _clear_image(self) -> None:
+        """A new design: the image figures no longer show it, so they are emptied."""
+        if self._image_gen and self._image_gen != self.generation:
+            empty = _lines(np.zeros(1), (), np.zeros((0, 1)))
+            nothing = _points(np.zeros(0), (), np.zeros((0, 0)))
+            self.psnr_src.data = dict(empty)
+            self.mtf_src.data = dict(empty)
+            self.psnr_pts_src.data = dict(nothing)
+            self.mtf_pts_src.data = dict(nothing)
+            self._image_gen = 0
+            self._set_div(self.image_status, IMAGE_IDLE)
 
     def _compute_rays(self, design: Design, channel: int) -> Any:
         return partial(self._apply_rays, channel, model.ray_space_view(design, channel))

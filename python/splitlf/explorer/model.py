@@ -37,6 +37,8 @@ __all__ = [
     "load_toml_bytes",
     "parse",
     "ray_space_view",
+    "image_depths",
+    "image_view",
     "report_rows",
     "samples_depths",
     "samples_view",
@@ -53,6 +55,13 @@ SAMPLES_WINDOW = 2.0
 GAP_DEPTHS = 60
 #: Microlenses drawn in the ray-space view.
 RAY_LENSES = 3
+#: Depths of the image-quality view (:func:`splitlf.image_merits`, seconds to minutes a
+#: depth: computed on request only), log-spaced over [3.75 F, 25 F] (seed: 300 mm - 2 m,
+#: the depth range of docs/compare.md's study) plus the channels' out-of-focus planes
+#: there, and its default photon count.
+IMAGE_DEPTHS = 5
+IMAGE_RANGE_F = (3.75, 25.0)
+IMAGE_PHOTONS = 2000.0
 #: Threads of the core for the explorer's heavy views (2-D coverage, ray space), which run
 #: beside the page: all cores but one, which stays free for the browser drawing the
 #: previous results and the server answering the next change. A pool of its own (the
@@ -221,6 +230,41 @@ def samples_depths(design: Design, n: int = SAMPLES_DEPTHS) -> np.ndarray:
     planes = [design.out_of_focus_depth(i) for i in range(1, len(design.channels) + 1)]
     z = np.concatenate([np.geomspace(lo, hi, n), [p for p in planes if lo < p < hi]])
     return np.unique(z)
+
+
+def image_depths(design: Design, n: int = IMAGE_DEPTHS) -> np.ndarray:
+    """Depths of the image-quality view: n log-spaced over [3.75 F, 25 F] [mm], with every
+    channel's out-of-focus plane inside that range added (where its band is), sorted."""
+    lo, hi = IMAGE_RANGE_F[0] * design.F, IMAGE_RANGE_F[1] * design.F
+    planes = [design.out_of_focus_depth(i) for i in range(1, len(design.channels) + 1)]
+    return np.unique(np.concatenate([np.geomspace(lo, hi, n),
+                                     [p for p in planes if lo < p < hi]]))
+
+
+def image_view(design: Design, photons: float = IMAGE_PHOTONS,
+               n: int = IMAGE_DEPTHS) -> dict[str, Any]:
+    """The predicted image quality against depth, from :func:`splitlf.image_merits` at
+    :func:`image_depths` (n depths) and ``photons`` photo-electrons for white, every row
+    (each channel, each lens type when there are several, the union) with its defaults
+    (the natural ensemble, the prior's weight chosen by GCV; docs/merits.md): ``z``,
+    ``rows``, ``psnr`` and ``psnr_error`` [dB], ``mtf50`` [share of the sensor's Nyquist
+    frequency], each (rows, n); ``photons``; ``seconds`` (the call's wall time).
+
+    The heaviest view (seconds to minutes a depth and row): the app computes it off the
+    UI thread and only when asked."""
+    import time
+
+    from ..inverse.merits import image_merits
+
+    z = image_depths(design, n)
+    t0 = time.perf_counter()
+    r = image_merits(design, z, photons, n_threads=THREADS)
+    rows = tuple(r.rows)
+    return {"z": z, "rows": rows, "photons": float(r.photons),
+            "psnr": np.array([r.rows[k]["psnr"] for k in rows]),
+            "psnr_error": np.array([r.rows[k]["psnr_error"] for k in rows]),
+            "mtf50": np.array([r.rows[k]["mtf50"] for k in rows]),
+            "seconds": time.perf_counter() - t0}
 
 
 def _finite(x: float) -> float:
