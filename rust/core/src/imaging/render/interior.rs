@@ -239,6 +239,32 @@ mod tests {
     use super::super::sat::SatTable;
     use crate::imaging::scene::{Scene, Surface};
     use crate::imaging::texture::{ImageTexture, Texture};
+    use crate::model::design::{Channel, Design};
+
+    /// A fronto-parallel plane at depth `z` under `tex` (background 0.2).
+    fn fronto(tex: Texture, z: f64) -> Scene {
+        Scene::new(tex, Surface::Plane { z0: z, g: [0.0; 2] }, 0.2).unwrap()
+    }
+
+    /// The value of pixel (a, b) of channel `ch` at `tol`, the interior in closed form on
+    /// `sat` (None: the quadrature alone), with `wk`'s memo and counters.
+    fn value(
+        (design, ch, scene): (&Design, &Channel, &Scene),
+        (tol, sat): (f64, Option<&SatTable>),
+        (a, b): (u32, u32),
+        wk: &mut Work,
+    ) -> f64 {
+        let chan = Chan::new(design, ch, tol);
+        let px = Pixels {
+            design,
+            chan: &chan,
+            scene,
+            tol: lens_tol(&chan, scene, tol),
+            weighting: None,
+            sat,
+        };
+        pixel_value(&px, a, b, wk)
+    }
 
     /// A random n × n image over [−w, w]² (a fixed linear congruential stream).
     fn image(n: usize, w: f64) -> Texture {
@@ -263,28 +289,20 @@ mod tests {
     /// against an independent sum in `sat`'s tests.)
     fn agree(preset: &str, z: f64, tex: Texture, (tol, within): (f64, f64)) {
         let design = crate::model::presets::preset(preset).unwrap();
-        let scene = Scene::new(tex, Surface::Plane { z0: z, g: [0.0; 2] }, 0.2).unwrap();
+        let scene = fronto(tex, z);
         let sat = SatTable::of(&scene.texture).unwrap().unwrap();
         for ch in &design.channels {
-            let chan = Chan::new(&design, ch, tol);
             let (rows, cols) = super::super::raw_shape(ch);
-            let white = top_value(&chan, &scene) / scene.texture.max_albedo();
+            let white =
+                top_value(&Chan::new(&design, ch, tol), &scene) / scene.texture.max_albedo();
             let run = |sat: Option<&SatTable>| {
-                let px = Pixels {
-                    design: &design,
-                    chan: &chan,
-                    scene: &scene,
-                    tol: lens_tol(&chan, &scene, tol),
-                    weighting: None,
-                    sat,
-                };
                 let mut wk = Work::new(true);
                 // A block of 3 × 2 pixels 5 apart, near the R12's lens images' centres.
                 let v: Vec<f64> = (0..6u32)
                     .map(|i| {
                         let a = cols as u32 / 2 + 5 * (i % 3);
                         let b = rows as u32 / 2 + 5 * (i / 3);
-                        pixel_value(&px, a, b, &mut wk)
+                        value((&design, ch, &scene), (tol, sat), (a, b), &mut wk)
                     })
                     .collect();
                 (v, wk.closed, wk.evals)
@@ -313,33 +331,18 @@ mod tests {
     #[test]
     fn corner_memo_is_bit_for_bit_and_hits() {
         let design = crate::model::presets::preset("lytro-illum").unwrap();
-        let scene = Scene::new(
-            image(64, 40.0),
-            Surface::Plane {
-                z0: 1000.0,
-                g: [0.0; 2],
-            },
-            0.2,
-        )
-        .unwrap();
+        let scene = fronto(image(64, 40.0), 1000.0);
         let sat = SatTable::of(&scene.texture).unwrap().unwrap();
         let ch = &design.channels[0];
-        let chan = Chan::new(&design, ch, 1e-3);
-        let px = Pixels {
-            design: &design,
-            chan: &chan,
-            scene: &scene,
-            tol: lens_tol(&chan, &scene, 1e-3),
-            weighting: None,
-            sat: Some(&sat),
-        };
         let (rows, cols) = super::super::raw_shape(ch);
         let mut wk = Work::new(true);
         for b in (rows / 2) as u32..(rows / 2 + 6) as u32 {
             for a in (cols / 2) as u32..(cols / 2 + 6) as u32 {
-                let shared = pixel_value(&px, a, b, &mut wk);
+                let at =
+                    |wk: &mut Work| value((&design, ch, &scene), (1e-3, Some(&sat)), (a, b), wk);
+                let shared = at(&mut wk);
                 let mut fresh = Work::new(true);
-                let alone = pixel_value(&px, a, b, &mut fresh);
+                let alone = at(&mut fresh);
                 assert_eq!(shared.to_bits(), alone.to_bits(), "pixel ({a}, {b})");
                 assert_eq!(fresh.corners.hits, 0);
             }
@@ -367,36 +370,17 @@ mod tests {
     #[test]
     fn disc_boxes_are_the_quadrature() {
         let design = crate::model::presets::preset("lytro-illum").unwrap();
-        let scene = Scene::new(
-            image(512, 250.0),
-            Surface::Plane {
-                z0: 1000.0,
-                g: [0.0; 2],
-            },
-            0.2,
-        )
-        .unwrap();
+        let scene = fronto(image(512, 250.0), 1000.0);
         let sat = SatTable::of(&scene.texture).unwrap().unwrap();
         let ch = &design.channels[0];
         let (rows, cols) = super::super::raw_shape(ch);
         let white = top_value(&Chan::new(&design, ch, 1e-6), &scene) / scene.texture.max_albedo();
-        let value = |sat: Option<&SatTable>, tol: f64, (a, b): (u32, u32), wk: &mut Work| {
-            let chan = Chan::new(&design, ch, tol);
-            let px = Pixels {
-                design: &design,
-                chan: &chan,
-                scene: &scene,
-                tol: lens_tol(&chan, &scene, tol),
-                weighting: None,
-                sat,
-            };
-            pixel_value(&px, a, b, wk)
-        };
+        let on = (&design, ch, &scene);
         let (mut worst, mut wk) = (0.0f64, Work::new(true));
         for b in (rows / 2) as u32..(rows / 2 + 20) as u32 {
             for a in (cols / 2) as u32..(cols / 2 + 20) as u32 {
-                let new = value(Some(&sat), 1e-6, (a, b), &mut wk);
-                let old = value(None, 1e-9, (a, b), &mut Work::new(true));
+                let new = value(on, (1e-6, Some(&sat)), (a, b), &mut wk);
+                let old = value(on, (1e-9, None), (a, b), &mut Work::new(true));
                 worst = worst.max((new - old).abs() / white);
             }
         }
