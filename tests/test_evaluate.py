@@ -165,6 +165,8 @@ def test_compare_table_image_columns_are_checked():
         compare_designs({"split": d}, Z, image=[3])
     with pytest.raises(splitlf.InvalidParameter, match="photons"):
         compare_designs({"split": d}, Z, image=["psnr_worst_union"], photons=-1.0)
+    with pytest.raises(splitlf.InvalidParameter, match="photons"):
+        splitlf.compare.compare("seed", "psnr_worst_union", which=["plain"], photons=0.0)
 
 
 def test_compare_table_lists_the_image_merits():
