@@ -5,10 +5,11 @@ sensor (one half's pixels, all the light, focused where half 1's array is imaged
 look at fronto-parallel planes from 300 mm to 2 m. At each depth two scenes are rendered
 (splitlf.render, exact route) with photon noise (N = 2000 and 20,000 photo-electrons
 for white, two draws each):
-a natural image (scikit-image's "camera", 512 x 512 texture cells, each well under a tenth
-of the reconstruction's cell) and a 5-degree slanted edge (analytic, no cells at all).
-Neither is representable on the reconstruction's grid (the grid is delta(z), the sensor's
-step; the data's texture is finer or continuous): no inverse crime. Each raw is
+a natural image (scikit-image's "camera", 512 x 512 texture cells, each 0.56 to 0.94 of
+the reconstruction's cell from 300 mm to 2 m, not aligned with it) and a 5-degree slanted
+edge (analytic, no cells at all). Neither is representable on the reconstruction's grid
+(the grid is delta(z), the sensor's step; the data's texture cells are of another size and
+phase, or it is continuous): no inverse crime. Each raw is
 reconstructed with the known depth (splitlf.reconstruct: the raw carries its noise
 model, and each camera's weight is chosen from its data) from
 half 1 alone, half 2 alone, the split sensor, and the conventional camera, over the same

@@ -5,14 +5,16 @@ Study side, as docs/make_fig2.py: its design, the seed cut to 24 x 16 lenses per
 smaller cut's field is narrower than the merits' padded patch: measured on 12 x 8 at
 642 mm, half 2's merit lay 3.5 dB under its study); at each depth a
 natural image (scikit-image's ``camera``, 0.1 + 0.8 of its grey levels, 512 x 512 texture
-cells, each well under a tenth of a reconstruction cell) and a 5-degree slanted edge
+cells, each 0.79 of a reconstruction cell at 642 mm and 0.87 at 1000 mm, not aligned with
+the grid) and a 5-degree slanted edge
 (analytic) rendered by ``splitlf.render`` (exact route) with photon noise (N = 2000 for
 white, the raw carrying it), reconstructed over the central half (per axis) of what both
 arrays image at ``regularization=None`` (the data-chosen, GCV, weight) from half 1, half
 2 and both, measured by ``splitlf.measure`` (PSNR on the image, MTF50 on the edge). The
 renderer is the package's own exact route, as the study's; neither texture is
-representable on the reconstruction's grid (no inverse crime: the data's texture is finer
-than the grid or continuous), and the noise is Poisson.
+representable on the reconstruction's grid (no inverse crime: the data's texture cells
+are of another size and phase than the grid's, or the texture is continuous), and the
+noise is Poisson.
 
 Merit side: ``splitlf.image_merits`` at the same N, the ensemble fitted (exponent free) to
 the study's truth at that depth (``splitlf.measure.truth``), the same rows.
