@@ -48,6 +48,7 @@ SLOW = {
     'test_render_sat.py::test_closed_form_at_a_tight_tolerance': 8,
     'test_merits.py::test_expected_error_is_the_dense_closed_form[3.0]': 25,
     'test_merits.py::test_expected_error_is_the_dense_closed_form[300.0]': 25,
+    'test_merits.py::test_expected_error_with_a_floor_is_the_dense_closed_form': 25,
     'test_merits.py::test_edge_response_is_the_dense_estimators_mean': 25,
     'test_merits.py::test_least_error_lambda_is_the_closed_forms_minimum': 25,
     'test_merits.py::test_gcv_lambda_is_the_expected_scores_minimum': 55,

@@ -31,15 +31,18 @@ def _small() -> splitlf.Design:
 
 
 def _request(lam: float | None, samples: int, seed: int = 3,
-             rule: str = "oracle", parabola: bool = False) -> dict[str, Any]:
+             rule: str = "oracle", parabola: bool = False,
+             ensemble: Ensemble = ENSEMBLE) -> dict[str, Any]:
     return {"channels": [1], "lens_types": None, "photons": PHOTONS,
-            "ensemble": (ENSEMBLE.mean, ENSEMBLE.amplitude, ENSEMBLE.exponent), "patch": 8,
+            "ensemble": (ensemble.mean, ensemble.amplitude, ensemble.exponent, ensemble.floor),
+            "patch": 8,
             "step": None, "regularization": lam, "rule": rule,
             "settings": (NOISE_FLOOR, 1e-10, 5000, samples, 1e-2, 1e4, 4, seed, 1.0, 4, 1e-6,
                          parabola)}
 
 
-def _dense(design: splitlf.Design, out: dict[str, Any]) -> dict[str, Any]:
+def _dense(design: splitlf.Design, out: dict[str, Any],
+           ensemble: Ensemble = ENSEMBLE) -> dict[str, Any]:
     """The patch's dense system from surface_system on the padded grid (one pixel span of
     padding), the rows weighted as the merits weight them, the prior's DᵀD, the ensemble's
     covariance over the grid and the inner cells' indices."""
@@ -73,7 +76,8 @@ def _dense(design: splitlf.Design, out: dict[str, Any]) -> dict[str, Any]:
     k = np.fft.fftfreq(g) * g
     f = np.hypot(k[None, :], k[:, None]) / g
     s = np.zeros_like(f)
-    s[f > 0] = ENSEMBLE.amplitude ** 2 * f[f > 0] ** -ENSEMBLE.exponent
+    # flat below the ensemble's floor (0: none)
+    s[f > 0] = ensemble.amplitude ** 2 * np.maximum(f[f > 0], ensemble.floor) ** -ensemble.exponent
     cov = np.real(np.fft.ifft2(s))  # C(d) = (1/G^2) sum_f S(f) cos(2 pi f d / G)
     jj, ii = np.divmod(np.arange(nx * ny), nx)
     sigma_x = cov[(jj[:, None] - jj[None, :]) % g, (ii[:, None] - ii[None, :]) % g]
@@ -109,6 +113,20 @@ def test_expected_error_is_the_dense_closed_form(lam: float) -> None:
     assert abs(out["mse"] - want) <= 3.0 * out["error"] + 0.02 * want, (
         out["mse"], out["error"], want)
     assert out["error"] < 0.2 * out["mse"]
+
+
+def test_expected_error_with_a_floor_is_the_dense_closed_form() -> None:
+    """The same with the ensemble's spectrum flat below a floor of 0.2 cycles per cell
+    (the covariance built here from S(f) = a^2 max(f, floor)^-alpha): the draws follow
+    the floored spectrum."""
+    d = _small()
+    ens = Ensemble(ENSEMBLE.mean, ENSEMBLE.amplitude, ENSEMBLE.exponent, 0.2)
+    out = _native.image_merits(d.core, Z, _request(3.0, 32, ensemble=ens), None, n_threads=2)
+    want = _expected_mse(_dense(d, out, ens), 3.0)
+    assert abs(out["mse"] - want) <= 3.0 * out["error"] + 0.02 * want, (
+        out["mse"], out["error"], want)
+    bare = _expected_mse(_dense(d, out), 3.0)
+    assert want < bare, (want, bare)  # the floor removes the slow modes' power
 
 
 def test_edge_response_is_the_dense_estimators_mean() -> None:
@@ -227,6 +245,15 @@ def test_ensemble_fit_recovers_a_draws_spectrum() -> None:
     assert abs(got.exponent - want.exponent) < 0.25, got
     assert abs(got.amplitude / want.amplitude - 1.0) < 0.25, got
     assert abs(got.mean - want.mean) < 0.05
+    assert got.floor == 0.0
+    # Flat below the band: the same line, the floor at the band's bottom (2 cycles per
+    # image); a bad floor or flag is refused.
+    flat = Ensemble.fit(x[:, :200], flat_below_band=True)
+    assert flat.floor == 2.0 / 200 and flat.exponent == Ensemble.fit(x[:, :200]).exponent
+    with pytest.raises(splitlf.InvalidParameter, match="floor"):
+        Ensemble(0.4, 0.02, 2.5, 0.7)
+    with pytest.raises(TypeError, match="flat_below_band"):
+        Ensemble.fit(x, flat_below_band=1)
 
 
 def test_image_merits_rows_and_checks() -> None:

@@ -62,24 +62,34 @@ MERIT_EDGE = SlantedEdge(5.0, 0.1, 0.9)
 class Ensemble:
     """A Gaussian image ensemble of power spectrum S(f) = amplitude^2 |f|^-exponent about
     ``mean`` (f in cycles per cell; S per cell^2, the periodogram's units
-    E|DFT(x)|^2 / cells). Natural images have exponents near 2 (scale invariance, Field
-    1987; van der Schaaf and van Hateren 1996); :meth:`fit` takes one from an image."""
+    E|DFT(x)|^2 / cells), flat below ``floor`` cycles per cell (S(f) = S(floor) for
+    0 < f < floor; 0, the default: the power law down to the draws' lowest frequency).
+    Natural images have exponents near 2 (scale invariance, Field 1987; van der Schaaf and
+    van Hateren 1996); :meth:`fit` takes one from an image."""
 
     mean: float
     amplitude: float
     exponent: float = 2.0
+    floor: float = 0.0
 
     def __post_init__(self) -> None:
         _validate.finite(self.mean, "mean")
         _validate.nonnegative(self.amplitude, "amplitude")
         _validate.nonnegative(self.exponent, "exponent", upper=float(_native_max_exponent()))
+        _validate.nonnegative(self.floor, "floor", upper=0.5)
 
     @classmethod
-    def fit(cls, image: Any, exponent: float | None = None) -> Ensemble:
+    def fit(cls, image: Any, exponent: float | None = None, *,
+            flat_below_band: bool = False) -> Ensemble:
         """The ensemble fitted to ``image`` (2-D, on the cells): its mean, and a line through
         its radially averaged periodogram (Hann-windowed) in log-log over octave bins from
         2 cycles per image to 1/2 cycle per cell, equal weight per bin; ``exponent`` fixes
-        the slope (only the amplitude is fitted)."""
+        the slope (only the amplitude is fitted). ``flat_below_band``: the spectrum flat
+        below the fitted band (``floor`` = 2 cycles per image), not the line extrapolated
+        to the draws' slower modes, which an image the size of the merit's padded patch
+        rarely has: on docs/fig2.md's study that extrapolation cost half 2's merit 1.7-2.6
+        dB against the study (docs/merits.md, "Why the merit and the study differ"). Off
+        by default (the published merits were computed without it)."""
         x = np.asarray(image, dtype=np.float64)
         if x.ndim != 2 or min(x.shape) < 8 or not np.all(np.isfinite(x)):
             raise InvalidParameter.of("image", f"shape {x.shape}", "a finite 2-D image, >= 8 x 8")
@@ -100,7 +110,10 @@ class Ensemble:
         else:
             a = _validate.nonnegative(exponent, "exponent", upper=float(_native_max_exponent()))
         icpt = float(np.mean(np.asarray(lp) + a * np.asarray(lf)))
-        return cls(float(x.mean()), math.exp(0.5 * icpt), a)
+        if not isinstance(flat_below_band, bool):
+            raise TypeError(f"flat_below_band must be a bool, got {type(flat_below_band).__name__}")
+        floor = float(edges[0]) if flat_below_band else 0.0
+        return cls(float(x.mean()), math.exp(0.5 * icpt), a, floor)
 
 
 def _native_max_exponent() -> float:
@@ -204,7 +217,8 @@ def image_merits(design: Any, depths: Any, photons: float = 2000.0, *,
             key = (tuple(chans), None if types is None else tuple(types))
             if key not in done:
                 req = {"channels": chans, "lens_types": types, "photons": n,
-                       "ensemble": (ensemble.mean, ensemble.amplitude, ensemble.exponent),
+                       "ensemble": (ensemble.mean, ensemble.amplitude, ensemble.exponent,
+                                    ensemble.floor),
                        "patch": p, "step": None, "regularization": None, "rule": rule,
                        "settings": (NOISE_FLOOR, MERIT_RTOL, MERIT_MAX_ITER, k, *bracket,
                                     golden, s, m, CHOOSE_PROBES, MERIT_PROBE_RTOL,

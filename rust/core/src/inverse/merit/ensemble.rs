@@ -1,6 +1,8 @@
 //! The image ensemble of the merits: a stationary Gaussian random field on the cells with
 //! a power-law spectrum, S(f) = a² |f|^−α (f in cycles per cell, S per cell², the
-//! periodogram's units: E|DFT(x)|² / cells), about a mean albedo; and the Gaussian draws.
+//! periodogram's units: E|DFT(x)|² / cells), about a mean albedo, optionally flat below a
+//! floor frequency (S(f) = S(floor) for 0 < f < floor: no power law extrapolated below
+//! the band it was fitted over); and the Gaussian draws.
 //!
 //! Synthesis: on a periodic G × G grid (G the least power of two covering the cells),
 //! x = m + Re u, u = (1/G) Σ_f H(f) Z_f e^{2πi f·j/G} with H = √S (0 at f = 0) and Z_f
@@ -11,12 +13,14 @@ use crate::infra::error::{Error, Result};
 use crate::infra::fft;
 use crate::infra::random::splitmix64_stream;
 
-/// A power-law ensemble: the mean albedo `mean`, the amplitude a and the exponent α.
+/// A power-law ensemble: the mean albedo `mean`, the amplitude a and the exponent α, flat
+/// below `floor` cycles per cell (0: the power law down to the lowest frequency).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ensemble {
     pub mean: f64,
     pub amplitude: f64,
     pub exponent: f64,
+    pub floor: f64,
 }
 
 /// The largest exponent taken (a spectrum steeper than f⁻⁴ is smoother than any image).
@@ -42,6 +46,13 @@ impl Ensemble {
                 format!("a value in [0, {MAX_EXPONENT}]"),
             ));
         }
+        if !(self.floor.is_finite() && (0.0..=0.5).contains(&self.floor)) {
+            return Err(Error::param(
+                "floor",
+                self.floor,
+                "a frequency in [0, 0.5] cycles per cell",
+            ));
+        }
         Ok(self)
     }
 
@@ -64,7 +75,7 @@ impl Ensemble {
         if f == 0.0 {
             0.0
         } else {
-            self.amplitude * f.powf(-0.5 * self.exponent)
+            self.amplitude * f.max(self.floor).powf(-0.5 * self.exponent)
         }
     }
 
@@ -120,6 +131,7 @@ mod tests {
             mean: 0.5,
             amplitude: 0.2,
             exponent: 0.0,
+            floor: 0.0,
         };
         let (mut s, mut s2, mut n) = (0.0, 0.0, 0.0);
         for seed in 0..40 {
@@ -133,6 +145,48 @@ mod tests {
         let want = 0.04 * (1.0 - 1.0 / 4096.0);
         let var = s2 / n - (s / n) * (s / n);
         assert!((var - want).abs() < 0.02 * want, "{var} {want}");
+    }
+
+    /// Flat below the floor: √S there is the floor's, above it the power law's; the draws'
+    /// variance per cell is (1/G²) Σ S of that spectrum (summed here term by term), within
+    /// the scatter of 64 x 64 x 40 values; without the floor the same law's sum is larger
+    /// (its slow modes) and a floor outside [0, 0.5] is refused.
+    #[test]
+    fn a_floor_flattens_the_spectrum_below_it() {
+        let (g, floor) = (64usize, 4.0 / 64.0);
+        let e = Ensemble {
+            mean: 0.5,
+            amplitude: 0.01,
+            exponent: 3.0,
+            floor,
+        };
+        let top = 0.01 * floor.powf(-1.5);
+        assert_eq!(e.gain(1, 0, g), top);
+        assert_eq!(e.gain(2, 3, g), top); // |f| = √13 / 64 < 4 / 64
+        assert_eq!(e.gain(0, 0, g), 0.0);
+        let above = 0.01 * (5.0f64 / 64.0).powf(-1.5);
+        assert!((e.gain(5, 0, g) - above).abs() <= 1e-15 * above);
+        let sum = |e: &Ensemble| -> f64 {
+            (0..g * g)
+                .map(|i| e.gain(i % g, i / g, g).powi(2))
+                .sum::<f64>()
+                / (g * g) as f64
+        };
+        let want = sum(&e);
+        let bare = Ensemble { floor: 0.0, ..e };
+        assert!(sum(&bare) > 1.5 * want, "{} {want}", sum(&bare));
+        let (mut s2, mut n) = (0.0, 0.0);
+        for seed in 0..40 {
+            for v in e.draw(g, g, seed).unwrap() {
+                s2 += (v - 0.5) * (v - 0.5);
+                n += 1.0;
+            }
+        }
+        let var = s2 / n;
+        assert!((var - want).abs() < 0.05 * want, "{var} {want}");
+        for bad in [-0.1, 0.6, f64::NAN] {
+            assert!(Ensemble { floor: bad, ..e }.checked().is_err(), "{bad}");
+        }
     }
 
     #[test]

@@ -420,6 +420,7 @@ mod tests {
             mean: 0.505,
             amplitude: 0.027,
             exponent: 2.0,
+            floor: 0.0,
         };
         let req = Request {
             design: &d,
