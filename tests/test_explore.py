@@ -669,12 +669,16 @@ def test_image_photons_are_checked_before_any_work():
 
     e = Explorer(_half_cut())
     _wait_idle(e)
+    e._widgets["D"].value = "abc"  # a design error, which the photon count's must not clear
+    design_error = e._errors["D"].text
+    assert design_error and e.banner.visible
     for text in ("-3", "abc", "inf", "nan"):
         e.image_photons.value = text
         e.request_image()
         assert e._errors[IMAGE_PHOTONS].visible, text
         assert IMAGE_PHOTONS in e._errors[IMAGE_PHOTONS].text, text
         assert "image" not in e._pending and not e._worker_busy
+        assert e._errors["D"].text == design_error and e.banner.visible
     assert e.image_status.text == IMAGE_IDLE
     assert e.psnr_src.data["label"] == [] and e.mtf_src.data["label"] == []
 

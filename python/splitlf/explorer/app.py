@@ -788,14 +788,21 @@ class Explorer:
             if not (np.isfinite(photons) and photons > 0):
                 raise FieldError(None, f"{IMAGE_PHOTONS}: {photons:g} is not allowed: a "
                                  "finite number > 0")
-        except FieldError as e:  # shown beside this control (not one of the design's)
-            self._show_errors(IMAGE_PHOTONS, e.message)
+        except FieldError as e:  # beside this control only: the design's own messages stay
+            self._photons_error(e.message)
             return
-        self._show_errors(None, "")
+        self._photons_error("")
         n = len(model.image_depths(self.design))
         self._set_div(self.image_status, f"Computing the image merits of the design shown at "
                       f"{photons:g} photons, {n} depths (seconds to minutes a depth)...")
         self._request("image", (self.generation, self.design, photons))
+
+    def _photons_error(self, message: str) -> None:
+        """``message`` (empty: none) beside the photon count, the other controls' messages and
+        the banner (about the design) left as they are."""
+        text = (f'<span class="field-error" data-key="{IMAGE_PHOTONS}" '
+                f'style="{ERROR_STYLE}">{_esc(message)}</span>') if message else ""
+        self._set_div(self._errors[IMAGE_PHOTONS], text)
 
     def _compute_image(self, gen: int, design: Design, photons: float) -> Any:
         return partial(self._apply_image, model.image_view(design, photons), gen)
