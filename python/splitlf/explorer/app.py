@@ -48,7 +48,8 @@ from bokeh.models.widgets import (
 from bokeh.palettes import Category10_10
 from bokeh.plotting import figure
 
-from ..errors import SplitlfError
+from .. import _validate
+from ..errors import InvalidParameter, SplitlfError
 from ..model.design import PRESETS, Design
 from . import model
 from .model import CHANNEL_CONTROLS, DESIGN_CONTROLS, Field, FieldError
@@ -783,13 +784,11 @@ class Explorer:
         """Queue the image-quality view of the design shown (the button), at the photon
         count of its control (checked first: a bad value is shown beside the control)."""
         try:
-            photons = model.parse(Field(IMAGE_PHOTONS, "real", "", ""),
-                                  str(self.image_photons.value), IMAGE_PHOTONS)
-            if not (np.isfinite(photons) and photons > 0):
-                raise FieldError(None, f"{IMAGE_PHOTONS}: {photons:g} is not allowed: a "
-                                 "finite number > 0")
-        except FieldError as e:  # beside this control only: the design's own messages stay
-            self._photons_error(e.message)
+            photons = _validate.positive(model.parse(
+                Field(IMAGE_PHOTONS, "real", "", ""), str(self.image_photons.value),
+                IMAGE_PHOTONS), IMAGE_PHOTONS)
+        except (FieldError, InvalidParameter) as e:  # beside this control only
+            self._photons_error(str(e))
             return
         self._photons_error("")
         n = len(model.image_depths(self.design))

@@ -35,7 +35,14 @@ from ..errors import InvalidParameter
 from ..model.design import Channel, Design
 from ..model.optics import curves, sharp_fractions
 from ..sampling.samples2d import DEFAULT_TOL, DEFAULT_WINDOW, coverage
-from .merit import IMAGE_PHOTONS, SIMULATE_OPTIONS, Merits, image_merit_names, mtf50_at
+from .merit import (
+    IMAGE_PHOTONS,
+    SIMULATE_OPTIONS,
+    Merits,
+    image_merit_names,
+    image_option,
+    mtf50_at,
+)
 from .merit import evaluate as _merits
 from .sweep import with_changes
 
@@ -441,7 +448,7 @@ def evaluate(designs: Mapping[str, Design], depths: Any = None, *,
     window = _positive(window, "window")
     threshold_px = _positive(threshold_px, "threshold_px")
     sim_z = [_validate.real(s, "simulate_depths") for s in simulate_depths]
-    image_names = _image_columns(designs, image)
+    image_names = image_option(list(designs.values()), image)
     photons = _validate.positive(photons, "photons")
     lf = [n for n in designs if n not in conv]
     ref_pitch = designs[lf[0]].channels[0].d if lf else None
@@ -495,21 +502,6 @@ def _row(name: str, d: Design, m: Merits, is_conv: bool, z: np.ndarray,
                                     for i in range(1, len(d.channels) + 1)),
         **{k: float(v) for k, v in m.items() if k.startswith("mtf50_") and k.endswith("mm")},
     }
-
-
-def _image_columns(designs: Mapping[str, Design], image: Any) -> list[str]:
-    """The image merits of :func:`evaluate`'s ``image``, checked: a sequence of names, each
-    an image merit of at least one of ``designs``."""
-    if isinstance(image, str | bytes) or not isinstance(image, Sequence):
-        raise TypeError(f"image must be a sequence of image merit names, got "
-                        f"{type(image).__name__}")
-    allowed = list(dict.fromkeys(n for d in designs.values() for n in image_merit_names(d)))
-    for name in image:
-        if not isinstance(name, str):
-            raise TypeError(f"image must hold merit names (str), got {type(name).__name__}")
-        if name not in allowed:
-            raise InvalidParameter.of("image", name, f"image merit names: {', '.join(allowed)}")
-    return list(dict.fromkeys(image))
 
 
 # -- the comparison ------------------------------------------------------------------------

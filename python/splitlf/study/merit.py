@@ -112,12 +112,14 @@ def image_merit_names(design: Design) -> tuple[str, ...]:
     return tuple(f"{s}_{r}" for s in IMAGE_STATS for r in rows)
 
 
-def image_option(design: Design, image: Any) -> tuple[str, ...]:
-    """The image merits asked for, checked: a sequence of :func:`image_merit_names`."""
+def image_option(design: Design | Sequence[Design], image: Any) -> tuple[str, ...]:
+    """The image merits asked for, checked: a sequence of :func:`image_merit_names` of
+    ``design`` (of any of them, for a sequence of designs)."""
     if isinstance(image, str | bytes) or not isinstance(image, Sequence):
         raise TypeError(f"image must be a sequence of image merit names, got "
                         f"{type(image).__name__}")
-    allowed = image_merit_names(design)
+    designs = design if isinstance(design, Sequence) else [design]
+    allowed = tuple(dict.fromkeys(n for d in designs for n in image_merit_names(d)))
     for name in image:
         if not isinstance(name, str):
             raise TypeError(f"image must hold merit names (str), got {type(name).__name__}")
