@@ -54,6 +54,10 @@ MERIT_PROBE_RTOL = MERIT_RTOL
 #: quarter of the iterations but moves PSNR by up to 0.21 dB and MTF50 by up to 0.069 of
 #: Nyquist on docs/make_merits.py's rows (docs/merits.md, "Speed").
 MERIT_GCV_PARABOLA = False
+#: CG's two-level preconditioner in the merits' solves (Jacobi plus an exact solve on
+#: aggregates of cells, docs/merits.md "Two-level preconditioner"): the same solutions in
+#: 0.5-0.65 of the iterations on the seed's half 2.
+MERIT_COARSE = True
 #: The edge of the MTF50: the study's (docs/fig2.md), through the field's centre.
 MERIT_EDGE = SlantedEdge(5.0, 0.1, 0.9)
 
@@ -222,7 +226,8 @@ def image_merits(design: Any, depths: Any, photons: float = 2000.0, *,
                        "patch": p, "step": None, "regularization": None, "rule": rule,
                        "settings": (NOISE_FLOOR, MERIT_RTOL, MERIT_MAX_ITER, k, *bracket,
                                     golden, s, m, CHOOSE_PROBES, MERIT_PROBE_RTOL,
-                                    MERIT_GCV_PARABOLA)}
+                                    MERIT_GCV_PARABOLA),
+                       "coarse": MERIT_COARSE}
                 t0 = time.perf_counter()
                 r = _native.image_merits(d.core, float(zi), req, scene, n_threads=threads)
                 done[key] = {

@@ -21,7 +21,7 @@ use crate::model::design::DesignCore;
 /// data as a reconstruction chooses it, or "oracle", the least expected error) and
 /// `settings` (noise floor, CG rtol, CG max_iter, draws, λ lo, λ hi, golden steps, seed,
 /// margin in pixel spans, GCV's probes, the probes' rtol, GCV's parabolic step instead of
-/// golden sections).
+/// golden sections) and `coarse` (CG's two-level preconditioner instead of Jacobi alone).
 #[derive(FromPyObject)]
 #[pyo3(from_item_all)]
 pub(crate) struct MeritRequest {
@@ -47,6 +47,7 @@ pub(crate) struct MeritRequest {
         f64,
         bool,
     ),
+    coarse: bool,
 }
 
 /// The merits of `design` at depth `z` (a fronto-parallel plane) as `request` asks
@@ -86,6 +87,7 @@ pub(crate) fn image_merits<'py>(
         probe_rtol,
         parabola,
     ) = request.settings;
+    let coarse = request.coarse;
     let lambda = match (request.regularization, request.rule.as_str()) {
         (Some(l), _) => core_merit::Lambda::Given(l),
         (None, "gcv") => core_merit::Lambda::Gcv,
@@ -132,6 +134,7 @@ pub(crate) fn image_merits<'py>(
                 probes,
                 probe_rtol,
                 parabola,
+                coarse,
             },
             n_threads: threads,
         };

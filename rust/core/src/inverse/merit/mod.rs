@@ -12,12 +12,13 @@
 //! Its expected squared error over the patch's central cells, for images x from a
 //! power-law Gaussian ensemble ([`Ensemble`]) and Gaussian noise n of covariance W⁻¹,
 //! is estimated by Monte Carlo with a few draws (x_k, n_k): each is one solve (CG, as
-//! the reconstruction's) of (AᵀWA + λDᵀD) x̂_k = AᵀW (A x_k + n_k), and the merit is the
-//! mean of ‖x̂_k − x_k‖² over the cells and draws, with the draws' standard error. The
-//! same draws serve every λ (common random numbers: the estimate's error changes smoothly
-//! with λ). λ ([`Lambda`]) is given; or chosen from the data as a reconstruction chooses
-//! it (`Gcv`, the default: generalised cross-validation, `inverse::choose`, on the draws'
-//! data y_k = A x_k + n_k, the λ of the least mean score m RSS / (m − df)², df by the
+//! the reconstruction's, with the two-level preconditioner when `Settings::coarse`) of
+//! (AᵀWA + λDᵀD) x̂_k = AᵀW (A x_k + n_k), and the merit is the mean of ‖x̂_k − x_k‖²
+//! over the cells and draws, with the draws' standard error. The same draws serve every
+//! λ (common random numbers: the estimate's error changes smoothly with λ). λ
+//! ([`Lambda`]) is given; or chosen from the data as a reconstruction chooses it (`Gcv`,
+//! the default: generalised cross-validation, `inverse::choose`, on the draws' data y_k
+//! = A x_k + n_k, the λ of the least mean score m RSS / (m − df)², df by the
 //! same Hutchinson probes); or the one of least expected error (`Oracle`, which a
 //! reconstruction cannot know): decades down from the bracket's top, stopped a decade past
 //! the least, then golden sections in log λ.
@@ -64,6 +65,10 @@ pub struct Settings {
     /// GCV's refinement after the decades: one λ at the parabola's vertex (else golden
     /// sections, `golden_steps` of them).
     pub parabola: bool,
+    /// CG preconditioned by the two-level preconditioner (`Normal::precondition_coarse`:
+    /// Jacobi plus a coarse-grid solve) rather than by Jacobi alone: the same solutions,
+    /// fewer iterations.
+    pub coarse: bool,
 }
 
 /// How λ is had: given; chosen by GCV on the draws' data (a reconstruction's rule); or the
@@ -325,7 +330,10 @@ pub fn image_merits(req: &Request<'_>, done: &AtomicUsize) -> Result<Outcome> {
         draws.x.push(x);
         crate::infra::parallel::checkpoint()?;
     }
-    let normal = Normal::new(nx, ny, s.hi, patch.blocks())?;
+    let mut normal = Normal::new(nx, ny, s.hi, patch.blocks())?;
+    if s.coarse {
+        normal.precondition_coarse()?;
+    }
     let mut search = Search {
         patch: &patch,
         normal,
@@ -415,6 +423,7 @@ mod tests {
             probes: 4,
             probe_rtol: 1e-4,
             parabola: false,
+            coarse: true,
         };
         let ensemble = Ensemble {
             mean: 0.505,

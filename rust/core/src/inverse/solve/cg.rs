@@ -138,6 +138,9 @@ impl State {
             .par_iter_mut()
             .zip(self.r.par_iter().zip(self.diag.par_iter()))
             .for_each(|(z, (&r, &d))| *z = r / if d > 0.0 { d } else { 1.0 });
+        if let Some(c) = &normal.coarse {
+            c.add_correction(&self.r, &mut self.q);
+        }
         let rho = dot(&self.r, &self.q);
         if self.it == 0 {
             self.p.copy_from_slice(&self.q);

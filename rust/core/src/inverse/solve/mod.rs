@@ -29,10 +29,13 @@
 //! - `normal`: the blocks ([`Block`]) and the normal equations they make ([`Normal`]),
 //!   checked against the grid, and the scratch of one product ([`Work`]);
 //! - `product`: the passes of one product: (AᵀWA + λDᵀD) t, AᵀWy and the diagonal;
+//! - `coarse`: a coarse-grid correction for the preconditioner (an option of [`Normal`],
+//!   [`Normal::precondition_coarse`]);
 //! - `cg`: the conjugate gradients ([`solve`]) and when they stop, the noise stop
 //!   included ([`Stop`]).
 
 mod cg;
+mod coarse;
 mod kernels;
 mod normal;
 mod pieces;

@@ -5,6 +5,7 @@
 use crate::infra::error::{Error, Result};
 use crate::infra::memory;
 
+use super::coarse::Coarse;
 use super::pieces::{Band, Fast};
 use crate::infra::csr::Csr;
 
@@ -163,6 +164,8 @@ pub struct Normal {
     /// Whether a product has y runs to read and sweep (some block is factored): then the
     /// column-chunked prefix sums exist.
     pub(super) runs: bool,
+    /// The coarse-grid correction, when asked for ([`Normal::precondition_coarse`]).
+    pub(super) coarse: Option<Coarse>,
 }
 
 /// The scratch of one product: per block, a Factored block's (nr × nx) back-projected rows
@@ -269,6 +272,7 @@ impl Normal {
             prior: Prior::quadratic(),
             blocks: prepared,
             runs,
+            coarse: None,
         })
     }
 
@@ -276,6 +280,18 @@ impl Normal {
     pub fn with_prior(mut self, prior: Prior) -> Result<Normal> {
         self.prior = prior.checked()?;
         Ok(self)
+    }
+
+    /// Precondition CG by the two-level preconditioner ([`super::coarse`]): the Jacobi
+    /// diagonal plus an exact solve on aggregates of cells, rebuilt at each λ. The solution
+    /// is the same; the iterations change. Grids too small to coarsen keep Jacobi.
+    pub fn precondition_coarse(&mut self) -> Result<()> {
+        let blocks: Vec<&Block> = self.blocks.iter().map(|p| &p.block).collect();
+        self.coarse = Coarse::build(&blocks, self.nx, self.ny)?;
+        if let Some(c) = &mut self.coarse {
+            c.factor(self.lam);
+        }
+        Ok(())
     }
 
     pub fn prior(&self) -> Prior {
@@ -311,6 +327,9 @@ impl Normal {
             return Err(Error::param("regularization", lam, "a finite value > 0"));
         }
         self.lam = lam;
+        if let Some(c) = &mut self.coarse {
+            c.factor(lam);
+        }
         Ok(())
     }
 
