@@ -20,7 +20,7 @@
 
 use rayon::prelude::*;
 
-use super::normal::Block;
+use super::block::Block;
 use crate::infra::error::Result;
 use crate::infra::memory;
 

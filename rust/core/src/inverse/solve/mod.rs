@@ -26,7 +26,8 @@
 //! - `pieces`: a factor's rows cut for fast products (dense spans, affine runs, the y
 //!   runs as events over grid rows);
 //! - `kernels`: the fixed-order dot products and axpy every pass is made of;
-//! - `normal`: the blocks ([`Block`]) and the normal equations they make ([`Normal`]),
+//! - `block`: the blocks of rows the map comes in ([`Block`]);
+//! - `normal`: the normal equations the blocks make ([`Normal`]),
 //!   checked against the grid, and the scratch of one product ([`Work`]);
 //! - `product`: the passes of one product: (AᵀWA + λDᵀD) t, AᵀWy and the diagonal;
 //! - `coarse`: a coarse-grid correction for the preconditioner (an option of [`Normal`],
@@ -34,6 +35,7 @@
 //! - `cg`: the conjugate gradients ([`solve`]) and when they stop, the noise stop
 //!   included ([`Stop`]).
 
+mod block;
 mod cg;
 mod coarse;
 mod kernels;
@@ -44,6 +46,7 @@ mod product;
 mod testing;
 
 pub use crate::infra::csr::Csr;
+pub use block::Block;
 pub use cg::{solve, solve_each, solve_from, Solution, Start, Stop};
-pub use normal::{Block, Normal, Penalty, Prior, Work};
+pub use normal::{Normal, Penalty, Prior, Work};
 pub(crate) use product::prior_row;

@@ -5,27 +5,10 @@
 use crate::infra::error::{Error, Result};
 use crate::infra::memory;
 
+use super::block::Block;
 use super::coarse::Coarse;
 use super::pieces::{Band, Fast};
 use crate::infra::csr::Csr;
-
-/// A block of the map's rows, with each row's weight w (1/σ², 0 for a pixel that is not a
-/// row) and raw value y.
-#[derive(Clone, Debug)]
-pub enum Block {
-    /// Rows `norm · (py row b ⊗ px row a)` for the nr × nc raw window (b, a), `w` and `y`
-    /// row-major over the window; `px` maps raw columns to grid columns, `py` raw rows to
-    /// grid rows from the top.
-    Factored {
-        norm: f64,
-        px: Csr,
-        py: Csr,
-        w: Vec<f64>,
-        y: Vec<f64>,
-    },
-    /// Explicit rows over the grid's cells (row-major, row 0 at the top).
-    Rows { a: Csr, w: Vec<f64>, y: Vec<f64> },
-}
 
 /// A block ready for products: its transposes (for the pass over output rows) and a
 /// factored block's x factor as spans (plain and squared).

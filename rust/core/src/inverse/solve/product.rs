@@ -8,10 +8,11 @@ use rayon::prelude::*;
 
 use crate::infra::simd;
 
+use super::block::Block;
 #[cfg(target_arch = "x86_64")]
 use super::kernels::dot_slices_avx2;
 use super::kernels::{axpy, dot_slices};
-use super::normal::{Block, Edges, Normal, Work, CW};
+use super::normal::{Edges, Normal, Work, CW};
 use super::pieces::{Band, Pieces};
 use crate::infra::csr::Csr;
 

@@ -1,7 +1,7 @@
 //! Blocks the parts' tests share: a small factored block and the same rows given
 //! explicitly.
 
-use super::normal::Block;
+use super::block::Block;
 use crate::infra::csr::Csr;
 
 /// A small factored block: nr × nc raw window over an nx × ny grid, each pixel's x and
