@@ -525,9 +525,12 @@ def test_seed_simulation_numbers_are_pinned():
     a seed, gives the camera path's numbers to 1e-12 relative. The noise-free solve is
     ill-conditioned (lambda a tiny fixed floor): a LAPACK build or thread count other than the
     recording's moves its rows by up to 4e-6 relative (measured between 1 and 2 OpenBLAS
-    threads). So BLAS runs single-threaded, and where the LAPACK fingerprint differs from
-    the recording's the solve's outputs are held to 1e-5; everything before the solve
-    (delta, truth, pixel counts) is always held to 1e-12."""
+    threads), and the noise-free conventional rows, the worst conditioned, by 1.6e-5
+    (measured between the two LAPACK fingerprints seen: the record's and one whose probe
+    differs in its last digit). So BLAS runs single-threaded, and where the fingerprint
+    differs from the recording's the solve's outputs are held to 1e-5, the noise-free
+    conventional rows' to 1e-4; everything before the solve (delta, truth, pixel counts) is
+    always held to 1e-12."""
     env = os.environ | {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
                         "MKL_NUM_THREADS": "1"}
     r = subprocess.run([sys.executable, "-c", PIN_CODE], env=env, capture_output=True,
@@ -544,9 +547,10 @@ def test_seed_simulation_numbers_are_pinned():
         rows = [k for k in want if k.startswith(("channel", "union", "conventional"))]
         assert list(g["rows"]) == rows, key
         for row in rows:
+            ill = not key[1] and row.startswith("conventional") and rel > 1e-12
             for i, (a, b) in enumerate(zip(g["rows"][row], want[row], strict=True)):
-                assert a == pytest.approx(b, rel=1e-12 if i == 4 else rel, abs=0), \
-                    (key, row, i, a, b)
+                tol = 1e-12 if i == 4 else (1e-4 if ill else rel)
+                assert a == pytest.approx(b, rel=tol, abs=0), (key, row, i, a, b)
 
 
 @pytest.mark.parametrize("z", [642.0, 1000.0, 2000.0])
