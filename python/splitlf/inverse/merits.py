@@ -69,18 +69,26 @@ class Ensemble:
     E|DFT(x)|^2 / cells), flat below ``floor`` cycles per cell (S(f) = S(floor) for
     0 < f < floor; 0, the default: the power law down to the draws' lowest frequency).
     Natural images have exponents near 2 (scale invariance, Field 1987; van der Schaaf and
-    van Hateren 1996); :meth:`fit` takes one from an image."""
+    van Hateren 1996); :meth:`fit` takes one from an image.
+
+    ``spectrum``, when not empty, replaces the power law by a measured radial spectrum:
+    knots (f, S), f strictly increasing in (0, 1] cycles per cell, S > 0, interpolated
+    linearly in log f - log S and flat beyond the first and the last knot (the floor still
+    applies; ``amplitude`` and ``exponent`` then only describe it). :meth:`measure` takes
+    one from an image."""
 
     mean: float
     amplitude: float
     exponent: float = 2.0
     floor: float = 0.0
+    spectrum: tuple[tuple[float, float], ...] = ()
 
     def __post_init__(self) -> None:
         _validate.finite(self.mean, "mean")
         _validate.nonnegative(self.amplitude, "amplitude")
         _validate.nonnegative(self.exponent, "exponent", upper=float(_native_max_exponent()))
         _validate.nonnegative(self.floor, "floor", upper=0.5)
+        object.__setattr__(self, "spectrum", _knots(self.spectrum))
 
     @classmethod
     def fit(cls, image: Any, exponent: float | None = None, *,
@@ -94,20 +102,8 @@ class Ensemble:
         rarely has: on docs/fig2.md's study that extrapolation cost half 2's merit 1.7-2.6
         dB against the study (docs/merits.md, "Why the merit and the study differ"). Off
         by default (the published merits were computed without it)."""
-        x = np.asarray(image, dtype=np.float64)
-        if x.ndim != 2 or min(x.shape) < 8 or not np.all(np.isfinite(x)):
-            raise InvalidParameter.of("image", f"shape {x.shape}", "a finite 2-D image, >= 8 x 8")
-        ny, nx = x.shape
-        w = np.outer(np.hanning(ny), np.hanning(nx))
-        p = np.abs(np.fft.fft2((x - x.mean()) * w)) ** 2 / float((w ** 2).sum())
-        f = np.hypot(np.fft.fftfreq(nx)[None, :], np.fft.fftfreq(ny)[:, None])
-        edges = np.geomspace(2.0 / min(nx, ny), 0.5, 9)
-        lf, lp = [], []
-        for lo, hi in zip(edges[:-1], edges[1:], strict=True):
-            m = (f >= lo) & (f < hi)
-            if m.any():
-                lf.append(math.log(float(np.sqrt(lo * hi))))
-                lp.append(math.log(float(p[m].mean())))
+        x = _image(image)
+        lf, lp = _radial(x, 2.0 / min(x.shape), 0.5, 8)
         if exponent is None:
             slope, icpt = np.polyfit(lf, lp, 1)
             a = min(max(-float(slope), 0.0), float(_native_max_exponent()))
@@ -116,8 +112,80 @@ class Ensemble:
         icpt = float(np.mean(np.asarray(lp) + a * np.asarray(lf)))
         if not isinstance(flat_below_band, bool):
             raise TypeError(f"flat_below_band must be a bool, got {type(flat_below_band).__name__}")
-        floor = float(edges[0]) if flat_below_band else 0.0
+        floor = 2.0 / min(x.shape) if flat_below_band else 0.0
         return cls(float(x.mean()), math.exp(0.5 * icpt), a, floor)
+
+    @classmethod
+    def measure(cls, image: Any, per_octave: int = 4) -> Ensemble:
+        """The ensemble of ``image``'s own spectrum (2-D, on the cells): its mean, and its
+        radially averaged periodogram (Hann-windowed, as :meth:`fit`) over ``per_octave``
+        log-spaced bins an octave (1 to 16) from 2 cycles per image to the corner's
+        sqrt(2)/2 cycles per cell, a knot at each bin's geometric centre with the bin's
+        mean power; flat below the first knot (no power extrapolated to slower modes than
+        the image shows). ``amplitude`` and ``exponent`` are :meth:`fit`'s, for the record.
+        Unlike a power law it keeps the image's own shape (docs/merits.md, "A measured
+        spectrum")."""
+        x = _image(image)
+        k = _validate.integer_in(per_octave, "per_octave", 1, 16)
+        lo = 2.0 / min(x.shape)
+        bins = max(1, math.ceil(k * math.log2(math.sqrt(0.5) / lo)))
+        lf, lp = _radial(x, lo, math.sqrt(0.5), bins)
+        line = cls.fit(x)
+        knots = tuple((math.exp(f), math.exp(p)) for f, p in zip(lf, lp, strict=True))
+        return cls(line.mean, line.amplitude, line.exponent, 0.0, knots)
+
+
+def _image(image: Any) -> np.ndarray:
+    x = np.asarray(image, dtype=np.float64)
+    if x.ndim != 2 or min(x.shape) < 8 or not np.all(np.isfinite(x)):
+        raise InvalidParameter.of("image", f"shape {x.shape}", "a finite 2-D image, >= 8 x 8")
+    return x
+
+
+def _radial(x: np.ndarray, lo: float, hi: float, bins: int) -> tuple[list[float], list[float]]:
+    """log f at each non-empty bin's geometric centre and log of its mean power: the
+    radially averaged Hann-windowed periodogram of ``x`` (mean removed) over ``bins``
+    log-spaced bins from ``lo`` to ``hi`` cycles per cell."""
+    ny, nx = x.shape
+    w = np.outer(np.hanning(ny), np.hanning(nx))
+    p = np.abs(np.fft.fft2((x - x.mean()) * w)) ** 2 / float((w ** 2).sum())
+    f = np.hypot(np.fft.fftfreq(nx)[None, :], np.fft.fftfreq(ny)[:, None])
+    edges = np.geomspace(lo, hi, bins + 1)
+    lf, lp = [], []
+    for a, b in zip(edges[:-1], edges[1:], strict=True):
+        m = (f >= a) & (f < b)
+        if m.any():
+            v = float(p[m].mean())
+            if not v > 0.0:
+                raise InvalidParameter.of("image", f"no power at {a:.3g}-{b:.3g} cycles per "
+                                          "cell", "an image with contrast in every band")
+            lf.append(math.log(float(np.sqrt(a * b))))
+            lp.append(math.log(v))
+    return lf, lp
+
+
+def _knots(spectrum: Any) -> tuple[tuple[float, float], ...]:
+    """The spectrum's knots as float pairs, checked: f strictly increasing in (0, 1], S
+    finite > 0, at most 4096 knots."""
+    try:
+        pairs = [tuple(k) for k in spectrum]
+    except TypeError:
+        raise TypeError("spectrum must be a sequence of (f, S) pairs, got "
+                        f"{type(spectrum).__name__}") from None
+    if len(pairs) > 4096:
+        raise InvalidParameter.of("spectrum", f"{len(pairs)} knots", "at most 4096 knots")
+    out: list[tuple[float, float]] = []
+    for i, k in enumerate(pairs):
+        if len(k) != 2:
+            raise InvalidParameter.of("spectrum", f"knot {i} of length {len(k)}",
+                                      "(f, S) pairs")
+        f = _validate.positive(k[0], f"spectrum knot {i}'s f", upper=1.0)
+        s = _validate.positive(k[1], f"spectrum knot {i}'s S")
+        if out and f <= out[-1][0]:
+            raise InvalidParameter.of("spectrum", f"knot {i} at f = {f:g}",
+                                      "frequencies strictly increasing")
+        out.append((f, s))
+    return tuple(out)
 
 
 def _native_max_exponent() -> float:
@@ -222,7 +290,7 @@ def image_merits(design: Any, depths: Any, photons: float = 2000.0, *,
             if key not in done:
                 req = {"channels": chans, "lens_types": types, "photons": n,
                        "ensemble": (ensemble.mean, ensemble.amplitude, ensemble.exponent,
-                                    ensemble.floor),
+                                    ensemble.floor, list(ensemble.spectrum)),
                        "patch": p, "step": None, "regularization": None, "rule": rule,
                        "settings": (NOISE_FLOOR, MERIT_RTOL, MERIT_MAX_ITER, k, *bracket,
                                     golden, s, m, CHOOSE_PROBES, MERIT_PROBE_RTOL,

@@ -16,7 +16,8 @@ use crate::model::design::DesignCore;
 
 /// A merit's request, from a dict (Python has checked the types and ranges; the core
 /// checks again): `channels` (numbered from 1), `lens_types` (from 1; None: every type),
-/// `photons` for white, `ensemble` (mean, amplitude, exponent, floor), `patch` (cells a side),
+/// `photons` for white, `ensemble` (mean, amplitude, exponent, floor, spectrum: knots (f, S),
+/// empty for the power law), `patch` (cells a side),
 /// `step` (None: δ(z)), `regularization` (None: chosen by `rule`, "gcv" from the draws'
 /// data as a reconstruction chooses it, or "oracle", the least expected error) and
 /// `settings` (noise floor, CG rtol, CG max_iter, draws, λ lo, λ hi, golden steps, seed,
@@ -28,7 +29,7 @@ pub(crate) struct MeritRequest {
     channels: Vec<i64>,
     lens_types: Option<Vec<i64>>,
     photons: f64,
-    ensemble: (f64, f64, f64, f64),
+    ensemble: (f64, f64, f64, f64, Vec<(f64, f64)>),
     patch: usize,
     step: Option<f64>,
     regularization: Option<f64>,
@@ -100,7 +101,8 @@ pub(crate) fn image_merits<'py>(
             )))
         }
     };
-    let (mean, amplitude, exponent, floor) = request.ensemble;
+    let (mean, amplitude, exponent, floor, knots) = request.ensemble;
+    let spectrum: Vec<[f64; 2]> = knots.into_iter().map(|(f, s)| [f, s]).collect();
     let scene = edge.map(|s| Arc::clone(&s.get().inner));
     let d = &design.inner;
     let (report, counter) = counted(progress, 0);
@@ -116,6 +118,7 @@ pub(crate) fn image_merits<'py>(
                 amplitude,
                 exponent,
                 floor,
+                spectrum,
             },
             edge: scene.as_ref().map(|s| &s.texture),
             patch: request.patch,

@@ -2,7 +2,9 @@
 //! a power-law spectrum, S(f) = a² |f|^−α (f in cycles per cell, S per cell², the
 //! periodogram's units: E|DFT(x)|² / cells), about a mean albedo, optionally flat below a
 //! floor frequency (S(f) = S(floor) for 0 < f < floor: no power law extrapolated below
-//! the band it was fitted over); and the Gaussian draws.
+//! the band it was fitted over), or a measured radial spectrum in its place (knots
+//! (f, S), S interpolated linearly in log f – log S between them, flat beyond the first
+//! and the last); and the Gaussian draws.
 //!
 //! Synthesis: on a periodic G × G grid (G the least power of two covering the cells),
 //! x = m + Re u, u = (1/G) Σ_f H(f) Z_f e^{2πi f·j/G} with H = √S (0 at f = 0) and Z_f
@@ -13,22 +15,29 @@ use crate::infra::error::{Error, Result};
 use crate::infra::fft;
 use crate::infra::random::splitmix64_stream;
 
-/// A power-law ensemble: the mean albedo `mean`, the amplitude a and the exponent α, flat
-/// below `floor` cycles per cell (0: the power law down to the lowest frequency).
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// An ensemble: the mean albedo `mean`, the amplitude a and the exponent α of the power
+/// law, flat below `floor` cycles per cell (0: the power law down to the lowest
+/// frequency); `spectrum`, when not empty, replaces the power law: knots (f, S), f in
+/// cycles per cell strictly increasing in (0, 1], S > 0 (a and α then only describe it;
+/// the floor still applies).
+#[derive(Clone, Debug, PartialEq)]
 pub struct Ensemble {
     pub mean: f64,
     pub amplitude: f64,
     pub exponent: f64,
     pub floor: f64,
+    pub spectrum: Vec<[f64; 2]>,
 }
 
 /// The largest exponent taken (a spectrum steeper than f⁻⁴ is smoother than any image).
 pub const MAX_EXPONENT: f64 = 4.0;
 
+/// The most knots a measured spectrum may have.
+pub const MAX_KNOTS: usize = 4096;
+
 impl Ensemble {
     /// The ensemble checked: finite mean, amplitude ≥ 0, exponent in [0, 4].
-    pub fn checked(self) -> Result<Ensemble> {
+    pub fn checked(&self) -> Result<&Ensemble> {
         if !self.mean.is_finite() {
             return Err(Error::param("mean", self.mean, "a finite albedo"));
         }
@@ -53,7 +62,54 @@ impl Ensemble {
                 "a frequency in [0, 0.5] cycles per cell",
             ));
         }
+        self.check_spectrum()?;
         Ok(self)
+    }
+
+    fn check_spectrum(&self) -> Result<()> {
+        if self.spectrum.len() > MAX_KNOTS {
+            return Err(Error::param(
+                "spectrum",
+                format!("{} knots", self.spectrum.len()),
+                format!("at most {MAX_KNOTS} knots"),
+            ));
+        }
+        let mut last = 0.0;
+        for (i, &[f, s]) in self.spectrum.iter().enumerate() {
+            if !(f.is_finite() && f > last && f <= 1.0) {
+                return Err(Error::param(
+                    "spectrum",
+                    format!("knot {i} at f = {f}"),
+                    "frequencies in (0, 1] cycles per cell, strictly increasing",
+                ));
+            }
+            if !(s.is_finite() && s > 0.0) {
+                return Err(Error::param(
+                    "spectrum",
+                    format!("knot {i} with S = {s}"),
+                    "a finite power > 0 at every knot",
+                ));
+            }
+            last = f;
+        }
+        Ok(())
+    }
+
+    /// S at the radial frequency f > 0 (cycles per cell), the floor applied.
+    pub fn power(&self, f: f64) -> f64 {
+        let f = f.max(self.floor);
+        let k = &self.spectrum;
+        match k.len() {
+            0 => self.amplitude * self.amplitude * f.powf(-self.exponent),
+            _ if f <= k[0][0] => k[0][1],
+            n if f >= k[n - 1][0] => k[n - 1][1],
+            _ => {
+                let j = k.partition_point(|p| p[0] <= f);
+                let ([f0, s0], [f1, s1]) = (k[j - 1], k[j]);
+                let t = (f / f0).ln() / (f1 / f0).ln();
+                (s0.ln() + t * (s1 / s0).ln()).exp()
+            }
+        }
     }
 
     /// The synthesis period G for an nx × ny grid: the least power of two ≥ both.
@@ -74,8 +130,10 @@ impl Ensemble {
         let f = (wrap(kx).hypot(wrap(ky))) / g as f64;
         if f == 0.0 {
             0.0
-        } else {
+        } else if self.spectrum.is_empty() {
             self.amplitude * f.max(self.floor).powf(-0.5 * self.exponent)
+        } else {
+            self.power(f).sqrt()
         }
     }
 
@@ -132,6 +190,7 @@ mod tests {
             amplitude: 0.2,
             exponent: 0.0,
             floor: 0.0,
+            spectrum: Vec::new(),
         };
         let (mut s, mut s2, mut n) = (0.0, 0.0, 0.0);
         for seed in 0..40 {
@@ -159,6 +218,7 @@ mod tests {
             amplitude: 0.01,
             exponent: 3.0,
             floor,
+            spectrum: Vec::new(),
         };
         let top = 0.01 * floor.powf(-1.5);
         assert_eq!(e.gain(1, 0, g), top);
@@ -173,7 +233,10 @@ mod tests {
                 / (g * g) as f64
         };
         let want = sum(&e);
-        let bare = Ensemble { floor: 0.0, ..e };
+        let bare = Ensemble {
+            floor: 0.0,
+            ..e.clone()
+        };
         assert!(sum(&bare) > 1.5 * want, "{} {want}", sum(&bare));
         let (mut s2, mut n) = (0.0, 0.0);
         for seed in 0..40 {
@@ -185,7 +248,72 @@ mod tests {
         let var = s2 / n;
         assert!((var - want).abs() < 0.05 * want, "{var} {want}");
         for bad in [-0.1, 0.6, f64::NAN] {
-            assert!(Ensemble { floor: bad, ..e }.checked().is_err(), "{bad}");
+            assert!(
+                Ensemble {
+                    floor: bad,
+                    ..e.clone()
+                }
+                .checked()
+                .is_err(),
+                "{bad}"
+            );
+        }
+    }
+
+    /// A measured spectrum: S interpolated linearly in log f – log S between the knots
+    /// (at the geometric mean of two knots' frequencies, the geometric mean of their
+    /// powers), flat beyond both ends, the floor applied; the draws' variance is (1/G²) Σ S
+    /// of it; knots out of order, outside (0, 1] or without power are refused.
+    #[test]
+    fn a_measured_spectrum_is_interpolated_in_log_log() {
+        let e = Ensemble {
+            mean: 0.5,
+            amplitude: 1.0,
+            exponent: 2.0,
+            floor: 0.0,
+            spectrum: vec![[0.05, 4e-3], [0.1, 1e-3], [0.4, 6.25e-5]],
+        };
+        assert!(e.checked().is_ok());
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b;
+        assert_eq!(e.power(0.01), 4e-3);
+        assert_eq!(e.power(0.05), 4e-3);
+        assert!(close(e.power((0.05f64 * 0.1).sqrt()), 2e-3));
+        assert!(close(e.power(0.2), 2.5e-4));
+        assert_eq!(e.power(0.6), 6.25e-5);
+        let floored = Ensemble {
+            floor: 0.1,
+            ..e.clone()
+        };
+        assert!(close(floored.power(0.01), 1e-3));
+        let g = 64usize;
+        assert!(close(e.gain(0, 13, g), e.power(13.0 / 64.0).sqrt()));
+        assert_eq!(e.gain(0, 0, g), 0.0);
+        let want = (0..g * g)
+            .map(|i| e.gain(i % g, i / g, g).powi(2))
+            .sum::<f64>()
+            / (g * g) as f64;
+        let (mut s2, mut n) = (0.0, 0.0);
+        for seed in 0..40 {
+            for v in e.draw(g, g, seed).unwrap() {
+                s2 += (v - 0.5) * (v - 0.5);
+                n += 1.0;
+            }
+        }
+        assert!((s2 / n - want).abs() < 0.05 * want, "{} {want}", s2 / n);
+        for bad in [
+            vec![[0.1, 1.0], [0.05, 1.0]],
+            vec![[0.1, 1.0], [0.1, 1.0]],
+            vec![[0.0, 1.0]],
+            vec![[1.5, 1.0]],
+            vec![[0.1, 0.0]],
+            vec![[0.1, f64::NAN]],
+            vec![[0.1, 1.0]; MAX_KNOTS + 1],
+        ] {
+            let e = Ensemble {
+                spectrum: bad.clone(),
+                ..e.clone()
+            };
+            assert!(e.checked().is_err(), "{bad:?}");
         }
     }
 

@@ -430,6 +430,7 @@ mod tests {
             amplitude: 0.027,
             exponent: 2.0,
             floor: 0.0,
+            spectrum: Vec::new(),
         };
         let req = Request {
             design: &d,
@@ -437,7 +438,7 @@ mod tests {
             channels: vec![1],
             lens_types: None,
             photons: 2000.0,
-            ensemble,
+            ensemble: ensemble.clone(),
             edge: None,
             patch: 48,
             step: None,
