@@ -32,12 +32,13 @@ def _small() -> splitlf.Design:
 
 def _request(lam: float | None, samples: int, seed: int = 3,
              rule: str = "oracle", parabola: bool = False,
-             ensemble: Ensemble = ENSEMBLE, coarse: bool = True) -> dict[str, Any]:
+             ensemble: Ensemble = ENSEMBLE, coarse: bool = True,
+             df_weight: float = 1.25) -> dict[str, Any]:
     return {"channels": [1], "lens_types": None, "photons": PHOTONS,
             "ensemble": (ensemble.mean, ensemble.amplitude, ensemble.exponent, ensemble.floor,
                          list(ensemble.spectrum)),
             "patch": 8,
-            "step": None, "regularization": lam, "rule": rule,
+            "step": None, "regularization": lam, "rule": rule, "df_weight": df_weight,
             "settings": (NOISE_FLOOR, 1e-10, 5000, samples, 1e-2, 1e4, 4, seed, 1.0, 4, 1e-6,
                          parabola),
             "coarse": coarse}
@@ -193,37 +194,44 @@ def _gcv_parts(m: dict[str, Any]) -> dict[str, Any]:
     return {"mu": mu, "g": g, "w": w, "cy": cy}
 
 
-def _expected_gcv(parts: dict[str, Any], lam: float) -> tuple[float, float, float]:
+def _expected_gcv(parts: dict[str, Any], lam: float,
+                  rho: float = 1.0) -> tuple[float, float, float]:
     """GCV's parts in expectation over the ensemble and the noise, closed form: df =
     tr(M^-1 A'WA) = sum mu / (mu + lam (1 - mu)), E RSS = tr(W P (A C A' + W^-1) P'),
     P = I - A M^-1 A'W (the mean albedo drops out: P A 1 = 0 as D 1 = 0), and the score
-    m E RSS / (m - df)^2."""
+    m E RSS / (m - rho df)^2."""
     mu, g, w = parts["mu"], parts["g"], parts["w"]
     d = 1.0 / (mu + lam * (1.0 - mu))
     df = float(np.sum(mu * d))
     p = np.eye(g.shape[0]) - (g * d[None, :]) @ g.T * w[None, :]
     rss = float(np.trace((w[:, None] * p) @ parts["cy"] @ p.T))
     rows = g.shape[0]
-    return df, rss, rows * rss / (rows - df) ** 2
+    return df, rss, rows * rss / (rows - rho * df) ** 2
 
 
-def test_gcv_lambda_is_the_expected_scores_minimum() -> None:
-    """rule "gcv": at each lambda tried, df within 4 Hutchinson standard errors (4 probes,
-    variance at most 2 tr(H^2) <= 2 df per probe) of the dense trace, the draws' mean RSS
-    within 5 % of its expectation (16 draws: about 1.5 % scatter), and the chosen lambda's
-    expected score within 3 % of the least of a fine grid's (the score's valley is flat)."""
+@pytest.mark.parametrize(("rule", "rho"), [("gcv", 1.0), ("weighted gcv", 2.0)])
+def test_gcv_lambda_is_the_expected_scores_minimum(rule: str, rho: float) -> None:
+    """rule "gcv" (and "weighted gcv", df charged rho times; 2 here so that its valley
+    lies apart from plain GCV's): at each lambda tried, df within 4 Hutchinson standard
+    errors (4 probes, variance at most 2 tr(H^2) <= 2 df per probe) of the dense trace, the
+    draws' mean RSS within 5 % of its expectation (16 draws: about 1.5 % scatter), the
+    score m RSS / (m - rho df)^2 of them, and the chosen lambda's expected score within 3 %
+    of the least of a fine grid's (the score's valley is flat)."""
     d = _small()
-    out = _native.image_merits(d.core, Z, _request(None, 16, rule="gcv"), None, n_threads=2)
+    out = _native.image_merits(d.core, Z, _request(None, 16, rule=rule, df_weight=rho), None,
+                               n_threads=2)
     m = _dense(d, out)
     parts = _gcv_parts(m)
     assert out["gcv"] and out["lam"] == min(out["gcv"], key=lambda t: t[1])[0]
-    assert out["rows"] == m["a"].shape[0]
-    for lam, _score, rss, df in out["gcv"]:
-        want_df, want_rss, _ = _expected_gcv(parts, lam)
+    rows = m["a"].shape[0]
+    assert out["rows"] == rows
+    for lam, score, rss, df in out["gcv"]:
+        want_df, want_rss, _ = _expected_gcv(parts, lam, rho)
         assert abs(df - want_df) <= 4.0 * math.sqrt(2.0 * want_df / 4.0), (lam, df, want_df)
         assert abs(rss - want_rss) <= 0.05 * want_rss, (lam, rss, want_rss)
-    best = min(_expected_gcv(parts, lam)[2] for lam in np.geomspace(1e-2, 1e4, 97))
-    assert _expected_gcv(parts, out["lam"])[2] <= 1.03 * best, (out["lam"], best)
+        assert score == pytest.approx(rows * rss / (rows - rho * df) ** 2, rel=1e-9)
+    best = min(_expected_gcv(parts, lam, rho)[2] for lam in np.geomspace(1e-2, 1e4, 97))
+    assert _expected_gcv(parts, out["lam"], rho)[2] <= 1.03 * best, (out["lam"], best)
     # The expected error there against the closed form, as at a given lambda.
     want = _expected_mse(m, out["lam"])
     assert abs(out["mse"] - want) <= 3.0 * out["error"] + 0.02 * want
@@ -350,7 +358,7 @@ def test_image_merits_rows_and_checks() -> None:
         Ensemble(0.5, 0.1, 5.0)
     with pytest.raises(InvalidParameter, match="margin"):
         image_merits(cut, [800.0], ensemble=ENSEMBLE, margin=0.5)
-    with pytest.raises(InvalidParameter, match="rule.*gcv, oracle"):
+    with pytest.raises(InvalidParameter, match="rule.*gcv, weighted gcv, oracle"):
         image_merits(cut, [800.0], ensemble=ENSEMBLE, rule="best")
 
 

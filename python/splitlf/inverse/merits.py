@@ -30,16 +30,16 @@ from .. import _native, _validate
 from ..errors import InvalidParameter
 from ..imaging.texture import SlantedEdge
 from .measure import mtf50_image
-from .reconstruct import CHOOSE_BRACKET, CHOOSE_PROBES, NOISE_FLOOR
+from .reconstruct import CHOOSE_BRACKET, CHOOSE_DF_WEIGHT, CHOOSE_PROBES, NOISE_FLOOR
 
 __all__ = ["Ensemble", "ImageMerits", "image_merits"]
 
 #: CG's relative stop and iteration cap in the merits' solves.
 MERIT_RTOL = 1e-4
 MERIT_MAX_ITER = 500
-#: The rules of the prior's weight: GCV on the draws' data (a reconstruction's), or the
-#: least expected error (the oracle's).
-RULES = ("gcv", "oracle")
+#: The rules of the prior's weight: GCV on the draws' data (plain, or weighted as a
+#: reconstruction on a known surface weighs it), or the least expected error (the oracle's).
+RULES = ("gcv", "weighted gcv", "oracle")
 #: The bracket of the prior's weight (inverse-variance units, as reconstruct's) and the
 #: golden-section steps of the search for the least expected error (rule "oracle").
 MERIT_BRACKET = (1e-2, 1e4)
@@ -252,8 +252,10 @@ def image_merits(design: Any, depths: Any, photons: float = 2000.0, *,
       probes ``CHOOSE_PROBES``; ``MERIT_GCV_GOLDEN_STEPS`` golden-section steps, the probes
       solved to ``MERIT_PROBE_RTOL``; plain GCV, its degrees of freedom charged once where
       ``reconstruct`` charges them ``CHOOSE_DF_WEIGHT`` times: the merits' data are the
-      model's own, with no model error to guard against), or ``"oracle"``, the weight of
-      least expected error
+      model's own, with no model error to guard against); ``"weighted gcv"`` the same with
+      the degrees of freedom charged ``CHOOSE_DF_WEIGHT`` (1.25) times, exactly as
+      ``reconstruct`` chooses on a known surface (docs/merits.md, "A measured spectrum":
+      closer to a study's weight); or ``"oracle"``, the weight of least expected error
     - ``n_threads``: threads of the core (None: all cores)
     """
     d = _validate.design(design)
@@ -268,8 +270,8 @@ def image_merits(design: Any, depths: Any, photons: float = 2000.0, *,
         raise TypeError(f"rule must be a str, got {type(rule).__name__}")
     if rule not in RULES:
         raise InvalidParameter.of("rule", rule, f"one of {', '.join(RULES)}")
-    bracket, golden = ((CHOOSE_BRACKET, MERIT_GCV_GOLDEN_STEPS) if rule == "gcv"
-                       else (MERIT_BRACKET, MERIT_GOLDEN_STEPS))
+    bracket, golden = ((MERIT_BRACKET, MERIT_GOLDEN_STEPS) if rule == "oracle"
+                       else (CHOOSE_BRACKET, MERIT_GCV_GOLDEN_STEPS))
     if ensemble is None:
         ensemble = natural_ensemble()
     if not isinstance(ensemble, Ensemble):
@@ -292,6 +294,7 @@ def image_merits(design: Any, depths: Any, photons: float = 2000.0, *,
                        "ensemble": (ensemble.mean, ensemble.amplitude, ensemble.exponent,
                                     ensemble.floor, list(ensemble.spectrum)),
                        "patch": p, "step": None, "regularization": None, "rule": rule,
+                       "df_weight": CHOOSE_DF_WEIGHT,
                        "settings": (NOISE_FLOOR, MERIT_RTOL, MERIT_MAX_ITER, k, *bracket,
                                     golden, s, m, CHOOSE_PROBES, MERIT_PROBE_RTOL,
                                     MERIT_GCV_PARABOLA),

@@ -19,7 +19,8 @@ use crate::model::design::DesignCore;
 /// `photons` for white, `ensemble` (mean, amplitude, exponent, floor, spectrum: knots (f, S),
 /// empty for the power law), `patch` (cells a side),
 /// `step` (None: δ(z)), `regularization` (None: chosen by `rule`, "gcv" from the draws'
-/// data as a reconstruction chooses it, or "oracle", the least expected error) and
+/// data as a reconstruction chooses it, "weighted gcv" the same with the fit's degrees of
+/// freedom charged `df_weight` times, or "oracle", the least expected error) and
 /// `settings` (noise floor, CG rtol, CG max_iter, draws, λ lo, λ hi, golden steps, seed,
 /// margin in pixel spans, GCV's probes, the probes' rtol, GCV's parabolic step instead of
 /// golden sections) and `coarse` (CG's two-level preconditioner instead of Jacobi alone).
@@ -34,6 +35,7 @@ pub(crate) struct MeritRequest {
     step: Option<f64>,
     regularization: Option<f64>,
     rule: String,
+    df_weight: f64,
     settings: (
         f64,
         f64,
@@ -91,13 +93,14 @@ pub(crate) fn image_merits<'py>(
     let coarse = request.coarse;
     let lambda = match (request.regularization, request.rule.as_str()) {
         (Some(l), _) => core_merit::Lambda::Given(l),
-        (None, "gcv") => core_merit::Lambda::Gcv,
+        (None, "gcv") => core_merit::Lambda::Gcv(1.0),
+        (None, "weighted gcv") => core_merit::Lambda::Gcv(request.df_weight),
         (None, "oracle") => core_merit::Lambda::Oracle,
         (None, r) => {
             return Err(to_py(splitlf_core::Error::param(
                 "rule",
                 r,
-                "\"gcv\" or \"oracle\"",
+                "\"gcv\", \"weighted gcv\" or \"oracle\"",
             )))
         }
     };

@@ -71,12 +71,13 @@ pub struct Settings {
     pub coarse: bool,
 }
 
-/// How λ is had: given; chosen by GCV on the draws' data (a reconstruction's rule); or the
-/// least expected error (the oracle's).
+/// How λ is had: given; chosen by GCV on the draws' data (a reconstruction's rule), the
+/// fit's degrees of freedom charged ρ ≥ 1 times (1: plain GCV; a reconstruction on a known
+/// surface charges 1.25, weighted GCV); or the least expected error (the oracle's).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Lambda {
     Given(f64),
-    Gcv,
+    Gcv(f64),
     Oracle,
 }
 
@@ -161,8 +162,13 @@ fn check(req: &Request<'_>) -> Result<()> {
             return Err(Error::param("regularization", l, "a finite value > 0"));
         }
     }
-    if req.lambda == Lambda::Gcv && !(1..=64).contains(&s.probes) {
-        return Err(Error::param("probes", s.probes, "an integer in [1, 64]"));
+    if let Lambda::Gcv(rho) = req.lambda {
+        if !(1..=64).contains(&s.probes) {
+            return Err(Error::param("probes", s.probes, "an integer in [1, 64]"));
+        }
+        if !(rho.is_finite() && (1.0..=4.0).contains(&rho)) {
+            return Err(Error::param("df_weight", rho, "a weight in [1, 4]"));
+        }
     }
     req.ensemble.checked()?;
     Ok(())
@@ -263,10 +269,11 @@ impl Search<'_> {
         Ok(self.trials[i].lam)
     }
 
-    /// λ by GCV on the draws' data (`inverse::choose`, with a reconstruction's bracket cap
-    /// at MAX_PRIOR_SHARE times the data's mean weight per cell), then its trial (the
-    /// expected error there, warm-started from the choice's last solutions).
-    fn gcv(&mut self, s: Settings) -> Result<f64> {
+    /// λ by GCV on the draws' data, df charged `rho` times (`inverse::choose`, with a
+    /// reconstruction's bracket cap at MAX_PRIOR_SHARE times the data's mean weight per
+    /// cell), then its trial (the expected error there, warm-started from the choice's last
+    /// solutions).
+    fn gcv(&mut self, s: Settings, rho: f64) -> Result<f64> {
         let mut work = self.normal.work()?;
         let mut diag = vec![0.0; self.normal.cells()];
         let mean = self.normal.diagonal(&mut work, &mut diag) / diag.len().max(1) as f64;
@@ -280,7 +287,7 @@ impl Search<'_> {
             budget: usize::MAX / 4,
             data: self.stop,
             probe: Stop::relative(s.probe_rtol, s.max_iter),
-            df_weight: 1.0,
+            df_weight: rho,
             parabola: s.parabola,
         };
         let sets = (0..self.draws.x.len())
@@ -351,7 +358,7 @@ pub fn image_merits(req: &Request<'_>, done: &AtomicUsize) -> Result<Outcome> {
             search.trial(l)?;
             l
         }
-        Lambda::Gcv => search.gcv(s)?,
+        Lambda::Gcv(rho) => search.gcv(s, rho)?,
         Lambda::Oracle => search.least(s.lo, s.hi, s.golden_steps)?,
     };
     let i = search
