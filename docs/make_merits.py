@@ -9,7 +9,10 @@ depth for the seed (full preset), lytro-illum and raytrix-r12 (every row, the de
 ensemble). Writes docs/merits.json.
 
 Run: python docs/make_merits.py (both parts); python docs/make_merits.py --timing (the
-timing alone, into the existing docs/merits.json).
+timing alone, into the existing docs/merits.json); python docs/make_merits.py --measured
+(the agreement again with the ensemble's measured spectrum, Ensemble.measure, into
+"agreement_measured" of the existing docs/merits.json; with --weighted after it, at the
+merits' rule "weighted gcv", into "agreement_measured_weighted").
 """
 
 from __future__ import annotations
@@ -38,7 +41,12 @@ def study_truth(split: splitlf.Design, z: float) -> np.ndarray:
     return _native.cell_averages(sc, grid)
 
 
-def agreement(out: dict) -> None:
+def agreement(out: dict, key_out: str = "agreement", measured: bool = False,
+              rule: str = "gcv") -> None:
+    """Every depth, row and photon count against docs/fig2.json's mean of two draws; the
+    ensemble fitted to the study's truth (``Ensemble.fit``), or with ``measured`` its
+    radially averaged spectrum itself (``Ensemble.measure``); the merits' ``rule``;
+    written to ``key_out``."""
     import make_fig2 as f2
 
     split, _ = f2.designs()
@@ -49,8 +57,9 @@ def agreement(out: dict) -> None:
         runs = [fig2["runs"][f"{key}/{d}"] for d in range(f2.DRAWS)]
         rows: dict = {}
         for i, z in enumerate(f2.DEPTHS):
-            ens = Ensemble.fit(study_truth(split, z))
-            r = image_merits(split, [z], photons, ensemble=ens)
+            truth = study_truth(split, z)
+            ens = Ensemble.measure(truth) if measured else Ensemble.fit(truth)
+            r = image_merits(split, [z], photons, ensemble=ens, rule=rule)
             for row, cam in names.items():
                 st_p = float(np.mean([ru["psnr"][cam][i] for ru in runs]))
                 st_m = float(np.mean([ru["mtf50"][cam][i] for ru in runs])) / fig2["nyquist"][i]
@@ -67,7 +76,7 @@ def agreement(out: dict) -> None:
                       f" study {st_p:6.2f} d {e['psnr'] - st_p:+.2f}  mtf {e['mtf50']:.3f} "
                       f"study {st_m:.3f} d {e['mtf50'] - st_m:+.3f} lam {e['lambda']:.3g} "
                       f"({e['seconds']:.2f} s) alpha {ens.exponent:.2f}", flush=True)
-        out["agreement"][key] = rows
+        out.setdefault(key_out, {})[key] = rows
         (HERE / "merits.json").write_text(json.dumps(out, indent=1) + "\n")
 
 
@@ -94,6 +103,13 @@ def main() -> None:
         out = json.loads((HERE / "merits.json").read_text())
         out["timing"] = {}
         timing(out)
+        return
+    if sys.argv[1:2] == ["--measured"]:
+        weighted = sys.argv[2:] == ["--weighted"]
+        key = "agreement_measured" + ("_weighted" if weighted else "")
+        out = json.loads((HERE / "merits.json").read_text())
+        out[key] = {}
+        agreement(out, key, measured=True, rule="weighted gcv" if weighted else "gcv")
         return
     out: dict = {"agreement": {}, "timing": {}}
     t0 = time.perf_counter()
