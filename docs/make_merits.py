@@ -76,7 +76,7 @@ def agreement(out: dict, key_out: str = "agreement", measured: bool = False,
                       f" study {st_p:6.2f} d {e['psnr'] - st_p:+.2f}  mtf {e['mtf50']:.3f} "
                       f"study {st_m:.3f} d {e['mtf50'] - st_m:+.3f} lam {e['lambda']:.3g} "
                       f"({e['seconds']:.2f} s) alpha {ens.exponent:.2f}", flush=True)
-        out.setdefault(key_out, {})[key] = rows
+        out[key_out][key] = rows
         (HERE / "merits.json").write_text(json.dumps(out, indent=1) + "\n")
 
 

@@ -40,6 +40,8 @@ MERIT_MAX_ITER = 500
 #: The rules of the prior's weight: GCV on the draws' data (plain, or weighted as a
 #: reconstruction on a known surface weighs it), or the least expected error (the oracle's).
 RULES = ("gcv", "weighted gcv", "oracle")
+#: The most knots a measured spectrum may have (the core's ``ensemble::MAX_KNOTS``).
+MAX_KNOTS = 4096
 #: The bracket of the prior's weight (inverse-variance units, as reconstruct's) and the
 #: golden-section steps of the search for the least expected error (rule "oracle").
 MERIT_BRACKET = (1e-2, 1e4)
@@ -166,14 +168,14 @@ def _radial(x: np.ndarray, lo: float, hi: float, bins: int) -> tuple[list[float]
 
 def _knots(spectrum: Any) -> tuple[tuple[float, float], ...]:
     """The spectrum's knots as float pairs, checked: f strictly increasing in (0, 1], S
-    finite > 0, at most 4096 knots."""
+    finite > 0, at most MAX_KNOTS."""
     try:
         pairs = [tuple(k) for k in spectrum]
     except TypeError:
         raise TypeError("spectrum must be a sequence of (f, S) pairs, got "
                         f"{type(spectrum).__name__}") from None
-    if len(pairs) > 4096:
-        raise InvalidParameter.of("spectrum", f"{len(pairs)} knots", "at most 4096 knots")
+    if len(pairs) > MAX_KNOTS:
+        raise InvalidParameter.of("spectrum", f"{len(pairs)} knots", f"at most {MAX_KNOTS} knots")
     out: list[tuple[float, float]] = []
     for i, k in enumerate(pairs):
         if len(k) != 2:

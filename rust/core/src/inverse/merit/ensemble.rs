@@ -131,6 +131,8 @@ impl Ensemble {
         if f == 0.0 {
             0.0
         } else if self.spectrum.is_empty() {
+            // The power law's √S in this form, not `power(f).sqrt()`: the same draws, bit
+            // for bit, as before measured spectra (the published merits).
             self.amplitude * f.max(self.floor).powf(-0.5 * self.exponent)
         } else {
             self.power(f).sqrt()
